@@ -1,0 +1,30 @@
+"""grasswidget: physically animated grass on the GPU, for notebooks and scripts.
+
+The pure core (``Blades``, ``GrassParams``, ``grasswidget.reference``) imports no
+GPU code. GPU classes (``GrassField``, ``GrassMaterial``, ``GrassScene``) load
+pygfx/wgpu on first use.
+"""
+
+from .blades import Blades
+from .params import GrassParams
+
+__version__ = "0.1.0"
+
+_LAZY = {
+    "GrassField": ("grasswidget.gpu.field", "GrassField"),
+    "GrassMaterial": ("grasswidget.gpu.field", "GrassMaterial"),
+    "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
+    "GrassScene": ("grasswidget.scene", "GrassScene"),
+    "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
+}
+
+__all__ = ["Blades", "GrassParams", *_LAZY]
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        module, attr = _LAZY[name]
+        return getattr(importlib.import_module(module), attr)
+    raise AttributeError(f"module 'grasswidget' has no attribute {name!r}")

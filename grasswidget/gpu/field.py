@@ -1,0 +1,416 @@
+"""GrassField: a pygfx WorldObject holding a field of simulated grass blades.
+
+It works in any pygfx scene: add it, render with any camera, and call
+``field.step(n)`` to advance the physics by n fixed steps. Rendering never
+advances time; it culls for the camera of that render and draws the survivors
+with indirect draws (see :mod:`grasswidget.gpu.shaders`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pygfx as gfx
+import wgpu
+from pygfx.utils import array_from_shadertype
+
+from ..blades import Blades, pack_state, unpack_state
+from ..params import GrassParams
+from ..reference import LOD_SEGMENTS, wind_period
+from . import indirect
+from .adapter import ensure_device
+from .compute import ComputeProgram, sync_buffer
+from .shaders import SimulateShader, register, workgroups
+
+__all__ = ["GrassField", "GrassMaterial", "BladeLimitError"]
+
+BLADE_BYTES = 64
+N_CLASSES = len(LOD_SEGMENTS)
+#: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
+MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
+SHAPES = ("quad", "triangle", "quadratic", "triangle-tip", "fold")
+
+SIM_UNIFORM = dict(
+    gravity_dir="4xf4",
+    wind_dir="4xf4",
+    gravity="f4",
+    front_gravity="f4",
+    stiffness_scale="f4",
+    dt="f4",
+    time0="f4",
+    wind_strength="f4",
+    wind_speed="f4",
+    wind_wavelength="f4",
+    wind_field="i4",
+    steps="i4",
+    n_blades="u4",
+)
+
+CULL_UNIFORM = dict(
+    orientation_threshold="f4",
+    frustum_tolerance="f4",
+    distance_max="f4",
+    buckets="i4",
+    cull_orientation="i4",
+    cull_frustum="i4",
+    cull_distance="i4",
+    lod="i4",
+    n_blades="u4",
+)
+
+
+class BladeLimitError(ValueError):
+    """The blade count does not fit the device's storage-buffer limits."""
+
+
+class GrassMaterial(gfx.Material):
+    """Colours, lighting and ribbon shape of grass blades.
+
+    Uniforms (all documented as properties): ``root_color``, ``tip_color`` (sRGB),
+    ``color_variation`` (0..1, per-blade brightness/hue spread), ``ambient``
+    (0..1), ``light_direction`` (towards the light, world space),
+    ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
+    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
+    """
+
+    uniform_type = dict(
+        gfx.Material.uniform_type,
+        root_color="4xf4",
+        tip_color="4xf4",
+        light_direction="4xf4",
+        color_variation="f4",
+        ambient="f4",
+        tip_threshold="f4",
+        blade_shape="i4",
+    )
+
+    def __init__(
+        self,
+        *,
+        root_color="#1d4a12",
+        tip_color="#8fc246",
+        color_variation=0.35,
+        ambient=0.4,
+        light_direction=(0.4, 1.0, 0.3),
+        blade_shape="triangle-tip",
+        tip_threshold=0.5,
+        **kwargs,
+    ):
+        super().__init__(**kwargs)
+        self.root_color = root_color
+        self.tip_color = tip_color
+        self.color_variation = color_variation
+        self.ambient = ambient
+        self.light_direction = light_direction
+        self.blade_shape = blade_shape
+        self.tip_threshold = tip_threshold
+
+    def _set(self, key, value):
+        self.uniform_buffer.data[key] = value
+        self.uniform_buffer.update_full()
+
+    @property
+    def root_color(self):
+        """Colour at the blade root (sRGB)."""
+        return gfx.Color(self.uniform_buffer.data["root_color"])
+
+    @root_color.setter
+    def root_color(self, color):
+        self._set("root_color", gfx.Color(color))
+
+    @property
+    def tip_color(self):
+        """Colour at the blade tip (sRGB)."""
+        return gfx.Color(self.uniform_buffer.data["tip_color"])
+
+    @tip_color.setter
+    def tip_color(self, color):
+        self._set("tip_color", gfx.Color(color))
+
+    @property
+    def color_variation(self):
+        """Per-blade colour spread, 0 (none) .. 1."""
+        return float(self.uniform_buffer.data["color_variation"])
+
+    @color_variation.setter
+    def color_variation(self, value):
+        self._set("color_variation", _check_unit("color_variation", value))
+
+    @property
+    def ambient(self):
+        """Ambient light share, 0..1."""
+        return float(self.uniform_buffer.data["ambient"])
+
+    @ambient.setter
+    def ambient(self, value):
+        self._set("ambient", _check_unit("ambient", value))
+
+    @property
+    def light_direction(self):
+        """Unit direction towards the light (world space)."""
+        return tuple(float(x) for x in self.uniform_buffer.data["light_direction"][:3])
+
+    @light_direction.setter
+    def light_direction(self, value):
+        v = np.asarray(value, np.float64).reshape(3)
+        norm = np.linalg.norm(v)
+        if not np.all(np.isfinite(v)) or norm == 0:
+            raise ValueError(f"light_direction must be a finite non-zero 3-vector; got {value!r}")
+        self._set("light_direction", (*(v / norm), 0.0))
+
+    @property
+    def blade_shape(self):
+        """Ribbon shape: one of quad, triangle, quadratic, triangle-tip, fold."""
+        return SHAPES[int(self.uniform_buffer.data["blade_shape"])]
+
+    @blade_shape.setter
+    def blade_shape(self, value):
+        if value not in SHAPES:
+            raise ValueError(f"blade_shape must be one of {', '.join(SHAPES)}; got {value!r}")
+        self._set("blade_shape", SHAPES.index(value))
+
+    @property
+    def tip_threshold(self):
+        """tau of the triangle-tip shape: the blade narrows to its tip above v = tau (0..0.99)."""
+        return float(self.uniform_buffer.data["tip_threshold"])
+
+    @tip_threshold.setter
+    def tip_threshold(self, value):
+        v = float(value)
+        if not (math.isfinite(v) and 0.0 <= v <= 0.99):
+            raise ValueError(f"tip_threshold must be in [0, 0.99]; got {value!r}")
+        self._set("tip_threshold", v)
+
+
+def _check_unit(name, value):
+    v = float(value)
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ValueError(f"{name} must be in [0, 1]; got {value!r}")
+    return v
+
+
+def check_blade_limits(count, device):
+    """Raise BladeLimitError when ``count`` blades do not fit one storage binding."""
+    limit = int(device.limits["max-storage-buffer-binding-size"])
+    max_buffer = int(device.limits.get("max-buffer-size", limit))
+    need = count * BLADE_BYTES
+    visible = count * 4 * N_CLASSES
+    cap = min(limit, max_buffer)
+    if need > cap or visible > cap:
+        most = cap // max(BLADE_BYTES, 4 * N_CLASSES)
+        raise BladeLimitError(
+            f"{count} blades need {need} bytes in one storage buffer, but this device's "
+            f"max_storage_buffer_binding_size is {limit} bytes (max_buffer_size {max_buffer}): "
+            f"at most {most} blades fit on {device.adapter.summary}"
+        )
+
+
+class GrassField(gfx.WorldObject):
+    """A field of grass blades simulated and drawn on the GPU.
+
+    Args:
+        blades: a :class:`grasswidget.Blades` (rest pose).
+        params: a :class:`grasswidget.GrassParams` (default: a new one). Culling
+            and LOD traits apply at the next render; physics at the next step.
+        material: a :class:`GrassMaterial` (default: a new one).
+
+    GPU memory per blade: 64 bytes of state + 4 bytes x LOD classes of
+    compacted index lists (see :attr:`bytes_per_blade`).
+    """
+
+    def __init__(self, blades: Blades, params: GrassParams | None = None, material: GrassMaterial | None = None):
+        if not isinstance(blades, Blades):
+            raise TypeError(f"blades must be a grasswidget.Blades, not {type(blades).__name__}")
+        if params is not None and not isinstance(params, GrassParams):
+            raise TypeError(f"params must be a GrassParams, not {type(params).__name__}")
+        device = ensure_device()
+        check_blade_limits(len(blades), device)
+        indirect.install()
+        register(GrassField, GrassMaterial)
+
+        lo = blades.v0.min(axis=0)
+        hi = blades.v0.max(axis=0)
+        reach = float(blades.height.max())
+        corners = np.array([lo - reach, hi + reach], np.float32)
+        super().__init__(gfx.Geometry(positions=corners), material or GrassMaterial())
+
+        self.blades = blades
+        self.params = params if params is not None else GrassParams()
+        n = len(blades)
+        usage = wgpu.BufferUsage
+        self._store.blade_buffer = gfx.Buffer(
+            blades.packed().reshape(n * 4, 4), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+        )
+        self._store.args_buffer = gfx.Buffer(
+            nbytes=16 * N_CLASSES, nitems=4 * N_CLASSES, format="u4",
+            usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC | usage.COPY_DST,
+        )
+        self._store.visible_buffer = gfx.Buffer(
+            nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
+        )
+        self._sim_uniform = gfx.Buffer(array_from_shadertype(SIM_UNIFORM), force_contiguous=True)
+        self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
+        self._step_count = 0
+        self._sim_program = None
+        self._write_cull_uniform()
+        self.params.observe(self._on_params_change)
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def count(self) -> int:
+        """Number of blades N."""
+        return len(self.blades)
+
+    @property
+    def blade_buffer(self):
+        """pygfx Buffer, (4N, 4) float32: the blade state in the paper's 4 x vec4 layout."""
+        return self._store.blade_buffer
+
+    @property
+    def args_buffer(self):
+        """pygfx Buffer of LOD classes x (vertex_count, instance_count, 0, 0) u32 draw args."""
+        return self._store.args_buffer
+
+    @property
+    def visible_buffer(self):
+        """pygfx Buffer of LOD classes x N u32: compacted ids of the blades drawn per class."""
+        return self._store.visible_buffer
+
+    @property
+    def _cull_uniform(self):
+        return self._store.cull_uniform
+
+    @property
+    def step_count(self) -> int:
+        """Fixed steps simulated since creation or the last reset()."""
+        return self._step_count
+
+    @property
+    def bytes_per_blade(self) -> int:
+        """GPU bytes per blade: state + compacted index lists."""
+        return BLADE_BYTES + 4 * N_CLASSES
+
+    # ------------------------------------------------------------------ params
+
+    def _on_params_change(self, change):
+        if change["name"].startswith("cull_") or change["name"] == "lod":
+            self._write_cull_uniform()
+
+    def _write_cull_uniform(self):
+        p = self.params
+        d = self._cull_uniform.data
+        d["orientation_threshold"] = p.cull_orientation_threshold
+        d["frustum_tolerance"] = p.cull_frustum_tolerance
+        d["distance_max"] = p.cull_distance_max
+        d["buckets"] = p.cull_buckets
+        d["cull_orientation"] = int(p.cull_orientation)
+        d["cull_frustum"] = int(p.cull_frustum)
+        d["cull_distance"] = int(p.cull_distance)
+        d["lod"] = int(p.lod)
+        d["n_blades"] = self.count
+        self._cull_uniform.update_full()
+
+    # ------------------------------------------------------------------ simulation
+
+    def _local_gravity_direction(self):
+        m = np.asarray(self.world.matrix, np.float64)[:3, :3]
+        try:
+            local = np.linalg.solve(m, np.array([0.0, -1.0, 0.0]))
+        except np.linalg.LinAlgError:
+            local = np.array([0.0, -1.0, 0.0])
+        return local / max(np.linalg.norm(local), 1e-12)
+
+    def _write_sim_uniform(self, steps, time0):
+        p = self.params
+        d = self._sim_uniform.data
+        d["gravity_dir"] = (*self._local_gravity_direction(), 0.0)
+        rad = math.radians(p.wind_direction)
+        d["wind_dir"] = (math.cos(rad), math.sin(rad), 0.0, 0.0)
+        d["gravity"] = p.gravity
+        d["front_gravity"] = p.front_gravity
+        d["stiffness_scale"] = p.stiffness_scale
+        d["dt"] = p.dt
+        d["time0"] = time0
+        d["wind_strength"] = p.wind_strength
+        d["wind_speed"] = p.wind_speed
+        d["wind_wavelength"] = p.wind_wavelength
+        d["wind_field"] = 0
+        d["steps"] = steps
+        d["n_blades"] = self.count
+        device = ensure_device()
+        device.queue.write_buffer(sync_buffer(self._sim_uniform), 0, d.tobytes())
+
+    def step(self, n: int = 1):
+        """Advance the physics by ``n`` fixed steps of ``params.dt`` (n >= 0).
+
+        All n steps run in one dispatch of one GPU submission (the loop is in the
+        shader; blades are independent). Step k uses wind time
+        ``(k * dt) mod wind_period`` like the NumPy reference.
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        n = int(n)
+        if n == 0:
+            return
+        device = ensure_device()
+        if self._sim_program is None:
+            self._sim_program = ComputeProgram(SimulateShader(self), self)
+        sync_buffer(self.blade_buffer)
+        per_dispatch = max(1, MAX_BLADE_STEPS_PER_DISPATCH // max(self.count, 1))
+        done = 0
+        while done < n:
+            chunk = min(per_dispatch, n - done)
+            period = wind_period(self.params)
+            t0 = (self._step_count * self.params.dt)
+            if period:
+                t0 = math.fmod(t0, period)
+            self._write_sim_uniform(chunk, t0)
+            encoder = device.create_command_encoder()
+            cpass = encoder.begin_compute_pass()
+            self._sim_program.dispatch(cpass, workgroups(self.count))
+            cpass.end()
+            device.queue.submit([encoder.finish()])
+            self._step_count += chunk
+            done += chunk
+
+    def reset(self):
+        """Put every blade back in its rest pose and the step counter to 0."""
+        self.blade_buffer.data[:] = self.blades.packed().reshape(-1, 4)
+        self.blade_buffer.update_full()
+        self._step_count = 0
+
+    # ------------------------------------------------------------------ readback
+
+    def read_state(self) -> dict:
+        """Copy the blade state from the GPU (synchronous).
+
+        Returns a dict with "v0", "v1", "v2", "up" as (N, 3) float32 and "height",
+        "width", "orientation", "stiffness" as (N,) float32.
+        """
+        device = ensure_device()
+        raw = device.queue.read_buffer(sync_buffer(self.blade_buffer))
+        return unpack_state(np.frombuffer(raw, np.float32).reshape(-1, 4, 4))
+
+    def write_state(self, state: dict):
+        """Upload a state dict (as returned by read_state) to the GPU."""
+        self.blade_buffer.data[:] = pack_state(state).reshape(-1, 4)
+        self.blade_buffer.update_full()
+        sync_buffer(self.blade_buffer)
+
+    def read_draw_args(self) -> np.ndarray:
+        """(LOD classes, 4) u32 draw arguments of the last render (synchronous)."""
+        device = ensure_device()
+        raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
+        return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
+
+    def read_visible(self) -> np.ndarray:
+        """Sorted ids of the blades drawn by the last render (synchronous)."""
+        device = ensure_device()
+        args = self.read_draw_args()
+        if self.visible_buffer._wgpu_object is None:
+            return np.zeros(0, np.uint32)
+        raw = device.queue.read_buffer(self.visible_buffer._wgpu_object)
+        ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
+        return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))

@@ -1,0 +1,54 @@
+"""Indirect draws for pygfx 0.17 (the one patch on pygfx internals).
+
+pygfx's ``RenderPipelineContainer.draw()`` always ends in ``render_pass.draw()``.
+This module subclasses it: when the shader carries ``indirect_args`` (a pygfx
+Buffer with usage INDIRECT) and ``indirect_offset`` (bytes), the draw becomes
+``render_pass.draw_indirect(buffer, offset)``; other shaders draw as before. The
+subclass is installed as the module global that pygfx's pipeline module
+instantiates. tests/test_indirect_patch.py fails loudly if an upgrade breaks it.
+"""
+
+from __future__ import annotations
+
+import pygfx
+from pygfx.renderers.wgpu.engine import pipeline as _pipeline
+from pygfx.renderers.wgpu.engine.update import ensure_wgpu_object
+
+__all__ = ["IndirectRenderPipelineContainer", "install", "is_installed", "SUPPORTED_PYGFX"]
+
+#: pygfx versions this patch was written and tested against.
+SUPPORTED_PYGFX = ("0.17",)
+
+_Original = _pipeline.RenderPipelineContainer
+
+
+class IndirectRenderPipelineContainer(_Original):
+    """A RenderPipelineContainer that can issue ``draw_indirect``."""
+
+    def draw(self, render_pass, renderstate):
+        args = getattr(self.shader, "indirect_args", None)
+        if args is None:
+            return super().draw(render_pass, renderstate)
+        if self.broken:
+            return
+        render_pass.set_pipeline(self.wgpu_pipeline)
+        bind_groups = self.wgpu_bind_groups
+        for index, bind_group in enumerate(bind_groups):
+            render_pass.set_bind_group(index, bind_group, [], 0, 99)
+        render_pass.set_bind_group(len(bind_groups), renderstate.wgpu_bind_group, [], 0, 99)
+        render_pass.draw_indirect(ensure_wgpu_object(args), self.shader.indirect_offset)
+
+
+def install():
+    """Install the subclass (idempotent). Raises if pygfx is not a supported version."""
+    if not pygfx.__version__.startswith(SUPPORTED_PYGFX):
+        raise RuntimeError(
+            f"grasswidget's indirect-draw patch supports pygfx {SUPPORTED_PYGFX}, not {pygfx.__version__}"
+        )
+    if not hasattr(_pipeline, "RenderPipelineContainer") or not hasattr(_Original, "draw"):
+        raise RuntimeError("pygfx internals changed: RenderPipelineContainer.draw not found")
+    _pipeline.RenderPipelineContainer = IndirectRenderPipelineContainer
+
+
+def is_installed() -> bool:
+    return _pipeline.RenderPipelineContainer is IndirectRenderPipelineContainer

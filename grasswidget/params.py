@@ -1,0 +1,141 @@
+"""Simulation, wind and culling parameters as one validated traitlets object.
+
+``GrassParams`` is pure Python (no GPU import). Every numeric trait refuses NaN,
+inf and values outside its documented range with a ``TraitError`` whose message
+names the trait, its unit and the allowed range; the previous value stays in
+force. ipywidgets can ``link`` to these traits directly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import traitlets
+from traitlets import Bool, HasTraits, TraitError, Unicode
+
+__all__ = ["GrassParams", "RangedFloat", "RangedInt", "WIND_FIELDS"]
+
+#: Wind fields understood by the simulation (see ``reference.wind_field``).
+WIND_FIELDS = ("wave",)
+
+
+class RangedFloat(traitlets.Float):
+    """A float trait with an inclusive range that refuses NaN and inf.
+
+    The error message names the trait, the allowed range and the unit, e.g.
+    ``gravity must be a finite number in [0, 50] m/s^2; got nan``.
+    """
+
+    def __init__(self, default_value, lo, hi, unit="", **kwargs):
+        self.lo, self.hi, self.unit = float(lo), float(hi), unit
+        super().__init__(default_value, **kwargs)
+
+    def range_text(self):
+        unit = f" {self.unit}" if self.unit else ""
+        return f"[{self.lo:g}, {self.hi:g}]{unit}"
+
+    def validate(self, obj, value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            try:
+                import numpy as np
+
+                if isinstance(value, np.generic) and np.issubdtype(type(value), np.number):
+                    value = float(value)
+                else:
+                    raise TypeError
+            except TypeError:
+                raise TraitError(
+                    f"{self.name} must be a number in {self.range_text()}; got {value!r}"
+                ) from None
+        value = float(value)
+        if not math.isfinite(value) or not (self.lo <= value <= self.hi):
+            raise TraitError(
+                f"{self.name} must be a finite number in {self.range_text()}; got {value!r}"
+            )
+        return value
+
+
+class RangedInt(traitlets.Int):
+    """An integer trait with an inclusive range and a clear error message."""
+
+    def __init__(self, default_value, lo, hi, unit="", **kwargs):
+        self.lo, self.hi, self.unit = int(lo), int(hi), unit
+        super().__init__(default_value, **kwargs)
+
+    def validate(self, obj, value):
+        unit = f" {self.unit}" if self.unit else ""
+        ok = isinstance(value, int) and not isinstance(value, bool)
+        if not ok:
+            try:
+                import numpy as np
+
+                ok = isinstance(value, np.integer)
+            except ImportError:  # pragma: no cover
+                ok = False
+        if not ok or not (self.lo <= int(value) <= self.hi):
+            raise TraitError(
+                f"{self.name} must be an integer in [{self.lo}, {self.hi}]{unit}; got {value!r}"
+            )
+        return int(value)
+
+
+class ChoiceTrait(Unicode):
+    """A string trait limited to a set of choices, with a clear error message."""
+
+    def __init__(self, default_value, choices, **kwargs):
+        self.choices = tuple(choices)
+        super().__init__(default_value, **kwargs)
+
+    def validate(self, obj, value):
+        if not isinstance(value, str) or value not in self.choices:
+            raise TraitError(
+                f"{self.name} must be one of {', '.join(map(repr, self.choices))}; got {value!r}"
+            )
+        return value
+
+
+class GrassParams(HasTraits):
+    """All run-time parameters of a grass field (forces, wind, time step, culling).
+
+    Units are SI: metres, seconds, m/s^2 for accelerations (the simulation moves
+    the tip guide v2 by ``force * dt`` as in the paper, so "forces" are
+    accelerations per unit of blade). Changes apply at the next ``step()`` (physics)
+    or the next ``render()`` (culling, level of detail).
+    """
+
+    # ---- forces (paper section 5.1) -------------------------------------------
+    gravity = RangedFloat(9.8, 0.0, 50.0, "m/s^2", help="Environmental gravity |gE| along gravity_direction.").tag(sync=True)
+    front_gravity = RangedFloat(0.25, 0.0, 2.0, help="Front gravity factor: gF = front_gravity * |gE| * f (paper: 0.25).").tag(sync=True)
+    stiffness_scale = RangedFloat(1.0, 0.01, 20.0, help="Multiplies each blade's stiffness s in the recovery force r = (iv2 - v2) s.").tag(sync=True)
+
+    # ---- wind -----------------------------------------------------------------
+    wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Analytic wind field W(p, t).").tag(sync=True)
+    wind_strength = RangedFloat(5.0, 0.0, 200.0, "m/s^2", help="Peak wind acceleration |W|.").tag(sync=True)
+    wind_direction = RangedFloat(0.0, -360.0, 360.0, "degrees", help="Direction the wind blows towards, in the ground plane: 0 = +x, 90 = +z.").tag(sync=True)
+    wind_speed = RangedFloat(3.0, 0.0, 50.0, "m/s", help="Speed at which the wind wave travels along wind_direction.").tag(sync=True)
+    wind_wavelength = RangedFloat(8.0, 0.1, 1000.0, "m", help="Distance between two gust crests of the wave field.").tag(sync=True)
+
+    # ---- time -----------------------------------------------------------------
+    dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)
+
+    # ---- culling and level of detail (per render, on the GPU) ------------------
+    cull_orientation = Bool(True, help="Cull blades seen edge-on.").tag(sync=True)
+    cull_orientation_threshold = RangedFloat(0.9, 0.0, 1.0, help="Cull when |dot(view dir to v0, width dir)| exceeds this.").tag(sync=True)
+    cull_frustum = Bool(True, help="Cull blades whose v0, curve midpoint and v2 are all outside the view.").tag(sync=True)
+    cull_frustum_tolerance = RangedFloat(0.5, 0.0, 10.0, help="Slack added to clip-space w in the frustum test (paper/author: 0.5).").tag(sync=True)
+    cull_distance = Bool(True, help="Thin the field with distance on the ground.").tag(sync=True)
+    cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
+    cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
+    lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
+
+    def copy(self) -> "GrassParams":
+        """A new GrassParams with the same values."""
+        return GrassParams(**self.values())
+
+    def values(self) -> dict:
+        """All trait values as a plain dict."""
+        return {name: getattr(self, name) for name in self.trait_names()}
+
+    def __repr__(self):
+        items = ", ".join(f"{k}={v!r}" for k, v in self.values().items())
+        return f"GrassParams({items})"

@@ -1,0 +1,156 @@
+"""GrassScene: a ready-made pygfx scene (renderer, camera, light, ground, field).
+
+Renders offscreen when there is no screen; ``render()`` returns pixels and never
+advances time; ``step(n)`` advances the physics by n fixed steps.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pygfx as gfx
+
+from .blades import Blades
+from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
+from .gpu.field import GrassField, GrassMaterial
+from .params import GrassParams
+
+__all__ = ["GrassScene", "parse_size"]
+
+
+def parse_size(size, name="size"):
+    """(w, h) from a tuple or a "WxH" string; both within 1..16384 pixels."""
+    if isinstance(size, str):
+        parts = size.lower().split("x")
+        try:
+            size = tuple(int(p) for p in parts)
+        except ValueError:
+            size = None
+    try:
+        w, h = (int(size[0]), int(size[1]))
+        ok = len(size) == 2 and all(float(s) == int(s) for s in size)
+    except (TypeError, ValueError, IndexError):
+        ok = False
+    if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise ValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
+    return w, h
+
+
+def _make_renderer(canvas):
+    if is_cpu_adapter():
+        announce_cpu_defaults()
+        return gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none", enable_events=False)
+    return gfx.WgpuRenderer(canvas, pixel_ratio=1, enable_events=False)
+
+
+class GrassScene:
+    """A field of grass in a scene with a camera, a light and a ground plane.
+
+    Args:
+        blades: a :class:`Blades` or a blade count (then ``Blades.on_plane(count)``).
+        size: (width, height) of the image in pixels (default 640 x 480).
+        params: a :class:`GrassParams` (default: a new one).
+
+    Attributes: ``params``, ``camera`` (a pygfx PerspectiveCamera), ``field``
+    (the :class:`GrassField`), ``scene`` (the pygfx Scene), ``renderer``, ``canvas``.
+    """
+
+    def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
+        if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
+            blades = Blades.on_plane(int(blades))
+        if not isinstance(blades, Blades):
+            raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
+        self.size = parse_size(size)
+        ensure_device()
+        self.field = GrassField(blades, params=params, material=GrassMaterial())
+        self.params = self.field.params
+
+        self.scene = gfx.Scene()
+        self.scene.add(gfx.Background.from_color("#9cc3e6", "#e8f1f8"))
+        lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
+        center = 0.5 * (lo + hi)
+        ground = gfx.Mesh(
+            gfx.plane_geometry(extent * 1.2, extent * 1.2),
+            gfx.MeshPhongMaterial(color="#3b2a1a"),
+        )
+        ground.local.rotation = (-np.sqrt(0.5), 0, 0, np.sqrt(0.5))  # xy plane -> xz plane, facing +y
+        ground.local.position = (center[0], -0.01, center[2])
+        self.ground = ground
+        self.scene.add(ground)
+        self.scene.add(self.field)
+        self.scene.add(gfx.AmbientLight(intensity=0.6))
+        sun = gfx.DirectionalLight(intensity=2.0)
+        sun.local.position = (4, 10, 3)
+        self.scene.add(sun)
+        self.light = sun
+
+        self.camera = gfx.PerspectiveCamera(45, self.size[0] / self.size[1], depth_range=(0.1, 100))
+        self._default_view(extent, center)
+
+        if canvas is None:
+            from rendercanvas.offscreen import RenderCanvas
+
+            canvas = RenderCanvas(size=self.size, pixel_ratio=1)
+        self.canvas = canvas
+        self.renderer = _make_renderer(canvas)
+        canvas.request_draw(self._draw)
+
+    # ------------------------------------------------------------------ views
+
+    def _default_view(self, extent, center):
+        d = extent * 0.95
+        self.camera.local.position = (center[0], 0.28 * d + 1.0, center[2] + d)
+        self.camera.look_at((center[0], 0.6, center[2]))
+        self._home = (self.camera.local.position, self.camera.local.rotation)
+
+    def reset_camera(self):
+        """Put the camera back where the scene started."""
+        self.camera.local.position, self.camera.local.rotation = self._home
+
+    # ------------------------------------------------------------------ time
+
+    def step(self, n: int = 1):
+        """Advance the physics by n fixed steps (see GrassField.step)."""
+        self.field.step(n)
+
+    # ------------------------------------------------------------------ pictures
+
+    def _draw(self):
+        self.renderer.render(self.scene, self.camera)
+
+    def render(self) -> np.ndarray:
+        """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""
+        img = self.canvas.draw()
+        return np.asarray(img)
+
+    def render_at(self, size) -> np.ndarray:
+        """Render at another size (offscreen), same camera and state; (h, w, 4) uint8."""
+        from rendercanvas.offscreen import RenderCanvas
+
+        w, h = parse_size(size)
+        canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
+        renderer = _make_renderer(canvas)
+        aspect = self.camera.aspect
+        canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
+        try:
+            return np.asarray(canvas.draw())
+        finally:
+            self.camera.aspect = aspect
+            canvas.close()
+
+    def save_png(self, path, size=None) -> str:
+        """Write a PNG of the current state (default: the scene's size); returns the path."""
+        import imageio.v3 as iio
+
+        img = self.render() if size is None or parse_size(size) == self.size else self.render_at(size)
+        path = os.fspath(path)
+        iio.imwrite(path, img, extension=".png")
+        return path
+
+    # ------------------------------------------------------------------ stats
+
+    def visible_count(self) -> int:
+        """Blades drawn by the last render (synchronous GPU readback)."""
+        return int(self.field.read_draw_args()[:, 1].sum())

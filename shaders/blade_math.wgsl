@@ -1,0 +1,156 @@
+// Blade math shared by the simulation, culling and drawing shaders.
+//
+// Every function here has a twin of the same name in grasswidget/reference.py
+// (the NumPy reference, which is the spec). Equation numbers refer to
+// Jahrmann & Wimmer, "Responsive Real-Time Grass Rendering for General 3D
+// Scenes", I3D 2017. Units: metres, seconds, m/s^2.
+//
+// A blade is 4 x vec4 in a storage buffer:
+//   [0] v0.xyz root,       w orientation theta
+//   [1] v1.xyz guide,      w height h
+//   [2] v2.xyz tip guide,  w width w
+//   [3] up.xyz normal,     w stiffness s
+
+const PI_F = 3.141592653589793;
+
+struct Basis { e1: vec3<f32>, e2: vec3<f32> };
+
+// Two unit vectors spanning the plane orthogonal to up; for up = +y, (x, z).
+fn tangent_basis(up: vec3<f32>) -> Basis {
+    var reference = vec3<f32>(1.0, 0.0, 0.0);
+    if (abs(up.x) > 0.9) { reference = vec3<f32>(0.0, 0.0, 1.0); }
+    let e1 = normalize(reference - up * dot(reference, up));
+    return Basis(e1, cross(e1, up));
+}
+
+// Width direction t1: e1 rotated by theta towards e2.
+fn width_direction(up: vec3<f32>, theta: f32) -> vec3<f32> {
+    let b = tangent_basis(up);
+    return cos(theta) * b.e1 + sin(theta) * b.e2;
+}
+
+// Front direction f = normalize(cross(up, t1)).
+fn front_direction(up: vec3<f32>, t1: vec3<f32>) -> vec3<f32> {
+    return normalize(cross(up, t1));
+}
+
+// Environmental gravity gE = normalize(D.xyz) * D.w (eq. 1).
+fn environmental_gravity(direction: vec3<f32>, magnitude: f32) -> vec3<f32> {
+    return direction * magnitude;
+}
+
+// Front gravity gF = factor * |gE| * f (eq. 2).
+fn front_gravity(g_env: vec3<f32>, f: vec3<f32>, factor: f32) -> vec3<f32> {
+    return factor * length(g_env) * f;
+}
+
+// The "wave" wind field; see reference.wind_wave. dir is the unit direction (x, z).
+fn wind_wave(p: vec3<f32>, t: f32, strength: f32, dir: vec2<f32>, speed: f32, wavelength: f32) -> vec3<f32> {
+    let along = p.x * dir.x + p.z * dir.y;
+    let across = -p.x * dir.y + p.z * dir.x;
+    let a = 2.0 * PI_F * (along - speed * t) / wavelength;
+    let b = 2.0 * PI_F * across / (1.7 * wavelength) + 0.5 * a;
+    let amp = strength * (0.65 + 0.35 * sin(a)) * (0.85 + 0.15 * sin(b));
+    return vec3<f32>(amp * dir.x, 0.0, amp * dir.y);
+}
+
+// Wind on the tip: w = W * fd * fr (eq. 3-5).
+fn wind_force(W: vec3<f32>, v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> vec3<f32> {
+    let wlen = length(W);
+    if (wlen <= 1e-12) { return vec3<f32>(0.0); }
+    let fd = 1.0 - abs(dot(W / wlen, normalize(v2 - v0)));
+    let fr = dot(v2 - v0, up) / height;
+    return W * (fd * fr);
+}
+
+// v2 += (accel + (iv2 - v2') s) dt, recovery taken at the end of the step.
+fn integrate_tip(v2: vec3<f32>, iv2: vec3<f32>, stiffness: f32, accel: vec3<f32>, dt: f32) -> vec3<f32> {
+    return (v2 + dt * (accel + stiffness * iv2)) / (1.0 + stiffness * dt);
+}
+
+// State validation 1: v2 stays above the blade's ground plane.
+fn validate_ground(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>) -> vec3<f32> {
+    return v2 - up * min(dot(up, v2 - v0), 0.0);
+}
+
+// State validation 2: v1 from how far the tip leans (eq. 6-7).
+fn validate_v1(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> vec3<f32> {
+    let d = v2 - v0;
+    let l_proj = length(d - up * dot(d, up));
+    let ratio = l_proj / height;
+    return v0 + up * (height * max(1.0 - ratio, 0.05 * max(ratio, 1.0)));
+}
+
+// L = (2 L0 + L1) / 3 (eq. 8 with n = 2).
+fn curve_length(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> f32 {
+    let l0 = length(v2 - v0);
+    let l1 = length(v2 - v1) + length(v1 - v0);
+    return (2.0 * l0 + l1) / 3.0;
+}
+
+struct Guides { v1: vec3<f32>, v2: vec3<f32> };
+
+// State validation 3: scale the curve so that its length is h (eq. 9-10).
+fn validate_length(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, height: f32) -> Guides {
+    let k = height / max(curve_length(v0, v1, v2), 1e-12);
+    let v1n = v0 + k * (v1 - v0);
+    return Guides(v1n, v1n + k * (v2 - v1));
+}
+
+// ---------------------------------------------------------------- culling
+
+// Seen edge-on: |dot(normalize(v0 - cam), t1)| > threshold.
+fn orientation_cull(v0: vec3<f32>, t1: vec3<f32>, cam_pos: vec3<f32>, threshold: f32) -> bool {
+    return abs(dot(normalize(v0 - cam_pos), t1)) > threshold;
+}
+
+fn clip_outside(c: vec4<f32>, tol: f32) -> bool {
+    let lim = c.w + tol;
+    let inside = abs(c.x) <= lim && abs(c.y) <= lim && c.z >= 0.0 && c.z <= c.w;
+    return !inside;
+}
+
+// v0, the curve midpoint and v2 all outside the view (clip space, with slack).
+fn frustum_cull(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, view_proj: mat4x4<f32>, tol: f32) -> bool {
+    let m = 0.25 * v0 + 0.5 * v1 + 0.25 * v2;
+    return clip_outside(view_proj * vec4<f32>(v0, 1.0), tol)
+        && clip_outside(view_proj * vec4<f32>(m, 1.0), tol)
+        && clip_outside(view_proj * vec4<f32>(v2, 1.0), tol);
+}
+
+// Bucketed thinning: cull if id mod n >= ceil(n * max(1 - d_proj / d_max, 0)).
+fn distance_cull(v0: vec3<f32>, up: vec3<f32>, cam_pos: vec3<f32>, id: u32, buckets: u32, d_max: f32) -> bool {
+    let d = v0 - cam_pos;
+    let d_proj = length(d - up * dot(d, up));
+    let keep = ceil(f32(buckets) * max(1.0 - d_proj / d_max, 0.0));
+    return f32(id % buckets) >= keep;
+}
+
+// Projected blade height in pixels, from the clip w of the curve's middle.
+fn projected_pixels(v0: vec3<f32>, v2: vec3<f32>, height: f32, view_proj: mat4x4<f32>, viewport_height: f32) -> f32 {
+    let mid = 0.5 * (v0 + v2);
+    let w = max((view_proj * vec4<f32>(mid, 1.0)).w, 1e-6);
+    let focal = length(vec3<f32>(view_proj[0].y, view_proj[1].y, view_proj[2].y));
+    return height * focal * viewport_height * 0.5 / w;
+}
+
+// ---------------------------------------------------------------- drawing
+
+// Across-blade parameter t for the blade shapes of the paper, u, v in [0, 1].
+// shape: 0 quad, 1 triangle, 2 quadratic, 3 triangle-tip (tau), 4 fold (3D, like quad across).
+fn blade_shape_t(u: f32, v: f32, shape: i32, tau: f32) -> f32 {
+    switch shape {
+        case 0, 4: { return u; }
+        case 1: { return u + 0.5 * v - u * v; }
+        case 2: { return u - u * v * v; }
+        default: { return 0.5 + (u - 0.5) * (1.0 - max(v - tau, 0.0) / (1.0 - tau)); }
+    }
+}
+
+// Hash of a blade id to [0, 1), for per-blade colour variation.
+fn hash01(x: u32) -> f32 {
+    var h = x * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    h = (h >> 22u) ^ h;
+    return f32(h) / 4294967296.0;
+}

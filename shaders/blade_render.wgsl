@@ -1,0 +1,96 @@
+// Draw every visible blade of one level-of-detail class as a ribbon, by vertex
+// pulling: no vertex buffers. Instance i is the i-th entry of the class's
+// compacted list; vertex k of its triangle strip is row k/2 (v = row / segments)
+// and side k%2 (u). Ribbon formulas: paper section 6 / reference ribbons.
+
+{$ include 'pygfx.std.wgsl' $}
+{$ include 'grasswidget.blade_math.wgsl' $}
+
+const SEGMENTS: u32 = {{ segments }}u;
+const LOD_CLASS: u32 = {{ lod_class }}u;
+
+struct VertexInput {
+    @builtin(vertex_index) vertex_index: u32,
+    @builtin(instance_index) instance_index: u32,
+};
+
+@vertex
+fn vs_main(in: VertexInput) -> Varyings {
+    let blade = s_visible[LOD_CLASS * u_cull.n_blades + in.instance_index];
+    let p0 = s_blades[4u * blade + 0u];
+    let p1 = s_blades[4u * blade + 1u];
+    let p2 = s_blades[4u * blade + 2u];
+    let p3 = s_blades[4u * blade + 3u];
+    let v0 = p0.xyz;
+    let v1 = p1.xyz;
+    let v2 = p2.xyz;
+    let width = p2.w;
+
+    let row = in.vertex_index / 2u;
+    let u = f32(in.vertex_index % 2u);
+    let v = f32(row) / f32(SEGMENTS);
+
+    // De Casteljau on the quadratic Bezier v0, v1, v2.
+    let a = v0 + v * (v1 - v0);
+    let b = v1 + v * (v2 - v1);
+    let c = a + v * (b - a);
+    let t1 = width_direction(p3.xyz, p0.w);
+    var t0 = b - a;
+    if (dot(t0, t0) < 1e-12) { t0 = p3.xyz; }
+    t0 = normalize(t0);
+    let n = normalize(cross(t0, t1));
+    let c0 = c - width * t1;
+    let c1 = c + width * t1;
+    let t = blade_shape_t(u, v, u_material.blade_shape, u_material.tip_threshold);
+    var pos = (1.0 - t) * c0 + t * c1;
+    if (u_material.blade_shape == 4) {
+        pos = pos + n * (width * (0.5 - abs(u - 0.5) * (1.0 - v)));
+    }
+
+    let world_pos = u_wobject.world_transform * vec4<f32>(pos, 1.0);
+    let world_normal = normalize((u_wobject.world_transform * vec4<f32>(n, 0.0)).xyz);
+    let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * world_pos;
+
+    var varyings: Varyings;
+    varyings.position = vec4<f32>(clip);
+    varyings.world_pos = vec3<f32>(world_pos.xyz / world_pos.w);
+    varyings.normal = vec3<f32>(world_normal);
+    varyings.along = f32(v);
+    varyings.variation = f32(hash01(blade));
+    varyings.pick_idx = u32(blade);
+    return varyings;
+}
+
+@fragment
+fn fs_main(varyings: Varyings) -> FragmentOutput {
+    let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+    let to_eye = normalize(cam_pos - varyings.world_pos);
+    // Two-sided: light the side that faces the camera.
+    var n = normalize(varyings.normal);
+    if (dot(n, to_eye) < 0.0) { n = -n; }
+
+    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
+    let var_s = varyings.variation - 0.5;
+    let root = u_material.root_color.rgb;
+    let tip = u_material.tip_color.rgb;
+    var base = mix(root, tip, pow(clamp(varyings.along, 0.0, 1.0), 0.8));
+    base = base * (1.0 + u_material.color_variation * var_s);
+    base = base + u_material.color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
+
+    let l = normalize(u_material.light_direction.xyz);
+    let diffuse = max(dot(n, l), 0.0);
+    let translucency = 0.35 * max(dot(-n, l), 0.0);
+    let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
+    let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
+    let rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+
+    var out: FragmentOutput;
+    out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);
+    $$ if write_pick
+    out.pick = (
+        pick_pack(u32(u_wobject.global_id), 20) +
+        pick_pack(varyings.pick_idx, 26)
+    );
+    $$ endif
+    return out;
+}

@@ -1,0 +1,83 @@
+// Per-frame culling and level-of-detail binning, before drawing.
+// Survivors are appended to the compacted list of their LOD class
+// (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
+// and class; the instance counts in s_args feed draw_indirect.
+// The twin of reference.cull() and reference.lod_class().
+
+{{ bindings_code }}
+{$ include 'grasswidget.blade_math.wgsl' $}
+
+@group(0) @binding(10) var<storage, read> s_blades: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> s_visible: array<u32>;
+
+const N_CLASSES: u32 = {{ n_classes }}u;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes }}>;
+
+fn lod_class_of(pixels: f32) -> u32 {
+    $$ for min_pixels in lod_min_pixels
+    if (pixels >= {{ min_pixels }}) { return {{ loop.index0 }}u; }
+    $$ endfor
+    return N_CLASSES - 1u;
+}
+
+@compute @workgroup_size(256)
+fn main(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    if (lid < N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
+    workgroupBarrier();
+
+    let n = u_cull.n_blades;
+    let i = (wid.y * nwg.x + wid.x) * 256u + lid;
+    var visible = i < n;
+    var cls = 0u;
+    var slot = 0u;
+    if (visible) {
+        let p0 = s_blades[4u * i + 0u];
+        let p1 = s_blades[4u * i + 1u];
+        let p2 = s_blades[4u * i + 2u];
+        let p3 = s_blades[4u * i + 3u];
+        // To world space (blades live in the object's local space).
+        let m = u_wobject.world_transform;
+        let v0 = (m * vec4<f32>(p0.xyz, 1.0)).xyz;
+        let v1 = (m * vec4<f32>(p1.xyz, 1.0)).xyz;
+        let v2 = (m * vec4<f32>(p2.xyz, 1.0)).xyz;
+        let up = normalize((m * vec4<f32>(p3.xyz, 0.0)).xyz);
+        let t1 = normalize((m * vec4<f32>(width_direction(p3.xyz, p0.w), 0.0)).xyz);
+        let view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
+        let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+        let scale = length(m[1].xyz);
+        let h = p1.w * scale;
+
+        if (u_cull.cull_orientation != 0 && orientation_cull(v0, t1, cam_pos, u_cull.orientation_threshold)) {
+            visible = false;
+        }
+        if (u_cull.cull_frustum != 0 && frustum_cull(v0, v1, v2, view_proj, u_cull.frustum_tolerance)) {
+            visible = false;
+        }
+        if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
+            visible = false;
+        }
+        if (u_cull.lod != 0) {
+            cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, u_stdinfo.physical_size.y));
+        }
+        if (visible) {
+            slot = atomicAdd(&wg_count[cls], 1u);
+        }
+    }
+    workgroupBarrier();
+    if (lid < N_CLASSES) {
+        let c = atomicLoad(&wg_count[lid]);
+        if (c > 0u) {
+            wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
+        }
+    }
+    workgroupBarrier();
+    if (visible) {
+        s_visible[cls * n + wg_base[cls] + slot] = i;
+    }
+}

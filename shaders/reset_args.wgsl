@@ -1,0 +1,14 @@
+// Reset the indirect draw arguments at the start of every frame's compute pass:
+// one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0).
+
+@group(0) @binding(0) var<storage, read_write> s_args: array<u32>;
+
+@compute @workgroup_size(1)
+fn main() {
+    $$ for segments in lod_segments
+    s_args[{{ loop.index0 }}u * 4u + 0u] = {{ 2 * (segments + 1) }}u;
+    s_args[{{ loop.index0 }}u * 4u + 1u] = 0u;
+    s_args[{{ loop.index0 }}u * 4u + 2u] = 0u;
+    s_args[{{ loop.index0 }}u * 4u + 3u] = 0u;
+    $$ endfor
+}

@@ -1,0 +1,1260 @@
+"""Real-browser test harness: JupyterLab + Debian's Chromium, driven by Playwright.
+
+Everything here is synchronous (Playwright's sync API) and pytest-friendly.
+A typical test::
+
+    from tests.browser.harness import *   # or: from .harness import ...
+
+    write_notebook(root / "nb.ipynb", ["import ...", "widget"])
+    with JupyterLabServer(root) as server, Browser() as browser:
+        page = browser.page
+        open_notebook(page, server, "nb.ipynb")
+        run_all_cells(page)
+        wait_for_frames(page, 5, timeout=30)
+        set_slider(page, "gravity", 25)
+        wait_for_kernel(page, "s.value", 25.0)
+
+Design rules:
+
+* No sleep stands in for a check. Every ``wait_*`` polls a condition until
+  it holds or a timeout expires, and then raises :class:`HarnessTimeout`
+  saying what did not happen and what was last observed.
+  (The only fixed-time waits are the pacing of a mouse drag, which must move
+  at human speed, and the measuring window of :func:`frames_per_second`.)
+* Processes are started and stopped by PID: the JupyterLab server (and the
+  kernels it started, found by walking ``/proc`` from the server's PID).
+* Each server and browser gets fresh private state directories, so nothing
+  from ``~/.jupyter`` or a previous run leaks in.
+
+The jupyter-rfb view is ``div.renderview-wrapper > img.renderview-view``;
+every frame is a new ``blob:`` URL in the img's ``src``. Frames are counted
+with a MutationObserver (see :func:`install_frame_counter`). While frames
+flow they are JPEG; about 0.3 s after the last one a lossless PNG follows,
+so call :func:`wait_until_quiet` before comparing pixels exactly.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Optional, Sequence
+
+__all__ = [
+    "HarnessError",
+    "HarnessTimeout",
+    "CellExecutionError",
+    "KernelExecutionError",
+    "CHROMIUM_PATH",
+    "CHROMIUM_ARGS",
+    "prerequisites_missing",
+    "poll",
+    "write_notebook",
+    "JupyterLabServer",
+    "Browser",
+    "open_notebook",
+    "run_all_cells",
+    "wait_for_kernel_idle",
+    "kernel_execute",
+    "kernel_eval",
+    "wait_for_kernel",
+    "install_frame_counter",
+    "frame_count",
+    "wait_for_frames",
+    "frames_per_second",
+    "wait_until_quiet",
+    "wait_for_view",
+    "view_locator",
+    "view_pixels",
+    "view_screenshot",
+    "drag",
+    "set_slider",
+    "slider_readout",
+    "click_button",
+    "toggle_checkbox",
+    "cell_output_text",
+    "wait_for_output_text",
+    "save_debug_artifacts",
+    "KernelResult",
+]
+
+CHROMIUM_PATH = "/usr/bin/chromium"
+
+#: Flags measured to work on this closed network. Without the networking
+#: flags Chromium stalls; the backgrounding flags keep requestAnimationFrame
+#: and timers running at full rate in a headless, never-focused window.
+CHROMIUM_ARGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-background-timer-throttling",
+    "--disable-renderer-backgrounding",
+    "--disable-backgrounding-occluded-windows",
+)
+
+
+# --------------------------------------------------------------------------
+# Errors and polling
+# --------------------------------------------------------------------------
+
+
+class HarnessError(RuntimeError):
+    """Something in the browser/Jupyter setup is not as expected."""
+
+
+class HarnessTimeout(HarnessError, TimeoutError):
+    """A condition that was waited for did not happen in time."""
+
+
+class CellExecutionError(HarnessError):
+    """A notebook cell raised while running (carries ename/evalue/traceback)."""
+
+
+class KernelExecutionError(HarnessError):
+    """Code sent with :func:`kernel_execute` raised in the kernel."""
+
+    def __init__(self, message: str, ename: str = "", evalue: str = "", traceback: str = ""):
+        super().__init__(message)
+        self.ename, self.evalue, self.traceback = ename, evalue, traceback
+
+
+_ANSI_RE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+
+
+def _strip_ansi(text: str) -> str:
+    return _ANSI_RE.sub("", text)
+
+
+def poll(
+    check: Callable[[], Any],
+    what: str,
+    timeout: float,
+    interval: float = 0.1,
+    page=None,
+    describe: Optional[Callable[[Any], str]] = None,
+):
+    """Call ``check()`` until it returns a truthy value, and return that value.
+
+    ``check`` may also return a tuple ``(ok, observed)``; then ``observed`` is
+    what the error message reports as last seen and is what gets returned.
+
+    Raises :class:`HarnessTimeout` after ``timeout`` seconds, naming ``what``
+    (phrase it as the condition, e.g. "5 new frames in the view") and the
+    last observed value. With ``page`` given, the pause between tries is
+    ``page.wait_for_timeout`` so Playwright keeps processing events.
+    """
+    deadline = time.monotonic() + timeout
+    last: Any = None
+    last_exc: Optional[BaseException] = None
+    while True:
+        try:
+            res = check()
+            last_exc = None
+        except (HarnessTimeout, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # keep polling, but remember why it failed
+            res, last_exc = None, exc
+        if isinstance(res, tuple) and len(res) == 2 and isinstance(res[0], bool):
+            ok, observed = res
+            last = observed
+            if ok:
+                return observed
+        else:
+            last = res
+            if res:
+                return res
+        if time.monotonic() >= deadline:
+            seen = describe(last) if describe else repr(last)
+            msg = f"Timed out after {timeout:.1f} s waiting for {what}; last observed: {seen}"
+            if last_exc is not None:
+                msg += f" (last check raised {type(last_exc).__name__}: {last_exc})"
+            raise HarnessTimeout(msg)
+        if page is not None:
+            page.wait_for_timeout(interval * 1000)
+        else:
+            time.sleep(interval)
+
+
+def prerequisites_missing() -> Optional[str]:
+    """Return why a browser test cannot run here, or None if it can."""
+    if not os.path.exists(CHROMIUM_PATH):
+        return f"{CHROMIUM_PATH} not found (apt-get install -y chromium)"
+    for mod in ("playwright", "jupyterlab", "ipykernel", "nbformat"):
+        try:
+            __import__(mod)
+        except ImportError:
+            return f"python package {mod!r} not installed"
+    return None
+
+
+def write_notebook(path, cells: Sequence[str], kernel_name: str = "python3") -> Path:
+    """Write a notebook of code cells (strings; a string starting with
+    ``"#md "`` becomes a markdown cell with the rest as text) and return its
+    path. The kernelspec is set so JupyterLab does not ask for a kernel."""
+    import nbformat
+
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": kernel_name, "display_name": "Python 3", "language": "python"}
+    nb.metadata["language_info"] = {"name": "python"}
+    for src in cells:
+        if src.startswith("#md "):
+            nb.cells.append(nbformat.v4.new_markdown_cell(src[4:]))
+        else:
+            nb.cells.append(nbformat.v4.new_code_cell(src))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    nbformat.write(nb, str(path))
+    return path
+
+
+# --------------------------------------------------------------------------
+# JupyterLab server
+# --------------------------------------------------------------------------
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _children_of(pid: int) -> list:
+    """All descendant PIDs of ``pid`` (read from /proc), deepest last."""
+    by_parent: dict = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                stat = f.read()
+        except OSError:
+            continue
+        # field 4 is ppid; the command name (field 2) may contain spaces
+        ppid = int(stat.rsplit(")", 1)[1].split()[1])
+        by_parent.setdefault(ppid, []).append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        for c in by_parent.get(p, []):
+            out.append(c)
+            todo.append(c)
+    return out
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            state = f.read().rsplit(")", 1)[1].split()[0]
+        return state != "Z"
+    except OSError:
+        return False
+
+
+#: JupyterLab user settings written into the private config dir.
+#: windowingMode "none" keeps every cell (and its widget views) in the DOM
+#: even when scrolled out of view; the default "full" virtualizes cells.
+DEFAULT_LAB_SETTINGS = {
+    "@jupyterlab/notebook-extension:tracker": {"windowingMode": "none"},
+    "@jupyterlab/apputils-extension:notification": {
+        "fetchNews": "false", "checkForUpdates": False, "doNotDisturbMode": True,
+    },
+}
+
+#: Lab plugins disabled through the private page_config.json.
+DEFAULT_DISABLED_PLUGINS = ("@jupyterlab/apputils-extension:announcements",)
+
+
+class JupyterLabServer:
+    """Start JupyterLab for ``root_dir`` on 127.0.0.1, a free port and a random
+    token, with private config/runtime/data/IPython/XDG runtime directories.
+
+    Use as a context manager (or call :meth:`start` / :meth:`stop`)::
+
+        with JupyterLabServer(tmp_path) as server:
+            page.goto(server.url_for("nb.ipynb"))
+
+    The venv's lab extensions and kernelspecs are still found: they live in
+    ``sys.prefix/share/jupyter``, which Jupyter always searches in addition to
+    ``JUPYTER_DATA_DIR``. The server runs with ``python`` (default: the
+    interpreter running the tests), and kernelspecs whose argv starts with
+    ``python`` resolve to that same interpreter.
+
+    :meth:`stop` terminates the server by PID (SIGTERM, then SIGKILL after
+    ``stop_timeout``), then does the same to any kernel process it had
+    started that is still alive.
+    """
+
+    def __init__(
+        self,
+        root_dir,
+        *,
+        python: Optional[str] = None,
+        startup_timeout: float = 60.0,
+        stop_timeout: float = 10.0,
+        extra_args: Iterable[str] = (),
+        env: Optional[dict] = None,
+        lab_settings: Optional[dict] = None,
+        disabled_plugins: Iterable[str] = DEFAULT_DISABLED_PLUGINS,
+    ):
+        self.root_dir = Path(root_dir).resolve()
+        self.python = python or sys.executable
+        self.startup_timeout = startup_timeout
+        self.stop_timeout = stop_timeout
+        self.extra_args = list(extra_args)
+        self.extra_env = dict(env or {})
+        self.lab_settings = DEFAULT_LAB_SETTINGS if lab_settings is None else lab_settings
+        self.disabled_plugins = list(disabled_plugins)
+        self.token = uuid.uuid4().hex
+        self.port: Optional[int] = None
+        self.proc: Optional[subprocess.Popen] = None
+        self.state_dir: Optional[Path] = None
+        self.log_path: Optional[Path] = None
+        self._log_file = None
+        self.startup_seconds: Optional[float] = None
+
+    # -- public API --------------------------------------------------------
+
+    @property
+    def base_url(self) -> str:
+        """``http://127.0.0.1:PORT/`` (with trailing slash)."""
+        if self.port is None:
+            raise HarnessError("JupyterLabServer is not started")
+        return f"http://127.0.0.1:{self.port}/"
+
+    @property
+    def pid(self) -> Optional[int]:
+        return self.proc.pid if self.proc else None
+
+    def url_for(self, notebook_relpath: str = "") -> str:
+        """URL that opens ``notebook_relpath`` (relative to root_dir) in Lab,
+        token included. An empty path gives the Lab main page."""
+        rel = str(notebook_relpath).lstrip("/")
+        path = "lab/tree/" + urllib.parse.quote(rel) if rel else "lab"
+        return f"{self.base_url}{path}?token={self.token}"
+
+    def api(self, path: str, method: str = "GET", timeout: float = 5.0) -> Any:
+        """Call the server's REST API (``path`` like ``"api/kernels"``) and
+        return the decoded JSON (None for an empty body)."""
+        sep = "&" if "?" in path else "?"
+        url = f"{self.base_url}{path.lstrip('/')}{sep}token={self.token}"
+        req = urllib.request.Request(url, method=method)
+        with urllib.request.urlopen(req, timeout=timeout) as resp:
+            body = resp.read()
+        return json.loads(body) if body else None
+
+    def log_text(self, tail: int = 0) -> str:
+        """The server's combined stdout/stderr so far (last ``tail`` chars)."""
+        if not self.log_path or not self.log_path.exists():
+            return ""
+        text = self.log_path.read_text(errors="replace")
+        return text[-tail:] if tail else text
+
+    def start(self) -> "JupyterLabServer":
+        """Start the server and wait until ``/api/status`` answers."""
+        if self.proc is not None:
+            raise HarnessError("JupyterLabServer already started")
+        if not self.root_dir.is_dir():
+            raise HarnessError(f"root_dir {self.root_dir} is not a directory")
+        self.state_dir = Path(tempfile.mkdtemp(prefix="gw-lab-"))
+        self._write_private_config()
+        env = self._environment()
+        self.log_path = self.state_dir / "server.log"
+        t0 = time.monotonic()
+        last_error = None
+        for _attempt in range(3):  # retry only if the free port got taken meanwhile
+            self.port = _free_port()
+            self._log_file = open(self.log_path, "ab")
+            self.proc = subprocess.Popen(
+                self._command(),
+                cwd=str(self.root_dir),
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=self._log_file,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
+            try:
+                self._wait_until_up()
+                self.startup_seconds = time.monotonic() - t0
+                return self
+            except HarnessError as exc:
+                last_error = exc
+                exited = self.proc.poll() is not None
+                port_taken = "address already in use" in self.log_text(4000).lower()
+                self.stop()
+                if not (exited and port_taken):
+                    raise
+        raise last_error  # type: ignore[misc]
+
+    def stop(self) -> None:
+        """Stop the server (SIGTERM, then SIGKILL) and any leftover kernels,
+        by PID. Safe to call more than once."""
+        proc, self.proc = self.proc, None
+        if proc is not None:
+            children = _children_of(proc.pid) if proc.poll() is None else []
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+                try:
+                    proc.wait(self.stop_timeout)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait(5)
+            # Kernels run in their own session and poll their parent; give
+            # them a moment to notice, then end them by PID.
+            for sig, grace in ((None, 3.0), (signal.SIGTERM, 3.0), (signal.SIGKILL, 2.0)):
+                alive = [c for c in children if _pid_alive(c)]
+                if not alive:
+                    break
+                for c in alive:
+                    if sig is not None:
+                        try:
+                            os.kill(c, sig)
+                        except ProcessLookupError:
+                            pass
+                deadline = time.monotonic() + grace
+                while time.monotonic() < deadline and any(_pid_alive(c) for c in alive):
+                    time.sleep(0.05)
+        if self._log_file is not None:
+            self._log_file.close()
+            self._log_file = None
+
+    def cleanup(self) -> None:
+        """Remove the private state directory (logs included)."""
+        if self.state_dir and self.state_dir.exists():
+            shutil.rmtree(self.state_dir, ignore_errors=True)
+
+    def __enter__(self) -> "JupyterLabServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    # -- internals ---------------------------------------------------------
+
+    def _write_private_config(self) -> None:
+        sd = self.state_dir
+        for sub in ("config", "runtime", "data", "ipython", "xdg-runtime"):
+            (sd / sub).mkdir(mode=0o700)
+        os.chmod(sd / "xdg-runtime", 0o700)
+        labconfig = sd / "config" / "labconfig"
+        labconfig.mkdir()
+        (labconfig / "page_config.json").write_text(
+            json.dumps({"disabledExtensions": {p: True for p in self.disabled_plugins}})
+        )
+        for plugin_id, settings in self.lab_settings.items():
+            pkg, plugin = plugin_id.rsplit(":", 1)
+            d = sd / "config" / "lab" / "user-settings" / pkg
+            d.mkdir(parents=True, exist_ok=True)
+            (d / f"{plugin}.jupyterlab-settings").write_text(json.dumps(settings))
+
+    def _environment(self) -> dict:
+        sd = self.state_dir
+        env = dict(os.environ)
+        env.update(
+            JUPYTER_CONFIG_DIR=str(sd / "config"),
+            JUPYTER_RUNTIME_DIR=str(sd / "runtime"),
+            JUPYTER_DATA_DIR=str(sd / "data"),
+            IPYTHONDIR=str(sd / "ipython"),
+            XDG_RUNTIME_DIR=str(sd / "xdg-runtime"),
+            JUPYTER_PLATFORM_DIRS="1",
+            PYTHONUNBUFFERED="1",
+        )
+        env.pop("JUPYTER_TOKEN", None)
+        env.update(self.extra_env)
+        return env
+
+    def _command(self) -> list:
+        return [
+            self.python, "-m", "jupyterlab",
+            f"--ServerApp.root_dir={self.root_dir}",
+            "--ServerApp.ip=127.0.0.1",
+            f"--ServerApp.port={self.port}",
+            "--ServerApp.port_retries=0",
+            f"--IdentityProvider.token={self.token}",
+            "--ServerApp.open_browser=False",
+            "--ServerApp.allow_root=True",
+            "--ServerApp.terminals_enabled=False",
+            "--LabApp.expose_app_in_browser=True",
+            "--LabApp.news_url=None",
+            "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+            *self.extra_args,
+        ]
+
+    def _wait_until_up(self) -> None:
+        url = f"{self.base_url}api/status?token={self.token}"
+
+        def check():
+            if self.proc.poll() is not None:
+                raise HarnessError(
+                    f"JupyterLab exited with code {self.proc.returncode} before answering.\n"
+                    f"--- server log (tail) ---\n{self.log_text(3000)}"
+                )
+            try:
+                with urllib.request.urlopen(url, timeout=2) as resp:
+                    return resp.status == 200, resp.status
+            except (urllib.error.URLError, ConnectionError, socket.timeout, OSError) as exc:
+                return False, f"{type(exc).__name__}: {exc}"
+
+        try:
+            _poll_raising(check, f"JupyterLab to answer {self.base_url}api/status", self.startup_timeout, 0.2)
+        except HarnessTimeout as exc:
+            raise HarnessTimeout(f"{exc}\n--- server log (tail) ---\n{self.log_text(3000)}") from None
+
+
+def _poll_raising(check, what, timeout, interval):
+    """Like :func:`poll`, but a HarnessError raised by ``check`` ends it at once."""
+
+    def wrapped():
+        try:
+            return check()
+        except HarnessError as exc:
+            raise _Abort(exc)
+
+    try:
+        return poll(wrapped, what, timeout, interval)
+    except _Abort as a:
+        raise a.exc from None
+
+
+class _Abort(HarnessTimeout):
+    def __init__(self, exc):
+        super().__init__(str(exc))
+        self.exc = exc
+
+
+# --------------------------------------------------------------------------
+# Browser
+# --------------------------------------------------------------------------
+
+
+class Browser:
+    """Headless Debian Chromium through Playwright (sync API), with a fresh
+    user-data dir. ``.page`` is ready to use; ``.context`` can open more.
+
+    Console messages and page errors of every page are collected in
+    ``.console`` (list of strings) for diagnostics::
+
+        with Browser() as browser:
+            browser.page.goto(url)
+    """
+
+    def __init__(
+        self,
+        *,
+        executable_path: str = CHROMIUM_PATH,
+        headless: bool = True,
+        viewport: tuple = (1280, 1000),
+        extra_args: Iterable[str] = (),
+        default_timeout: float = 30.0,
+    ):
+        self.executable_path = executable_path
+        self.headless = headless
+        self.viewport = viewport
+        self.extra_args = list(extra_args)
+        self.default_timeout = default_timeout
+        self.console: list = []
+        self._pw_cm = None
+        self.playwright = None
+        self.context = None
+        self.page = None
+        self.user_data_dir: Optional[str] = None
+
+    def start(self) -> "Browser":
+        from playwright.sync_api import sync_playwright
+
+        if not os.path.exists(self.executable_path):
+            raise HarnessError(f"Chromium not found at {self.executable_path} (apt-get install -y chromium)")
+        self.user_data_dir = tempfile.mkdtemp(prefix="gw-chromium-")
+        self._pw_cm = sync_playwright()
+        self.playwright = self._pw_cm.__enter__()
+        try:
+            self.context = self.playwright.chromium.launch_persistent_context(
+                self.user_data_dir,
+                executable_path=self.executable_path,
+                headless=self.headless,
+                args=[*CHROMIUM_ARGS, *self.extra_args],
+                viewport={"width": self.viewport[0], "height": self.viewport[1]},
+                timeout=60_000,
+            )
+            self.context.set_default_timeout(self.default_timeout * 1000)
+            self.context.on("page", self._watch)
+            self.page = self.context.pages[0] if self.context.pages else self.context.new_page()
+            self._watch(self.page)
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def new_page(self):
+        """Open another tab in the same browser."""
+        return self.context.new_page()
+
+    def _watch(self, page) -> None:
+        if getattr(page, "_gw_watched", False):
+            return
+        page._gw_watched = True
+        page.on("console", lambda m: self.console.append(f"[{m.type}] {m.text}"))
+        page.on("pageerror", lambda e: self.console.append(f"[pageerror] {e}"))
+
+    def stop(self) -> None:
+        """Close the browser and Playwright; remove the user-data dir."""
+        try:
+            if self.context is not None:
+                self.context.close()
+        finally:
+            self.context = None
+            if self._pw_cm is not None:
+                self._pw_cm.__exit__(None, None, None)
+                self._pw_cm = None
+            if self.user_data_dir:
+                shutil.rmtree(self.user_data_dir, ignore_errors=True)
+
+    def __enter__(self) -> "Browser":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+# --------------------------------------------------------------------------
+# JupyterLab in the page
+# --------------------------------------------------------------------------
+
+# JS function text: find the NotebookPanel for a path (or the current one).
+_JS_FIND_PANEL = r"""
+function __gwFindPanel(path) {
+  const app = window.jupyterapp;
+  if (!app) return null;
+  const isNb = (w) => w && w.sessionContext && w.content && Array.isArray(w.content.widgets) && w.context;
+  const all = [];
+  for (const w of app.shell.widgets('main')) { if (isNb(w)) all.push(w); }
+  if (path) return all.find((w) => w.context.path === path) || null;
+  const cur = app.shell.currentWidget;
+  if (isNb(cur)) return cur;
+  return all.length === 1 ? all[0] : null;
+}
+"""
+
+_JS_NOTEBOOK_STATE = _JS_FIND_PANEL + r"""
+(path) => {
+  const app = window.jupyterapp;
+  if (!app) return {ok: false, why: 'window.jupyterapp is not defined yet'};
+  const p = __gwFindPanel(path);
+  if (!p) {
+    const open = [];
+    for (const w of app.shell.widgets('main')) open.push(w.context ? w.context.path : w.id);
+    return {ok: false, why: 'notebook ' + path + ' is not open; main area has ' + JSON.stringify(open)};
+  }
+  if (!p.context.isReady) return {ok: false, why: 'document context not ready'};
+  const s = p.sessionContext;
+  const k = s.session && s.session.kernel;
+  if (!k) return {ok: false, why: 'no kernel yet (session ' + (s.session ? 'exists' : 'missing') + ')'};
+  const cells = p.content.widgets;
+  let running = 0, pending = 0;
+  for (const c of cells) {
+    if (c.model.type !== 'code') continue;
+    if (c.model.executionState === 'running') running++;
+    const prompt = c.promptNode ? c.promptNode.textContent : '';
+    if (prompt.includes('*')) pending++;
+  }
+  return {ok: true, path: p.context.path, kernelStatus: k.status, connection: k.connectionStatus,
+          cells: cells.length, running, pending, id: p.id};
+}
+"""
+
+
+def _notebook_state(page, path: Optional[str]):
+    return page.evaluate(_JS_NOTEBOOK_STATE, path)
+
+
+def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0) -> None:
+    """Navigate to ``relpath`` in Lab and wait until the notebook panel is
+    open, its kernel is connected and idle; installs the frame counter."""
+    page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
+
+    def check():
+        st = _notebook_state(page, relpath)
+        ok = st.get("ok") and st["connection"] == "connected" and st["kernelStatus"] == "idle"
+        return bool(ok), st
+
+    poll(check, f"notebook {relpath!r} to open with a connected, idle kernel", timeout, 0.25, page=page)
+    _activate(page, relpath)
+    install_frame_counter(page)
+
+
+def _activate(page, path: Optional[str]) -> None:
+    page.evaluate(
+        _JS_FIND_PANEL
+        + "(path) => { const p = __gwFindPanel(path); if (p) window.jupyterapp.shell.activateById(p.id); }",
+        path,
+    )
+
+
+def wait_for_kernel_idle(page, path: Optional[str] = None, timeout: float = 60.0) -> dict:
+    """Wait until no cell of the notebook is running or queued and the
+    kernel reports 'idle'. Returns the last notebook state."""
+
+    def check():
+        st = _notebook_state(page, path)
+        ok = bool(st.get("ok")) and st["kernelStatus"] == "idle" and st["running"] == 0 and st["pending"] == 0
+        return ok, st
+
+    return poll(check, "the kernel to be idle with no running or queued cells", timeout, 0.2, page=page)
+
+
+_JS_CELL_ERRORS = _JS_FIND_PANEL + r"""
+(path) => {
+  const p = __gwFindPanel(path);
+  const errs = [];
+  p.content.widgets.forEach((c, i) => {
+    if (c.model.type !== 'code') return;
+    for (const o of c.model.outputs.toJSON()) {
+      if (o.output_type === 'error') errs.push({cell: i, ename: o.ename, evalue: o.evalue, traceback: (o.traceback || []).join('\n')});
+    }
+  });
+  const unrun = [];
+  p.content.widgets.forEach((c, i) => { if (c.model.type === 'code' && c.model.executionCount == null && c.model.sharedModel.getSource().trim()) unrun.push(i); });
+  return {errs, unrun};
+}
+"""
+
+
+def run_all_cells(
+    page, path: Optional[str] = None, timeout: float = 120.0, clear_first: bool = True, raise_on_error: bool = True
+) -> None:
+    """Run all cells (``notebook:run-all-cells``) and wait until they are done.
+
+    With ``raise_on_error`` a cell error raises :class:`CellExecutionError`
+    with the traceback. Note: a cell displaying a continuously animating
+    widget still finishes; the animation runs on the kernel's event loop."""
+    _activate(page, path)
+    if clear_first:
+        page.evaluate("() => window.jupyterapp.commands.execute('notebook:clear-all-cell-outputs')")
+    res = page.evaluate(
+        """async (ms) => {
+          let timer;
+          const to = new Promise((res) => { timer = setTimeout(() => res('timeout'), ms); });
+          try {
+            const r = await Promise.race([window.jupyterapp.commands.execute('notebook:run-all-cells'), to]);
+            return r === 'timeout' ? 'timeout' : 'done';
+          } finally { clearTimeout(timer); }
+        }""",
+        int(timeout * 1000),
+    )
+    if res == "timeout":
+        raise HarnessTimeout(f"Timed out after {timeout:.1f} s waiting for notebook:run-all-cells to finish")
+    wait_for_kernel_idle(page, path, timeout=timeout)
+    info = page.evaluate(_JS_CELL_ERRORS, path)
+    if info["errs"] and raise_on_error:
+        e = info["errs"][0]
+        raise CellExecutionError(
+            f"cell {e['cell']} raised {e['ename']}: {e['evalue']}\n{_strip_ansi(e['traceback'])}"
+        )
+    if info["unrun"] and raise_on_error:
+        raise CellExecutionError(f"cells {info['unrun']} did not run")
+
+
+# --------------------------------------------------------------------------
+# Talking to the kernel directly
+# --------------------------------------------------------------------------
+
+_JS_KERNEL_EXECUTE = _JS_FIND_PANEL + r"""
+async ({path, code, timeoutMs}) => {
+  const p = __gwFindPanel(path);
+  if (!p) return {fatal: 'no notebook panel found for ' + path};
+  const k = p.sessionContext.session && p.sessionContext.session.kernel;
+  if (!k) return {fatal: 'the notebook has no kernel'};
+  const out = {stdout: '', stderr: '', results: [], error: null, status: null, timeout: false};
+  const future = k.requestExecute({code, silent: false, store_history: false, allow_stdin: false, stop_on_error: false});
+  future.onIOPub = (msg) => {
+    const t = msg.header.msg_type, c = msg.content;
+    if (t === 'stream') { if (c.name === 'stdout') out.stdout += c.text; else out.stderr += c.text; }
+    else if (t === 'execute_result') out.results.push(c.data['text/plain']);
+    else if (t === 'error') out.error = {ename: c.ename, evalue: c.evalue, traceback: c.traceback.join('\n')};
+  };
+  let timer;
+  const to = new Promise((res) => { timer = setTimeout(() => res(null), timeoutMs); });
+  try {
+    const reply = await Promise.race([future.done, to]);
+    if (reply === null) { out.timeout = true; try { future.dispose(); } catch (e) {} }
+    else {
+      out.status = reply.content.status;
+      if (out.status === 'error' && !out.error) out.error = {ename: reply.content.ename, evalue: reply.content.evalue, traceback: (reply.content.traceback || []).join('\n')};
+    }
+  } catch (e) { out.fatal = String(e); }
+  finally { clearTimeout(timer); }
+  return out;
+}
+"""
+
+
+@dataclass
+class KernelResult:
+    """What :func:`kernel_execute` collected from the kernel."""
+
+    stdout: str = ""
+    stderr: str = ""
+    results: list = field(default_factory=list)  #: text/plain of execute_result(s)
+
+
+def kernel_execute(page, code: str, path: Optional[str] = None, timeout: float = 30.0) -> KernelResult:
+    """Execute ``code`` in the notebook's kernel (through the page's own
+    kernel connection, ``sessionContext.session.kernel.requestExecute``)
+    without adding a cell, and return its stdout/stderr/results.
+
+    Raises :class:`KernelExecutionError` if the code raised and
+    :class:`HarnessTimeout` if no reply came within ``timeout``."""
+    out = page.evaluate(_JS_KERNEL_EXECUTE, {"path": path, "code": code, "timeoutMs": int(timeout * 1000)})
+    if out.get("fatal"):
+        raise HarnessError(f"kernel_execute failed: {out['fatal']}")
+    if out["timeout"]:
+        raise HarnessTimeout(
+            f"Timed out after {timeout:.1f} s waiting for the kernel to reply to: {code[:200]!r}; "
+            f"stdout so far: {out['stdout'][-500:]!r}"
+        )
+    if out["error"]:
+        e = out["error"]
+        tb = _strip_ansi(e["traceback"])
+        raise KernelExecutionError(
+            f"kernel code raised {e['ename']}: {e['evalue']}\n{tb}", e["ename"], e["evalue"], tb
+        )
+    return KernelResult(out["stdout"], out["stderr"], out["results"])
+
+
+def kernel_eval(page, expr: str, path: Optional[str] = None, timeout: float = 30.0) -> Any:
+    """Evaluate a Python expression in the kernel and return its value,
+    round-tripped through JSON (so it must be JSON-serialisable; use e.g.
+    ``float(...)`` or ``.tolist()``)."""
+    marker = "@@gw-" + uuid.uuid4().hex + "@@"
+    code = f"import json as _gw_json\nprint({marker!r} + _gw_json.dumps({expr}))\ndel _gw_json"
+    res = kernel_execute(page, code, path, timeout)
+    for line in res.stdout.splitlines():
+        if line.startswith(marker):
+            return json.loads(line[len(marker):])
+    raise HarnessError(f"kernel_eval({expr!r}) printed no result; stdout was {res.stdout!r}")
+
+
+_MISSING = object()
+
+
+def wait_for_kernel(
+    page,
+    expr: str,
+    expected: Any = _MISSING,
+    predicate: Optional[Callable[[Any], bool]] = None,
+    path: Optional[str] = None,
+    timeout: float = 20.0,
+    interval: float = 0.25,
+) -> Any:
+    """Poll ``kernel_eval(expr)`` until it equals ``expected`` (floats are
+    compared with 1e-9 relative tolerance) or ``predicate(value)`` is true.
+    Returns the value. Use it to check that something done in the page
+    reached Python, e.g. ``wait_for_kernel(page, "s.value", 25.0)``."""
+    if predicate is None:
+        if expected is _MISSING:
+            raise TypeError("give expected or predicate")
+
+        def predicate(v):
+            if isinstance(v, (int, float)) and isinstance(expected, (int, float)):
+                return abs(v - expected) <= 1e-9 * max(1.0, abs(expected))
+            return v == expected
+
+        what = f"kernel expression {expr} to equal {expected!r}"
+    else:
+        what = f"kernel expression {expr} to satisfy {getattr(predicate, '__name__', 'predicate')}"
+
+    def check():
+        v = kernel_eval(page, expr, path, timeout=min(timeout, 15.0))
+        return bool(predicate(v)), v
+
+    return poll(check, what, timeout, interval, page=page)
+
+
+# --------------------------------------------------------------------------
+# Frames of the jupyter-rfb view
+# --------------------------------------------------------------------------
+
+VIEW_SELECTOR = "div.renderview-wrapper img.renderview-view"
+
+_JS_INSTALL_COUNTER = r"""
+() => {
+  if (window.__gwFrames) return false;
+  const st = window.__gwFrames = {total: 0, last: performance.now()};
+  const obs = new MutationObserver((muts) => {
+    const now = performance.now();
+    for (const m of muts) {
+      const t = m.target;
+      if (t.tagName !== 'IMG' || !t.classList.contains('renderview-view')) continue;
+      if (t.getAttribute('src') === m.oldValue) continue;
+      t.__gwCount = (t.__gwCount || 0) + 1;
+      t.__gwLast = now;
+      st.total += 1;
+      st.last = now;
+    }
+  });
+  obs.observe(document.documentElement, {subtree: true, attributes: true, attributeFilter: ['src'], attributeOldValue: true});
+  st.observer = obs;
+  return true;
+}
+"""
+
+_JS_FRAME_INFO = r"""
+(index) => {
+  const st = window.__gwFrames;
+  if (!st) return null;
+  const now = performance.now();
+  if (index === null) return {count: st.total, sinceLast: now - st.last, now, views: document.querySelectorAll('img.renderview-view').length};
+  const img = document.querySelectorAll('img.renderview-view')[index];
+  if (!img) return {count: 0, sinceLast: null, now, views: document.querySelectorAll('img.renderview-view').length, missing: true};
+  return {count: img.__gwCount || 0, sinceLast: now - (img.__gwLast || st.last), now, views: document.querySelectorAll('img.renderview-view').length};
+}
+"""
+
+
+def install_frame_counter(page) -> bool:
+    """Install (idempotently) a MutationObserver that counts ``src``
+    changes of every ``img.renderview-view`` in the page, including views
+    created later. :func:`open_notebook` calls this; call it again after a
+    page reload. Returns True if it was newly installed."""
+    return page.evaluate(_JS_INSTALL_COUNTER)
+
+
+def _frame_info(page, index: Optional[int]) -> dict:
+    info = page.evaluate(_JS_FRAME_INFO, index)
+    if info is None:
+        raise HarnessError("frame counter not installed; call install_frame_counter(page) first")
+    return info
+
+
+def frame_count(page, index: Optional[int] = None) -> int:
+    """Frames seen since the counter was installed: over all views, or for
+    the ``index``-th ``img.renderview-view`` in document order."""
+    return _frame_info(page, index)["count"]
+
+
+def wait_for_view(page, index: int = 0, timeout: float = 60.0):
+    """Wait until the ``index``-th jupyter-rfb view exists, is visible and
+    shows a decoded image; returns its locator."""
+    loc = view_locator(page, index)
+
+    def check():
+        st = page.evaluate(
+            """(i) => { const img = document.querySelectorAll('img.renderview-view')[i];
+                 if (!img) return {exists: false};
+                 const r = img.getBoundingClientRect();
+                 return {exists: true, w: r.width, h: r.height, natural: [img.naturalWidth, img.naturalHeight],
+                         complete: img.complete, blob: (img.getAttribute('src') || '').startsWith('blob:')}; }""",
+            index,
+        )
+        ok = st["exists"] and st["w"] > 0 and st["h"] > 0 and st["complete"] and st["natural"][0] > 1
+        return bool(ok), st
+
+    poll(check, f"jupyter-rfb view #{index} to show an image", timeout, 0.2, page=page)
+    loc.scroll_into_view_if_needed()
+    return loc
+
+
+def wait_for_frames(page, n: int, timeout: float = 30.0, index: Optional[int] = None) -> int:
+    """Wait until ``n`` *new* frames (counted from this call) have arrived,
+    in any view or in view ``index``. Returns the frame count reached."""
+    start = frame_count(page, index)
+
+    def check():
+        c = frame_count(page, index)
+        return c - start >= n, c
+
+    return poll(
+        check,
+        f"{n} new frames in {'any jupyter-rfb view' if index is None else f'view #{index}'} (had {start})",
+        timeout,
+        0.1,
+        page=page,
+    )
+
+
+def frames_per_second(page, seconds: float = 3.0, index: Optional[int] = None) -> float:
+    """Measure frames/s reaching the page over a ``seconds``-long window
+    (uses the page's clock)."""
+    a = _frame_info(page, index)
+    page.wait_for_timeout(seconds * 1000)
+    b = _frame_info(page, index)
+    return (b["count"] - a["count"]) / ((b["now"] - a["now"]) / 1000.0)
+
+
+def wait_until_quiet(page, quiet_s: float = 0.8, timeout: float = 20.0, index: Optional[int] = None) -> int:
+    """Wait until no new frame has arrived for ``quiet_s`` seconds (all
+    views, or view ``index``). jupyter-rfb sends a lossless PNG ~0.3 s
+    after the last JPEG, so use quiet_s > 0.5 before exact pixel checks.
+    Returns the frame count. Only succeeds once the animation has stopped
+    (e.g. update mode "ondemand")."""
+
+    def check():
+        info = _frame_info(page, index)
+        return info["sinceLast"] is not None and info["sinceLast"] >= quiet_s * 1000, info
+
+    info = poll(check, f"the view(s) to receive no frame for {quiet_s} s", timeout, 0.1, page=page)
+    return info["count"]
+
+
+def view_locator(page, index: int = 0):
+    """Locator of the ``index``-th jupyter-rfb ``img.renderview-view``."""
+    return page.locator(VIEW_SELECTOR).nth(index)
+
+
+_JS_VIEW_PIXELS = r"""
+async (index) => {
+  const img = document.querySelectorAll('img.renderview-view')[index];
+  if (!img) return {error: 'no img.renderview-view #' + index + ' in the page'};
+  const src = img.getAttribute('src');
+  if (!img.complete || !img.naturalWidth) { try { await img.decode(); } catch (e) {} }
+  if (!img.naturalWidth) return {error: 'view image not decoded (src ' + (src || '').slice(0, 40) + ')'};
+  const c = document.createElement('canvas');
+  c.width = img.naturalWidth; c.height = img.naturalHeight;
+  const ctx = c.getContext('2d', {willReadFrequently: true});
+  ctx.drawImage(img, 0, 0);
+  const d = ctx.getImageData(0, 0, c.width, c.height).data;
+  let s = '';
+  const CH = 0x8000;
+  for (let i = 0; i < d.length; i += CH) s += String.fromCharCode.apply(null, d.subarray(i, i + CH));
+  return {w: c.width, h: c.height, b64: btoa(s), src};
+}
+"""
+
+
+def view_pixels(page, index: int = 0):
+    """The image currently shown by view ``index`` at its natural (frame)
+    resolution, as a numpy array (h, w, 4) uint8 RGBA, decoded in the page
+    through a canvas. JPEG while animating; call :func:`wait_until_quiet`
+    first to get the final lossless PNG."""
+    import numpy as np
+
+    res = page.evaluate(_JS_VIEW_PIXELS, index)
+    if res.get("error"):
+        raise HarnessError(res["error"])
+    arr = np.frombuffer(base64.b64decode(res["b64"]), dtype=np.uint8)
+    return arr.reshape(res["h"], res["w"], 4).copy()
+
+
+def view_screenshot(page, index: int = 0, path=None):
+    """Screenshot of the view element as displayed (CSS size) as numpy
+    (h, w, 4) uint8; also written to ``path`` if given."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    png = view_locator(page, index).screenshot(path=str(path) if path else None)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA")).copy()
+
+
+# --------------------------------------------------------------------------
+# Input
+# --------------------------------------------------------------------------
+
+
+def drag(
+    page,
+    locator,
+    dx: float,
+    dy: float,
+    *,
+    start: Optional[tuple] = None,
+    steps: int = 20,
+    step_ms: float = 40,
+    hold_ms: float = 150,
+    button: str = "left",
+) -> None:
+    """Drag with the mouse over ``locator`` by (dx, dy) CSS pixels, at human
+    speed (``steps`` moves ``step_ms`` apart, ``hold_ms`` pauses after press
+    and before release) so jupyter-rfb's 20 ms move throttle keeps the
+    events. ``start`` is an (x, y) offset within the element; default its
+    centre. The fixed pauses here are pacing, not waits for a condition."""
+    locator.scroll_into_view_if_needed()
+    box = locator.bounding_box()
+    if box is None:
+        raise HarnessError("drag: element is not visible")
+    sx, sy = start if start is not None else (box["width"] / 2, box["height"] / 2)
+    x0, y0 = box["x"] + sx, box["y"] + sy
+    m = page.mouse
+    m.move(x0, y0)
+    page.wait_for_timeout(step_ms)
+    m.down(button=button)
+    page.wait_for_timeout(hold_ms)
+    for i in range(1, steps + 1):
+        m.move(x0 + dx * i / steps, y0 + dy * i / steps)
+        page.wait_for_timeout(step_ms)
+    page.wait_for_timeout(hold_ms)
+    m.up(button=button)
+
+
+def _exact(text: str):
+    return re.compile(r"^\s*" + re.escape(text) + r"\s*$")
+
+
+def _one(locator, what: str, candidates_js: Optional[str] = None, page=None, timeout: float = 10.0):
+    """Wait until ``locator`` matches exactly one element; clear error otherwise."""
+
+    def check():
+        n = locator.count()
+        return n == 1, n
+
+    try:
+        poll(check, what, timeout, 0.2, page=page)
+    except HarnessTimeout as exc:
+        extra = ""
+        if candidates_js and page is not None:
+            extra = f"; present on the page: {page.evaluate(candidates_js)!r}"
+        raise HarnessTimeout(f"{exc}{extra}") from None
+    return locator
+
+
+_JS_SLIDER_LABELS = """() => Array.from(document.querySelectorAll('.widget-slider')).map(
+  (s) => { const l = s.querySelector('.widget-label:not(.widget-readout)'); return l ? l.textContent : ''; })"""
+
+
+def _slider(page, description: str, timeout: float):
+    loc = page.locator(".widget-slider").filter(
+        has=page.locator(".widget-label:not(.widget-readout)", has_text=_exact(description))
+    )
+    return _one(loc, f"exactly one slider labelled {description!r}", _JS_SLIDER_LABELS, page, timeout)
+
+
+def slider_readout(page, description: str, timeout: float = 10.0) -> str:
+    """Text of the readout of the slider labelled ``description``."""
+    return _slider(page, description, timeout).locator(".widget-readout").inner_text().strip()
+
+
+def set_slider(page, description: str, value: float, timeout: float = 10.0, check: bool = True) -> str:
+    """Set an ipywidgets (Int/Float)Slider, found by its description label,
+    by typing ``value`` into its editable readout and pressing Enter, like a
+    user. With ``check`` waits until the readout shows the value (within
+    0.5 % of the slider's visible precision). Returns the readout text.
+    The kernel side is *not* checked: use :func:`wait_for_kernel`."""
+    slider = _slider(page, description, timeout)
+    readout = slider.locator(".widget-readout")
+    if readout.get_attribute("contenteditable") != "true":
+        raise HarnessError(f"slider {description!r} has no editable readout (readout=False or disabled?)")
+    readout.scroll_into_view_if_needed()
+    readout.click()
+    readout.fill(str(value))
+    readout.press("Enter")
+    if not check:
+        return readout.inner_text().strip()
+
+    def ok():
+        text = readout.inner_text().strip()
+        try:
+            shown = float(text.replace("\u2212", "-"))
+        except ValueError:
+            return False, text
+        decimals = len(text.split(".")[1]) if "." in text else 0
+        return abs(shown - float(value)) <= 0.5 * 10 ** (-decimals) + 1e-9, text
+
+    return poll(ok, f"slider {description!r} readout to show {value}", timeout, 0.1, page=page)
+
+
+def click_button(page, text: str, timeout: float = 10.0) -> None:
+    """Click the ipywidgets Button (or ToggleButton) whose text is ``text``."""
+    loc = page.locator("button.jupyter-button").filter(has_text=_exact(text))
+    js = "() => Array.from(document.querySelectorAll('button.jupyter-button')).map((b) => b.textContent)"
+    _one(loc, f"exactly one widget button {text!r}", js, page, timeout).click()
+
+
+def toggle_checkbox(page, description: str, value: Optional[bool] = None, timeout: float = 10.0) -> bool:
+    """Click the ipywidgets Checkbox labelled ``description`` (or, with
+    ``value``, set it to that state). Returns the new checked state."""
+    box = page.locator(".widget-checkbox").filter(
+        has=page.locator(".widget-label-basic span", has_text=_exact(description))
+    )
+    js = ("() => Array.from(document.querySelectorAll('.widget-checkbox .widget-label-basic span'))"
+          ".map((s) => s.textContent)")
+    inp = _one(box, f"exactly one checkbox labelled {description!r}", js, page, timeout).locator(
+        "input[type=checkbox]"
+    )
+    if value is None:
+        before = inp.is_checked()
+        inp.click()
+        poll(lambda: (inp.is_checked() != before, inp.is_checked()), f"checkbox {description!r} to toggle",
+             timeout, 0.1, page=page)
+    else:
+        inp.set_checked(bool(value))
+    return inp.is_checked()
+
+
+# --------------------------------------------------------------------------
+# Reading outputs
+# --------------------------------------------------------------------------
+
+_JS_OUTPUT_TEXT = _JS_FIND_PANEL + r"""
+({path, index}) => {
+  const p = __gwFindPanel(path);
+  if (!p) return null;
+  const cells = p.content.widgets.filter((c) => c.model.type === 'code');
+  const pick = index === null ? cells : [cells[index < 0 ? cells.length + index : index]];
+  return pick.filter(Boolean).map((c) => c.outputArea ? c.outputArea.node.innerText : '').join('\n');
+}
+"""
+
+
+def cell_output_text(page, cell_index: Optional[int] = None, path: Optional[str] = None) -> str:
+    """Visible text of the outputs of the ``cell_index``-th *code* cell
+    (negative counts from the end; None: all code cells joined). This
+    includes the text of widgets such as Label, HTML and button captions."""
+    res = page.evaluate(_JS_OUTPUT_TEXT, {"path": path, "index": cell_index})
+    if res is None:
+        raise HarnessError("no notebook panel found")
+    return res
+
+
+def wait_for_output_text(
+    page, text: str, cell_index: Optional[int] = None, path: Optional[str] = None, timeout: float = 20.0
+) -> str:
+    """Wait until ``text`` (a str, or a compiled regex) appears in the
+    outputs (see :func:`cell_output_text`). Returns the full output text."""
+    if isinstance(text, re.Pattern):
+        match = lambda s: bool(text.search(s))  # noqa: E731
+    else:
+        match = lambda s: text in s  # noqa: E731
+
+    def check():
+        s = cell_output_text(page, cell_index, path)
+        return match(s), s[-500:]
+
+    poll(check, f"output text {text!r}", timeout, 0.2, page=page)
+    return cell_output_text(page, cell_index, path)
+
+
+def save_debug_artifacts(page, out_dir, name: str = "failure", browser: Optional[Browser] = None,
+                         server: Optional[JupyterLabServer] = None) -> Path:
+    """Write a full-page screenshot, the browser console and the server log
+    into ``out_dir`` (for post-mortems); returns the directory."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        page.screenshot(path=str(out / f"{name}.png"), full_page=True, timeout=10_000)
+    except Exception as exc:  # the page may be gone
+        (out / f"{name}.screenshot-error.txt").write_text(repr(exc))
+    if browser is not None:
+        (out / f"{name}.console.txt").write_text("\n".join(browser.console))
+    if server is not None:
+        (out / f"{name}.server.log").write_text(server.log_text())
+    return out
