@@ -174,7 +174,7 @@ def integrate_tip(v2, iv2, stiffness, accel, dt):
     stiffness_scale up to 20 can reach).
     """
     s = np.asarray(stiffness, np.float64)[..., None]
-    return (v2 + dt * (accel + s * iv2)) / (1.0 + s * dt)
+    return v2 + dt * (accel + s * (iv2 - v2)) / (1.0 + s * dt)
 
 
 # --------------------------------------------------------------------------- validation (5.2)

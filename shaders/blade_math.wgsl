@@ -65,7 +65,8 @@ fn wind_force(W: vec3<f32>, v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height:
 
 // v2 += (accel + (iv2 - v2') s) dt, recovery taken at the end of the step.
 fn integrate_tip(v2: vec3<f32>, iv2: vec3<f32>, stiffness: f32, accel: vec3<f32>, dt: f32) -> vec3<f32> {
-    return (v2 + dt * (accel + stiffness * iv2)) / (1.0 + stiffness * dt);
+    // Increment form of (v2 + dt (accel + s iv2)) / (1 + s dt): keeps float32 rounding small.
+    return v2 + dt * (accel + stiffness * (iv2 - v2)) / (1.0 + stiffness * dt);
 }
 
 // State validation 1: v2 stays above the blade's ground plane.

@@ -1,0 +1,31 @@
+import os
+import tempfile
+
+# The Vulkan loader complains on every start without a private runtime dir.
+if not os.environ.get("XDG_RUNTIME_DIR"):
+    d = os.path.join(tempfile.gettempdir(), f"xdg-{os.getuid()}")
+    os.makedirs(d, mode=0o700, exist_ok=True)
+    os.environ["XDG_RUNTIME_DIR"] = d
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+
+def grass_mask(img):
+    """Pixels that are grass: green clearly dominates red and blue."""
+    rgb = img[..., :3].astype(np.int32)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return (g > r + 8) & (g > b + 8)
+
+
+def sky_mask(img):
+    """Pixels of the light-blue sky background."""
+    rgb = img[..., :3].astype(np.int32)
+    return (rgb[..., 2] > 180) & (rgb[..., 2] > rgb[..., 1]) & (rgb[..., 1] > rgb[..., 0])
+
+
+@pytest.fixture(scope="session")
+def small_blades():
+    import grasswidget as gw
+
+    return gw.Blades.on_plane(2048, seed=3)
