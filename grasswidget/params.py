@@ -13,10 +13,14 @@ import math
 import traitlets
 from traitlets import Bool, HasTraits, TraitError, Unicode
 
-__all__ = ["GrassParams", "RangedFloat", "RangedInt", "WIND_FIELDS"]
+__all__ = ["GrassParams", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
 
 #: Wind fields understood by the simulation (see ``reference.wind_field``).
-WIND_FIELDS = ("wave",)
+WIND_FIELDS = ("wave", "radial", "vortex", "noise", "custom")
+#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``).
+BLADE_SHAPES = ("quad", "triangle", "quadratic", "triangle-tip", "fold")
+#: How environmental gravity is aimed (see ``reference.environmental_gravity``).
+GRAVITY_MODES = ("direction", "point")
 
 
 class RangedFloat(traitlets.Float):
@@ -94,6 +98,37 @@ class ChoiceTrait(Unicode):
         return value
 
 
+class Vec3(traitlets.TraitType):
+    """A 3-vector trait: any sequence of 3 finite numbers, stored as a tuple of floats.
+
+    With ``nonzero=True`` the zero vector is refused too. The error message names
+    the trait, e.g. ``gravity_direction must be 3 finite numbers (x, y, z); got ...``.
+    """
+
+    default_value = (0.0, 0.0, 0.0)
+    info_text = "a 3-vector of finite numbers"
+
+    def __init__(self, default_value=(0.0, 0.0, 0.0), nonzero=False, unit="", **kwargs):
+        self.nonzero, self.unit = nonzero, unit
+        super().__init__(tuple(float(x) for x in default_value), **kwargs)
+
+    def validate(self, obj, value):
+        unit = f" in {self.unit}" if self.unit else ""
+        what = "a finite non-zero 3-vector" if self.nonzero else "3 finite numbers"
+        try:
+            if isinstance(value, (str, bytes)):
+                raise TypeError
+            items = list(value)
+            if len(items) != 3 or any(isinstance(x, bool) for x in items):
+                raise TypeError
+            out = tuple(float(x) for x in items)
+        except (TypeError, ValueError):
+            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
+        if not all(math.isfinite(x) for x in out) or (self.nonzero and not any(out)):
+            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
+        return out
+
+
 class GrassParams(HasTraits):
     """All run-time parameters of a grass field (forces, wind, time step, culling).
 
@@ -107,13 +142,25 @@ class GrassParams(HasTraits):
     gravity = RangedFloat(9.8, 0.0, 50.0, "m/s^2", help="Environmental gravity |gE| along gravity_direction.").tag(sync=True)
     front_gravity = RangedFloat(0.25, 0.0, 2.0, help="Front gravity factor: gF = front_gravity * |gE| * f (paper: 0.25).").tag(sync=True)
     stiffness_scale = RangedFloat(1.0, 0.01, 20.0, help="Multiplies each blade's stiffness s in the recovery force r = (iv2 - v2) s.").tag(sync=True)
+    gravity_mode = ChoiceTrait("direction", GRAVITY_MODES, help='"direction": gE = normalize(gravity_direction) * gravity; "point": gE = normalize(gravity_center - v0) * gravity (grass on a planet).').tag(sync=True)
+    gravity_direction = Vec3((0.0, -1.0, 0.0), nonzero=True, help="Direction of gravity in world space (normalised), used when gravity_mode is 'direction'.").tag(sync=True)
+    gravity_center = Vec3((0.0, 0.0, 0.0), unit="m", help="Point that pulls the blades (world space), used when gravity_mode is 'point'.").tag(sync=True)
+
+    # ---- collisions -------------------------------------------------------------
+    collision_fade = RangedFloat(0.5, 0.0, 100.0, "1/s", help="Rate at which a blade's collision strength eta (0..1) fades: eta -= collision_fade * dt each step. Recovery is scaled by max(1 - eta, 0.1), so a trampled trail stands back up within about 1 / collision_fade seconds.").tag(sync=True)
 
     # ---- wind -----------------------------------------------------------------
-    wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Analytic wind field W(p, t).").tag(sync=True)
+    wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Wind field W(p, t): 'wave' (travelling gusts along wind_direction), 'radial' (away from wind_center, pulsing; helicopter downwash), 'vortex' (turning around the vertical axis through wind_center), 'noise' (simplex-noise gusts drifting along wind_direction) or 'custom' (the WGSL in wind_wgsl). See grasswidget.reference.").tag(sync=True)
     wind_strength = RangedFloat(5.0, 0.0, 200.0, "m/s^2", help="Peak wind acceleration |W|.").tag(sync=True)
     wind_direction = RangedFloat(0.0, -360.0, 360.0, "degrees", help="Direction the wind blows towards, in the ground plane: 0 = +x, 90 = +z.").tag(sync=True)
     wind_speed = RangedFloat(3.0, 0.0, 50.0, "m/s", help="Speed at which the wind wave travels along wind_direction.").tag(sync=True)
-    wind_wavelength = RangedFloat(8.0, 0.1, 1000.0, "m", help="Distance between two gust crests of the wave field.").tag(sync=True)
+    wind_wavelength = RangedFloat(8.0, 0.1, 1000.0, "m", help="Distance between two gust crests (wave, radial and vortex pulses); the gust size of the noise field.").tag(sync=True)
+    wind_center = Vec3((0.0, 0.0, 0.0), unit="m", help="Centre of the radial and vortex fields, in the field's local space (world space for an untransformed field).").tag(sync=True)
+    wind_radius = RangedFloat(5.0, 0.01, 1000.0, "m", help="Radial and vortex fields peak at this distance from wind_center and fall off beyond it.").tag(sync=True)
+    wind_wgsl = Unicode("", help="Body of `fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32>` (WGSL), used when wind_field is 'custom'. Empty: no wind. A GrassField compiles it when set and refuses (raises, keeps the old one) a snippet that does not compile.").tag(sync=True)
+
+    # ---- drawing ----------------------------------------------------------------
+    blade_shape = ChoiceTrait("triangle-tip", BLADE_SHAPES, help="Ribbon shape of the blades (paper section 6): quad, triangle, quadratic, triangle-tip or fold (3D).").tag(sync=True)
 
     # ---- time -----------------------------------------------------------------
     dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)
