@@ -6,7 +6,9 @@ advances time; ``step(n)`` advances the physics by n fixed steps.
 
 from __future__ import annotations
 
+import math
 import os
+import time
 
 import numpy as np
 import pygfx as gfx
@@ -16,7 +18,21 @@ from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.field import GrassField, GrassMaterial
 from .params import GrassParams
 
-__all__ = ["GrassScene", "parse_size"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov"]
+
+#: Named scenes: see GrassScene.preset().
+PRESETS = ("cis565", "meadow")
+
+
+def set_vertical_fov(camera, fov_deg, aspect):
+    """Give a pygfx PerspectiveCamera a true vertical field of view.
+
+    pygfx applies ``fov`` to the mean of width and height; this picks the pygfx
+    fov whose vertical extent is ``fov_deg`` at the given aspect (w / h).
+    """
+    half = math.atan(math.tan(math.radians(fov_deg) / 2) * (1 + aspect) / 2)
+    camera.fov = math.degrees(2 * half)
+    camera.aspect = aspect
 
 
 def parse_size(size, name="size"):
@@ -87,6 +103,8 @@ class GrassScene:
         self.light = sun
 
         self.camera = gfx.PerspectiveCamera(45, self.size[0] / self.size[1], depth_range=(0.1, 100))
+        set_vertical_fov(self.camera, 45, self.size[0] / self.size[1])
+        self.preset_name = None
         self._default_view(extent, center)
 
         if canvas is None:
@@ -95,7 +113,43 @@ class GrassScene:
             canvas = RenderCanvas(size=self.size, pixel_ratio=1)
         self.canvas = canvas
         self.renderer = _make_renderer(canvas)
+        self.stats = self.field.enable_stats()
         canvas.request_draw(self._draw)
+
+    @classmethod
+    def preset(cls, name, blades=None, size=None, params=None, seed=0, **kwargs):
+        """A named scene.
+
+        - ``"cis565"``: the CIS 565 course scene, to compare with the seed projects:
+          a 15 x 15 plane at y = 0, blades h 1.3-2.5, w 0.1-0.14, stiffness 7-13,
+          camera at (0, 1, 10) looking at (0, 1, 0), vertical fov 45 degrees, near
+          0.1, far 100, 640 x 480. Default 2^13 blades.
+        - ``"meadow"``: a wide field at about 1000 blades per m^2 (side
+          sqrt(N / 1000) m, 15..250 m), seen from 1.7 m above its edge, 1920 x 1080.
+          Default 2^20 blades.
+        """
+        if name not in PRESETS:
+            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+        if name == "cis565":
+            n = 1 << 13 if blades is None else blades
+            b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
+            scene = cls(b, size=size or (640, 480), params=params, **kwargs)
+            scene._set_view((0, 1, 10), (0, 1, 0), fov=45, near=0.1, far=100)
+        else:
+            n = 1 << 20 if blades is None else blades
+            side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
+            b = Blades.on_plane(n, side, seed=seed) if not isinstance(n, Blades) else n
+            scene = cls(b, size=size or (1920, 1080), params=params, **kwargs)
+            scene._set_view((0, 1.7, side / 2 + 1.0), (0, 0.2, side / 2 - 25.0), fov=50, near=0.1, far=400)
+        scene.preset_name = name
+        return scene
+
+    def _set_view(self, position, target, fov, near, far):
+        self.camera.local.position = position
+        self.camera.look_at(target)
+        self.camera.depth_range = (near, far)
+        set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
+        self._home = (self.camera.local.position, self.camera.local.rotation)
 
     # ------------------------------------------------------------------ views
 
@@ -118,7 +172,9 @@ class GrassScene:
     # ------------------------------------------------------------------ pictures
 
     def _draw(self):
+        t0 = time.perf_counter()
         self.renderer.render(self.scene, self.camera)
+        self.stats.after_render((time.perf_counter() - t0) * 1000.0)
 
     def render(self) -> np.ndarray:
         """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""

@@ -9,6 +9,7 @@ with indirect draws (see :mod:`grasswidget.gpu.shaders`).
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pygfx as gfx
@@ -16,6 +17,7 @@ import wgpu
 from pygfx.utils import array_from_shadertype
 
 from ..blades import Blades, pack_state, unpack_state
+from ..colliders import MAX_COLLIDERS, ColliderList, collider_array
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS, wind_period
 from . import indirect
@@ -23,7 +25,7 @@ from .adapter import ensure_device
 from .compute import ComputeProgram, sync_buffer
 from .shaders import SimulateShader, register, workgroups
 
-__all__ = ["GrassField", "GrassMaterial", "BladeLimitError"]
+__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
 
 BLADE_BYTES = 64
 N_CLASSES = len(LOD_SEGMENTS)
@@ -45,7 +47,17 @@ SIM_UNIFORM = dict(
     wind_field="i4",
     steps="i4",
     n_blades="u4",
+    gravity_center="4xf4",
+    wind_center="4xf4",
+    colliders=f"{MAX_COLLIDERS}*4xf4",
+    gravity_mode="i4",
+    wind_radius="f4",
+    wind_direction_rad="f4",
+    collision_fade="f4",
+    n_colliders="i4",
 )
+#: Wind field ids of simulate.wgsl's wind_field().
+WIND_FIELD_IDS = {"wave": 0, "radial": 1, "vortex": 2, "noise": 3, "custom": 4}
 
 CULL_UNIFORM = dict(
     orientation_threshold="f4",
@@ -62,6 +74,59 @@ CULL_UNIFORM = dict(
 
 class BladeLimitError(ValueError):
     """The blade count does not fit the device's storage-buffer limits."""
+
+
+class WindShaderError(ValueError):
+    """A ``wind_wgsl`` snippet (the body of ``user_wind``) does not compile.
+
+    Attributes: ``line`` and ``column`` (1-based, within the snippet; None when
+    the error is not inside it), ``reason`` (naga's one-line summary) and
+    ``naga_message`` (the full message; its line numbers are those of the whole
+    simulation shader). The previous wind stays in force.
+    """
+
+    def __init__(self, message, line=None, column=None, reason="", naga_message=""):
+        super().__init__(message)
+        self.line, self.column, self.reason, self.naga_message = line, column, reason, naga_message
+
+
+_USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
+
+
+def wind_shader_error(err, wgsl, body):
+    """Map a wgpu/naga error on the simulation shader to a WindShaderError with
+    line numbers of the user's snippet (the body starts after the signature line)."""
+    text = str(err)
+    lines = wgsl.splitlines()
+    start = next((k + 2 for k, line in enumerate(lines) if line.strip() == _USER_WIND_SIGNATURE), None)
+    n_body = len(body.splitlines()) or 1
+    in_body = (lambda L: start is not None and start <= L < start + n_body)
+
+    line = column = None
+    head = re.search(r"┌─ [^:\n]*:(\d+):(\d+)", text)
+    if head and in_body(int(head.group(1))):
+        line, column = int(head.group(1)), int(head.group(2))
+    else:
+        gutter = text.splitlines()
+        marked = []
+        for k, row in enumerate(gutter):
+            m = re.match(r"\s*(\d+) │", row)
+            if m and in_body(int(m.group(1))):
+                nxt = gutter[k + 1] if k + 1 < len(gutter) else ""
+                marked.append((("^" not in nxt), int(m.group(1))))
+        if marked:
+            line = sorted(marked)[0][1]
+    reasons = [r.strip() for r in re.findall(r"(?:error|Error): (.+)", text) if "Validation Error" not in r]
+    notes = [r.strip()[2:] for r in text.splitlines() if r.strip().startswith("= ")]
+    reason = "; ".join(dict.fromkeys(reasons + notes)) or text.strip().splitlines()[-1]
+    if line is not None:
+        snippet_line = line - start + 1
+        src_line = body.splitlines()[snippet_line - 1] if snippet_line <= len(body.splitlines()) else ""
+        col = f", column {column}" if column is not None else ""
+        message = f"wind_wgsl line {snippet_line}{col}: {reason}\n  {snippet_line} | {src_line}"
+        return WindShaderError(message, snippet_line, column, reason, text)
+    message = f"wind_wgsl does not compile as the body of `{_USER_WIND_SIGNATURE} ... }}`: {reason}"
+    return WindShaderError(message, None, None, reason, text)
 
 
 class GrassMaterial(gfx.Material):
@@ -253,6 +318,21 @@ class GrassField(gfx.WorldObject):
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
         self._step_count = 0
         self._sim_program = None
+        # Per-blade collision strength eta (N float32), persistent across steps.
+        self._store.collision_buffer = gfx.Buffer(
+            np.zeros(n, np.float32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+        )
+        self._colliders = ColliderList()
+        self._sim_body = None  # wind_wgsl compiled into _sim_program
+        self._reverting_wind = False
+        if material is not None and self.material.blade_shape != self.params.blade_shape and self.params.blade_shape == "triangle-tip":
+            self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
+        else:
+            self.material.blade_shape = self.params.blade_shape
+        if self.params.wind_wgsl.strip():
+            self._sim_program, self._sim_body = self._build_sim_program(self.params.wind_wgsl), self.params.wind_wgsl
+        #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
+        self.stats = None
         self._write_cull_uniform()
         self.params.observe(self._on_params_change)
 
@@ -283,20 +363,47 @@ class GrassField(gfx.WorldObject):
         return self._store.cull_uniform
 
     @property
+    def collision_buffer(self):
+        """pygfx Buffer, (N,) float32: per-blade collision strength eta (0..1)."""
+        return self._store.collision_buffer
+
+    @property
+    def colliders(self) -> ColliderList:
+        """Sphere colliders acting on this field (a list of :class:`SphereCollider`).
+
+        Append, remove or move them (``ball.center = ...``) at any time; every
+        ``step()`` reads the list and the spheres' current values. Coordinates are
+        the field's local space (world space for an untransformed field). At most
+        ``MAX_COLLIDERS`` (16): adding more raises ValueError naming ``colliders``;
+        assigning any iterable (``field.colliders = [a, b]``) validates it the same way.
+        """
+        return self._colliders
+
+    @colliders.setter
+    def colliders(self, value):
+        if value is self._colliders:
+            return
+        self._colliders = ColliderList(value)
+
+    @property
     def step_count(self) -> int:
         """Fixed steps simulated since creation or the last reset()."""
         return self._step_count
 
     @property
     def bytes_per_blade(self) -> int:
-        """GPU bytes per blade: state + compacted index lists."""
-        return BLADE_BYTES + 4 * N_CLASSES
+        """GPU bytes per blade: state + compacted index lists + collision strength."""
+        return BLADE_BYTES + 4 * N_CLASSES + 4
 
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
         if change["name"].startswith("cull_") or change["name"] == "lod":
             self._write_cull_uniform()
+        elif change["name"] == "blade_shape":
+            self.material.blade_shape = change["new"]
+        elif change["name"] == "wind_wgsl" and not self._reverting_wind:
+            self._compile_wind(change["new"], change["old"])
 
     def _write_cull_uniform(self):
         p = self.params

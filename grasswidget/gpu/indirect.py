@@ -36,7 +36,12 @@ class IndirectRenderPipelineContainer(_Original):
         for index, bind_group in enumerate(bind_groups):
             render_pass.set_bind_group(index, bind_group, [], 0, 99)
         render_pass.set_bind_group(len(bind_groups), renderstate.wgpu_bind_group, [], 0, 99)
+        hook = getattr(self.shader, "draw_hook", None)  # optional: timestamps around draws
+        if hook is not None:
+            hook(render_pass, "before")
         render_pass.draw_indirect(ensure_wgpu_object(args), self.shader.indirect_offset)
+        if hook is not None:
+            hook(render_pass, "after")
 
 
 def install():

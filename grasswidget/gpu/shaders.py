@@ -13,6 +13,8 @@ passes pygfx runs in every ``renderer.render()``:
 
 from __future__ import annotations
 
+import weakref
+
 import jinja2
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgsl_loader, register_wgpu_render_function
 
@@ -52,12 +54,21 @@ class _GrassCompute(BaseShader):
 
 
 class SimulateShader(_GrassCompute):
-    """Forces and state validation, ``u_sim.steps`` fixed steps per dispatch."""
+    """Forces, state validation and collisions, ``u_sim.steps`` fixed steps per dispatch.
+
+    ``user_wind_body`` is the body of ``fn user_wind(p, t) -> vec3<f32>`` (the
+    "custom" wind field, ``params.wind_wgsl``); empty means no wind.
+    """
+
+    def __init__(self, wobject, user_wind_body=""):
+        body = user_wind_body if user_wind_body.strip() else "    return vec3<f32>(0.0);"
+        super().__init__(wobject, user_wind_body=body)
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
             0: Binding("u_sim", "buffer/uniform", wobject._sim_uniform, "COMPUTE"),
             1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
+            2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
         }
         self.define_binding(0, 0, bindings[0])
         return {0: bindings}
@@ -124,6 +135,16 @@ class BladeRenderShader(BaseShader):
         super().__init__(wobject, lod_class=lod_class, segments=LOD_SEGMENTS[lod_class])
         self.indirect_args = wobject.args_buffer
         self.indirect_offset = 16 * lod_class
+        self._field = weakref.ref(wobject)
+        self._when = ("before",) if lod_class == 0 else ()
+        self._when += ("after",) if lod_class == len(LOD_SEGMENTS) - 1 else ()
+
+    def draw_hook(self, render_pass, when):
+        """GPU timestamps around the field's draws (first class: begin, last: end)."""
+        field = self._field()
+        stats = getattr(field, "stats", None)
+        if stats is not None and when in self._when:
+            stats.draw_timestamp(render_pass, when)
 
     def get_bindings(self, wobject, shared, scene):
         rbuffer = "buffer/read_only_storage"

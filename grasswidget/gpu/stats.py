@@ -1,0 +1,146 @@
+"""Frame statistics that never stall rendering.
+
+After each render, ``FrameStats.after_render()`` copies the indirect draw
+arguments (visible blades per LOD class) and, where the device has timestamp
+queries, the GPU times of the simulation pass and of the blade draws into a
+small ring of mappable buffers and asks for them asynchronously. Results are
+picked up on a later frame when the GPU is done, so values may lag a frame or
+two; nothing waits for the GPU.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+
+import numpy as np
+import wgpu
+
+from .adapter import ensure_device
+
+__all__ = ["FrameStats"]
+
+RING = 3
+# Query slots: sim begin/end, draw begin/end.
+Q_SIM, Q_DRAW, N_QUERIES = 0, 2, 4
+
+
+def _promise_done(promise):
+    state = getattr(promise, "_state", None)
+    if state is None:  # unknown wgpu version: treat as done (sync_wait is then quick)
+        return True
+    return "fulfilled" in str(state) or "rejected" in str(state)
+
+
+class FrameStats:
+    """Live statistics of one GrassField: visible blades and GPU milliseconds.
+
+    Attributes (None until known):
+        visible_per_class: list of visible blades per LOD class (nearest first).
+        visible: total visible blades.
+        gpu_ms: dict with "simulation" and "draw" GPU milliseconds (timestamp queries).
+        render_ms: CPU milliseconds of the last render call.
+        fps: frames per second over the last second of renders.
+    """
+
+    def __init__(self, field):
+        self.field = field
+        self.device = device = ensure_device()
+        self.n_classes = field.args_buffer.nitems // 4
+        self.timestamps = "timestamp-query" in device.features
+        self.inside_passes = "timestamp-query-inside-passes" in device.features
+        self.visible_per_class = None
+        self.visible = None
+        self.gpu_ms = {}
+        self.render_ms = None
+        self.fps = None
+        self._times = deque(maxlen=120)
+        self._free = deque()
+        self._pending = deque()
+        size = 16 * self.n_classes + (8 * N_QUERIES if self.timestamps else 0)
+        for _ in range(RING):
+            self._free.append(device.create_buffer(size=size, usage=wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.MAP_READ))
+        if self.timestamps:
+            self.query_set = device.create_query_set(type="timestamp", count=N_QUERIES)
+            self._resolve = device.create_buffer(
+                size=8 * N_QUERIES, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC
+            )
+            # wgpu-native reports timestamps in nanoseconds on Vulkan (period 1 ns).
+            self._period_ns = 1.0
+        else:
+            self.query_set = None
+
+    # ------------------------------------------------------------------ hooks
+
+    def sim_timestamp_writes(self):
+        """timestamp_writes for the simulation's compute pass, or None."""
+        if not self.timestamps:
+            return None
+        return {"query_set": self.query_set, "beginning_of_pass_write_index": Q_SIM, "end_of_pass_write_index": Q_SIM + 1}
+
+    def draw_timestamp(self, render_pass, when):
+        """Write the draw begin/end timestamp inside pygfx's render pass."""
+        if self.timestamps and self.inside_passes:
+            from wgpu.backends.wgpu_native.extras import write_timestamp
+
+            write_timestamp(render_pass, self.query_set, Q_DRAW + (0 if when == "before" else 1))
+
+    def after_render(self, render_ms=None):
+        """Queue the copies for this frame and pick up finished earlier ones."""
+        now = time.perf_counter()
+        self._times.append(now)
+        while self._times and now - self._times[0] > 1.0:
+            self._times.popleft()
+        if len(self._times) > 1:
+            self.fps = (len(self._times) - 1) / max(self._times[-1] - self._times[0], 1e-9)
+        if render_ms is not None:
+            self.render_ms = render_ms
+        self.poll()
+        if not self._free or self.field.args_buffer._wgpu_object is None:
+            return
+        staging = self._free.popleft()
+        enc = self.device.create_command_encoder()
+        nargs = 16 * self.n_classes
+        enc.copy_buffer_to_buffer(self.field.args_buffer._wgpu_object, 0, staging, 0, nargs)
+        if self.timestamps:
+            enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
+            enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs, 8 * N_QUERIES)
+        self.device.queue.submit([enc.finish()])
+        self._pending.append((staging, staging.map_async("READ")))
+
+    def poll(self):
+        """Read every finished frame's numbers (non-blocking)."""
+        self.device._poll() if hasattr(self.device, "_poll") else None
+        while self._pending and _promise_done(self._pending[0][1]):
+            staging, promise = self._pending.popleft()
+            try:
+                promise.sync_wait()
+                raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
+            finally:
+                if staging.map_state == "mapped":
+                    staging.unmap()
+                self._free.append(staging)
+            self._apply(raw)
+
+    def _apply(self, raw):
+        nargs = 16 * self.n_classes
+        args = raw[:nargs].view(np.uint32).reshape(self.n_classes, 4)
+        self.visible_per_class = [int(x) for x in args[:, 1]]
+        self.visible = int(sum(self.visible_per_class))
+        if self.timestamps:
+            ts = raw[nargs:].view(np.uint64).astype(np.float64)
+            for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):
+                if ts[q + 1] > ts[q] > 0:
+                    self.gpu_ms[name] = float((ts[q + 1] - ts[q]) * self._period_ns / 1e6)
+
+    def as_dict(self) -> dict:
+        return dict(
+            visible=self.visible,
+            visible_per_class=self.visible_per_class,
+            gpu_ms=dict(self.gpu_ms),
+            render_ms=self.render_ms,
+            fps=self.fps,
+        )
+
+    def __repr__(self):
+        return f"FrameStats({self.as_dict()})"
