@@ -1,0 +1,62 @@
+"""The wheel ships the WGSL; the CLI renders a real PNG and refuses bad input."""
+
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_wheel_contains_shaders(tmp_path):
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path), str(ROOT)],
+        check=True,
+    )
+    wheel = next(tmp_path.glob("grasswidget-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    for f in ("blade_math.wgsl", "simulate.wgsl", "cull.wgsl", "blade_render.wgsl", "reset_args.wgsl"):
+        assert f"grasswidget/shaders/{f}" in names
+    # an installed copy (outside the checkout) finds them
+    target = tmp_path / "site"
+    zipfile.ZipFile(wheel).extractall(target)
+    code = "from grasswidget.shader_files import shader_dir; p = shader_dir(); print(p); assert 'site' in str(p)"
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(target)})
+
+
+def test_cli_snapshot(tmp_path):
+    import imageio.v3 as iio
+
+    out = tmp_path / "snap.png"
+    r = subprocess.run(
+        [sys.executable, "-m", "grasswidget", "snapshot", str(out), "--blades", "2048", "--size", "160x90", "--steps", "20"],
+        capture_output=True, text=True, check=True,
+    )
+    assert "wrote" in r.stdout
+    img = iio.imread(out)
+    assert img.shape[:2] == (90, 160)
+
+
+@pytest.mark.parametrize("args, word", [(["--blades", "0"], "blades"), (["--size", "10"], "size"), (["--steps", "-2"], "steps")])
+def test_cli_bad_input(tmp_path, args, word):
+    r = subprocess.run([sys.executable, "-m", "grasswidget", "snapshot", str(tmp_path / "x.png"), *args],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and word in r.stderr
+
+
+def test_console_script_declared():
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'grasswidget = "grasswidget.cli:main"' in text
+
+
+def test_no_adapter_message():
+    """Without any Vulkan driver, one clear error says what to install."""
+    code = "import grasswidget as gw; gw.GrassScene(64)"
+    env = {**os.environ, "VK_ICD_FILENAMES": "/nonexistent.json", "VK_DRIVER_FILES": "/nonexistent.json",
+           "WGPU_BACKEND_TYPE": "Vulkan"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert r.returncode != 0
+    assert "mesa-vulkan-drivers" in r.stderr and "libvulkan1" in r.stderr
