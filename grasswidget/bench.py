@@ -10,7 +10,8 @@ Per blade count and culling mode it measures, after warm-up:
 - GPU ms from timestamp queries where the adapter has them: the simulation pass
   (1 step), the culling pass (reset + cull run in a pass of their own) and the
   blade draws (inside the render pass);
-- visible blades (the GPU's indirect draw counts).
+- visible blades (the GPU's indirect draw counts);
+- pipelined frames/s: the same frames submitted back to back with one sync at the end.
 Frames render into an offscreen texture (no image readback in the timing).
 """
 
@@ -126,7 +127,15 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
             gpu_sim.append(stats.gpu_ms["simulation"])
         if "draw" in stats.gpu_ms:
             gpu_draw.append(stats.gpu_ms["draw"])
+    # Throughput: frames submitted back to back, one sync at the end.
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        field.step(steps_per_frame)
+        render()
+    sync()
+    pipelined_fps = frames / (time.perf_counter() - t0)
     out = dict(
+        pipelined_fps=pipelined_fps,
         frame_ms=dict(median=_pct(frame, 50), p10=_pct(frame, 10), p90=_pct(frame, 90)),
         fps=1000.0 / _pct(frame, 50),
         simulation_ms=_pct(sim, 50),
@@ -193,7 +202,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 def format_table(report: dict) -> str:
     """A plain-text table of a run_bench report."""
-    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9}"
+    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 
     def g(row, key):
@@ -205,7 +214,7 @@ def format_table(report: dict) -> str:
         lines.append(
             f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} {r['fps']:7.1f} "
             f"{r['simulation_ms']:7.2f} {r['cull_draw_ms']:9.2f} {g(r, 'gpu_simulation_ms')} {g(r, 'gpu_cull_ms')} "
-            f"{g(r, 'gpu_draw_ms')} {r['visible']:>9}"
+            f"{g(r, 'gpu_draw_ms')} {r['visible']:>9} {r['pipelined_fps']:8.1f}"
         )
     return "\n".join(lines)
 

@@ -124,9 +124,9 @@ class GrassScene:
           a 15 x 15 plane at y = 0, blades h 1.3-2.5, w 0.1-0.14, stiffness 7-13,
           camera at (0, 1, 10) looking at (0, 1, 0), vertical fov 45 degrees, near
           0.1, far 100, 640 x 480. Default 2^13 blades.
-        - ``"meadow"``: a wide field at about 1000 blades per m^2 (side
-          sqrt(N / 1000) m, 15..250 m), seen from 1.7 m above its edge, 1920 x 1080.
-          Default 2^20 blades.
+        - ``"meadow"``: a wide field of meadow grass (h 0.5-1.0 m, w 0.02-0.04 m)
+          at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
+          3 m above its edge, 1920 x 1080. Default 2^20 blades.
         """
         if name not in PRESETS:
             raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
@@ -138,9 +138,10 @@ class GrassScene:
         else:
             n = 1 << 20 if blades is None else blades
             side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
-            b = Blades.on_plane(n, side, seed=seed) if not isinstance(n, Blades) else n
-            scene = cls(b, size=size or (1920, 1080), params=params, **kwargs)
-            scene._set_view((0, 1.7, side / 2 + 1.0), (0, 0.2, side / 2 - 25.0), fov=50, near=0.1, far=400)
+            if not isinstance(n, Blades):
+                n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
+            scene = cls(n, size=size or (1920, 1080), params=params, **kwargs)
+            scene._set_view((0, 3.0, side / 2 + 2.0), (0, 0.0, side / 2 - 30.0), fov=50, near=0.1, far=400)
         scene.preset_name = name
         return scene
 

@@ -92,7 +92,8 @@ __all__ = [
     "KernelResult",
 ]
 
-CHROMIUM_PATH = "/usr/bin/chromium"
+#: Debian's Chromium; override with the GW_CHROMIUM environment variable.
+CHROMIUM_PATH = os.environ.get("GW_CHROMIUM", "/usr/bin/chromium")
 
 #: Flags measured to work on this closed network. Without the networking
 #: flags Chromium stalls; the backgrounding flags keep requestAnimationFrame
@@ -349,7 +350,9 @@ class JupyterLabServer:
         token included. An empty path gives the Lab main page."""
         rel = str(notebook_relpath).lstrip("/")
         path = "lab/tree/" + urllib.parse.quote(rel) if rel else "lab"
-        return f"{self.base_url}{path}?token={self.token}"
+        # ``reset`` drops the saved workspace, so notebooks opened by an
+        # earlier test are not reopened (each would start its own kernel).
+        return f"{self.base_url}{path}?reset&token={self.token}"
 
     def api(self, path: str, method: str = "GET", timeout: float = 5.0) -> Any:
         """Call the server's REST API (``path`` like ``"api/kernels"``) and
@@ -360,6 +363,15 @@ class JupyterLabServer:
         with urllib.request.urlopen(req, timeout=timeout) as resp:
             body = resp.read()
         return json.loads(body) if body else None
+
+    def shutdown_kernels(self, timeout: float = 15.0) -> int:
+        """Delete every session (and so its kernel) through the REST API;
+        returns how many there were. Navigating to another notebook does
+        *not* stop the previous notebook's kernel; call this in between."""
+        sessions = self.api("api/sessions")
+        for s in sessions:
+            self.api(f"api/sessions/{s['id']}", method="DELETE", timeout=timeout)
+        return len(sessions)
 
     def log_text(self, tail: int = 0) -> str:
         """The server's combined stdout/stderr so far (last ``tail`` chars)."""
@@ -614,6 +626,17 @@ class Browser:
         page._gw_watched = True
         page.on("console", lambda m: self.console.append(f"[{m.type}] {m.text}"))
         page.on("pageerror", lambda e: self.console.append(f"[pageerror] {e}"))
+        page.on("dialog", self._on_dialog)
+
+    def _on_dialog(self, dialog) -> None:
+        # JupyterLab asks "leave page?" (beforeunload) when a notebook is
+        # dirty; accept it so navigating away never hangs. Other native
+        # dialogs (alert/confirm/prompt) are dismissed, as Playwright would.
+        self.console.append(f"[dialog:{dialog.type}] {dialog.message}")
+        if dialog.type == "beforeunload":
+            dialog.accept()
+        else:
+            dialog.dismiss()
 
     def stop(self) -> None:
         """Close the browser and Playwright; remove the user-data dir."""
@@ -640,6 +663,8 @@ class Browser:
 # --------------------------------------------------------------------------
 
 # JS function text: find the NotebookPanel for a path (or the current one).
+# Playwright's evaluate() needs a single function expression, so JS that uses
+# it is built with _with_find_panel(function_text).
 _JS_FIND_PANEL = r"""
 function __gwFindPanel(path) {
   const app = window.jupyterapp;
@@ -654,7 +679,12 @@ function __gwFindPanel(path) {
 }
 """
 
-_JS_NOTEBOOK_STATE = _JS_FIND_PANEL + r"""
+
+def _with_find_panel(fn: str) -> str:
+    return "(__gwArg) => {\n" + _JS_FIND_PANEL + "\nreturn (" + fn.strip() + ")(__gwArg);\n}"
+
+
+_JS_NOTEBOOK_STATE = _with_find_panel(r"""
 (path) => {
   const app = window.jupyterapp;
   if (!app) return {ok: false, why: 'window.jupyterapp is not defined yet'};
@@ -679,7 +709,7 @@ _JS_NOTEBOOK_STATE = _JS_FIND_PANEL + r"""
   return {ok: true, path: p.context.path, kernelStatus: k.status, connection: k.connectionStatus,
           cells: cells.length, running, pending, id: p.id};
 }
-"""
+""")
 
 
 def _notebook_state(page, path: Optional[str]):
@@ -703,8 +733,7 @@ def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float =
 
 def _activate(page, path: Optional[str]) -> None:
     page.evaluate(
-        _JS_FIND_PANEL
-        + "(path) => { const p = __gwFindPanel(path); if (p) window.jupyterapp.shell.activateById(p.id); }",
+        _with_find_panel("(path) => { const p = __gwFindPanel(path); if (p) window.jupyterapp.shell.activateById(p.id); }"),
         path,
     )
 
@@ -721,7 +750,7 @@ def wait_for_kernel_idle(page, path: Optional[str] = None, timeout: float = 60.0
     return poll(check, "the kernel to be idle with no running or queued cells", timeout, 0.2, page=page)
 
 
-_JS_CELL_ERRORS = _JS_FIND_PANEL + r"""
+_JS_CELL_ERRORS = _with_find_panel(r"""
 (path) => {
   const p = __gwFindPanel(path);
   const errs = [];
@@ -735,7 +764,7 @@ _JS_CELL_ERRORS = _JS_FIND_PANEL + r"""
   p.content.widgets.forEach((c, i) => { if (c.model.type === 'code' && c.model.executionCount == null && c.model.sharedModel.getSource().trim()) unrun.push(i); });
   return {errs, unrun};
 }
-"""
+""")
 
 
 def run_all_cells(
@@ -777,7 +806,7 @@ def run_all_cells(
 # Talking to the kernel directly
 # --------------------------------------------------------------------------
 
-_JS_KERNEL_EXECUTE = _JS_FIND_PANEL + r"""
+_JS_KERNEL_EXECUTE = _with_find_panel(r"""
 async ({path, code, timeoutMs}) => {
   const p = __gwFindPanel(path);
   if (!p) return {fatal: 'no notebook panel found for ' + path};
@@ -804,7 +833,7 @@ async ({path, code, timeoutMs}) => {
   finally { clearTimeout(timer); }
   return out;
 }
-"""
+""")
 
 
 @dataclass
@@ -1204,7 +1233,7 @@ def toggle_checkbox(page, description: str, value: Optional[bool] = None, timeou
 # Reading outputs
 # --------------------------------------------------------------------------
 
-_JS_OUTPUT_TEXT = _JS_FIND_PANEL + r"""
+_JS_OUTPUT_TEXT = _with_find_panel(r"""
 ({path, index}) => {
   const p = __gwFindPanel(path);
   if (!p) return null;
@@ -1212,7 +1241,7 @@ _JS_OUTPUT_TEXT = _JS_FIND_PANEL + r"""
   const pick = index === null ? cells : [cells[index < 0 ? cells.length + index : index]];
   return pick.filter(Boolean).map((c) => c.outputArea ? c.outputArea.node.innerText : '').join('\n');
 }
-"""
+""")
 
 
 def cell_output_text(page, cell_index: Optional[int] = None, path: Optional[str] = None) -> str:

@@ -1,0 +1,90 @@
+"""pytest fixtures for real-browser tests (JupyterLab + headless Chromium).
+
+Fixtures:
+
+* ``browser_root``  session-wide directory that JupyterLab serves; tests
+  write their notebooks into it (use a unique file name per test).
+* ``lab_server``    session-wide :class:`JupyterLabServer` on ``browser_root``.
+* ``browser``       session-wide :class:`Browser` (Chromium, fresh profile).
+* ``page``          the browser's page for one test; after the test all
+  kernels are shut down and, on failure, a screenshot, the browser console
+  and the server log are saved (path printed in the report).
+
+Tests in this folder are marked ``browser`` automatically and are skipped
+with a reason when Chromium or a needed package is missing. Deselect them
+with ``-m "not browser"``.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from .harness import Browser, JupyterLabServer, prerequisites_missing, save_debug_artifacts
+
+_HERE = Path(__file__).resolve().parent
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "browser: real-browser test (JupyterLab + Chromium via Playwright)")
+
+
+def pytest_collection_modifyitems(config, items):
+    reason = prerequisites_missing()
+    for item in items:
+        if _HERE in Path(item.path).resolve().parents:
+            item.add_marker(pytest.mark.browser)
+            if reason:
+                item.add_marker(pytest.mark.skip(reason=f"browser test prerequisites missing: {reason}"))
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
+def pytest_runtest_makereport(item, call):
+    rep = yield
+    setattr(item, f"_gw_rep_{rep.when}", rep)
+    return rep
+
+
+@pytest.fixture(scope="session")
+def browser_root(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("lab-root")
+
+
+@pytest.fixture(scope="session")
+def lab_server(browser_root):
+    server = JupyterLabServer(browser_root)
+    server.start()
+    try:
+        yield server
+    finally:
+        server.stop()
+        if os.environ.get("GW_KEEP_LAB_STATE") != "1":
+            server.cleanup()
+
+
+@pytest.fixture(scope="session")
+def browser():
+    with Browser() as b:
+        yield b
+
+
+@pytest.fixture
+def page(browser, lab_server, request):
+    page = browser.page
+    n_console = len(browser.console)
+    yield page
+    rep = getattr(request.node, "_gw_rep_call", None)
+    if rep is not None and rep.failed:
+        out = Path(os.environ.get("GW_ARTIFACTS_DIR") or tempfile.mkdtemp(prefix="gw-browser-failure-"))
+        save_debug_artifacts(page, out, request.node.name, browser, lab_server)
+        tail = "\n".join(browser.console[n_console:][-40:])
+        print(f"\n[browser harness] debug artifacts in {out}\n[browser console tail]\n{tail}")
+    # Leave a clean server for the next test: shut down every session/kernel.
+    try:
+        page.goto("about:blank")
+        lab_server.shutdown_kernels()
+    except Exception as exc:  # teardown must not mask the test result
+        print(f"[browser harness] cleanup after {request.node.name} failed: {exc!r}")
