@@ -16,6 +16,7 @@ _LAZY = {
     "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
     "GrassScene": ("grasswidget.scene", "GrassScene"),
     "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
+    "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
 __all__ = ["Blades", "GrassParams", *_LAZY]
