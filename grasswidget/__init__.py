@@ -6,6 +6,7 @@ pygfx/wgpu on first use.
 """
 
 from .blades import Blades
+from .colliders import SphereCollider
 from .params import GrassParams
 
 __version__ = "0.1.0"
@@ -14,12 +15,13 @@ _LAZY = {
     "GrassField": ("grasswidget.gpu.field", "GrassField"),
     "GrassMaterial": ("grasswidget.gpu.field", "GrassMaterial"),
     "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
+    "WindShaderError": ("grasswidget.gpu.field", "WindShaderError"),
     "GrassScene": ("grasswidget.scene", "GrassScene"),
     "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "GrassParams", *_LAZY]
+__all__ = ["Blades", "GrassParams", "SphereCollider", *_LAZY]
 
 
 def __getattr__(name):

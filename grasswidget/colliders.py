@@ -4,8 +4,9 @@ A :class:`SphereCollider` is a validated traitlets object; a field's colliders a
 a :class:`ColliderList` (a ``list`` that checks what goes into it). Collision
 follows Jahrmann & Wimmer (2017), section 5.1 "Collision": the tip guide v2 and
 the curve midpoint ``m = v0/4 + v1/2 + v2/4`` are pushed out of every sphere, the
-squared push lengths add up in a per-blade collision strength eta (0..1) that
-weakens the blade's recovery, and eta fades over time (``params.collision_fade``).
+squared push lengths add up (times ``params.collision_gain``) in a per-blade
+collision strength eta (0..1) that weakens the blade's recovery, and eta fades
+over time (``params.collision_fade``).
 See :func:`grasswidget.reference.collide_spheres` for the exact rule.
 
 Coordinates are the grass field's local space, which is world space for a field

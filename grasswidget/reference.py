@@ -28,6 +28,11 @@ __all__ = [
     "environmental_gravity",
     "front_gravity",
     "wind_wave",
+    "wind_radial",
+    "wind_vortex",
+    "noise_hash",
+    "simplex_noise2",
+    "wind_noise",
     "wind_field",
     "wind_force",
     "integrate_tip",
@@ -35,6 +40,11 @@ __all__ = [
     "validate_v1",
     "validate_length",
     "curve_length",
+    "sphere_push",
+    "collide_spheres",
+    "fade_collision",
+    "COLLISION_MAX",
+    "RECOVERY_FLOOR",
     "simulate_step",
     "simulate",
     "wind_period",
@@ -90,14 +100,25 @@ def front_direction(up, t1):
 # --------------------------------------------------------------------------- forces
 
 
-def environmental_gravity(params, n):
-    """Environmental gravity gE = normalize(D.xyz) * D.w (paper eq. 1), per blade.
+def environmental_gravity(params, v0):
+    """Environmental gravity per blade (paper eq. 1), magnitude ``params.gravity`` (m/s^2).
 
-    D points down (-y) with magnitude ``params.gravity`` (m/s^2).
+    ``gravity_mode == "direction"``: gE = normalize(gravity_direction) * gravity
+    (default direction (0, -1, 0)). ``"point"``: gE = normalize(gravity_center - v0)
+    * gravity, the paper's gravity point, so grass on a small planet leans towards
+    its centre (a root exactly at the centre feels none). ``v0`` is the (N, 3) roots;
+    an int N is accepted for the direction mode.
     """
-    g = np.zeros((n, 3))
-    g[:, 1] = -params.gravity
-    return g
+    mode = getattr(params, "gravity_mode", "direction")
+    if mode == "point":
+        if isinstance(v0, (int, np.integer)):
+            raise ValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
+        center = np.asarray(params.gravity_center, np.float64)
+        return _normalize(center - np.asarray(v0, np.float64)) * params.gravity
+    n = v0 if isinstance(v0, (int, np.integer)) else len(v0)
+    d = np.asarray(getattr(params, "gravity_direction", (0.0, -1.0, 0.0)), np.float64)
+    d = d / max(np.linalg.norm(d), 1e-12)
+    return np.tile(d * params.gravity, (n, 1))
 
 
 def front_gravity(g_env, f, factor=0.25):
@@ -106,12 +127,13 @@ def front_gravity(g_env, f, factor=0.25):
 
 
 def wind_period(params):
-    """Period (s) after which the wave field repeats, or None if it is static.
+    """Period (s) after which the wind field repeats, or None if it is static or aperiodic.
 
-    Both sides pass time modulo this period, so float32 time on the GPU keeps
-    its precision on long runs.
+    The wave, radial and vortex fields repeat every ``wind_wavelength / wind_speed``;
+    the noise and custom fields do not repeat (None). Both sides pass time modulo
+    this period, so float32 time on the GPU keeps its precision on long runs.
     """
-    if params.wind_speed <= 0:
+    if params.wind_speed <= 0 or getattr(params, "wind_field", "wave") in ("noise", "custom"):
         return None
     return params.wind_wavelength / params.wind_speed
 
@@ -140,11 +162,158 @@ def wind_wave(p, t, strength, direction_deg, speed, wavelength):
     return out
 
 
-def wind_field(p, t, params):
-    """W(p, t) for ``params.wind_field`` at positions p (N, 3) and time t (s)."""
-    if params.wind_field == "wave":
+def _pulse(dist, t, speed, wavelength):
+    """Rings travelling outwards at ``speed``: 0.7 + 0.3 sin(2 pi (dist - speed t) / wavelength)."""
+    return 0.7 + 0.3 * np.sin(2.0 * math.pi * (dist - speed * t) / wavelength)
+
+
+def wind_radial(p, t, strength, center, radius, speed, wavelength):
+    """The "radial" wind field: away from ``center`` (helicopter downwash).
+
+    With r = p - center (3D) and rho = |r| / radius::
+
+        W = strength * 2 r / (radius (1 + rho^2)) * (0.7 + 0.3 sin(2 pi (|r| - speed t) / wavelength))
+
+    |W| rises from 0 at the centre to ``strength`` * pulse at |r| = radius and falls
+    as 1/|r| beyond (attenuated with distance); pulses travel outwards at ``speed``.
+    A centre above the ground blows down and out, like a rotor's downwash.
+    """
+    p = np.asarray(p, np.float64)
+    r = p - np.asarray(center, np.float64)
+    dist = np.linalg.norm(r, axis=-1)
+    rho = dist / radius
+    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * _pulse(dist, t, speed, wavelength)
+    return r * k[..., None]
+
+
+def wind_vortex(p, t, strength, center, radius, speed, wavelength):
+    """The "vortex" wind field: tangential around the vertical (y) axis through ``center``.
+
+    Same profile and pulse as :func:`wind_radial`, with r replaced by the tangent
+    (-r.z, 0, r.x): the air turns from +x towards +z (clockwise seen from above,
+    looking down -y).
+    """
+    p = np.asarray(p, np.float64)
+    r = p - np.asarray(center, np.float64)
+    dist = np.linalg.norm(r, axis=-1)
+    rho = dist / radius
+    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * _pulse(dist, t, speed, wavelength)
+    tangent = np.stack([-r[..., 2], np.zeros_like(dist), r[..., 0]], axis=-1)
+    return tangent * k[..., None]
+
+
+_F2 = 0.5 * (math.sqrt(3.0) - 1.0)
+_G2 = (3.0 - math.sqrt(3.0)) / 6.0
+#: Scales the sum of the three simplex corner terms to about [-1, 1].
+NOISE_SCALE = 99.0
+_M32 = np.uint64(0xFFFFFFFF)
+
+
+def noise_hash(i, j):
+    """32-bit hash of integer lattice coordinates (i, j), as uint64 arrays holding u32.
+
+    Two's-complement u32 of i and j, combined and mixed with Wellons' lowbias32;
+    every product wraps modulo 2^32 exactly like WGSL u32 arithmetic.
+    """
+    iu = np.asarray(i, np.int64).astype(np.uint64) & _M32
+    ju = np.asarray(j, np.int64).astype(np.uint64) & _M32
+    h = ((iu * np.uint64(0x8DA6B343)) & _M32) ^ ((ju * np.uint64(0xD8163841)) & _M32)
+    h ^= h >> np.uint64(16)
+    h = (h * np.uint64(0x7FEB352D)) & _M32
+    h ^= h >> np.uint64(15)
+    h = (h * np.uint64(0x846CA68B)) & _M32
+    h ^= h >> np.uint64(16)
+    return h
+
+
+def _simplex_corner(x, y, i, j):
+    t = 0.5 - x * x - y * y
+    angle = (noise_hash(i, j) & np.uint64(7)).astype(np.float64) * (0.25 * math.pi)
+    t2 = np.maximum(t, 0.0) ** 2
+    return t2 * t2 * (np.cos(angle) * x + np.sin(angle) * y)
+
+
+def simplex_noise2(x, y):
+    """2D simplex noise (Perlin 2001, Gustavson's formulation), about [-1, 1].
+
+    Skew to the simplex grid (F2 = (sqrt 3 - 1) / 2, G2 = (3 - sqrt 3) / 6), sum the
+    three corners' ``max(0.5 - |d|^2, 0)^4 * dot(g, d)`` with unit gradients g at one
+    of 8 angles k * 45 degrees picked by :func:`noise_hash`, times NOISE_SCALE.
+    Continuous (C1) everywhere, so float32 and float64 evaluations agree closely.
+    """
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.float64)
+    s = (x + y) * _F2
+    i = np.floor(x + s)
+    j = np.floor(y + s)
+    t = (i + j) * _G2
+    x0 = x - (i - t)
+    y0 = y - (j - t)
+    i1 = (x0 > y0).astype(np.float64)
+    j1 = 1.0 - i1
+    x1 = x0 - i1 + _G2
+    y1 = y0 - j1 + _G2
+    x2 = x0 - 1.0 + 2.0 * _G2
+    y2 = y0 - 1.0 + 2.0 * _G2
+    ii, jj = i.astype(np.int64), j.astype(np.int64)
+    n = (
+        _simplex_corner(x0, y0, ii, jj)
+        + _simplex_corner(x1, y1, ii + i1.astype(np.int64), jj + j1.astype(np.int64))
+        + _simplex_corner(x2, y2, ii + 1, jj + 1)
+    )
+    return NOISE_SCALE * n
+
+
+def wind_noise(p, t, strength, direction_deg, speed, scale):
+    """The "noise" wind field: coherent gusts from 2D simplex noise.
+
+    With d the unit wind direction (``direction_deg`` in the xz plane) and the noise
+    coordinate ``q = (p.xz - d * speed * t) / scale`` (the pattern drifts with the
+    wind at ``speed`` m/s; ``scale`` is the gust size in metres)::
+
+        angle = direction + (pi / 2) * simplex(q)               (+-90 degrees around d)
+        amp   = strength * clamp(0.6 + 0.5 * simplex(q + (31.7, 17.3)), 0, 1)
+        W     = amp * (cos angle, 0, sin angle)
+    """
+    p = np.asarray(p, np.float64)
+    rad = math.radians(direction_deg)
+    dx, dz = math.cos(rad), math.sin(rad)
+    qx = (p[..., 0] - dx * speed * t) / scale
+    qz = (p[..., 2] - dz * speed * t) / scale
+    angle = rad + 0.5 * math.pi * simplex_noise2(qx, qz)
+    amp = strength * np.clip(0.6 + 0.5 * simplex_noise2(qx + 31.7, qz + 17.3), 0.0, 1.0)
+    out = np.zeros(p.shape)
+    out[..., 0] = amp * np.cos(angle)
+    out[..., 2] = amp * np.sin(angle)
+    return out
+
+
+def wind_field(p, t, params, user_wind=None):
+    """W(p, t) for ``params.wind_field`` at positions p (N, 3) and time t (s).
+
+    For "custom" the GPU runs the WGSL of ``params.wind_wgsl``; the reference
+    cannot, so it takes ``user_wind``, a Python callable ``(p (N, 3), t) -> (N, 3)``
+    equivalent to the snippet (an empty snippet, i.e. no callable, means no wind).
+    """
+    kind = params.wind_field
+    if kind == "wave":
         return wind_wave(p, t, params.wind_strength, params.wind_direction, params.wind_speed, params.wind_wavelength)
-    raise ValueError(f"unknown wind_field {params.wind_field!r}")
+    if kind in ("radial", "vortex"):
+        fn = wind_radial if kind == "radial" else wind_vortex
+        return fn(p, t, params.wind_strength, params.wind_center, params.wind_radius, params.wind_speed, params.wind_wavelength)
+    if kind == "noise":
+        return wind_noise(p, t, params.wind_strength, params.wind_direction, params.wind_speed, params.wind_wavelength)
+    if kind == "custom":
+        p = np.asarray(p, np.float64)
+        if user_wind is None:
+            if getattr(params, "wind_wgsl", "").strip():
+                raise ValueError(
+                    "wind_field 'custom' runs WGSL on the GPU; the NumPy reference needs user_wind, "
+                    "a Python callable (p, t) -> W equivalent to params.wind_wgsl"
+                )
+            return np.zeros(p.shape)
+        return np.broadcast_to(np.asarray(user_wind(p, t), np.float64), p.shape).copy()
+    raise ValueError(f"unknown wind_field {kind!r}")
 
 
 def wind_force(W, v0, v2, up, height):
@@ -216,45 +385,134 @@ def validate_length(v0, v1, v2, height):
     return v1n, v2n
 
 
+# --------------------------------------------------------------------------- collisions
+
+#: The collision strength eta is clamped to [0, COLLISION_MAX] after each push.
+COLLISION_MAX = 1.0
+#: Recovery is scaled by max(1 - eta, RECOVERY_FLOOR) (paper: 0.1).
+RECOVERY_FLOOR = 0.1
+
+
+def sphere_push(p, center, radius):
+    """Push that moves points p out of a sphere (paper section 5.1, "Collision")::
+
+        d = (c - p) / |c - p| * (|c - p| - R)   if |c - p| < R, else 0
+
+    (|c - p| - R < 0, so d points from the centre towards p). A point exactly at
+    the centre is not pushed (no direction).
+    """
+    diff = np.asarray(center, np.float64) - np.asarray(p, np.float64)
+    dist = np.linalg.norm(diff, axis=-1)
+    k = np.where(dist < radius, (dist - radius) / np.maximum(dist, 1e-12), 0.0)
+    return diff * k[..., None]
+
+
+def collide_spheres(v0, v1, v2, spheres):
+    """Push each blade out of every sphere; returns (v2, eta_add, hit).
+
+    For each sphere (cx, cy, cz, R) in turn: push v2 by d = sphere_push(v2); then
+    with the curve midpoint m = v0/4 + v1/2 + v2/4 (updated v2), push v2 by 4 d_m
+    (moving v2 by 4 d moves m by d). ``eta_add`` sums |d|^2 of all pushes (m^2),
+    ``hit`` is True where any push happened (those blades are validated again).
+    """
+    v2 = np.array(v2, np.float64, copy=True)
+    add = np.zeros(len(v2))
+    hit = np.zeros(len(v2), bool)
+    for c in np.asarray(spheres, np.float64).reshape(-1, 4):
+        for midpoint in (False, True):
+            p = 0.25 * v0 + 0.5 * v1 + 0.25 * v2 if midpoint else v2
+            d = sphere_push(p, c[:3], c[3])
+            v2 += 4.0 * d if midpoint else d
+            dd = _dot(d, d)
+            add += dd
+            hit |= dd > 0
+    return v2, add, hit
+
+
+def fade_collision(eta, fade, dt):
+    """Collision strength fades linearly: eta' = max(eta - fade * dt, 0).
+
+    Chosen over the author's (1 - s') * 0.5 * dt so that the recovery time is one
+    documented number: a fully trampled blade (eta = 1) regains full stiffness
+    after 1 / fade seconds (``params.collision_fade``, default 0.25 /s: 4 s).
+    """
+    return np.maximum(np.asarray(eta, np.float64) - fade * dt, 0.0)
+
+
 # --------------------------------------------------------------------------- one step
 
 
-def simulate_step(state, params, t):
+def simulate_step(state, params, t, colliders=None, user_wind=None):
     """Advance a state dict by one fixed step ``params.dt`` at time t (s).
 
-    Forces (section 5.1), then validation (section 5.2): ground, v1, length.
-    Returns a new state dict (float64 copies of v1/v2; other fields shared).
+    1. Fade the collision strength: eta = max(eta - collision_fade * dt, 0).
+    2. Forces (section 5.1): gravity (direction or point), front gravity, wind,
+       recovery with stiffness s * max(1 - eta, 0.1); semi-implicit update of v2.
+    3. Validation (section 5.2): ground, v1, length.
+    4. Collisions with ``colliders`` (SphereColliders, (center, radius) pairs or a
+       (K, 4) array): push v2 and the midpoint out of the spheres,
+       eta += collision_gain * sum |d|^2 (clamped to COLLISION_MAX = 1), and
+       validate the pushed blades again. The paper adds |d|^2 (gain 1); with
+       small fixed steps the pushes are small, hence the gain (default 50).
+
+    ``user_wind`` is the Python twin of ``params.wind_wgsl`` (wind_field "custom").
+    The state's "collision" (eta, (N,)) is read (zeros when absent) and returned.
+    Returns a new state dict (float64 copies of v1/v2/collision; other fields shared).
     """
     v0 = np.asarray(state["v0"], np.float64)
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
     v2 = np.asarray(state["v2"], np.float64)
-    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
     n = len(v0)
+    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
+    eta = fade_collision(eta, getattr(params, "collision_fade", 0.25), params.dt)
+    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
+    s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
     t1 = width_direction(up, state["orientation"])
     f = front_direction(up, t1)
-    g_env = environmental_gravity(params, n)
+    g_env = environmental_gravity(params, v0)
     g = g_env + front_gravity(g_env, f, params.front_gravity)
-    w = wind_force(wind_field(v0, t, params), v0, v2, up, h)
+    w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
     iv2 = v0 + up * h[:, None]
     v2 = integrate_tip(v2, iv2, s, g + w, params.dt)
     v2 = validate_ground(v0, v2, up)
     v1 = validate_v1(v0, v2, up, h)
     v1, v2 = validate_length(v0, v1, v2, h)
+    spheres = _spheres(colliders)
+    if len(spheres):
+        v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
+        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add, COLLISION_MAX)
+        v2c = validate_ground(v0, v2c, up)
+        v1c = validate_v1(v0, v2c, up, h)
+        v1c, v2c = validate_length(v0, v1c, v2c, h)
+        v1 = np.where(hit[:, None], v1c, v1)
+        v2 = np.where(hit[:, None], v2c, v2)
     out = dict(state)
-    out["v1"], out["v2"] = v1, v2
+    out["v1"], out["v2"], out["collision"] = v1, v2, eta
     return out
 
 
-def simulate(state, params, steps, first_step=0):
+def _spheres(colliders):
+    if colliders is None:
+        return np.zeros((0, 4))
+    if isinstance(colliders, np.ndarray):
+        return np.asarray(colliders, np.float64).reshape(-1, 4)
+    from .colliders import collider_array
+
+    return collider_array(colliders)
+
+
+def simulate(state, params, steps, first_step=0, colliders=None, user_wind=None):
     """Run ``steps`` fixed steps; step k (counting from ``first_step``) uses time
-    ``(k * dt) mod wind_period`` exactly as the GPU does."""
+    ``(k * dt) mod wind_period`` exactly as the GPU does (``k * dt`` when the wind
+    is aperiodic). ``colliders`` and ``user_wind`` as in :func:`simulate_step`."""
     period = wind_period(params)
+    spheres = _spheres(colliders)
     for k in range(first_step, first_step + steps):
         t = k * params.dt
         if period:
             t = math.fmod(t, period)
-        state = simulate_step(state, params, t)
+        state = simulate_step(state, params, t, spheres, user_wind)
     return state
 
 
@@ -263,7 +521,7 @@ def simulate(state, params, steps, first_step=0):
 #: Segments along a blade for each level-of-detail class (class 0 = nearest).
 LOD_SEGMENTS = (15, 8, 4, 2)
 #: A blade goes to class k when its projected height in pixels is >= LOD_MIN_PIXELS[k].
-LOD_MIN_PIXELS = (48.0, 20.0, 8.0, 0.0)
+LOD_MIN_PIXELS = (192.0, 64.0, 20.0, 0.0)  # >= ~8 px per segment: no visible facets
 
 
 def orientation_cull(v0, t1, cam_pos, threshold=0.9):

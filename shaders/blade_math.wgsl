@@ -98,6 +98,117 @@ fn validate_length(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, height: f32) -> 
     return Guides(v1n, v1n + k * (v2 - v1));
 }
 
+// ---------------------------------------------------------------- gravity point, more wind fields
+
+// normalize() that gives 0 for a zero vector (like reference._normalize).
+fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
+    return v / max(length(v), 1e-12);
+}
+
+// Gravity towards a point: gE = normalize(center - v0) * magnitude (gravity_mode "point").
+fn gravity_point(v0: vec3<f32>, center: vec3<f32>, magnitude: f32) -> vec3<f32> {
+    return safe_normalize(center - v0) * magnitude;
+}
+
+// Rings travelling outwards: 0.7 + 0.3 sin(2 pi (dist - speed t) / wavelength).
+fn wind_pulse(dist: f32, t: f32, speed: f32, wavelength: f32) -> f32 {
+    return 0.7 + 0.3 * sin(2.0 * PI_F * (dist - speed * t) / wavelength);
+}
+
+// The "radial" field (downwash): away from center; see reference.wind_radial.
+fn wind_radial(p: vec3<f32>, t: f32, strength: f32, center: vec3<f32>, radius: f32, speed: f32, wavelength: f32) -> vec3<f32> {
+    let r = p - center;
+    let dist = length(r);
+    let rho = dist / radius;
+    return r * (strength * 2.0 / (radius * (1.0 + rho * rho)) * wind_pulse(dist, t, speed, wavelength));
+}
+
+// The "vortex" field: tangential (-r.z, 0, r.x) around the y axis through center.
+fn wind_vortex(p: vec3<f32>, t: f32, strength: f32, center: vec3<f32>, radius: f32, speed: f32, wavelength: f32) -> vec3<f32> {
+    let r = p - center;
+    let dist = length(r);
+    let rho = dist / radius;
+    let k = strength * 2.0 / (radius * (1.0 + rho * rho)) * wind_pulse(dist, t, speed, wavelength);
+    return vec3<f32>(-r.z, 0.0, r.x) * k;
+}
+
+// 32-bit hash of lattice coordinates (u32 wrap-around); see reference.noise_hash.
+fn noise_hash(i: i32, j: i32) -> u32 {
+    var h = (bitcast<u32>(i) * 0x8da6b343u) ^ (bitcast<u32>(j) * 0xd8163841u);
+    h = h ^ (h >> 16u);
+    h = h * 0x7feb352du;
+    h = h ^ (h >> 15u);
+    h = h * 0x846ca68bu;
+    h = h ^ (h >> 16u);
+    return h;
+}
+
+fn simplex_corner(x: f32, y: f32, i: i32, j: i32) -> f32 {
+    let t = max(0.5 - x * x - y * y, 0.0);
+    let angle = f32(noise_hash(i, j) & 7u) * (0.25 * PI_F);
+    let t2 = t * t;
+    return t2 * t2 * (cos(angle) * x + sin(angle) * y);
+}
+
+// 2D simplex noise, about [-1, 1]; see reference.simplex_noise2.
+fn simplex_noise2(x: f32, y: f32) -> f32 {
+    let F2 = 0.36602540378443865;
+    let G2 = 0.21132486540518713;
+    let s = (x + y) * F2;
+    let i = floor(x + s);
+    let j = floor(y + s);
+    let t = (i + j) * G2;
+    let x0 = x - (i - t);
+    let y0 = y - (j - t);
+    var i1 = 0.0;
+    if (x0 > y0) { i1 = 1.0; }
+    let j1 = 1.0 - i1;
+    let ii = i32(i);
+    let jj = i32(j);
+    let n = simplex_corner(x0, y0, ii, jj)
+        + simplex_corner(x0 - i1 + G2, y0 - j1 + G2, ii + i32(i1), jj + i32(j1))
+        + simplex_corner(x0 - 1.0 + 2.0 * G2, y0 - 1.0 + 2.0 * G2, ii + 1, jj + 1);
+    return 99.0 * n;
+}
+
+// The "noise" field: gusts from simplex noise drifting with the wind; see reference.wind_noise.
+// dir is the unit wind direction (x, z), direction_rad its angle.
+fn wind_noise(p: vec3<f32>, t: f32, strength: f32, dir: vec2<f32>, direction_rad: f32, speed: f32, scale: f32) -> vec3<f32> {
+    let qx = (p.x - dir.x * speed * t) / scale;
+    let qz = (p.z - dir.y * speed * t) / scale;
+    let angle = direction_rad + 0.5 * PI_F * simplex_noise2(qx, qz);
+    let amp = strength * clamp(0.6 + 0.5 * simplex_noise2(qx + 31.7, qz + 17.3), 0.0, 1.0);
+    return vec3<f32>(amp * cos(angle), 0.0, amp * sin(angle));
+}
+
+// ---------------------------------------------------------------- collisions
+
+// Push moving p out of a sphere (c.xyz, radius c.w); see reference.sphere_push.
+fn sphere_push(p: vec3<f32>, c: vec4<f32>) -> vec3<f32> {
+    let diff = c.xyz - p;
+    let dist = length(diff);
+    if (dist >= c.w) { return vec3<f32>(0.0); }
+    return diff * ((dist - c.w) / max(dist, 1e-12));
+}
+
+struct Collision { v2: vec3<f32>, add: f32, hit: bool };
+
+// One sphere of reference.collide_spheres: push v2, then the midpoint (v2 by 4 d).
+fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2_in: vec3<f32>, c: vec4<f32>) -> Collision {
+    var v2 = v2_in;
+    let d_tip = sphere_push(v2, c);
+    v2 = v2 + d_tip;
+    let d_mid = sphere_push(0.25 * v0 + 0.5 * v1 + 0.25 * v2, c);
+    v2 = v2 + 4.0 * d_mid;
+    let add = dot(d_tip, d_tip) + dot(d_mid, d_mid);
+    return Collision(v2, add, add > 0.0);
+}
+
+// eta' = max(eta - fade dt, 0); see reference.fade_collision.
+fn fade_collision(eta: f32, fade: f32, dt: f32) -> f32 {
+    return max(eta - fade * dt, 0.0);
+}
+
 // ---------------------------------------------------------------- culling
 
 // Seen edge-on: |dot(normalize(v0 - cam), t1)| > threshold.

@@ -1,16 +1,35 @@
 // Blade simulation: `steps` fixed steps of length dt for every blade, in one
-// dispatch. Forces (paper 5.1) then state validation (paper 5.2) each step.
+// dispatch. Each step: fade the collision strength, forces (paper 5.1), state
+// validation (paper 5.2), sphere collisions and validation of the pushed blades.
 // Blades are independent, so looping inside the shader is exact and needs no
-// barriers. The twin of reference.simulate().
+// barriers. The twin of reference.simulate() / reference.simulate_step().
 
 {{ bindings_code }}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 @group(0) @binding(1) var<storage, read_write> s_blades: array<vec4<f32>>;
+// Per-blade collision strength eta (0..1), persistent across steps.
+@group(0) @binding(2) var<storage, read_write> s_collision: array<f32>;
 
+// Wind field by id: 0 wave, 1 radial, 2 vortex, 3 noise, 4 custom (user_wind).
 fn wind_field(p: vec3<f32>, t: f32) -> vec3<f32> {
-    // Only the travelling wave for now (wind_field id 0).
-    return wind_wave(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_speed, u_sim.wind_wavelength);
+    switch u_sim.wind_field {
+        case 1: {
+            return wind_radial(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
+        }
+        case 2: {
+            return wind_vortex(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
+        }
+        case 3: {
+            return wind_noise(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_direction_rad, u_sim.wind_speed, u_sim.wind_wavelength);
+        }
+        case 4: {
+            return user_wind(p, t);
+        }
+        default: {
+            return wind_wave(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_speed, u_sim.wind_wavelength);
+        }
+    }
 }
 
 @compute @workgroup_size(256)
@@ -32,24 +51,57 @@ fn main(
     let s = p3.w * u_sim.stiffness_scale;
     var v1 = p1.xyz;
     var v2 = p2.xyz;
+    var eta = s_collision[i];
 
     let t1 = width_direction(up, p0.w);
     let f = front_direction(up, t1);
-    let g_env = environmental_gravity(u_sim.gravity_dir.xyz, u_sim.gravity);
+    var g_env = environmental_gravity(u_sim.gravity_dir.xyz, u_sim.gravity);
+    if (u_sim.gravity_mode == 1) {
+        g_env = gravity_point(v0, u_sim.gravity_center.xyz, u_sim.gravity);
+    }
     let g = g_env + front_gravity(g_env, f, u_sim.front_gravity);
     let iv2 = v0 + up * h;
 
     for (var k = 0; k < u_sim.steps; k = k + 1) {
         let t = u_sim.time0 + f32(k) * u_sim.dt;
+        eta = fade_collision(eta, u_sim.collision_fade, u_sim.dt);
+        let s_eff = s * max(1.0 - eta, 0.1);
         let w = wind_force(wind_field(v0, t), v0, v2, up, h);
-        v2 = integrate_tip(v2, iv2, s, g + w, u_sim.dt);
+        v2 = integrate_tip(v2, iv2, s_eff, g + w, u_sim.dt);
         v2 = validate_ground(v0, v2, up);
         v1 = validate_v1(v0, v2, up, h);
         let guides = validate_length(v0, v1, v2, h);
         v1 = guides.v1;
         v2 = guides.v2;
+
+        if (u_sim.n_colliders > 0) {
+            var v2c = v2;
+            var add = 0.0;
+            var hit = false;
+            for (var c = 0; c < u_sim.n_colliders; c = c + 1) {
+                let col = collide_sphere(v0, v1, v2c, u_sim.colliders[c]);
+                v2c = col.v2;
+                add = add + col.add;
+                hit = hit || col.hit;
+            }
+            eta = min(eta + u_sim.collision_gain * add, 1.0);
+            if (hit) {
+                v2c = validate_ground(v0, v2c, up);
+                let again = validate_length(v0, validate_v1(v0, v2c, up, h), v2c, h);
+                v1 = again.v1;
+                v2 = again.v2;
+            }
+        }
     }
 
     s_blades[4u * i + 1u] = vec4<f32>(v1, h);
     s_blades[4u * i + 2u] = vec4<f32>(v2, p2.w);
+    s_collision[i] = eta;
+}
+
+// The user's wind (wind_field "custom"): params.wind_wgsl is the body, inserted
+// verbatim on the line after this signature (GrassField maps compile errors back
+// to lines of the snippet from there). Empty snippet: no wind.
+fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {
+{{ user_wind_body }}
 }

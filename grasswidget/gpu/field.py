@@ -54,6 +54,7 @@ SIM_UNIFORM = dict(
     wind_radius="f4",
     wind_direction_rad="f4",
     collision_fade="f4",
+    collision_gain="f4",
     n_colliders="i4",
 )
 #: Wind field ids of simulate.wgsl's wind_field().
@@ -422,12 +423,68 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ simulation
 
     def _local_gravity_direction(self):
+        """params.gravity_direction (world space) in the field's local space, unit length."""
+        world = np.asarray(self.params.gravity_direction, np.float64)
         m = np.asarray(self.world.matrix, np.float64)[:3, :3]
         try:
-            local = np.linalg.solve(m, np.array([0.0, -1.0, 0.0]))
+            local = np.linalg.solve(m, world)
         except np.linalg.LinAlgError:
-            local = np.array([0.0, -1.0, 0.0])
+            local = world
         return local / max(np.linalg.norm(local), 1e-12)
+
+    def _local_gravity_center(self):
+        """params.gravity_center (world space) in the field's local space."""
+        world = np.array([*self.params.gravity_center, 1.0])
+        try:
+            return np.linalg.solve(np.asarray(self.world.matrix, np.float64), world)[:3]
+        except np.linalg.LinAlgError:
+            return world[:3]
+
+    # ------------------------------------------------------------------ user wind
+
+    def _build_sim_program(self, body):
+        """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails."""
+        shader = SimulateShader(self, user_wind_body=body)
+        try:
+            return ComputeProgram(shader, self)
+        except wgpu.GPUError as err:
+            if not body.strip():
+                raise
+            raise wind_shader_error(err, shader.generate_wgsl(), body) from None
+
+    def _compile_wind(self, body, old):
+        if body == self._sim_body:
+            return
+        try:
+            program = self._build_sim_program(body)
+        except WindShaderError:
+            self._reverting_wind = True
+            try:
+                self.params.wind_wgsl = old
+            finally:
+                self._reverting_wind = False
+            raise
+        self._sim_program, self._sim_body = program, body
+
+    def set_wind_wgsl(self, body: str, select: bool = True):
+        """Use a WGSL snippet as the wind: the body of
+        ``fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32>`` (p: blade root in the
+        field's local space, metres; t: time in seconds; returns W in m/s^2).
+
+        Compiles now. On a compile error raises :class:`WindShaderError` whose
+        ``line`` is the line within ``body``, and keeps the previous wind (and
+        ``params.wind_wgsl``) in force. On success sets ``params.wind_wgsl`` and,
+        with ``select``, ``params.wind_field = "custom"``. Same as assigning
+        ``params.wind_wgsl`` (which compiles in every field using those params).
+        The snippet may read the simulation uniforms, e.g. ``u_sim.wind_strength``.
+        """
+        if not isinstance(body, str):
+            raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
+        self.params.wind_wgsl = body
+        if self._sim_body != body:  # params unchanged but never compiled here
+            self._compile_wind(body, self.params.wind_wgsl)
+        if select:
+            self.params.wind_field = "custom"
 
     def _write_sim_uniform(self, steps, time0):
         p = self.params
@@ -443,9 +500,20 @@ class GrassField(gfx.WorldObject):
         d["wind_strength"] = p.wind_strength
         d["wind_speed"] = p.wind_speed
         d["wind_wavelength"] = p.wind_wavelength
-        d["wind_field"] = 0
+        d["wind_field"] = WIND_FIELD_IDS[p.wind_field]
         d["steps"] = steps
         d["n_blades"] = self.count
+        d["gravity_mode"] = 1 if p.gravity_mode == "point" else 0
+        d["gravity_center"] = (*self._local_gravity_center(), 0.0)
+        d["wind_center"] = (*p.wind_center, 0.0)
+        d["wind_radius"] = p.wind_radius
+        d["wind_direction_rad"] = rad
+        d["collision_fade"] = p.collision_fade
+        d["collision_gain"] = p.collision_gain
+        spheres = collider_array(self._colliders)
+        d["n_colliders"] = len(spheres)
+        d["colliders"][:] = 0.0
+        d["colliders"][: len(spheres)] = spheres
         device = ensure_device()
         device.queue.write_buffer(sync_buffer(self._sim_uniform), 0, d.tobytes())
 
@@ -462,9 +530,12 @@ class GrassField(gfx.WorldObject):
         if n == 0:
             return
         device = ensure_device()
+        collider_array(self._colliders)  # TypeError/ValueError before any work
         if self._sim_program is None:
-            self._sim_program = ComputeProgram(SimulateShader(self), self)
+            body = self.params.wind_wgsl
+            self._sim_program, self._sim_body = self._build_sim_program(body), body
         sync_buffer(self.blade_buffer)
+        sync_buffer(self.collision_buffer)
         per_dispatch = max(1, MAX_BLADE_STEPS_PER_DISPATCH // max(self.count, 1))
         done = 0
         while done < n:
@@ -475,17 +546,28 @@ class GrassField(gfx.WorldObject):
                 t0 = math.fmod(t0, period)
             self._write_sim_uniform(chunk, t0)
             encoder = device.create_command_encoder()
-            cpass = encoder.begin_compute_pass()
+            writes = self.stats.sim_timestamp_writes() if self.stats is not None else None
+            cpass = encoder.begin_compute_pass(timestamp_writes=writes)
             self._sim_program.dispatch(cpass, workgroups(self.count))
             cpass.end()
             device.queue.submit([encoder.finish()])
             self._step_count += chunk
             done += chunk
 
+    def enable_stats(self):
+        """Create (once) and return this field's non-blocking FrameStats."""
+        if self.stats is None:
+            from .stats import FrameStats
+
+            self.stats = FrameStats(self)
+        return self.stats
+
     def reset(self):
-        """Put every blade back in its rest pose and the step counter to 0."""
+        """Put every blade back in its rest pose, collision strengths and the step counter to 0."""
         self.blade_buffer.data[:] = self.blades.packed().reshape(-1, 4)
         self.blade_buffer.update_full()
+        self.collision_buffer.data[:] = 0.0
+        self.collision_buffer.update_full()
         self._step_count = 0
 
     # ------------------------------------------------------------------ readback
@@ -494,17 +576,25 @@ class GrassField(gfx.WorldObject):
         """Copy the blade state from the GPU (synchronous).
 
         Returns a dict with "v0", "v1", "v2", "up" as (N, 3) float32 and "height",
-        "width", "orientation", "stiffness" as (N,) float32.
+        "width", "orientation", "stiffness", "collision" (eta, 0..1) as (N,) float32.
         """
         device = ensure_device()
         raw = device.queue.read_buffer(sync_buffer(self.blade_buffer))
-        return unpack_state(np.frombuffer(raw, np.float32).reshape(-1, 4, 4))
+        state = unpack_state(np.frombuffer(raw, np.float32).reshape(-1, 4, 4))
+        raw = device.queue.read_buffer(sync_buffer(self.collision_buffer))
+        state["collision"] = np.frombuffer(raw, np.float32).copy()
+        return state
 
     def write_state(self, state: dict):
-        """Upload a state dict (as returned by read_state) to the GPU."""
+        """Upload a state dict (as returned by read_state) to the GPU (its "collision",
+        if present, too)."""
         self.blade_buffer.data[:] = pack_state(state).reshape(-1, 4)
         self.blade_buffer.update_full()
         sync_buffer(self.blade_buffer)
+        if "collision" in state:
+            self.collision_buffer.data[:] = np.asarray(state["collision"], np.float32).reshape(-1)
+            self.collision_buffer.update_full()
+            sync_buffer(self.collision_buffer)
 
     def read_draw_args(self) -> np.ndarray:
         """(LOD classes, 4) u32 draw arguments of the last render (synchronous)."""
