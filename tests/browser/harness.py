@@ -982,14 +982,23 @@ def frame_count(page, index: Optional[int] = None) -> int:
 
 def wait_for_view(page, index: int = 0, timeout: float = 60.0):
     """Wait until the ``index``-th jupyter-rfb view exists, is visible and
-    shows a decoded image; returns its locator."""
+    shows a decoded image; returns its locator.
+
+    The view is scrolled into the viewport as soon as it exists: jupyter-rfb
+    draws only for views the browser reports visible (IntersectionObserver),
+    so a view left below the fold (e.g. after running a long notebook, which
+    scrolls to its end) would never get its first frame."""
     loc = view_locator(page, index)
 
     def check():
         st = page.evaluate(
             """(i) => { const img = document.querySelectorAll('img.renderview-view')[i];
                  if (!img) return {exists: false};
-                 const r = img.getBoundingClientRect();
+                 let r = img.getBoundingClientRect();
+                 if (r.bottom <= 0 || r.top >= window.innerHeight) {
+                   img.scrollIntoView({block: 'center'});
+                   r = img.getBoundingClientRect();
+                 }
                  return {exists: true, w: r.width, h: r.height, natural: [img.naturalWidth, img.naturalHeight],
                          complete: img.complete, blob: (img.getAttribute('src') || '').startsWith('blob:')}; }""",
             index,
