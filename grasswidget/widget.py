@@ -691,9 +691,7 @@ class GrassWidget(ipw.VBox):
         self.file_line.value = _file_link(path, (k * w, k * h))
 
     def _view_size(self):
-        w, h = self.canvas.get_logical_size()
-        if w >= 2 and h >= 2:
-            return int(round(w)), int(round(h))
+        # The widget's size, not the measured view (a border makes that 638 x 478).
         return self.size
 
     def _show_error(self, err):

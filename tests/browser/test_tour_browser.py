@@ -1,0 +1,172 @@
+"""The tour notebook in a real JupyterLab + Chromium: the widget streams grass and answers the user.
+
+The test starts its own JupyterLab (by PID, on 127.0.0.1, in a temporary folder
+holding a copy of notebooks/01_tour.ipynb), runs the notebook in the page and
+checks, through the page and the kernel:
+
+* frames stream and show grass (green-dominant pixels in the lower part);
+* a slider moved in the page reaches Python (``w.params.wind_strength``);
+* toggling a culling checkbox changes the number of visible blades;
+* a mouse drag orbits the camera (its position changes in the kernel);
+* the keyboard works only through the focused view (space = play/pause);
+* "Save PNG" writes a PNG next to the notebook.
+
+It also measures the frames/s reaching Chromium at 640 x 480 with 2^14 blades
+(a benchmark, not an assertion) and writes it to benchmarks/browser_fps_<adapter>.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from .harness import (
+    JupyterLabServer,
+    click_button,
+    drag,
+    frames_per_second,
+    kernel_eval,
+    kernel_execute,
+    open_notebook,
+    run_all_cells,
+    save_debug_artifacts,
+    set_slider,
+    toggle_checkbox,
+    view_locator,
+    view_pixels,
+    wait_for_frames,
+    wait_for_kernel,
+    wait_for_output_text,
+    wait_for_view,
+)
+
+pytestmark = pytest.mark.browser
+
+ROOT = Path(__file__).resolve().parents[2]
+TOUR = ROOT / "notebooks" / "01_tour.ipynb"
+BENCH_BLADES = 1 << 14
+
+
+def _grass_fraction(px):
+    rgb = px[..., :3].astype(np.int32)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return float(((g > r + 8) & (g > b + 8)).mean())
+
+
+def _adapter_tag(summary: str) -> str:
+    s = summary.lower()
+    if "llvmpipe" in s or "lavapipe" in s:
+        return "lavapipe"
+    return "".join(c if c.isalnum() else "_" for c in s.split("(")[0].strip())[:40] or "unknown"
+
+
+def test_tour_in_browser(browser, tmp_path):
+    t0 = time.monotonic()
+    shutil.copy(TOUR, tmp_path / "01_tour.ipynb")
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    page = browser.page
+    server = JupyterLabServer(tmp_path, env=env)
+    server.start()
+    try:
+        _run_checks(page, server, tmp_path)
+    except BaseException:
+        out = save_debug_artifacts(page, Path(os.environ.get("GW_ARTIFACTS_DIR") or tmp_path / "artifacts"),
+                                   "tour", browser, server)
+        print(f"\n[tour] debug artifacts in {out}\n" + "\n".join(browser.console[-30:]))
+        raise
+    finally:
+        try:
+            page.goto("about:blank")
+        except Exception:
+            pass
+        server.stop()  # by PID: the server, then any kernel it started
+        server.cleanup()
+    print(f"[tour] whole test took {time.monotonic() - t0:.1f} s")
+
+
+def _run_checks(page, server, folder):
+    open_notebook(page, server, "01_tour.ipynb")
+    run_all_cells(page, timeout=180)
+
+    # 1. Frames stream and show grass.
+    wait_for_view(page, 0, timeout=60)
+    wait_for_frames(page, 5, timeout=60, index=0)
+    px = view_pixels(page, 0)
+    h, w, _ = px.shape
+    assert abs(w - 640) <= 4 and abs(h - 480) <= 4, px.shape
+    lower = _grass_fraction(px[int(0.55 * h):int(0.85 * h)])
+    upper = _grass_fraction(px[: int(0.1 * h)])
+    print(f"\n[tour] frame {w}x{h}: grass in the lower part {lower:.0%}, in the top rows {upper:.0%}")
+    assert lower > 0.5 and upper < 0.1
+
+    # 2. A slider moved in the page reaches Python.
+    set_slider(page, "wind_strength", 37.5)
+    wait_for_kernel(page, "w.params.wind_strength", 37.5, timeout=20)
+
+    # 3. Toggling a culling checkbox changes the visible count.
+    assert kernel_eval(page, "w.params.cull_orientation") is True
+    before = kernel_eval(page, "w.scene.visible_count()")
+    toggle_checkbox(page, "orientation culling")
+    wait_for_kernel(page, "w.params.cull_orientation", False, timeout=20)
+    after = wait_for_kernel(page, "w.scene.visible_count()", predicate=lambda v: v > before, timeout=20)
+    print(f"[tour] visible blades: {before} with orientation culling, {after} without")
+    toggle_checkbox(page, "orientation culling")
+    wait_for_kernel(page, "w.params.cull_orientation", True, timeout=20)
+
+    # 4. A drag orbits the camera.
+    p0 = np.array(kernel_eval(page, "w.scene.camera.world.position.tolist()"))
+    drag(page, view_locator(page, 0), 150, 0)
+    p1 = np.array(wait_for_kernel(
+        page, "w.scene.camera.world.position.tolist()",
+        predicate=lambda p: float(np.linalg.norm(np.array(p) - p0)) > 0.5, timeout=20))
+    target = np.array(kernel_eval(page, "w.controller.target.tolist()"))
+    print(f"[tour] camera moved {np.linalg.norm(p1 - p0):.2f} m around {np.round(target, 2)}")
+
+    # 5. Keys reach the widget through the focused view (the drag focused it).
+    page.keyboard.press("Space")
+    wait_for_kernel(page, "w.playing", False, timeout=15)
+    page.keyboard.press("r")
+    wait_for_kernel(page, "w.scene.camera.world.position.tolist()",
+                    predicate=lambda p: float(np.linalg.norm(np.array(p) - p0)) < 1e-3, timeout=15)
+    page.keyboard.press("Space")
+    wait_for_kernel(page, "w.playing", True, timeout=15)
+
+    # 6. Save PNG writes a file next to the notebook and shows its name.
+    click_button(page, "Save PNG")
+    text = wait_for_output_text(page, "saved grass-", timeout=60)
+    pngs = sorted(folder.glob("grass-*.png"))
+    assert len(pngs) == 1, (pngs, text[-300:])
+    import imageio.v3 as iio
+
+    img = iio.imread(pngs[0])
+    assert img.shape[:2] == (960, 1280), img.shape
+    assert _grass_fraction(img[int(0.55 * 960):int(0.85 * 960)]) > 0.5
+    print(f"[tour] Save PNG wrote {pngs[0].name} {img.shape[1]}x{img.shape[0]}")
+
+    # 7. Benchmark: frames/s reaching Chromium at 640 x 480 with 2^14 blades.
+    kernel_execute(page, f"w.blade_count = {BENCH_BLADES}", timeout=60)
+    wait_for_kernel(page, "w.scene.field.count", BENCH_BLADES, timeout=30)
+    wait_for_frames(page, 3, timeout=60, index=0)
+    fps = frames_per_second(page, seconds=5.0, index=0)
+    stats = kernel_eval(page, "{k: v for k, v in w.stats.items() if k != 'gpu_ms'}")
+    info = kernel_eval(page, "__import__('grasswidget.gpu.adapter', fromlist=['x']).adapter_info()['summary']")
+    print(f"[tour] {BENCH_BLADES} blades at 640x480: {fps:.1f} frames/s reach Chromium ({info}); widget stats {stats}")
+    assert fps > 0
+    result = dict(
+        what="frames/s reaching headless Chromium from GrassWidget (JupyterLab, jupyter-rfb), counted over 5 s",
+        blades=BENCH_BLADES, size=[640, 480], frames_per_second=round(fps, 2), adapter=info,
+        widget_stats=stats, max_fps=kernel_eval(page, "w.max_fps"), jpeg_quality=kernel_eval(page, "w.canvas.quality"),
+        machine=dict(platform=platform.platform(), cpus=os.cpu_count(),
+                     load_average_1min=round(os.getloadavg()[0], 2)),
+        date=time.strftime("%Y-%m-%d %H:%M:%S"),
+    )
+    out = ROOT / "benchmarks" / f"browser_fps_{_adapter_tag(info)}.json"
+    out.parent.mkdir(exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
