@@ -626,15 +626,10 @@ class GrassWidget(ipw.VBox):
                 field.params.unobserve(field._on_params_change)
             except (ValueError, AttributeError):
                 pass
-            bufs = [getattr(field, n, None) for n in ("blade_buffer", "args_buffer", "visible_buffer")]
+            names = ("blade_buffer", "args_buffer", "visible_buffer", "collision_buffer")
+            bufs = [getattr(field, n, None) for n in names]
             bufs += [getattr(field._store, "cull_uniform", None), getattr(field, "_sim_uniform", None)]
-            for buf in bufs:
-                obj = getattr(buf, "_wgpu_object", None)
-                if obj is not None:
-                    try:
-                        obj.destroy()
-                    except Exception:
-                        pass
+            _destroy_buffers([b for b in bufs if b is not None])
             field._sim_program = None
         try:
             scene.scene.remove(field)
@@ -781,6 +776,32 @@ class GrassWidget(ipw.VBox):
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
         return f"<GrassWidget {self.blade_count} blades, {self.size[0]}x{self.size[1]}, {state}>"
+
+
+def _destroy_buffers(buffers):
+    """Free the GPU memory of pygfx Buffers now (not at garbage collection).
+
+    A buffer with a pending upload (e.g. after ``update_full()``) sits in pygfx's
+    global resource-update registry, and the next render by *any* renderer would
+    write to it: take it out of the registry before destroying it.
+    """
+    try:
+        from pygfx.resources._base import resource_update_registry
+
+        pending = resource_update_registry._syncable
+    except (ImportError, AttributeError):
+        pending = None
+    for buf in buffers:
+        obj = getattr(buf, "_wgpu_object", None)
+        if obj is None:
+            continue
+        if pending is None:
+            continue  # cannot make it safe: leave it to the garbage collector
+        pending.discard(buf)
+        try:
+            obj.destroy()
+        except Exception:
+            pass
 
 
 def _orbit_target(scene):

@@ -375,3 +375,40 @@ def test_preset():
         assert w.scene.field.count == 1024 and getattr(w.scene, "preset_name", "cis565") == "cis565"
     finally:
         w.close()
+
+
+def test_rerunning_a_cell_closes_the_previous_widget(monkeypatch):
+    """JupyterLab sends the cell id with each execution: a new widget from the
+    same cell closes the one before, so its GPU buffers are freed."""
+    import grasswidget.widget as gwmod
+
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-xyz")
+    a = gw.GrassWidget(blades=64, size=SIZE)
+    b = gw.GrassWidget(blades=64, size=SIZE)
+    try:
+        assert a._closed and a.scene is None
+        assert not b._closed and b.scene is not None
+    finally:
+        b.close()
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: None)
+    c = gw.GrassWidget(blades=64, size=SIZE)
+    d = gw.GrassWidget(blades=64, size=SIZE)
+    assert not c._closed and not d._closed  # no cell id (plain Python): nothing is closed
+    c.close()
+    d.close()
+
+
+def test_close_with_pending_uploads_leaves_other_scenes_working():
+    """Closing destroys buffers that may still have an upload queued in pygfx's
+    global registry (reset() queues one); the next render elsewhere must not touch them."""
+    a = gw.GrassWidget(blades=256, size=SIZE)
+    a.reset_blades()
+    a.params.cull_frustum = False
+    a.close()
+    b = gw.GrassWidget(blades=256, size=SIZE)
+    try:
+        _resize(b)
+        b._draw()
+        assert grass_mask(b.scene.render_at(SIZE)).mean() > 0.05
+    finally:
+        b.close()
