@@ -5,7 +5,8 @@ holding a copy of notebooks/01_tour.ipynb), runs the notebook in the page and
 checks, through the page and the kernel:
 
 * frames stream and show grass (green-dominant pixels in the lower part);
-* a slider moved in the page reaches Python (``w.params.wind_strength``);
+* a slider moved in the page reaches Python (``w.params.wind_strength``), and
+  junk or out-of-range text typed into a slider readout breaks nothing;
 * toggling a culling checkbox changes the number of visible blades;
 * a mouse drag orbits the camera (its position changes in the kernel);
 * the keyboard works only through the focused view (space = play/pause);
@@ -109,6 +110,14 @@ def _run_checks(page, server, folder):
     # 2. A slider moved in the page reaches Python.
     set_slider(page, "wind_strength", 37.5)
     wait_for_kernel(page, "w.params.wind_strength", 37.5, timeout=20)
+
+    # ...and bad text typed into a readout breaks nothing: junk is refused by the
+    # slider, an out-of-range number is clamped to the slider's (= the trait's) range.
+    set_slider(page, "gravity", "heavy", check=False)
+    set_slider(page, "gravity", 1e9, check=False)
+    wait_for_kernel(page, "w.params.gravity", 50.0, timeout=20)
+    set_slider(page, "gravity", 9.8)
+    wait_for_kernel(page, "w.params.gravity", 9.8, timeout=20)
 
     # 3. Toggling a culling checkbox changes the visible count.
     assert kernel_eval(page, "w.params.cull_orientation") is True
