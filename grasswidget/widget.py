@@ -756,7 +756,7 @@ class GrassWidget(ipw.VBox):
     def _update_stats_line(self, *_):
         s = self._stats
         parts = []
-        parts.append(f"{s['fps']:.1f} frames/s" if s["fps"] is not None else "– frames/s")
+        parts.append(f"{s['fps']:.1f} frames/s delivered" if s["fps"] is not None else "– frames/s delivered")
         blades = self.blade_count
         if s["visible"] is not None:
             parts.append(f"{s['visible']:,} / {blades:,} blades visible")
@@ -765,7 +765,7 @@ class GrassWidget(ipw.VBox):
         if s["draw_ms"] is not None:
             parts.append(f"draw {s['draw_ms']:.0f} ms")
         if s["gpu_ms"]:
-            parts.append("GPU " + ", ".join(f"{k} {v:.1f} ms" for k, v in dict(s["gpu_ms"]).items()))
+            parts.append("GPU " + ", ".join(f"{k} {v:.2f} ms" for k, v in dict(s["gpu_ms"]).items()))
         n = int(round(self.time_scale * self.frame_interval / self.params.dt))
         capped = " (capped)" if n > MAX_STEPS_PER_FRAME else ""
         parts.append(f"{self.steps_per_frame} steps/frame{capped}")
