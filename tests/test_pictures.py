@@ -18,7 +18,7 @@ def test_render_shape_and_grass(scene):
     assert img.shape == (150, 200, 4) and img.dtype == np.uint8
     grass = grass_mask(img)
     # the field fills the lower part of the default view; the sky the top
-    assert grass[90:].mean() > 0.8
+    assert grass[90:].mean() > 0.6
     assert sky_mask(img)[:10].mean() > 0.9
     assert grass[:10].mean() < 0.05
 
