@@ -132,6 +132,141 @@ class Blades:
             stiffness=rng.uniform(*s, count),
         )
 
+    @classmethod
+    def on_mesh(
+        cls,
+        geometry,
+        count=None,
+        density=None,
+        seed: int = 0,
+        height=(1.3, 2.5),
+        width=(0.1, 0.14),
+        stiffness=(7.0, 13.0),
+    ) -> "Blades":
+        """Blades rooted on the triangles of any mesh (grass on a sphere, a hill, ...).
+
+        Roots are sampled uniformly by area: a triangle is picked with probability
+        proportional to its area, then a uniform point in it (barycentric
+        ``(1 - sqrt r1, sqrt r1 (1 - r2), sqrt r1 r2)``). Each blade's ``up`` is the
+        vertex normal interpolated with those weights, normalised; without vertex
+        normals (or where they cancel) the face normal ``normalize(cross(b - a, c - a))``
+        (counter-clockwise triangles face outwards, as in pygfx). Orientation, height,
+        width and stiffness are random as in :meth:`on_plane`. Ids come in random order.
+
+        Args:
+            geometry: a pygfx ``Geometry`` (anything with ``.positions.data``, optional
+                ``.indices.data`` and ``.normals.data``), a dict with those keys, or a
+                tuple ``(positions, indices[, normals])`` of arrays. positions (V, 3);
+                indices (M, 3) or (3M,) vertex ids (None: consecutive vertex triples);
+                normals (V, 3). Metres, in the space the field will live in.
+            count: number of blades (exactly one of count / density).
+            density: blades per square metre of mesh area (count = round(density * area)).
+            seed: random seed (int).
+            height, width, stiffness: (min, max) ranges as in :meth:`on_plane`.
+
+        Raises ValueError for an empty mesh (no triangle of non-zero area), non-finite
+        positions or normals, out-of-range indices, or a bad count/density.
+
+        This module stays pure: pygfx is never imported here.
+        """
+        positions, tris, normals = _mesh_arrays(geometry)
+        a, b, c = positions[tris[:, 0]], positions[tris[:, 1]], positions[tris[:, 2]]
+        face = np.cross(b - a, c - a)
+        area2 = np.linalg.norm(face, axis=1)
+        total = float(area2.sum()) * 0.5
+        if len(tris) == 0 or not np.isfinite(total) or total <= 0.0:
+            raise ValueError(
+                f"geometry is an empty mesh: it has {len(tris)} triangles and total area {total:g} m^2; "
+                "blades need at least one triangle of non-zero area"
+            )
+        count = _count_from(count, density, total)
+        rng = np.random.default_rng(seed)
+        hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
+        cdf = np.cumsum(area2)
+        pick = np.minimum(np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right"), len(tris) - 1)
+        # Never pick a zero-area triangle (searchsorted with side="right" skips them).
+        r1, r2 = rng.random(count), rng.random(count)
+        sq = np.sqrt(r1)
+        wa, wb, wc = 1.0 - sq, sq * (1.0 - r2), sq * r2
+        ta, tb, tc = tris[pick, 0], tris[pick, 1], tris[pick, 2]
+        v0 = wa[:, None] * positions[ta] + wb[:, None] * positions[tb] + wc[:, None] * positions[tc]
+        face_n = face[pick] / np.maximum(area2[pick], 1e-300)[:, None]
+        up = face_n
+        if normals is not None:
+            n = wa[:, None] * normals[ta] + wb[:, None] * normals[tb] + wc[:, None] * normals[tc]
+            length = np.linalg.norm(n, axis=1)
+            ok = length > 1e-6
+            up = np.where(ok[:, None], n / np.maximum(length, 1e-300)[:, None], face_n)
+        return cls(
+            v0=v0,
+            up=up,
+            orientation=rng.uniform(0.0, 2.0 * np.pi, count),
+            height=rng.uniform(*hr, count),
+            width=rng.uniform(*wr, count),
+            stiffness=rng.uniform(*sr, count),
+        )
+
+    @classmethod
+    def on_heightmap(
+        cls,
+        heights,
+        size: float,
+        count: int,
+        seed: int = 0,
+        height=(1.3, 2.5),
+        width=(0.1, 0.14),
+        stiffness=(7.0, 13.0),
+    ) -> "Blades":
+        """Blades on a terrain given as a height map over a ``size`` x ``size`` square.
+
+        ``heights[i, j]`` (metres, an (H, W) array, H, W >= 2) is the ground height y at
+        ``x = -size/2 + j * size / (W - 1)``, ``z = -size/2 + i * size / (H - 1)``
+        (columns along x, rows along z, centred at the origin). Roots are
+        jittered-stratified in xz as in :meth:`on_plane`, their y is the bilinear
+        interpolation of the map, and ``up`` is the normal of that bilinear surface,
+        ``normalize(-dh/dx, 1, -dh/dz)`` with the gradient of the interpolant.
+
+        Raises ValueError for NaN/inf heights, a map smaller than 2 x 2, or a bad
+        size/count.
+        """
+        h = np.asarray(heights, np.float64)
+        if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2:
+            raise ValueError(f"heights must be a 2D (H, W) array with H, W >= 2; got shape {h.shape}")
+        if not np.all(np.isfinite(h)):
+            bad = int(np.count_nonzero(~np.isfinite(h)))
+            raise ValueError(f"heights must be finite; {bad} of {h.size} values are NaN or inf")
+        if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
+            raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+            raise ValueError(f"count must be an integer >= 1; got {count!r}")
+        count, size = int(count), float(size)
+        hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
+        rng = np.random.default_rng(seed)
+        k = int(np.ceil(np.sqrt(count)))
+        cells = rng.permutation(k * k)[:count]
+        u = (cells % k + rng.random(count)) / k  # along x, 0..1
+        v = (cells // k + rng.random(count)) / k  # along z, 0..1
+        rows, cols = h.shape
+        gx, gz = u * (cols - 1), v * (rows - 1)
+        j = np.minimum(np.floor(gx).astype(np.int64), cols - 2)
+        i = np.minimum(np.floor(gz).astype(np.int64), rows - 2)
+        fx, fz = gx - j, gz - i
+        h00, h01, h10, h11 = h[i, j], h[i, j + 1], h[i + 1, j], h[i + 1, j + 1]
+        y = (1 - fz) * ((1 - fx) * h00 + fx * h01) + fz * ((1 - fx) * h10 + fx * h11)
+        dx_cell, dz_cell = size / (cols - 1), size / (rows - 1)
+        dhdx = ((1 - fz) * (h01 - h00) + fz * (h11 - h10)) / dx_cell
+        dhdz = ((1 - fx) * (h10 - h00) + fx * (h11 - h01)) / dz_cell
+        v0 = np.stack([(u - 0.5) * size, y, (v - 0.5) * size], axis=1)
+        up = np.stack([-dhdx, np.ones(count), -dhdz], axis=1)
+        return cls(
+            v0=v0,
+            up=up,
+            orientation=rng.uniform(0.0, 2.0 * np.pi, count),
+            height=rng.uniform(*hr, count),
+            width=rng.uniform(*wr, count),
+            stiffness=rng.uniform(*sr, count),
+        )
+
     def rest_state(self) -> dict:
         """State dict of the rest pose: v1 = v2 = v0 + h * up (the tip guide iv2)."""
         iv2 = self.v0 + self.up * self.height[:, None]
@@ -149,6 +284,81 @@ class Blades:
     def packed(self) -> np.ndarray:
         """The (N, 4, 4) float32 array of the paper's 4 x vec4 layout, in rest pose."""
         return pack_state(self.rest_state())
+
+
+def _array_of(x):
+    """The ndarray behind x: x itself, or a pygfx Buffer's ``.data``."""
+    if x is None or isinstance(x, np.ndarray):
+        return x
+    data = getattr(x, "data", None)
+    if data is not None and not isinstance(data, memoryview):
+        return data
+    return x
+
+
+def _mesh_arrays(geometry):
+    """(positions (V, 3) float64, triangles (M, 3) int64, normals (V, 3) float64 or None)."""
+    if isinstance(geometry, dict):
+        pos, idx, nrm = geometry.get("positions"), geometry.get("indices"), geometry.get("normals")
+    elif isinstance(geometry, (tuple, list)):
+        if not 2 <= len(geometry) <= 3:
+            raise ValueError("geometry as a tuple must be (positions, indices) or (positions, indices, normals)")
+        pos, idx = geometry[0], geometry[1]
+        nrm = geometry[2] if len(geometry) == 3 else None
+    elif hasattr(geometry, "positions"):
+        pos = geometry.positions
+        idx = getattr(geometry, "indices", None)
+        nrm = getattr(geometry, "normals", None)
+    else:
+        raise TypeError(
+            "geometry must be a pygfx Geometry (with .positions and .indices), a dict or a "
+            f"(positions, indices[, normals]) tuple; got {type(geometry).__name__}"
+        )
+    if pos is None:
+        raise ValueError("geometry has no positions")
+    try:
+        pos = np.asarray(_array_of(pos), np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("geometry positions must be a numeric (V, 3) array") from None
+    if pos.ndim != 2 or pos.shape[1] != 3:
+        raise ValueError(f"geometry positions must be a (V, 3) array; got shape {pos.shape}")
+    if not np.all(np.isfinite(pos)):
+        raise ValueError("geometry positions must be finite (found NaN or inf)")
+    if idx is None:
+        if len(pos) % 3:
+            raise ValueError("geometry has no indices and its vertex count is not a multiple of 3")
+        tris = np.arange(len(pos), dtype=np.int64).reshape(-1, 3)
+    else:
+        raw = np.asarray(_array_of(idx))
+        if raw.size and not np.issubdtype(raw.dtype, np.integer):
+            raise ValueError(f"geometry indices must be integers; got dtype {raw.dtype}")
+        if raw.size % 3:
+            raise ValueError(f"geometry indices must form triangles ((M, 3) or 3M values); got {raw.size} values")
+        tris = raw.astype(np.int64).reshape(-1, 3)
+        if tris.size and (tris.min() < 0 or tris.max() >= len(pos)):
+            raise ValueError(f"geometry indices must be in [0, {len(pos)}) (the number of positions)")
+    if nrm is not None:
+        nrm = np.asarray(_array_of(nrm), np.float64)
+        if nrm.shape != pos.shape:
+            raise ValueError(f"geometry normals must have the shape of positions {pos.shape}; got {nrm.shape}")
+        if not np.all(np.isfinite(nrm)):
+            raise ValueError("geometry normals must be finite (found NaN or inf)")
+    return pos, tris, nrm
+
+
+def _count_from(count, density, area):
+    if (count is None) == (density is None):
+        raise ValueError("give exactly one of count (blades) or density (blades per m^2)")
+    if count is not None:
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+            raise ValueError(f"count must be an integer >= 1; got {count!r}")
+        return int(count)
+    if isinstance(density, bool) or not isinstance(density, (int, float, np.number)) or not np.isfinite(density) or density <= 0:
+        raise ValueError(f"density must be a finite number > 0 (blades per m^2); got {density!r}")
+    n = int(round(float(density) * area))
+    if n < 1:
+        raise ValueError(f"density {density:g} per m^2 on {area:g} m^2 gives no blades; raise density or give count")
+    return n
 
 
 def pack_state(state: dict) -> np.ndarray:

@@ -147,8 +147,8 @@ class GrassParams(HasTraits):
     gravity_center = Vec3((0.0, 0.0, 0.0), unit="m", help="Point that pulls the blades (world space), used when gravity_mode is 'point'.").tag(sync=True)
 
     # ---- collisions -------------------------------------------------------------
-    collision_gain = RangedFloat(50.0, 0.0, 1e4, "1/m^2", help="Each collider push d adds collision_gain * |d|^2 to the blade's collision strength eta (clamped to 0..1). 1 is the paper's literal rule; at 120 steps/s pushes are small, and 50 makes a rolling sphere leave a visible trail.").tag(sync=True)
-    collision_fade = RangedFloat(0.25, 0.0, 100.0, "1/s", help="Rate at which a blade's collision strength eta (0..1) fades: eta -= collision_fade * dt each step. Recovery is scaled by max(1 - eta, 0.1), so a trampled trail stands back up within about 1 / collision_fade seconds.").tag(sync=True)
+    collision_gain = RangedFloat(200.0, 0.0, 1e5, "1/m^2", help="Each collider push d adds collision_gain * |d|^2 to the blade's collision strength eta (clamped to 0..1). 1 is the paper's literal rule; at 120 steps/s the pushes are small, and the default 200 makes a rolling sphere leave a visible trail.").tag(sync=True)
+    collision_fade = RangedFloat(0.15, 0.0, 100.0, "1/s", help="Rate at which a blade's collision strength eta (0..1) fades: eta -= collision_fade * dt each step. Recovery is scaled by max(1 - eta, 0.1), so a trampled trail stands back up within about 1 / collision_fade seconds.").tag(sync=True)
 
     # ---- wind -----------------------------------------------------------------
     wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Wind field W(p, t): 'wave' (travelling gusts along wind_direction), 'radial' (away from wind_center, pulsing; helicopter downwash), 'vortex' (turning around the vertical axis through wind_center), 'noise' (simplex-noise gusts drifting along wind_direction) or 'custom' (the WGSL in wind_wgsl). See grasswidget.reference.").tag(sync=True)

@@ -11,6 +11,9 @@
 // Per-blade collision strength eta (0..1), persistent across steps.
 @group(0) @binding(2) var<storage, read_write> s_collision: array<f32>;
 
+// Collision passes per step (reference.COLLISION_PASSES): push, then validate the pushed blades.
+const COLLISION_PASSES: i32 = 2;
+
 // Wind field by id: 0 wave, 1 radial, 2 vortex, 3 noise, 4 custom (user_wind).
 fn wind_field(p: vec3<f32>, t: f32) -> vec3<f32> {
     switch u_sim.wind_field {
@@ -75,22 +78,24 @@ fn main(
         v2 = guides.v2;
 
         if (u_sim.n_colliders > 0) {
-            var v2c = v2;
             var add = 0.0;
-            var hit = false;
-            for (var c = 0; c < u_sim.n_colliders; c = c + 1) {
-                let col = collide_sphere(v0, v1, v2c, u_sim.colliders[c]);
-                v2c = col.v2;
-                add = add + col.add;
-                hit = hit || col.hit;
+            for (var pass_no = 0; pass_no < COLLISION_PASSES; pass_no = pass_no + 1) {
+                var v2c = v2;
+                var hit = false;
+                for (var c = 0; c < u_sim.n_colliders; c = c + 1) {
+                    let col = collide_sphere(v0, v1, v2c, u_sim.colliders[c]);
+                    v2c = col.v2;
+                    add = add + col.add;
+                    hit = hit || col.hit;
+                }
+                if (hit) {
+                    v2c = validate_ground(v0, v2c, up);
+                    let again = validate_length(v0, validate_v1(v0, v2c, up, h), v2c, h);
+                    v1 = again.v1;
+                    v2 = again.v2;
+                }
             }
             eta = min(eta + u_sim.collision_gain * add, 1.0);
-            if (hit) {
-                v2c = validate_ground(v0, v2c, up);
-                let again = validate_length(v0, validate_v1(v0, v2c, up, h), v2c, h);
-                v1 = again.v1;
-                v2 = again.v2;
-            }
         }
     }
 
