@@ -106,6 +106,9 @@ def _run_checks(page, server, folder):
     upper = _grass_fraction(px[: int(0.1 * h)])
     print(f"\n[tour] frame {w}x{h}: grass in the lower part {lower:.0%}, in the top rows {upper:.0%}")
     assert lower > 0.5 and upper < 0.1
+    fps_default = frames_per_second(page, seconds=4.0, index=0)
+    n_default = kernel_eval(page, "w.blade_count")
+    print(f"[tour] {n_default} blades (the default) at 640x480: {fps_default:.1f} frames/s reach Chromium")
 
     # 2. A slider moved in the page reaches Python.
     set_slider(page, "wind_strength", 37.5)
@@ -171,6 +174,7 @@ def _run_checks(page, server, folder):
     result = dict(
         what="frames/s reaching headless Chromium from GrassWidget (JupyterLab, jupyter-rfb), counted over 5 s",
         blades=BENCH_BLADES, size=[640, 480], frames_per_second=round(fps, 2), adapter=info,
+        default_blades=n_default, frames_per_second_default_blades=round(fps_default, 2),
         widget_stats=stats, max_fps=kernel_eval(page, "w.max_fps"), jpeg_quality=kernel_eval(page, "w.canvas.quality"),
         machine=dict(platform=platform.platform(), cpus=os.cpu_count(),
                      load_average_1min=round(os.getloadavg()[0], 2)),
