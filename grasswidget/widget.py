@@ -218,6 +218,10 @@ class GrassWidget(ipw.VBox):
         params: a :class:`GrassParams` to use (and share); default a new one.
         max_fps, quality: override the adapter's streaming defaults
             (:func:`streaming_defaults`).
+        pixel_ratio: the most rendered pixels per CSS pixel (default 1 on a CPU
+            adapter, 2 on a GPU; the browser's devicePixelRatio below that).
+            E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
+            twice the frames/s, and the browser scales the picture up.
 
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
@@ -242,7 +246,8 @@ class GrassWidget(ipw.VBox):
     controller = None
     _links = ()
 
-    def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None):
+    def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
+                 pixel_ratio=None):
         from .gpu.adapter import is_cpu_adapter
         from .scene import parse_size
 
@@ -260,6 +265,10 @@ class GrassWidget(ipw.VBox):
             if isinstance(quality, bool) or not isinstance(quality, int) or not (1 <= quality <= 100):
                 raise ValueError(f"quality must be an integer in [1, 100] (JPEG quality); got {quality!r}")
             defaults["quality"] = quality
+        if pixel_ratio is not None:
+            if isinstance(pixel_ratio, bool) or not isinstance(pixel_ratio, (int, float)) or not (0.25 <= pixel_ratio <= 4):
+                raise ValueError(f"pixel_ratio must be a number in [0.25, 4]; got {pixel_ratio!r}")
+            defaults["max_pixel_ratio"] = float(pixel_ratio)
         self._defaults = defaults
         self.max_blades = defaults["max_blades"]
         self._blades = self._check_blades(blades)
@@ -347,6 +356,10 @@ class GrassWidget(ipw.VBox):
         scene = self._make_scene(blades)
         if old is not None:
             self._release_scene(old)
+        # Render at the canvas's physical size (no SSAA, no upscaling): that size is
+        # the browser's pixel ratio capped for the adapter (GrassCanvas), so the
+        # render cost follows the frame size chosen for streaming.
+        scene.renderer.pixel_scale = 1
         self.scene = scene
         self.params = scene.params
         self._home_state = scene.camera.get_state()

@@ -63,6 +63,19 @@ def test_streaming_defaults_per_adapter(widget):
     assert gw.widget.streaming_defaults(True)["max_fps"] < gw.widget.streaming_defaults(False)["max_fps"]
 
 
+def test_pixel_ratio_override():
+    w = gw.GrassWidget(blades=64, size=SIZE, pixel_ratio=0.5)
+    try:
+        _resize(w, ratio=1.0)
+        assert w.canvas.get_physical_size() == (SIZE[0] // 2, SIZE[1] // 2)
+        assert w.scene.renderer.pixel_ratio == 0.5  # renders a quarter of the pixels, not just sends them
+        w._draw()
+    finally:
+        w.close()
+    with pytest.raises(ValueError, match="pixel_ratio"):
+        gw.GrassWidget(blades=64, size=SIZE, pixel_ratio=0)
+
+
 def test_controls_change_params_and_back(widget):
     p = widget.params
     widget.sliders["wind_strength"].value = 33.5
