@@ -282,7 +282,13 @@ class GrassField(gfx.WorldObject):
         material: a :class:`GrassMaterial` (default: a new one).
 
     GPU memory per blade: 64 bytes of state + 4 bytes x LOD classes of
-    compacted index lists (see :attr:`bytes_per_blade`).
+    compacted index lists + 4 bytes of collision strength (see :attr:`bytes_per_blade`).
+
+    Physics extras: :attr:`colliders` (sphere colliders, read at every step),
+    :meth:`set_wind_wgsl` (a WGSL wind, ``params.wind_field = "custom"``), and the
+    params ``wind_field``, ``gravity_mode``/``gravity_direction``/``gravity_center``,
+    ``collision_gain``/``collision_fade``; ``params.blade_shape`` drives
+    ``material.blade_shape``.
     """
 
     def __init__(self, blades: Blades, params: GrassParams | None = None, material: GrassMaterial | None = None):
@@ -476,7 +482,11 @@ class GrassField(gfx.WorldObject):
         ``params.wind_wgsl``) in force. On success sets ``params.wind_wgsl`` and,
         with ``select``, ``params.wind_field = "custom"``. Same as assigning
         ``params.wind_wgsl`` (which compiles in every field using those params).
-        The snippet may read the simulation uniforms, e.g. ``u_sim.wind_strength``.
+        The snippet may call any function of ``shaders/blade_math.wgsl`` (e.g.
+        ``simplex_noise2(x, y)``, ``wind_wave(...)``) and read the simulation
+        uniforms (e.g. ``u_sim.wind_strength``). Example::
+
+            field.set_wind_wgsl("return vec3<f32>(8.0 * (1.0 + sin(t + 0.3 * p.x)), 0.0, 0.0);")
         """
         if not isinstance(body, str):
             raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
