@@ -150,7 +150,7 @@ class GrassScene:
         self.camera.look_at(target)
         self.camera.depth_range = (near, far)
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
-        self._home = (self.camera.local.position, self.camera.local.rotation)
+        self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
 
     # ------------------------------------------------------------------ views
 
@@ -158,7 +158,7 @@ class GrassScene:
         d = extent * 0.95
         self.camera.local.position = (center[0], 0.28 * d + 1.0, center[2] + d)
         self.camera.look_at((center[0], 0.6, center[2]))
-        self._home = (self.camera.local.position, self.camera.local.rotation)
+        self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
 
     def reset_camera(self):
         """Put the camera back where the scene started."""
