@@ -152,6 +152,12 @@ class GrassScene:
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
 
+    colliders = property(
+        lambda self: self.field.colliders,
+        lambda self, value: setattr(self.field, "colliders", value),
+        doc="Sphere colliders acting on the grass: GrassField.colliders (gw.SphereCollider, at most 16).",
+    )
+
     # ------------------------------------------------------------------ views
 
     def _default_view(self, extent, center):
