@@ -631,19 +631,7 @@ class GrassWidget(ipw.VBox):
     def _release_scene(scene):
         """Drop a scene's GPU resources now instead of whenever the GC gets to them."""
         field = scene.field
-        release = getattr(field, "release", None) or getattr(field, "close", None)
-        if callable(release):
-            release()
-        else:
-            try:  # the field observes its params: that reference would keep it alive
-                field.params.unobserve(field._on_params_change)
-            except (ValueError, AttributeError):
-                pass
-            names = ("blade_buffer", "args_buffer", "visible_buffer", "collision_buffer")
-            bufs = [getattr(field, n, None) for n in names]
-            bufs += [getattr(field._store, "cull_uniform", None), getattr(field, "_sim_uniform", None)]
-            _destroy_buffers([b for b in bufs if b is not None])
-            field._sim_program = None
+        field.release()
         try:
             scene.scene.remove(field)
         except Exception:
@@ -789,32 +777,6 @@ class GrassWidget(ipw.VBox):
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
         return f"<GrassWidget {self.blade_count} blades, {self.size[0]}x{self.size[1]}, {state}>"
-
-
-def _destroy_buffers(buffers):
-    """Free the GPU memory of pygfx Buffers now (not at garbage collection).
-
-    A buffer with a pending upload (e.g. after ``update_full()``) sits in pygfx's
-    global resource-update registry, and the next render by *any* renderer would
-    write to it: take it out of the registry before destroying it.
-    """
-    try:
-        from pygfx.resources._base import resource_update_registry
-
-        pending = resource_update_registry._syncable
-    except (ImportError, AttributeError):
-        pending = None
-    for buf in buffers:
-        obj = getattr(buf, "_wgpu_object", None)
-        if obj is None:
-            continue
-        if pending is None:
-            continue  # cannot make it safe: leave it to the garbage collector
-        pending.discard(buf)
-        try:
-            obj.destroy()
-        except Exception:
-            pass
 
 
 def _orbit_target(scene):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pygfx.renderers.wgpu import get_shared
 from pygfx.renderers.wgpu.engine.update import ensure_wgpu_object, update_resource
 
-__all__ = ["ComputeProgram", "sync_buffer"]
+__all__ = ["ComputeProgram", "sync_buffer", "destroy_buffers"]
 
 
 def sync_buffer(buffer):
@@ -19,6 +19,28 @@ def sync_buffer(buffer):
     wgpu_buffer = ensure_wgpu_object(buffer)
     update_resource(buffer)
     return wgpu_buffer
+
+
+def destroy_buffers(buffers):
+    """Free the GPU memory of pygfx Buffers now (not at garbage collection).
+
+    A buffer with a pending upload sits in pygfx's global resource-update
+    registry, and the next render by *any* renderer would write to it: take it
+    out of the registry first. Without that registry (another pygfx version)
+    the buffers are left to the garbage collector.
+    """
+    try:
+        from pygfx.resources._base import resource_update_registry
+
+        pending = resource_update_registry._syncable
+    except (ImportError, AttributeError):
+        return
+    for buf in buffers:
+        obj = getattr(buf, "_wgpu_object", None)
+        if obj is None:
+            continue
+        pending.discard(buf)
+        obj.destroy()
 
 
 class ComputePipelineError(RuntimeError):

@@ -22,7 +22,7 @@ from ..params import GrassParams
 from ..reference import LOD_SEGMENTS, wind_period
 from . import indirect
 from .adapter import ensure_device
-from .compute import ComputeProgram, sync_buffer
+from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .shaders import SimulateShader, register, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
@@ -563,6 +563,19 @@ class GrassField(gfx.WorldObject):
             device.queue.submit([encoder.finish()])
             self._step_count += chunk
             done += chunk
+
+    def release(self):
+        """Free this field's GPU memory now; the field cannot be drawn or stepped afterwards."""
+        try:  # the field observes its params: that reference would keep it alive
+            self.params.unobserve(self._on_params_change)
+        except ValueError:
+            pass
+        if self.stats is not None:
+            self.stats.release()
+            self.stats = None
+        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer")
+        destroy_buffers([self._store[name] for name in names] + [self._sim_uniform])
+        self._sim_program = None
 
     def enable_stats(self):
         """Create (once) and return this field's non-blocking FrameStats."""

@@ -133,6 +133,26 @@ class FrameStats:
                 if ts[q + 1] > ts[q] > 0:
                     self.gpu_ms[name] = float((ts[q + 1] - ts[q]) * self._period_ns / 1e6)
 
+    def release(self):
+        """Destroy the staging buffers and the query set (the stats stop working)."""
+        # Settle outstanding map requests first: an unsettled promise stays referenced
+        # by the event loop (if one is set) and keeps its buffer alive.
+        for staging, promise in self._pending:
+            try:
+                promise.sync_wait()
+            except Exception:
+                pass
+        buffers = list(self._free) + [staging for staging, _ in self._pending]
+        if self.timestamps:
+            buffers.append(self._resolve)
+            self.query_set.destroy()
+        for buf in buffers:
+            if buf.map_state == "mapped":
+                buf.unmap()
+            buf.destroy()
+        self._free.clear()
+        self._pending.clear()
+
     def as_dict(self) -> dict:
         return dict(
             visible=self.visible,
