@@ -114,23 +114,12 @@ class Blades:
         rng = np.random.default_rng(seed)
         # Jittered stratified sampling on a k x k grid (k*k >= count), then a random
         # subset and a random permutation of the ids.
-        k = int(np.ceil(np.sqrt(count)))
-        cells = rng.permutation(k * k)[:count]
-        cx, cz = cells % k, cells // k
-        x = (cx + rng.random(count)) / k
-        z = (cz + rng.random(count)) / k
+        x, z = _jittered_unit_square(rng, count)
         v0 = np.zeros((count, 3), np.float32)
         v0[:, 0] = (x - 0.5) * size
         v0[:, 2] = (z - 0.5) * size
         up = np.tile(np.float32([0, 1, 0]), (count, 1))
-        return cls(
-            v0=v0,
-            up=up,
-            orientation=rng.uniform(0.0, 2.0 * np.pi, count),
-            height=rng.uniform(*h, count),
-            width=rng.uniform(*w, count),
-            stiffness=rng.uniform(*s, count),
-        )
+        return cls._with_random_traits(rng, v0, up, h, w, s)
 
     @classmethod
     def on_mesh(
@@ -197,14 +186,7 @@ class Blades:
             length = np.linalg.norm(n, axis=1)
             ok = length > 1e-6
             up = np.where(ok[:, None], n / np.maximum(length, 1e-300)[:, None], face_n)
-        return cls(
-            v0=v0,
-            up=up,
-            orientation=rng.uniform(0.0, 2.0 * np.pi, count),
-            height=rng.uniform(*hr, count),
-            width=rng.uniform(*wr, count),
-            stiffness=rng.uniform(*sr, count),
-        )
+        return cls._with_random_traits(rng, v0, up, hr, wr, sr)
 
     @classmethod
     def on_heightmap(
@@ -242,10 +224,7 @@ class Blades:
         count, size = int(count), float(size)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         rng = np.random.default_rng(seed)
-        k = int(np.ceil(np.sqrt(count)))
-        cells = rng.permutation(k * k)[:count]
-        u = (cells % k + rng.random(count)) / k  # along x, 0..1
-        v = (cells // k + rng.random(count)) / k  # along z, 0..1
+        u, v = _jittered_unit_square(rng, count)  # along x and z, 0..1
         rows, cols = h.shape
         gx, gz = u * (cols - 1), v * (rows - 1)
         j = np.minimum(np.floor(gx).astype(np.int64), cols - 2)
@@ -258,13 +237,20 @@ class Blades:
         dhdz = ((1 - fx) * (h10 - h00) + fx * (h11 - h01)) / dz_cell
         v0 = np.stack([(u - 0.5) * size, y, (v - 0.5) * size], axis=1)
         up = np.stack([-dhdx, np.ones(count), -dhdz], axis=1)
+        return cls._with_random_traits(rng, v0, up, hr, wr, sr)
+
+    @classmethod
+    def _with_random_traits(cls, rng, v0, up, height, width, stiffness):
+        """Blades at roots v0 with normals up; orientation uniform in [0, 2 pi),
+        height, width and stiffness uniform in their (min, max) ranges."""
+        count = len(v0)
         return cls(
             v0=v0,
             up=up,
             orientation=rng.uniform(0.0, 2.0 * np.pi, count),
-            height=rng.uniform(*hr, count),
-            width=rng.uniform(*wr, count),
-            stiffness=rng.uniform(*sr, count),
+            height=rng.uniform(*height, count),
+            width=rng.uniform(*width, count),
+            stiffness=rng.uniform(*stiffness, count),
         )
 
     def rest_state(self) -> dict:
@@ -359,6 +345,16 @@ def _count_from(count, density, area):
     if n < 1:
         raise ValueError(f"density {density:g} per m^2 on {area:g} m^2 gives no blades; raise density or give count")
     return n
+
+
+def _jittered_unit_square(rng, count):
+    """``count`` points (x, z) in [0, 1)^2, jittered-stratified on a k x k grid
+    (k*k >= count, random subset of cells), in random order."""
+    k = int(np.ceil(np.sqrt(count)))
+    cells = rng.permutation(k * k)[:count]
+    x = (cells % k + rng.random(count)) / k
+    z = (cells // k + rng.random(count)) / k
+    return x, z
 
 
 def pack_state(state: dict) -> np.ndarray:

@@ -15,24 +15,23 @@ def _size(text):
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
-def _positive(text):
-    try:
-        v = int(text)
-    except ValueError:
-        v = -1
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1; got {text!r}")
-    return v
+def _int_at_least(lo):
+    """An argparse type: an integer >= lo, with a message that says so."""
+
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            v = lo - 1
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {lo}; got {text!r}")
+        return v
+
+    return parse
 
 
-def _non_negative(text):
-    try:
-        v = int(text)
-    except ValueError:
-        v = -1
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0; got {text!r}")
-    return v
+_positive = _int_at_least(1)
+_non_negative = _int_at_least(0)
 
 
 def build_parser():
