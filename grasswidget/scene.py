@@ -15,6 +15,7 @@ import pygfx as gfx
 
 from .blades import Blades
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
+from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial
 from .params import GrassParams
 
@@ -69,7 +70,10 @@ class GrassScene:
         params: a :class:`GrassParams` (default: a new one).
 
     Attributes: ``params``, ``camera`` (a pygfx PerspectiveCamera), ``field``
-    (the :class:`GrassField`), ``scene`` (the pygfx Scene), ``renderer``, ``canvas``.
+    (the :class:`GrassField`), ``scene`` (the pygfx Scene), ``renderer``, ``canvas``,
+    ``ground`` (the ground plane mesh), ``collider_balls`` (a
+    :class:`~grasswidget.gpu.collider_view.ColliderBalls`: every sphere in
+    ``colliders`` is drawn as a translucent ball; ``show_colliders = False`` hides them).
     """
 
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
@@ -96,6 +100,8 @@ class GrassScene:
         self.ground = ground
         self.scene.add(ground)
         self.scene.add(self.field)
+        self.collider_balls = ColliderBalls(self.field)
+        self.field.add(self.collider_balls)  # colliders live in the field's local space
         self.scene.add(gfx.AmbientLight(intensity=0.6))
         sun = gfx.DirectionalLight(intensity=2.0)
         sun.local.position = (4, 10, 3)
@@ -152,6 +158,17 @@ class GrassScene:
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
 
+    @property
+    def show_colliders(self) -> bool:
+        """Draw each sphere collider as a translucent ball (default True)."""
+        return self.collider_balls.visible
+
+    @show_colliders.setter
+    def show_colliders(self, value):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"show_colliders must be True or False; got {value!r}")
+        self.collider_balls.visible = bool(value)
+
     colliders = property(
         lambda self: self.field.colliders,
         lambda self, value: setattr(self.field, "colliders", value),
@@ -180,6 +197,7 @@ class GrassScene:
 
     def _draw(self):
         t0 = time.perf_counter()
+        self.collider_balls.sync()
         self.renderer.render(self.scene, self.camera)
         self.stats.after_render((time.perf_counter() - t0) * 1000.0)
 
@@ -196,6 +214,7 @@ class GrassScene:
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
         renderer = _make_renderer(canvas)
         aspect = self.camera.aspect
+        self.collider_balls.sync()
         canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
         try:
             return np.asarray(canvas.draw())

@@ -30,7 +30,9 @@ How it streams (chosen for the adapter, see :func:`streaming_defaults`):
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
 ``OrbitController``). The canvas events reach the controller without the
 renderer's per-event GPU pick readback (see :class:`_EventsWithoutPicking`).
-Keys, only while the canvas has focus (click it first; the keys go to a hidden
+Shift + drag puts the ball (a sphere collider, see :mod:`grasswidget.widget_ball`)
+on the ground under the pointer; the "sphere" row switches it on and off, moves
+and resizes it and rolls it along a circle ("Roll"). Keys, only while the canvas has focus (click it first; the keys go to a hidden
 text input, not to the notebook): space = play/pause, ``s`` = step one frame,
 ``r`` = reset the camera.
 """
@@ -126,8 +128,9 @@ class _EventsWithoutPicking:
 
     TYPES = ("pointer_down", "pointer_move", "pointer_up", "wheel", "key_down", "key_up")
 
-    def __init__(self, renderer_getter):
+    def __init__(self, renderer_getter, intercept=None):
         self._renderer = renderer_getter
+        self._intercept = intercept
 
     def __call__(self, event):
         from pygfx.renderers.wgpu.engine.renderer import EVENT_TYPE_MAP
@@ -136,6 +139,8 @@ class _EventsWithoutPicking:
         event_type = event.get("event_type")
         if renderer is None or event_type not in EVENT_TYPE_MAP:
             return
+        if self._intercept is not None and self._intercept(event):
+            return  # used by the widget (e.g. shift + drag moves the ball)
         fields = {k: v for k, v in event.items() if k not in ("type", "target", "root")}
         ev = EVENT_TYPE_MAP[event_type](type=event_type, **fields, target=None, root=renderer)
         renderer.dispatch_event(ev)
@@ -229,6 +234,9 @@ class GrassWidget(ipw.VBox):
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
         controller: the pygfx ``OrbitController`` of the camera.
+        ball: the :class:`~grasswidget.widget_ball.BallControl`: ``ball.collider``
+            is its :class:`SphereCollider`; ``ball.enabled``, ``ball.rolling``,
+            ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10; applied
     through the nominal frame interval, see the module doc) and ``playing``.
@@ -244,6 +252,7 @@ class GrassWidget(ipw.VBox):
     canvas = None
     scene = None
     controller = None
+    ball = None
     _links = ()
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
@@ -283,7 +292,8 @@ class GrassWidget(ipw.VBox):
         self.canvas.max_pixel_ratio = defaults["max_pixel_ratio"]
         self.canvas.quality = defaults["quality"]
         self.canvas.resizable = False
-        self._events = _EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None)
+        self._events = _EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
+                                             intercept=self._on_pointer)
         self.canvas.add_event_handler(self._events, *_EventsWithoutPicking.TYPES)
         self.canvas.add_event_handler(self._on_key, "key_down")
 
@@ -362,6 +372,15 @@ class GrassWidget(ipw.VBox):
         scene.renderer.pixel_scale = 1
         self.scene = scene
         self.params = scene.params
+        if self.ball is None:
+            from .widget_ball import BallControl
+
+            self.ball = BallControl(scene, on_error=self._show_error)
+            self.ball.observe(self._on_ball_rolling, names="rolling")
+            self.ball.collider.observe(lambda _c: self._request_draw(), names=["center", "radius"])
+            self.ball.observe(lambda _c: self._request_draw(), names="enabled")
+        else:
+            self.ball.attach(scene)
         self._home_state = scene.camera.get_state()
         self._home_target = _orbit_target(scene)
         self.controller = gfx.OrbitController(scene.camera, register_events=scene.renderer)
@@ -449,7 +468,8 @@ class GrassWidget(ipw.VBox):
         buttons = ipw.HBox([self.play_button, self.step_button, self.reset_blades_button,
                             self.reset_camera_button])
         save = ipw.HBox([self.save_button, self.png_scale, self.file_line])
-        return [self.canvas, self.stats_line, ipw.HBox([left, middle, right]), buttons, save, self.message_line]
+        return [self.canvas, self.stats_line, ipw.HBox([left, middle, right]), self.ball.controls, buttons, save,
+                self.message_line]
 
     # ------------------------------------------------------------------ properties
 
@@ -604,6 +624,9 @@ class GrassWidget(ipw.VBox):
             except Exception:
                 pass
             canvas.close()
+        if self.ball is not None:
+            self.ball.rolling = False
+            self.ball.detach()
         if self.scene is not None:
             self._release_scene(self.scene)
         self.scene = None
@@ -665,6 +688,23 @@ class GrassWidget(ipw.VBox):
             finally:
                 self.blade_slider.observe(self._on_blade_slider, names="value")
 
+    def _on_pointer(self, event):
+        """Shift + drag moves the ball; other events go on to the camera controller."""
+        if self.ball is None or self._closed:
+            return False
+        try:
+            w, h = self.canvas.get_logical_size()
+            view = (w, h) if w > 1 and h > 1 else self.size  # no browser view yet: the asked size
+            used = self.ball.handle_event(event, view)
+        except Exception as err:  # never let a pointer event break the canvas
+            self._show_error(err)
+            return False
+        return used
+
+    def _on_ball_rolling(self, change):
+        if change["new"] and not self.playing:
+            self.playing = True  # the ball rolls with simulated time
+
     def _on_key(self, event):
         key = str(event.get("key", "")).lower()
         if event.get("modifiers"):
@@ -702,9 +742,10 @@ class GrassWidget(ipw.VBox):
             return
         t0 = time.perf_counter()
         if self.playing:
-            n = self.steps_per_frame
-            if n:
-                scene.step(n)
+            # A rolling ball moves between chunks of steps (simulated time, not wall clock).
+            for chunk in self.ball.step_chunks(self.steps_per_frame, self.params.dt):
+                self.ball.advance(chunk * self.params.dt)
+                scene.step(chunk)
         draw = getattr(scene, "_draw", None)  # the scene's own draw: renders and feeds scene.stats
         if callable(draw):
             draw()
