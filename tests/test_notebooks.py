@@ -25,7 +25,7 @@ PROBE = "import sys as _sys; print('PREFIX=' + _sys.prefix)"
 
 def test_there_are_notebooks():
     names = [p.stem for p in NOTEBOOKS]
-    assert names[:4] == ["01_tour", "02_blade_model", "03_culling", "04_performance"], names
+    assert names[:5] == ["01_tour", "02_blade_model", "03_culling", "04_performance", "05_colliders_and_wind"], names
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
@@ -58,3 +58,8 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     if path.stem == "01_tour":
         assert (tmp_path / "tour.png").stat().st_size > 1000
         assert (tmp_path / "tour.gif").stat().st_size > 1000
+    if path.stem == "05_colliders_and_wind":
+        for name in ("trampled.png", "vortex.png", "planet.png"):
+            assert (tmp_path / name).stat().st_size > 1000
+        text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+        assert "refused: wind_wgsl line 2" in text  # the bad snippet's error names its line
