@@ -311,6 +311,7 @@ class BallControl(HasTraits):
             return True
         if kind == "pointer_up" and self._dragging:
             self._dragging = False
+            self._drag_to(event, view_size)
             return True
         return False
 
