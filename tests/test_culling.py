@@ -226,6 +226,30 @@ def test_stats_are_non_blocking_and_converge(scene):
     assert st.render_ms > 0
 
 
+def test_stats_before_the_first_step():
+    """Rendering before any step() works and reports no simulation time (the
+    simulation's timestamp queries hold no measurement yet; resolving never-written
+    queries hung NVIDIA's driver, so FrameStats writes them once at creation)."""
+    sc = gw.GrassScene(512, size=(64, 48))
+    st = sc.stats
+    for _ in range(4):
+        sc.render()
+    st.poll()
+    sc.field.read_state()  # waits for the queue: the stats copies are done
+    st.poll()
+    assert st.visible == sc.visible_count() > 0
+    assert "simulation" not in st.gpu_ms
+    if st.timestamps:
+        sc.step(1)
+        sc.render()
+        sc.field.read_state()
+        st.poll()
+        sc.render()
+        sc.field.read_state()
+        st.poll()
+        assert st.gpu_ms.get("simulation", 0) > 0
+
+
 @pytest.mark.parametrize(
     "name, value",
     [("cull_orientation_threshold", 1.5), ("cull_orientation_threshold", -0.1), ("cull_buckets", 0),

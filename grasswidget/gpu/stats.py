@@ -67,8 +67,19 @@ class FrameStats:
             )
             # wgpu-native reports timestamps in nanoseconds on Vulkan (period 1 ns).
             self._period_ns = 1.0
+            # Write every query once now. Resolving a query that was never written
+            # waits for it forever on NVIDIA's Vulkan driver (a render before the
+            # first step() hung the GPU); written once, a query stays available.
+            enc = device.create_command_encoder()
+            for q in range(0, N_QUERIES, 2):
+                enc.begin_compute_pass(
+                    timestamp_writes={"query_set": self.query_set, "beginning_of_pass_write_index": q,
+                                      "end_of_pass_write_index": q + 1}
+                ).end()
+            device.queue.submit([enc.finish()])
         else:
             self.query_set = None
+        self._written = set()  # timestamp pairs written by real work: "simulation", "draw"
 
     # ------------------------------------------------------------------ hooks
 
@@ -76,6 +87,7 @@ class FrameStats:
         """timestamp_writes for the simulation's compute pass, or None."""
         if not self.timestamps:
             return None
+        self._written.add("simulation")
         return {"query_set": self.query_set, "beginning_of_pass_write_index": Q_SIM, "end_of_pass_write_index": Q_SIM + 1}
 
     def draw_timestamp(self, render_pass, when):
@@ -84,6 +96,8 @@ class FrameStats:
             from wgpu.backends.wgpu_native.extras import write_timestamp
 
             write_timestamp(render_pass, self.query_set, Q_DRAW + (0 if when == "before" else 1))
+            if when == "after":
+                self._written.add("draw")
 
     def after_render(self, render_ms=None):
         """Queue the copies for this frame and pick up finished earlier ones."""
@@ -130,7 +144,7 @@ class FrameStats:
         if self.timestamps:
             ts = raw[nargs:].view(np.uint64).astype(np.float64)
             for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):
-                if ts[q + 1] > ts[q] > 0:
+                if name in self._written and ts[q + 1] > ts[q] > 0:
                     self.gpu_ms[name] = float((ts[q + 1] - ts[q]) * self._period_ns / 1e6)
 
     def release(self):
