@@ -29,3 +29,17 @@ def small_blades():
     import grasswidget as gw
 
     return gw.Blades.on_plane(2048, seed=3)
+
+
+#: View size of the test widgets (CSS pixels).
+WIDGET_SIZE = (160, 120)
+
+
+@pytest.fixture
+def widget():
+    """A GrassWidget of 1024 blades at WIDGET_SIZE, closed after the test."""
+    import grasswidget as gw
+
+    w = gw.GrassWidget(blades=1024, size=WIDGET_SIZE)
+    yield w
+    w.close()

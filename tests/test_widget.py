@@ -12,19 +12,12 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
-from conftest import grass_mask
+from conftest import WIDGET_SIZE, grass_mask
 
 ipywidgets = pytest.importorskip("ipywidgets")
 pytest.importorskip("jupyter_rfb")
 
-SIZE = (160, 120)
-
-
-@pytest.fixture
-def widget():
-    w = gw.GrassWidget(blades=1024, size=SIZE)
-    yield w
-    w.close()
+SIZE = WIDGET_SIZE  # the conftest's ``widget`` fixture has this view size
 
 
 def _resize(w, width=SIZE[0], height=SIZE[1], ratio=1.0):

@@ -7,18 +7,12 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
+from conftest import WIDGET_SIZE
 from grasswidget.widget_ball import ground_point
 
 pytest.importorskip("jupyter_rfb")
 
-SIZE = (160, 120)
-
-
-@pytest.fixture
-def widget():
-    w = gw.GrassWidget(blades=1024, size=SIZE)
-    yield w
-    w.close()
+SIZE = WIDGET_SIZE  # the conftest's ``widget`` fixture has this view size
 
 
 def _screen_of(camera, point, size=SIZE):
