@@ -744,7 +744,11 @@ class GrassWidget(ipw.VBox):
         if self.playing:
             # A rolling ball moves between chunks of steps (simulated time, not wall clock).
             for chunk in self.ball.step_chunks(self.steps_per_frame, self.params.dt):
-                self.ball.advance(chunk * self.params.dt)
+                try:
+                    self.ball.advance(chunk * self.params.dt)
+                except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
+                    self.ball.rolling = False
+                    self._show_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
                 scene.step(chunk)
         draw = getattr(scene, "_draw", None)  # the scene's own draw: renders and feeds scene.stats
         if callable(draw):

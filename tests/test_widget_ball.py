@@ -158,6 +158,15 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     widget._draw()
     x, _y, z = ball.collider.center
     assert z == 1.0 and x == pytest.approx(-2.0 + ball.roll_speed * widget.steps_per_frame * dt)
+    # a path that fails stops the rolling with a message; the widget goes on
+    ball.path = lambda dist: 1 / 0
+    widget._draw()
+    assert not ball.rolling and "ball path: ZeroDivisionError" in widget.message_line.value
+    steps = widget.scene.field.step_count
+    widget._draw()
+    assert widget.scene.field.step_count == steps + widget.steps_per_frame
+    ball.path = None
+    ball.roll_button.value = True
     ball.roll_button.value = False
     assert not ball.rolling and ball.roll_button.description == "Roll"
 
