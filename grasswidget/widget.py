@@ -46,9 +46,10 @@ import weakref
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import Bool, TraitError
+from traitlets import Bool
 
 from .blades import Blades
+from .control_link import ControlLink
 from .params import WIND_FIELDS, GrassParams, RangedFloat
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME"]
@@ -161,54 +162,6 @@ def _current_cell_id():
 
 #: cell id -> weakref of the GrassWidget last created by that cell.
 _BY_CELL: dict = {}
-
-
-class _ParamLink:
-    """Two-way link between a control's ``value`` and a HasTraits trait.
-
-    Unlike ``ipywidgets.link`` it never lets an error escape into the widget
-    machinery: a value the trait refuses puts the control back to the trait's
-    value (and is reported on the widget's message line).
-    """
-
-    def __init__(self, control, obj, name, on_error=None, to_obj=None, to_control=None):
-        self.control, self.obj, self.name = control, obj, name
-        self.on_error = on_error
-        self.to_obj = to_obj or (lambda v: v)
-        self.to_control = to_control or (lambda v: v)
-        self._busy = False
-        control.value = self.to_control(getattr(obj, name))
-        control.observe(self._from_control, names="value")
-        obj.observe(self._from_obj, names=name)
-
-    def _from_control(self, change):
-        if self._busy:
-            return
-        self._busy = True
-        try:
-            setattr(self.obj, self.name, self.to_obj(change["new"]))
-        except (TraitError, ValueError, TypeError) as err:
-            self.control.value = self.to_control(getattr(self.obj, self.name))
-            if self.on_error:
-                self.on_error(err)
-        finally:
-            self._busy = False
-
-    def _from_obj(self, change):
-        if self._busy:
-            return
-        self._busy = True
-        try:
-            self.control.value = self.to_control(change["new"])
-        finally:
-            self._busy = False
-
-    def unlink(self):
-        for owner, fn in ((self.control, self._from_control), (self.obj, self._from_obj)):
-            try:
-                owner.unobserve(fn, names=self.name if owner is self.obj else "value")
-            except ValueError:
-                pass
 
 
 class GrassWidget(ipw.VBox):
@@ -418,24 +371,24 @@ class GrassWidget(ipw.VBox):
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
             s = self._slider(name, p, step, fmt)
-            self._links.append(_ParamLink(s, p, name, err))
+            self._links.append(ControlLink(s, p, name, err))
             self.sliders[name] = s
             sliders.append(s)
         ts = self._slider("time_scale", self, 0.05, ".2f")
-        self._links.append(_ParamLink(ts, self, "time_scale", err))
+        self._links.append(ControlLink(ts, self, "time_scale", err))
         self.sliders["time_scale"] = ts
         sliders.append(ts)
 
         choices = tuple(getattr(p.traits()["wind_field"], "choices", None) or WIND_FIELDS)
         self.wind_field_dropdown = ipw.Dropdown(options=choices, value=p.wind_field, description="wind_field",
                                                 style=_DESC, layout=ipw.Layout(width="360px"))
-        self._links.append(_ParamLink(self.wind_field_dropdown, p, "wind_field", err))
+        self._links.append(ControlLink(self.wind_field_dropdown, p, "wind_field", err))
 
         self.checkboxes = {}
         for label, name in CULL_CHECKBOXES:
             cb = ipw.Checkbox(value=getattr(p, name), description=label, indent=False,
                               layout=ipw.Layout(width="180px"))
-            self._links.append(_ParamLink(cb, p, name, err))
+            self._links.append(ControlLink(cb, p, name, err))
             self.checkboxes[name] = cb
 
         bl = ipw.Layout(width="130px")
@@ -625,7 +578,6 @@ class GrassWidget(ipw.VBox):
                 pass
             canvas.close()
         if self.ball is not None:
-            self.ball.rolling = False
             self.ball.detach()
         if self.scene is not None:
             self._release_scene(self.scene)

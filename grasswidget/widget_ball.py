@@ -27,6 +27,7 @@ import numpy as np
 from traitlets import Any, Bool, HasTraits, TraitError
 
 from .colliders import SphereCollider
+from .control_link import ControlLink
 from .params import RangedFloat
 
 __all__ = ["BallControl", "ground_point"]
@@ -96,16 +97,18 @@ class BallControl(HasTraits):
         self._dragging = False
         self._rolled = 0.0  # metres rolled along the current path
         self._circle = None  # (cx, cz, R, angle0) of the current circular path
+        self._advancing = False  # the ball moves along its path (not by hand)
         self.scene = None
         self._set_bounds(scene)
-        self.collider = SphereCollider(center=(self._center[0], self._ground_y + self._radius0, self._center[1]),
-                                       radius=self._radius0)
-        self._build_controls()
-        self.attach(scene)
+        radius = round(max(0.1, 0.1 * self._extent), 2)
+        self.collider = SphereCollider(center=(self._center[0], self._ground_y + radius, self._center[1]),
+                                       radius=radius)
         self.observe(self._on_enabled, names="enabled")
         self.observe(self._on_rolling, names="rolling")
         self.observe(self._on_path, names="path")
         self.collider.observe(self._on_collider, names=["center", "radius"])
+        self._build_controls()
+        self.attach(scene)
 
     # ------------------------------------------------------------------ scene
 
@@ -116,7 +119,6 @@ class BallControl(HasTraits):
         self._center = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[2] + hi[2]))
         self._extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         self._ground_y = float(np.median(v0[:, 1]))
-        self._radius0 = round(max(0.1, 0.1 * self._extent), 2)
 
     def attach(self, scene):
         """Act on ``scene`` (a new field after a blade-count change): the ball keeps
@@ -132,10 +134,14 @@ class BallControl(HasTraits):
             scene.colliders.append(self.collider)
 
     def detach(self):
-        """Take the ball out of the scene (the widget closes)."""
+        """Take the ball out of the scene and unlink the controls (the widget closes)."""
+        self.rolling = False
         if self.scene is not None and self.collider in self.scene.colliders:
             self.scene.colliders.remove(self.collider)
         self.scene = None
+        for link in self._links:
+            link.unlink()
+        self._links = []
 
     # ------------------------------------------------------------------ controls
 
@@ -155,78 +161,56 @@ class BallControl(HasTraits):
         self.roll_button = ipw.ToggleButton(value=False, description="Roll", icon="circle",
                                             layout=ipw.Layout(width="90px"),
                                             tooltip="Roll the ball along its path (a circle around the field's centre)")
-        self._sync_sliders()
-        self.checkbox.observe(lambda c: self._guard(setattr, self, "enabled", bool(c["new"])), names="value")
-        self.roll_button.observe(lambda c: self._guard(setattr, self, "rolling", bool(c["new"])), names="value")
-        self.x_slider.observe(lambda c: self._guard(self.move_to, x=c["new"]), names="value")
-        self.z_slider.observe(lambda c: self._guard(self.move_to, z=c["new"]), names="value")
-        self.radius_slider.observe(lambda c: self._guard(self.set_radius, c["new"]), names="value")
+        err, col = self._on_error, self.collider
+        self._links = [
+            ControlLink(self.checkbox, self, "enabled", err),
+            ControlLink(self.roll_button, self, "rolling", err),
+            ControlLink(self.x_slider, col, "center", err, to_obj=lambda x: self._on_ground(x=x),
+                        to_control=lambda c: c[0]),
+            ControlLink(self.z_slider, col, "center", err, to_obj=lambda z: self._on_ground(z=z),
+                        to_control=lambda c: c[2]),
+            ControlLink(self.radius_slider, col, "radius", err),
+        ]
         self.controls = ipw.HBox([self.checkbox, self.x_slider, self.z_slider, self.radius_slider, self.roll_button])
 
     def _update_slider_ranges(self):
+        """Slider ranges for the current field (a ball outside is brought to the edge)."""
         pad = 0.1 * self._extent
         rmax = round(max(0.5, 0.3 * self._extent), 2)
         ranges = ((self.x_slider, float(self._lo[0] - pad), float(self._hi[0] + pad)),
                   (self.z_slider, float(self._lo[2] - pad), float(self._hi[2] + pad)),
                   (self.radius_slider, 0.05, rmax))
-        self._syncing = True  # a clamped slider value must not move the ball
-        try:
-            for slider, lo, hi in ranges:
-                if lo > slider.max:  # keep min <= max at every moment
-                    slider.max, slider.min = hi, lo
-                else:
-                    slider.min, slider.max = lo, hi
-        finally:
-            self._syncing = False
-
-    def _guard(self, fn, *args, **kwargs):
-        if getattr(self, "_syncing", False):
-            return
-        try:
-            fn(*args, **kwargs)
-        except (TraitError, ValueError, TypeError) as err:
-            self._sync_sliders()
-            self._on_error(err)
-
-    def _sync_sliders(self):
-        """Put the controls in line with the collider and the traits."""
-        self._syncing = True
-        try:
-            cx, _cy, cz = self.collider.center
-            self.x_slider.value = cx
-            self.z_slider.value = cz
-            self.radius_slider.value = self.collider.radius
-            self.checkbox.value = self.enabled
-            self.roll_button.value = self.rolling
-            self.roll_button.description = "Stop" if self.rolling else "Roll"
-        finally:
-            self._syncing = False
+        for slider, lo, hi in ranges:
+            if lo > slider.max:  # keep min <= max at every moment
+                slider.max, slider.min = hi, lo
+            else:
+                slider.min, slider.max = lo, hi
 
     # ------------------------------------------------------------------ moving
 
-    def move_to(self, x=None, z=None):
-        """Put the ball at (x, z) on the ground (metres; None keeps that coordinate)."""
+    def _on_ground(self, x=None, z=None):
+        """The centre (x, ground + radius, z), metres; None keeps that coordinate."""
         cx, _cy, cz = self.collider.center
         x = cx if x is None else x
         z = cz if z is None else z
         for name, v in (("x", x), ("z", z)):
             if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or not math.isfinite(float(v)):
                 raise ValueError(f"ball {name} must be a finite number (metres); got {v!r}")
-        self.collider.center = (float(x), self._ground_y + self.collider.radius, float(z))
+        return (float(x), self._ground_y + self.collider.radius, float(z))
+
+    def move_to(self, x=None, z=None):
+        """Put the ball at (x, z) on the ground (metres; None keeps that coordinate)."""
+        self.collider.center = self._on_ground(x, z)
 
     def set_radius(self, radius):
         """Resize the ball (metres, > 0); it stays resting on the ground."""
-        cx, _cy, cz = self.collider.center
-        with self.collider.hold_trait_notifications():
-            self.collider.radius = radius
-            self.collider.center = (cx, self._ground_y + self.collider.radius, cz)
+        self.collider.radius = radius
 
     def _on_collider(self, change):
-        self._sync_sliders()
-        if change["name"] == "center" and not self._advancing:
+        if change["name"] == "radius":
+            self.collider.center = self._on_ground()  # resting on the ground
+        elif not self._advancing:
             self._circle = None  # moved by hand: a new path from here
-
-    _advancing = False
 
     def _on_enabled(self, change):
         scene = self.scene
@@ -237,12 +221,11 @@ class BallControl(HasTraits):
                 scene.colliders.remove(self.collider)
         if not change["new"]:
             self.rolling = False
-        self._sync_sliders()
 
     def _on_rolling(self, change):
         if change["new"]:
             self.enabled = True
-        self._sync_sliders()
+        self.roll_button.description = "Stop" if change["new"] else "Roll"
 
     def _on_path(self, change):
         if change["new"] is not None and not callable(change["new"]):
