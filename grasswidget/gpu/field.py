@@ -394,8 +394,15 @@ class GrassField(gfx.WorldObject):
 
     @property
     def step_count(self) -> int:
-        """Fixed steps simulated since creation or the last reset()."""
+        """Fixed steps simulated since creation or the last reset(); the wind's time is
+        ``step_count * params.dt``. Settable (an integer >= 0), e.g. to put back a saved state."""
         return self._step_count
+
+    @step_count.setter
+    def step_count(self, value):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValueError(f"step_count must be an integer >= 0; got {value!r}")
+        self._step_count = int(value)
 
     @property
     def bytes_per_blade(self) -> int:
