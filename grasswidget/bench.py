@@ -27,8 +27,9 @@ import numpy as np
 
 __all__ = ["run_bench", "format_table", "CULL_MODES"]
 
-#: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "each" (on, off, and each test alone).
-CULL_MODES = ("on", "off", "each")
+#: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "both" (off, then on, in
+#: one run: their ratio is what culling buys), "each" (on, off, and each test alone).
+CULL_MODES = ("on", "off", "both", "each")
 
 
 def _modes(cull):
@@ -36,6 +37,8 @@ def _modes(cull):
         return ["on"]
     if cull == "off":
         return ["off"]
+    if cull == "both":
+        return ["off", "on"]
     if cull == "each":
         return ["off", "orientation", "frustum", "distance", "on"]
     raise ValueError(f"cull must be one of {', '.join(CULL_MODES)}; got {cull!r}")
@@ -58,7 +61,7 @@ class _Timer:
 
     def __init__(self, scene):
         from .gpu.compute import ComputeProgram
-        from .gpu.shaders import CullShader, ResetArgsShader
+        from .gpu.shaders import CullShader, PrefixBandsShader, ResetArgsShader
 
         self.scene = scene
         self.device = scene.field.stats.device
@@ -70,10 +73,12 @@ class _Timer:
         self.qs = self.device.create_query_set(type="timestamp", count=4)
         self.buf = self.device.create_buffer(size=32, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
         self.reset = ComputeProgram(ResetArgsShader(scene.field), scene.field)
-        self.cull = ComputeProgram(CullShader(scene.field), scene.field)
+        self.count = ComputeProgram(CullShader(scene.field, "count"), scene.field)
+        self.prefix = ComputeProgram(PrefixBandsShader(scene.field), scene.field)
+        self.cull = ComputeProgram(CullShader(scene.field, "scatter"), scene.field)
 
     def cull_ms(self):
-        """GPU ms of reset + cull for the current camera (uniforms of the last render)."""
+        """GPU ms of reset + cull (count, prefix, scatter) for the current camera (uniforms of the last render)."""
         from .gpu.shaders import workgroups
 
         enc = self.device.create_command_encoder()
@@ -81,6 +86,8 @@ class _Timer:
             timestamp_writes={"query_set": self.qs, "beginning_of_pass_write_index": 0, "end_of_pass_write_index": 1}
         )
         self.reset.dispatch(cp, (1, 1, 1))
+        self.count.dispatch(cp, workgroups(self.scene.field.count))
+        self.prefix.dispatch(cp, (1, 1, 1))
         self.cull.dispatch(cp, workgroups(self.scene.field.count))
         cp.end()
         enc.resolve_query_set(self.qs, 0, 2, self.buf, 0)

@@ -17,6 +17,7 @@ from .blades import Blades
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial
+from .gpu.sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from .params import GrassParams
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "make_renderer"]
@@ -73,7 +74,9 @@ class GrassScene:
 
     Attributes: ``params``, ``camera`` (a pygfx PerspectiveCamera), ``field``
     (the :class:`GrassField`), ``scene`` (the pygfx Scene), ``renderer``, ``canvas``,
-    ``ground`` (the ground plane mesh), ``collider_balls`` (a
+    ``sky_ground`` (a :class:`~grasswidget.gpu.sky_ground.SkyGround`: the sky
+    gradient and a flat ground square in one full-screen pass), ``ground``
+    (``ground.visible`` switches the ground square), ``collider_balls`` (a
     :class:`~grasswidget.gpu.collider_view.ColliderBalls`: every sphere in
     ``colliders`` is drawn as a translucent ball; ``show_colliders = False`` hides them).
     """
@@ -89,18 +92,14 @@ class GrassScene:
         self.params = self.field.params
 
         self.scene = gfx.Scene()
-        self.scene.add(gfx.Background.from_color("#9cc3e6", "#e8f1f8"))
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
-        ground = gfx.Mesh(
-            gfx.plane_geometry(extent * 1.2, extent * 1.2),
-            gfx.MeshPhongMaterial(color="#3b2a1a"),
-        )
-        ground.local.rotation = (-np.sqrt(0.5), 0, 0, np.sqrt(0.5))  # xy plane -> xz plane, facing +y
-        ground.local.position = (center[0], -0.01, center[2])
-        self.ground = ground
-        self.scene.add(ground)
+        # Sky and a flat ground square (side 1.2 x the field's) in one full-screen pass.
+        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=(center[0], -0.01, center[2]),
+                                                      ground_half_size=0.6 * extent))
+        self.ground = GroundSwitch(self.sky_ground.material)
+        self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
         self.field.add(self.collider_balls)  # colliders live in the field's local space

@@ -1,7 +1,13 @@
 // Per-frame culling and level-of-detail binning, before drawing.
-// Survivors are appended to the compacted list of their LOD class
-// (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
-// and class; the instance counts in s_args feed draw_indirect.
+// Survivors go to the compacted list of their LOD class (s_visible[class *
+// n_blades + slot]), nearest first: within a class, blades are ordered by
+// distance band (BANDS log-spaced bands of the distance to the camera), so the
+// draws run roughly front to back and the depth test rejects hidden fragments
+// before they are shaded (on a CPU adapter most of the near overdraw's cost).
+// It runs twice per frame (PHASE): "count" counts survivors per (class, band);
+// prefix_bands.wgsl turns the counts into each band's first slot and the
+// instance counts in s_args (they feed draw_indirect); "scatter" writes the ids.
+// Each phase aggregates per workgroup: one global atomicAdd per workgroup and key.
 // The twin of reference.cull() and reference.lod_class().
 
 {{ bindings_code }}
@@ -10,10 +16,21 @@
 @group(0) @binding(10) var<storage, read> s_blades: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;
 @group(0) @binding(12) var<storage, read_write> s_visible: array<u32>;
+// [0, KEYS): survivors per key = class * BANDS + band; [KEYS, 2 KEYS): next free slot per key.
+@group(0) @binding(13) var<storage, read_write> s_bands: array<atomic<u32>>;
 
 const N_CLASSES: u32 = {{ n_classes }}u;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes }}>;
+const BANDS: u32 = {{ bands }}u;
+const KEYS: u32 = N_CLASSES * BANDS;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * bands }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes * bands }}>;
+
+// Distance band, 0 = nearest: log-spaced between BAND_NEAR and BAND_FAR metres.
+fn distance_band(v0: vec3<f32>, cam_pos: vec3<f32>) -> u32 {
+    let d = max(length(v0 - cam_pos), {{ band_near }});
+    let b = f32(BANDS) * log2(d / {{ band_near }}) / log2({{ band_far }} / {{ band_near }});
+    return u32(clamp(b, 0.0, f32(BANDS - 1u)));
+}
 
 fn lod_class_of(pixels: f32) -> u32 {
     $$ for min_pixels in lod_min_pixels
@@ -28,13 +45,14 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    if (lid < N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
+    for (var k = lid; k < KEYS; k += 256u) { atomicStore(&wg_count[k], 0u); }
     workgroupBarrier();
 
     let n = u_cull.n_blades;
     let i = (wid.y * nwg.x + wid.x) * 256u + lid;
     var visible = i < n;
     var cls = 0u;
+    var key = 0u;
     var slot = 0u;
     if (visible) {
         let p0 = s_blades[4u * i + 0u];
@@ -65,19 +83,26 @@ fn main(
         if (u_cull.lod != 0) {
             cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, u_stdinfo.physical_size.y));
         }
+        key = cls * BANDS + distance_band(v0, cam_pos);
         if (visible) {
-            slot = atomicAdd(&wg_count[cls], 1u);
+            slot = atomicAdd(&wg_count[key], 1u);
         }
     }
     workgroupBarrier();
-    if (lid < N_CLASSES) {
-        let c = atomicLoad(&wg_count[lid]);
+    for (var k = lid; k < KEYS; k += 256u) {
+        let c = atomicLoad(&wg_count[k]);
         if (c > 0u) {
-            wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
+            $$ if phase == "count"
+            atomicAdd(&s_bands[k], c);
+            $$ else
+            wg_base[k] = atomicAdd(&s_bands[KEYS + k], c);
+            $$ endif
         }
     }
+    $$ if phase == "scatter"
     workgroupBarrier();
     if (visible) {
-        s_visible[cls * n + wg_base[cls] + slot] = i;
+        s_visible[cls * n + wg_base[key] + slot] = i;
     }
+    $$ endif
 }

@@ -1,7 +1,9 @@
 // Reset the indirect draw arguments at the start of every frame's compute pass:
-// one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0).
+// one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0),
+// and the distance-band counters of the culling (see cull.wgsl).
 
 @group(0) @binding(0) var<storage, read_write> s_args: array<u32>;
+@group(0) @binding(1) var<storage, read_write> s_bands: array<u32>;
 
 @compute @workgroup_size(1)
 fn main() {
@@ -11,4 +13,7 @@ fn main() {
     s_args[{{ loop.index0 }}u * 4u + 2u] = 0u;
     s_args[{{ loop.index0 }}u * 4u + 3u] = 0u;
     $$ endfor
+    for (var k = 0u; k < arrayLength(&s_bands); k += 1u) {
+        s_bands[k] = 0u;
+    }
 }

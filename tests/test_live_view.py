@@ -201,7 +201,10 @@ def test_target_fps_defaults_and_bad_values(widget):
         w.close()
 
 
-def test_stats_line_shows_the_frame_breakdown(widget):
+def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
+    import grasswidget.kernel_view as kv
+
+    monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # no refresh inside the draw: this test refreshes
     _resize(widget)
     # what the canvas reports for a streamed frame: pixels presented, then sent
     view = widget.view

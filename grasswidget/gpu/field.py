@@ -23,7 +23,7 @@ from ..reference import LOD_SEGMENTS, wind_period
 from . import indirect
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
-from .shaders import SimulateShader, register, workgroups
+from .shaders import DISTANCE_BANDS, SimulateShader, register, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
 
@@ -321,6 +321,11 @@ class GrassField(gfx.WorldObject):
         self._store.visible_buffer = gfx.Buffer(
             nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
         )
+        # Culling's distance-band counters and cursors (see cull.wgsl).
+        self._store.band_buffer = gfx.Buffer(
+            nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
+            usage=usage.STORAGE,
+        )
         self._sim_uniform = gfx.Buffer(array_from_shadertype(SIM_UNIFORM), force_contiguous=True)
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
         self._step_count = 0
@@ -364,6 +369,11 @@ class GrassField(gfx.WorldObject):
     def visible_buffer(self):
         """pygfx Buffer of LOD classes x N u32: compacted ids of the blades drawn per class."""
         return self._store.visible_buffer
+
+    @property
+    def band_buffer(self):
+        """pygfx Buffer of the culling's per (LOD class, distance band) counters (u32)."""
+        return self._store.band_buffer
 
     @property
     def _cull_uniform(self):
@@ -580,7 +590,7 @@ class GrassField(gfx.WorldObject):
         if self.stats is not None:
             self.stats.release()
             self.stats = None
-        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer")
+        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer", "band_buffer")
         destroy_buffers([self._store[name] for name in names] + [self._sim_uniform])
         self._sim_program = None
 

@@ -3,9 +3,15 @@
 One registered function per object kind (GrassField + GrassMaterial) composes the
 passes pygfx runs in every ``renderer.render()``:
 
-1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts.
-2. ``CullShader`` (compute): cull, bin into LOD classes, append survivors.
-3. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
+1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts and
+   the distance-band counters.
+2. ``CullShader("count")`` (compute): cull, bin into LOD classes and distance
+   bands, count survivors per (class, band).
+3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
+4. ``CullShader("scatter")`` (compute): the same tests again, survivors written
+   to their class's list nearest band first (front-to-back draws: the depth
+   test rejects hidden fragments before shading).
+5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
 
 ``SimulateShader`` is a compute shader of the same kind, but it is dispatched by
 ``GrassField.step()`` (never by ``render()``), so time only advances in fixed steps.
@@ -21,9 +27,13 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgsl_loader, regi
 from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
 from ..shader_files import read_shader, shader_dir
 
-__all__ = ["SimulateShader", "ResetArgsShader", "CullShader", "BladeRenderShader", "register"]
+__all__ = ["SimulateShader", "ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "register",
+           "DISTANCE_BANDS"]
 
 WORKGROUP = 256
+#: Distance bands per LOD class (draw order, nearest first), log-spaced over BAND_RANGE metres.
+DISTANCE_BANDS = 64
+BAND_RANGE = (0.5, 512.0)
 _registered = {"loader": False, "render": False}
 
 
@@ -87,7 +97,8 @@ class ResetArgsShader(_GrassCompute):
         super().__init__(wobject, lod_segments=list(LOD_SEGMENTS))
 
     def get_bindings(self, wobject, shared, scene):
-        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE")}}
+        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+                    1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE")}}
 
     def get_code(self):
         return read_shader("reset_args.wgsl")
@@ -96,14 +107,40 @@ class ResetArgsShader(_GrassCompute):
         return {"indices": (1, 1, 1)}
 
 
-class CullShader(_GrassCompute):
-    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect)."""
+class PrefixBandsShader(_GrassCompute):
+    """Between the culling phases: first slot per distance band, instance counts."""
 
     def __init__(self, wobject):
+        super().__init__(wobject, n_classes=len(LOD_SEGMENTS), bands=DISTANCE_BANDS)
+
+    def get_bindings(self, wobject, shared, scene):
+        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+                    1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE")}}
+
+    def get_code(self):
+        return read_shader("prefix_bands.wgsl")
+
+    def get_render_info(self, wobject, shared):
+        return {"indices": (1, 1, 1)}
+
+
+class CullShader(_GrassCompute):
+    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
+
+    ``phase`` "count" counts survivors per (LOD class, distance band); "scatter"
+    writes them, nearest band first (see cull.wgsl)."""
+
+    def __init__(self, wobject, phase="scatter"):
+        if phase not in ("count", "scatter"):
+            raise ValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
         super().__init__(
             wobject,
             n_classes=len(LOD_SEGMENTS),
             lod_min_pixels=[f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
+            bands=DISTANCE_BANDS,
+            band_near=f"{BAND_RANGE[0]:.3f}",
+            band_far=f"{BAND_RANGE[1]:.3f}",
+            phase=phase,
         )
 
     def get_bindings(self, wobject, shared, scene):
@@ -114,6 +151,7 @@ class CullShader(_GrassCompute):
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
+            13: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }
         for slot in (0, 1, 2):
             self.define_binding(0, slot, bindings[slot])
@@ -172,10 +210,12 @@ class BladeRenderShader(BaseShader):
 
 
 def grass_render_function(wobject):
-    """The passes of one GrassField: reset, cull, then one draw per LOD class."""
+    """The passes of one GrassField: reset, cull (count, prefix, scatter), then one draw per LOD class."""
     return [
         ResetArgsShader(wobject),
-        CullShader(wobject),
+        CullShader(wobject, "count"),
+        PrefixBandsShader(wobject),
+        CullShader(wobject, "scatter"),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS))),
     ]
 
