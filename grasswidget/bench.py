@@ -5,6 +5,9 @@
 Per blade count and culling mode it measures, after warm-up:
 - frame ms (median, p10, p90): one simulation step + one render, GPU-synchronised
   every frame (a 64-byte readback waits for the queue);
+- frame CPU ms (median): the process's CPU time over the same frame, all threads
+  (on a CPU adapter this is the rendering work itself, and it moves much less than
+  wall time when other processes load the machine);
 - simulation ms and culling+draw ms: the same two halves timed separately (wall
   clock, GPU-synchronised);
 - GPU ms from timestamp queries where the adapter has them: the simulation pass
@@ -114,16 +117,17 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         field.step(steps_per_frame)
         render()
         sync()
-    frame, sim, cull_draw, gpu_sim, gpu_draw = [], [], [], [], []
+    frame, frame_cpu, sim, cull_draw, gpu_sim, gpu_draw = [], [], [], [], [], []
     visible = None
     for _ in range(frames):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         field.step(steps_per_frame)
         sync()
         t1 = time.perf_counter()
         render()
         args = sync()
         t2 = time.perf_counter()
+        frame_cpu.append((time.process_time() - c0) * 1e3)
         frame.append((t2 - t0) * 1e3)
         sim.append((t1 - t0) * 1e3)
         cull_draw.append((t2 - t1) * 1e3)
@@ -145,6 +149,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         pipelined_fps=pipelined_fps,
         frame_ms=dict(median=_pct(frame, 50), p10=_pct(frame, 10), p90=_pct(frame, 90)),
         fps=1000.0 / _pct(frame, 50),
+        frame_cpu_ms=_pct(frame_cpu, 50),
         simulation_ms=_pct(sim, 50),
         cull_draw_ms=_pct(cull_draw, 50),
         visible=visible,
@@ -209,7 +214,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 def format_table(report: dict) -> str:
     """A plain-text table of a run_bench report."""
-    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
+    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 
     def g(row, key):
@@ -219,7 +224,8 @@ def format_table(report: dict) -> str:
     for r in report["results"]:
         f = r["frame_ms"]
         lines.append(
-            f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} {r['fps']:7.1f} "
+            f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
+            f"{r.get('frame_cpu_ms', float('nan')):7.1f} {r['fps']:7.1f} "
             f"{r['simulation_ms']:7.2f} {r['cull_draw_ms']:9.2f} {g(r, 'gpu_simulation_ms')} {g(r, 'gpu_cull_ms')} "
             f"{g(r, 'gpu_draw_ms')} {r['visible']:>9} {r['pipelined_fps']:8.1f}"
         )

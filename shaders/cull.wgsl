@@ -1,9 +1,10 @@
 // Per-frame culling and level-of-detail binning, before drawing.
 // Survivors go to the compacted list of their LOD class (s_visible[class *
-// n_blades + slot]), nearest first: within a class, blades are ordered by
-// distance band (BANDS log-spaced bands of the distance to the camera), so the
-// draws run roughly front to back and the depth test rejects hidden fragments
-// before they are shaded (on a CPU adapter most of the near overdraw's cost).
+// n_blades + slot]). With LOD on, nearest first: within a class, blades are
+// ordered by distance band (BANDS log-spaced bands of the distance to the
+// camera), so the draws run roughly front to back and the depth test rejects
+// hidden fragments before they are written (on a CPU adapter most of the near
+// overdraw's cost). With LOD off there is one list, in blade-id order.
 // It runs twice per frame (PHASE): "count" counts survivors per (class, band);
 // prefix_bands.wgsl turns the counts into each band's first slot and the
 // instance counts in s_args (they feed draw_indirect); "scatter" writes the ids.
@@ -83,7 +84,11 @@ fn main(
         if (u_cull.lod != 0) {
             cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, u_stdinfo.physical_size.y));
         }
-        key = cls * BANDS + distance_band(v0, cam_pos);
+        if (u_cull.lod != 0) {
+            key = cls * BANDS + distance_band(v0, cam_pos);  // LOD draws each class nearest band first
+        } else {
+            key = cls * BANDS;  // no LOD: one list in blade-id order
+        }
         if (visible) {
             slot = atomicAdd(&wg_count[key], 1u);
         }

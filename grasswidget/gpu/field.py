@@ -642,12 +642,14 @@ class GrassField(gfx.WorldObject):
         raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
         return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
 
-    def read_visible(self) -> np.ndarray:
-        """Sorted ids of the blades drawn by the last render (synchronous)."""
+    def read_visible(self, draw_order: bool = False):
+        """Ids of the blades drawn by the last render (synchronous): sorted, or with
+        ``draw_order=True`` a list per LOD class in the order they were drawn."""
         device = ensure_device()
         args = self.read_draw_args()
         if self.visible_buffer._wgpu_object is None:
-            return np.zeros(0, np.uint32)
+            return [np.zeros(0, np.uint32)] * N_CLASSES if draw_order else np.zeros(0, np.uint32)
         raw = device.queue.read_buffer(self.visible_buffer._wgpu_object)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
-        return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))
+        lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
+        return lists if draw_order else np.sort(np.concatenate(lists))

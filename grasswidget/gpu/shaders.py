@@ -9,8 +9,8 @@ passes pygfx runs in every ``renderer.render()``:
    bands, count survivors per (class, band).
 3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
 4. ``CullShader("scatter")`` (compute): the same tests again, survivors written
-   to their class's list nearest band first (front-to-back draws: the depth
-   test rejects hidden fragments before shading).
+   to their class's list, with LOD on nearest band first (front-to-back draws:
+   the depth test rejects hidden fragments before they are written).
 5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
 
 ``SimulateShader`` is a compute shader of the same kind, but it is dispatched by

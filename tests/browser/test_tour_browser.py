@@ -101,12 +101,13 @@ def test_tour_in_browser(browser, tmp_path):
 
 # Kernel-side helpers: the render-only rate at the widget's full size, and the clocks.
 KERNEL_HELPERS = """
-def _gw_render_only_fps(w, frames=15):
+def _gw_render_only_fps(w, scale=1.0, frames=15):
     import time
     from rendercanvas.offscreen import RenderCanvas
     from grasswidget.scene import make_renderer
-    canvas = RenderCanvas(size=w.size, pixel_ratio=1)
+    canvas = RenderCanvas(size=w.size, pixel_ratio=scale)
     renderer = make_renderer(canvas)
+    renderer.pixel_scale = 1  # render at the canvas's physical size, as the widget does
     canvas.request_draw(lambda: renderer.render(w.scene.scene, w.scene.camera))
     canvas.draw()
     t0 = time.perf_counter()
@@ -135,7 +136,7 @@ def _live_figures(page, seconds):
     scale = kernel_eval(page, "w.render_scale")
     stats = kernel_eval(page, "{k: v for k, v in w.stats.items() if k != 'gpu_ms'}")
     kernel_execute(page, "w.pause()", timeout=30)
-    render_only = kernel_eval(page, "_gw_render_only_fps(w)", timeout=120)
+    render_only = kernel_eval(page, f"_gw_render_only_fps(w, {scale})", timeout=120)
     kernel_execute(page, "w.play()", timeout=30)
     return dict(delivered_fps=round(fps, 2), render_only_fps=round(render_only, 2),
                 delivered_over_render_only=round(fps / render_only, 3),
@@ -252,7 +253,7 @@ def _run_checks(page, server, folder):
         default_blades=n_default, frames_per_second_default_blades=round(fps_default, 2),
         default=live_default, bench=live, target_fps=kernel_eval(page, "w.target_fps"),
         note="sim_over_wall: simulated / kernel wall seconds while playing; render_only_fps: the kernel alone "
-             "(step + render + readback at the full 640x480, offscreen, paused widget); render_scale: the "
+             "(step + render + readback, offscreen, at the render scale in use, paused widget); render_scale: the "
              "adaptive scale in use while the frames were counted. Ratios are from one run.",
         widget_stats=stats, max_fps=kernel_eval(page, "w.max_fps"), jpeg_quality=kernel_eval(page, "w.canvas.quality"),
         machine=dict(platform=platform.platform(), cpus=os.cpu_count(),
