@@ -8,6 +8,7 @@ pygfx/wgpu on first use.
 from .blades import Blades
 from .colliders import SphereCollider
 from .params import GrassParams
+from .teaching import CULL_COLORS, LOD_COLORS
 
 __version__ = "0.1.0"
 
@@ -21,7 +22,7 @@ _LAZY = {
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "GrassParams", "SphereCollider", *_LAZY]
+__all__ = ["Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS", *_LAZY]
 
 
 def __getattr__(name):
