@@ -2,7 +2,13 @@
 // Survivors are appended to the compacted list of their LOD class
 // (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
 // and class; the instance counts in s_args feed draw_indirect.
-// The twin of reference.cull() and reference.lod_class().
+// The twin of reference.cull_reason() and reference.lod_class().
+//
+// The culling camera is the rendering camera (u_stdinfo), or a frozen copy of
+// one (u_cull.frozen != 0: GrassField.freeze_culling). With u_cull.color_by == 2
+// ("cull"), culled blades are appended too, to s_culled as id | reason << 30
+// (reason 1 orientation, 2 frustum, 3 distance: the first test that culled the
+// blade), counted in s_culled_args: one more indirect draw, flat coloured.
 
 {{ bindings_code }}
 {$ include 'grasswidget.blade_math.wgsl' $}
@@ -10,10 +16,14 @@
 @group(0) @binding(10) var<storage, read> s_blades: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;
 @group(0) @binding(12) var<storage, read_write> s_visible: array<u32>;
+@group(0) @binding(13) var<storage, read_write> s_culled: array<u32>;
+@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;
 
 const N_CLASSES: u32 = {{ n_classes }}u;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes }}>;
+// One counter per LOD class, then one for the culled blades (color_by "cull").
+const CULLED: u32 = {{ n_classes }}u;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes + 1 }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes + 1 }}>;
 
 fn lod_class_of(pixels: f32) -> u32 {
     $$ for min_pixels in lod_min_pixels
@@ -28,15 +38,18 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    if (lid < N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
+    if (lid <= N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
     workgroupBarrier();
 
     let n = u_cull.n_blades;
     let i = (wid.y * nwg.x + wid.x) * 256u + lid;
-    var visible = i < n;
+    let valid = i < n;
+    var visible = false;
+    var listed = false;  // appended to a list (visible, or culled in color_by "cull")
     var cls = 0u;
+    var reason = 0u;
     var slot = 0u;
-    if (visible) {
+    if (valid) {
         let p0 = s_blades[4u * i + 0u];
         let p1 = s_blades[4u * i + 1u];
         let p2 = s_blades[4u * i + 2u];
@@ -48,24 +61,34 @@ fn main(
         let v2 = (m * vec4<f32>(p2.xyz, 1.0)).xyz;
         let up = normalize((m * vec4<f32>(p3.xyz, 0.0)).xyz);
         let t1 = normalize((m * vec4<f32>(width_direction(p3.xyz, p0.w), 0.0)).xyz);
-        let view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
-        let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+        var view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
+        var cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+        var viewport_height = u_stdinfo.physical_size.y;
+        if (u_cull.frozen != 0) {
+            view_proj = u_cull.frozen_view_proj;
+            cam_pos = u_cull.frozen_cam_pos.xyz;
+            viewport_height = u_cull.frozen_viewport_height;
+        }
         let scale = length(m[1].xyz);
         let h = p1.w * scale;
 
+        // The first test that culls the blade is its reason (reference.cull_reason).
         if (u_cull.cull_orientation != 0 && orientation_cull(v0, t1, cam_pos, u_cull.orientation_threshold)) {
-            visible = false;
+            reason = 1u;
+        } else if (u_cull.cull_frustum != 0 && frustum_cull(v0, v1, v2, view_proj, u_cull.frustum_tolerance)) {
+            reason = 2u;
+        } else if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
+            reason = 3u;
         }
-        if (u_cull.cull_frustum != 0 && frustum_cull(v0, v1, v2, view_proj, u_cull.frustum_tolerance)) {
-            visible = false;
-        }
-        if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
-            visible = false;
-        }
+        visible = reason == 0u;
         if (u_cull.lod != 0) {
-            cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, u_stdinfo.physical_size.y));
+            cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, viewport_height));
         }
-        if (visible) {
+        if (!visible) {
+            cls = CULLED;
+        }
+        listed = visible || u_cull.color_by == 2;
+        if (listed) {
             slot = atomicAdd(&wg_count[cls], 1u);
         }
     }
@@ -75,9 +98,16 @@ fn main(
         if (c > 0u) {
             wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
         }
+    } else if (lid == CULLED) {
+        let c = atomicLoad(&wg_count[lid]);
+        if (c > 0u) {
+            wg_base[lid] = atomicAdd(&s_culled_args[1], c);
+        }
     }
     workgroupBarrier();
     if (visible) {
         s_visible[cls * n + wg_base[cls] + slot] = i;
+    } else if (listed) {
+        s_culled[wg_base[CULLED] + slot] = i | (reason << 30u);
     }
 }

@@ -70,7 +70,14 @@ CULL_UNIFORM = dict(
     cull_distance="i4",
     lod="i4",
     n_blades="u4",
+    color_by="i4",
+    frozen="i4",
+    frozen_viewport_height="f4",
+    frozen_cam_pos="4xf4",
+    frozen_view_proj="4x4xf4",
 )
+#: Ids of params.color_by in the cull and render shaders.
+COLOR_BY_IDS = {"natural": 0, "lod": 1, "cull": 2}
 
 
 class BladeLimitError(ValueError):
@@ -321,6 +328,15 @@ class GrassField(gfx.WorldObject):
         self._store.visible_buffer = gfx.Buffer(
             nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
         )
+        # The draw of the culled blades (color_by "cull"): args, and the list of
+        # id | reason << 30, allocated (N u32) the first time "cull" is used.
+        self._store.culled_args_buffer = gfx.Buffer(
+            nbytes=16, nitems=4, format="u4", usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC
+        )
+        self._store.culled_buffer = gfx.Buffer(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        self._frozen_camera = None
+        #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
+        self.frustum_lines = None
         self._sim_uniform = gfx.Buffer(array_from_shadertype(SIM_UNIFORM), force_contiguous=True)
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
         self._step_count = 0
@@ -366,6 +382,17 @@ class GrassField(gfx.WorldObject):
         return self._store.visible_buffer
 
     @property
+    def culled_args_buffer(self):
+        """pygfx Buffer of (vertex_count, instance_count, 0, 0) u32: the draw of the
+        culled blades (instances only with ``params.color_by == "cull"``)."""
+        return self._store.culled_args_buffer
+
+    @property
+    def culled_buffer(self):
+        """pygfx Buffer of u32: ids of culled blades | reason << 30 (color_by "cull")."""
+        return self._store.culled_buffer
+
+    @property
     def _cull_uniform(self):
         return self._store.cull_uniform
 
@@ -405,7 +432,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
-        if change["name"].startswith("cull_") or change["name"] == "lod":
+        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by"):
             self._write_cull_uniform()
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
@@ -424,7 +451,59 @@ class GrassField(gfx.WorldObject):
         d["cull_distance"] = int(p.cull_distance)
         d["lod"] = int(p.lod)
         d["n_blades"] = self.count
+        d["color_by"] = COLOR_BY_IDS[p.color_by]
+        if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
+            self._store.culled_buffer = gfx.Buffer(
+                nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
+            )
+        frozen = self._frozen_camera
+        d["frozen"] = int(frozen is not None)
+        if frozen is not None:
+            d["frozen_view_proj"] = frozen.view_proj.T  # WGSL matrices are column-major
+            d["frozen_cam_pos"] = (*frozen.position, 1.0)
+            d["frozen_viewport_height"] = frozen.viewport_size[1]
         self._cull_uniform.update_full()
+
+    # ------------------------------------------------------------------ frozen culling
+
+    def freeze_culling(self, camera, viewport_size):
+        """Cull and pick LOD classes against a copy of ``camera`` from now on.
+
+        Copies the camera's world pose and projection at the aspect of
+        ``viewport_size`` ((width, height) in physical pixels of the view it
+        renders; also the pixel scale of the LOD classes). Any camera may then
+        render the field: the same blades stay culled, and the copy's view volume
+        is drawn as white lines (:attr:`frustum_lines`, a child of the field).
+        Freezing again replaces the copy. See :meth:`unfreeze_culling`.
+        """
+        from .frozen_camera import FrozenCamera
+
+        frozen = FrozenCamera(camera, viewport_size)
+        to_local = np.linalg.inv(np.asarray(self.world.matrix, np.float64))
+        if self.frustum_lines is not None:
+            self.remove(self.frustum_lines)
+        self._frozen_camera = frozen
+        self.frustum_lines = frozen.make_lines(to_local)
+        self.add(self.frustum_lines)
+        self._write_cull_uniform()
+
+    def unfreeze_culling(self):
+        """Cull against the camera of each render again (and hide the frustum lines)."""
+        if self.frustum_lines is not None:
+            self.remove(self.frustum_lines)
+        self.frustum_lines = None
+        self._frozen_camera = None
+        self._write_cull_uniform()
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True while the field culls against a frozen camera (:meth:`freeze_culling`)."""
+        return self._frozen_camera is not None
+
+    @property
+    def frozen_camera(self):
+        """The :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` culled against, or None."""
+        return self._frozen_camera
 
     # ------------------------------------------------------------------ simulation
 
@@ -573,7 +652,8 @@ class GrassField(gfx.WorldObject):
         if self.stats is not None:
             self.stats.release()
             self.stats = None
-        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer")
+        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
+                 "culled_args_buffer", "culled_buffer")
         destroy_buffers([self._store[name] for name in names] + [self._sim_uniform])
         self._sim_program = None
 
