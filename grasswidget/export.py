@@ -165,7 +165,7 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
         canvas.close()
         if restore:
             field.write_state(saved)
-            # GrassField has no public setter for its step counter (wind time is
-            # derived from it); put it back so the wind continues where it was.
-            field._step_count = saved_steps
+            # The wind time is derived from the step counter: put it back so the
+            # wind continues where it was.
+            field.step_count = saved_steps
     return path
