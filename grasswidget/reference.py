@@ -661,7 +661,8 @@ FORCE_NAMES = ("gravity", "recovery", "wind", "collision")
 
 
 def blade_forces(state, params, t, colliders=None, user_wind=None):
-    """The accelerations (m/s^2) acting on each tip guide v2 in the next step from ``state``.
+    """What moves each tip guide v2 in the next step from ``state``: three
+    accelerations (m/s^2) and the collision push (m).
 
     Returns a dict of (N, 3) arrays, keyed by :data:`FORCE_NAMES`:
 
@@ -671,10 +672,9 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
       fade (the explicit form of the paper's eq. 4; the integrator takes it at the
       end of the step, see :func:`integrate_tip`);
     - ``wind``: w = W(v0, t) fd fr (eq. 3-5) at time ``t`` (s);
-    - ``collision``: the displacement d that the colliders apply to v2 in this
-      step (after the forces and the validation, as :func:`simulate_step` does),
-      divided by dt^2: the acceleration that moves the tip by d in one step. Zero
-      where no sphere touches the blade.
+    - ``collision``: the displacement d (m, not an acceleration) by which the
+      colliders push v2 in this step, after the forces and the validation, as
+      :func:`simulate_step` does. Zero where no sphere touches the blade.
 
     The state is not changed. ``colliders`` and ``user_wind`` as in :func:`simulate_step`.
     """
@@ -697,5 +697,5 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
     if len(spheres):
         v1_step, v2_step = _forces_and_validation(state, params, t, user_wind, s)
         _, v2_pushed, _ = _collision_passes(v0, up, h, v1_step, v2_step, spheres)
-        collision = (v2_pushed - v2_step) / (params.dt * params.dt)
+        collision = v2_pushed - v2_step
     return {"gravity": g, "recovery": r, "wind": w, "collision": collision}

@@ -189,6 +189,55 @@ class GrassScene:
         """Put the camera back where the scene started."""
         self.camera.local.position, self.camera.local.rotation = self._home
 
+    # ------------------------------------------------------------------ teaching views
+
+    def viewport_size(self) -> tuple:
+        """(width, height) in physical pixels of the scene's view (its renderer's
+        target; the asked ``size`` while the canvas has none yet)."""
+        try:
+            w, h = self.renderer.physical_size
+        except Exception:
+            w = h = 0
+        return (int(w), int(h)) if w > 0 and h > 0 else tuple(self.size)
+
+    def freeze_culling(self):
+        """Freeze culling at the current camera: from now on the field culls and
+        picks LOD classes against a copy of this camera (pose, projection,
+        viewport), however the camera moves, and the copy's view volume is drawn
+        as white lines. Fly out (e.g. above the field) to see what the frozen view
+        keeps; with ``params.color_by = "cull"`` every culled blade shows the test
+        that culled it. Freezing again takes a new copy. See :meth:`unfreeze_culling`.
+        """
+        self.field.freeze_culling(self.camera, self.viewport_size())
+
+    def unfreeze_culling(self):
+        """Cull against the rendering camera again (the default)."""
+        self.field.unfreeze_culling()
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True between :meth:`freeze_culling` and :meth:`unfreeze_culling`."""
+        return self.field.culling_frozen
+
+    def inspect(self, ids):
+        """Show up to 64 blades in the blade inspector: v0, v1, v2 as dots, the
+        control polygon, and arrows for the forces of the current step on v2
+        (gravity: violet, recovery: cyan, wind: red; an acceleration of 20 m/s^2
+        is as long as the blade) and the push of a touching sphere in this step
+        (amber, drawn 10 times its length), every frame from the GPU state. ``inspect([])`` clears. Ids out of range, more than 64 ids
+        or non-integers raise ValueError naming the limit. See GrassField.inspect.
+        """
+        self.field.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades."""
+        return self.field.inspected
+
+    def read_inspected(self) -> list:
+        """Numbers of the inspected blades as of the last render: GrassField.read_inspected."""
+        return self.field.read_inspected()
+
     # ------------------------------------------------------------------ time
 
     def step(self, n: int = 1):

@@ -27,6 +27,7 @@ __all__ = [
     "INSPECTOR_COLORS",
     "MAX_INSPECTED",
     "ARROW_ACCEL_PER_HEIGHT",
+    "COLLISION_ARROW_SCALE",
     "hex_to_rgb",
     "legend",
     "frustum_corners",
@@ -56,6 +57,9 @@ MAX_INSPECTED = 64
 #: Inspector arrows: an acceleration of this many m/s^2 is drawn as long as the
 #: blade is high (so default gravity, 9.8 m/s^2 plus front gravity, is about half a blade).
 ARROW_ACCEL_PER_HEIGHT = 20.0
+#: The collision arrow is the push of one step (metres; a few millimetres to
+#: centimetres) drawn this many times longer.
+COLLISION_ARROW_SCALE = 10.0
 
 assert len(LOD_COLORS) == len(LOD_SEGMENTS)
 assert tuple(CULL_COLORS) == CULL_REASONS[1:]

@@ -8,7 +8,8 @@ own module:
   its mouse and key events and its clock;
 * a control panel (:class:`grasswidget.panel.ControlPanel`): sliders, culling
   checkboxes, the ball row (:mod:`grasswidget.widget_ball`), play/pause/step/
-  reset buttons, a live stats line and a "Save PNG" button, linked to the
+  reset buttons, a live stats line, a "Save PNG" button and the teaching row
+  (colour by, freeze culling, legend, inspected blade), linked to the
   :class:`GrassParams` traits.
 
 ::
@@ -27,7 +28,9 @@ collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
 input, not to the notebook): space = play/pause, ``s`` = step one frame,
-``r`` = reset the camera.
+``r`` = reset the camera. Ctrl + click on a blade inspects it (``w.inspect(ids)``
+from code); "freeze culling" (``w.culling_frozen = True``) freezes culling at the
+current camera, so orbiting away shows what that view culls.
 """
 
 from __future__ import annotations
@@ -114,12 +117,14 @@ class GrassWidget(ipw.VBox):
         step_button, reset_blades_button, reset_camera_button, save_button,
         png_scale, file_line, stats_line, message_line: the panel's controls.
 
-    Traits: ``time_scale`` (simulated seconds per real second, 0..10) and ``playing``.
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
+    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
     """
 
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per real second (at the nominal frame rate).")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -173,7 +178,7 @@ class GrassWidget(ipw.VBox):
         try:
             self.view = KernelView(self._blades, self.size, self.params, preset=preset, streaming=streaming,
                                    clock=self, actions=self, on_error=self._show_error,
-                                   on_stats=self._show_stats)
+                                   on_stats=self._show_stats, on_inspect=self._show_inspected)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
@@ -186,6 +191,7 @@ class GrassWidget(ipw.VBox):
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
+        self.observe(self._on_culling_frozen, names="culling_frozen")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -300,6 +306,21 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         self.view.reset_camera()
 
+    def inspect(self, ids):
+        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
+        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
+        else raises ValueError naming the limit (nothing changes then)."""
+        self._check_open()
+        if not hasattr(self.view, "inspect"):
+            self.panel.show_unsupported("the blade inspector", self.view.backend)
+            return
+        self.view.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
+        return tuple(getattr(self.view, "inspected", ()))
+
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path.
 
@@ -390,6 +411,18 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+
+    def _show_inspected(self, blades):
+        if self.panel is not None:
+            self.panel.show_inspected(blades)
+
+    def _on_culling_frozen(self, change):
+        if self._closed:
+            return
+        if not hasattr(self.view, "set_culling_frozen"):
+            self.panel.show_unsupported("freeze culling", self.view.backend)
+            return
+        self.view.set_culling_frozen(bool(change["new"]))
 
     def _on_time_scale(self, change):
         if not self._closed:

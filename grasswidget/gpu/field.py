@@ -124,6 +124,9 @@ class GrassField(gfx.WorldObject):
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
         self.frustum_lines = None
+        #: The blade inspector (a child :class:`~grasswidget.gpu.inspector.BladeInspector`),
+        #: created by the first :meth:`inspect`.
+        self.inspector = None
         #: The physics: compute program, ``u_sim`` uniform writer and step counter.
         self.simulation = Simulation(self)
         # Per-blade collision strength eta (N float32), persistent across steps.
@@ -257,7 +260,7 @@ class GrassField(gfx.WorldObject):
 
     # ------------------------------------------------------------------ frozen culling
 
-    def freeze_culling(self, camera, viewport_size):
+    def freeze_culling(self, camera, viewport_size=None):
         """Cull and pick LOD classes against a copy of ``camera`` from now on.
 
         Copies the camera's world pose and projection at the aspect of
@@ -265,9 +268,16 @@ class GrassField(gfx.WorldObject):
         renders; also the pixel scale of the LOD classes). Any camera may then
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
-        Freezing again replaces the copy. See :meth:`unfreeze_culling`.
+        Freezing again replaces the copy. ``camera`` may also be a
+        :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
+        :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
         """
-        frozen = FrozenCamera(camera, viewport_size)
+        if isinstance(camera, FrozenCamera):
+            frozen = camera
+        elif viewport_size is None:
+            raise ValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
+        else:
+            frozen = FrozenCamera(camera, viewport_size)
         to_local = np.linalg.inv(np.asarray(self.world.matrix, np.float64))
         if self.frustum_lines is not None:
             self.remove(self.frustum_lines)
@@ -283,6 +293,38 @@ class GrassField(gfx.WorldObject):
         self.frustum_lines = None
         self._frozen_camera = None
         self._write_cull_uniform()
+
+    # ------------------------------------------------------------------ inspector
+
+    def inspect(self, ids):
+        """Draw these blades' control points v0, v1, v2, control polygon and the
+        forces of the current step on v2 (gravity, recovery, wind, and the
+        collision push when a sphere touches) as arrows, every frame, from the GPU
+        state (see :mod:`grasswidget.gpu.inspector`). ``[]`` clears.
+
+        At most 64 ids, each an integer in [0, count - 1]; anything else raises
+        ValueError naming the limit and changes nothing.
+        """
+        from .inspector import BladeInspector
+        from ..teaching import check_inspect_ids
+
+        check_inspect_ids(ids, self.count)
+        if self.inspector is None:
+            self.inspector = BladeInspector(self)
+            self.add(self.inspector)
+        self.inspector.set_ids(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the blades shown by the inspector (empty when none)."""
+        return self.inspector.ids if self.inspector is not None else ()
+
+    def read_inspected(self) -> list:
+        """The inspected blades' numbers as of the last render (one small readback):
+        see :meth:`grasswidget.gpu.inspector.BladeInspector.read`."""
+        return self.inspector.read() if self.inspector is not None else []
+
+    # ------------------------------------------------------------------ frozen culling (state)
 
     @property
     def culling_frozen(self) -> bool:
@@ -340,6 +382,8 @@ class GrassField(gfx.WorldObject):
         if self.stats is not None:
             self.stats.release()
             self.stats = None
+        if self.inspector is not None:
+            self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
                  "culled_args_buffer", "culled_buffer")
         destroy_buffers([self._store[name] for name in names])

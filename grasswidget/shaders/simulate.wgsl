@@ -6,6 +6,7 @@
 
 {{ bindings_code }}
 {$ include 'grasswidget.blade_math.wgsl' $}
+{$ include 'grasswidget.wind_field.wgsl' $}
 
 @group(0) @binding(1) var<storage, read_write> s_blades: array<vec4<f32>>;
 // Per-blade collision strength eta (0..1), persistent across steps.
@@ -14,26 +15,7 @@
 // Collision passes per step (reference.COLLISION_PASSES): push, then validate the pushed blades.
 const COLLISION_PASSES: i32 = 2;
 
-// Wind field by id: 0 wave, 1 radial, 2 vortex, 3 noise, 4 custom (user_wind).
-fn wind_field(p: vec3<f32>, t: f32) -> vec3<f32> {
-    switch u_sim.wind_field {
-        case 1: {
-            return wind_radial(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case 2: {
-            return wind_vortex(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case 3: {
-            return wind_noise(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_direction_rad, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case 4: {
-            return user_wind(p, t);
-        }
-        default: {
-            return wind_wave(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-    }
-}
+// wind_field(p, t) and the user's user_wind(p, t): see wind_field.wgsl.
 
 @compute @workgroup_size(256)
 fn main(
@@ -102,11 +84,4 @@ fn main(
     s_blades[4u * i + 1u] = vec4<f32>(v1, h);
     s_blades[4u * i + 2u] = vec4<f32>(v2, p2.w);
     s_collision[i] = eta;
-}
-
-// The user's wind (wind_field "custom"): params.wind_wgsl is the body, inserted
-// verbatim on the line after this signature (GrassField maps compile errors back
-// to lines of the snippet from there). Empty snippet: no wind.
-fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {
-{{ user_wind_body }}
 }
