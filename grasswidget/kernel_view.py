@@ -165,6 +165,7 @@ class KernelView:
         self._on_inspect = on_inspect
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
         self._inspected = ()
+        self._report_pending = False  # report the inspected numbers after the next frame
         self.scene = None
         self.controller = None
         self.ball = None
@@ -308,8 +309,10 @@ class KernelView:
         """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
         self.scene.inspect(ids)
         self._inspected = tuple(self.scene.inspected)
+        if self._on_inspect is not None and not self._inspected:
+            self._on_inspect([])
+        self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
         self.request_draw()
-        self._report_inspected()
 
     @property
     def inspected(self) -> tuple:
@@ -356,6 +359,9 @@ class KernelView:
                 scene.step(chunk)
         scene.draw_frame()
         self._draw_ms = 1000.0 * (time.perf_counter() - t0)
+        if self._report_pending:
+            self._report_pending = False
+            self._report_inspected()
         self._frames += 1
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()

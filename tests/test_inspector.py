@@ -174,3 +174,13 @@ def test_inspect_up_to_64_and_numpy_ids(fresh):
     scene.render()
     assert scene.inspected == tuple(int(i) for i in ids)
     _check(scene, list(ids))
+
+
+def test_inspect_a_new_field_before_any_step():
+    sc = gw.GrassScene(gw.Blades.on_plane(300, 4.0, seed=1), size=(96, 72))
+    sc.inspect([0, 299])
+    sc.render()
+    _check(sc, [0, 299])
+    rows = sc.read_inspected()
+    assert np.allclose(rows[0]["gravity"][1], -9.8) and not rows[0]["recovery"].any()  # at rest
+    sc.release()
