@@ -13,7 +13,7 @@ import pygfx as gfx
 import wgpu
 from pygfx.utils import array_from_shadertype
 
-from ..blades import Blades, pack_state, unpack_state
+from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
 from ..errors import BladeLimitError, WindShaderError
 from ..params import GrassParams
@@ -26,7 +26,7 @@ from .simulation import Simulation
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
 
-BLADE_BYTES = 64
+
 N_CLASSES = len(LOD_SEGMENTS)
 
 CULL_UNIFORM = dict(
