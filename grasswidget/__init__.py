@@ -5,9 +5,14 @@ GPU code. GPU classes (``GrassField``, ``GrassMaterial``, ``GrassScene``) load
 pygfx/wgpu on first use.
 """
 
-from .blades import Blades
-from .colliders import SphereCollider
-from .params import GrassParams
+from .runtime_dir import ensure_runtime_dir
+
+ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
+
+from .blades import Blades  # noqa: E402
+from .colliders import SphereCollider  # noqa: E402
+from .memory import BladeCountError  # noqa: E402
+from .params import GrassParams  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -21,7 +26,7 @@ _LAZY = {
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "GrassParams", "SphereCollider", *_LAZY]
+__all__ = ["Blades", "BladeCountError", "GrassParams", "SphereCollider", *_LAZY]
 
 
 def __getattr__(name):

@@ -207,10 +207,12 @@ class GrassWidget(ipw.VBox):
     controller = None
     ball = None
     _links = ()
+    _adapter_note = None
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None):
-        from .gpu.adapter import is_cpu_adapter
+        from .gpu.adapter import cpu_notice, is_cpu_adapter
+        from .gpu.field import max_blade_count
         from .scene import parse_size
 
         if params is not None and not isinstance(params, GrassParams):
@@ -232,7 +234,9 @@ class GrassWidget(ipw.VBox):
                 raise ValueError(f"pixel_ratio must be a number in [0.25, 4]; got {pixel_ratio!r}")
             defaults["max_pixel_ratio"] = float(pixel_ratio)
         self._defaults = defaults
-        self.max_blades = defaults["max_blades"]
+        # The slider's top: the adapter's comfortable maximum, within what memory allows.
+        self.max_blades = min(defaults["max_blades"], max_blade_count())
+        self._adapter_note = cpu_notice(short=True)  # shown in the stats line (None on a GPU)
         self._blades = self._check_blades(blades)
         self._closed = False
         self.scene = None
@@ -293,6 +297,10 @@ class GrassWidget(ipw.VBox):
             return blades
         if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
             raise TypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
+        if blades >= 1:
+            from .gpu.field import check_blade_count_fits
+
+            check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
         if not (1 <= int(blades) <= self.max_blades):
             raise ValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
         return int(blades)
@@ -769,6 +777,8 @@ class GrassWidget(ipw.VBox):
         parts.append(f"{self.steps_per_frame} steps/frame{capped}")
         if s["frame_size"]:
             parts.append("{}×{} px".format(*s["frame_size"]))
+        if self._adapter_note:
+            parts.append(self._adapter_note)
         self.stats_line.value = "<code>" + " · ".join(parts) + "</code>"
 
     def __repr__(self):

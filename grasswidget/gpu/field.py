@@ -18,6 +18,8 @@ from pygfx.utils import array_from_shadertype
 
 from ..blades import Blades, pack_state, unpack_state
 from ..colliders import MAX_COLLIDERS, ColliderList, collider_array
+from ..memory import (BladeCountError, check_blade_count, check_gpu_blade_count, max_blades_for_gpu,
+                      max_blades_for_memory)
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS, wind_period
 from . import indirect
@@ -25,7 +27,8 @@ from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .shaders import SimulateShader, register, workgroups
 
-__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
+__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
+           "max_blade_count"]
 
 BLADE_BYTES = 64
 N_CLASSES = len(LOD_SEGMENTS)
@@ -73,8 +76,9 @@ CULL_UNIFORM = dict(
 )
 
 
-class BladeLimitError(ValueError):
-    """The blade count does not fit the device's storage-buffer limits."""
+class BladeLimitError(BladeCountError):
+    """The blade count does not fit the device's storage-buffer limits (a ValueError
+    naming ``count``, the limit and the memory it would take)."""
 
 
 class WindShaderError(ValueError):
@@ -257,19 +261,26 @@ def _check_unit(name, value):
 
 
 def check_blade_limits(count, device):
-    """Raise BladeLimitError when ``count`` blades do not fit one storage binding."""
-    limit = int(device.limits["max-storage-buffer-binding-size"])
-    max_buffer = int(device.limits.get("max-buffer-size", limit))
-    need = count * BLADE_BYTES
-    visible = count * 4 * N_CLASSES
-    cap = min(limit, max_buffer)
-    if need > cap or visible > cap:
-        most = cap // max(BLADE_BYTES, 4 * N_CLASSES)
-        raise BladeLimitError(
-            f"{count} blades need {need} bytes in one storage buffer, but this device's "
-            f"max_storage_buffer_binding_size is {limit} bytes (max_buffer_size {max_buffer}): "
-            f"at most {most} blades fit on {device.adapter.summary}"
-        )
+    """Raise BladeLimitError when ``count`` blades do not fit one storage binding
+    of ``device`` (see :func:`grasswidget.memory.check_gpu_blade_count`)."""
+    check_gpu_blade_count(count, device.limits, device.adapter.summary, error=BladeLimitError)
+
+
+def check_blade_count_fits(count, name=None) -> int:
+    """Return ``count`` as an int when that many blades fit both the host memory
+    (:func:`grasswidget.memory.check_blade_count`) and this device's buffers;
+    else raise a :class:`~grasswidget.memory.BladeCountError` (a ValueError) naming
+    ``count`` (and the caller's parameter ``name``), the limit and the memory. Allocates nothing: call it before making blades."""
+    count = check_blade_count(count, name)
+    device = ensure_device()
+    return check_gpu_blade_count(count, device.limits, device.adapter.summary, name=name, error=BladeLimitError)
+
+
+def max_blade_count() -> int:
+    """The most blades that fit both the available host memory and this device's buffers."""
+    gpu = max_blades_for_gpu(ensure_device().limits)
+    host = max_blades_for_memory()
+    return gpu if host is None else min(gpu, host)
 
 
 class GrassField(gfx.WorldObject):
