@@ -11,22 +11,23 @@ ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from compla
 
 from .blades import Blades  # noqa: E402
 from .colliders import SphereCollider  # noqa: E402
-from .memory import BladeCountError  # noqa: E402
+from .errors import BladeCountError, BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError  # noqa: E402
 from .params import GrassParams  # noqa: E402
 
 __version__ = "0.1.0"
 
 _LAZY = {
     "GrassField": ("grasswidget.gpu.field", "GrassField"),
-    "GrassMaterial": ("grasswidget.gpu.field", "GrassMaterial"),
-    "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
-    "WindShaderError": ("grasswidget.gpu.field", "WindShaderError"),
+    "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.scene", "GrassScene"),
-    "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "BladeCountError", "GrassParams", "SphereCollider", *_LAZY]
+__all__ = [
+    "Blades", "GrassParams", "SphereCollider",
+    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError",
+    *_LAZY,
+]
 
 
 def __getattr__(name):

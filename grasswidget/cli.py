@@ -157,8 +157,7 @@ def main(argv=None):
     else:
         _make_folder(sub, args.json, "--json")
 
-    from .gpu.adapter import NoGPUAdapterError
-    from .memory import BladeCountError
+    from .errors import BladeCountError, NoGPUAdapterError
 
     try:
         from .gpu.field import check_blade_count_fits

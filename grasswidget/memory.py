@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import os
 
+from .errors import BladeCountError
+
 __all__ = [
     "BladeCountError",
     "NUMPY_BYTES_PER_BLADE",
@@ -56,20 +58,6 @@ CGROUP_FILES = (
     ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
     ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes"),
 )
-
-
-class BladeCountError(ValueError):
-    """A blade count that does not fit in memory (host RAM or a GPU buffer).
-
-    Attributes: ``count`` (what was asked), ``limit`` (the most blades that fit),
-    ``need_bytes`` (what ``count`` blades would take), ``available_bytes`` (what
-    there is) and ``where`` ("host memory" or "GPU buffer").
-    """
-
-    def __init__(self, message, count, limit, need_bytes, available_bytes, where):
-        super().__init__(message)
-        self.count, self.limit = int(count), int(limit)
-        self.need_bytes, self.available_bytes, self.where = int(need_bytes), int(available_bytes), where
 
 
 def format_bytes(n) -> str:

@@ -13,6 +13,8 @@ from __future__ import annotations
 import os
 import sys
 
+from ..errors import NoGPUAdapterError
+
 __all__ = ["NoGPUAdapterError", "ensure_device", "adapter_info", "is_cpu_adapter", "cpu_notice", "announce_cpu_defaults",
            "INSTALL_HINT"]
 
@@ -25,10 +27,6 @@ INSTALL_HINT = (
 _RANK = {"DiscreteGPU": 0, "IntegratedGPU": 1, "VirtualGPU": 2, "CPU": 3}
 
 _state = {"adapter": None, "configured": False, "announced": False}
-
-
-class NoGPUAdapterError(RuntimeError):
-    """No WebGPU adapter that pygfx can use; the message says what to install."""
 
 
 def _usable(adapter):
