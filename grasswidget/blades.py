@@ -18,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Blades"]
+from .memory import BladeCountError, check_blade_count
+
+__all__ = ["Blades", "BladeCountError"]
 
 
 def _check_range(name, value, lo_min=0.0):
@@ -98,14 +100,16 @@ class Blades:
         id). The same arguments give the same blades.
 
         Args:
-            count: number of blades N, >= 1.
+            count: number of blades N, >= 1. A count whose making would not fit in the
+                available memory raises :class:`~grasswidget.memory.BladeCountError`
+                (a ValueError) at once, before anything is allocated.
             size: side of the square plane in metres, > 0 (default 15, the course scene).
             seed: random seed (int).
             height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2.
         """
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"count must be an integer >= 1; got {count!r}")
-        count = int(count)
+        count = check_blade_count(count)
         if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
             raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         h = _check_range("height", height)
@@ -168,7 +172,7 @@ class Blades:
                 f"geometry is an empty mesh: it has {len(tris)} triangles and total area {total:g} m^2; "
                 "blades need at least one triangle of non-zero area"
             )
-        count = _count_from(count, density, total)
+        count = check_blade_count(_count_from(count, density, total))
         rng = np.random.default_rng(seed)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         cdf = np.cumsum(area2)
@@ -221,7 +225,7 @@ class Blades:
             raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"count must be an integer >= 1; got {count!r}")
-        count, size = int(count), float(size)
+        count, size = check_blade_count(count), float(size)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         rng = np.random.default_rng(seed)
         u, v = _jittered_unit_square(rng, count)  # along x and z, 0..1

@@ -170,8 +170,11 @@ class KernelView:
 
         self._frames = 0
         self._draw_ms = 0.0
+        from .gpu.adapter import cpu_notice
+
         self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
-                       "steps_per_frame": None, "frame_size": None}
+                       "steps_per_frame": None, "frame_size": None,
+                       "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
         self._stats_confirmed = 0

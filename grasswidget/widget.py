@@ -220,6 +220,7 @@ class GrassWidget(ipw.VBox):
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None):
         from .gpu.adapter import is_cpu_adapter
+        from .gpu.field import max_blade_count
         from .scene import PRESETS, parse_size
 
         if params is not None and not isinstance(params, GrassParams):
@@ -237,7 +238,8 @@ class GrassWidget(ipw.VBox):
             streaming["quality"] = quality
         if pixel_ratio is not None:
             streaming["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
-        self.max_blades = streaming["max_blades"]
+        # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
+        self.max_blades = min(streaming["max_blades"], max_blade_count())
         self._blades = self._check_blades(blades)
         self._closed = False
         self.params = params if params is not None else GrassParams()
@@ -276,6 +278,10 @@ class GrassWidget(ipw.VBox):
             return blades
         if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
             raise TypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
+        if blades >= 1:
+            from .gpu.field import check_blade_count_fits
+
+            check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
         if not (1 <= int(blades) <= self.max_blades):
             raise ValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
         return int(blades)

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import os
 import sys
-import warnings
 
 from ..errors import NoGPUAdapterError
 
-__all__ = ["NoGPUAdapterError", "ensure_device", "missing_capabilities", "adapter_info", "is_cpu_adapter", "INSTALL_HINT"]
+__all__ = ["NoGPUAdapterError", "ensure_device", "missing_capabilities", "adapter_info", "is_cpu_adapter",
+           "cpu_notice", "announce_cpu_defaults", "INSTALL_HINT"]
 
 INSTALL_HINT = (
     "grasswidget needs a WebGPU adapter (Vulkan, Metal or D3D12). None was found. "
@@ -131,14 +131,32 @@ def is_cpu_adapter() -> bool:
     return adapter_info().get("adapter_type") == "CPU"
 
 
+def cpu_notice(short: bool = False) -> str | None:
+    """The one-line notice for a CPU adapter, or None when rendering runs on a GPU.
+
+    ``short=True`` gives the form the widget's stats line shows, e.g.
+    ``"CPU adapter (llvmpipe): pixel ratio 1, no anti-aliasing"``.
+    """
+    if not is_cpu_adapter():
+        return None
+    info = adapter_info()
+    if short:
+        name = str(info.get("device") or info["summary"]).split(" (")[0]
+        return f"CPU adapter ({name}): pixel ratio 1, no anti-aliasing"
+    return (
+        f"grasswidget: rendering on a CPU adapter ({info['summary']}); "
+        "using pixel ratio 1 and no post-process anti-aliasing."
+    )
+
+
 def announce_cpu_defaults():
-    """Say once that a CPU adapter was found and cheap defaults are in use."""
+    """Say once per process, as one line of information on stdout (not stderr, not
+    a warning: in a notebook it is plain output, not a red box), that a CPU
+    adapter was found and cheap defaults are in use. :func:`cpu_notice` gives the
+    text at any time (the widget's stats line shows it)."""
     if _state["announced"]:
         return
     _state["announced"] = True
-    msg = (
-        f"grasswidget: rendering on a CPU adapter ({adapter_info()['summary']}); "
-        "using pixel ratio 1 and no post-process anti-aliasing."
-    )
-    print(msg, file=sys.stderr)
-    warnings.warn(msg, RuntimeWarning, stacklevel=3)
+    msg = cpu_notice()
+    if msg:
+        print(msg, file=sys.stdout, flush=True)
