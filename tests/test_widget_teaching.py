@@ -15,15 +15,16 @@ SIZE = WIDGET_SIZE
 
 
 def _pointer(kind, x, y, modifiers=(), button=1):
-    return dict(event_type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
-                modifiers=modifiers, ntouches=0, touches={}, time_stamp=0)
+    """A pointer event in jupyter-rfb's current format ("type", "timestamp")."""
+    return dict(type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
+                modifiers=modifiers, ntouches=0, touches={}, timestamp=0)
 
 
 def _show(w):
     """What the browser sends when the view appears, then one frame."""
     w.canvas.handle_event({"event_type": "resize", "width": SIZE[0], "height": SIZE[1], "pixel_ratio": 1.0})
     w.pause()
-    w._draw()
+    w.view.draw()
 
 
 def _screen_of(camera, point):
@@ -57,18 +58,18 @@ def test_freeze_checkbox_freezes_the_scene_and_orbiting_keeps_the_culled_set(wid
     cb.value = True
     assert widget.culling_frozen and widget.scene.culling_frozen
     assert widget.scene.field.frustum_lines is not None
-    widget._draw()
+    widget.view.draw()
     kept = widget.scene.field.read_visible()
     cam = widget.scene.camera
     pos = np.array(cam.world.position)
-    widget._events(_pointer("pointer_down", 80, 60))
+    widget.view.events(_pointer("pointer_down", 80, 60))
     for i in range(1, 8):
-        widget._events(_pointer("pointer_move", 80 + 10 * i, 60 - 3 * i, button=0))
-    widget._events(_pointer("pointer_up", 150, 39))
+        widget.view.events(_pointer("pointer_move", 80 + 10 * i, 60 - 3 * i, button=0))
+    widget.view.events(_pointer("pointer_up", 150, 39))
     for _ in range(30):
         widget.controller.tick()
     assert np.linalg.norm(np.array(cam.world.position) - pos) > 0.3  # a plain drag orbits
-    widget._draw()
+    widget.view.draw()
     assert np.array_equal(widget.scene.field.read_visible(), kept)
     # a new blade count keeps culling frozen at the same camera copy
     frozen = widget.scene.field.frozen_camera
@@ -76,7 +77,7 @@ def test_freeze_checkbox_freezes_the_scene_and_orbiting_keeps_the_culled_set(wid
     assert widget.scene.culling_frozen and widget.scene.field.frozen_camera is frozen
     widget.culling_frozen = False
     assert not cb.value and not widget.scene.culling_frozen
-    widget._draw()
+    widget.view.draw()
 
 
 def test_ctrl_click_inspects_the_blade_under_the_pointer():
@@ -97,11 +98,11 @@ def test_ctrl_click_inspects_the_blade_under_the_pointer():
             state = w.scene.field.read_state()
             mid = 0.25 * state["v0"][k] + 0.5 * state["v1"][k] + 0.25 * state["v2"][k]
             x, y = _screen_of(cam, mid)
-            w._events(_pointer("pointer_down", x, y, ("Control",)))
-            w._events(_pointer("pointer_up", x, y, ("Control",)))
+            w.view.events(_pointer("pointer_down", x, y, ("Control",)))
+            w.view.events(_pointer("pointer_up", x, y, ("Control",)))
             assert w.inspected == (k,)
             assert w.scene.inspected == (k,)
-            w._draw()  # the numbers come with the next frame (one small readback)
+            w.view.draw()  # the numbers come with the next frame (one small readback)
             line = w.panel.inspect_line.value
             assert f"blade {k}:" in line and "height 1.60 m" in line
             assert f"stiffness {blades.stiffness[k]:.2f}" in line
@@ -110,12 +111,12 @@ def test_ctrl_click_inspects_the_blade_under_the_pointer():
             w.controller.tick()
         assert np.allclose(cam.world.position, pos)  # ctrl + click does not orbit
         # a click on the sky inspects nothing new
-        w._events(_pointer("pointer_down", SIZE[0] / 2, 2, ("Control",)))
+        w.view.events(_pointer("pointer_down", SIZE[0] / 2, 2, ("Control",)))
         assert w.inspected == (21,)
         # the panel's numbers follow the GPU at each stats refresh
         w.step(30)
-        w._draw()
-        w._refresh_stats()
+        w.view.draw()
+        w.view.refresh_stats()
         assert "blade 21:" in w.panel.inspect_line.value
         w.panel.clear_inspect_button.click()
         assert w.inspected == () and w.scene.inspected == ()
@@ -128,13 +129,13 @@ def test_inspect_from_code_and_bad_input(widget):
     _show(widget)
     widget.inspect([3, 9])
     assert widget.inspected == (3, 9)
-    widget._draw()
+    widget.view.draw()
     assert "blade 3:" in widget.panel.inspect_line.value and "blade 9:" in widget.panel.inspect_line.value
     for bad, match in [(list(range(65)), "at most 64"), ([1024], r"\[0, 1023\]"), ([0.5], "integers")]:
         with pytest.raises(ValueError, match=match):
             widget.inspect(bad)
         assert widget.inspected == (3, 9)
-    widget._draw()  # keeps running
+    widget.view.draw()  # keeps running
     widget.inspect([])
     assert widget.inspected == ()
     assert teaching.MAX_INSPECTED == 64

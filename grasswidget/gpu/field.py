@@ -13,9 +13,12 @@ import pygfx as gfx
 import wgpu
 from pygfx.utils import array_from_shadertype
 
-from ..blades import Blades, pack_state, unpack_state
+from .. import compat
+from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
+from ..enums import ColorBy
 from ..errors import BladeLimitError, WindShaderError
+from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS
 from . import indirect
@@ -25,9 +28,10 @@ from .frozen_camera import FrozenCamera
 from .material import GrassMaterial
 from .simulation import Simulation
 
-__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
+__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
+           "max_blade_count"]
 
-BLADE_BYTES = 64
+
 N_CLASSES = len(LOD_SEGMENTS)
 
 CULL_UNIFORM = dict(
@@ -46,24 +50,31 @@ CULL_UNIFORM = dict(
     frozen_cam_pos="4xf4",
     frozen_view_proj="4x4xf4",
 )
-#: Ids of params.color_by in the cull and render shaders.
-COLOR_BY_IDS = {"natural": 0, "lod": 1, "cull": 2}
+
 
 
 def check_blade_limits(count, device):
-    """Raise BladeLimitError when ``count`` blades do not fit one storage binding."""
-    limit = int(device.limits["max-storage-buffer-binding-size"])
-    max_buffer = int(device.limits.get("max-buffer-size", limit))
-    need = count * BLADE_BYTES
-    visible = count * 4 * N_CLASSES
-    cap = min(limit, max_buffer)
-    if need > cap or visible > cap:
-        most = cap // max(BLADE_BYTES, 4 * N_CLASSES)
-        raise BladeLimitError(
-            f"{count} blades need {need} bytes in one storage buffer, but this device's "
-            f"max_storage_buffer_binding_size is {limit} bytes (max_buffer_size {max_buffer}): "
-            f"at most {most} blades fit on {device.adapter.summary}"
-        )
+    """Raise BladeLimitError when ``count`` blades do not fit one storage binding
+    of ``device`` (see :func:`grasswidget.memory.check_gpu_blade_count`)."""
+    check_gpu_blade_count(count, device.limits, device.adapter.summary, error=BladeLimitError)
+
+
+def check_blade_count_fits(count, name=None) -> int:
+    """Return ``count`` as an int when that many blades fit both the host memory
+    (:func:`grasswidget.memory.check_blade_count`) and this device's buffers;
+    else raise a :class:`~grasswidget.errors.BladeCountError` (a ValueError) naming
+    ``count`` (and the caller's parameter ``name``), the limit and the memory.
+    Allocates nothing: call it before making blades."""
+    count = check_blade_count(count, name)
+    device = ensure_device()
+    return check_gpu_blade_count(count, device.limits, device.adapter.summary, name=name, error=BladeLimitError)
+
+
+def max_blade_count() -> int:
+    """The most blades that fit both the available host memory and this device's buffers."""
+    gpu = max_blades_for_gpu(ensure_device().limits)
+    host = max_blades_for_memory()
+    return gpu if host is None else min(gpu, host)
 
 
 class GrassField(gfx.WorldObject):
@@ -245,7 +256,7 @@ class GrassField(gfx.WorldObject):
         d["cull_distance"] = int(p.cull_distance)
         d["lod"] = int(p.lod)
         d["n_blades"] = self.count
-        d["color_by"] = COLOR_BY_IDS[p.color_by]
+        d["color_by"] = ColorBy.from_label(p.color_by)
         if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
             self._store.culled_buffer = gfx.Buffer(
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
@@ -441,8 +452,9 @@ class GrassField(gfx.WorldObject):
         """Sorted ids of the blades drawn by the last render (synchronous)."""
         device = ensure_device()
         args = self.read_draw_args()
-        if self.visible_buffer._wgpu_object is None:
+        visible = compat.gpu_buffer(self.visible_buffer)
+        if visible is None:
             return np.zeros(0, np.uint32)
-        raw = device.queue.read_buffer(self.visible_buffer._wgpu_object)
+        raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))

@@ -28,12 +28,13 @@ import wgpu
 from pygfx.renderers.wgpu import Binding, register_wgpu_render_function
 from pygfx.utils import array_from_shadertype
 
-from ..reference import COLLISION_PASSES, FORCE_NAMES, RECOVERY_FLOOR, wind_period
-from ..shader_files import read_shader
+from ..reference import FORCE_NAMES, wind_period
+from ..shader_files import NO_WIND_BODY
 from ..teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED, check_inspect_ids
 from .compute import sync_buffer
 from .adapter import ensure_device
 from .wgsl import GrassComputeShader
+from ..shader_files import wgsl_float
 
 __all__ = ["BladeInspector", "BladeInspectorMaterial", "InspectShader", "SEGMENT_VERTICES"]
 
@@ -178,13 +179,11 @@ class InspectShader(GrassComputeShader):
         body = wobject._store.user_wind_body
         super().__init__(
             wobject,
-            user_wind_body=body if body.strip() else "    return vec3<f32>(0.0);",
+            user_wind_body=body if body.strip() else NO_WIND_BODY,
             segment_vertices=SEGMENT_VERTICES,
             n_forces=N_FORCES,
-            arrow_accel_per_height=f"{float(ARROW_ACCEL_PER_HEIGHT):.6f}",
-            collision_arrow_scale=f"{float(COLLISION_ARROW_SCALE):.6f}",
-            collision_passes=COLLISION_PASSES,
-            recovery_floor=f"{float(RECOVERY_FLOOR):.6f}",
+            arrow_accel_per_height=wgsl_float(ARROW_ACCEL_PER_HEIGHT),
+            collision_arrow_scale=wgsl_float(COLLISION_ARROW_SCALE),
         )
 
     def get_bindings(self, wobject, shared, scene):
@@ -200,12 +199,19 @@ class InspectShader(GrassComputeShader):
             13: Binding("s_points", "buffer/storage", wobject.points_buffer, "COMPUTE"),
             14: Binding("s_forces", "buffer/storage", wobject.forces_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2, 3):
+        for slot in (0, 1, 2, 3, 10, 11, 14):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
-        return read_shader("inspect.wgsl")
+        # pygfx declares 3-float vertex buffers as vec3 arrays (16-byte stride):
+        # the two Line/Points buffers are declared here as plain f32 arrays.
+        return (
+            "{{ bindings_code }}\n"
+            "@group(0) @binding(12) var<storage, read_write> s_segments: array<f32>;\n"
+            "@group(0) @binding(13) var<storage, read_write> s_points: array<f32>;\n"
+            "{$ include 'grasswidget.inspect.wgsl' $}\n"
+        )
 
     def get_render_info(self, wobject, shared):
         return {"indices": (1, 1, 1)}

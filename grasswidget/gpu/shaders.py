@@ -20,14 +20,15 @@ import weakref
 
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
+from ..reference import LOD_SEGMENTS
 from ..shader_files import read_shader
 from ..teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
 from .field import GrassField
 from .material import GrassMaterial
-from .wgsl import WORKGROUP, GrassComputeShader, workgroups
+from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 
-__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP"]
+__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP",
+           "CULLED_SEGMENTS"]
 
 #: Segments of the culled blades drawn with color_by "cull" (they are context, not detail).
 CULLED_SEGMENTS = LOD_SEGMENTS[1]
@@ -39,10 +40,11 @@ def _wgsl_rgb(color):
 
 
 class ResetArgsShader(GrassComputeShader):
-    """Reset the indirect draw arguments at the start of each frame."""
+    """Reset the indirect draw arguments at the start of each frame (the LOD classes'
+    and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, lod_segments=list(LOD_SEGMENTS), culled_segments=CULLED_SEGMENTS)
+        super().__init__(wobject, culled_segments=CULLED_SEGMENTS)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
@@ -58,14 +60,11 @@ class ResetArgsShader(GrassComputeShader):
 
 
 class CullShader(GrassComputeShader):
-    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect)."""
+    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
-    def __init__(self, wobject):
-        super().__init__(
-            wobject,
-            n_classes=len(LOD_SEGMENTS),
-            lod_min_pixels=[f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
-        )
+    The pygfx bindings are generated here (``s_args`` and ``s_culled_args`` by
+    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body.
+    """
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -78,12 +77,17 @@ class CullShader(GrassComputeShader):
             13: Binding("s_culled", "buffer/storage", wobject.culled_buffer, "COMPUTE"),
             14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2):
+        for slot in (0, 1, 2, 10, 12, 13):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
-        return read_shader("cull.wgsl")
+        return (
+            "{{ bindings_code }}\n"
+            "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
+            "{$ include 'grasswidget.cull.wgsl' $}\n"
+        )
 
     def get_render_info(self, wobject, shared):
         return {"indices": workgroups(wobject.count)}
@@ -100,14 +104,13 @@ class BladeRenderShader(BaseShader):
 
     def __init__(self, wobject, lod_class):
         culled = lod_class == len(LOD_SEGMENTS)
-        super().__init__(
-            wobject,
+        super().__init__(wobject, **shader_vars(
             lod_class=lod_class,
             culled=culled,
             segments=CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
             lod_color=_wgsl_rgb(LOD_COLORS[0 if culled else lod_class]),
             cull_colors=[_wgsl_rgb(c) for c in CULL_COLORS.values()],
-        )
+        ))
         self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)
@@ -150,7 +153,8 @@ class BladeRenderShader(BaseShader):
 
 @register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
-    """The passes of one GrassField: reset, cull, then one draw per LOD class."""
+    """The passes of one GrassField: reset, cull, then one draw per LOD class and
+    one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
         CullShader(wobject),

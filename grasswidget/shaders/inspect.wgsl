@@ -6,16 +6,15 @@
 // the raw vectors (s_forces). Runs in every render, reading the GPU state: no
 // readback. Everything is in the field's local space (the Line and Points are
 // children of the field). Unused slots and zero forces are NaN: not drawn.
+//
+// The engine declares (see gpu.inspector.InspectShader) u_stdinfo, u_wobject
+// (the inspector's world_transform_inv), u_sim (the simulation's uniforms),
+// u_inspect (ids, n_ids), s_blades and s_collision (read), s_segments and
+// s_points (array<f32>, 3 per vertex) and s_forces (array<vec4<f32>>).
 
-{{ bindings_code }}
+{$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 {$ include 'grasswidget.wind_field.wgsl' $}
-
-@group(0) @binding(10) var<storage, read> s_blades: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> s_collision: array<f32>;
-@group(0) @binding(12) var<storage, read_write> s_segments: array<f32>;
-@group(0) @binding(13) var<storage, read_write> s_points: array<f32>;
-@group(0) @binding(14) var<storage, read_write> s_forces: array<vec4<f32>>;
 
 // Per blade: 2 polygon segments + N_FORCES arrows of 3 segments, 2 vertices each.
 const SEGMENT_VERTICES: u32 = {{ segment_vertices }}u;
@@ -75,27 +74,21 @@ fn main(@builtin(local_invocation_index) slot: u32) {
         return;
     }
     let i = u_inspect.ids[slot / 4u][slot % 4u];
-    let p0 = s_blades[4u * i + 0u];
-    let p1 = s_blades[4u * i + 1u];
-    let p2 = s_blades[4u * i + 2u];
-    let p3 = s_blades[4u * i + 3u];
-    let v0 = p0.xyz;
-    let v1 = p1.xyz;
-    let v2 = p2.xyz;
-    let up = p3.xyz;
-    let h = p1.w;
+    let blade = load_blade(i);
+    let v0 = blade.v0;
+    let v1 = blade.v1;
+    let v2 = blade.v2;
+    let up = blade.up;
+    let h = blade.height;
     let dt = u_sim.dt;
     // u_sim holds the last dispatch (time0, steps) or "now" (steps = 0): the next step's time.
     let t = u_sim.time0 + f32(u_sim.steps) * dt;
 
     // The forces of simulate.wgsl's next step (reference.blade_forces).
     let eta = fade_collision(s_collision[i], u_sim.collision_fade, dt);
-    let s_eff = p3.w * u_sim.stiffness_scale * max(1.0 - eta, {{ recovery_floor }});
-    let t1 = width_direction(up, p0.w);
-    var g_env = environmental_gravity(u_sim.gravity_dir.xyz, u_sim.gravity);
-    if (u_sim.gravity_mode == 1) {
-        g_env = gravity_point(v0, u_sim.gravity_center.xyz, u_sim.gravity);
-    }
+    let s_eff = blade.stiffness * u_sim.stiffness_scale * max(1.0 - eta, {{ recovery_floor }});
+    let t1 = width_direction(up, blade.orientation);
+    let g_env = environmental_gravity(v0, u_sim.gravity_mode, u_sim.gravity_dir.xyz, u_sim.gravity_center.xyz, u_sim.gravity);
     let gravity = g_env + front_gravity(g_env, front_direction(up, t1), u_sim.front_gravity);
     let iv2 = v0 + up * h;
     let recovery = (iv2 - v2) * s_eff;
