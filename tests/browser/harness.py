@@ -61,6 +61,7 @@ __all__ = [
     "KernelExecutionError",
     "CHROMIUM_PATH",
     "CHROMIUM_ARGS",
+    "WEBGPU_ARGS",
     "prerequisites_missing",
     "poll",
     "write_notebook",
@@ -110,6 +111,19 @@ CHROMIUM_ARGS = (
     "--disable-background-timer-throttling",
     "--disable-renderer-backgrounding",
     "--disable-backgrounding-occluded-windows",
+)
+
+#: Flags that give headless Chromium a WebGPU adapter (SwiftShader, on the CPU).
+#: ``--use-angle=swiftshader`` makes screenshots show the WebGPU canvas. With
+#: them, ``Browser(webgpu=True)`` also leaves out ``--disable-gpu``: with it a
+#: canvas renders, but every queue promise afterwards (onSubmittedWorkDone,
+#: mapAsync) rejects with "A valid external Instance reference no longer exists".
+WEBGPU_ARGS = (
+    "--enable-unsafe-webgpu",
+    "--enable-features=Vulkan",
+    "--use-vulkan=swiftshader",
+    "--use-webgpu-adapter=swiftshader",
+    "--use-angle=swiftshader",
 )
 
 
@@ -577,8 +591,10 @@ class Browser:
         viewport: tuple = (1280, 1000),
         extra_args: Iterable[str] = (),
         default_timeout: float = 30.0,
+        webgpu: bool = False,
     ):
         self.executable_path = executable_path
+        self.webgpu = webgpu
         self.headless = headless
         self.viewport = viewport
         self.extra_args = list(extra_args)
@@ -603,7 +619,7 @@ class Browser:
                 self.user_data_dir,
                 executable_path=self.executable_path,
                 headless=self.headless,
-                args=[*CHROMIUM_ARGS, *self.extra_args],
+                args=[*self.launch_args()],
                 viewport={"width": self.viewport[0], "height": self.viewport[1]},
                 timeout=60_000,
             )
@@ -615,6 +631,12 @@ class Browser:
             self.stop()
             raise
         return self
+
+    def launch_args(self) -> list:
+        """Chromium's command-line flags: CHROMIUM_ARGS (+ WEBGPU_ARGS without --disable-gpu) + extra_args."""
+        if self.webgpu:
+            return [*(a for a in CHROMIUM_ARGS if a != "--disable-gpu"), *WEBGPU_ARGS, *self.extra_args]
+        return [*CHROMIUM_ARGS, *self.extra_args]
 
     def new_page(self):
         """Open another tab in the same browser."""
