@@ -7,21 +7,23 @@ pygfx/wgpu on first use.
 
 from .blades import Blades
 from .colliders import SphereCollider
+from .errors import BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError
 from .params import GrassParams
 
 __version__ = "0.1.0"
 
 _LAZY = {
     "GrassField": ("grasswidget.gpu.field", "GrassField"),
-    "GrassMaterial": ("grasswidget.gpu.field", "GrassMaterial"),
-    "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
-    "WindShaderError": ("grasswidget.gpu.field", "WindShaderError"),
+    "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.scene", "GrassScene"),
-    "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "GrassParams", "SphereCollider", *_LAZY]
+__all__ = [
+    "Blades", "GrassParams", "SphereCollider",
+    "GrassError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError",
+    *_LAZY,
+]
 
 
 def __getattr__(name):

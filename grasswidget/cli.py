@@ -61,7 +61,7 @@ def build_parser():
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
-    from .gpu.adapter import NoGPUAdapterError
+    from .errors import NoGPUAdapterError
 
     try:
         if args.command == "snapshot":

@@ -81,16 +81,10 @@ def _check_path(path):
 def _offscreen_renderer(size):
     from rendercanvas.offscreen import RenderCanvas
 
-    try:
-        from .scene import _make_renderer
-    except ImportError:  # pragma: no cover - keep working if the helper is renamed
-        import pygfx as gfx
-
-        def _make_renderer(canvas):
-            return gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none", enable_events=False)
+    from .scene import make_renderer
 
     canvas = RenderCanvas(size=size, pixel_ratio=1)
-    return canvas, _make_renderer(canvas)
+    return canvas, make_renderer(canvas)
 
 
 def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *, restore=True) -> str:
@@ -165,7 +159,7 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
         canvas.close()
         if restore:
             field.write_state(saved)
-            # GrassField has no public setter for its step counter (wind time is
-            # derived from it); put it back so the wind continues where it was.
-            field._step_count = saved_steps
+            # The wind time is derived from the step counter: put it back so the
+            # wind continues where it was.
+            field.step_count = saved_steps
     return path

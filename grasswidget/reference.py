@@ -1,7 +1,7 @@
 """NumPy reference of the blade physics and the culling tests: the spec.
 
 Everything here is vectorised over N blades and imports no GPU code. The WGSL
-include ``shaders/blade_math.wgsl`` implements the same functions under the same
+include ``grasswidget/shaders/blade_math.wgsl`` implements the same functions under the same
 names, so the two can be read side by side. Equation numbers refer to Jahrmann &
 Wimmer, "Responsive Real-Time Grass Rendering for General 3D Scenes", I3D 2017.
 

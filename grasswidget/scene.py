@@ -19,7 +19,7 @@ from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial
 from .params import GrassParams
 
-__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "make_renderer"]
 
 #: Named scenes: see GrassScene.preset().
 PRESETS = ("cis565", "meadow")
@@ -54,7 +54,9 @@ def parse_size(size, name="size"):
     return w, h
 
 
-def _make_renderer(canvas):
+def make_renderer(canvas):
+    """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings:
+    pixel ratio 1, no post-process anti-aliasing on a CPU adapter, no picking events."""
     if is_cpu_adapter():
         announce_cpu_defaults()
         return gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none", enable_events=False)
@@ -118,9 +120,9 @@ class GrassScene:
 
             canvas = RenderCanvas(size=self.size, pixel_ratio=1)
         self.canvas = canvas
-        self.renderer = _make_renderer(canvas)
+        self.renderer = make_renderer(canvas)
         self.stats = self.field.enable_stats()
-        canvas.request_draw(self._draw)
+        canvas.request_draw(self.draw_frame)
 
     @classmethod
     def preset(cls, name, blades=None, size=None, params=None, seed=0, **kwargs):
@@ -195,7 +197,9 @@ class GrassScene:
 
     # ------------------------------------------------------------------ pictures
 
-    def _draw(self):
+    def draw_frame(self):
+        """Render one frame into the scene's canvas (its draw function); feeds ``stats``.
+        Never advances time."""
         t0 = time.perf_counter()
         self.collider_balls.sync()
         self.renderer.render(self.scene, self.camera)
@@ -212,7 +216,7 @@ class GrassScene:
 
         w, h = parse_size(size)
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
-        renderer = _make_renderer(canvas)
+        renderer = make_renderer(canvas)
         aspect = self.camera.aspect
         self.collider_balls.sync()
         canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
@@ -230,6 +234,17 @@ class GrassScene:
         path = os.fspath(path)
         iio.imwrite(path, img, extension=".png")
         return path
+
+    def release(self):
+        """Free the field's GPU memory now and drop the renderer and canvas; the
+        scene cannot be drawn or stepped afterwards."""
+        self.field.release()
+        try:
+            self.scene.remove(self.field)
+        except Exception:
+            pass
+        self.renderer = None
+        self.canvas = None
 
     # ------------------------------------------------------------------ stats
 

@@ -1,27 +1,30 @@
-"""Where the WGSL files live (pure Python; no GPU import).
+"""The WGSL files of the package (pure Python; no GPU import).
 
-In a wheel they are packaged as ``grasswidget/shaders``; in a source checkout
-they are the top-level ``shaders/`` folder.
+They live in ``grasswidget/shaders/`` and ship inside the wheel and the sdist;
+the same folder serves a source checkout and an installed copy.
 """
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
 
-__all__ = ["shader_dir", "read_shader"]
+__all__ = ["shader_dir", "read_shader", "shader_names"]
 
 
 def shader_dir() -> Path:
-    """The folder holding the WGSL files."""
-    here = Path(__file__).resolve().parent
-    for candidate in (here / "shaders", here.parent / "shaders"):
-        if (candidate / "blade_math.wgsl").is_file():
-            return candidate
-    raise FileNotFoundError(
-        f"grasswidget's WGSL shaders were not found next to {here}; the installation is incomplete"
-    )
+    """The folder holding the WGSL files (``grasswidget/shaders``)."""
+    return Path(str(resources.files("grasswidget") / "shaders"))
+
+
+def shader_names() -> list[str]:
+    """File names of every WGSL file of the package, sorted."""
+    return sorted(p.name for p in shader_dir().glob("*.wgsl"))
 
 
 def read_shader(name: str) -> str:
     """Text of one WGSL file, e.g. ``read_shader("simulate.wgsl")``."""
-    return (shader_dir() / name).read_text(encoding="utf-8")
+    path = shader_dir() / name
+    if not path.is_file():
+        raise FileNotFoundError(f"grasswidget has no shader {name!r} in {shader_dir()}; the installation is incomplete")
+    return path.read_text(encoding="utf-8")

@@ -14,6 +14,8 @@ import os
 import sys
 import warnings
 
+from ..errors import NoGPUAdapterError
+
 __all__ = ["NoGPUAdapterError", "ensure_device", "adapter_info", "is_cpu_adapter", "INSTALL_HINT"]
 
 INSTALL_HINT = (
@@ -25,10 +27,6 @@ INSTALL_HINT = (
 _RANK = {"DiscreteGPU": 0, "IntegratedGPU": 1, "VirtualGPU": 2, "CPU": 3}
 
 _state = {"adapter": None, "configured": False, "announced": False}
-
-
-class NoGPUAdapterError(RuntimeError):
-    """No WebGPU adapter that pygfx can use; the message says what to install."""
 
 
 def _usable(adapter):

@@ -43,10 +43,6 @@ def destroy_buffers(buffers):
         obj.destroy()
 
 
-class ComputePipelineError(RuntimeError):
-    """A compute shader failed to compile; the message holds the WGSL error."""
-
-
 class ComputeProgram:
     """One compute shader + its bind group, ready to be dispatched into a pass."""
 

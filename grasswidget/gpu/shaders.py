@@ -1,86 +1,34 @@
-"""pygfx shader classes for the grass field, and the registered render function.
+"""pygfx shader classes of the grass field, registered for (GrassField, GrassMaterial).
 
-One registered function per object kind (GrassField + GrassMaterial) composes the
-passes pygfx runs in every ``renderer.render()``:
+Importing this module registers :func:`grass_render_function` with pygfx's
+``register_wgpu_render_function`` decorator (``grasswidget.gpu`` imports it, so
+any use of the GPU layer has it registered). It composes the passes pygfx runs in
+every ``renderer.render()``:
 
 1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts.
 2. ``CullShader`` (compute): cull, bin into LOD classes, append survivors.
 3. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
 
-``SimulateShader`` is a compute shader of the same kind, but it is dispatched by
-``GrassField.step()`` (never by ``render()``), so time only advances in fixed steps.
+The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
+dispatched by ``GrassField.step()``, never by ``render()``.
 """
 
 from __future__ import annotations
 
 import weakref
 
-import jinja2
-from pygfx.renderers.wgpu import BaseShader, Binding, register_wgsl_loader, register_wgpu_render_function
+from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
-from ..shader_files import read_shader, shader_dir
+from ..shader_files import read_shader
+from .field import GrassField
+from .material import GrassMaterial
+from .wgsl import WORKGROUP, GrassComputeShader, workgroups
 
-__all__ = ["SimulateShader", "ResetArgsShader", "CullShader", "BladeRenderShader", "register"]
-
-WORKGROUP = 256
-_registered = {"loader": False, "render": False}
-
-
-def register_loader():
-    """Make ``{$ include 'grasswidget.<file>' $}`` resolve to our shaders/ folder."""
-    if not _registered["loader"]:
-        register_wgsl_loader("grasswidget", jinja2.FileSystemLoader(str(shader_dir())))
-        _registered["loader"] = True
+__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP"]
 
 
-def workgroups(n_items, limit=65535):
-    """Dispatch size for ``n_items`` threads in groups of 256, folded into y past ``limit``."""
-    groups = max(1, -(-int(n_items) // WORKGROUP))
-    x = min(groups, limit)
-    y = -(-groups // x)
-    return x, y, 1
-
-
-class _GrassCompute(BaseShader):
-    type = "compute"
-
-    def __init__(self, wobject, **kwargs):
-        # BaseShader reads clipping/alpha settings of the material; not used here.
-        super().__init__(wobject, **kwargs)
-
-    def get_pipeline_info(self, wobject, shared):
-        return {}
-
-
-class SimulateShader(_GrassCompute):
-    """Forces, state validation and collisions, ``u_sim.steps`` fixed steps per dispatch.
-
-    ``user_wind_body`` is the body of ``fn user_wind(p, t) -> vec3<f32>`` (the
-    "custom" wind field, ``params.wind_wgsl``); empty means no wind.
-    """
-
-    def __init__(self, wobject, user_wind_body=""):
-        body = user_wind_body if user_wind_body.strip() else "    return vec3<f32>(0.0);"
-        super().__init__(wobject, user_wind_body=body)
-
-    def get_bindings(self, wobject, shared, scene):
-        bindings = {
-            0: Binding("u_sim", "buffer/uniform", wobject._sim_uniform, "COMPUTE"),
-            1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
-            2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
-        }
-        self.define_binding(0, 0, bindings[0])
-        return {0: bindings}
-
-    def get_code(self):
-        return read_shader("simulate.wgsl")
-
-    def get_render_info(self, wobject, shared):
-        return {"indices": workgroups(wobject.count)}
-
-
-class ResetArgsShader(_GrassCompute):
+class ResetArgsShader(GrassComputeShader):
     """Reset the indirect draw arguments at the start of each frame."""
 
     def __init__(self, wobject):
@@ -96,7 +44,7 @@ class ResetArgsShader(_GrassCompute):
         return {"indices": (1, 1, 1)}
 
 
-class CullShader(_GrassCompute):
+class CullShader(GrassComputeShader):
     """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect)."""
 
     def __init__(self, wobject):
@@ -110,7 +58,7 @@ class CullShader(_GrassCompute):
         bindings = {
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
-            2: Binding("u_cull", "buffer/uniform", wobject._cull_uniform, "COMPUTE"),
+            2: Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "COMPUTE"),
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
@@ -152,7 +100,7 @@ class BladeRenderShader(BaseShader):
             Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
             Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
             Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
-            Binding("u_cull", "buffer/uniform", wobject._cull_uniform, "VERTEX"),
+            Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "VERTEX"),
             Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
             Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
         ]
@@ -171,6 +119,7 @@ class BladeRenderShader(BaseShader):
         return read_shader("blade_render.wgsl")
 
 
+@register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
     """The passes of one GrassField: reset, cull, then one draw per LOD class."""
     return [
@@ -178,11 +127,3 @@ def grass_render_function(wobject):
         CullShader(wobject),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS))),
     ]
-
-
-def register(field_cls, material_cls):
-    """Register the WGSL loader and the render function (once)."""
-    register_loader()
-    if not _registered["render"]:
-        register_wgpu_render_function(field_cls, material_cls)(grass_render_function)
-        _registered["render"] = True

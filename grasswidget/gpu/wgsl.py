@@ -1,0 +1,37 @@
+"""WGSL templating shared by every grasswidget shader class.
+
+``{$ include 'grasswidget.<file>' $}`` resolves to ``grasswidget/shaders/<file>``
+(registered with pygfx's WGSL loader when this module is imported). Compute
+shaders share :class:`GrassComputeShader` and :func:`workgroups`.
+"""
+
+from __future__ import annotations
+
+import jinja2
+from pygfx.renderers.wgpu import BaseShader, register_wgsl_loader
+
+from ..shader_files import shader_dir
+
+__all__ = ["WORKGROUP", "workgroups", "GrassComputeShader"]
+
+#: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
+WORKGROUP = 256
+
+register_wgsl_loader("grasswidget", jinja2.FileSystemLoader(str(shader_dir())))
+
+
+def workgroups(n_items, limit=65535):
+    """Dispatch size for ``n_items`` threads in groups of WORKGROUP, folded into y past ``limit``."""
+    groups = max(1, -(-int(n_items) // WORKGROUP))
+    x = min(groups, limit)
+    y = -(-groups // x)
+    return x, y, 1
+
+
+class GrassComputeShader(BaseShader):
+    """Base of the grass compute shaders (entry point ``main``, no pipeline info)."""
+
+    type = "compute"
+
+    def get_pipeline_info(self, wobject, shared):
+        return {}

@@ -1,0 +1,240 @@
+"""The GrassWidget's control panel: sliders, toggles, buttons, the stats line.
+
+:class:`ControlPanel` builds the ipywidgets controls and links them, both ways,
+to traits: the :class:`~grasswidget.GrassParams` sliders, dropdown and culling
+checkboxes to ``params``; the ``time_scale`` slider to the widget's trait.
+It knows nothing of how the meadow is drawn: buttons call the widget's actions
+(``toggle_play``, ``step``, ``reset_blades``, ``reset_camera``, ``set_blades``,
+and a save function), and the view hands it a stats dict to show with
+:meth:`ControlPanel.show_stats`. So any view (the kernel's jupyter-rfb stream or
+another engine) can sit above the same panel.
+
+A control given a value its trait refuses snaps back and the message line says
+why (see :class:`~grasswidget.control_link.ControlLink`).
+"""
+
+from __future__ import annotations
+
+import html
+
+import ipywidgets as ipw
+
+from .control_link import ControlLink
+from .params import WIND_FIELDS
+
+__all__ = ["ControlPanel", "PARAM_SLIDERS", "CULL_CHECKBOXES", "format_stats"]
+
+#: Sliders of the panel: (GrassParams trait, slider step, readout format).
+PARAM_SLIDERS = (
+    ("wind_strength", 0.5, ".1f"),
+    ("wind_direction", 1.0, ".0f"),
+    ("wind_speed", 0.1, ".1f"),
+    ("gravity", 0.1, ".1f"),
+    ("stiffness_scale", 0.01, ".2f"),
+)
+
+#: Checkboxes of the panel: (label, GrassParams trait).
+CULL_CHECKBOXES = (
+    ("orientation culling", "cull_orientation"),
+    ("frustum culling", "cull_frustum"),
+    ("distance culling", "cull_distance"),
+    ("LOD", "lod"),
+)
+
+_DESC = {"description_width": "110px"}
+
+
+def format_stats(stats: dict) -> str:
+    """The stats line's text (plain, " · " separated) from a view's stats dict.
+
+    Known keys (each optional, None = unknown): ``fps`` (frames/s delivered),
+    ``visible`` and ``blades``, ``draw_ms`` (kernel CPU ms per frame),
+    ``gpu_ms`` (dict pass -> ms), ``steps_per_frame``, ``capped`` (bool: the
+    steps-per-frame cap binds), ``frame_size`` ((w, h) rendered pixels).
+    """
+    s = stats
+    parts = [f"{s['fps']:.1f} frames/s delivered" if s.get("fps") is not None else "– frames/s delivered"]
+    blades = s.get("blades")
+    if s.get("visible") is not None and blades is not None:
+        parts.append(f"{s['visible']:,} / {blades:,} blades visible")
+    elif blades is not None:
+        parts.append(f"{blades:,} blades")
+    if s.get("draw_ms") is not None:
+        parts.append(f"draw {s['draw_ms']:.0f} ms")
+    if s.get("gpu_ms"):
+        parts.append("GPU " + ", ".join(f"{k} {v:.2f} ms" for k, v in dict(s["gpu_ms"]).items()))
+    if s.get("steps_per_frame") is not None:
+        parts.append(f"{s['steps_per_frame']} steps/frame" + (" (capped)" if s.get("capped") else ""))
+    if s.get("frame_size"):
+        parts.append("{}×{} px".format(*s["frame_size"]))
+    return " · ".join(parts)
+
+
+def _slider(name, owner, step, fmt):
+    """A FloatSlider for a RangedFloat trait (its range and help text)."""
+    trait = owner.traits()[name]
+    return ipw.FloatSlider(value=getattr(owner, name), min=trait.lo, max=trait.hi, step=step, description=name,
+                           continuous_update=True, style=_DESC, layout=ipw.Layout(width="360px"),
+                           tooltip=(trait.help or name), readout_format=fmt)
+
+
+class ControlPanel:
+    """The controls under a GrassWidget's view.
+
+    Args:
+        params: the :class:`GrassParams` the sliders, dropdown and checkboxes edit.
+        clock: a HasTraits with a ``time_scale`` trait (the widget) for the
+            ``time_scale`` slider.
+        actions: the object whose methods the buttons call: ``toggle_play()``,
+            ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``
+            and ``save_png(size=(w, h)) -> path``.
+        blade_count, max_blades: the blade slider's value and top.
+        view_size: (w, h) CSS pixels of the view (Save PNG multiplies it).
+        ball_row: an ipywidget row (the ball's controls) or None.
+
+    Attributes: ``sliders`` (dict name -> slider, incl. "blades" and
+    "time_scale"), ``blade_slider``, ``wind_field_dropdown``, ``checkboxes``
+    (dict trait -> checkbox), ``play_button``, ``step_button``,
+    ``reset_blades_button``, ``reset_camera_button``, ``save_button``,
+    ``png_scale``, ``file_line``, ``stats_line``, ``message_line``, ``rows``
+    (the list of ipywidgets to put under the view).
+    """
+
+    def __init__(self, params, clock, actions, *, blade_count, max_blades, view_size, ball_row=None):
+        self.params = params
+        self._actions = actions
+        self.view_size = tuple(view_size)
+        self._links = []
+        err = self.show_error
+
+        # blade count: rebuilds the field, so only on release
+        self.blade_slider = ipw.IntSlider(
+            value=blade_count, min=1, max=max_blades, step=1, description="blades",
+            continuous_update=False, style=_DESC, layout=ipw.Layout(width="360px"),
+            tooltip="Number of blades (rebuilds the field; applied on release)",
+        )
+        self.blade_slider.observe(self._on_blade_slider, names="value")
+        self.sliders = {"blades": self.blade_slider}
+        for name, step, fmt in PARAM_SLIDERS:
+            self.sliders[name] = s = _slider(name, params, step, fmt)
+            self._links.append(ControlLink(s, params, name, err))
+        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f")
+        self._links.append(ControlLink(ts, clock, "time_scale", err))
+
+        choices = tuple(getattr(params.traits()["wind_field"], "choices", None) or WIND_FIELDS)
+        self.wind_field_dropdown = ipw.Dropdown(options=choices, value=params.wind_field, description="wind_field",
+                                                style=_DESC, layout=ipw.Layout(width="360px"))
+        self._links.append(ControlLink(self.wind_field_dropdown, params, "wind_field", err))
+
+        self.checkboxes = {}
+        for label, name in CULL_CHECKBOXES:
+            cb = ipw.Checkbox(value=getattr(params, name), description=label, indent=False,
+                              layout=ipw.Layout(width="180px"))
+            self._links.append(ControlLink(cb, params, name, err))
+            self.checkboxes[name] = cb
+
+        bl = ipw.Layout(width="130px")
+        self.play_button = ipw.Button(description="Pause", icon="pause", layout=bl,
+                                      tooltip="Play / pause the animation (space)")
+        self.step_button = ipw.Button(description="Step", icon="step-forward", layout=bl,
+                                      tooltip="Pause and advance one frame (s)")
+        self.reset_blades_button = ipw.Button(description="Reset blades", icon="undo", layout=bl,
+                                              tooltip="Put every blade back in its rest pose")
+        self.reset_camera_button = ipw.Button(description="Reset camera", icon="video-camera", layout=bl,
+                                              tooltip="Back to the starting view (r)")
+        self.play_button.on_click(lambda _b: actions.toggle_play())
+        self.step_button.on_click(lambda _b: actions.step())
+        self.reset_blades_button.on_click(lambda _b: actions.reset_blades())
+        self.reset_camera_button.on_click(lambda _b: actions.reset_camera())
+
+        self.png_scale = ipw.Dropdown(options=[("1x", 1), ("2x", 2), ("4x", 4)], value=2, description="PNG size",
+                                      style={"description_width": "70px"}, layout=ipw.Layout(width="150px"),
+                                      tooltip="Resolution of Save PNG, relative to the view")
+        self.save_button = ipw.Button(description="Save PNG", icon="camera", layout=bl,
+                                      tooltip="Write a PNG next to the notebook")
+        self.save_button.on_click(lambda _b: self._on_save_click())
+        self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
+        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
+        self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
+
+        sliders = list(self.sliders.values())
+        left = ipw.VBox(sliders[:4])
+        middle = ipw.VBox(sliders[4:] + [self.wind_field_dropdown])
+        right = ipw.VBox(list(self.checkboxes.values()))
+        buttons = ipw.HBox([self.play_button, self.step_button, self.reset_blades_button,
+                            self.reset_camera_button])
+        save = ipw.HBox([self.save_button, self.png_scale, self.file_line])
+        #: The panel's widgets, top to bottom: stats line first (just under the view).
+        self.rows = [self.stats_line, ipw.HBox([left, middle, right])]
+        if ball_row is not None:
+            self.rows.append(ball_row)
+        self.rows += [buttons, save, self.message_line]
+
+    # ------------------------------------------------------------------ from the widget
+
+    def show_playing(self, playing: bool):
+        """The play button says what a click does next."""
+        self.play_button.description = "Pause" if playing else "Play"
+        self.play_button.icon = "pause" if playing else "play"
+
+    def show_blade_count(self, count: int):
+        """Move the blade slider without asking for a rebuild."""
+        if self.blade_slider.value != count:
+            self.blade_slider.unobserve(self._on_blade_slider, names="value")
+            try:
+                self.blade_slider.value = count
+            finally:
+                self.blade_slider.observe(self._on_blade_slider, names="value")
+
+    def show_stats(self, stats: dict):
+        """Show a view's stats dict (see :func:`format_stats`) on the stats line."""
+        self.stats_line.value = "<code>" + html.escape(format_stats(stats)) + "</code>"
+
+    def show_error(self, err):
+        """Show an error (an exception or a text) on the message line, in red."""
+        self.message_line.value = f"<span style='color:#b00'>{html.escape(str(err))}</span>"
+
+    def show_file(self, path, size):
+        """Say where a file was written (a link when it is under the working directory)."""
+        self.file_line.value = file_link(path, size)
+
+    # ------------------------------------------------------------------ controls
+
+    def _on_blade_slider(self, change):
+        try:
+            self._actions.set_blades(int(change["new"]))
+        except Exception as err:  # e.g. out of GPU memory: the old field stays
+            self.show_error(err)
+            self.show_blade_count(int(change["old"]))
+
+    def _on_save_click(self):
+        w, h = self.view_size  # the widget's size, not the measured view (a border makes that 638 x 478)
+        k = int(self.png_scale.value)
+        try:
+            path = self._actions.save_png(size=(k * w, k * h))
+        except Exception as err:
+            self.show_error(err)
+            return
+        self.show_file(path, (k * w, k * h))
+
+    def close(self):
+        """Unlink every control from its trait and close the panel's widgets."""
+        for link in self._links:
+            link.unlink()
+        self._links = []
+        todo = list(self.rows)
+        while todo:
+            w = todo.pop()
+            todo.extend(getattr(w, "children", ()))
+            w.close()
+
+
+def file_link(path, size) -> str:
+    """HTML saying where ``path`` ((w, h) pixels) was written."""
+    import os
+
+    rel = os.path.relpath(os.path.abspath(path), os.getcwd())
+    name = html.escape(os.path.basename(path))
+    if rel.startswith(".."):
+        return f"saved <code>{html.escape(os.path.abspath(path))}</code> ({size[0]}×{size[1]})"
+    return f"saved <a href='{html.escape(rel)}' target='_blank' download>{name}</a> ({size[0]}×{size[1]})"
