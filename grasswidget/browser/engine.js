@@ -642,8 +642,17 @@ class GrassEngine {
   }
 
   onSteps(n) {
-    // Tell Python how much simulated time passed (it moves a rolling ball).
     this.pendingSteps = (this.pendingSteps || 0) + n;
+    if (this.model.get("report_steps")) {
+      // Tell Python how much simulated time passed (it moves a rolling ball).
+      this.rollSteps = (this.rollSteps || 0) + n;
+      const now = performance.now();
+      if (!this.lastRollReport || now - this.lastRollReport > 60) {
+        this.report("steps", "", { steps: this.rollSteps });
+        this.rollSteps = 0;
+        this.lastRollReport = now;
+      }
+    }
   }
 
   readArgs() {

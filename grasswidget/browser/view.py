@@ -24,19 +24,17 @@ answering they raise ``TimeoutError`` naming the browser view.
 from __future__ import annotations
 
 import itertools
-import math
-import time
 from pathlib import Path
 
 import anywidget
 import numpy as np
-import traitlets
-from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
+from traitlets import Bool, Bytes, Dict, Float, Int, List
 
 from ..blades import Blades, unpack_state
 from ..colliders import ColliderList, collider_array
 from ..params import GrassParams
 from . import uniforms
+from .kernel_pump import BrowserTimeoutError, wait_for
 from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body
 
 __all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
@@ -58,15 +56,11 @@ SCENE_STYLE = dict(
 )
 
 
-class BrowserTimeoutError(TimeoutError):
-    """The browser view did not answer a request in time."""
-
-
 def wind_error_from_messages(messages, wgsl, body, reason=""):
     """A :class:`~grasswidget.gpu.field.WindShaderError`-like ValueError from the
     browser compiler's messages ([{line, column, message}], lines of the whole
     simulation shader), with the line inside the user's snippet."""
-    from ..gpu.field import WindShaderError
+    from ..errors import WindShaderError
 
     lines = wgsl.splitlines()
     start = next((k + 2 for k, line in enumerate(lines) if line.strip() == USER_WIND_SIGNATURE), None)
@@ -85,41 +79,6 @@ def wind_error_from_messages(messages, wgsl, body, reason=""):
         f"wind_wgsl does not compile as the body of `{USER_WIND_SIGNATURE} ... }}` (in the browser): {text}",
         None, None, text, reason,
     )
-
-
-def wait_for(check, timeout, what):
-    """Call ``check()`` until it returns non-None, processing widget messages meanwhile.
-
-    Inside a running notebook cell the kernel's message loop is pumped with
-    ``jupyter_ui_poll`` (the browser's answers are comm messages). Raises
-    :class:`BrowserTimeoutError` naming ``what`` after ``timeout`` seconds.
-    """
-    value = check()
-    if value is not None:
-        return value
-    deadline = time.monotonic() + timeout
-    try:
-        from IPython import get_ipython
-
-        shell = get_ipython()
-    except ImportError:  # pragma: no cover
-        shell = None
-    if shell is None or getattr(shell, "kernel", None) is None:
-        raise BrowserTimeoutError(f"{what}: no notebook kernel is running, so no browser view can answer")
-    from jupyter_ui_poll import ui_events
-
-    with ui_events() as poll:
-        while True:
-            poll(20)
-            value = check()
-            if value is not None:
-                return value
-            if time.monotonic() > deadline:
-                raise BrowserTimeoutError(
-                    f"{what}: the browser view did not answer within {timeout:g} s "
-                    "(is the widget displayed in an open notebook tab, with WebGPU?)"
-                )
-            time.sleep(0.005)
 
 
 class BrowserView(anywidget.AnyWidget):
@@ -152,6 +111,8 @@ class BrowserView(anywidget.AnyWidget):
     camera = Dict().tag(sync=True)
     balls = List().tag(sync=True)
     show_colliders = Bool(True).tag(sync=True)
+    #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
+    report_steps = Bool(False).tag(sync=True)
     scene_style = Dict().tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(480).tag(sync=True)
@@ -169,7 +130,7 @@ class BrowserView(anywidget.AnyWidget):
         self._colliders = ColliderList()
         self._answers = {}
         self._ids = itertools.count(1)
-        self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": []}
+        self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": []}
         self._wind_body = self.params.wind_wgsl
         self._reverting_wind = False
         self.step_count_hint = 0

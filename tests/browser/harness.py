@@ -572,6 +572,30 @@ class _Abort(HarnessTimeout):
 # --------------------------------------------------------------------------
 
 
+# Playwright's sync API runs one instance per process (a second one inside the
+# first raises "using Playwright Sync API inside the asyncio loop"), so every
+# Browser shares one, started with the first and stopped with the last.
+_PLAYWRIGHT = {"cm": None, "instance": None, "users": 0}
+
+
+def _acquire_playwright():
+    from playwright.sync_api import sync_playwright
+
+    if _PLAYWRIGHT["users"] == 0:
+        cm = sync_playwright()
+        _PLAYWRIGHT["instance"] = cm.__enter__()
+        _PLAYWRIGHT["cm"] = cm
+    _PLAYWRIGHT["users"] += 1
+    return _PLAYWRIGHT["instance"]
+
+
+def _release_playwright():
+    _PLAYWRIGHT["users"] -= 1
+    if _PLAYWRIGHT["users"] == 0:
+        cm, _PLAYWRIGHT["cm"], _PLAYWRIGHT["instance"] = _PLAYWRIGHT["cm"], None, None
+        cm.__exit__(None, None, None)
+
+
 class Browser:
     """Headless Debian Chromium through Playwright (sync API), with a fresh
     user-data dir. ``.page`` is ready to use; ``.context`` can open more.
@@ -607,13 +631,11 @@ class Browser:
         self.user_data_dir: Optional[str] = None
 
     def start(self) -> "Browser":
-        from playwright.sync_api import sync_playwright
-
         if not os.path.exists(self.executable_path):
             raise HarnessError(f"Chromium not found at {self.executable_path} (apt-get install -y chromium)")
         self.user_data_dir = tempfile.mkdtemp(prefix="gw-chromium-")
-        self._pw_cm = sync_playwright()
-        self.playwright = self._pw_cm.__enter__()
+        self._pw_cm = True
+        self.playwright = _acquire_playwright()
         try:
             self.context = self.playwright.chromium.launch_persistent_context(
                 self.user_data_dir,
@@ -668,7 +690,7 @@ class Browser:
         finally:
             self.context = None
             if self._pw_cm is not None:
-                self._pw_cm.__exit__(None, None, None)
+                _release_playwright()
                 self._pw_cm = None
             if self.user_data_dir:
                 shutil.rmtree(self.user_data_dir, ignore_errors=True)
