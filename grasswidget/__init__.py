@@ -5,10 +5,14 @@ GPU code. GPU classes (``GrassField``, ``GrassMaterial``, ``GrassScene``) load
 pygfx/wgpu on first use.
 """
 
-from .blades import Blades
-from .colliders import SphereCollider
-from .errors import BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError
-from .params import GrassParams
+from .runtime_dir import ensure_runtime_dir
+
+ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
+
+from .blades import Blades  # noqa: E402
+from .colliders import SphereCollider  # noqa: E402
+from .errors import BladeCountError, BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError  # noqa: E402
+from .params import GrassParams  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -21,7 +25,7 @@ _LAZY = {
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider",
-    "GrassError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError",
+    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError",
     *_LAZY,
 ]
 

@@ -8,14 +8,29 @@ environment), so existing ``except ValueError`` code keeps working.
 
 from __future__ import annotations
 
-__all__ = ["GrassError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError"]
+__all__ = ["GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError"]
 
 
 class GrassError(Exception):
     """Root of every error grasswidget raises on purpose."""
 
 
-class BladeLimitError(GrassError, ValueError):
+class BladeCountError(GrassError, ValueError):
+    """A blade count that does not fit in memory (host RAM or a GPU buffer); raised
+    before anything is allocated (see :mod:`grasswidget.memory`).
+
+    Attributes: ``count`` (what was asked), ``limit`` (the most blades that fit),
+    ``need_bytes`` (what ``count`` blades would take), ``available_bytes`` (what
+    there is) and ``where`` ("host memory" or "GPU buffer").
+    """
+
+    def __init__(self, message, count=None, limit=None, need_bytes=None, available_bytes=None, where=None):
+        super().__init__(message)
+        self.count, self.limit, self.where = count, limit, where
+        self.need_bytes, self.available_bytes = need_bytes, available_bytes
+
+
+class BladeLimitError(BladeCountError):
     """The blade count does not fit the device's storage-buffer limits."""
 
 

@@ -50,7 +50,8 @@ def format_stats(stats: dict) -> str:
     Known keys (each optional, None = unknown): ``fps`` (frames/s delivered),
     ``visible`` and ``blades``, ``draw_ms`` (kernel CPU ms per frame),
     ``gpu_ms`` (dict pass -> ms), ``steps_per_frame``, ``capped`` (bool: the
-    steps-per-frame cap binds), ``frame_size`` ((w, h) rendered pixels).
+    steps-per-frame cap binds), ``frame_size`` ((w, h) rendered pixels),
+    ``adapter`` (a notice about the adapter, e.g. the CPU adapter's cheap defaults).
     """
     s = stats
     parts = [f"{s['fps']:.1f} frames/s delivered" if s.get("fps") is not None else "– frames/s delivered"]
@@ -67,6 +68,8 @@ def format_stats(stats: dict) -> str:
         parts.append(f"{s['steps_per_frame']} steps/frame" + (" (capped)" if s.get("capped") else ""))
     if s.get("frame_size"):
         parts.append("{}×{} px".format(*s["frame_size"]))
+    if s.get("adapter"):
+        parts.append(s["adapter"])
     return " · ".join(parts)
 
 

@@ -8,19 +8,22 @@ force. ipywidgets can ``link`` to these traits directly.
 
 from __future__ import annotations
 
+import difflib
 import math
 
 import traitlets
 from traitlets import Bool, HasTraits, TraitError, Unicode
 
-__all__ = ["GrassParams", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
+from .enums import BladeShape, GravityMode, WindField
 
-#: Wind fields understood by the simulation (see ``reference.wind_field``).
-WIND_FIELDS = ("wave", "radial", "vortex", "noise", "custom")
-#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``).
-BLADE_SHAPES = ("quad", "triangle", "quadratic", "triangle-tip", "fold")
-#: How environmental gravity is aimed (see ``reference.environmental_gravity``).
-GRAVITY_MODES = ("direction", "point")
+__all__ = ["GrassParams", "StrictTraits", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
+
+#: Wind fields understood by the simulation (see ``reference.wind_field``; ids: ``enums.WindField``).
+WIND_FIELDS = WindField.labels()
+#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``; ids: ``enums.BladeShape``).
+BLADE_SHAPES = BladeShape.labels()
+#: How environmental gravity is aimed (see ``reference.environmental_gravity``; ids: ``enums.GravityMode``).
+GRAVITY_MODES = GravityMode.labels()
 
 
 class RangedFloat(traitlets.Float):
@@ -129,7 +132,45 @@ class Vec3(traitlets.TraitType):
         return out
 
 
-class GrassParams(HasTraits):
+def _unknown_name(obj, name) -> AttributeError:
+    """An AttributeError for an unknown public name that suggests the closest trait."""
+    kind = type(obj).__name__
+    names = sorted(obj.trait_names())
+    close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else f"; its traits are: {', '.join(names)}"
+    err = AttributeError(f"{kind} has no trait {name!r}{hint}")
+    err.name, err.obj = name, obj
+    return err
+
+
+class StrictTraits(HasTraits):
+    """HasTraits that refuses unknown public attribute names.
+
+    ``params.wind_strenght = 3`` (a typo) raises ``AttributeError: GrassParams has
+    no trait 'wind_strenght'; did you mean 'wind_strength'?`` instead of quietly
+    adding an attribute that nothing reads; so do unknown keyword arguments to the
+    constructor and reading an unknown name. Names starting with ``_``, traits,
+    and attributes defined on the class (methods, properties) work as usual.
+    """
+
+    def __init__(self, *args, **kwargs):
+        for key in kwargs:
+            if not self.has_trait(key) and not hasattr(type(self), key):
+                raise _unknown_name(self, key)
+        super().__init__(*args, **kwargs)
+
+    def __setattr__(self, name, value):
+        if not name.startswith("_") and not self.has_trait(name) and not hasattr(type(self), name):
+            raise _unknown_name(self, name)
+        super().__setattr__(name, value)
+
+    def __getattr__(self, name):  # only called for names not found the usual way
+        if name.startswith("_"):
+            raise AttributeError(name)
+        raise _unknown_name(self, name)
+
+
+class GrassParams(StrictTraits):
     """All run-time parameters of a grass field (forces, wind, time step, culling).
 
     Units are SI: metres, seconds, m/s^2 for accelerations (the simulation moves

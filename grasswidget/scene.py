@@ -16,7 +16,7 @@ import pygfx as gfx
 from .blades import Blades
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
-from .gpu.field import GrassField, GrassMaterial
+from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
 from .params import GrassParams
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
@@ -102,7 +102,9 @@ class GrassScene:
 
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
-            blades = Blades.on_plane(int(blades))
+            if blades < 1:
+                raise ValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
+            blades = Blades.on_plane(check_blade_count_fits(blades, "blades"))
         if not isinstance(blades, Blades):
             raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
@@ -158,6 +160,12 @@ class GrassScene:
           at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
           3 m above its edge, 1920 x 1080. Default 2^20 blades.
         """
+        if name not in PRESETS:
+            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+        if blades is not None and not isinstance(blades, Blades):
+            if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
+                raise ValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
+            blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])

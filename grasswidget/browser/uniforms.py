@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from ..colliders import MAX_COLLIDERS, collider_array
-from ..params import BLADE_SHAPES, GrassParams
+from ..enums import BladeShape, GravityMode, WindField
+from ..params import GrassParams
 from ..reference import wind_period
 
 __all__ = [
@@ -27,8 +28,8 @@ __all__ = [
     "layout_description", "srgb_color",
 ]
 
-#: Wind field ids of simulate.wgsl's wind_field().
-WIND_FIELD_IDS = {"wave": 0, "radial": 1, "vortex": 2, "noise": 3, "custom": 4}
+#: Wind field ids of simulate.wgsl's wind_field() (grasswidget.enums.WindField).
+WIND_FIELD_IDS = {label: int(WindField.from_label(label)) for label in WindField.labels()}
 
 SIM_LAYOUT = (
     ("gravity_dir", "vec4<f32>"),
@@ -178,7 +179,7 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
         wind_wavelength=p.wind_wavelength,
         wind_field=WIND_FIELD_IDS[p.wind_field],
         n_blades=n_blades,
-        gravity_mode=1 if p.gravity_mode == "point" else 0,
+        gravity_mode=int(GravityMode.from_label(p.gravity_mode)),
         wind_radius=p.wind_radius,
         wind_direction_rad=rad,
         collision_fade=p.collision_fade,
@@ -224,7 +225,7 @@ def material_uniform(params: GrassParams, **overrides) -> bytes:
         color_variation=m["color_variation"],
         ambient=m["ambient"],
         tip_threshold=m["tip_threshold"],
-        blade_shape=BLADE_SHAPES.index(params.blade_shape),
+        blade_shape=int(BladeShape.from_label(params.blade_shape)),
         opacity=1.0,
     ))
 

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import jinja2
 
-from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
-from ..shader_files import shader_dir
+from ..reference import LOD_SEGMENTS
+from ..shader_files import NO_WIND_BODY, shader_dir, template_vars
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -118,7 +118,8 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     """
     env = _environment()
     source = (shader_dir() / filename).read_text(encoding="utf-8")
-    body = env.from_string(source).render(bindings_code=_MARK, write_pick=False, **variables)
+    values = {**template_vars(), "bindings_code": _MARK, "write_pick": False, **variables}
+    body = env.from_string(source).render(**values)
     declared = {b["name"] for b in binding_map(body)}
     used_numbers = {b["binding"] for b in binding_map(body)}
 
@@ -152,8 +153,13 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
 
 
 def wind_body(wind_wgsl: str) -> str:
-    """The body of ``user_wind``: the user's snippet, or ``return vec3<f32>(0.0);`` when empty."""
-    return wind_wgsl if wind_wgsl.strip() else "    return vec3<f32>(0.0);"
+    """The body of ``user_wind``: the user's snippet, or no wind when empty."""
+    return wind_wgsl if wind_wgsl.strip() else NO_WIND_BODY
+
+
+def _body_file(name: str) -> str:
+    """``<name>_body.wgsl`` when the shader folder has an engine-neutral body of that name, else ``<name>.wgsl``."""
+    return f"{name}_body.wgsl" if (shader_dir() / f"{name}_body.wgsl").is_file() else f"{name}.wgsl"
 
 
 class BrowserShaders:
@@ -165,19 +171,16 @@ class BrowserShaders:
 
     @staticmethod
     def simulate(wind_wgsl: str = "") -> dict:
-        return render_shader("simulate.wgsl", "compute", user_wind_body=wind_body(wind_wgsl))
+        return render_shader(_body_file("simulate"), "compute", user_wind_body=wind_body(wind_wgsl),
+                             blades_writable=True)
 
     @staticmethod
     def reset_args() -> dict:
-        return render_shader("reset_args.wgsl", "compute", lod_segments=list(LOD_SEGMENTS))
+        return render_shader("reset_args.wgsl", "compute")
 
     @staticmethod
     def cull() -> dict:
-        return render_shader(
-            "cull.wgsl", "compute",
-            n_classes=len(LOD_SEGMENTS),
-            lod_min_pixels=[f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
-        )
+        return render_shader(_body_file("cull"), "compute")
 
     @staticmethod
     def blades() -> list:

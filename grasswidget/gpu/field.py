@@ -13,9 +13,11 @@ import pygfx as gfx
 import wgpu
 from pygfx.utils import array_from_shadertype
 
-from ..blades import Blades, pack_state, unpack_state
+from .. import compat
+from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
 from ..errors import BladeLimitError, WindShaderError
+from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS
 from . import indirect
@@ -24,9 +26,10 @@ from .compute import destroy_buffers, sync_buffer
 from .material import GrassMaterial
 from .simulation import Simulation
 
-__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError"]
+__all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
+           "max_blade_count"]
 
-BLADE_BYTES = 64
+
 N_CLASSES = len(LOD_SEGMENTS)
 
 CULL_UNIFORM = dict(
@@ -43,19 +46,27 @@ CULL_UNIFORM = dict(
 
 
 def check_blade_limits(count, device):
-    """Raise BladeLimitError when ``count`` blades do not fit one storage binding."""
-    limit = int(device.limits["max-storage-buffer-binding-size"])
-    max_buffer = int(device.limits.get("max-buffer-size", limit))
-    need = count * BLADE_BYTES
-    visible = count * 4 * N_CLASSES
-    cap = min(limit, max_buffer)
-    if need > cap or visible > cap:
-        most = cap // max(BLADE_BYTES, 4 * N_CLASSES)
-        raise BladeLimitError(
-            f"{count} blades need {need} bytes in one storage buffer, but this device's "
-            f"max_storage_buffer_binding_size is {limit} bytes (max_buffer_size {max_buffer}): "
-            f"at most {most} blades fit on {device.adapter.summary}"
-        )
+    """Raise BladeLimitError when ``count`` blades do not fit one storage binding
+    of ``device`` (see :func:`grasswidget.memory.check_gpu_blade_count`)."""
+    check_gpu_blade_count(count, device.limits, device.adapter.summary, error=BladeLimitError)
+
+
+def check_blade_count_fits(count, name=None) -> int:
+    """Return ``count`` as an int when that many blades fit both the host memory
+    (:func:`grasswidget.memory.check_blade_count`) and this device's buffers;
+    else raise a :class:`~grasswidget.errors.BladeCountError` (a ValueError) naming
+    ``count`` (and the caller's parameter ``name``), the limit and the memory.
+    Allocates nothing: call it before making blades."""
+    count = check_blade_count(count, name)
+    device = ensure_device()
+    return check_gpu_blade_count(count, device.limits, device.adapter.summary, name=name, error=BladeLimitError)
+
+
+def max_blade_count() -> int:
+    """The most blades that fit both the available host memory and this device's buffers."""
+    gpu = max_blades_for_gpu(ensure_device().limits)
+    host = max_blades_for_memory()
+    return gpu if host is None else min(gpu, host)
 
 
 class GrassField(gfx.WorldObject):
@@ -318,8 +329,9 @@ class GrassField(gfx.WorldObject):
         """Sorted ids of the blades drawn by the last render (synchronous)."""
         device = ensure_device()
         args = self.read_draw_args()
-        if self.visible_buffer._wgpu_object is None:
+        visible = compat.gpu_buffer(self.visible_buffer)
+        if visible is None:
             return np.zeros(0, np.uint32)
-        raw = device.queue.read_buffer(self.visible_buffer._wgpu_object)
+        raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))
