@@ -291,6 +291,30 @@ class KernelView:
             self.scene.camera.set_state(self._home_state)
         self.request_draw()
 
+    @property
+    def camera_state(self) -> dict:
+        """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
+        cam = self.scene.camera
+        target = self.controller.target if self.controller is not None else orbit_target(self.scene)
+        return {"position": tuple(float(x) for x in cam.world.position),
+                "target": tuple(float(x) for x in target),
+                "fov_deg": self.scene.vertical_fov()}
+
+    @camera_state.setter
+    def camera_state(self, state):
+        from .browser.engine_view import _check_camera_state
+
+        state = _check_camera_state(state)
+        current = self.camera_state
+        position = state.get("position", current["position"])
+        target = state.get("target", current["target"])
+        if np.allclose(position, target):
+            raise ValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+        self.scene.look(position, target, state.get("fov_deg"))
+        if self.controller is not None:
+            self.controller.target = np.asarray(target, np.float64)
+        self.request_draw()
+
     def request_draw(self):
         if not self._closed:
             self.canvas.request_draw()

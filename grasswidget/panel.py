@@ -293,12 +293,18 @@ class ControlPanel:
     def _on_save_click(self):
         w, h = self.view_size  # the widget's size, not the measured view (a border makes that 638 x 478)
         k = int(self.png_scale.value)
+        size = (k * w, k * h)
         try:
-            path = self._actions.save_png(size=(k * w, k * h))
+            # An engine that renders elsewhere (the browser) answers later: the
+            # button's handler cannot wait for it, so it says where when written.
+            later = getattr(self._actions, "save_png_later", None)
+            if later is not None and later(size, lambda path: self.show_file(path, size)):
+                return
+            path = self._actions.save_png(size=size)
         except Exception as err:
             self.show_error(err)
             return
-        self.show_file(path, (k * w, k * h))
+        self.show_file(path, size)
 
     def close(self):
         """Unlink every control from its trait and close the panel's widgets."""

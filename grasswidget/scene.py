@@ -19,7 +19,7 @@ from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
 from .params import GrassParams
 
-__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "make_renderer"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
 
 #: Named scenes: see GrassScene.preset().
 PRESETS = ("cis565", "meadow")
@@ -52,6 +52,28 @@ def parse_size(size, name="size"):
     if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
         raise ValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
     return w, h
+
+
+def preset_field(name, blades=None, seed=0):
+    """The blades, default size and camera of a named scene (see :meth:`GrassScene.preset`).
+
+    Returns ``(Blades, (w, h), view)`` with view a dict of position, target
+    (metres), fov_deg (vertical), near, far. Pure: no GPU work (the browser
+    engine builds its presets from it too).
+    """
+    if name not in PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+    if name == "cis565":
+        n = 1 << 13 if blades is None else blades
+        b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
+        view = dict(position=(0, 1, 10), target=(0, 1, 0), fov_deg=45, near=0.1, far=100)
+        return b, (640, 480), view
+    n = 1 << 20 if blades is None else blades
+    side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
+    if not isinstance(n, Blades):
+        n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
+    view = dict(position=(0, 3.0, side / 2 + 2.0), target=(0, 0.0, side / 2 - 30.0), fov_deg=50, near=0.1, far=400)
+    return n, (1920, 1080), view
 
 
 def make_renderer(canvas):
@@ -144,18 +166,9 @@ class GrassScene:
             if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
                 raise ValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
-        if name == "cis565":
-            n = 1 << 13 if blades is None else blades
-            b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
-            scene = cls(b, size=size or (640, 480), params=params, **kwargs)
-            scene._set_view((0, 1, 10), (0, 1, 0), fov=45, near=0.1, far=100)
-        else:
-            n = 1 << 20 if blades is None else blades
-            side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
-            if not isinstance(n, Blades):
-                n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
-            scene = cls(n, size=size or (1920, 1080), params=params, **kwargs)
-            scene._set_view((0, 3.0, side / 2 + 2.0), (0, 0.0, side / 2 - 30.0), fov=50, near=0.1, far=400)
+        b, default_size, view = preset_field(name, blades, seed)
+        scene = cls(b, size=size or default_size, params=params, **kwargs)
+        scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
         scene.preset_name = name
         return scene
 
@@ -165,6 +178,27 @@ class GrassScene:
         self.camera.depth_range = (near, far)
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
+
+    def look(self, position=None, target=None, fov_deg=None):
+        """Aim the camera: from ``position`` at ``target`` (metres, world space) with a
+        vertical field of view of ``fov_deg`` degrees; None keeps that part (a None
+        target keeps the viewing direction). The home view (reset_camera) is kept."""
+        cam = self.camera
+        if position is not None:
+            forward = -np.asarray(cam.world.matrix, np.float64)[:3, 2]
+            cam.local.position = tuple(float(x) for x in position)
+            if target is None:
+                target = np.asarray(position, np.float64) + forward
+        if target is not None:
+            cam.look_at(tuple(float(x) for x in target))
+        if fov_deg is not None:
+            set_vertical_fov(cam, float(fov_deg), self.size[0] / self.size[1])
+
+    def vertical_fov(self) -> float:
+        """The camera's vertical field of view in degrees (the inverse of set_vertical_fov)."""
+        aspect = self.size[0] / self.size[1]
+        half = math.radians(self.camera.fov) / 2
+        return math.degrees(2 * math.atan(2 * math.tan(half) / (1 + aspect)))
 
     @property
     def show_colliders(self) -> bool:
