@@ -44,7 +44,7 @@ class ResetArgsShader(GrassComputeShader):
     and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, culled_segments=CULLED_SEGMENTS)
+        super().__init__(wobject, culled_segments=CULLED_SEGMENTS, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
@@ -63,8 +63,12 @@ class CullShader(GrassComputeShader):
     """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
     The pygfx bindings are generated here (``s_args`` and ``s_culled_args`` by
-    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body.
+    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body,
+    rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
     """
+
+    def __init__(self, wobject):
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -110,6 +114,7 @@ class BladeRenderShader(BaseShader):
             segments=CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
             lod_color=_wgsl_rgb(LOD_COLORS[0 if culled else lod_class]),
             cull_colors=[_wgsl_rgb(c) for c in CULL_COLORS.values()],
+            teaching_views=True,
         ))
         self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
