@@ -22,7 +22,8 @@ own module:
     w.close()                     # frees the GPU buffers
 
 Streaming and time: see :mod:`grasswidget.kernel_view`. Mouse: drag to orbit,
-right-drag to pan, wheel to zoom. Shift + drag puts the ball (a sphere
+right-drag to pan, wheel to zoom (the camera stays above the ground and the
+field in sight, see :mod:`grasswidget.orbit`). Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
