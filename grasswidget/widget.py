@@ -184,7 +184,9 @@ class GrassWidget(ipw.VBox):
         except BaseException:
             self.close()
             raise
-        super().__init__(children=[self.view.widget, *self.panel.rows])
+        # The panel is exactly as wide as the view; its rows wrap within it.
+        super().__init__(children=[self.view.widget, *self.panel.rows],
+                         layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
         self.add_class("grasswidget")
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
