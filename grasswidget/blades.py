@@ -361,27 +361,28 @@ def _jittered_unit_square(rng, count):
     return x, z
 
 
+#: The GPU blade record, row by row: 4 x vec4<f32> = 64 bytes per blade (the paper's
+#: layout). Each row is (a vec3 field, a scalar field). The twin of the WGSL ``struct Blade``
+#: and its ``load_blade``/``store_blade`` in ``shaders/blade.wgsl`` (a test compares them).
+BLADE_LAYOUT = (("v0", "orientation"), ("v1", "height"), ("v2", "width"), ("up", "stiffness"))
+#: Bytes per blade record.
+BLADE_BYTES = 16 * len(BLADE_LAYOUT)
+
+
 def pack_state(state: dict) -> np.ndarray:
-    """Pack a state dict into the (N, 4, 4) float32 layout of the GPU buffer."""
+    """Pack a state dict into the (N, 4, 4) float32 layout of the GPU buffer (BLADE_LAYOUT)."""
     n = len(state["v0"])
-    out = np.empty((n, 4, 4), np.float32)
-    out[:, 0, :3], out[:, 0, 3] = state["v0"], state["orientation"]
-    out[:, 1, :3], out[:, 1, 3] = state["v1"], state["height"]
-    out[:, 2, :3], out[:, 2, 3] = state["v2"], state["width"]
-    out[:, 3, :3], out[:, 3, 3] = state["up"], state["stiffness"]
+    out = np.empty((n, len(BLADE_LAYOUT), 4), np.float32)
+    for row, (vec, scalar) in enumerate(BLADE_LAYOUT):
+        out[:, row, :3], out[:, row, 3] = state[vec], state[scalar]
     return out
 
 
 def unpack_state(packed: np.ndarray) -> dict:
     """Inverse of :func:`pack_state`: (N, 4, 4) float32 -> state dict of copies."""
-    p = np.asarray(packed, np.float32).reshape(-1, 4, 4)
-    return dict(
-        v0=p[:, 0, :3].copy(),
-        v1=p[:, 1, :3].copy(),
-        v2=p[:, 2, :3].copy(),
-        up=p[:, 3, :3].copy(),
-        orientation=p[:, 0, 3].copy(),
-        height=p[:, 1, 3].copy(),
-        width=p[:, 2, 3].copy(),
-        stiffness=p[:, 3, 3].copy(),
-    )
+    p = np.asarray(packed, np.float32).reshape(-1, len(BLADE_LAYOUT), 4)
+    out = {}
+    for row, (vec, scalar) in enumerate(BLADE_LAYOUT):
+        out[vec] = p[:, row, :3].copy()
+        out[scalar] = p[:, row, 3].copy()
+    return out

@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+from . import compat
 from .blades import Blades
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
@@ -69,9 +70,9 @@ def _canvas_class():
         max_pixel_ratio = 2.0
 
         def handle_event(self, event):
-            if event.get("event_type") == "resize" and "pixel_ratio" in event:
-                event = dict(event)
-                event["pixel_ratio"] = min(float(event["pixel_ratio"]), float(self.max_pixel_ratio))
+            ratio = compat.event_ratio(event)
+            if compat.event_type(event) == "resize" and ratio is not None:
+                event = compat.with_ratio(event, min(float(ratio), float(self.max_pixel_ratio)))
             super().handle_event(event)
 
     return GrassCanvas
@@ -96,16 +97,14 @@ class EventsWithoutPicking:
         self._intercept = intercept
 
     def __call__(self, event):
-        from pygfx.renderers.wgpu.engine.renderer import EVENT_TYPE_MAP
-
         renderer = self._renderer()
-        event_type = event.get("event_type")
-        if renderer is None or event_type not in EVENT_TYPE_MAP:
+        event_type = compat.event_type(event)
+        event_class = compat.pygfx_event_class(event_type)
+        if renderer is None or event_class is None:
             return
         if self._intercept is not None and self._intercept(event):
             return  # e.g. shift + drag moves the ball
-        fields = {k: v for k, v in event.items() if k not in ("type", "target", "root")}
-        ev = EVENT_TYPE_MAP[event_type](type=event_type, **fields, target=None, root=renderer)
+        ev = event_class(type=event_type, **compat.pygfx_event_fields(event), target=None, root=renderer)
         renderer.dispatch_event(ev)
 
 

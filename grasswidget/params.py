@@ -14,14 +14,16 @@ import math
 import traitlets
 from traitlets import Bool, HasTraits, TraitError, Unicode
 
+from .enums import BladeShape, GravityMode, WindField
+
 __all__ = ["GrassParams", "StrictTraits", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
 
-#: Wind fields understood by the simulation (see ``reference.wind_field``).
-WIND_FIELDS = ("wave", "radial", "vortex", "noise", "custom")
-#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``).
-BLADE_SHAPES = ("quad", "triangle", "quadratic", "triangle-tip", "fold")
-#: How environmental gravity is aimed (see ``reference.environmental_gravity``).
-GRAVITY_MODES = ("direction", "point")
+#: Wind fields understood by the simulation (see ``reference.wind_field``; ids: ``enums.WindField``).
+WIND_FIELDS = WindField.labels()
+#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``; ids: ``enums.BladeShape``).
+BLADE_SHAPES = BladeShape.labels()
+#: How environmental gravity is aimed (see ``reference.environmental_gravity``; ids: ``enums.GravityMode``).
+GRAVITY_MODES = GravityMode.labels()
 
 
 class RangedFloat(traitlets.Float):

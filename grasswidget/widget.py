@@ -62,8 +62,80 @@ def _current_cell_id():
         return None
 
 
-#: cell id -> weakref of the GrassWidget last created by that cell.
+#: cell id -> weak references to the GrassWidgets that cell created (never strong:
+#: the registry itself keeps no widget alive).
 _BY_CELL: dict = {}
+
+#: Names of IPython's own bookkeeping in the user namespace (output history etc.).
+_IPYTHON_NAMES = {"In", "Out", "exit", "quit", "get_ipython"}
+
+
+def _user_namespace():
+    """The IPython user namespace, or None outside IPython."""
+    try:
+        from IPython import get_ipython
+
+        ip = get_ipython()
+        return ip.user_ns if ip is not None else None
+    except Exception:
+        return None
+
+
+def _after_cell(callback):
+    """Run ``callback`` once after the running IPython cell finishes (its assignments
+    done), or now outside IPython."""
+    try:
+        from IPython import get_ipython
+
+        ip = get_ipython()
+    except Exception:
+        ip = None
+    if ip is None or not hasattr(ip, "events"):
+        callback()
+        return
+
+    def once(*_args):
+        try:
+            ip.events.unregister("post_run_cell", once)
+        finally:
+            callback()
+
+    ip.events.register("post_run_cell", once)
+
+
+def held_by_user(widget, namespace) -> bool:
+    """Whether a user variable refers to ``widget`` (directly, or in a list, tuple,
+    set or dict it holds). IPython's history names (``_``, ``Out``, ...) do not count."""
+    for name, value in list(namespace.items()):
+        if name.startswith("_") or name in _IPYTHON_NAMES:
+            continue
+        if value is widget:
+            return True
+        items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple, set)) else ()
+        if any(item is widget for item in items):
+            return True
+    return False
+
+
+def _adopt_for_cell(cell, widget):
+    """Remember ``widget`` as made by ``cell``; close the widgets an earlier run of that
+    cell made, once this run is over, unless the user still holds them in a variable."""
+    earlier = [ref for ref in _BY_CELL.get(cell, []) if ref() is not None and ref() is not widget]
+    _BY_CELL[cell] = [weakref.ref(widget)]
+
+    def close_unheld():
+        namespace = _user_namespace()
+        for ref in earlier:
+            old = ref()
+            if old is None or old.closed:
+                continue
+            if namespace is not None and held_by_user(old, namespace):
+                _BY_CELL.setdefault(cell, []).append(ref)  # still the cell's, still the user's
+                continue
+            old.close()
+
+    if earlier:
+        _after_cell(close_unheld)
 
 
 def _check_number(name, value, lo, hi, integer=False):
@@ -194,14 +266,11 @@ class GrassWidget(ipw.VBox):
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
-        # sends the cell id with each execution), so its GPU buffers are freed.
+        # sends the cell id with each execution), so its GPU buffers are freed; one
+        # the user still holds in a variable stays open.
         cell = _current_cell_id()
         if cell:
-            old = _BY_CELL.get(cell)
-            old = old() if old is not None else None
-            if old is not None and old is not self:
-                old.close()
-            _BY_CELL[cell] = weakref.ref(self)
+            _adopt_for_cell(cell, self)
 
     # ------------------------------------------------------------------ building
 
@@ -339,6 +408,11 @@ class GrassWidget(ipw.VBox):
         out = save_animation(self.scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
         self._request_draw()
         return out
+
+    @property
+    def closed(self) -> bool:
+        """True after :meth:`close` (the GPU resources are released)."""
+        return self._closed
 
     def close(self):
         """Close the view and the controls and release the GPU resources."""

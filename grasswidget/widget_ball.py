@@ -26,6 +26,7 @@ import ipywidgets as ipw
 import numpy as np
 from traitlets import Any, Bool, HasTraits, TraitError
 
+from . import compat
 from .colliders import SphereCollider
 from .control_link import ControlLink
 from .params import RangedFloat
@@ -109,6 +110,11 @@ class BallControl(HasTraits):
         self.collider.observe(self._on_collider, names=["center", "radius"])
         self._build_controls()
         self.attach(scene)
+
+    @property
+    def roll_center(self) -> tuple:
+        """(x, z) of the field's centre in metres: the ball rolls on a circle around it."""
+        return tuple(float(c) for c in self._center)
 
     # ------------------------------------------------------------------ scene
 
@@ -284,7 +290,7 @@ class BallControl(HasTraits):
     def handle_event(self, event, view_size):
         """Shift + left-drag moves the ball over the ground. Returns True when the
         event was used (then it must not reach the camera controller)."""
-        kind = event.get("event_type")
+        kind = compat.event_type(event)
         if kind == "pointer_down":
             if event.get("button") == 1 and "Shift" in tuple(event.get("modifiers") or ()):
                 self._dragging = True

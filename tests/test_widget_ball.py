@@ -25,8 +25,9 @@ def _screen_of(camera, point, size=SIZE):
 
 
 def _pointer(kind, x, y, modifiers=(), button=1):
-    return dict(event_type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
-                modifiers=modifiers, ntouches=0, touches={}, time_stamp=0)
+    """A pointer event in jupyter-rfb's current format ("type", "timestamp")."""
+    return dict(type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
+                modifiers=modifiers, ntouches=0, touches={}, timestamp=0)
 
 
 def test_ground_point_inverts_the_projection():
@@ -77,7 +78,7 @@ def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
         return abs(sx - px) < 0.5 and abs(sy - py) < 0.5
 
     x, y = _screen_of(cam, (-3.0, 0.0, 1.0))
-    widget._events(_pointer("pointer_down", x, y, ("Shift",)))
+    widget.view.events(_pointer("pointer_down", x, y, ("Shift",)))
     assert ball.enabled and ball.collider in widget.scene.colliders  # a shift-click switches it on
     r = ball.collider.radius
     assert ball.collider.center[1] == pytest.approx(r)  # resting on the ground
@@ -86,9 +87,9 @@ def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
     x2, y2 = _screen_of(cam, (2.0, 0.0, -1.0))
     for k in range(1, 9):
         px, py = x + (x2 - x) * k / 8, y + (y2 - y) * k / 8
-        widget._events(_pointer("pointer_move", px, py, ("Shift",), button=0))
+        widget.view.events(_pointer("pointer_move", px, py, ("Shift",), button=0))
         assert under_pointer(px, py)
-    widget._events(_pointer("pointer_up", x2, y2, ("Shift",)))
+    widget.view.events(_pointer("pointer_up", x2, y2, ("Shift",)))
     assert under_pointer(x2, y2) and ball.collider.center[1] == pytest.approx(r)
     # the camera did not orbit while shift was held: no motion pending, the pose unchanged
     assert _settle(widget.controller) == 0
@@ -99,10 +100,10 @@ def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
     # after the drag, a plain drag orbits again and leaves the ball alone
     center_before = ball.collider.center
     target = np.asarray(widget.controller.target, np.float64)
-    widget._events(_pointer("pointer_down", 80, 60))
+    widget.view.events(_pointer("pointer_down", 80, 60))
     for i in range(1, 6):
-        widget._events(_pointer("pointer_move", 80 + 8 * i, 60, button=0))
-    widget._events(_pointer("pointer_up", 120, 60))
+        widget.view.events(_pointer("pointer_move", 80 + 8 * i, 60, button=0))
+    widget.view.events(_pointer("pointer_up", 120, 60))
     assert _settle(widget.controller) > 0
     pos, rot = _camera_pose(cam)
     # an orbit: the camera turned around the target at the same distance, still looking at it
@@ -170,12 +171,12 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     start = np.array(ball.collider.center)
     frames = 12
     for _ in range(frames):
-        widget._draw()
+        widget.view.draw()
     steps = frames * widget.steps_per_frame
     assert widget.scene.field.step_count == steps
     end = np.array(ball.collider.center)
     # on the circle around the field's centre through the start, at roll_speed
-    cx, cz = ball._center
+    cx, cz = ball.roll_center
     r0 = math.hypot(start[0] - cx, start[2] - cz)
     assert math.hypot(end[0] - cx, end[2] - cz) == pytest.approx(r0, rel=1e-6)
     arc = r0 * abs(math.atan2(end[2] - cz, end[0] - cx) - math.atan2(start[2] - cz, start[0] - cx))
@@ -189,20 +190,20 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     assert s["collision"].max() > 0.5
     # paused: no time, no rolling
     widget.pause()
-    widget._draw()
+    widget.view.draw()
     assert np.allclose(ball.collider.center, end)
     # a custom path
     ball.path = lambda dist: (-2.0 + dist, 1.0)
     widget.play()
-    widget._draw()
+    widget.view.draw()
     x, _y, z = ball.collider.center
     assert z == 1.0 and x == pytest.approx(-2.0 + ball.roll_speed * widget.steps_per_frame * dt)
     # a path that fails stops the rolling with a message; the widget goes on
     ball.path = lambda dist: 1 / 0
-    widget._draw()
+    widget.view.draw()
     assert not ball.rolling and "ball path: ZeroDivisionError" in widget.message_line.value
     steps = widget.scene.field.step_count
-    widget._draw()
+    widget.view.draw()
     assert widget.scene.field.step_count == steps + widget.steps_per_frame
     ball.path = None
     ball.roll_button.value = True

@@ -15,8 +15,8 @@ import sys
 
 from ..errors import NoGPUAdapterError
 
-__all__ = ["NoGPUAdapterError", "ensure_device", "adapter_info", "is_cpu_adapter", "cpu_notice", "announce_cpu_defaults",
-           "INSTALL_HINT"]
+__all__ = ["NoGPUAdapterError", "ensure_device", "missing_capabilities", "adapter_info", "is_cpu_adapter",
+           "cpu_notice", "announce_cpu_defaults", "INSTALL_HINT"]
 
 INSTALL_HINT = (
     "grasswidget needs a WebGPU adapter (Vulkan, Metal or D3D12). None was found. "
@@ -60,9 +60,10 @@ def ensure_device():
     """Configure (once) and return the shared wgpu device that pygfx uses."""
     import wgpu
     from pygfx.renderers.wgpu import get_shared
-    from pygfx.renderers.wgpu.engine.shared import Shared
 
-    if Shared.get_instance() is None and not _state["configured"]:
+    from .. import compat
+
+    if not compat.default_device_exists() and not _state["configured"]:
         adapter = select_adapter()
         limits = adapter.limits
         required_limits = {
@@ -89,7 +90,32 @@ def ensure_device():
             raise NoGPUAdapterError(f"{INSTALL_HINT} (wgpu said: {err})") from None
         raise
     _state["adapter"] = device.adapter
+    if not _state["configured"] and not _state.get("checked_existing"):
+        _state["checked_existing"] = True
+        missing = missing_capabilities(device)
+        if missing:
+            msg = (
+                "grasswidget: pygfx's GPU device was created before grasswidget could configure it, "
+                f"so it lacks {'; '.join(missing)}. Create the GrassField/GrassScene/GrassWidget "
+                "(or call grasswidget.gpu.adapter.ensure_device()) before any other pygfx renderer."
+            )
+            print(msg, file=sys.stderr)
+            warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return device
+
+
+def missing_capabilities(device) -> list[str]:
+    """What ``device`` lacks of what grasswidget would have asked its adapter for:
+    the adapter's largest storage-buffer limits and timestamp queries (one line each)."""
+    missing = []
+    adapter = device.adapter
+    for key, why in (("max-storage-buffer-binding-size", "fewer blades fit"), ("max-buffer-size", "fewer blades fit")):
+        have, could = device.limits.get(key), adapter.limits.get(key)
+        if have is not None and could is not None and int(have) < int(could):
+            missing.append(f"the adapter's {key} ({int(could)} bytes; the device has {int(have)}: {why})")
+    if "timestamp-query" in adapter.features and "timestamp-query" not in device.features:
+        missing.append("timestamp-query (no GPU timings in stats and benchmarks)")
+    return missing
 
 
 def adapter_info() -> dict:

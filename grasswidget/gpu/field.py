@@ -13,7 +13,8 @@ import pygfx as gfx
 import wgpu
 from pygfx.utils import array_from_shadertype
 
-from ..blades import Blades, pack_state, unpack_state
+from .. import compat
+from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
 from ..errors import BladeLimitError, WindShaderError
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
@@ -28,7 +29,7 @@ from .simulation import Simulation
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
 
-BLADE_BYTES = 64
+
 N_CLASSES = len(LOD_SEGMENTS)
 
 CULL_UNIFORM = dict(
@@ -328,8 +329,9 @@ class GrassField(gfx.WorldObject):
         """Sorted ids of the blades drawn by the last render (synchronous)."""
         device = ensure_device()
         args = self.read_draw_args()
-        if self.visible_buffer._wgpu_object is None:
+        visible = compat.gpu_buffer(self.visible_buffer)
+        if visible is None:
             return np.zeros(0, np.uint32)
-        raw = device.queue.read_buffer(self.visible_buffer._wgpu_object)
+        raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))

@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pygfx as gfx
 
-from ..params import BLADE_SHAPES
+from ..enums import BladeShape
 
 __all__ = ["GrassMaterial"]
 
-#: Ribbon shapes by id (the WGSL ``blade_shape_t`` switch).
-SHAPES = BLADE_SHAPES
+#: Ribbon shape labels, in id order (``enums.BladeShape``).
+SHAPES = BladeShape.labels()
 
 
 class GrassMaterial(gfx.Material):
@@ -117,13 +117,13 @@ class GrassMaterial(gfx.Material):
     @property
     def blade_shape(self):
         """Ribbon shape: one of quad, triangle, quadratic, triangle-tip, fold."""
-        return SHAPES[int(self.uniform_buffer.data["blade_shape"])]
+        return BladeShape(int(self.uniform_buffer.data["blade_shape"])).label
 
     @blade_shape.setter
     def blade_shape(self, value):
         if value not in SHAPES:
             raise ValueError(f"blade_shape must be one of {', '.join(SHAPES)}; got {value!r}")
-        self._set("blade_shape", SHAPES.index(value))
+        self._set("blade_shape", int(BladeShape.from_label(value)))
 
     @property
     def tip_threshold(self):

@@ -19,20 +19,17 @@ import weakref
 
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
+from ..reference import LOD_SEGMENTS
 from ..shader_files import read_shader
 from .field import GrassField
 from .material import GrassMaterial
-from .wgsl import WORKGROUP, GrassComputeShader, workgroups
+from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP"]
 
 
 class ResetArgsShader(GrassComputeShader):
     """Reset the indirect draw arguments at the start of each frame."""
-
-    def __init__(self, wobject):
-        super().__init__(wobject, lod_segments=list(LOD_SEGMENTS))
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE")}}
@@ -45,14 +42,11 @@ class ResetArgsShader(GrassComputeShader):
 
 
 class CullShader(GrassComputeShader):
-    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect)."""
+    """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
-    def __init__(self, wobject):
-        super().__init__(
-            wobject,
-            n_classes=len(LOD_SEGMENTS),
-            lod_min_pixels=[f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
-        )
+    The pygfx bindings are generated here (``s_args`` by hand: pygfx does not
+    declare atomics); ``cull.wgsl`` is the engine-neutral body.
+    """
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -63,12 +57,16 @@ class CullShader(GrassComputeShader):
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2):
+        for slot in (0, 1, 2, 10, 12):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
-        return read_shader("cull.wgsl")
+        return (
+            "{{ bindings_code }}\n"
+            "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
+            "{$ include 'grasswidget.cull.wgsl' $}\n"
+        )
 
     def get_render_info(self, wobject, shared):
         return {"indices": workgroups(wobject.count)}
@@ -80,7 +78,7 @@ class BladeRenderShader(BaseShader):
     type = "render"
 
     def __init__(self, wobject, lod_class):
-        super().__init__(wobject, lod_class=lod_class, segments=LOD_SEGMENTS[lod_class])
+        super().__init__(wobject, **shader_vars(lod_class=lod_class, segments=LOD_SEGMENTS[lod_class]))
         self.indirect_args = wobject.args_buffer
         self.indirect_offset = 16 * lod_class
         self._field = weakref.ref(wobject)

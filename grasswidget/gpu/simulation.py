@@ -19,14 +19,15 @@ from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
 from ..colliders import MAX_COLLIDERS, collider_array
+from ..enums import GravityMode, WindField
 from ..errors import WindShaderError
 from ..reference import wind_period
-from ..shader_files import read_shader
+from ..shader_files import NO_WIND_BODY
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
 
-__all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "WIND_FIELD_IDS", "wind_shader_error"]
+__all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
 MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
@@ -55,8 +56,6 @@ SIM_UNIFORM = dict(
     collision_gain="f4",
     n_colliders="i4",
 )
-#: Wind field ids of simulate.wgsl's wind_field().
-WIND_FIELD_IDS = {"wave": 0, "radial": 1, "vortex": 2, "noise": 3, "custom": 4}
 
 _USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
 
@@ -102,12 +101,13 @@ class SimulateShader(GrassComputeShader):
 
     ``user_wind_body`` is the body of ``fn user_wind(p, t) -> vec3<f32>`` (the
     "custom" wind field, ``params.wind_wgsl``); empty means no wind. Dispatched
-    by :meth:`Simulation.step` (never by ``render()``).
+    by :meth:`Simulation.step` (never by ``render()``). The pygfx bindings are
+    generated here; ``simulate.wgsl`` is the engine-neutral body.
     """
 
     def __init__(self, wobject, user_wind_body=""):
-        body = user_wind_body if user_wind_body.strip() else "    return vec3<f32>(0.0);"
-        super().__init__(wobject, user_wind_body=body)
+        body = user_wind_body if user_wind_body.strip() else NO_WIND_BODY
+        super().__init__(wobject, user_wind_body=body, blades_writable=True)
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -115,11 +115,11 @@ class SimulateShader(GrassComputeShader):
             1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
             2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
         }
-        self.define_binding(0, 0, bindings[0])
+        self.define_bindings(0, bindings)
         return {0: bindings}
 
     def get_code(self):
-        return read_shader("simulate.wgsl")
+        return "{{ bindings_code }}\n{$ include 'grasswidget.simulate.wgsl' $}\n"
 
     def get_render_info(self, wobject, shared):
         return {"indices": workgroups(wobject.count)}
@@ -209,10 +209,10 @@ class Simulation:
         d["wind_strength"] = p.wind_strength
         d["wind_speed"] = p.wind_speed
         d["wind_wavelength"] = p.wind_wavelength
-        d["wind_field"] = WIND_FIELD_IDS[p.wind_field]
+        d["wind_field"] = WindField.from_label(p.wind_field)
         d["steps"] = steps
         d["n_blades"] = field.count
-        d["gravity_mode"] = 1 if p.gravity_mode == "point" else 0
+        d["gravity_mode"] = GravityMode.from_label(p.gravity_mode)
         d["gravity_center"] = (*self.local_gravity_center(), 0.0)
         d["wind_center"] = (*p.wind_center, 0.0)
         d["wind_radius"] = p.wind_radius

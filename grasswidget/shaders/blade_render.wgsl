@@ -4,6 +4,7 @@
 // and side k%2 (u). Ribbon formulas: paper section 6 / reference ribbons.
 
 {$ include 'pygfx.std.wgsl' $}
+{$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 const SEGMENTS: u32 = {{ segments }}u;
@@ -17,14 +18,11 @@ struct VertexInput {
 @vertex
 fn vs_main(in: VertexInput) -> Varyings {
     let blade = s_visible[LOD_CLASS * u_cull.n_blades + in.instance_index];
-    let p0 = s_blades[4u * blade + 0u];
-    let p1 = s_blades[4u * blade + 1u];
-    let p2 = s_blades[4u * blade + 2u];
-    let p3 = s_blades[4u * blade + 3u];
-    let v0 = p0.xyz;
-    let v1 = p1.xyz;
-    let v2 = p2.xyz;
-    let width = p2.w;
+    let rec = load_blade(blade);
+    let v0 = rec.v0;
+    let v1 = rec.v1;
+    let v2 = rec.v2;
+    let width = rec.width;
 
     let row = in.vertex_index / 2u;
     let u = f32(in.vertex_index % 2u);
@@ -34,16 +32,16 @@ fn vs_main(in: VertexInput) -> Varyings {
     let a = v0 + v * (v1 - v0);
     let b = v1 + v * (v2 - v1);
     let c = a + v * (b - a);
-    let t1 = width_direction(p3.xyz, p0.w);
+    let t1 = width_direction(rec.up, rec.orientation);
     var t0 = b - a;
-    if (dot(t0, t0) < 1e-12) { t0 = p3.xyz; }
+    if (dot(t0, t0) < 1e-12) { t0 = rec.up; }
     t0 = normalize(t0);
     let n = normalize(cross(t0, t1));
     let c0 = c - width * t1;
     let c1 = c + width * t1;
     let t = blade_shape_t(u, v, u_material.blade_shape, u_material.tip_threshold);
     var pos = (1.0 - t) * c0 + t * c1;
-    if (u_material.blade_shape == 4) {
+    if (u_material.blade_shape == {{ blade_shape_fold }}) {
         pos = pos + n * (width * (0.5 - abs(u - 0.5) * (1.0 - v)));
     }
 

@@ -3,13 +3,15 @@
 // (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
 // and class; the instance counts in s_args feed draw_indirect.
 // The twin of reference.cull() and reference.lod_class().
+//
+// Engine-neutral body: the engine declares (before this file) u_stdinfo
+// (projection_transform, cam_transform, cam_transform_inv, physical_size),
+// u_wobject (world_transform), u_cull (fields of grasswidget.gpu.field.CULL_UNIFORM),
+// s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>) and s_visible
+// (array<u32>); see grasswidget.shader_files.
 
-{{ bindings_code }}
+{$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
-
-@group(0) @binding(10) var<storage, read> s_blades: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;
-@group(0) @binding(12) var<storage, read_write> s_visible: array<u32>;
 
 const N_CLASSES: u32 = {{ n_classes }}u;
 var<workgroup> wg_count: array<atomic<u32>, {{ n_classes }}>;
@@ -22,7 +24,7 @@ fn lod_class_of(pixels: f32) -> u32 {
     return N_CLASSES - 1u;
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size({{ workgroup_size }})
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
@@ -32,26 +34,23 @@ fn main(
     workgroupBarrier();
 
     let n = u_cull.n_blades;
-    let i = (wid.y * nwg.x + wid.x) * 256u + lid;
+    let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
     var visible = i < n;
     var cls = 0u;
     var slot = 0u;
     if (visible) {
-        let p0 = s_blades[4u * i + 0u];
-        let p1 = s_blades[4u * i + 1u];
-        let p2 = s_blades[4u * i + 2u];
-        let p3 = s_blades[4u * i + 3u];
+        let blade = load_blade(i);
         // To world space (blades live in the object's local space).
         let m = u_wobject.world_transform;
-        let v0 = (m * vec4<f32>(p0.xyz, 1.0)).xyz;
-        let v1 = (m * vec4<f32>(p1.xyz, 1.0)).xyz;
-        let v2 = (m * vec4<f32>(p2.xyz, 1.0)).xyz;
-        let up = normalize((m * vec4<f32>(p3.xyz, 0.0)).xyz);
-        let t1 = normalize((m * vec4<f32>(width_direction(p3.xyz, p0.w), 0.0)).xyz);
+        let v0 = (m * vec4<f32>(blade.v0, 1.0)).xyz;
+        let v1 = (m * vec4<f32>(blade.v1, 1.0)).xyz;
+        let v2 = (m * vec4<f32>(blade.v2, 1.0)).xyz;
+        let up = normalize((m * vec4<f32>(blade.up, 0.0)).xyz);
+        let t1 = normalize((m * vec4<f32>(width_direction(blade.up, blade.orientation), 0.0)).xyz);
         let view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
         let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
         let scale = length(m[1].xyz);
-        let h = p1.w * scale;
+        let h = blade.height * scale;
 
         if (u_cull.cull_orientation != 0 && orientation_cull(v0, t1, cam_pos, u_cull.orientation_threshold)) {
             visible = false;

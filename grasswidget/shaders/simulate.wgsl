@@ -3,72 +3,67 @@
 // validation (paper 5.2), sphere collisions and validation of the pushed blades.
 // Blades are independent, so looping inside the shader is exact and needs no
 // barriers. The twin of reference.simulate() / reference.simulate_step().
+//
+// Engine-neutral body: the engine declares (before this file) the uniform u_sim
+// (fields of grasswidget.gpu.simulation.SIM_UNIFORM), s_blades (array<vec4<f32>>,
+// read_write) and s_collision (array<f32>, read_write: the per-blade collision
+// strength eta, 0..1, persistent across steps); see grasswidget.shader_files.
 
-{{ bindings_code }}
+{$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
-@group(0) @binding(1) var<storage, read_write> s_blades: array<vec4<f32>>;
-// Per-blade collision strength eta (0..1), persistent across steps.
-@group(0) @binding(2) var<storage, read_write> s_collision: array<f32>;
-
 // Collision passes per step (reference.COLLISION_PASSES): push, then validate the pushed blades.
-const COLLISION_PASSES: i32 = 2;
+const COLLISION_PASSES: i32 = {{ collision_passes }};
 
-// Wind field by id: 0 wave, 1 radial, 2 vortex, 3 noise, 4 custom (user_wind).
+// Wind field by WindField id; "custom" is user_wind.
 fn wind_field(p: vec3<f32>, t: f32) -> vec3<f32> {
     switch u_sim.wind_field {
-        case 1: {
+        case {{ wind_field_radial }}: {
             return wind_radial(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
         }
-        case 2: {
+        case {{ wind_field_vortex }}: {
             return wind_vortex(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
         }
-        case 3: {
+        case {{ wind_field_noise }}: {
             return wind_noise(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_direction_rad, u_sim.wind_speed, u_sim.wind_wavelength);
         }
-        case 4: {
+        case {{ wind_field_custom }}: {
             return user_wind(p, t);
         }
-        default: {
+        default: {  // {{ wind_field_wave }}
             return wind_wave(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_speed, u_sim.wind_wavelength);
         }
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size({{ workgroup_size }})
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = (wid.y * nwg.x + wid.x) * 256u + lid;
+    let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
     if (i >= u_sim.n_blades) { return; }
 
-    let p0 = s_blades[4u * i + 0u];
-    let p1 = s_blades[4u * i + 1u];
-    let p2 = s_blades[4u * i + 2u];
-    let p3 = s_blades[4u * i + 3u];
-    let v0 = p0.xyz;
-    let up = p3.xyz;
-    let h = p1.w;
-    let s = p3.w * u_sim.stiffness_scale;
-    var v1 = p1.xyz;
-    var v2 = p2.xyz;
+    var blade = load_blade(i);
+    let v0 = blade.v0;
+    let up = blade.up;
+    let h = blade.height;
+    let s = blade.stiffness * u_sim.stiffness_scale;
+    var v1 = blade.v1;
+    var v2 = blade.v2;
     var eta = s_collision[i];
 
-    let t1 = width_direction(up, p0.w);
+    let t1 = width_direction(up, blade.orientation);
     let f = front_direction(up, t1);
-    var g_env = environmental_gravity(u_sim.gravity_dir.xyz, u_sim.gravity);
-    if (u_sim.gravity_mode == 1) {
-        g_env = gravity_point(v0, u_sim.gravity_center.xyz, u_sim.gravity);
-    }
+    let g_env = environmental_gravity(v0, u_sim.gravity_mode, u_sim.gravity_dir.xyz, u_sim.gravity_center.xyz, u_sim.gravity);
     let g = g_env + front_gravity(g_env, f, u_sim.front_gravity);
     let iv2 = v0 + up * h;
 
     for (var k = 0; k < u_sim.steps; k = k + 1) {
         let t = u_sim.time0 + f32(k) * u_sim.dt;
         eta = fade_collision(eta, u_sim.collision_fade, u_sim.dt);
-        let s_eff = s * max(1.0 - eta, 0.1);
+        let s_eff = s * max(1.0 - eta, {{ recovery_floor }});
         let w = wind_force(wind_field(v0, t), v0, v2, up, h);
         v2 = integrate_tip(v2, iv2, s_eff, g + w, u_sim.dt);
         v2 = validate_ground(v0, v2, up);
@@ -95,12 +90,13 @@ fn main(
                     v2 = again.v2;
                 }
             }
-            eta = min(eta + u_sim.collision_gain * add, 1.0);
+            eta = min(eta + u_sim.collision_gain * add, {{ collision_max }});
         }
     }
 
-    s_blades[4u * i + 1u] = vec4<f32>(v1, h);
-    s_blades[4u * i + 2u] = vec4<f32>(v2, p2.w);
+    blade.v1 = v1;
+    blade.v2 = v2;
+    store_blade_guides(i, blade);
     s_collision[i] = eta;
 }
 
