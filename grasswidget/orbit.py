@@ -137,44 +137,32 @@ def clamp_orbit(position, target, limits: OrbitLimits):
 
 
 def _controller_class():
-    import pygfx as gfx
+    from .compat import held_orbit_controller_class
 
-    class GroundOrbitController(gfx.OrbitController):
+    class GroundOrbitController(held_orbit_controller_class(_hold)):
         """pygfx's ``OrbitController`` (a custom target is required) whose orbit,
-        zoom and pan steps are held to an :class:`OrbitLimits`.
+        zoom and pan steps are held to an :class:`OrbitLimits` (``limits``).
 
-        It overrides the controller's per-action update hooks (``_update_rotate``,
-        ``_update_zoom``, ``_update_pan``, the extension points pygfx's own
-        controllers use): each step is taken as pygfx computes it, and the result
-        is put back inside the limits with :func:`clamp_orbit` before the camera
-        sees it. So a drag stops at a limit and, reversed, moves back at once.
+        Each step is taken as pygfx computes it, then put back inside the limits
+        with :func:`clamp_orbit` before the camera sees it (the hook on pygfx's
+        controller lives in :func:`grasswidget.compat.held_orbit_controller_class`).
+        So a drag stops at a limit and, reversed, moves back at once.
         """
 
         def __init__(self, *args, limits: OrbitLimits, **kwargs):
             self.limits = limits
             super().__init__(*args, **kwargs)
 
-        def _hold(self):
-            target = self.target
-            state = self._get_camera_state()
-            pos, tgt = clamp_orbit(state["position"], target, self.limits)
-            if not (np.allclose(pos, state["position"]) and np.allclose(tgt, target)):
-                self.target = tgt  # (public setter; the camera follows at the update below)
-                self._set_camera_state({"position": pos, "rotation": _look_rotation(pos, tgt, state)})
-
-        def _update_rotate(self, delta):
-            super()._update_rotate(delta)
-            self._hold()
-
-        def _update_zoom(self, delta):
-            super()._update_zoom(delta)
-            self._hold()
-
-        def _update_pan(self, delta, *, vecx, vecy):
-            super()._update_pan(delta, vecx=vecx, vecy=vecy)
-            self._hold()
-
     return GroundOrbitController
+
+
+def _hold(controller, position, target, state):
+    """The step's camera pose held to ``controller.limits``: (position, rotation,
+    target), or None when the step is inside them."""
+    pos, tgt = clamp_orbit(position, target, controller.limits)
+    if np.allclose(pos, position) and np.allclose(tgt, target):
+        return None
+    return pos, _look_rotation(pos, tgt, state), tgt
 
 
 def _look_rotation(position, target, state):

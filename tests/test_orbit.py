@@ -17,23 +17,24 @@ SIZE = WIDGET_SIZE
 
 
 def _pointer(kind, x, y, button=1, modifiers=()):
-    return dict(event_type=kind, x=x, y=y, button=button, buttons=(button,) if kind != "pointer_up" else (),
-                modifiers=modifiers, ntouches=0, touches={}, time_stamp=time.perf_counter())
+    """A pointer event in jupyter-rfb's current format ("type", "timestamp")."""
+    return dict(type=kind, x=x, y=y, button=button, buttons=(button,) if kind != "pointer_up" else (),
+                modifiers=modifiers, ntouches=0, touches={}, timestamp=time.perf_counter())
 
 
 def _drag(widget, start, delta, button=1, steps=12):
     x, y = start
-    widget._events(_pointer("pointer_down", x, y, button))
+    widget.view.events(_pointer("pointer_down", x, y, button))
     for k in range(1, steps + 1):
-        widget._events(_pointer("pointer_move", x + delta[0] * k / steps, y + delta[1] * k / steps, button=0))
-    widget._events(_pointer("pointer_up", x + delta[0], y + delta[1], button))
+        widget.view.events(_pointer("pointer_move", x + delta[0] * k / steps, y + delta[1] * k / steps, button=0))
+    widget.view.events(_pointer("pointer_up", x + delta[0], y + delta[1], button))
     _settle(widget.controller)
 
 
 def _wheel(widget, dy, times=10):
     for _ in range(times):
-        widget._events(dict(event_type="wheel", x=SIZE[0] / 2, y=SIZE[1] / 2, dx=0.0, dy=dy, buttons=(),
-                            modifiers=(), time_stamp=time.perf_counter()))
+        widget.view.events(dict(type="wheel", x=SIZE[0] / 2, y=SIZE[1] / 2, dx=0.0, dy=dy, buttons=(),
+                                modifiers=(), timestamp=time.perf_counter()))
     _settle(widget.controller)
 
 
