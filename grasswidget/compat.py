@@ -55,6 +55,11 @@ PRIVATE_USES = (
     ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
      "_last_cam_state",
      "the controller's per-step hooks, to hold every orbit, zoom and pan step to OrbitLimits"),
+    ("pygfx", "WorldObject._update_object",
+     "overridden by the blade inspector: pygfx calls it on every object before each render (its docstring: "
+     "'a good time for lazy updates'); the inspector refreshes the simulation uniforms it reads"),
+    ("pygfx", "Material._wgpu_get_pick_info",
+     "overridden by GrassMaterial: renderer.get_pick_info asks the material to decode a pick value (blade id)"),
     ("pygfx", "renderers.wgpu.engine.renderer.EVENT_TYPE_MAP",
      "pygfx event classes, to forward canvas events to controllers without a pick readback"),
     ("wgpu", "GPUDevice._poll", "process finished GPU work without blocking (statistics)"),

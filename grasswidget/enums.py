@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["WindField", "BladeShape", "GravityMode", "LabeledIntEnum"]
+__all__ = ["WindField", "BladeShape", "GravityMode", "ColorBy", "LabeledIntEnum"]
 
 
 class LabeledIntEnum(IntEnum):
@@ -71,3 +71,11 @@ class GravityMode(LabeledIntEnum):
 
     DIRECTION = 0
     POINT = 1
+
+
+class ColorBy(LabeledIntEnum):
+    """How blades are coloured (``params.color_by``); ids of the cull and blade shaders' ``u_cull.color_by``."""
+
+    NATURAL = 0
+    LOD = 1
+    CULL = 2

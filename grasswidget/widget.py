@@ -8,7 +8,8 @@ own module:
   its mouse and key events and its clock;
 * a control panel (:class:`grasswidget.panel.ControlPanel`): sliders, culling
   checkboxes, the ball row (:mod:`grasswidget.widget_ball`), play/pause/step/
-  reset buttons, a live stats line and a "Save PNG" button, linked to the
+  reset buttons, a live stats line, a "Save PNG" button and the teaching row
+  (colour by, freeze culling, legend, inspected blade), linked to the
   :class:`GrassParams` traits.
 
 ::
@@ -21,6 +22,13 @@ own module:
     w.save_animation("wind.gif", seconds=3, fps=15)
     w.close()                     # frees the GPU buffers
 
+Two engines (``backend=``): "kernel" (the default) renders in the kernel and
+streams frames (:mod:`grasswidget.kernel_view`); "browser" runs the same WGSL
+simulation, culling and ribbons in the notebook's browser through WebGPU
+(:mod:`grasswidget.browser`), as fast as the student's own GPU; "auto" picks the
+browser when it offers a WebGPU adapter. A browser without WebGPU makes a
+"browser" or "auto" widget fall back to kernel streaming with one line saying so.
+
 Streaming and time: see :mod:`grasswidget.kernel_view`. Mouse: drag to orbit,
 right-drag to pan, wheel to zoom (the camera stays above the ground and the
 field in sight, see :mod:`grasswidget.orbit`). Shift + drag puts the ball (a sphere
@@ -28,7 +36,9 @@ collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
 input, not to the notebook): space = play/pause, ``s`` = step one frame,
-``r`` = reset the camera.
+``r`` = reset the camera. Ctrl + click on a blade inspects it (``w.inspect(ids)``
+from code); "freeze culling" (``w.culling_frozen = True``) freezes culling at the
+current camera, so orbiting away shows what that view culls.
 """
 
 from __future__ import annotations
@@ -46,7 +56,10 @@ from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, stream
 from .panel import ControlPanel
 from .params import GrassParams, RangedFloat
 
-__all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL"]
+__all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
+
+#: The engines a GrassWidget can run on (``backend=``).
+BACKENDS = ("kernel", "browser", "auto")
 
 
 def _current_cell_id():
@@ -171,6 +184,9 @@ class GrassWidget(ipw.VBox):
             adapter, 2 on a GPU; the browser's devicePixelRatio below that).
             E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
             twice the frames/s, and the browser scales the picture up.
+        backend: "kernel" (default: render in the kernel, stream frames),
+            "browser" (simulate and draw in the browser with WebGPU) or "auto"
+            (the browser when it offers WebGPU). ``w.backend`` says which is live.
 
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
@@ -187,12 +203,14 @@ class GrassWidget(ipw.VBox):
         step_button, reset_blades_button, reset_camera_button, save_button,
         png_scale, file_line, stats_line, message_line: the panel's controls.
 
-    Traits: ``time_scale`` (simulated seconds per real second, 0..10) and ``playing``.
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
+    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
     """
 
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per real second (at the nominal frame rate).")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -219,17 +237,26 @@ class GrassWidget(ipw.VBox):
     message_line = _panel_property("message_line")
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None):
+                 pixel_ratio=None, backend="kernel"):
         from .gpu.adapter import is_cpu_adapter
         from .gpu.field import max_blade_count
         from .scene import PRESETS, parse_size
 
+        if not isinstance(backend, str) or backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
+        self._requested_backend = backend
         if params is not None and not isinstance(params, GrassParams):
             raise TypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
         if preset is not None and preset not in PRESETS:
             raise ValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
         self.size = parse_size(size)
-        self._cpu = is_cpu_adapter()
+        if backend == "kernel":
+            self._cpu = is_cpu_adapter()
+        else:  # the kernel may have no GPU at all when the browser draws
+            try:
+                self._cpu = is_cpu_adapter()
+            except Exception:
+                self._cpu = True
         streaming = streaming_defaults(self._cpu)
         if max_fps is not None:
             streaming["max_fps"] = float(_check_number("max_fps", max_fps, 1, 240))
@@ -239,16 +266,31 @@ class GrassWidget(ipw.VBox):
             streaming["quality"] = quality
         if pixel_ratio is not None:
             streaming["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
-        # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
-        self.max_blades = min(streaming["max_blades"], max_blade_count())
+        self._streaming = streaming
+        self._preset = preset
+        if backend == "kernel":
+            # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
+            self.max_blades = min(streaming["max_blades"], max_blade_count())
+        else:  # the browser's device decides; the blade state is still built in the kernel's memory
+            from .browser.engine_view import BROWSER_MAX_BLADES
+            from .memory import max_blades_for_memory
+
+            host = max_blades_for_memory()
+            self.max_blades = BROWSER_MAX_BLADES if host is None else min(BROWSER_MAX_BLADES, host)
+        streaming["max_blades"] = self.max_blades
         self._blades = self._check_blades(blades)
         self._closed = False
         self.params = params if params is not None else GrassParams()
 
         try:
-            self.view = KernelView(self._blades, self.size, self.params, preset=preset, streaming=streaming,
-                                   clock=self, actions=self, on_error=self._show_error,
-                                   on_stats=self._show_stats)
+            if backend == "kernel":
+                self.view = self._kernel_view()
+            else:
+                from .browser.engine_view import BrowserEngineView
+
+                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
+                                              actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                                              on_unavailable=self._on_browser_unavailable)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
@@ -263,6 +305,7 @@ class GrassWidget(ipw.VBox):
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
+        self.observe(self._on_culling_frozen, names="culling_frozen")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -289,10 +332,14 @@ class GrassWidget(ipw.VBox):
             raise ValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
         return int(blades)
 
+    def _kernel_view(self):
+        return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
+                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats, on_inspect=self._show_inspected)
+
     def _make_ball(self):
         from .widget_ball import BallControl
 
-        self.ball = BallControl(self.view.scene, on_error=self._show_error)
+        self.ball = BallControl(getattr(self.view, "ball_scene", None) or self.view.scene, on_error=self._show_error)
         self.ball.observe(self._on_ball_rolling, names="rolling")
         self.ball.collider.observe(lambda _c: self._request_draw(), names=["center", "radius"])
         self.ball.observe(lambda _c: self._request_draw(), names="enabled")
@@ -324,6 +371,35 @@ class GrassWidget(ipw.VBox):
         self._blades = blades
         self.panel.show_blade_count(self.blade_count)
         self._request_draw()
+
+    @property
+    def backend(self) -> str:
+        """The engine that is live: "kernel" or "browser" (a "browser" or "auto" widget
+        whose browser has no WebGPU adapter turns "kernel")."""
+        return self.view.backend if self.view is not None else self._requested_backend
+
+    @property
+    def camera_state(self) -> dict:
+        """The camera as a dict: position and target (metres, world space) and fov_deg
+        (vertical field of view). A drag in the view updates it; assigning a dict
+        (any of the three keys) moves the camera, in both engines."""
+        return self.view.camera_state
+
+    @camera_state.setter
+    def camera_state(self, state):
+        self._check_open()
+        self.view.camera_state = state
+
+    def read_state(self, timeout: float = 30.0) -> dict:
+        """The blade state of the live engine, as ``GrassField.read_state()`` returns it.
+
+        In browser mode it asks the browser and waits for its answer (processing
+        widget messages meanwhile, so it works inside a running cell); no answer
+        within ``timeout`` seconds raises TimeoutError naming the browser view."""
+        self._check_open()
+        if self.backend == "browser":
+            return self.view.read_state(timeout=timeout)
+        return self.scene.field.read_state()
 
     @property
     def max_fps(self) -> float:
@@ -361,10 +437,14 @@ class GrassWidget(ipw.VBox):
         self.playing = not self.playing
 
     def step(self, n: int | None = None):
-        """Pause and advance ``n`` fixed steps (default: one frame's worth, at least 1)."""
+        """Pause and advance exactly ``n`` fixed steps of ``params.dt`` (default: one
+        frame's worth, at least 1); in browser mode the browser runs them, in order
+        with every other request."""
         self._check_open()
         if n is None:
             n = max(1, self.steps_per_frame)
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.playing = False
         self.view.step(n)
 
@@ -378,8 +458,24 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         self.view.reset_camera()
 
+    def inspect(self, ids):
+        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
+        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
+        else raises ValueError naming the limit (nothing changes then)."""
+        self._check_open()
+        if not hasattr(self.view, "inspect"):
+            self.panel.show_unsupported("the blade inspector", self.view.backend)
+            return
+        self.view.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
+        return tuple(getattr(self.view, "inspected", ()))
+
     def save_png(self, path=None, size=None) -> str:
-        """Write a PNG of the current view and return its path.
+        """Write a PNG of the current view and return its path (in browser mode the
+        browser renders it at that size and Python writes it; this waits for it).
 
         Args:
             path: file path (default: ``grass-YYYYmmdd-HHMMSS.png`` in the current
@@ -398,16 +494,63 @@ class GrassWidget(ipw.VBox):
         self.view.save_png(path, size)
         return path
 
+    def set_wind_wgsl(self, body: str, select: bool = True):
+        """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
+        in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
+        line inside ``body`` when it does not compile (in browser mode: compiled by the
+        browser; this waits for its answer); the old wind stays in force. With
+        ``select``, ``params.wind_field`` becomes "custom". Assigning
+        ``params.wind_wgsl`` does the same, reporting an error on the message line."""
+        self._check_open()
+        if self.backend == "browser":
+            self.view.view.set_wind_wgsl(body, select=select)
+        else:
+            self.scene.field.set_wind_wgsl(body, select=select)
+
+    def save_png_later(self, size, done) -> bool:
+        """The Save PNG button in browser mode: ask the browser for the picture and
+        call ``done(path)`` once written (a file next to the notebook). Returns False
+        (nothing done) with the kernel engine, which saves at once."""
+        if self.backend != "browser":
+            return False
+        self._check_open()
+        path = _unique_name(os.getcwd(), "grass", ".png")
+        self.view.save_png_async(path, size, done)
+        return True
+
     def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True) -> str:
         """Export an animation (GIF, or MP4 with imageio-ffmpeg); see
         :func:`grasswidget.export.save_animation`. It starts from the current
-        state and puts the live state back afterwards. Returns the path."""
+        state and puts the live state back afterwards. Returns the path.
+
+        It always renders with the kernel engine: in browser mode the browser's
+        current blade state is read back and a kernel scene (which needs a WebGPU
+        adapter in the kernel, lavapipe will do) films it from the same camera;
+        the browser's own animation is not disturbed."""
         from .export import save_animation
 
         self._check_open()
+        if self.backend == "browser":
+            return self._save_animation_from_browser(path, seconds, fps, size, progress)
         out = save_animation(self.scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
         self._request_draw()
         return out
+
+    def _save_animation_from_browser(self, path, seconds, fps, size, progress):
+        from .export import save_animation
+        from .scene import GrassScene
+
+        state = self.view.read_state()
+        blades = self.view.view.blades
+        scene = GrassScene(blades, size=self.size, params=self.params.copy())
+        try:
+            scene.field.write_state(state)
+            scene.colliders = list(self.view.view.colliders)
+            cam = self.camera_state
+            scene.look(cam["position"], cam["target"], cam["fov_deg"])
+            return save_animation(scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
+        finally:
+            scene.release()
 
     @property
     def closed(self) -> bool:
@@ -474,8 +617,48 @@ class GrassWidget(ipw.VBox):
         if not self._closed:
             self.view.set_playing(playing)
 
+    def _show_inspected(self, blades):
+        if self.panel is not None:
+            self.panel.show_inspected(blades)
+
+    def _on_culling_frozen(self, change):
+        if self._closed:
+            return
+        if not hasattr(self.view, "set_culling_frozen"):
+            self.panel.show_unsupported("freeze culling", self.view.backend)
+            return
+        self.view.set_culling_frozen(bool(change["new"]))
+
+    def _on_browser_unavailable(self, reason):
+        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
+        if self._closed or self.view is None or self.view.backend != "browser":
+            return
+        old = self.view
+        camera = old.camera_state
+        try:
+            new = self._kernel_view()
+        except Exception as err:  # no adapter in the kernel either
+            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
+                             f"render either: {err}")
+            return
+        self.view = new
+        new.attach_ball(self.ball)
+        self.ball.attach(new.scene)
+        try:
+            new.camera_state = camera
+        except Exception:
+            pass
+        self.children = [new.widget, *self.children[1:]]
+        old.close()
+        new.set_playing(self.playing)
+        self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
+                         "and streams it instead (use Chrome or Edge, or enable WebGPU, for backend='browser')")
+
     def _on_time_scale(self, change):
         if not self._closed:
+            setter = getattr(self.view, "set_time_scale", None)
+            if setter is not None:
+                setter(change["new"])
             self._show_stats(self.view.current_stats())
 
     def _on_ball_rolling(self, change):

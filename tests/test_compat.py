@@ -164,3 +164,19 @@ def test_held_orbit_controller_hooks_every_step():
     controller.zoom(0.2, rect)
     controller.pan((5.0, 0.0), rect)
     assert len(calls) == 4
+
+
+def test_pygfx_hooks_the_teaching_views_override():
+    """pygfx calls WorldObject._update_object on every visible object in each render,
+    and get_pick_info hands the pick value to the material's _wgpu_get_pick_info."""
+    import inspect
+
+    import pygfx as gfx
+    from pygfx.renderers.wgpu.engine import renderer
+
+    assert callable(getattr(gfx.WorldObject, "_update_object", None))
+    assert "wobject._update_object()" in inspect.getsource(renderer.FlatScene)
+    assert callable(getattr(gfx.Material, "_wgpu_get_pick_info", None))
+    source = inspect.getsource(renderer.WgpuRenderer.get_pick_info)
+    assert "_wgpu_get_pick_info(pick_value)" in source
+    assert "pick_value & 1048575" in source  # 20 bits of object id; the blade id is packed above them

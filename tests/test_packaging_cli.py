@@ -37,6 +37,9 @@ def test_wheel_contains_shaders(tmp_path):
     names = zipfile.ZipFile(wheel).namelist()
     for f in _shader_files():
         assert f"grasswidget/shaders/{f}" in names
+    # The browser engine's ES module and its own WGSL ship too (nothing is fetched at run time).
+    for f in ("engine.js", "std.wgsl", "scene.wgsl"):
+        assert f"grasswidget/browser/{f}" in names
     # an installed copy (outside the checkout) finds them
     target = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(target)

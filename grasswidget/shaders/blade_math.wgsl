@@ -146,11 +146,20 @@ fn noise_hash(i: i32, j: i32) -> u32 {
     return h;
 }
 
+// The 8 unit gradients (cos, sin) of k * 45 degrees, as constants: cos/sin of
+// angles up to 315 degrees are only accurate to 2^-11 in WGSL, and GPUs differ there.
+const SIMPLEX_GRADIENTS = array<vec2<f32>, 8>(
+    vec2<f32>(1.0, 0.0), vec2<f32>(0.7071067811865476, 0.7071067811865476),
+    vec2<f32>(0.0, 1.0), vec2<f32>(-0.7071067811865476, 0.7071067811865476),
+    vec2<f32>(-1.0, 0.0), vec2<f32>(-0.7071067811865476, -0.7071067811865476),
+    vec2<f32>(0.0, -1.0), vec2<f32>(0.7071067811865476, -0.7071067811865476),
+);
+
 fn simplex_corner(x: f32, y: f32, i: i32, j: i32) -> f32 {
     let t = max(0.5 - x * x - y * y, 0.0);
-    let angle = f32(noise_hash(i, j) & 7u) * (0.25 * PI_F);
+    let g = SIMPLEX_GRADIENTS[noise_hash(i, j) & 7u];
     let t2 = t * t;
-    return t2 * t2 * (cos(angle) * x + sin(angle) * y);
+    return t2 * t2 * (g.x * x + g.y * y);
 }
 
 // 2D simplex noise, about [-1, 1]; see reference.simplex_noise2.
