@@ -85,6 +85,8 @@ STATES = {
                "w.ball.enabled = True; w.ball.move_to(-8.25, -8.25); w.ball.set_radius(4.5)\n"
                "w.panel.show_file('grass-20261123-101010-2.png', (1280, 960))\n"
                "w.panel.show_error('blades: count=1,000,000,000,000 blades would take 268.2 GiB of memory')\n"
+               "w.params.color_by = 'cull'; w.culling_frozen = True\n"
+               "w.inspect([0, 1, 2, 3, 4]); w.view.refresh_stats()\n"
                "w.pause()"),
 }
 
@@ -139,5 +141,6 @@ def _check_states(page, size):
         assert m["rootWidth"] <= m["viewWidth"] + 0.5, (m["rootWidth"], m["viewWidth"])
         assert not m["problems"], "\n".join(m["problems"])
         if state == "widest":  # the widest values are on screen, whole
-            for text in ("262144", "−360", "200.0", "20.00", "10.00", "−8.25", "4.50", "orientation culling"):
+            for text in ("262144", "−360", "200.0", "20.00", "10.00", "−8.25", "4.50", "orientation culling",
+                         "blade 0: height", "freeze culling"):
                 assert any(text in t for t in m["texts"]), (text, m["texts"])
