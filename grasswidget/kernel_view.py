@@ -19,8 +19,10 @@ How it streams (chosen for the adapter, see :func:`streaming_defaults`):
   steps of ``params.dt`` (capped at :data:`MAX_STEPS_PER_FRAME`).
 
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
-``OrbitController``), without the renderer's per-event GPU pick readback (see
-:class:`EventsWithoutPicking`). Shift + drag goes to the ball first. Ctrl (or
+``OrbitController``, held to :class:`~grasswidget.orbit.OrbitLimits`: the camera
+stays above the ground, the target over the field, the zoom in range), without
+the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
+Shift + drag goes to the ball first. Ctrl (or
 Cmd) + click inspects the blade under the pointer: one pick readback per click
 (the grass material writes pick ids in this view).
 
@@ -208,7 +210,7 @@ class KernelView:
     def set_blades(self, blades):
         """Build the scene for ``blades`` on this canvas, replacing and releasing
         the previous one (the camera view, the orbit target and the ball are kept)."""
-        import pygfx as gfx
+        from .orbit import GroundOrbitController, OrbitLimits
 
         old = self.scene
         cam_state = old.camera.get_state() if old is not None else None
@@ -231,7 +233,9 @@ class KernelView:
             self.ball.attach(scene)
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
-        self.controller = gfx.OrbitController(scene.camera, register_events=scene.renderer)
+        # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+                                                register_events=scene.renderer)
         # A custom target: orbit and zoom around the point the view looks at
         # (GrassScene aims with look_at, which leaves the camera extent unrelated
         # to that distance, so pygfx's implicit target would be far off).

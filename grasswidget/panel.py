@@ -50,6 +50,18 @@ CULL_CHECKBOXES = (
 )
 
 _DESC = {"description_width": "110px"}
+#: Width (CSS px) of one column of controls: two columns (and their margins) fill a 640 px view.
+COLUMN_WIDTH = 314
+
+
+def _column_width(view_width) -> str:
+    """A control's width: one column, never wider than the view."""
+    return f"{max(120, min(COLUMN_WIDTH, int(view_width) - 8))}px"
+
+
+def _wrapping_row(children, **layout):
+    """A row as wide as the view; what does not fit goes on to the next line."""
+    return ipw.HBox(children, layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center", **layout))
 
 
 def format_stats(stats: dict) -> str:
@@ -112,11 +124,11 @@ def inspected_html(blades: list) -> str:
     return "<small><code>" + "<br>".join(html.escape(x) for x in lines) + "</code></small>"
 
 
-def _slider(name, owner, step, fmt):
+def _slider(name, owner, step, fmt, width):
     """A FloatSlider for a RangedFloat trait (its range and help text)."""
     trait = owner.traits()[name]
     return ipw.FloatSlider(value=getattr(owner, name), min=trait.lo, max=trait.hi, step=step, description=name,
-                           continuous_update=True, style=_DESC, layout=ipw.Layout(width="360px"),
+                           continuous_update=True, style=_DESC, layout=ipw.Layout(width=width),
                            tooltip=(trait.help or name), readout_format=fmt)
 
 
@@ -149,30 +161,31 @@ class ControlPanel:
         self.view_size = tuple(view_size)
         self._links = []
         err = self.show_error
+        column = _column_width(self.view_size[0])
 
         # blade count: rebuilds the field, so only on release
         self.blade_slider = ipw.IntSlider(
             value=blade_count, min=1, max=max_blades, step=1, description="blades",
-            continuous_update=False, style=_DESC, layout=ipw.Layout(width="360px"),
+            continuous_update=False, style=_DESC, layout=ipw.Layout(width=column),
             tooltip="Number of blades (rebuilds the field; applied on release)",
         )
         self.blade_slider.observe(self._on_blade_slider, names="value")
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
-            self.sliders[name] = s = _slider(name, params, step, fmt)
+            self.sliders[name] = s = _slider(name, params, step, fmt, column)
             self._links.append(ControlLink(s, params, name, err))
-        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f")
+        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f", column)
         self._links.append(ControlLink(ts, clock, "time_scale", err))
 
         choices = tuple(getattr(params.traits()["wind_field"], "choices", None) or WIND_FIELDS)
         self.wind_field_dropdown = ipw.Dropdown(options=choices, value=params.wind_field, description="wind_field",
-                                                style=_DESC, layout=ipw.Layout(width="360px"))
+                                                style=_DESC, layout=ipw.Layout(width=column))
         self._links.append(ControlLink(self.wind_field_dropdown, params, "wind_field", err))
 
         self.checkboxes = {}
         for label, name in CULL_CHECKBOXES:
             cb = ipw.Checkbox(value=getattr(params, name), description=label, indent=False,
-                              layout=ipw.Layout(width="180px"))
+                              layout=ipw.Layout(width="auto", margin="2px 12px 2px 2px"))
             self._links.append(ControlLink(cb, params, name, err))
             self.checkboxes[name] = cb
 
@@ -183,12 +196,13 @@ class ControlPanel:
         self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
         self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(clock, "culling_frozen", False)),
                                             description="freeze culling", indent=False,
-                                            layout=ipw.Layout(width="140px"))
+                                            layout=ipw.Layout(width="auto", margin="2px 12px 2px 8px"))
         if clock.has_trait("culling_frozen"):
             self._links.append(ControlLink(self.freeze_checkbox, clock, "culling_frozen", err))
-        self.legend_line = ipw.HTML(value=legend_html(params.color_by), layout=ipw.Layout(min_height="20px"))
+        self.legend_line = ipw.HTML(value=legend_html(params.color_by),
+                                    layout=ipw.Layout(min_height="20px", max_width="100%"))
         params.observe(self._on_color_by, names="color_by")
-        self.inspect_line = ipw.HTML(value=inspected_html([]), layout=ipw.Layout(min_height="20px"))
+        self.inspect_line = ipw.HTML(value=inspected_html([]), layout=ipw.Layout(min_height="20px", max_width="100%"))
         self.clear_inspect_button = ipw.Button(description="Clear", icon="times", layout=ipw.Layout(width="80px"),
                                                tooltip="Stop inspecting blades")
         self.clear_inspect_button.on_click(lambda _b: self._on_clear_inspect())
@@ -213,23 +227,22 @@ class ControlPanel:
         self.save_button = ipw.Button(description="Save PNG", icon="camera", layout=bl,
                                       tooltip="Write a PNG next to the notebook")
         self.save_button.on_click(lambda _b: self._on_save_click())
-        self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
-        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
+        self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px", max_width="100%"))
+        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # wraps within the view
         self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
 
-        sliders = list(self.sliders.values())
-        left = ipw.VBox(sliders[:4])
-        middle = ipw.VBox(sliders[4:] + [self.wind_field_dropdown])
-        right = ipw.VBox(list(self.checkboxes.values()))
-        buttons = ipw.HBox([self.play_button, self.step_button, self.reset_blades_button,
-                            self.reset_camera_button])
-        save = ipw.HBox([self.save_button, self.png_scale, self.file_line])
+        # Rows that fit the view (two columns of controls in 640 px); each wraps when the view is narrower.
+        sliders = _wrapping_row(list(self.sliders.values()) + [self.wind_field_dropdown])
+        checkboxes = _wrapping_row(list(self.checkboxes.values()))
+        buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,
+                                 self.reset_camera_button])
+        save = _wrapping_row([self.save_button, self.png_scale, self.file_line])
         #: The panel's widgets, top to bottom: stats line first (just under the view).
         teach = ipw.VBox([
-            ipw.HBox([self.color_by_dropdown, self.freeze_checkbox, self.legend_line]),
-            ipw.HBox([self.clear_inspect_button, self.inspect_line]),
-        ])
-        self.rows = [self.stats_line, ipw.HBox([left, middle, right])]
+            _wrapping_row([self.color_by_dropdown, self.freeze_checkbox, self.legend_line]),
+            _wrapping_row([self.clear_inspect_button, self.inspect_line]),
+        ], layout=ipw.Layout(width="100%"))
+        self.rows = [self.stats_line, sliders, checkboxes]
         if ball_row is not None:
             self.rows.append(ball_row)
         self.rows.append(teach)

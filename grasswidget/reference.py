@@ -58,6 +58,7 @@ __all__ = [
     "simulate",
     "wind_period",
     "LOD_SEGMENTS",
+    "CULLED_SEGMENTS",
     "LOD_MIN_PIXELS",
     "orientation_cull",
     "clip_outside",
@@ -608,6 +609,8 @@ def simulate(state, params, steps, first_step=0, colliders=None, user_wind=None)
 #: below. (15, 8, 4, 2) was indistinguishable and drew twice the triangles, which
 #: costs a CPU rasterizer (lavapipe) about 20 % of a frame in the cis565 view.
 LOD_SEGMENTS = (8, 4, 2, 1)
+#: Segments of the culled blades drawn with ``color_by = "cull"`` (context, not detail).
+CULLED_SEGMENTS = LOD_SEGMENTS[1]
 #: A blade goes to class k when its projected height in pixels is >= LOD_MIN_PIXELS[k].
 LOD_MIN_PIXELS = (192.0, 64.0, 20.0, 0.0)
 

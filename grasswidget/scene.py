@@ -117,13 +117,11 @@ class GrassScene:
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
-        ground = gfx.Mesh(
-            gfx.plane_geometry(extent * 1.2, extent * 1.2),
-            gfx.MeshPhongMaterial(color="#3b2a1a"),
-        )
+        ground = gfx.Mesh(gfx.plane_geometry(1.0, 1.0), gfx.MeshPhongMaterial(color="#3b2a1a"))
         ground.local.rotation = (-np.sqrt(0.5), 0, 0, np.sqrt(0.5))  # xy plane -> xz plane, facing +y
         ground.local.position = (center[0], -0.01, center[2])
         self.ground = ground
+        self._field_extent = extent
         self.scene.add(ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
@@ -138,6 +136,7 @@ class GrassScene:
         set_vertical_fov(self.camera, 45, self.size[0] / self.size[1])
         self.preset_name = None
         self._default_view(extent, center)
+        self._fit_ground()
 
         if canvas is None:
             from rendercanvas.offscreen import RenderCanvas
@@ -178,6 +177,14 @@ class GrassScene:
         self.camera.depth_range = (near, far)
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
+        self._fit_ground()
+
+    def _fit_ground(self):
+        """Size the ground plane to reach the far plane from anywhere over the field,
+        so that a low camera sees ground, not sky, below the horizon."""
+        far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
+        side = 1.2 * self._field_extent + 2.0 * far
+        self.ground.local.scale = (side, side, 1.0)
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a

@@ -99,7 +99,8 @@ def wgsl_float(x: float) -> str:
 def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
-    from .reference import COLLISION_MAX, COLLISION_PASSES, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE, RECOVERY_FLOOR
+    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
+                            RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -113,10 +114,31 @@ def template_vars() -> dict:
         "workgroup_size": WORKGROUP_SIZE,
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),
+        "culled_segments": int(CULLED_SEGMENTS),
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
         "user_wind_body": NO_WIND_BODY,
+    }
+
+
+def ribbon_vars(lod_class: int) -> dict:
+    """The template variables of ``blade_render.wgsl`` for one draw: LOD classes
+    ``0 .. len(LOD_SEGMENTS) - 1``, and ``len(LOD_SEGMENTS)`` for the culled blades
+    drawn with ``color_by = "cull"`` (CULLED_SEGMENTS segments, flat in CULL_COLORS)."""
+    from .reference import CULLED_SEGMENTS, LOD_SEGMENTS
+    from .teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
+
+    def rgb(color):
+        return ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(color))
+
+    culled = lod_class == len(LOD_SEGMENTS)
+    return {
+        "lod_class": int(lod_class),
+        "culled": culled,
+        "segments": CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
+        "lod_color": rgb(LOD_COLORS[0 if culled else lod_class]),
+        "cull_colors": [rgb(c) for c in CULL_COLORS.values()],
     }
 
 

@@ -30,7 +30,8 @@ browser when it offers a WebGPU adapter. A browser without WebGPU makes a
 "browser" or "auto" widget fall back to kernel streaming with one line saying so.
 
 Streaming and time: see :mod:`grasswidget.kernel_view`. Mouse: drag to orbit,
-right-drag to pan, wheel to zoom. Shift + drag puts the ball (a sphere
+right-drag to pan, wheel to zoom (the camera stays above the ground and the
+field in sight, see :mod:`grasswidget.orbit`). Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
@@ -297,7 +298,9 @@ class GrassWidget(ipw.VBox):
         except BaseException:
             self.close()
             raise
-        super().__init__(children=[self.view.widget, *self.panel.rows])
+        # The panel is exactly as wide as the view; its rows wrap within it.
+        super().__init__(children=[self.view.widget, *self.panel.rows],
+                         layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
         self.add_class("grasswidget")
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")

@@ -20,9 +20,8 @@ import weakref
 
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import LOD_SEGMENTS
-from ..shader_files import read_shader
-from ..teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
+from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..shader_files import read_shader, ribbon_vars
 from .field import GrassField
 from .material import GrassMaterial
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
@@ -30,21 +29,13 @@ from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 __all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP",
            "CULLED_SEGMENTS"]
 
-#: Segments of the culled blades drawn with color_by "cull" (they are context, not detail).
-CULLED_SEGMENTS = LOD_SEGMENTS[1]
-
-
-def _wgsl_rgb(color):
-    """ "r, g, b" floats (sRGB, 0..1) of a hex colour, for a WGSL vec3 literal."""
-    return ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(color))
-
 
 class ResetArgsShader(GrassComputeShader):
     """Reset the indirect draw arguments at the start of each frame (the LOD classes'
     and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, culled_segments=CULLED_SEGMENTS, teaching_views=True)
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
@@ -108,14 +99,7 @@ class BladeRenderShader(BaseShader):
 
     def __init__(self, wobject, lod_class):
         culled = lod_class == len(LOD_SEGMENTS)
-        super().__init__(wobject, **shader_vars(
-            lod_class=lod_class,
-            culled=culled,
-            segments=CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
-            lod_color=_wgsl_rgb(LOD_COLORS[0 if culled else lod_class]),
-            cull_colors=[_wgsl_rgb(c) for c in CULL_COLORS.values()],
-            teaching_views=True,
-        ))
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=True))
         self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)
