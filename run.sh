@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # Set up grasswidget on a fresh Debian/Ubuntu machine and run it.
 #   ./run.sh demo   install everything, then open the tour notebook in JupyterLab
+#                   (as root too; with no display it opens no browser and JupyterLab prints the URL;
+#                   extra arguments go to JupyterLab, e.g. ./run.sh demo --port=8899 --ip=0.0.0.0)
 #   ./run.sh test   install everything, then run the whole test suite (CPU Vulkan is enough)
 #   ./run.sh snapshot OUT.png [args]   install, then render a snapshot from the command line
+# GRASSWIDGET_VENV=DIR picks the virtual environment (default .venv); GRASSWIDGET_SKIP_INSTALL=1 skips
+# the apt/pip step (the tests use it to start the demo exactly as here, without reinstalling).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")"
 
@@ -10,7 +14,17 @@ SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 VENV=${GRASSWIDGET_VENV:-.venv}
 
+runtime_dir() {
+  # The Vulkan loader wants a private runtime dir (mode 0700) or it complains on every start.
+  if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "$XDG_RUNTIME_DIR" ]; then
+    export XDG_RUNTIME_DIR="${TMPDIR:-/tmp}/grasswidget-runtime-$(id -u)"
+    mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+  fi
+}
+
 install() {
+  runtime_dir
+  if [ "${GRASSWIDGET_SKIP_INSTALL:-0}" = 1 ]; then return; fi
   local pkgs="python3 python3-venv python3-pip mesa-vulkan-drivers libvulkan1 chromium"
   local missing=""
   for p in $pkgs; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done
@@ -21,8 +35,19 @@ install() {
   [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
   "$VENV/bin/python" -m pip install -q --upgrade pip
   "$VENV/bin/python" -m pip install -q -e ".[test]"
-  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg-$(id -u)}
-  mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+}
+
+lab() {
+  # JupyterLab refuses to run as root without --allow-root (containers, fresh VMs run as root);
+  # on a server without a display there is no browser to open: JupyterLab prints the URL instead.
+  local args=(lab notebooks/01_tour.ipynb)
+  if [ "$(id -u)" = 0 ]; then args+=(--allow-root); fi
+  if [ -z "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ] && [ "$(uname -s)" != Darwin ]; then
+    args+=(--no-browser)
+    echo "run.sh: no display here, so no browser is opened: open the http://127.0.0.1:... URL with its token" \
+         "that JupyterLab prints below (over ssh: ssh -L 8888:127.0.0.1:8888 this-host first)." >&2
+  fi
+  exec "$VENV/bin/jupyter" "${args[@]}" "$@"
 }
 
 cmd=${1:-demo}
@@ -30,9 +55,7 @@ shift || true
 case "$cmd" in
   demo)
     install
-    if [ -f notebooks/01_tour.ipynb ]; then
-      exec "$VENV/bin/jupyter" lab notebooks/01_tour.ipynb "$@"
-    fi
+    if [ -f notebooks/01_tour.ipynb ]; then lab "$@"; fi
     exec "$VENV/bin/python" -m grasswidget snapshot grass.png "$@"
     ;;
   test)

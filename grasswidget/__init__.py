@@ -5,23 +5,31 @@ GPU code. GPU classes (``GrassField``, ``GrassMaterial``, ``GrassScene``) load
 pygfx/wgpu on first use.
 """
 
-from .blades import Blades
-from .colliders import SphereCollider
-from .params import GrassParams
+from .runtime_dir import ensure_runtime_dir
+
+ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
+
+from .blades import Blades  # noqa: E402
+from .colliders import SphereCollider  # noqa: E402
+from .errors import BladeCountError, BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError  # noqa: E402
+from .params import GrassParams  # noqa: E402
+from .params import ParameterError  # noqa: E402
+from .teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
 
 __version__ = "0.1.0"
 
 _LAZY = {
     "GrassField": ("grasswidget.gpu.field", "GrassField"),
-    "GrassMaterial": ("grasswidget.gpu.field", "GrassMaterial"),
-    "BladeLimitError": ("grasswidget.gpu.field", "BladeLimitError"),
-    "WindShaderError": ("grasswidget.gpu.field", "WindShaderError"),
+    "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.scene", "GrassScene"),
-    "NoGPUAdapterError": ("grasswidget.gpu.adapter", "NoGPUAdapterError"),
     "GrassWidget": ("grasswidget.widget", "GrassWidget"),
 }
 
-__all__ = ["Blades", "GrassParams", "SphereCollider", *_LAZY]
+__all__ = [
+    "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
+    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError", "ParameterError",
+    *_LAZY,
+]
 
 
 def __getattr__(name):

@@ -28,6 +28,8 @@ import time
 
 import numpy as np
 
+from . import compat
+
 __all__ = ["run_bench", "format_table", "CULL_MODES"]
 
 #: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "both" (off, then on, in
@@ -108,7 +110,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
     args_gpu = field.args_buffer
 
     def sync():
-        return np.frombuffer(device.queue.read_buffer(args_gpu._wgpu_object), np.uint32).reshape(-1, 4)
+        return np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(args_gpu)), np.uint32).reshape(-1, 4)
 
     def render():
         renderer.render(scene.scene, scene.camera)

@@ -18,7 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Blades"]
+from .memory import BladeCountError, check_blade_count
+
+__all__ = ["Blades", "BladeCountError"]
 
 
 def _check_range(name, value, lo_min=0.0):
@@ -98,14 +100,16 @@ class Blades:
         id). The same arguments give the same blades.
 
         Args:
-            count: number of blades N, >= 1.
+            count: number of blades N, >= 1. A count whose making would not fit in the
+                available memory raises :class:`~grasswidget.memory.BladeCountError`
+                (a ValueError) at once, before anything is allocated.
             size: side of the square plane in metres, > 0 (default 15, the course scene).
             seed: random seed (int).
             height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2.
         """
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"count must be an integer >= 1; got {count!r}")
-        count = int(count)
+        count = check_blade_count(count)
         if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
             raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         h = _check_range("height", height)
@@ -168,7 +172,7 @@ class Blades:
                 f"geometry is an empty mesh: it has {len(tris)} triangles and total area {total:g} m^2; "
                 "blades need at least one triangle of non-zero area"
             )
-        count = _count_from(count, density, total)
+        count = check_blade_count(_count_from(count, density, total))
         rng = np.random.default_rng(seed)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         cdf = np.cumsum(area2)
@@ -221,7 +225,7 @@ class Blades:
             raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise ValueError(f"count must be an integer >= 1; got {count!r}")
-        count, size = int(count), float(size)
+        count, size = check_blade_count(count), float(size)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         rng = np.random.default_rng(seed)
         u, v = _jittered_unit_square(rng, count)  # along x and z, 0..1
@@ -357,27 +361,28 @@ def _jittered_unit_square(rng, count):
     return x, z
 
 
+#: The GPU blade record, row by row: 4 x vec4<f32> = 64 bytes per blade (the paper's
+#: layout). Each row is (a vec3 field, a scalar field). The twin of the WGSL ``struct Blade``
+#: and its ``load_blade``/``store_blade`` in ``shaders/blade.wgsl`` (a test compares them).
+BLADE_LAYOUT = (("v0", "orientation"), ("v1", "height"), ("v2", "width"), ("up", "stiffness"))
+#: Bytes per blade record.
+BLADE_BYTES = 16 * len(BLADE_LAYOUT)
+
+
 def pack_state(state: dict) -> np.ndarray:
-    """Pack a state dict into the (N, 4, 4) float32 layout of the GPU buffer."""
+    """Pack a state dict into the (N, 4, 4) float32 layout of the GPU buffer (BLADE_LAYOUT)."""
     n = len(state["v0"])
-    out = np.empty((n, 4, 4), np.float32)
-    out[:, 0, :3], out[:, 0, 3] = state["v0"], state["orientation"]
-    out[:, 1, :3], out[:, 1, 3] = state["v1"], state["height"]
-    out[:, 2, :3], out[:, 2, 3] = state["v2"], state["width"]
-    out[:, 3, :3], out[:, 3, 3] = state["up"], state["stiffness"]
+    out = np.empty((n, len(BLADE_LAYOUT), 4), np.float32)
+    for row, (vec, scalar) in enumerate(BLADE_LAYOUT):
+        out[:, row, :3], out[:, row, 3] = state[vec], state[scalar]
     return out
 
 
 def unpack_state(packed: np.ndarray) -> dict:
     """Inverse of :func:`pack_state`: (N, 4, 4) float32 -> state dict of copies."""
-    p = np.asarray(packed, np.float32).reshape(-1, 4, 4)
-    return dict(
-        v0=p[:, 0, :3].copy(),
-        v1=p[:, 1, :3].copy(),
-        v2=p[:, 2, :3].copy(),
-        up=p[:, 3, :3].copy(),
-        orientation=p[:, 0, 3].copy(),
-        height=p[:, 1, 3].copy(),
-        width=p[:, 2, 3].copy(),
-        stiffness=p[:, 3, 3].copy(),
-    )
+    p = np.asarray(packed, np.float32).reshape(-1, len(BLADE_LAYOUT), 4)
+    out = {}
+    for row, (vec, scalar) in enumerate(BLADE_LAYOUT):
+        out[vec] = p[:, row, :3].copy()
+        out[scalar] = p[:, row, 3].copy()
+    return out

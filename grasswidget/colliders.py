@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 import traitlets
-from traitlets import HasTraits, TraitError
+from traitlets import TraitError
 
-from .params import Vec3
+from .params import StrictTraits, Vec3
 
 __all__ = ["SphereCollider", "ColliderList", "MAX_COLLIDERS", "collider_array"]
 
@@ -44,7 +44,7 @@ class _PositiveFloat(traitlets.Float):
         return v
 
 
-class SphereCollider(HasTraits):
+class SphereCollider(StrictTraits):
     """A sphere that pushes blades out of its way.
 
     Args:
@@ -52,7 +52,8 @@ class SphereCollider(HasTraits):
         radius: radius in metres, finite and > 0.
 
     Both are traits (observable, linkable); invalid values raise ``TraitError``
-    naming ``center`` or ``radius`` and leave the old value. Changes apply at the
+    naming ``center`` or ``radius`` and leave the old value; an unknown name
+    (``ball.raduis = 2``) raises ``AttributeError`` suggesting the closest trait. Changes apply at the
     field's next ``step()``. Move it between steps to roll it through the field::
 
         ball = gw.SphereCollider(center=(-8, 1, 0), radius=1)

@@ -159,6 +159,7 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
         canvas.close()
         if restore:
             field.write_state(saved)
-            # the wind's time is derived from the step counter: the wind continues where it was
+            # The wind time is derived from the step counter: put it back so the
+            # wind continues where it was.
             field.step_count = saved_steps
     return path

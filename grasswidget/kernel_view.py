@@ -30,8 +30,17 @@ headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
 last frame), Save PNG and exports always render at full resolution.
 
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
-``OrbitController``), without the renderer's per-event GPU pick readback (see
-:class:`EventsWithoutPicking`). Shift + drag goes to the ball first.
+``OrbitController``, held to :class:`~grasswidget.orbit.OrbitLimits`: the camera
+stays above the ground, the target over the field, the zoom in range), without
+the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
+Shift + drag goes to the ball first. Ctrl (or
+Cmd) + click inspects the blade under the pointer: one pick readback per click
+(the grass material writes pick ids in this view).
+
+Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
+current camera (kept across a new blade count), :meth:`KernelView.inspect`
+shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
+refresh (one small readback, only while blades are inspected).
 """
 
 from __future__ import annotations
@@ -40,6 +49,7 @@ import time
 
 import numpy as np
 
+from . import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from .blades import Blades
 from .clock import SimClock
@@ -91,18 +101,17 @@ def _canvas_class():
         _browser_resize = None
 
         def handle_event(self, event):
-            if event.get("event_type") == "resize" and "pixel_ratio" in event:
+            if compat.event_type(event) == "resize" and compat.event_ratio(event) is not None:
                 self._browser_resize = dict(event)
                 event = self._scaled(event)
             super().handle_event(event)
 
         def _scaled(self, event):
-            event = dict(event)
-            ratio = min(float(event["pixel_ratio"]), float(self.max_pixel_ratio)) * float(self.render_scale)
-            # whole physical pixels: the ratio that gives them
-            w = max(1, int(event["width"] * ratio))
-            event["pixel_ratio"] = w / float(event["width"]) if event["width"] else ratio
-            return event
+            ratio = min(float(compat.event_ratio(event)), float(self.max_pixel_ratio)) * float(self.render_scale)
+            width = float(event.get("width") or 0)
+            if width and self.render_scale != 1.0:  # whole physical pixels: the ratio that gives them
+                ratio = max(1, int(width * ratio)) / width
+            return compat.with_ratio(event, ratio)
 
         def set_render_scale(self, scale):
             """Render at ``scale`` (0.5..1) of the full pixel ratio from the next frame on."""
@@ -144,16 +153,14 @@ class EventsWithoutPicking:
         self._intercept = intercept
 
     def __call__(self, event):
-        from pygfx.renderers.wgpu.engine.renderer import EVENT_TYPE_MAP
-
         renderer = self._renderer()
-        event_type = event.get("event_type")
-        if renderer is None or event_type not in EVENT_TYPE_MAP:
+        event_type = compat.event_type(event)
+        event_class = compat.pygfx_event_class(event_type)
+        if renderer is None or event_class is None:
             return
         if self._intercept is not None and self._intercept(event):
             return  # e.g. shift + drag moves the ball
-        fields = {k: v for k, v in event.items() if k not in ("type", "target", "root")}
-        ev = EVENT_TYPE_MAP[event_type](type=event_type, **fields, target=None, root=renderer)
+        ev = event_class(type=event_type, **compat.pygfx_event_fields(event), target=None, root=renderer)
         renderer.dispatch_event(ev)
 
 
@@ -195,8 +202,11 @@ class KernelView:
     """
 
     backend = "kernel"
+    #: This view draws the teaching views (colour by, frozen culling, inspector).
+    teaching_views = True
 
-    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats):
+    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
+                 on_inspect=None):
         self.size = tuple(size)
         self.params = params
         self._preset = preset
@@ -205,6 +215,10 @@ class KernelView:
         self._actions = actions
         self._on_error = on_error
         self._on_stats = on_stats
+        self._on_inspect = on_inspect
+        self._frozen_camera = None  # the frozen culling camera, kept across set_blades
+        self._inspected = ()
+        self._report_pending = False  # report the inspected numbers after the next frame
         self.scene = None
         self.controller = None
         self.ball = None
@@ -227,11 +241,14 @@ class KernelView:
 
         self._frames = 0
         self._draw_ms = 0.0
+        from .gpu.adapter import cpu_notice
+
         self._timing = _FrameTiming()
         self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
-                       "target_fps": self.target_fps}
+                       "target_fps": self.target_fps,
+                       "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
         self._stats_confirmed = 0
@@ -251,7 +268,7 @@ class KernelView:
     def set_blades(self, blades):
         """Build the scene for ``blades`` on this canvas, replacing and releasing
         the previous one (the camera view, the orbit target and the ball are kept)."""
-        import pygfx as gfx
+        from .orbit import GroundOrbitController, OrbitLimits
 
         old = self.scene
         cam_state = old.camera.get_state() if old is not None else None
@@ -263,13 +280,21 @@ class KernelView:
         # the browser's pixel ratio capped for the adapter (GrassCanvas), so the
         # render cost follows the frame size chosen for streaming.
         scene.renderer.pixel_scale = 1
+        scene.field.material.pick_write = True  # ctrl + click picks a blade
+        if self._frozen_camera is not None:
+            scene.field.freeze_culling(self._frozen_camera)
+        self._inspected = tuple(i for i in self._inspected if i < scene.field.count)
+        if self._inspected:
+            scene.inspect(self._inspected)
         self.scene = scene
         self.governor.restart()
         if self.ball is not None:
             self.ball.attach(scene)
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
-        self.controller = gfx.OrbitController(scene.camera, register_events=scene.renderer)
+        # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+                                                register_events=scene.renderer)
         # A custom target: orbit and zoom around the point the view looks at
         # (GrassScene aims with look_at, which leaves the camera extent unrelated
         # to that distance, so pygfx's implicit target would be far off).
@@ -371,9 +396,70 @@ class KernelView:
             self.scene.camera.set_state(self._home_state)
         self.request_draw()
 
+    @property
+    def camera_state(self) -> dict:
+        """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
+        cam = self.scene.camera
+        target = self.controller.target if self.controller is not None else orbit_target(self.scene)
+        return {"position": tuple(float(x) for x in cam.world.position),
+                "target": tuple(float(x) for x in target),
+                "fov_deg": self.scene.vertical_fov()}
+
+    @camera_state.setter
+    def camera_state(self, state):
+        from .browser.engine_view import _check_camera_state
+
+        state = _check_camera_state(state)
+        current = self.camera_state
+        position = state.get("position", current["position"])
+        target = state.get("target", current["target"])
+        if np.allclose(position, target):
+            raise ValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+        self.scene.look(position, target, state.get("fov_deg"))
+        if self.controller is not None:
+            self.controller.target = np.asarray(target, np.float64)
+        self.request_draw()
+
     def request_draw(self):
         if not self._closed:
             self.canvas.request_draw()
+
+    # ------------------------------------------------------------------ teaching views
+
+    def set_culling_frozen(self, frozen: bool):
+        """Freeze culling at the current camera (True) or cull against it again (False)."""
+        if frozen:
+            self.scene.freeze_culling()
+            self._frozen_camera = self.scene.field.frozen_camera
+        else:
+            self.scene.unfreeze_culling()
+            self._frozen_camera = None
+        self.request_draw()
+
+    def inspect(self, ids):
+        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        self.scene.inspect(ids)
+        self._inspected = tuple(self.scene.inspected)
+        if self._on_inspect is not None and not self._inspected:
+            self._on_inspect([])
+        self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
+        self.request_draw()
+
+    @property
+    def inspected(self) -> tuple:
+        return self._inspected
+
+    def pick_blade(self, x, y):
+        """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
+        (one GPU pick readback)."""
+        info = self.scene.renderer.get_pick_info((x, y))
+        if info.get("world_object") is self.scene.field:
+            return info.get("blade_index")
+        return None
+
+    def _report_inspected(self):
+        if self._on_inspect is not None:
+            self._on_inspect(self.scene.read_inspected() if self._inspected else [])
 
     # ------------------------------------------------------------------ pictures
 
@@ -402,6 +488,9 @@ class KernelView:
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
         self._timing.drawn(t0, t1)
+        if self._report_pending:
+            self._report_pending = False
+            self._report_inspected()
         self._frames += 1
         if playing:
             # The next frame's scale, from how long the kernel was busy per frame.
@@ -474,12 +563,25 @@ class KernelView:
             **self._timing.averages(),
         )
         self._on_stats(self.current_stats())
+        if self._inspected:
+            self._report_inspected()
 
     # ------------------------------------------------------------------ events
 
     def _on_pointer(self, event):
-        """Shift + drag moves the ball; other events go on to the camera controller."""
-        if self.ball is None or self._closed:
+        """Ctrl + click inspects a blade; shift + drag moves the ball; other events go
+        on to the camera controller."""
+        if self._closed:
+            return False
+        if self._is_inspect_click(event):
+            try:
+                blade = self.pick_blade(event["x"], event["y"])
+                if blade is not None:
+                    self._actions.inspect([int(blade)])
+            except Exception as err:  # never let a pointer event break the canvas
+                self._on_error(err)
+            return True
+        if self.ball is None:
             return False
         try:
             w, h = self.canvas.get_logical_size()
@@ -488,6 +590,12 @@ class KernelView:
         except Exception as err:  # never let a pointer event break the canvas
             self._on_error(err)
             return False
+
+    @staticmethod
+    def _is_inspect_click(event):
+        mods = tuple(event.get("modifiers") or ())
+        return (compat.event_type(event) == "pointer_down" and event.get("button", 1) == 1
+                and ("Control" in mods or "Meta" in mods) and "x" in event and "y" in event)
 
     def on_key(self, event):
         """Keys (canvas focused): space = play/pause, s = step one frame, r = reset the camera."""

@@ -1,26 +1,45 @@
 """Simulation, wind and culling parameters as one validated traitlets object.
 
 ``GrassParams`` is pure Python (no GPU import). Every numeric trait refuses NaN,
-inf and values outside its documented range with a ``TraitError`` whose message
-names the trait, its unit and the allowed range; the previous value stays in
-force. ipywidgets can ``link`` to these traits directly.
+inf and values outside its documented range (every choice trait, values outside
+its choices) with a ``ParameterError``, both a traitlets ``TraitError`` and a
+``ValueError``, whose message names the trait, its unit and the allowed range;
+the previous value stays in force. ipywidgets can ``link`` to these traits directly.
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 
 import traitlets
 from traitlets import Bool, HasTraits, TraitError, Unicode
 
-__all__ = ["GrassParams", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
+from .enums import BladeShape, ColorBy, GravityMode, WindField
+from .errors import GrassError
 
-#: Wind fields understood by the simulation (see ``reference.wind_field``).
-WIND_FIELDS = ("wave", "radial", "vortex", "noise", "custom")
-#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``).
-BLADE_SHAPES = ("quad", "triangle", "quadratic", "triangle-tip", "fold")
-#: How environmental gravity is aimed (see ``reference.environmental_gravity``).
-GRAVITY_MODES = ("direction", "point")
+__all__ = [
+    "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
+]
+
+#: Wind fields understood by the simulation (see ``reference.wind_field``; ids: ``enums.WindField``).
+WIND_FIELDS = WindField.labels()
+#: Ribbon shapes of the paper (see ``GrassMaterial.blade_shape``; ids: ``enums.BladeShape``).
+BLADE_SHAPES = BladeShape.labels()
+#: How environmental gravity is aimed (see ``reference.environmental_gravity``; ids: ``enums.GravityMode``).
+GRAVITY_MODES = GravityMode.labels()
+#: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.teaching``; ids: ``enums.ColorBy``).
+COLOR_BY = ColorBy.labels()
+
+
+class ParameterError(GrassError, TraitError, ValueError):
+    """A parameter value outside its documented range or choices.
+
+    A traitlets ``TraitError`` (what traitlets and ipywidgets expect) that is also
+    a ``ValueError`` and a :class:`~grasswidget.errors.GrassError`, so ``except
+    ValueError`` catches bad input too.
+    """
 
 
 class RangedFloat(traitlets.Float):
@@ -48,12 +67,12 @@ class RangedFloat(traitlets.Float):
                 else:
                     raise TypeError
             except TypeError:
-                raise TraitError(
+                raise ParameterError(
                     f"{self.name} must be a number in {self.range_text()}; got {value!r}"
                 ) from None
         value = float(value)
         if not math.isfinite(value) or not (self.lo <= value <= self.hi):
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be a finite number in {self.range_text()}; got {value!r}"
             )
         return value
@@ -77,7 +96,7 @@ class RangedInt(traitlets.Int):
             except ImportError:  # pragma: no cover
                 ok = False
         if not ok or not (self.lo <= int(value) <= self.hi):
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be an integer in [{self.lo}, {self.hi}]{unit}; got {value!r}"
             )
         return int(value)
@@ -92,7 +111,7 @@ class ChoiceTrait(Unicode):
 
     def validate(self, obj, value):
         if not isinstance(value, str) or value not in self.choices:
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be one of {', '.join(map(repr, self.choices))}; got {value!r}"
             )
         return value
@@ -123,13 +142,51 @@ class Vec3(traitlets.TraitType):
                 raise TypeError
             out = tuple(float(x) for x in items)
         except (TypeError, ValueError):
-            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
+            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
         if not all(math.isfinite(x) for x in out) or (self.nonzero and not any(out)):
-            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
+            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
         return out
 
 
-class GrassParams(HasTraits):
+def _unknown_name(obj, name) -> AttributeError:
+    """An AttributeError for an unknown public name that suggests the closest trait."""
+    kind = type(obj).__name__
+    names = sorted(obj.trait_names())
+    close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else f"; its traits are: {', '.join(names)}"
+    err = AttributeError(f"{kind} has no trait {name!r}{hint}")
+    err.name, err.obj = name, obj
+    return err
+
+
+class StrictTraits(HasTraits):
+    """HasTraits that refuses unknown public attribute names.
+
+    ``params.wind_strenght = 3`` (a typo) raises ``AttributeError: GrassParams has
+    no trait 'wind_strenght'; did you mean 'wind_strength'?`` instead of quietly
+    adding an attribute that nothing reads; so do unknown keyword arguments to the
+    constructor and reading an unknown name. Names starting with ``_``, traits,
+    and attributes defined on the class (methods, properties) work as usual.
+    """
+
+    def __init__(self, *args, **kwargs):
+        for key in kwargs:
+            if not self.has_trait(key) and not hasattr(type(self), key):
+                raise _unknown_name(self, key)
+        super().__init__(*args, **kwargs)
+
+    def __setattr__(self, name, value):
+        if not name.startswith("_") and not self.has_trait(name) and not hasattr(type(self), name):
+            raise _unknown_name(self, name)
+        super().__setattr__(name, value)
+
+    def __getattr__(self, name):  # only called for names not found the usual way
+        if name.startswith("_"):
+            raise AttributeError(name)
+        raise _unknown_name(self, name)
+
+
+class GrassParams(StrictTraits):
     """All run-time parameters of a grass field (forces, wind, time step, culling).
 
     Units are SI: metres, seconds, m/s^2 for accelerations (the simulation moves
@@ -175,6 +232,9 @@ class GrassParams(HasTraits):
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
     lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
+
+    # ---- teaching views -----------------------------------------------------------
+    color_by = ChoiceTrait("natural", COLOR_BY, help='How blades are coloured: "natural" (lit grass), "lod" (every drawn blade flat in its level-of-detail class colour, grasswidget.LOD_COLORS) or "cull" (every blade drawn; culled ones flat in the colour of the first test that culled them, grasswidget.CULL_COLORS). Applies at the next render.').tag(sync=True)
 
     def copy(self) -> "GrassParams":
         """A new GrassParams with the same values."""

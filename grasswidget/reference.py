@@ -1,7 +1,7 @@
 """NumPy reference of the blade physics and the culling tests: the spec.
 
 Everything here is vectorised over N blades and imports no GPU code. The WGSL
-include ``shaders/blade_math.wgsl`` implements the same functions under the same
+include ``grasswidget/shaders/blade_math.wgsl`` implements the same functions under the same
 names, so the two can be read side by side. Equation numbers refer to Jahrmann &
 Wimmer, "Responsive Real-Time Grass Rendering for General 3D Scenes", I3D 2017.
 
@@ -21,17 +21,24 @@ import math
 
 import numpy as np
 
+from .enums import BladeShape, GravityMode
+
 __all__ = [
+    "safe_normalize",
     "tangent_basis",
     "width_direction",
     "front_direction",
     "environmental_gravity",
+    "gravity_point",
     "front_gravity",
     "wind_wave",
+    "wind_pulse",
     "wind_radial",
     "wind_vortex",
     "noise_hash",
+    "simplex_corner",
     "simplex_noise2",
+    "NOISE_SCALE",
     "wind_noise",
     "wind_field",
     "wind_force",
@@ -41,28 +48,43 @@ __all__ = [
     "validate_length",
     "curve_length",
     "sphere_push",
+    "collide_sphere",
     "collide_spheres",
     "fade_collision",
     "COLLISION_MAX",
     "RECOVERY_FLOOR",
+    "COLLISION_PASSES",
     "simulate_step",
     "simulate",
     "wind_period",
     "LOD_SEGMENTS",
+    "CULLED_SEGMENTS",
     "LOD_MIN_PIXELS",
     "orientation_cull",
+    "clip_outside",
     "frustum_cull",
     "distance_cull",
+    "projected_pixels",
     "lod_class",
+    "CULL_REASONS",
+    "cull_reason",
     "cull",
+    "blade_forces",
+    "FORCE_NAMES",
+    "blade_shape_t",
+    "hash01",
 ]
 
 # --------------------------------------------------------------------------- geometry
 
 
-def _normalize(v, eps=1e-12):
+def safe_normalize(v, eps=1e-12):
+    """v / |v| along the last axis; a zero vector stays zero (no NaN)."""
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return v / np.maximum(n, eps)
+
+
+_normalize = safe_normalize
 
 
 def _dot(a, b):
@@ -100,25 +122,40 @@ def front_direction(up, t1):
 # --------------------------------------------------------------------------- forces
 
 
-def environmental_gravity(params, v0):
-    """Environmental gravity per blade (paper eq. 1), magnitude ``params.gravity`` (m/s^2).
+def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitude=None):
+    """Environmental gravity per blade (paper eq. 1), ``magnitude`` in m/s^2.
 
-    ``gravity_mode == "direction"``: gE = normalize(gravity_direction) * gravity
-    (default direction (0, -1, 0)). ``"point"``: gE = normalize(gravity_center - v0)
-    * gravity, the paper's gravity point, so grass on a small planet leans towards
-    its centre (a root exactly at the centre feels none). ``v0`` is the (N, 3) roots;
-    an int N is accepted for the direction mode.
+    ``gravity_mode`` (a :class:`~grasswidget.enums.GravityMode` id or label)
+    "direction": gE = normalize(direction) * magnitude (``params.gravity_direction``,
+    default (0, -1, 0)). "point": gE = :func:`gravity_point` (v0, center, magnitude),
+    the paper's gravity point, so grass on a small planet leans towards its centre
+    (a root exactly at the centre feels none). ``v0`` is the (N, 3) roots; the
+    result has v0's shape. Same signature as the WGSL twin.
+
+    The earlier form ``environmental_gravity(params, v0)`` (params with ``gravity``,
+    ``gravity_mode``, ``gravity_direction``, ``gravity_center``; v0 may then be an
+    int N in direction mode) is still accepted.
     """
-    mode = getattr(params, "gravity_mode", "direction")
-    if mode == "point":
+    if hasattr(v0, "gravity") and not isinstance(v0, np.ndarray):  # the (params, v0) form
+        params, v0 = v0, gravity_mode
+        mode = getattr(params, "gravity_mode", "direction")
         if isinstance(v0, (int, np.integer)):
-            raise ValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
-        center = np.asarray(params.gravity_center, np.float64)
-        return _normalize(center - np.asarray(v0, np.float64)) * params.gravity
-    n = v0 if isinstance(v0, (int, np.integer)) else len(v0)
-    d = np.asarray(getattr(params, "gravity_direction", (0.0, -1.0, 0.0)), np.float64)
-    d = d / max(np.linalg.norm(d), 1e-12)
-    return np.tile(d * params.gravity, (n, 1))
+            if mode == "point":
+                raise ValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
+            v0 = np.zeros((int(v0), 3))
+        return environmental_gravity(v0, mode, getattr(params, "gravity_direction", (0.0, -1.0, 0.0)),
+                                     getattr(params, "gravity_center", (0.0, 0.0, 0.0)), params.gravity)
+    mode = GravityMode.from_label(gravity_mode) if isinstance(gravity_mode, str) else GravityMode(int(gravity_mode))
+    v0 = np.asarray(v0, np.float64)
+    if mode == GravityMode.POINT:
+        return gravity_point(v0, center, magnitude)
+    d = safe_normalize(np.asarray(direction, np.float64))
+    return np.broadcast_to(d * magnitude, v0.shape).copy()
+
+
+def gravity_point(v0, center, magnitude):
+    """Gravity towards a point: gE = safe_normalize(center - v0) * magnitude (gravity_mode "point")."""
+    return safe_normalize(np.asarray(center, np.float64) - np.asarray(v0, np.float64)) * magnitude
 
 
 def front_gravity(g_env, f, factor=0.25):
@@ -162,9 +199,12 @@ def wind_wave(p, t, strength, direction_deg, speed, wavelength):
     return out
 
 
-def _pulse(dist, t, speed, wavelength):
+def wind_pulse(dist, t, speed, wavelength):
     """Rings travelling outwards at ``speed``: 0.7 + 0.3 sin(2 pi (dist - speed t) / wavelength)."""
     return 0.7 + 0.3 * np.sin(2.0 * math.pi * (dist - speed * t) / wavelength)
+
+
+_pulse = wind_pulse
 
 
 def wind_radial(p, t, strength, center, radius, speed, wavelength):
@@ -226,11 +266,16 @@ def noise_hash(i, j):
     return h
 
 
-def _simplex_corner(x, y, i, j):
+def simplex_corner(x, y, i, j):
+    """One corner's term of :func:`simplex_noise2`: max(0.5 - x^2 - y^2, 0)^4 * dot(g, (x, y)),
+    g the unit gradient at angle (noise_hash(i, j) & 7) * 45 degrees."""
     t = 0.5 - x * x - y * y
     angle = (noise_hash(i, j) & np.uint64(7)).astype(np.float64) * (0.25 * math.pi)
     t2 = np.maximum(t, 0.0) ** 2
     return t2 * t2 * (np.cos(angle) * x + np.sin(angle) * y)
+
+
+_simplex_corner = simplex_corner
 
 
 def simplex_noise2(x, y):
@@ -409,25 +454,36 @@ def sphere_push(p, center, radius):
     return diff * k[..., None]
 
 
-def collide_spheres(v0, v1, v2, spheres):
-    """Push each blade out of every sphere; returns (v2, eta_add, hit).
+def collide_sphere(v0, v1, v2, sphere):
+    """Push blades out of one sphere ``(cx, cy, cz, R)``; returns (v2, eta_add, hit).
 
-    For each sphere (cx, cy, cz, R) in turn: push v2 by d = sphere_push(v2); then
-    with the curve midpoint m = v0/4 + v1/2 + v2/4 (updated v2), push v2 by 4 d_m
-    (moving v2 by 4 d moves m by d). ``eta_add`` sums |d|^2 of all pushes (m^2),
-    ``hit`` is True where any push happened (those blades are validated again).
+    Push v2 by d = sphere_push(v2); then with the curve midpoint
+    m = v0/4 + v1/2 + v2/4 (updated v2), push v2 by 4 d_m (moving v2 by 4 d moves
+    m by d). ``eta_add`` = |d|^2 + |d_m|^2, ``hit`` = eta_add > 0.
     """
+    c = np.asarray(sphere, np.float64)
+    center, radius = c[..., :3], c[..., 3]
+    v0, v1 = np.asarray(v0, np.float64), np.asarray(v1, np.float64)
+    v2 = np.asarray(v2, np.float64)
+    d_tip = sphere_push(v2, center, radius)
+    v2 = v2 + d_tip
+    d_mid = sphere_push(0.25 * v0 + 0.5 * v1 + 0.25 * v2, center, radius)
+    v2 = v2 + 4.0 * d_mid
+    add = _dot(d_tip, d_tip) + _dot(d_mid, d_mid)
+    return v2, add, add > 0
+
+
+def collide_spheres(v0, v1, v2, spheres):
+    """Push each blade out of every sphere in turn (:func:`collide_sphere`);
+    returns (v2, eta_add, hit) with ``eta_add`` summed over the spheres and ``hit``
+    True where any push happened (those blades are validated again)."""
     v2 = np.array(v2, np.float64, copy=True)
     add = np.zeros(len(v2))
     hit = np.zeros(len(v2), bool)
     for c in np.asarray(spheres, np.float64).reshape(-1, 4):
-        for midpoint in (False, True):
-            p = 0.25 * v0 + 0.5 * v1 + 0.25 * v2 if midpoint else v2
-            d = sphere_push(p, c[:3], c[3])
-            v2 += 4.0 * d if midpoint else d
-            dd = _dot(d, d)
-            add += dd
-            hit |= dd > 0
+        v2, add_c, hit_c = collide_sphere(v0, v1, v2, c)
+        add += add_c
+        hit |= hit_c
     return v2, add, hit
 
 
@@ -471,37 +527,52 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     v0 = np.asarray(state["v0"], np.float64)
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
-    v2 = np.asarray(state["v2"], np.float64)
     n = len(v0)
     eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
     eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
     s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
     s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    v1, v2 = _forces_and_validation(state, params, t, user_wind, s)
+    spheres = _spheres(colliders)
+    if len(spheres):
+        v1, v2, add_total = _collision_passes(v0, up, h, v1, v2, spheres)
+        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add_total, COLLISION_MAX)
+    out = dict(state)
+    out["v1"], out["v2"], out["collision"] = v1, v2, eta
+    return out
+
+
+def _forces_and_validation(state, params, t, user_wind, s_eff):
+    """Steps 2-3 of simulate_step: the semi-implicit force update of v2, then validation."""
+    v0 = np.asarray(state["v0"], np.float64)
+    up = np.asarray(state["up"], np.float64)
+    h = np.asarray(state["height"], np.float64)
+    v2 = np.asarray(state["v2"], np.float64)
     t1 = width_direction(up, state["orientation"])
     f = front_direction(up, t1)
     g_env = environmental_gravity(params, v0)
     g = g_env + front_gravity(g_env, f, params.front_gravity)
     w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
     iv2 = v0 + up * h[:, None]
-    v2 = integrate_tip(v2, iv2, s, g + w, params.dt)
+    v2 = integrate_tip(v2, iv2, s_eff, g + w, params.dt)
     v2 = validate_ground(v0, v2, up)
     v1 = validate_v1(v0, v2, up, h)
-    v1, v2 = validate_length(v0, v1, v2, h)
-    spheres = _spheres(colliders)
-    if len(spheres):
-        add_total = np.zeros(n)
-        for _ in range(COLLISION_PASSES):
-            v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
-            add_total += add
-            v2c = validate_ground(v0, v2c, up)
-            v1c = validate_v1(v0, v2c, up, h)
-            v1c, v2c = validate_length(v0, v1c, v2c, h)
-            v1 = np.where(hit[:, None], v1c, v1)
-            v2 = np.where(hit[:, None], v2c, v2)
-        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add_total, COLLISION_MAX)
-    out = dict(state)
-    out["v1"], out["v2"], out["collision"] = v1, v2, eta
-    return out
+    return validate_length(v0, v1, v2, h)
+
+
+def _collision_passes(v0, up, h, v1, v2, spheres):
+    """Step 4 of simulate_step: COLLISION_PASSES pushes out of the spheres, each
+    followed by validation of the pushed blades; returns (v1, v2, sum of |d|^2)."""
+    add_total = np.zeros(len(v0))
+    for _ in range(COLLISION_PASSES):
+        v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
+        add_total += add
+        v2c = validate_ground(v0, v2c, up)
+        v1c = validate_v1(v0, v2c, up, h)
+        v1c, v2c = validate_length(v0, v1c, v2c, h)
+        v1 = np.where(hit[:, None], v1c, v1)
+        v2 = np.where(hit[:, None], v2c, v2)
+    return v1, v2, add_total
 
 
 def _spheres(colliders):
@@ -538,6 +609,8 @@ def simulate(state, params, steps, first_step=0, colliders=None, user_wind=None)
 #: below. (15, 8, 4, 2) was indistinguishable and drew twice the triangles, which
 #: costs a CPU rasterizer (lavapipe) about 20 % of a frame in the cis565 view.
 LOD_SEGMENTS = (8, 4, 2, 1)
+#: Segments of the culled blades drawn with ``color_by = "cull"`` (context, not detail).
+CULLED_SEGMENTS = LOD_SEGMENTS[1]
 #: A blade goes to class k when its projected height in pixels is >= LOD_MIN_PIXELS[k].
 LOD_MIN_PIXELS = (192.0, 64.0, 20.0, 0.0)
 
@@ -553,11 +626,17 @@ def _clip(points, view_proj):
     return p @ np.asarray(view_proj, np.float64).T
 
 
-def _outside(clip, tol):
+def clip_outside(clip, tol):
+    """True where a clip-space point (x, y, z, w) is outside the view: not
+    (|x|, |y| <= w + tol and 0 <= z <= w)."""
+    clip = np.asarray(clip, np.float64)
     x, y, z, w = clip[..., 0], clip[..., 1], clip[..., 2], clip[..., 3]
     lim = w + tol
     inside = (np.abs(x) <= lim) & (np.abs(y) <= lim) & (z >= 0) & (z <= w)
     return ~inside
+
+
+_outside = clip_outside
 
 
 def frustum_cull(v0, v1, v2, view_proj, tol=0.5):
@@ -580,6 +659,17 @@ def distance_cull(v0, up, cam_pos, ids, buckets=100, d_max=100.0):
     return (np.asarray(ids) % buckets) >= keep
 
 
+def projected_pixels(v0, v2, height, view_proj, viewport_height):
+    """Projected blade height in pixels: h * P11 * viewport_height / (2 w), with w the
+    clip w of the curve's middle (v0 + v2) / 2 and P11 the vertical focal factor of
+    ``view_proj`` (the length of its second row's xyz part)."""
+    vp = np.asarray(view_proj, np.float64)
+    mid = 0.5 * (np.asarray(v0, np.float64) + np.asarray(v2, np.float64))
+    w = np.maximum(_clip(mid, vp)[..., 3], 1e-6)
+    focal = np.linalg.norm(vp[1, :3])
+    return np.asarray(height, np.float64) * focal * viewport_height * 0.5 / w
+
+
 def lod_class(v0, v2, height, view_proj, viewport_height):
     """Level-of-detail class per blade from its projected height in pixels.
 
@@ -588,28 +678,123 @@ def lod_class(v0, v2, height, view_proj, viewport_height):
     (the length of its second row's xyz part). Class k is the first with
     pixels >= LOD_MIN_PIXELS[k].
     """
-    vp = np.asarray(view_proj, np.float64)
-    mid = 0.5 * (np.asarray(v0, np.float64) + np.asarray(v2, np.float64))
-    w = np.maximum(_clip(mid, vp)[..., 3], 1e-6)
-    focal = np.linalg.norm(vp[1, :3])
-    pixels = np.asarray(height, np.float64) * focal * viewport_height * 0.5 / w
-    cls = np.full(len(mid), len(LOD_MIN_PIXELS) - 1)
+    pixels = projected_pixels(v0, v2, height, view_proj, viewport_height)
+    cls = np.full(len(pixels), len(LOD_MIN_PIXELS) - 1)
     for k in reversed(range(len(LOD_MIN_PIXELS))):
         cls = np.where(pixels >= LOD_MIN_PIXELS[k], k, cls)
     return cls
 
 
-def cull(state, params, view_proj, cam_pos, ids=None):
-    """Which blades survive all enabled culling tests (bool (N,), True = drawn)."""
+#: What :func:`cull_reason` returns, by index: 0 kept, then the culling tests in
+#: the order they are applied (the first one that culls a blade is its reason).
+CULL_REASONS = ("kept", "orientation", "frustum", "distance")
+
+
+def cull_reason(state, params, view_proj, cam_pos, ids=None):
+    """Why each blade is culled: an int array (N,) indexing :data:`CULL_REASONS`.
+
+    0 means the blade survives every enabled test; otherwise the value names the
+    first enabled test that culls it, in the order orientation (1), frustum (2),
+    distance (3). A blade culled by frustum and distance is a frustum blade.
+    ``view_proj`` (4x4, world to clip) and ``cam_pos`` describe the culling camera;
+    ``ids`` (default 0..N-1) feed the distance buckets.
+    """
     v0, v1, v2, up = (np.asarray(state[k], np.float64) for k in ("v0", "v1", "v2", "up"))
     n = len(v0)
     ids = np.arange(n) if ids is None else ids
-    culled = np.zeros(n, bool)
+    reason = np.zeros(n, np.int32)
+    tests = []
     if params.cull_orientation:
         t1 = width_direction(up, state["orientation"])
-        culled |= orientation_cull(v0, t1, cam_pos, params.cull_orientation_threshold)
+        tests.append((1, lambda: orientation_cull(v0, t1, cam_pos, params.cull_orientation_threshold)))
     if params.cull_frustum:
-        culled |= frustum_cull(v0, v1, v2, view_proj, params.cull_frustum_tolerance)
+        tests.append((2, lambda: frustum_cull(v0, v1, v2, view_proj, params.cull_frustum_tolerance)))
     if params.cull_distance:
-        culled |= distance_cull(v0, up, cam_pos, ids, params.cull_buckets, params.cull_distance_max)
-    return ~culled
+        tests.append((3, lambda: distance_cull(v0, up, cam_pos, ids, params.cull_buckets, params.cull_distance_max)))
+    for code, test in tests:
+        reason = np.where((reason == 0) & test(), code, reason)
+    return reason
+
+
+def cull(state, params, view_proj, cam_pos, ids=None):
+    """Which blades survive all enabled culling tests (bool (N,), True = drawn)."""
+    return cull_reason(state, params, view_proj, cam_pos, ids) == 0
+
+
+# --------------------------------------------------------------------------- forces, for the inspector
+
+#: The arrows of the blade inspector, in drawing order (see :func:`blade_forces`).
+FORCE_NAMES = ("gravity", "recovery", "wind", "collision")
+
+
+def blade_forces(state, params, t, colliders=None, user_wind=None):
+    """What moves each tip guide v2 in the next step from ``state``: three
+    accelerations (m/s^2) and the collision push (m).
+
+    Returns a dict of (N, 3) arrays, keyed by :data:`FORCE_NAMES`:
+
+    - ``gravity``: g = gE + gF (environmental plus front gravity, eq. 1-2);
+    - ``recovery``: r = (iv2 - v2) s_eff with s_eff = s * stiffness_scale *
+      max(1 - eta, RECOVERY_FLOOR), eta the collision strength after this step's
+      fade (the explicit form of the paper's eq. 4; the integrator takes it at the
+      end of the step, see :func:`integrate_tip`);
+    - ``wind``: w = W(v0, t) fd fr (eq. 3-5) at time ``t`` (s);
+    - ``collision``: the displacement d (m, not an acceleration) by which the
+      colliders push v2 in this step, after the forces and the validation, as
+      :func:`simulate_step` does. Zero where no sphere touches the blade.
+
+    The state is not changed. ``colliders`` and ``user_wind`` as in :func:`simulate_step`.
+    """
+    v0 = np.asarray(state["v0"], np.float64)
+    up = np.asarray(state["up"], np.float64)
+    h = np.asarray(state["height"], np.float64)
+    v2 = np.asarray(state["v2"], np.float64)
+    n = len(v0)
+    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
+    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
+    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
+    s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    t1 = width_direction(up, state["orientation"])
+    g_env = environmental_gravity(params, v0)
+    g = g_env + front_gravity(g_env, front_direction(up, t1), params.front_gravity)
+    w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
+    r = (v0 + up * h[:, None] - v2) * s[:, None]
+    collision = np.zeros((n, 3))
+    spheres = _spheres(colliders)
+    if len(spheres):
+        v1_step, v2_step = _forces_and_validation(state, params, t, user_wind, s)
+        _, v2_pushed, _ = _collision_passes(v0, up, h, v1_step, v2_step, spheres)
+        collision = v2_pushed - v2_step
+    return {"gravity": g, "recovery": r, "wind": w, "collision": collision}
+
+
+# --------------------------------------------------------------------------- drawing
+
+
+def blade_shape_t(u, v, shape, tau):
+    """Across-blade parameter t of the paper's blade shapes (section 6), u, v in [0, 1].
+
+    ``shape`` is a :class:`~grasswidget.enums.BladeShape` id or label: quad and fold
+    t = u; triangle t = u + v/2 - u v; quadratic t = u - u v^2; triangle-tip
+    t = 1/2 + (u - 1/2) (1 - max(v - tau, 0) / (1 - tau)).
+    """
+    shape = BladeShape.from_label(shape) if isinstance(shape, str) else BladeShape(int(shape))
+    u = np.asarray(u, np.float64)
+    v = np.asarray(v, np.float64)
+    if shape in (BladeShape.QUAD, BladeShape.FOLD):
+        return u + 0.0 * v
+    if shape == BladeShape.TRIANGLE:
+        return u + 0.5 * v - u * v
+    if shape == BladeShape.QUADRATIC:
+        return u - u * v * v
+    return 0.5 + (u - 0.5) * (1.0 - np.maximum(v - tau, 0.0) / (1.0 - tau))
+
+
+def hash01(x):
+    """Hash of blade ids (u32) to [0, 1), for per-blade colour variation (PCG-style;
+    every product wraps modulo 2^32 like WGSL u32 arithmetic)."""
+    h = (np.asarray(x, np.int64).astype(np.uint64) & _M32)
+    h = (h * np.uint64(747796405) + np.uint64(2891336453)) & _M32
+    h = (((h >> ((h >> np.uint64(28)) + np.uint64(4))) ^ h) * np.uint64(277803737)) & _M32
+    h = (h >> np.uint64(22)) ^ h
+    return h.astype(np.float64) / 4294967296.0

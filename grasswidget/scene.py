@@ -16,11 +16,11 @@ import pygfx as gfx
 from .blades import Blades
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
-from .gpu.field import GrassField, GrassMaterial
+from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
 from .gpu.sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from .params import GrassParams
 
-__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "make_renderer"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
 
 #: Named scenes: see GrassScene.preset().
 PRESETS = ("cis565", "meadow")
@@ -57,6 +57,28 @@ def parse_size(size, name="size"):
     return w, h
 
 
+def preset_field(name, blades=None, seed=0):
+    """The blades, default size and camera of a named scene (see :meth:`GrassScene.preset`).
+
+    Returns ``(Blades, (w, h), view)`` with view a dict of position, target
+    (metres), fov_deg (vertical), near, far. Pure: no GPU work (the browser
+    engine builds its presets from it too).
+    """
+    if name not in PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+    if name == "cis565":
+        n = 1 << 13 if blades is None else blades
+        b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
+        view = dict(position=(0, 1, 10), target=(0, 1, 0), fov_deg=45, near=0.1, far=100)
+        return b, (640, 480), view
+    n = 1 << 20 if blades is None else blades
+    side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
+    if not isinstance(n, Blades):
+        n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
+    view = dict(position=(0, 3.0, side / 2 + 2.0), target=(0, 0.0, side / 2 - 30.0), fov_deg=50, near=0.1, far=400)
+    return n, (1920, 1080), view
+
+
 def make_renderer(canvas):
     """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings:
     pixel ratio 1, no post-process anti-aliasing on a CPU adapter, no picking events."""
@@ -85,7 +107,9 @@ class GrassScene:
 
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
-            blades = Blades.on_plane(int(blades))
+            if blades < 1:
+                raise ValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
+            blades = Blades.on_plane(check_blade_count_fits(blades, "blades"))
         if not isinstance(blades, Blades):
             raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
@@ -97,10 +121,12 @@ class GrassScene:
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
-        # Sky and a flat ground square (side 1.2 x the field's) in one full-screen pass.
-        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=(center[0], -0.01, center[2]),
+        # Sky and a flat ground square in one full-screen pass (sized by _fit_ground).
+        self._ground_center = (float(center[0]), -0.01, float(center[2]))
+        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=self._ground_center,
                                                       ground_half_size=0.6 * extent))
         self.ground = GroundSwitch(self.sky_ground.material)
+        self._field_extent = extent
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
@@ -115,6 +141,7 @@ class GrassScene:
         set_vertical_fov(self.camera, 45, self.size[0] / self.size[1])
         self.preset_name = None
         self._default_view(extent, center)
+        self._fit_ground()
 
         if canvas is None:
             from rendercanvas.offscreen import RenderCanvas
@@ -143,20 +170,15 @@ class GrassScene:
         """
         if name not in PRESETS:
             raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
-        if name == "cis565":
-            if params is None:
-                params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
-            n = 1 << 13 if blades is None else blades
-            b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
-            scene = cls(b, size=size or (640, 480), params=params, **kwargs)
-            scene._set_view((0, 1, 10), (0, 1, 0), fov=45, near=0.1, far=100)
-        else:
-            n = 1 << 20 if blades is None else blades
-            side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
-            if not isinstance(n, Blades):
-                n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
-            scene = cls(n, size=size or (1920, 1080), params=params, **kwargs)
-            scene._set_view((0, 3.0, side / 2 + 2.0), (0, 0.0, side / 2 - 30.0), fov=50, near=0.1, far=400)
+        if blades is not None and not isinstance(blades, Blades):
+            if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
+                raise ValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
+            blades = check_blade_count_fits(blades, "blades")  # before any blade is made
+        if name == "cis565" and params is None:
+            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
+        b, default_size, view = preset_field(name, blades, seed)
+        scene = cls(b, size=size or default_size, params=params, **kwargs)
+        scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
         scene.preset_name = name
         return scene
 
@@ -166,6 +188,35 @@ class GrassScene:
         self.camera.depth_range = (near, far)
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
+        self._fit_ground()
+
+    def _fit_ground(self):
+        """Size the ground plane to reach the far plane from anywhere over the field,
+        so that a low camera sees ground, not sky, below the horizon."""
+        far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
+        side = 1.2 * self._field_extent + 2.0 * far
+        self.sky_ground.material.set_ground(self._ground_center, 0.5 * side)
+
+    def look(self, position=None, target=None, fov_deg=None):
+        """Aim the camera: from ``position`` at ``target`` (metres, world space) with a
+        vertical field of view of ``fov_deg`` degrees; None keeps that part (a None
+        target keeps the viewing direction). The home view (reset_camera) is kept."""
+        cam = self.camera
+        if position is not None:
+            forward = -np.asarray(cam.world.matrix, np.float64)[:3, 2]
+            cam.local.position = tuple(float(x) for x in position)
+            if target is None:
+                target = np.asarray(position, np.float64) + forward
+        if target is not None:
+            cam.look_at(tuple(float(x) for x in target))
+        if fov_deg is not None:
+            set_vertical_fov(cam, float(fov_deg), self.size[0] / self.size[1])
+
+    def vertical_fov(self) -> float:
+        """The camera's vertical field of view in degrees (the inverse of set_vertical_fov)."""
+        aspect = self.size[0] / self.size[1]
+        half = math.radians(self.camera.fov) / 2
+        return math.degrees(2 * math.atan(2 * math.tan(half) / (1 + aspect)))
 
     @property
     def show_colliders(self) -> bool:
@@ -195,6 +246,55 @@ class GrassScene:
     def reset_camera(self):
         """Put the camera back where the scene started."""
         self.camera.local.position, self.camera.local.rotation = self._home
+
+    # ------------------------------------------------------------------ teaching views
+
+    def viewport_size(self) -> tuple:
+        """(width, height) in physical pixels of the scene's view (its renderer's
+        target; the asked ``size`` while the canvas has none yet)."""
+        try:
+            w, h = self.renderer.physical_size
+        except Exception:
+            w = h = 0
+        return (int(w), int(h)) if w > 0 and h > 0 else tuple(self.size)
+
+    def freeze_culling(self):
+        """Freeze culling at the current camera: from now on the field culls and
+        picks LOD classes against a copy of this camera (pose, projection,
+        viewport), however the camera moves, and the copy's view volume is drawn
+        as white lines. Fly out (e.g. above the field) to see what the frozen view
+        keeps; with ``params.color_by = "cull"`` every culled blade shows the test
+        that culled it. Freezing again takes a new copy. See :meth:`unfreeze_culling`.
+        """
+        self.field.freeze_culling(self.camera, self.viewport_size())
+
+    def unfreeze_culling(self):
+        """Cull against the rendering camera again (the default)."""
+        self.field.unfreeze_culling()
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True between :meth:`freeze_culling` and :meth:`unfreeze_culling`."""
+        return self.field.culling_frozen
+
+    def inspect(self, ids):
+        """Show up to 64 blades in the blade inspector: v0, v1, v2 as dots, the
+        control polygon, and arrows for the forces of the current step on v2
+        (gravity: violet, recovery: cyan, wind: red; an acceleration of 20 m/s^2
+        is as long as the blade) and the push of a touching sphere in this step
+        (amber, drawn 10 times its length), every frame from the GPU state. ``inspect([])`` clears. Ids out of range, more than 64 ids
+        or non-integers raise ValueError naming the limit. See GrassField.inspect.
+        """
+        self.field.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades."""
+        return self.field.inspected
+
+    def read_inspected(self) -> list:
+        """Numbers of the inspected blades as of the last render: GrassField.read_inspected."""
+        return self.field.read_inspected()
 
     # ------------------------------------------------------------------ time
 

@@ -65,3 +65,47 @@ def widget():
     w.view.clock.now = TickingWall(1.0 / w.max_fps)
     yield w
     w.close()
+
+
+def _run_compute(code, words_in, words_out, n):
+    """Run WGSL ``code`` (entry point ``main``, workgroup 64, bindings 0: ``array<u32>``
+    in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words."""
+    import wgpu
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    usage = wgpu.BufferUsage
+    data = np.ascontiguousarray(words_in, np.uint32)
+    b_in = device.create_buffer_with_data(data=data.tobytes() or b"\0\0\0\0", usage=usage.STORAGE)
+    b_out = device.create_buffer(size=max(4 * words_out * n, 4), usage=usage.STORAGE | usage.COPY_SRC)
+    pipeline = device.create_compute_pipeline(
+        layout="auto", compute={"module": device.create_shader_module(code=code), "entry_point": "main"}
+    )
+    group = device.create_bind_group(
+        layout=pipeline.get_bind_group_layout(0),
+        entries=[{"binding": 0, "resource": {"buffer": b_in}}, {"binding": 1, "resource": {"buffer": b_out}}],
+    )
+    encoder = device.create_command_encoder()
+    cpass = encoder.begin_compute_pass()
+    cpass.set_pipeline(pipeline)
+    cpass.set_bind_group(0, group)
+    cpass.dispatch_workgroups(-(-n // 64))
+    cpass.end()
+    device.queue.submit([encoder.finish()])
+    return np.frombuffer(device.queue.read_buffer(b_out), np.uint32)[: words_out * n].reshape(n, words_out)
+
+
+@pytest.fixture(scope="session")
+def run_compute():
+    """``run_compute(code, words_in (n, k) uint32, words_out, n) -> (n, words_out) uint32``:
+    a small compute harness on the project's GPU device (lavapipe on CPU machines).
+    The WGSL reads ``harness_in: array<u32>`` (binding 0) and writes ``harness_out:
+    array<u32>`` (binding 1) with ``@workgroup_size(64)``."""
+    return _run_compute
+
+
+HARNESS_BINDINGS = """
+@group(0) @binding(0) var<storage, read> harness_in: array<u32>;
+@group(0) @binding(1) var<storage, read_write> harness_out: array<u32>;
+"""

@@ -7,7 +7,9 @@ to each copy checks that. Headless, widgets have no view: the jupyter canvas
 never gets a size or a draw request, and the notebooks draw offscreen.
 """
 
+import re
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -26,6 +28,46 @@ PROBE = "import sys as _sys; print('PREFIX=' + _sys.prefix)"
 def test_there_are_notebooks():
     names = [p.stem for p in NOTEBOOKS]
     assert names[:5] == ["01_tour", "02_blade_model", "03_culling", "04_performance", "05_colliders_and_wind"], names
+
+
+def _files_written_by_notebooks():
+    """File names in the notebooks' code that end in a picture/movie extension."""
+    names = set()
+    for path in NOTEBOOKS:
+        nb = nbformat.read(str(path), as_version=4)
+        for cell in nb.cells:
+            if cell.cell_type == "code":
+                names.update(re.findall(r'"([^"\n]+\.(?:png|gif|mp4|jpg|jpeg))"', cell.source))
+    return names
+
+
+def test_notebook_outputs_are_ignored_by_git():
+    """What the notebooks (and the widget's Save PNG, ``grass-<time>.png`` next to the
+    notebook) write is ignored by git, so a run leaves no untracked files."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    names = _files_written_by_notebooks()
+    assert {"tour.png", "tour.gif", "trampled.png"} <= names, names
+    # the notebooks write into output/ (relative to notebooks/)
+    candidates = [f"notebooks/output/{n}" for n in names] + ["notebooks/grass-20260101-120000.png"]
+    r = subprocess.run(["git", "check-ignore", "--no-index", *candidates], cwd=ROOT, capture_output=True, text=True)
+    ignored = set(r.stdout.split())
+    assert ignored == set(candidates), f"not ignored: {sorted(set(candidates) - ignored)}"
+    # and the notebooks do name that folder for what they save
+    for path in NOTEBOOKS:
+        text = path.read_text()
+        for name in names:
+            if f'\\"{name}\\"' in text:
+                assert f'out / \\"{name}\\"' in text, f"{path.name} saves {name} outside output/"
+
+
+def test_readmes_name_no_machine_specific_paths():
+    """READMEs give paths relative to the checkout, not folders of one machine."""
+    readmes = [ROOT / "README.md", *sorted((ROOT / "tests").rglob("README.md"))]
+    for readme in readmes:
+        text = readme.read_text()
+        bad = re.findall(r"(?:/work/|/home/\w+|/root/|/Users/\w+|/tmp/\w+)[^\s`)]*", text)
+        assert not bad, f"{readme.relative_to(ROOT)} names machine-specific paths: {bad}"
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
@@ -56,10 +98,21 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
     assert not errors
     if path.stem == "01_tour":
-        assert (tmp_path / "tour.png").stat().st_size > 1000
-        assert (tmp_path / "tour.gif").stat().st_size > 1000
+        assert (tmp_path / "output" / "tour.png").stat().st_size > 1000
+        assert (tmp_path / "output" / "tour.gif").stat().st_size > 1000
+    if path.stem == "02_blade_model":  # the inspector in calm air, in wind, under a ball
+        assert (tmp_path / "output" / "inspector.png").stat().st_size > 1000
+        text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+        assert "against a ball" in text and "collision push" in text
+    if path.stem == "03_culling":  # each test seen from above through a frozen camera, with counts
+        assert (tmp_path / "output" / "culling_birdseye.png").stat().st_size > 1000
+        text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+        assert "drawn per LOD class, GPU" in text and "orientation" in text
     if path.stem == "05_colliders_and_wind":
         for name in ("trampled.png", "vortex.png", "planet.png"):
-            assert (tmp_path / name).stat().st_size > 1000
+            assert (tmp_path / "output" / name).stat().st_size > 1000
         text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
         assert "refused: wind_wgsl line 2" in text  # the bad snippet's error names its line
+    # nothing but the output folder (ignored by git) was written next to the notebook
+    written = {p.name for p in tmp_path.iterdir()} - {work.name, "output", ".ipynb_checkpoints"}
+    assert not written, f"{path.name} wrote {sorted(written)} next to itself; write into output/"

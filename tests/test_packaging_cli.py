@@ -3,12 +3,29 @@
 import os
 import subprocess
 import sys
+import tarfile
 import zipfile
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _shader_files():
+    """The WGSL files of the source tree (grasswidget/shaders)."""
+    files = sorted(p.name for p in (ROOT / "grasswidget" / "shaders").glob("*.wgsl"))
+    assert {"blade_math.wgsl", "simulate.wgsl", "cull.wgsl", "blade_render.wgsl", "reset_args.wgsl"} <= set(files)
+    return files
+
+
+def test_shaders_live_in_the_package_only():
+    """One folder: the WGSL sits inside the package, not in a second top-level folder."""
+    assert not (ROOT / "shaders").exists()
+    from grasswidget.shader_files import shader_dir, shader_names
+
+    assert shader_dir().resolve() == (ROOT / "grasswidget" / "shaders").resolve()
+    assert shader_names() == _shader_files()
 
 
 def test_wheel_contains_shaders(tmp_path):
@@ -18,13 +35,28 @@ def test_wheel_contains_shaders(tmp_path):
     )
     wheel = next(tmp_path.glob("grasswidget-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
-    for f in ("blade_math.wgsl", "simulate.wgsl", "cull.wgsl", "blade_render.wgsl", "reset_args.wgsl"):
+    for f in _shader_files():
         assert f"grasswidget/shaders/{f}" in names
+    # The browser engine's ES module and its own WGSL ship too (nothing is fetched at run time).
+    for f in ("engine.js", "std.wgsl", "scene.wgsl"):
+        assert f"grasswidget/browser/{f}" in names
     # an installed copy (outside the checkout) finds them
     target = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(target)
-    code = "from grasswidget.shader_files import shader_dir; p = shader_dir(); print(p); assert 'site' in str(p)"
+    code = ("from grasswidget.shader_files import shader_dir, read_shader; p = shader_dir(); print(p); "
+            "assert 'site' in str(p); assert 'fn main' in read_shader('simulate.wgsl')")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(target)})
+
+
+def test_sdist_contains_shaders(tmp_path):
+    subprocess.run([sys.executable, "-m", "hatchling", "build", "-t", "sdist", "-d", str(tmp_path)], check=True, cwd=ROOT,
+                   capture_output=True)
+    sdist = next(tmp_path.glob("grasswidget-*.tar.gz"))
+    with tarfile.open(sdist) as tar:
+        names = {n.split("/", 1)[1] for n in tar.getnames() if "/" in n}
+    for f in _shader_files():
+        assert f"grasswidget/shaders/{f}" in names
+    assert "pyproject.toml" in names and not any(n.startswith("shaders/") for n in names)
 
 
 def test_cli_snapshot(tmp_path):

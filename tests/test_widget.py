@@ -62,7 +62,7 @@ def test_pixel_ratio_override():
         _resize(w, ratio=1.0)
         assert w.canvas.get_physical_size() == (SIZE[0] // 2, SIZE[1] // 2)
         assert w.scene.renderer.pixel_ratio == 0.5  # renders a quarter of the pixels, not just sends them
-        w._draw()
+        w.view.draw()
     finally:
         w.close()
     with pytest.raises(ValueError, match="pixel_ratio"):
@@ -137,7 +137,7 @@ def test_bad_values_raise_and_widget_keeps_working(widget, tmp_path):
     p.gravity = 12.5
     assert widget.sliders["gravity"].value == 12.5
     _resize(widget)
-    widget._draw()
+    widget.view.draw()
     img = widget.scene.render_at(SIZE)
     assert grass_mask(img).mean() > 0.1
 
@@ -170,12 +170,12 @@ def test_play_pause_step_reset(widget):
     f = widget.scene.field
     _resize(widget)
     assert widget.playing
-    widget._draw()  # a frame while playing advances steps_per_frame steps
+    widget.view.draw()  # a frame while playing advances steps_per_frame steps
     assert f.step_count == widget.steps_per_frame
     widget.pause()
     assert widget.play_button.description == "Play"
     n = f.step_count
-    widget._draw()
+    widget.view.draw()
     assert f.step_count == n
     widget.step_button.click()
     assert f.step_count == n + max(1, widget.steps_per_frame) and not widget.playing
@@ -195,11 +195,11 @@ def test_orbit_without_picking_and_keys(widget, monkeypatch):
     monkeypatch.setattr(renderer, "get_pick_info", lambda pos: calls.append(pos) or {})
     cam = widget.scene.camera
     p0 = np.array(cam.world.position)
-    base = dict(modifiers=(), ntouches=0, touches={}, time_stamp=0)
-    widget._events(dict(event_type="pointer_down", x=80, y=60, button=1, buttons=(1,), **base))
+    base = dict(modifiers=(), ntouches=0, touches={}, timestamp=0)  # jupyter-rfb's current event format
+    widget.view.events(dict(type="pointer_down", x=80, y=60, button=1, buttons=(1,), **base))
     for i in range(1, 11):
-        widget._events(dict(event_type="pointer_move", x=80 + 6 * i, y=60, button=0, buttons=(1,), **base))
-    widget._events(dict(event_type="pointer_up", x=140, y=60, button=1, buttons=(), **base))
+        widget.view.events(dict(type="pointer_move", x=80 + 6 * i, y=60, button=0, buttons=(1,), **base))
+    widget.view.events(dict(type="pointer_up", x=140, y=60, button=1, buttons=(), **base))
     for _ in range(60):  # let the damped action converge
         widget.controller.tick()
     moved = np.linalg.norm(np.array(cam.world.position) - p0)
@@ -208,20 +208,20 @@ def test_orbit_without_picking_and_keys(widget, monkeypatch):
     t = widget.controller.target
     assert np.isclose(np.linalg.norm(p0 - t), np.linalg.norm(np.array(cam.world.position) - t), rtol=1e-3)
     assert calls == []
-    widget._on_key({"event_type": "key_down", "key": "r", "modifiers": ()})
+    widget.view.on_key({"type": "key_down", "key": "r", "modifiers": ()})
     assert np.allclose(cam.world.position, p0, atol=1e-5)
-    widget._on_key({"event_type": "key_down", "key": " ", "modifiers": ()})
+    widget.view.on_key({"type": "key_down", "key": " ", "modifiers": ()})
     assert not widget.playing
-    widget._on_key({"event_type": "key_down", "key": "s", "modifiers": ()})
+    widget.view.on_key({"type": "key_down", "key": "s", "modifiers": ()})
     assert widget.scene.field.step_count > 0
-    widget._on_key({"event_type": "key_down", "key": " ", "modifiers": ("Control",)})  # not ours
+    widget.view.on_key({"type": "key_down", "key": " ", "modifiers": ("Control",)})  # not ours
     assert not widget.playing
 
 
 def test_stats_line(widget):
     _resize(widget)
-    widget._draw()
-    widget._refresh_stats()
+    widget.view.draw()
+    widget.view.refresh_stats()
     s = widget.stats
     assert s["blades"] == 1024 and s["visible"] is not None and 0 <= s["visible"] <= 1024
     assert "frames/s" in widget.stats_line.value and "blades" in widget.stats_line.value
@@ -235,7 +235,7 @@ def test_blade_count_slider_rebuilds(widget):
     widget.blade_count = 512
     assert widget.blade_slider.value == 512 and widget.scene.field.count == 512
     _resize(widget)
-    widget._draw()
+    widget.view.draw()
 
 
 def test_save_png_from_code_and_button(widget, tmp_path, monkeypatch):
@@ -341,7 +341,7 @@ def test_recreating_does_not_grow_gpu_memory():
     def cycle():
         w = gw.GrassWidget(blades=4096, size=SIZE)
         _resize(w)
-        w._draw()
+        w.view.draw()
         w.close()
 
     cycle()
@@ -392,14 +392,14 @@ def test_rerunning_a_cell_closes_the_previous_widget(monkeypatch):
     a = gw.GrassWidget(blades=64, size=SIZE)
     b = gw.GrassWidget(blades=64, size=SIZE)
     try:
-        assert a._closed and a.scene is None
-        assert not b._closed and b.scene is not None
+        assert a.closed and a.scene is None
+        assert not b.closed and b.scene is not None
     finally:
         b.close()
     monkeypatch.setattr(gwmod, "_current_cell_id", lambda: None)
     c = gw.GrassWidget(blades=64, size=SIZE)
     d = gw.GrassWidget(blades=64, size=SIZE)
-    assert not c._closed and not d._closed  # no cell id (plain Python): nothing is closed
+    assert not c.closed and not d.closed  # no cell id (plain Python): nothing is closed
     c.close()
     d.close()
 
@@ -414,7 +414,41 @@ def test_close_with_pending_uploads_leaves_other_scenes_working():
     b = gw.GrassWidget(blades=256, size=SIZE)
     try:
         _resize(b)
-        b._draw()
+        b.view.draw()
         assert grass_mask(b.scene.render_at(SIZE)).mean() > 0.05
     finally:
         b.close()
+
+
+def test_rerun_keeps_a_widget_the_user_still_holds(monkeypatch):
+    """Re-running a cell closes the widget it made only if no user variable holds it
+    (decided after the cell ran, when its assignments are done); the registry is weak."""
+    import gc
+    import weakref
+
+    import grasswidget.widget as gwmod
+
+    namespace, after = {}, []
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-held")
+    monkeypatch.setattr(gwmod, "_user_namespace", lambda: namespace)
+    monkeypatch.setattr(gwmod, "_after_cell", after.append)
+    namespace["a"] = gw.GrassWidget(blades=64, size=SIZE)          # run 1: a = GrassWidget()
+    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 2, edited: b = GrassWidget()
+    after.pop()()                                                   # ... cell done
+    assert not namespace["a"].closed, "a is still held in a variable: it must stay open"
+    old_b = namespace["b"]
+    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 3: b = GrassWidget() again
+    after.pop()()
+    assert old_b.closed and not namespace["b"].closed and not namespace["a"].closed
+    namespace["keep"] = [namespace.pop("b")]                       # held inside a list counts too
+    namespace["c"] = gw.GrassWidget(blades=64, size=SIZE)
+    after.pop()()
+    assert not namespace["keep"][0].closed
+    for w in (namespace["a"], namespace["keep"][0], namespace["c"], old_b):
+        w.close()
+    # the registry keeps nobody alive
+    ref = weakref.ref(namespace.pop("c"))
+    namespace.clear()
+    del w, old_b
+    gc.collect()
+    assert ref() is None

@@ -1,6 +1,7 @@
 """The widget's ball (a sphere collider): shift + drag, sliders, rolling, drawing."""
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -24,8 +25,9 @@ def _screen_of(camera, point, size=SIZE):
 
 
 def _pointer(kind, x, y, modifiers=(), button=1):
-    return dict(event_type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
-                modifiers=modifiers, ntouches=0, touches={}, time_stamp=0)
+    """A pointer event in jupyter-rfb's current format ("type", "timestamp")."""
+    return dict(type=kind, x=x, y=y, button=button, buttons=(1,) if kind != "pointer_up" else (),
+                modifiers=modifiers, ntouches=0, touches={}, timestamp=0)
 
 
 def test_ground_point_inverts_the_projection():
@@ -45,6 +47,21 @@ def test_ground_point_inverts_the_projection():
     assert ground_point(scene.camera, SIZE[0] / 2, 0.0, SIZE) is None
 
 
+def _settle(controller, limit_s=10.0):
+    """Tick the camera controller until its motion (damped, so paced by the wall
+    clock) has run to its end; returns the number of ticks. What the user sees
+    once the view stops moving, whatever the machine's speed."""
+    t0, ticks = time.monotonic(), 0
+    while controller.tick() is not None:
+        ticks += 1
+        assert time.monotonic() - t0 < limit_s, "the camera kept moving"
+    return ticks
+
+
+def _camera_pose(cam):
+    return np.array(cam.world.position, np.float64), np.array(cam.world.rotation, np.float64)
+
+
 def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
     # what the browser sends when the view appears (the controller needs the view size)
     widget.canvas.handle_event({"event_type": "resize", "width": SIZE[0], "height": SIZE[1], "pixel_ratio": 1.0})
@@ -52,29 +69,52 @@ def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
     cam = widget.scene.camera
     assert not ball.enabled and list(widget.scene.colliders) == []
     widget.scene.render_at(SIZE)  # camera matrices for this view size
-    cam_pos = np.array(cam.world.position)
+    pos0, rot0 = _camera_pose(cam)
+
+    def under_pointer(px, py):
+        """The ball's contact point with the ground appears at the pointer (pixels)."""
+        cx, _cy, cz = ball.collider.center
+        sx, sy = _screen_of(cam, (cx, 0.0, cz))
+        return abs(sx - px) < 0.5 and abs(sy - py) < 0.5
+
     x, y = _screen_of(cam, (-3.0, 0.0, 1.0))
-    widget._events(_pointer("pointer_down", x, y, ("Shift",)))
+    widget.view.events(_pointer("pointer_down", x, y, ("Shift",)))
     assert ball.enabled and ball.collider in widget.scene.colliders  # a shift-click switches it on
     r = ball.collider.radius
-    assert np.allclose(ball.collider.center, (-3.0, r, 1.0), atol=1e-5)  # resting on the ground
+    assert ball.collider.center[1] == pytest.approx(r)  # resting on the ground
+    assert under_pointer(x, y)
+    # a drag of several moves, as a hand makes it: the ball follows the pointer at every move
     x2, y2 = _screen_of(cam, (2.0, 0.0, -1.0))
-    widget._events(_pointer("pointer_move", x2, y2, ("Shift",), button=0))
-    widget._events(_pointer("pointer_up", x2, y2, ("Shift",)))
-    assert np.allclose(ball.collider.center, (2.0, r, -1.0), atol=1e-5)
-    for _ in range(30):
-        widget.controller.tick()
-    assert np.allclose(cam.world.position, cam_pos)  # the camera did not orbit
-    assert ball.x_slider.value == pytest.approx(2.0, abs=0.05)
+    for k in range(1, 9):
+        px, py = x + (x2 - x) * k / 8, y + (y2 - y) * k / 8
+        widget.view.events(_pointer("pointer_move", px, py, ("Shift",), button=0))
+        assert under_pointer(px, py)
+    widget.view.events(_pointer("pointer_up", x2, y2, ("Shift",)))
+    assert under_pointer(x2, y2) and ball.collider.center[1] == pytest.approx(r)
+    # the camera did not orbit while shift was held: no motion pending, the pose unchanged
+    assert _settle(widget.controller) == 0
+    pos, rot = _camera_pose(cam)
+    assert np.array_equal(pos, pos0) and np.array_equal(rot, rot0)
+    assert ball.x_slider.value == pytest.approx(ball.collider.center[0], abs=0.05)
+
     # after the drag, a plain drag orbits again and leaves the ball alone
-    widget._events(_pointer("pointer_down", 80, 60))
+    center_before = ball.collider.center
+    target = np.asarray(widget.controller.target, np.float64)
+    widget.view.events(_pointer("pointer_down", 80, 60))
     for i in range(1, 6):
-        widget._events(_pointer("pointer_move", 80 + 8 * i, 60, button=0))
-    widget._events(_pointer("pointer_up", 120, 60))
-    for _ in range(30):
-        widget.controller.tick()
-    assert np.linalg.norm(np.array(cam.world.position) - cam_pos) > 0.3
-    assert np.allclose(ball.collider.center, (2.0, r, -1.0), atol=1e-5)
+        widget.view.events(_pointer("pointer_move", 80 + 8 * i, 60, button=0))
+    widget.view.events(_pointer("pointer_up", 120, 60))
+    assert _settle(widget.controller) > 0
+    pos, rot = _camera_pose(cam)
+    # an orbit: the camera turned around the target at the same distance, still looking at it
+    assert np.linalg.norm(pos - target) == pytest.approx(np.linalg.norm(pos0 - target), rel=1e-4)
+    turn = math.atan2(pos[2] - target[2], pos[0] - target[0]) - math.atan2(pos0[2] - target[2], pos0[0] - target[0])
+    per_px = widget.controller.controls["mouse1"][2][0]  # radians of azimuth per pixel of drag
+    assert abs(math.remainder(turn, math.tau)) == pytest.approx(40 * per_px, rel=0.02)  # the whole 40 px drag
+    forward = -np.asarray(cam.world.matrix, np.float64)[:3, 2]
+    to_target = (target - pos) / np.linalg.norm(target - pos)
+    assert np.dot(forward / np.linalg.norm(forward), to_target) > 0.999
+    assert ball.collider.center == center_before
 
 
 def test_sliders_checkbox_and_bad_values(widget):
@@ -131,12 +171,12 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     start = np.array(ball.collider.center)
     frames = 12
     for _ in range(frames):
-        widget._draw()
+        widget.view.draw()
     steps = frames * widget.steps_per_frame
     assert widget.scene.field.step_count == steps
     end = np.array(ball.collider.center)
     # on the circle around the field's centre through the start, at roll_speed
-    cx, cz = ball._center
+    cx, cz = ball.roll_center
     r0 = math.hypot(start[0] - cx, start[2] - cz)
     assert math.hypot(end[0] - cx, end[2] - cz) == pytest.approx(r0, rel=1e-6)
     arc = r0 * abs(math.atan2(end[2] - cz, end[0] - cx) - math.atan2(start[2] - cz, start[0] - cx))
@@ -150,20 +190,20 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     assert s["collision"].max() > 0.5
     # paused: no time, no rolling
     widget.pause()
-    widget._draw()
+    widget.view.draw()
     assert np.allclose(ball.collider.center, end)
     # a custom path
     ball.path = lambda dist: (-2.0 + dist, 1.0)
     widget.play()
-    widget._draw()
+    widget.view.draw()
     x, _y, z = ball.collider.center
     assert z == 1.0 and x == pytest.approx(-2.0 + ball.roll_speed * widget.steps_per_frame * dt)
     # a path that fails stops the rolling with a message; the widget goes on
     ball.path = lambda dist: 1 / 0
-    widget._draw()
+    widget.view.draw()
     assert not ball.rolling and "ball path: ZeroDivisionError" in widget.message_line.value
     steps = widget.scene.field.step_count
-    widget._draw()
+    widget.view.draw()
     assert widget.scene.field.step_count == steps + widget.steps_per_frame
     ball.path = None
     ball.roll_button.value = True

@@ -7,7 +7,9 @@ from traitlets import TraitError
 
 import grasswidget as gw
 from grasswidget import reference as ref
-from grasswidget.shader_files import read_shader
+from grasswidget.shader_files import render_wgsl
+
+from conftest import HARNESS_BINDINGS
 
 CHANGED = (
     "wind_field", "wind_strength", "wind_center", "wind_radius", "wind_wavelength", "wind_speed",
@@ -217,50 +219,26 @@ def test_no_nan_at_extremes(fresh, blades, name):
 # ----------------------------------------------------------------- simplex noise, WGSL vs NumPy
 
 
-def _run_wgsl(body_fn, inputs, out_format):
-    """Evaluate a blade_math.wgsl function on the GPU for each input vec2<f32>."""
-    import wgpu
-
-    from grasswidget.gpu.adapter import ensure_device
-
-    device = ensure_device()
-    code = read_shader("blade_math.wgsl") + f"""
-@group(0) @binding(0) var<storage, read> inp: array<vec2<f32>>;
-@group(0) @binding(1) var<storage, read_write> outp: array<{out_format}>;
+def _run_wgsl(run_compute, body_fn, inputs, out_format):
+    """Evaluate a blade_math.wgsl expression of ``q`` (a vec2<f32>) on the GPU for each input."""
+    code = render_wgsl("blade_math.wgsl") + HARNESS_BINDINGS + f"""
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let i = gid.x;
-    if (i >= arrayLength(&inp)) {{ return; }}
-    let q = inp[i];
-    outp[i] = {body_fn};
+    if (i >= arrayLength(&harness_in) / 2u) {{ return; }}
+    let q = vec2<f32>(bitcast<f32>(harness_in[2u * i]), bitcast<f32>(harness_in[2u * i + 1u]));
+    harness_out[i] = bitcast<u32>({body_fn});
 }}
 """
-    inputs = np.ascontiguousarray(inputs, np.float32)
-    n = len(inputs)
-    usage = wgpu.BufferUsage
-    b_in = device.create_buffer_with_data(data=inputs.tobytes(), usage=usage.STORAGE)
-    b_out = device.create_buffer(size=4 * n, usage=usage.STORAGE | usage.COPY_SRC)
-    pipeline = device.create_compute_pipeline(
-        layout="auto", compute={"module": device.create_shader_module(code=code), "entry_point": "main"}
-    )
-    group = device.create_bind_group(
-        layout=pipeline.get_bind_group_layout(0),
-        entries=[{"binding": 0, "resource": {"buffer": b_in}}, {"binding": 1, "resource": {"buffer": b_out}}],
-    )
-    encoder = device.create_command_encoder()
-    cpass = encoder.begin_compute_pass()
-    cpass.set_pipeline(pipeline)
-    cpass.set_bind_group(0, group)
-    cpass.dispatch_workgroups(-(-n // 64))
-    cpass.end()
-    device.queue.submit([encoder.finish()])
-    return np.frombuffer(device.queue.read_buffer(b_out), np.float32 if out_format == "f32" else np.uint32)
+    words = np.ascontiguousarray(inputs, np.float32).view(np.uint32)
+    out = run_compute(code, words, 1, len(words))[:, 0]
+    return out.view(np.float32) if out_format == "f32" else out
 
 
-def test_simplex_noise_wgsl_equals_numpy():
+def test_simplex_noise_wgsl_equals_numpy(run_compute):
     rng = np.random.default_rng(1)
     pts = np.concatenate([rng.uniform(-60, 60, (20000, 2)), rng.uniform(-2, 2, (5000, 2))]).astype(np.float32)
-    gpu = _run_wgsl("simplex_noise2(q.x, q.y)", pts, "f32")
+    gpu = _run_wgsl(run_compute, "simplex_noise2(q.x, q.y)", pts, "f32")
     cpu = ref.simplex_noise2(pts[:, 0].astype(np.float64), pts[:, 1].astype(np.float64))
     err = np.abs(gpu - cpu)
     near = np.abs(pts).max(axis=1) <= 2
@@ -272,9 +250,9 @@ def test_simplex_noise_wgsl_equals_numpy():
     assert cpu.min() < -0.8 and cpu.max() > 0.8 and np.abs(cpu).max() <= 1.05
 
 
-def test_noise_hash_wgsl_equals_numpy():
+def test_noise_hash_wgsl_equals_numpy(run_compute):
     ij = np.array([[0, 0], [1, 0], [0, 1], [-1, -1], [12345, -678], [-2**24, 2**24 - 1], [77, 77]], np.int64)
     rng = np.random.default_rng(2)
     ij = np.concatenate([ij, rng.integers(-10**6, 10**6, (500, 2))])
-    gpu = _run_wgsl("noise_hash(i32(q.x), i32(q.y))", ij.astype(np.float32), "u32")
+    gpu = _run_wgsl(run_compute, "noise_hash(i32(q.x), i32(q.y))", ij.astype(np.float32), "u32")
     assert np.array_equal(gpu, ref.noise_hash(ij[:, 0], ij[:, 1]).astype(np.uint32))  # exact (|i| <= 2^24)

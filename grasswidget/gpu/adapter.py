@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import os
 import sys
-import warnings
 
-__all__ = ["NoGPUAdapterError", "ensure_device", "adapter_info", "is_cpu_adapter", "INSTALL_HINT"]
+from ..errors import NoGPUAdapterError
+
+__all__ = ["NoGPUAdapterError", "ensure_device", "missing_capabilities", "adapter_info", "is_cpu_adapter",
+           "cpu_notice", "announce_cpu_defaults", "INSTALL_HINT"]
 
 INSTALL_HINT = (
     "grasswidget needs a WebGPU adapter (Vulkan, Metal or D3D12). None was found. "
@@ -25,10 +27,6 @@ INSTALL_HINT = (
 _RANK = {"DiscreteGPU": 0, "IntegratedGPU": 1, "VirtualGPU": 2, "CPU": 3}
 
 _state = {"adapter": None, "configured": False, "announced": False}
-
-
-class NoGPUAdapterError(RuntimeError):
-    """No WebGPU adapter that pygfx can use; the message says what to install."""
 
 
 def _usable(adapter):
@@ -62,9 +60,10 @@ def ensure_device():
     """Configure (once) and return the shared wgpu device that pygfx uses."""
     import wgpu
     from pygfx.renderers.wgpu import get_shared
-    from pygfx.renderers.wgpu.engine.shared import Shared
 
-    if Shared.get_instance() is None and not _state["configured"]:
+    from .. import compat
+
+    if not compat.default_device_exists() and not _state["configured"]:
         adapter = select_adapter()
         limits = adapter.limits
         required_limits = {
@@ -91,7 +90,32 @@ def ensure_device():
             raise NoGPUAdapterError(f"{INSTALL_HINT} (wgpu said: {err})") from None
         raise
     _state["adapter"] = device.adapter
+    if not _state["configured"] and not _state.get("checked_existing"):
+        _state["checked_existing"] = True
+        missing = missing_capabilities(device)
+        if missing:
+            msg = (
+                "grasswidget: pygfx's GPU device was created before grasswidget could configure it, "
+                f"so it lacks {'; '.join(missing)}. Create the GrassField/GrassScene/GrassWidget "
+                "(or call grasswidget.gpu.adapter.ensure_device()) before any other pygfx renderer."
+            )
+            print(msg, file=sys.stderr)
+            warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return device
+
+
+def missing_capabilities(device) -> list[str]:
+    """What ``device`` lacks of what grasswidget would have asked its adapter for:
+    the adapter's largest storage-buffer limits and timestamp queries (one line each)."""
+    missing = []
+    adapter = device.adapter
+    for key, why in (("max-storage-buffer-binding-size", "fewer blades fit"), ("max-buffer-size", "fewer blades fit")):
+        have, could = device.limits.get(key), adapter.limits.get(key)
+        if have is not None and could is not None and int(have) < int(could):
+            missing.append(f"the adapter's {key} ({int(could)} bytes; the device has {int(have)}: {why})")
+    if "timestamp-query" in adapter.features and "timestamp-query" not in device.features:
+        missing.append("timestamp-query (no GPU timings in stats and benchmarks)")
+    return missing
 
 
 def adapter_info() -> dict:
@@ -107,14 +131,32 @@ def is_cpu_adapter() -> bool:
     return adapter_info().get("adapter_type") == "CPU"
 
 
+def cpu_notice(short: bool = False) -> str | None:
+    """The one-line notice for a CPU adapter, or None when rendering runs on a GPU.
+
+    ``short=True`` gives the form the widget's stats line shows, e.g.
+    ``"CPU adapter (llvmpipe): pixel ratio 1, no anti-aliasing"``.
+    """
+    if not is_cpu_adapter():
+        return None
+    info = adapter_info()
+    if short:
+        name = str(info.get("device") or info["summary"]).split(" (")[0]
+        return f"CPU adapter ({name}): pixel ratio 1, no anti-aliasing"
+    return (
+        f"grasswidget: rendering on a CPU adapter ({info['summary']}); "
+        "using pixel ratio 1 and no post-process anti-aliasing."
+    )
+
+
 def announce_cpu_defaults():
-    """Say once that a CPU adapter was found and cheap defaults are in use."""
+    """Say once per process, as one line of information on stdout (not stderr, not
+    a warning: in a notebook it is plain output, not a red box), that a CPU
+    adapter was found and cheap defaults are in use. :func:`cpu_notice` gives the
+    text at any time (the widget's stats line shows it)."""
     if _state["announced"]:
         return
     _state["announced"] = True
-    msg = (
-        f"grasswidget: rendering on a CPU adapter ({adapter_info()['summary']}); "
-        "using pixel ratio 1 and no post-process anti-aliasing."
-    )
-    print(msg, file=sys.stderr)
-    warnings.warn(msg, RuntimeWarning, stacklevel=3)
+    msg = cpu_notice()
+    if msg:
+        print(msg, file=sys.stdout, flush=True)

@@ -9,16 +9,15 @@ Binding objects), and is recorded into our own command encoder.
 from __future__ import annotations
 
 from pygfx.renderers.wgpu import get_shared
-from pygfx.renderers.wgpu.engine.update import ensure_wgpu_object, update_resource
+
+from .. import compat
 
 __all__ = ["ComputeProgram", "sync_buffer", "destroy_buffers"]
 
 
 def sync_buffer(buffer):
     """Create the GPU buffer if needed and upload pending CPU data; return the wgpu buffer."""
-    wgpu_buffer = ensure_wgpu_object(buffer)
-    update_resource(buffer)
-    return wgpu_buffer
+    return compat.sync_buffer(buffer)
 
 
 def destroy_buffers(buffers):
@@ -29,22 +28,13 @@ def destroy_buffers(buffers):
     out of the registry first. Without that registry (another pygfx version)
     the buffers are left to the garbage collector.
     """
-    try:
-        from pygfx.resources._base import resource_update_registry
-
-        pending = resource_update_registry._syncable
-    except (ImportError, AttributeError):
-        return
     for buf in buffers:
-        obj = getattr(buf, "_wgpu_object", None)
+        obj = compat.gpu_buffer(buf)
         if obj is None:
             continue
-        pending.discard(buf)
+        if not compat.forget_pending_upload(buf):
+            return
         obj.destroy()
-
-
-class ComputePipelineError(RuntimeError):
-    """A compute shader failed to compile; the message holds the WGSL error."""
 
 
 class ComputeProgram:

@@ -11,15 +11,15 @@ instantiates. tests/test_indirect_patch.py fails loudly if an upgrade breaks it.
 from __future__ import annotations
 
 import pygfx
-from pygfx.renderers.wgpu.engine import pipeline as _pipeline
-from pygfx.renderers.wgpu.engine.update import ensure_wgpu_object
+
+from .. import compat
 
 __all__ = ["IndirectRenderPipelineContainer", "install", "is_installed", "SUPPORTED_PYGFX"]
 
 #: pygfx versions this patch was written and tested against.
 SUPPORTED_PYGFX = ("0.17",)
 
-_Original = _pipeline.RenderPipelineContainer
+_Original = compat.render_pipeline_container_class()
 
 
 class IndirectRenderPipelineContainer(_Original):
@@ -39,7 +39,7 @@ class IndirectRenderPipelineContainer(_Original):
         hook = getattr(self.shader, "draw_hook", None)  # optional: timestamps around draws
         if hook is not None:
             hook(render_pass, "before")
-        render_pass.draw_indirect(ensure_wgpu_object(args), self.shader.indirect_offset)
+        render_pass.draw_indirect(compat.sync_buffer(args), self.shader.indirect_offset)
         if hook is not None:
             hook(render_pass, "after")
 
@@ -50,10 +50,10 @@ def install():
         raise RuntimeError(
             f"grasswidget's indirect-draw patch supports pygfx {SUPPORTED_PYGFX}, not {pygfx.__version__}"
         )
-    if not hasattr(_pipeline, "RenderPipelineContainer") or not hasattr(_Original, "draw"):
+    if not hasattr(_Original, "draw"):
         raise RuntimeError("pygfx internals changed: RenderPipelineContainer.draw not found")
-    _pipeline.RenderPipelineContainer = IndirectRenderPipelineContainer
+    compat.set_render_pipeline_container_class(IndirectRenderPipelineContainer)
 
 
 def is_installed() -> bool:
-    return _pipeline.RenderPipelineContainer is IndirectRenderPipelineContainer
+    return compat.render_pipeline_container_class() is IndirectRenderPipelineContainer

@@ -1,104 +1,54 @@
-"""pygfx shader classes for the grass field, and the registered render function.
+"""pygfx shader classes of the grass field, registered for (GrassField, GrassMaterial).
 
-One registered function per object kind (GrassField + GrassMaterial) composes the
-passes pygfx runs in every ``renderer.render()``:
+Importing this module registers :func:`grass_render_function` with pygfx's
+``register_wgpu_render_function`` decorator (``grasswidget.gpu`` imports it, so
+any use of the GPU layer has it registered). It composes the passes pygfx runs in
+every ``renderer.render()``:
 
 1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts and
    the distance-band counters.
 2. ``CullShader("count")`` (compute): cull, bin into LOD classes and distance
    bands, count survivors per (class, band).
 3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
-4. ``CullShader("scatter")`` (compute): the same tests again, survivors written
+4. ``CullShader("scatter")`` (compute): the same tests again; survivors written
    to their class's list, with LOD on nearest band first (front-to-back draws:
    the depth test rejects hidden fragments before they are written).
-5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
+5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
+   then one more for the culled blades (instances only with ``color_by = "cull"``).
 
-``SimulateShader`` is a compute shader of the same kind, but it is dispatched by
-``GrassField.step()`` (never by ``render()``), so time only advances in fixed steps.
+The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
+dispatched by ``GrassField.step()``, never by ``render()``.
 """
 
 from __future__ import annotations
 
 import weakref
 
-import jinja2
-from pygfx.renderers.wgpu import BaseShader, Binding, register_wgsl_loader, register_wgpu_render_function
+from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import LOD_MIN_PIXELS, LOD_SEGMENTS
-from ..shader_files import read_shader, shader_dir
+from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..shader_files import read_shader, ribbon_vars
+from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
+from .material import GrassMaterial
+from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 
-__all__ = ["SimulateShader", "ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "register",
-           "DISTANCE_BANDS"]
-
-WORKGROUP = 256
-#: Distance bands per LOD class (draw order, nearest first), log-spaced over BAND_RANGE metres.
-DISTANCE_BANDS = 64
-BAND_RANGE = (0.5, 512.0)
-_registered = {"loader": False, "render": False}
+__all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "grass_render_function",
+           "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE"]
 
 
-def register_loader():
-    """Make ``{$ include 'grasswidget.<file>' $}`` resolve to our shaders/ folder."""
-    if not _registered["loader"]:
-        register_wgsl_loader("grasswidget", jinja2.FileSystemLoader(str(shader_dir())))
-        _registered["loader"] = True
-
-
-def workgroups(n_items, limit=65535):
-    """Dispatch size for ``n_items`` threads in groups of 256, folded into y past ``limit``."""
-    groups = max(1, -(-int(n_items) // WORKGROUP))
-    x = min(groups, limit)
-    y = -(-groups // x)
-    return x, y, 1
-
-
-class _GrassCompute(BaseShader):
-    type = "compute"
-
-    def __init__(self, wobject, **kwargs):
-        # BaseShader reads clipping/alpha settings of the material; not used here.
-        super().__init__(wobject, **kwargs)
-
-    def get_pipeline_info(self, wobject, shared):
-        return {}
-
-
-class SimulateShader(_GrassCompute):
-    """Forces, state validation and collisions, ``u_sim.steps`` fixed steps per dispatch.
-
-    ``user_wind_body`` is the body of ``fn user_wind(p, t) -> vec3<f32>`` (the
-    "custom" wind field, ``params.wind_wgsl``); empty means no wind.
-    """
-
-    def __init__(self, wobject, user_wind_body=""):
-        body = user_wind_body if user_wind_body.strip() else "    return vec3<f32>(0.0);"
-        super().__init__(wobject, user_wind_body=body)
-
-    def get_bindings(self, wobject, shared, scene):
-        bindings = {
-            0: Binding("u_sim", "buffer/uniform", wobject._sim_uniform, "COMPUTE"),
-            1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
-            2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
-        }
-        self.define_binding(0, 0, bindings[0])
-        return {0: bindings}
-
-    def get_code(self):
-        return read_shader("simulate.wgsl")
-
-    def get_render_info(self, wobject, shared):
-        return {"indices": workgroups(wobject.count)}
-
-
-class ResetArgsShader(_GrassCompute):
-    """Reset the indirect draw arguments at the start of each frame."""
+class ResetArgsShader(GrassComputeShader):
+    """Reset the indirect draw arguments at the start of each frame (the LOD classes'
+    and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, lod_segments=list(LOD_SEGMENTS))
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS)
 
     def get_bindings(self, wobject, shared, scene):
-        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
-                    1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE")}}
+        return {0: {
+            0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+            1: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
+            2: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+        }}
 
     def get_code(self):
         return read_shader("reset_args.wgsl")
@@ -107,15 +57,17 @@ class ResetArgsShader(_GrassCompute):
         return {"indices": (1, 1, 1)}
 
 
-class PrefixBandsShader(_GrassCompute):
-    """Between the culling phases: first slot per distance band, instance counts."""
+class PrefixBandsShader(GrassComputeShader):
+    """Between the culling phases: each distance band's first slot, the instance counts."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, n_classes=len(LOD_SEGMENTS), bands=DISTANCE_BANDS)
+        super().__init__(wobject, bands=DISTANCE_BANDS)
 
     def get_bindings(self, wobject, shared, scene):
-        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
-                    1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE")}}
+        return {0: {
+            0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+            1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+        }}
 
     def get_code(self):
         return read_shader("prefix_bands.wgsl")
@@ -124,58 +76,66 @@ class PrefixBandsShader(_GrassCompute):
         return {"indices": (1, 1, 1)}
 
 
-class CullShader(_GrassCompute):
+class CullShader(GrassComputeShader):
     """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
-    ``phase`` "count" counts survivors per (LOD class, distance band); "scatter"
-    writes them, nearest band first (see cull.wgsl)."""
+    The pygfx bindings are generated here (``s_args`` and ``s_culled_args`` by
+    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body,
+    rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
+    """
 
     def __init__(self, wobject, phase="scatter"):
         if phase not in ("count", "scatter"):
             raise ValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
-        super().__init__(
-            wobject,
-            n_classes=len(LOD_SEGMENTS),
-            lod_min_pixels=[f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
-            bands=DISTANCE_BANDS,
-            band_near=f"{BAND_RANGE[0]:.3f}",
-            band_far=f"{BAND_RANGE[1]:.3f}",
-            phase=phase,
-        )
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, phase=phase,
+                         band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
-            2: Binding("u_cull", "buffer/uniform", wobject._cull_uniform, "COMPUTE"),
+            2: Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "COMPUTE"),
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
-            13: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+            13: Binding("s_culled", "buffer/storage", wobject.culled_buffer, "COMPUTE"),
+            14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
+            15: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2):
+        for slot in (0, 1, 2, 10, 12, 13):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
-        return read_shader("cull.wgsl")
+        return (
+            "{{ bindings_code }}\n"
+            "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(15) var<storage, read_write> s_bands: array<atomic<u32>>;\n"
+            "{$ include 'grasswidget.cull.wgsl' $}\n"
+        )
 
     def get_render_info(self, wobject, shared):
         return {"indices": workgroups(wobject.count)}
 
 
 class BladeRenderShader(BaseShader):
-    """Ribbons of one LOD class, drawn with ``draw_indirect`` from the class's args."""
+    """Ribbons of one LOD class, drawn with ``draw_indirect`` from the class's args.
+
+    ``lod_class = len(LOD_SEGMENTS)`` is the draw of the culled blades
+    (``color_by = "cull"``): CULLED_SEGMENTS segments, flat in CULL_COLORS.
+    """
 
     type = "render"
 
     def __init__(self, wobject, lod_class):
-        super().__init__(wobject, lod_class=lod_class, segments=LOD_SEGMENTS[lod_class])
-        self.indirect_args = wobject.args_buffer
-        self.indirect_offset = 16 * lod_class
+        culled = lod_class == len(LOD_SEGMENTS)
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=True))
+        self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
+        self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)
         self._when = ("before",) if lod_class == 0 else ()
-        self._when += ("after",) if lod_class == len(LOD_SEGMENTS) - 1 else ()
+        self._when += ("after",) if culled else ()
 
     def draw_hook(self, render_pass, when):
         """GPU timestamps around the field's draws (first class: begin, last: end)."""
@@ -190,10 +150,12 @@ class BladeRenderShader(BaseShader):
             Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
             Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
             Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
-            Binding("u_cull", "buffer/uniform", wobject._cull_uniform, "VERTEX"),
+            Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "VERTEX"),
             Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
             Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
         ]
+        if self["culled"]:
+            bindings.append(Binding("s_culled", rbuffer, wobject.culled_buffer, "VERTEX"))
         bindings = dict(enumerate(bindings))
         self.define_bindings(0, bindings)
         return {0: bindings}
@@ -203,26 +165,20 @@ class BladeRenderShader(BaseShader):
 
     def get_render_info(self, wobject, shared):
         # Ignored when drawing indirectly; kept valid for pygfx's checks.
-        return {"indices": (2 * (LOD_SEGMENTS[self["lod_class"]] + 1), 0)}
+        return {"indices": (2 * (self["segments"] + 1), 0)}
 
     def get_code(self):
         return read_shader("blade_render.wgsl")
 
 
+@register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
-    """The passes of one GrassField: reset, cull (count, prefix, scatter), then one draw per LOD class."""
+    """The passes of one GrassField: reset, cull (count, prefix, scatter), then one
+    draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
-        *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS))),
+        *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
     ]
-
-
-def register(field_cls, material_cls):
-    """Register the WGSL loader and the render function (once)."""
-    register_loader()
-    if not _registered["render"]:
-        register_wgpu_render_function(field_cls, material_cls)(grass_render_function)
-        _registered["render"] = True

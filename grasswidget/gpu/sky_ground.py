@@ -18,7 +18,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..shader_files import read_shader
-from .shaders import register_loader
+from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
 
@@ -75,7 +75,6 @@ class SkyGround(gfx.WorldObject):
     """Sky gradient and a flat ground square, drawn last in one full-screen pass."""
 
     def __init__(self, material: SkyGroundMaterial | None = None):
-        register_loader()
         _register()
         super().__init__(None, material or SkyGroundMaterial(), render_order=1e6)
 

@@ -16,6 +16,7 @@ from collections import deque
 import numpy as np
 import wgpu
 
+from .. import compat
 from .adapter import ensure_device
 
 __all__ = ["FrameStats"]
@@ -23,13 +24,6 @@ __all__ = ["FrameStats"]
 RING = 3
 # Query slots: sim begin/end, draw begin/end.
 Q_SIM, Q_DRAW, N_QUERIES = 0, 2, 4
-
-
-def _promise_done(promise):
-    state = getattr(promise, "_state", None)
-    if state is None:  # unknown wgpu version: treat as done (sync_wait is then quick)
-        return True
-    return "fulfilled" in str(state) or "rejected" in str(state)
 
 
 class FrameStats:
@@ -93,9 +87,7 @@ class FrameStats:
     def draw_timestamp(self, render_pass, when):
         """Write the draw begin/end timestamp inside pygfx's render pass."""
         if self.timestamps and self.inside_passes:
-            from wgpu.backends.wgpu_native.extras import write_timestamp
-
-            write_timestamp(render_pass, self.query_set, Q_DRAW + (0 if when == "before" else 1))
+            compat.write_timestamp(render_pass, self.query_set, Q_DRAW + (0 if when == "before" else 1))
             if when == "after":
                 self._written.add("draw")
 
@@ -110,12 +102,13 @@ class FrameStats:
         if render_ms is not None:
             self.render_ms = render_ms
         self.poll()
-        if not self._free or self.field.args_buffer._wgpu_object is None:
+        args = compat.gpu_buffer(self.field.args_buffer)
+        if not self._free or args is None:
             return
         staging = self._free.popleft()
         enc = self.device.create_command_encoder()
         nargs = 16 * self.n_classes
-        enc.copy_buffer_to_buffer(self.field.args_buffer._wgpu_object, 0, staging, 0, nargs)
+        enc.copy_buffer_to_buffer(args, 0, staging, 0, nargs)
         if self.timestamps:
             enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
             enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs, 8 * N_QUERIES)
@@ -124,8 +117,8 @@ class FrameStats:
 
     def poll(self):
         """Read every finished frame's numbers (non-blocking)."""
-        self.device._poll() if hasattr(self.device, "_poll") else None
-        while self._pending and _promise_done(self._pending[0][1]):
+        compat.poll_device(self.device)
+        while self._pending and compat.promise_settled(self._pending[0][1]):
             staging, promise = self._pending.popleft()
             try:
                 promise.sync_wait()

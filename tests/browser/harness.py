@@ -61,6 +61,7 @@ __all__ = [
     "KernelExecutionError",
     "CHROMIUM_PATH",
     "CHROMIUM_ARGS",
+    "WEBGPU_ARGS",
     "prerequisites_missing",
     "poll",
     "write_notebook",
@@ -110,6 +111,19 @@ CHROMIUM_ARGS = (
     "--disable-background-timer-throttling",
     "--disable-renderer-backgrounding",
     "--disable-backgrounding-occluded-windows",
+)
+
+#: Flags that give headless Chromium a WebGPU adapter (SwiftShader, on the CPU).
+#: ``--use-angle=swiftshader`` makes screenshots show the WebGPU canvas. With
+#: them, ``Browser(webgpu=True)`` also leaves out ``--disable-gpu``: with it a
+#: canvas renders, but every queue promise afterwards (onSubmittedWorkDone,
+#: mapAsync) rejects with "A valid external Instance reference no longer exists".
+WEBGPU_ARGS = (
+    "--enable-unsafe-webgpu",
+    "--enable-features=Vulkan",
+    "--use-vulkan=swiftshader",
+    "--use-webgpu-adapter=swiftshader",
+    "--use-angle=swiftshader",
 )
 
 
@@ -558,6 +572,30 @@ class _Abort(HarnessTimeout):
 # --------------------------------------------------------------------------
 
 
+# Playwright's sync API runs one instance per process (a second one inside the
+# first raises "using Playwright Sync API inside the asyncio loop"), so every
+# Browser shares one, started with the first and stopped with the last.
+_PLAYWRIGHT = {"cm": None, "instance": None, "users": 0}
+
+
+def _acquire_playwright():
+    from playwright.sync_api import sync_playwright
+
+    if _PLAYWRIGHT["users"] == 0:
+        cm = sync_playwright()
+        _PLAYWRIGHT["instance"] = cm.__enter__()
+        _PLAYWRIGHT["cm"] = cm
+    _PLAYWRIGHT["users"] += 1
+    return _PLAYWRIGHT["instance"]
+
+
+def _release_playwright():
+    _PLAYWRIGHT["users"] -= 1
+    if _PLAYWRIGHT["users"] == 0:
+        cm, _PLAYWRIGHT["cm"], _PLAYWRIGHT["instance"] = _PLAYWRIGHT["cm"], None, None
+        cm.__exit__(None, None, None)
+
+
 class Browser:
     """Headless Debian Chromium through Playwright (sync API), with a fresh
     user-data dir. ``.page`` is ready to use; ``.context`` can open more.
@@ -577,8 +615,10 @@ class Browser:
         viewport: tuple = (1280, 1000),
         extra_args: Iterable[str] = (),
         default_timeout: float = 30.0,
+        webgpu: bool = False,
     ):
         self.executable_path = executable_path
+        self.webgpu = webgpu
         self.headless = headless
         self.viewport = viewport
         self.extra_args = list(extra_args)
@@ -591,19 +631,17 @@ class Browser:
         self.user_data_dir: Optional[str] = None
 
     def start(self) -> "Browser":
-        from playwright.sync_api import sync_playwright
-
         if not os.path.exists(self.executable_path):
             raise HarnessError(f"Chromium not found at {self.executable_path} (apt-get install -y chromium)")
         self.user_data_dir = tempfile.mkdtemp(prefix="gw-chromium-")
-        self._pw_cm = sync_playwright()
-        self.playwright = self._pw_cm.__enter__()
+        self._pw_cm = True
+        self.playwright = _acquire_playwright()
         try:
             self.context = self.playwright.chromium.launch_persistent_context(
                 self.user_data_dir,
                 executable_path=self.executable_path,
                 headless=self.headless,
-                args=[*CHROMIUM_ARGS, *self.extra_args],
+                args=[*self.launch_args()],
                 viewport={"width": self.viewport[0], "height": self.viewport[1]},
                 timeout=60_000,
             )
@@ -615,6 +653,12 @@ class Browser:
             self.stop()
             raise
         return self
+
+    def launch_args(self) -> list:
+        """Chromium's command-line flags: CHROMIUM_ARGS (+ WEBGPU_ARGS without --disable-gpu) + extra_args."""
+        if self.webgpu:
+            return [*(a for a in CHROMIUM_ARGS if a != "--disable-gpu"), *WEBGPU_ARGS, *self.extra_args]
+        return [*CHROMIUM_ARGS, *self.extra_args]
 
     def new_page(self):
         """Open another tab in the same browser."""
@@ -646,7 +690,7 @@ class Browser:
         finally:
             self.context = None
             if self._pw_cm is not None:
-                self._pw_cm.__exit__(None, None, None)
+                _release_playwright()
                 self._pw_cm = None
             if self.user_data_dir:
                 shutil.rmtree(self.user_data_dir, ignore_errors=True)

@@ -5,11 +5,10 @@
 // Jahrmann & Wimmer, "Responsive Real-Time Grass Rendering for General 3D
 // Scenes", I3D 2017. Units: metres, seconds, m/s^2.
 //
-// A blade is 4 x vec4 in a storage buffer:
-//   [0] v0.xyz root,       w orientation theta
-//   [1] v1.xyz guide,      w height h
-//   [2] v2.xyz tip guide,  w width w
-//   [3] up.xyz normal,     w stiffness s
+// Engine-neutral: pure functions, no bindings. Ids and constants come from the
+// template variables of grasswidget.shader_files.template_vars() (the enums of
+// grasswidget/enums.py and the constants of reference.py); tests/test_wgsl_contract.py
+// runs every function here against its NumPy twin.
 
 const PI_F = 3.141592653589793;
 
@@ -34,9 +33,13 @@ fn front_direction(up: vec3<f32>, t1: vec3<f32>) -> vec3<f32> {
     return normalize(cross(up, t1));
 }
 
-// Environmental gravity gE = normalize(D.xyz) * D.w (eq. 1).
-fn environmental_gravity(direction: vec3<f32>, magnitude: f32) -> vec3<f32> {
-    return direction * magnitude;
+// Environmental gravity gE (eq. 1): normalize(direction) * magnitude, or towards
+// center (gravity_point) when gravity_mode is GravityMode.POINT.
+fn environmental_gravity(v0: vec3<f32>, gravity_mode: i32, direction: vec3<f32>, center: vec3<f32>, magnitude: f32) -> vec3<f32> {
+    if (gravity_mode == {{ gravity_mode_point }}) {
+        return gravity_point(v0, center, magnitude);
+    }
+    return safe_normalize(direction) * magnitude;
 }
 
 // Front gravity gF = factor * |gE| * f (eq. 2).
@@ -100,7 +103,7 @@ fn validate_length(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, height: f32) -> 
 
 // ---------------------------------------------------------------- gravity point, more wind fields
 
-// normalize() that gives 0 for a zero vector (like reference._normalize).
+// normalize() that gives 0 for a zero vector.
 fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
     return v / max(length(v), 1e-12);
 }
@@ -143,11 +146,20 @@ fn noise_hash(i: i32, j: i32) -> u32 {
     return h;
 }
 
+// The 8 unit gradients (cos, sin) of k * 45 degrees, as constants: cos/sin of
+// angles up to 315 degrees are only accurate to 2^-11 in WGSL, and GPUs differ there.
+const SIMPLEX_GRADIENTS = array<vec2<f32>, 8>(
+    vec2<f32>(1.0, 0.0), vec2<f32>(0.7071067811865476, 0.7071067811865476),
+    vec2<f32>(0.0, 1.0), vec2<f32>(-0.7071067811865476, 0.7071067811865476),
+    vec2<f32>(-1.0, 0.0), vec2<f32>(-0.7071067811865476, -0.7071067811865476),
+    vec2<f32>(0.0, -1.0), vec2<f32>(0.7071067811865476, -0.7071067811865476),
+);
+
 fn simplex_corner(x: f32, y: f32, i: i32, j: i32) -> f32 {
     let t = max(0.5 - x * x - y * y, 0.0);
-    let angle = f32(noise_hash(i, j) & 7u) * (0.25 * PI_F);
+    let g = SIMPLEX_GRADIENTS[noise_hash(i, j) & 7u];
     let t2 = t * t;
-    return t2 * t2 * (cos(angle) * x + sin(angle) * y);
+    return t2 * t2 * (g.x * x + g.y * y);
 }
 
 // 2D simplex noise, about [-1, 1]; see reference.simplex_noise2.
@@ -168,7 +180,7 @@ fn simplex_noise2(x: f32, y: f32) -> f32 {
     let n = simplex_corner(x0, y0, ii, jj)
         + simplex_corner(x0 - i1 + G2, y0 - j1 + G2, ii + i32(i1), jj + i32(j1))
         + simplex_corner(x0 - 1.0 + 2.0 * G2, y0 - 1.0 + 2.0 * G2, ii + 1, jj + 1);
-    return 99.0 * n;
+    return {{ noise_scale }} * n;
 }
 
 // The "noise" field: gusts from simplex noise drifting with the wind; see reference.wind_noise.
@@ -194,14 +206,14 @@ fn sphere_push(p: vec3<f32>, c: vec4<f32>) -> vec3<f32> {
 struct Collision { v2: vec3<f32>, add: f32, hit: bool };
 
 // One sphere of reference.collide_spheres: push v2, then the midpoint (v2 by 4 d).
-fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2_in: vec3<f32>, c: vec4<f32>) -> Collision {
-    var v2 = v2_in;
-    let d_tip = sphere_push(v2, c);
-    v2 = v2 + d_tip;
-    let d_mid = sphere_push(0.25 * v0 + 0.5 * v1 + 0.25 * v2, c);
-    v2 = v2 + 4.0 * d_mid;
+fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, sphere: vec4<f32>) -> Collision {
+    var tip = v2;
+    let d_tip = sphere_push(tip, sphere);
+    tip = tip + d_tip;
+    let d_mid = sphere_push(0.25 * v0 + 0.5 * v1 + 0.25 * tip, sphere);
+    tip = tip + 4.0 * d_mid;
     let add = dot(d_tip, d_tip) + dot(d_mid, d_mid);
-    return Collision(v2, add, add > 0.0);
+    return Collision(tip, add, add > 0.0);
 }
 
 // eta' = max(eta - fade dt, 0); see reference.fade_collision.
@@ -216,9 +228,10 @@ fn orientation_cull(v0: vec3<f32>, t1: vec3<f32>, cam_pos: vec3<f32>, threshold:
     return abs(dot(normalize(v0 - cam_pos), t1)) > threshold;
 }
 
-fn clip_outside(c: vec4<f32>, tol: f32) -> bool {
-    let lim = c.w + tol;
-    let inside = abs(c.x) <= lim && abs(c.y) <= lim && c.z >= 0.0 && c.z <= c.w;
+// A clip-space point outside the view (with slack tol on x and y).
+fn clip_outside(clip: vec4<f32>, tol: f32) -> bool {
+    let lim = clip.w + tol;
+    let inside = abs(clip.x) <= lim && abs(clip.y) <= lim && clip.z >= 0.0 && clip.z <= clip.w;
     return !inside;
 }
 
@@ -249,12 +262,12 @@ fn projected_pixels(v0: vec3<f32>, v2: vec3<f32>, height: f32, view_proj: mat4x4
 // ---------------------------------------------------------------- drawing
 
 // Across-blade parameter t for the blade shapes of the paper, u, v in [0, 1].
-// shape: 0 quad, 1 triangle, 2 quadratic, 3 triangle-tip (tau), 4 fold (3D, like quad across).
+// shape: a BladeShape id; triangle-tip narrows above v = tau; fold is 3D, like quad across.
 fn blade_shape_t(u: f32, v: f32, shape: i32, tau: f32) -> f32 {
     switch shape {
-        case 0, 4: { return u; }
-        case 1: { return u + 0.5 * v - u * v; }
-        case 2: { return u - u * v * v; }
+        case {{ blade_shape_quad }}, {{ blade_shape_fold }}: { return u; }
+        case {{ blade_shape_triangle }}: { return u + 0.5 * v - u * v; }
+        case {{ blade_shape_quadratic }}: { return u - u * v * v; }
         default: { return 0.5 + (u - 0.5) * (1.0 - max(v - tau, 0.0) / (1.0 - tau)); }
     }
 }

@@ -1,0 +1,22 @@
+// The browser engine's stand-in for pygfx.std.wgsl, included by blade_render.wgsl
+// in place of pygfx's std include: the varyings and fragment output of the
+// ribbon shader, and the colour helper it calls. The canvas stores sRGB values
+// directly, so srgb2physical is the identity here (pygfx converts to linear and
+// its output pass converts back: the same pixels for opaque blades).
+
+struct Varyings {
+    @builtin(position) position: vec4<f32>,
+    @location(0) world_pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) along: f32,
+    @location(3) variation: f32,
+    @location(4) @interpolate(flat) pick_idx: u32,
+};
+
+struct FragmentOutput {
+    @location(0) color: vec4<f32>,
+};
+
+fn srgb2physical(color: vec3<f32>) -> vec3<f32> {
+    return color;
+}

@@ -1,0 +1,363 @@
+"""BrowserView: the grass simulated, culled and drawn in the notebook's browser (WebGPU).
+
+An anywidget whose ES module (``engine.js``, shipped in the package) asks the
+browser for a WebGPU adapter, receives the rest pose of the blades as one binary
+buffer and the parameters as packed uniforms (synced traits), compiles the
+project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.wgsl`)
+and runs the simulation, culling, LOD binning and the ribbon draws every frame.
+The kernel needs no GPU for it.
+
+It knows nothing of panels: :class:`grasswidget.GrassWidget` composes it with the
+control panel. Alone it is usable too::
+
+    from grasswidget.browser import BrowserView
+    v = BrowserView(Blades.on_plane(4096))
+    v                              # show it
+    v.step(120); v.read_state()    # exact fixed steps; the state read back from the browser
+
+Requests that need the browser's answer (:meth:`read_state`, :meth:`snapshot`,
+:meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
+messages (``jupyter-ui-poll``), so they work inside a running cell; with no view
+answering they raise ``TimeoutError`` naming the browser view.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import anywidget
+import numpy as np
+from traitlets import Bool, Bytes, Dict, Float, Int, List
+
+from ..blades import Blades, unpack_state
+from ..colliders import ColliderList, collider_array
+from ..params import GrassParams
+from . import uniforms
+from .kernel_pump import BrowserTimeoutError, wait_for
+from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body
+
+__all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
+
+HERE = Path(__file__).resolve().parent
+#: Seconds a request waits for the browser's answer by default.
+ANSWER_TIMEOUT = 30.0
+
+#: The kernel engine's scene colours (GrassScene: pygfx Background gradient, Phong
+#: ground #3b2a1a under ambient 0.6 + a sun of intensity 2, ColliderBalls #dfe8ff
+#: at opacity 0.35), as sRGB in 0..1. The ground colour was measured in a kernel
+#: render (a flat Phong plane facing up is one colour).
+SCENE_STYLE = dict(
+    sky_bottom=(0x9C / 255, 0xC3 / 255, 0xE6 / 255, 1.0),
+    sky_top=(0xE8 / 255, 0xF1 / 255, 0xF8 / 255, 1.0),
+    ground_color=(0x6B / 255, 0x52 / 255, 0x3A / 255, 1.0),
+    ball_color=(0xDF / 255, 0xE8 / 255, 0xFF / 255, 0.35),
+    light_direction=(4.0, 10.0, 3.0),
+)
+
+
+def wind_error_from_messages(messages, wgsl, body, reason=""):
+    """A :class:`~grasswidget.gpu.field.WindShaderError`-like ValueError from the
+    browser compiler's messages ([{line, column, message}], lines of the whole
+    simulation shader), with the line inside the user's snippet."""
+    from ..errors import WindShaderError
+
+    lines = wgsl.splitlines()
+    start = next((k + 2 for k, line in enumerate(lines) if line.strip() == USER_WIND_SIGNATURE), None)
+    n_body = max(len(body.splitlines()), 1)
+    for m in messages:
+        line = m.get("line")
+        if start is not None and line is not None and start <= line < start + n_body:
+            snippet_line = line - start + 1
+            src = body.splitlines()[snippet_line - 1] if snippet_line <= len(body.splitlines()) else ""
+            col = m.get("column")
+            message = (f"wind_wgsl line {snippet_line}, column {col}: {m.get('message', '')} "
+                       f"(compiled in the browser)\n  {snippet_line} | {src}")
+            return WindShaderError(message, snippet_line, col, m.get("message", ""), reason)
+    text = "; ".join(m.get("message", "") for m in messages) or reason
+    return WindShaderError(
+        f"wind_wgsl does not compile as the body of `{USER_WIND_SIGNATURE} ... }}` (in the browser): {text}",
+        None, None, text, reason,
+    )
+
+
+class BrowserView(anywidget.AnyWidget):
+    """The browser engine's view (see the module docstring).
+
+    Args:
+        blades: a :class:`Blades` (rest pose) or a blade count (``Blades.on_plane``).
+        params: a :class:`GrassParams` (shared; default a new one).
+        size: (width, height) of the view in CSS pixels.
+        camera: dict with position, target (metres), fov_deg (vertical), near, far.
+
+    Traits read by Python: ``gpu_status`` ({"state": "" | "ok" | "unavailable",
+    "detail"}), ``camera`` (both ways), ``playing``, ``time_scale``.
+    """
+
+    _esm = HERE / "engine.js"
+
+    # ---- state sent to the browser
+    blade_data = Bytes(b"").tag(sync=True)
+    n_blades = Int(0).tag(sync=True)
+    shaders = Dict().tag(sync=True)
+    sim_uniform = Bytes(b"").tag(sync=True)
+    sim_layout = Dict().tag(sync=True)
+    cull_uniform = Bytes(b"").tag(sync=True)
+    material_uniform = Bytes(b"").tag(sync=True)
+    stdinfo_size = Int(0).tag(sync=True)
+    clock = Dict().tag(sync=True)
+    playing = Bool(True).tag(sync=True)
+    time_scale = Float(1.0).tag(sync=True)
+    camera = Dict().tag(sync=True)
+    balls = List().tag(sync=True)
+    show_colliders = Bool(True).tag(sync=True)
+    #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
+    report_steps = Bool(False).tag(sync=True)
+    scene_style = Dict().tag(sync=True)
+    width = Int(640).tag(sync=True)
+    height = Int(480).tag(sync=True)
+    # ---- set by the browser
+    gpu_status = Dict({"state": "", "detail": ""}).tag(sync=True)
+
+    def __init__(self, blades=4096, params: GrassParams | None = None, size=(640, 480), camera=None, **kwargs):
+        if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
+            blades = Blades.on_plane(int(blades))
+        if not isinstance(blades, Blades):
+            raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
+        if params is not None and not isinstance(params, GrassParams):
+            raise TypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+        self.params = params if params is not None else GrassParams()
+        self._colliders = ColliderList()
+        self._answers = {}
+        self._ids = itertools.count(1)
+        self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": []}
+        self._wind_body = self.params.wind_wgsl
+        self._reverting_wind = False
+        self.step_count_hint = 0
+        self.last_stats = {}
+        #: The last 20 errors the browser reported (text), newest last.
+        self.errors = []
+        super().__init__(width=int(size[0]), height=int(size[1]), **kwargs)
+        with self.hold_sync():
+            self.stdinfo_size = uniforms.struct_size(uniforms.STDINFO_LAYOUT)
+            self.sim_layout = uniforms.layout_description(uniforms.SIM_LAYOUT)
+            self.shaders = BrowserShaders.all(self.params.wind_wgsl)
+            self._set_blades(blades)
+            self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
+        self.home_camera = dict(self.camera)
+        self.params.observe(self._on_params)
+        self.on_msg(self._on_browser_msg)
+
+    # ------------------------------------------------------------------ data
+
+    def _set_blades(self, blades: Blades):
+        self.blades = blades
+        lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
+        extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
+        center = 0.5 * (lo + hi)
+        with self.hold_sync():
+            self.n_blades = len(blades)
+            self._write_uniforms()
+            self.scene_style = dict(SCENE_STYLE, ground_center=[float(center[0]), -0.01, float(center[2])],
+                                    ground_half=0.6 * extent)
+            self.blade_data = np.ascontiguousarray(blades.packed(), np.float32).tobytes()
+
+    def set_blades(self, blades: Blades):
+        """Replace the field (the camera is kept); the browser restarts from this rest pose."""
+        self._set_blades(blades)
+
+    def _write_uniforms(self):
+        p, n = self.params, len(self.blades)
+        self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
+        self.cull_uniform = uniforms.cull_uniform(p, n)
+        self.material_uniform = uniforms.material_uniform(p)
+        self.clock = uniforms.clock(p)
+        self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+
+    @property
+    def colliders(self) -> ColliderList:
+        """Sphere colliders (like GrassField.colliders); call :meth:`colliders_changed` after moving one."""
+        return self._colliders
+
+    @colliders.setter
+    def colliders(self, value):
+        self._colliders = value if isinstance(value, ColliderList) else ColliderList(value)
+        self.colliders_changed()
+
+    def colliders_changed(self):
+        """Send the colliders' current positions and radii to the browser."""
+        with self.hold_sync():
+            self.sim_uniform = uniforms.sim_uniform(self.params, len(self.blades), self._colliders)
+            self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+
+    def _on_params(self, change):
+        if change["name"] == "wind_wgsl":
+            if not self._reverting_wind:
+                self._request_wind(change["new"], change["old"], wait=False)
+            return
+        with self.hold_sync():
+            self._write_uniforms()
+
+    # ------------------------------------------------------------------ commands
+
+    def step(self, n: int = 1):
+        """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests)."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        if n:
+            self.send({"type": "step", "n": int(n)})
+
+    def reset(self):
+        """Every blade back to its rest pose, collision strengths and the step counter to 0."""
+        self.send({"type": "reset"})
+
+    def reset_camera(self):
+        self.camera = dict(self.home_camera)
+
+    def lose_device(self):
+        """Make the browser destroy its WebGPU device, as a driver reset would (for tests)."""
+        self.send({"type": "lose_device"})
+
+    # ------------------------------------------------------------------ requests answered by the browser
+
+    def _request(self, content, timeout, what):
+        rid = next(self._ids)
+        self._answers[rid] = None
+        self.send(dict(content, id=rid))
+        try:
+            return wait_for(lambda: self._answers.get(rid), timeout, what)
+        finally:
+            self._answers.pop(rid, None)
+
+    def request_async(self, content, callback):
+        """Send a request; ``callback(answer, buffers)`` runs when the browser answers."""
+        rid = next(self._ids)
+        self._answers[rid] = callback
+        self.send(dict(content, id=rid))
+
+    def read_state(self, timeout: float = ANSWER_TIMEOUT) -> dict:
+        """The blade state in the browser, as ``GrassField.read_state()`` returns it
+        (plus "step_count"). Waits for the browser's answer (TimeoutError if none)."""
+        msg, buffers = self._request({"type": "read_state"}, timeout, "read_state() from the browser view")
+        n = int(msg["n"])
+        state = unpack_state(np.frombuffer(bytes(buffers[0]), np.float32).reshape(n, 4, 4))
+        state["collision"] = np.frombuffer(bytes(buffers[1]), np.float32).copy()
+        state["step_count"] = int(msg["step_count"])
+        return state
+
+    def snapshot(self, size, timeout: float = ANSWER_TIMEOUT) -> np.ndarray:
+        """(h, w, 4) uint8 RGBA rendered by the browser at ``size`` (waits for the answer)."""
+        w, h = int(size[0]), int(size[1])
+        msg, buffers = self._request({"type": "snapshot", "width": w, "height": h}, timeout,
+                                     "a snapshot from the browser view")
+        return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
+
+    def _request_wind(self, body, old, wait, timeout=ANSWER_TIMEOUT):
+        shader = BrowserShaders.simulate(body)
+        content = {"type": "compile_simulate", "shader": shader}
+
+        def done(msg, _buffers):
+            if msg.get("ok"):
+                self._wind_body = body
+                self.shaders = dict(self.shaders, simulate=shader)
+                return None
+            err = wind_error_from_messages(msg.get("messages") or [], shader["code"], wind_body(body),
+                                           msg.get("message", ""))
+            if self.params.wind_wgsl == body:
+                self._reverting_wind = True
+                try:
+                    self.params.wind_wgsl = old
+                finally:
+                    self._reverting_wind = False
+            return err
+
+        if not wait:
+            self.request_async(content, lambda msg, b: self._emit_error(done(msg, b)))
+            return
+        msg, buffers = self._request(content, timeout, "compiling wind_wgsl in the browser view")
+        err = done(msg, buffers)
+        if err is not None:
+            raise err
+
+    def set_wind_wgsl(self, body: str, select: bool = True, timeout: float = ANSWER_TIMEOUT):
+        """Compile ``body`` as the custom wind in the browser and wait for the answer.
+
+        Raises WindShaderError (with the line in ``body``) when it does not compile;
+        the old wind and ``params.wind_wgsl`` stay in force.
+        """
+        if not isinstance(body, str):
+            raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
+        old = self.params.wind_wgsl
+        self._reverting_wind = True
+        try:
+            self.params.wind_wgsl = body
+        finally:
+            self._reverting_wind = False
+        self._request_wind(body, old, wait=True, timeout=timeout)
+        if select:
+            self.params.wind_field = "custom"
+
+    # ------------------------------------------------------------------ answers
+
+    def on(self, kind, callback):
+        """Register ``callback(msg)`` for browser messages of ``kind``: stats, ball, key, error, device_lost."""
+        self._listeners[kind].append(callback)
+
+    def _emit_error(self, err):
+        if err is None:
+            return
+        self.errors = (self.errors + [str(err)])[-20:]
+        for cb in self._listeners["error"]:
+            cb(err)
+
+    def _on_browser_msg(self, _widget, content, buffers):
+        # Never let a front-end message raise into the notebook.
+        try:
+            kind = content.get("type")
+            rid = content.get("id")
+            if rid is not None and rid in self._answers:
+                waiting = self._answers[rid]
+                if callable(waiting):
+                    self._answers.pop(rid, None)
+                    waiting(content, list(buffers or []))
+                elif kind == "error":
+                    self._answers[rid] = None
+                    self._emit_error(RuntimeError(content.get("message", "browser error")))
+                else:
+                    self._answers[rid] = (content, list(buffers or []))
+                return
+            if kind == "stats":
+                self.last_stats = dict(content)
+                self.step_count_hint = int(content.get("step_count") or 0)
+            if kind == "error":
+                self._emit_error(RuntimeError(content.get("message", "browser error")))
+                return
+            for cb in self._listeners.get(kind, ()):
+                cb(content)
+        except Exception as err:  # noqa: BLE001 - report, never raise into the notebook
+            try:
+                self._emit_error(err)
+            except Exception:
+                pass
+
+    def close(self):
+        try:
+            self.params.unobserve(self._on_params)
+        except ValueError:
+            pass
+        super().close()
+
+
+def default_camera(blades: Blades, aspect: float) -> dict:
+    """GrassScene's default view of a field: from above one edge, looking at its middle."""
+    lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
+    extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
+    c = 0.5 * (lo + hi)
+    d = extent * 0.95
+    return {
+        "position": [float(c[0]), 0.28 * d + 1.0, float(c[2]) + d],
+        "target": [float(c[0]), 0.6, float(c[2])],
+        "fov_deg": 45.0,
+        "near": 0.1,
+        "far": 100.0,
+    }

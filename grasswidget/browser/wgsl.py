@@ -1,0 +1,207 @@
+"""The project's WGSL, rendered for the browser engine's bindings (pure Python).
+
+The browser runs the very files the kernel engine runs (the blade math include,
+the simulation, the reset, the culling and the ribbon shaders). They are jinja2
+templates in pygfx's dialect (``{$ include ... $}``, ``{{ var }}``, ``$$`` lines);
+pygfx fills ``{{ bindings_code }}`` and ``pygfx.std.wgsl`` with its own uniform
+structs. Here the same templates are rendered with this engine's own minimal
+headers instead: uniform structs laid out by :mod:`grasswidget.browser.uniforms`
+and one ``@group(0) @binding(k)`` line per resource the file uses and does not
+declare itself.
+
+Every rendered shader comes with its binding map (name, binding number, kind),
+read back from the final text, so the browser binds resources by name and never
+needs to know which file declares what. Nothing here imports pygfx or wgpu.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+from pathlib import Path
+
+import jinja2
+
+from ..reference import LOD_SEGMENTS
+from ..shader_files import NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
+from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
+
+__all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
+
+HERE = Path(__file__).resolve().parent
+USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
+_MARK = "/*__GRASSWIDGET_BROWSER_BINDINGS__*/"
+
+#: Uniform structs: resource name -> (struct name, layout).
+_UNIFORMS = {
+    "u_sim": ("SimUniforms", SIM_LAYOUT),
+    "u_cull": ("CullUniforms", CULL_LAYOUT),
+    "u_stdinfo": ("StdInfo", STDINFO_LAYOUT),
+    "u_wobject": ("WorldObject", WOBJECT_LAYOUT),
+    "u_material": ("GrassMaterialUniforms", MATERIAL_LAYOUT),
+}
+
+#: Storage resources each kind of pass may use: name -> WGSL declaration tail.
+_STORAGE = {
+    "compute": {
+        "s_blades": "var<storage, read_write> s_blades: array<vec4<f32>>",
+        "s_collision": "var<storage, read_write> s_collision: array<f32>",
+        "s_args": "var<storage, read_write> s_args: array<atomic<u32>>",
+        "s_visible": "var<storage, read_write> s_visible: array<u32>",
+    },
+    "render": {
+        "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
+        "s_visible": "var<storage, read> s_visible: array<u32>",
+    },
+}
+
+_DECL_RE = re.compile(r"@group\(\s*0\s*\)\s*@binding\(\s*(\d+)\s*\)\s*var\s*<\s*([a-z_, ]+?)\s*>\s*(\w+)")
+
+
+def _std_include() -> str:
+    """This engine's stand-in for ``pygfx.std.wgsl``: varyings, fragment output, colour helper."""
+    return (HERE / "std.wgsl").read_text(encoding="utf-8")
+
+
+@lru_cache(maxsize=1)
+def _environment() -> jinja2.Environment:
+    loader = jinja2.PrefixLoader(
+        {
+            "grasswidget": jinja2.FileSystemLoader(str(shader_dir())),
+            "pygfx": jinja2.FunctionLoader(lambda name: _std_include() if name == "std.wgsl" else None),
+        },
+        delimiter=".",
+    )
+    return jinja2.Environment(
+        block_start_string="{$",
+        block_end_string="$}",
+        variable_start_string="{{",
+        variable_end_string="}}",
+        line_statement_prefix="$$",
+        undefined=jinja2.StrictUndefined,
+        loader=loader,
+        auto_reload=True,
+    )
+
+
+def binding_map(code: str) -> list:
+    """[{name, binding, kind}] of every ``@group(0)`` resource declared in ``code``.
+
+    kind is "uniform", "read-only-storage" or "storage" (WebGPU's buffer binding types).
+    """
+    out = []
+    for binding, space, name in _DECL_RE.findall(code):
+        space = space.replace(" ", "")
+        if space == "uniform":
+            kind = "uniform"
+        elif space in ("storage", "storage,read"):
+            kind = "read-only-storage"
+        else:
+            kind = "storage"
+        out.append({"name": name, "binding": int(binding), "kind": kind})
+    return sorted(out, key=lambda b: b["binding"])
+
+
+def _uses(code: str, name: str) -> bool:
+    return re.search(rf"\b{name}\b", code) is not None
+
+
+def render_shader(filename: str, stage: str, **variables) -> dict:
+    """Render one of the project's WGSL files for the browser.
+
+    Args:
+        filename: a file of the shader folder, e.g. "simulate.wgsl".
+        stage: "compute" or "render" (which storage access the header declares).
+        variables: the template's variables (as the pygfx shader class passes them).
+
+    Returns ``{"code": str, "bindings": [...]}`` (see :func:`binding_map`).
+    """
+    env = _environment()
+    source = (shader_dir() / filename).read_text(encoding="utf-8")
+    values = {**template_vars(), "bindings_code": _MARK, "write_pick": False, **variables}
+    body = env.from_string(source).render(**values)
+    declared = {b["name"] for b in binding_map(body)}
+    used_numbers = {b["binding"] for b in binding_map(body)}
+
+    structs, lines = [], []
+    next_free = 0
+
+    def take():
+        nonlocal next_free
+        while next_free in used_numbers:
+            next_free += 1
+        used_numbers.add(next_free)
+        return next_free
+
+    for name, (struct, layout) in _UNIFORMS.items():
+        if name in declared or not _uses(body.replace(_MARK, ""), name):
+            continue
+        structs.append(wgsl_struct(struct, layout))
+        lines.append(f"@group(0) @binding({take()}) var<uniform> {name}: {struct};")
+    for name, decl in _STORAGE[stage].items():
+        if name in declared or not _uses(body.replace(_MARK, ""), name):
+            continue
+        if name == "s_args" and "atomicAdd(&s_args" not in body:
+            decl = decl.replace("array<atomic<u32>>", "array<u32>")
+        lines.append(f"@group(0) @binding({take()}) {decl};")
+    header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
+    if _MARK in body:
+        code = body.replace(_MARK, header, 1)
+    else:
+        code = header + body
+    return {"code": code, "bindings": binding_map(code)}
+
+
+def wind_body(wind_wgsl: str) -> str:
+    """The body of ``user_wind``: the user's snippet, or no wind when empty."""
+    return wind_wgsl if wind_wgsl.strip() else NO_WIND_BODY
+
+
+def _body_file(name: str) -> str:
+    """``<name>_body.wgsl`` when the shader folder has an engine-neutral body of that name, else ``<name>.wgsl``."""
+    return f"{name}_body.wgsl" if (shader_dir() / f"{name}_body.wgsl").is_file() else f"{name}.wgsl"
+
+
+class BrowserShaders:
+    """All shader texts the browser engine compiles, rendered from the project's files.
+
+    ``simulate(wind_wgsl)`` depends on the custom wind; the others are fixed.
+    ``scene()`` is the browser's own sky, ground and collider-ball shader.
+    """
+
+    @staticmethod
+    def simulate(wind_wgsl: str = "") -> dict:
+        return render_shader(_body_file("simulate"), "compute", user_wind_body=wind_body(wind_wgsl),
+                             blades_writable=True)
+
+    @staticmethod
+    def reset_args() -> dict:
+        return render_shader("reset_args.wgsl", "compute")
+
+    @staticmethod
+    def cull() -> dict:
+        return render_shader(_body_file("cull"), "compute")
+
+    @staticmethod
+    def blades() -> list:
+        """One ribbon shader per level-of-detail class (segments along the blade)."""
+        return [
+            render_shader("blade_render.wgsl", "render", **ribbon_vars(k))
+            for k in range(len(LOD_SEGMENTS))
+        ]
+
+    @staticmethod
+    def scene() -> dict:
+        code = wgsl_struct("StdInfo", STDINFO_LAYOUT) + "\n" + (HERE / "scene.wgsl").read_text(encoding="utf-8")
+        return {"code": code, "bindings": binding_map(code)}
+
+    @classmethod
+    def all(cls, wind_wgsl: str = "") -> dict:
+        return {
+            "simulate": cls.simulate(wind_wgsl),
+            "reset_args": cls.reset_args(),
+            "cull": cls.cull(),
+            "blades": cls.blades(),
+            "scene": cls.scene(),
+            "lod_segments": list(LOD_SEGMENTS),
+        }

@@ -1,0 +1,254 @@
+"""Every use of private or internal API of pygfx, wgpu, jupyter-rfb and rendercanvas.
+
+Nothing else in grasswidget touches a name that starts with an underscore in
+another package, or an internal module of one. Each function below names what
+it relies on and the version it was checked against (:data:`CHECKED`);
+``tests/test_compat.py`` checks every one of them against the installed packages,
+so an upgrade that changes one fails there, by name, instead of somewhere deep in
+a render. Importing this module imports none of those packages.
+
+Events: jupyter-rfb 1.0 sends events in its current format (``type``,
+``timestamp``, ``ratio``) and, for older consumers, the legacy one
+(``event_type``, ``time_stamp``, ``pixel_ratio``); rendercanvas 2.7's Jupyter
+canvas still asks for the legacy one (pygfx's controllers read it). Our handlers
+read events only through :func:`event_type`, :func:`event_ratio` and
+:func:`with_ratio`, which accept both, so they work before and after the switch.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "CHECKED",
+    "PRIVATE_USES",
+    "installed_versions",
+    "gpu_buffer",
+    "sync_buffer",
+    "forget_pending_upload",
+    "default_device_exists",
+    "poll_device",
+    "promise_settled",
+    "write_timestamp",
+    "render_pipeline_container_class",
+    "set_render_pipeline_container_class",
+    "pygfx_event_class",
+    "held_orbit_controller_class",
+    "pygfx_event_fields",
+    "event_type",
+    "event_ratio",
+    "with_ratio",
+]
+
+#: The versions every use below was written and tested against.
+CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2"}
+
+#: (package, what is used, why): the table ``tests/test_compat.py`` walks.
+PRIVATE_USES = (
+    ("pygfx", "Buffer._wgpu_object", "the GPU buffer behind a pygfx Buffer (readbacks, copies)"),
+    ("pygfx", "renderers.wgpu.engine.update.ensure_wgpu_object / update_resource",
+     "create a buffer's GPU object and upload pending data outside a render (step(), readbacks)"),
+    ("pygfx", "resources._base.resource_update_registry._syncable",
+     "drop a destroyed buffer's pending upload so no later render writes to it"),
+    ("pygfx", "renderers.wgpu.engine.shared.Shared.get_instance",
+     "whether pygfx has created its device yet (the adapter choice must come first)"),
+    ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
+     "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
+    ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
+     "_last_cam_state",
+     "the controller's per-step hooks, to hold every orbit, zoom and pan step to OrbitLimits"),
+    ("pygfx", "WorldObject._update_object",
+     "overridden by the blade inspector: pygfx calls it on every object before each render (its docstring: "
+     "'a good time for lazy updates'); the inspector refreshes the simulation uniforms it reads"),
+    ("pygfx", "Material._wgpu_get_pick_info",
+     "overridden by GrassMaterial: renderer.get_pick_info asks the material to decode a pick value (blade id)"),
+    ("pygfx", "renderers.wgpu.engine.renderer.EVENT_TYPE_MAP",
+     "pygfx event classes, to forward canvas events to controllers without a pick readback"),
+    ("wgpu", "GPUDevice._poll", "process finished GPU work without blocking (statistics)"),
+    ("wgpu", "GPUPromise._state", "whether a map_async promise has settled (statistics never block)"),
+    ("wgpu", "backends.wgpu_native.extras.write_timestamp", "GPU timestamps inside pygfx's render pass"),
+    ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
+     "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
+    ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+)
+
+
+def installed_versions() -> dict:
+    """{package: installed version} for the packages of :data:`CHECKED`."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in CHECKED:
+        try:
+            out[name] = version(name.replace("_", "-"))
+        except PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+# ------------------------------------------------------------------ pygfx resources
+
+
+def gpu_buffer(buffer):
+    """The wgpu buffer behind a pygfx ``Buffer``, or None before it exists (pygfx 0.17: ``_wgpu_object``)."""
+    return getattr(buffer, "_wgpu_object", None)
+
+
+def sync_buffer(buffer):
+    """Create a pygfx ``Buffer``'s GPU object if needed and upload pending CPU data; return the wgpu buffer."""
+    from pygfx.renderers.wgpu.engine.update import ensure_wgpu_object, update_resource
+
+    wgpu_buffer = ensure_wgpu_object(buffer)
+    update_resource(buffer)
+    return wgpu_buffer
+
+
+def forget_pending_upload(buffer) -> bool:
+    """Take a buffer out of pygfx's global upload registry (before destroying it).
+
+    Returns False when this pygfx has no such registry (then the caller should
+    leave the buffer to the garbage collector instead of destroying it).
+    """
+    try:
+        from pygfx.resources._base import resource_update_registry
+
+        pending = resource_update_registry._syncable
+    except (ImportError, AttributeError):
+        return False
+    pending.discard(buffer)
+    return True
+
+
+def default_device_exists() -> bool:
+    """Whether pygfx has created its shared device (after which the adapter is fixed)."""
+    from pygfx.renderers.wgpu.engine.shared import Shared
+
+    return Shared.get_instance() is not None
+
+
+# ------------------------------------------------------------------ wgpu
+
+
+def poll_device(device):
+    """Let wgpu process finished work without blocking (wgpu 0.32: ``GPUDevice._poll``); no-op if absent."""
+    poll = getattr(device, "_poll", None)
+    if poll is not None:
+        poll()
+
+
+def promise_settled(promise) -> bool:
+    """Whether a ``GPUPromise`` is fulfilled or rejected (wgpu 0.32: ``_state``).
+
+    An unknown wgpu that has no such state reports True (``sync_wait`` is then quick).
+    """
+    state = getattr(promise, "_state", None)
+    if state is None:
+        return True
+    return "fulfilled" in str(state) or "rejected" in str(state)
+
+
+def write_timestamp(render_pass, query_set, index):
+    """Write a GPU timestamp inside a pass (wgpu-native's extras; needs timestamp-query-inside-passes)."""
+    from wgpu.backends.wgpu_native.extras import write_timestamp as _write
+
+    _write(render_pass, query_set, index)
+
+
+# ------------------------------------------------------------------ pygfx engine
+
+
+def render_pipeline_container_class():
+    """The class pygfx's pipeline module instantiates for each render shader."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    return pipeline.RenderPipelineContainer
+
+
+def set_render_pipeline_container_class(cls):
+    """Make pygfx instantiate ``cls`` for render shaders from now on (see gpu/indirect.py)."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    if not hasattr(pipeline, "RenderPipelineContainer"):
+        raise RuntimeError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
+    pipeline.RenderPipelineContainer = cls
+
+
+def held_orbit_controller_class(hold):
+    """A subclass of pygfx's ``OrbitController`` whose every orbit, zoom and pan step
+    is passed through ``hold(controller, position, target, state)``, which returns
+    ``(position, rotation, target)`` or None (the step stands), before the camera sees it.
+
+    It overrides the controller's per-action hooks ``_update_rotate``,
+    ``_update_zoom`` and ``_update_pan`` (the extension points pygfx's own
+    controllers use) and reads/writes the step's camera state with
+    ``_get_camera_state``, ``_last_cam_state`` and ``_set_camera_state``. The target is set through the
+    public ``target`` property.
+    """
+    import pygfx as gfx
+
+    base = gfx.OrbitController
+    for name in ("_update_rotate", "_update_zoom", "_update_pan", "_get_camera_state", "_set_camera_state"):
+        if not callable(getattr(base, name, None)):
+            raise RuntimeError(f"pygfx internals changed: OrbitController.{name} not found")
+
+    class HeldOrbitController(base):
+        def _hold(self):
+            state = self._get_camera_state()
+            # the step's result: _get_camera_state() gives it while a (damped) action runs, but the
+            # camera's own state for a direct call (rotate(..., animate=False)); _last_cam_state has it both times
+            position = self._last_cam_state.get("position", state["position"])
+            held = hold(self, position, self.target, state)
+            if held is not None:
+                position, rotation, target = held
+                self.target = target
+                self._set_camera_state({"position": position, "rotation": rotation})
+
+        def _update_rotate(self, delta):
+            super()._update_rotate(delta)
+            self._hold()
+
+        def _update_zoom(self, delta):
+            super()._update_zoom(delta)
+            self._hold()
+
+        def _update_pan(self, delta, *, vecx, vecy):
+            super()._update_pan(delta, vecx=vecx, vecy=vecy)
+            self._hold()
+
+    return HeldOrbitController
+
+
+def pygfx_event_class(name):
+    """pygfx's event class for a canvas event type (e.g. "pointer_down"), or None."""
+    from pygfx.renderers.wgpu.engine.renderer import EVENT_TYPE_MAP
+
+    return EVENT_TYPE_MAP.get(name)
+
+
+def pygfx_event_fields(event) -> dict:
+    """Keyword arguments for a pygfx event class from a canvas event of either format
+    (pygfx 0.17 reads ``time_stamp``; ``type``, ``target`` and ``root`` are left out)."""
+    fields = {k: v for k, v in event.items() if k not in ("type", "target", "root")}
+    if "timestamp" in fields and "time_stamp" not in fields:
+        fields["time_stamp"] = fields["timestamp"]
+    return fields
+
+
+# ------------------------------------------------------------------ canvas events
+
+
+def event_type(event) -> str | None:
+    """The type of a canvas event dict, in the current format (``type``) or the legacy one (``event_type``)."""
+    return event.get("type", event.get("event_type"))
+
+
+def event_ratio(event):
+    """The pixel ratio of a resize event (``ratio``, legacy ``pixel_ratio``), or None."""
+    return event.get("ratio", event.get("pixel_ratio"))
+
+
+def with_ratio(event, ratio):
+    """A copy of a resize event with its pixel ratio set to ``ratio`` under whichever keys it has."""
+    event = dict(event)
+    for key in ("ratio", "pixel_ratio"):
+        if key in event:
+            event[key] = ratio
+    return event

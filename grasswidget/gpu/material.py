@@ -1,0 +1,150 @@
+"""GrassMaterial: colours, lighting and ribbon shape of grass blades (a pygfx Material).
+
+Its uniform buffer is read by the blade render shader (``blade_render.wgsl``,
+``u_material``); every uniform is a validated, documented property.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pygfx as gfx
+
+from ..enums import BladeShape
+
+__all__ = ["GrassMaterial"]
+
+#: Ribbon shape labels, in id order (``enums.BladeShape``).
+SHAPES = BladeShape.labels()
+
+
+class GrassMaterial(gfx.Material):
+    """Colours, lighting and ribbon shape of grass blades.
+
+    Uniforms (all documented as properties): ``root_color``, ``tip_color`` (sRGB),
+    ``color_variation`` (0..1, per-blade brightness/hue spread), ``ambient``
+    (0..1), ``light_direction`` (towards the light, world space),
+    ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
+    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
+    """
+
+    uniform_type = dict(
+        gfx.Material.uniform_type,
+        root_color="4xf4",
+        tip_color="4xf4",
+        light_direction="4xf4",
+        color_variation="f4",
+        ambient="f4",
+        tip_threshold="f4",
+        blade_shape="i4",
+    )
+
+    def __init__(
+        self,
+        *,
+        root_color="#1d4a12",
+        tip_color="#8fc246",
+        color_variation=0.35,
+        ambient=0.4,
+        light_direction=(0.4, 1.0, 0.3),
+        blade_shape="triangle-tip",
+        tip_threshold=0.5,
+        **kwargs,
+    ):
+        super().__init__(**kwargs)
+        self.root_color = root_color
+        self.tip_color = tip_color
+        self.color_variation = color_variation
+        self.ambient = ambient
+        self.light_direction = light_direction
+        self.blade_shape = blade_shape
+        self.tip_threshold = tip_threshold
+
+    def _set(self, key, value):
+        self.uniform_buffer.data[key] = value
+        self.uniform_buffer.update_full()
+
+    def _wgpu_get_pick_info(self, pick_value) -> dict:
+        """pygfx's hook for ``renderer.get_pick_info``: the blade shader packs the
+        blade id in the 26 bits after the object id (with ``pick_write = True``)."""
+        return {"blade_index": int((pick_value >> 20) & ((1 << 26) - 1))}
+
+    @property
+    def root_color(self):
+        """Colour at the blade root (sRGB)."""
+        return gfx.Color(self.uniform_buffer.data["root_color"])
+
+    @root_color.setter
+    def root_color(self, color):
+        self._set("root_color", gfx.Color(color))
+
+    @property
+    def tip_color(self):
+        """Colour at the blade tip (sRGB)."""
+        return gfx.Color(self.uniform_buffer.data["tip_color"])
+
+    @tip_color.setter
+    def tip_color(self, color):
+        self._set("tip_color", gfx.Color(color))
+
+    @property
+    def color_variation(self):
+        """Per-blade colour spread, 0 (none) .. 1."""
+        return float(self.uniform_buffer.data["color_variation"])
+
+    @color_variation.setter
+    def color_variation(self, value):
+        self._set("color_variation", _check_unit("color_variation", value))
+
+    @property
+    def ambient(self):
+        """Ambient light share, 0..1."""
+        return float(self.uniform_buffer.data["ambient"])
+
+    @ambient.setter
+    def ambient(self, value):
+        self._set("ambient", _check_unit("ambient", value))
+
+    @property
+    def light_direction(self):
+        """Unit direction towards the light (world space)."""
+        return tuple(float(x) for x in self.uniform_buffer.data["light_direction"][:3])
+
+    @light_direction.setter
+    def light_direction(self, value):
+        v = np.asarray(value, np.float64).reshape(3)
+        norm = np.linalg.norm(v)
+        if not np.all(np.isfinite(v)) or norm == 0:
+            raise ValueError(f"light_direction must be a finite non-zero 3-vector; got {value!r}")
+        self._set("light_direction", (*(v / norm), 0.0))
+
+    @property
+    def blade_shape(self):
+        """Ribbon shape: one of quad, triangle, quadratic, triangle-tip, fold."""
+        return BladeShape(int(self.uniform_buffer.data["blade_shape"])).label
+
+    @blade_shape.setter
+    def blade_shape(self, value):
+        if value not in SHAPES:
+            raise ValueError(f"blade_shape must be one of {', '.join(SHAPES)}; got {value!r}")
+        self._set("blade_shape", int(BladeShape.from_label(value)))
+
+    @property
+    def tip_threshold(self):
+        """tau of the triangle-tip shape: the blade narrows to its tip above v = tau (0..0.99)."""
+        return float(self.uniform_buffer.data["tip_threshold"])
+
+    @tip_threshold.setter
+    def tip_threshold(self, value):
+        v = float(value)
+        if not (math.isfinite(v) and 0.0 <= v <= 0.99):
+            raise ValueError(f"tip_threshold must be in [0, 0.99]; got {value!r}")
+        self._set("tip_threshold", v)
+
+
+def _check_unit(name, value):
+    v = float(value)
+    if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+        raise ValueError(f"{name} must be in [0, 1]; got {value!r}")
+    return v

@@ -1,0 +1,117 @@
+"""The browser engine's Python side, without a browser: the WGSL it sends, the
+uniforms it packs, errors, and the GrassWidget backend choice.
+
+The browser itself is tested in tests/browser/test_browser_engine.py.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import grasswidget as gw
+from grasswidget.browser import uniforms
+from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
+from grasswidget.browser.view import BrowserView, wind_error_from_messages
+from grasswidget.browser.wgsl import BrowserShaders, binding_map
+from grasswidget.shader_files import shader_dir
+
+
+def _device():
+    from grasswidget.gpu.adapter import ensure_device
+
+    return ensure_device()
+
+
+def test_browser_wgsl_compiles_and_declares_what_it_uses():
+    """Every shader the browser gets is valid WGSL (naga here) and binds exactly the
+    resources its text uses, each once, with the access the engine provides."""
+    shaders = BrowserShaders.all()
+    device = _device()
+    texts = [shaders[k] for k in ("simulate", "reset_args", "cull", "scene")] + shaders["blades"]
+    for sh in texts:
+        device.create_shader_module(code=sh["code"])
+        names = [b["name"] for b in sh["bindings"]]
+        numbers = [b["binding"] for b in sh["bindings"]]
+        assert len(set(names)) == len(names) and len(set(numbers)) == len(numbers)
+        assert sh["bindings"] == binding_map(sh["code"])
+    kinds = {b["name"]: b["kind"] for b in shaders["simulate"]["bindings"]}
+    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage"}
+    kinds = {b["name"]: b["kind"] for b in shaders["blades"][0]["bindings"]}
+    assert kinds["s_blades"] == "read-only-storage" and kinds["u_material"] == "uniform"
+    # The same files: the blade math of the package is in the text, not a copy.
+    math_src = (shader_dir() / "blade_math.wgsl").read_text()
+    fn = re.search(r"fn validate_length\([^)]*\)[^{]*\{[^}]*\}", math_src).group(0)
+    assert fn in shaders["simulate"]["code"] and fn in shaders["cull"]["code"]
+    assert len(shaders["blades"]) == 4 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
+
+
+def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():
+    body = "let k = 2.0;\nreturn vec3<f32>(k * oops, 0.0, 0.0);"
+    sh = BrowserShaders.simulate(body)
+    lines = sh["code"].splitlines()
+    line = next(i for i, text in enumerate(lines, 1) if "k * oops" in text)
+    err = wind_error_from_messages([{"line": line, "column": 22, "message": "unresolved identifier 'oops'"}],
+                                   sh["code"], body)
+    assert isinstance(err, gw.WindShaderError) and isinstance(err, ValueError)
+    assert err.line == 2 and "wind_wgsl line 2" in str(err) and "k * oops" in str(err)
+    outside = wind_error_from_messages([{"line": 1, "column": 1, "message": "boom"}], sh["code"], body)
+    assert outside.line is None and "boom" in str(outside)
+
+
+def test_uniform_layouts_match_wgsl_offsets():
+    """Offsets follow WGSL's uniform rules, and the packed bytes hold each parameter at its offset."""
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["colliders"][0] == 64
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64 + 16 * 16
+    assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16
+    p = gw.GrassParams(wind_strength=7.5, wind_direction=90.0, wind_field="vortex", dt=0.01)
+    raw = uniforms.sim_uniform(p, 1234, [gw.SphereCollider(center=(1, 2, 3), radius=0.5)])
+    off = uniforms.offsets(uniforms.SIM_LAYOUT)
+
+    def read(name, dtype="<f4", count=1):
+        return np.frombuffer(raw, dtype, count, off[name][0])
+
+    assert read("wind_strength")[0] == np.float32(7.5)
+    assert read("wind_field", "<i4")[0] == 2 and read("n_blades", "<u4")[0] == 1234
+    assert np.allclose(read("wind_dir", count=4), [0, 1, 0, 0], atol=1e-7)
+    assert np.allclose(read("colliders", count=4), [1, 2, 3, 0.5]) and read("n_colliders", "<i4")[0] == 1
+    assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed}
+
+
+def test_requests_outside_a_notebook_raise_timeout_naming_the_browser_view():
+    with pytest.raises(BrowserTimeoutError, match="browser view"):
+        wait_for(lambda: None, 1.0, "read_state() from the browser view")
+    view = BrowserView(gw.Blades.on_plane(64))
+    with pytest.raises(TimeoutError, match="browser view"):
+        view.read_state(timeout=0.5)
+    view.close()
+
+
+def test_backend_argument_and_browser_widget_api():
+    with pytest.raises(ValueError, match="backend must be one of 'kernel', 'browser', 'auto'"):
+        gw.GrassWidget(16, backend="gpu")
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    try:
+        assert w.backend == "browser" and w.scene is None
+        cam = w.camera_state
+        assert set(cam) == {"position", "target", "fov_deg"} and cam["fov_deg"] == 45.0
+        w.camera_state = {"fov_deg": 60, "target": (0, 0, 0)}
+        assert w.camera_state["fov_deg"] == 60 and w.camera_state["target"] == (0.0, 0.0, 0.0)
+        with pytest.raises(ValueError, match="fov_deg"):
+            w.camera_state = {"fov_deg": 500}
+        with pytest.raises(ValueError, match="position"):
+            w.camera_state = {"position": (1, float("nan"), 0)}
+        w.reset_camera()
+        assert w.camera_state == cam
+        # Parameters reach the browser as packed uniforms.
+        w.params.wind_strength = 33.0
+        off = uniforms.offsets(uniforms.SIM_LAYOUT)["wind_strength"][0]
+        assert np.frombuffer(w.view.view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
+        w.ball.enabled = True
+        assert w.view.view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        with pytest.raises(ValueError, match="number of steps"):
+            w.step(-1)
+    finally:
+        w.close()

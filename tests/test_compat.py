@@ -1,0 +1,182 @@
+"""Every private or internal API grasswidget uses (grasswidget/compat.py) still
+exists and behaves as it did in the versions it was checked against. An upgrade
+that changes one fails here, by name."""
+
+import numpy as np
+import pytest
+
+from grasswidget import compat
+
+
+def test_every_use_is_listed_with_a_checked_version():
+    packages = {p for p, _, _ in compat.PRIVATE_USES}
+    assert packages == set(compat.CHECKED)
+    installed = compat.installed_versions()
+    for name, checked in compat.CHECKED.items():
+        have = installed[name]
+        assert have is not None, f"{name} is not installed"
+        # Same minor version as checked (pyproject pins the range); a new minor must be re-checked here.
+        assert have.split(".")[:2] == checked.split(".")[:2], (
+            f"{name} {have} is installed; grasswidget.compat was checked against {checked}: "
+            "re-check every use of it in compat.PRIVATE_USES, then update CHECKED")
+
+
+def test_pygfx_buffer_internals():
+    import pygfx as gfx
+    import wgpu
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()  # grasswidget configures pygfx's device first
+    buf = gfx.Buffer(np.arange(8, dtype=np.float32), usage=wgpu.BufferUsage.COPY_SRC)
+    assert compat.gpu_buffer(buf) is None                      # no GPU object before a sync
+    wbuf = compat.sync_buffer(buf)
+    assert compat.gpu_buffer(buf) is wbuf                      # Buffer._wgpu_object
+    got = np.frombuffer(device.queue.read_buffer(wbuf), np.float32)
+    assert np.array_equal(got, np.arange(8))                   # update_resource uploaded the data
+    buf.data[:] = 0
+    buf.update_full()
+    from pygfx.resources._base import resource_update_registry
+
+    assert buf in resource_update_registry._syncable           # a pending upload is registered there
+    assert compat.forget_pending_upload(buf)
+    assert buf not in resource_update_registry._syncable
+
+
+def test_pygfx_engine_internals():
+    import inspect
+
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    from grasswidget.gpu import indirect
+
+    cls = compat.render_pipeline_container_class()
+    assert cls is pipeline.RenderPipelineContainer and callable(getattr(cls, "draw", None))
+    source = inspect.getsource(pipeline)
+    for name in ("self.broken", "self.wgpu_pipeline", "self.wgpu_bind_groups", "renderstate.wgpu_bind_group",
+                 "render_pass.draw("):  # what the indirect draw (gpu/indirect.py) relies on
+        assert name in source, name
+    indirect.install()
+    assert indirect.is_installed() and compat.render_pipeline_container_class() is indirect.IndirectRenderPipelineContainer
+    event_class = compat.pygfx_event_class("pointer_down")
+    assert event_class is not None and compat.pygfx_event_class("no_such_event") is None
+    ev = event_class(type="pointer_down", **compat.pygfx_event_fields(
+        {"type": "pointer_down", "x": 3, "y": 4, "button": 1, "buttons": (1,), "modifiers": (), "timestamp": 12.5}))
+    assert (ev.x, ev.y, ev.button, ev.time_stamp) == (3, 4, 1, 12.5)
+
+
+def test_default_device_check_and_wgpu_internals():
+    import wgpu
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    assert compat.default_device_exists()
+    assert callable(getattr(device, "_poll", None))
+    buf = device.create_buffer(size=16, usage=wgpu.BufferUsage.MAP_READ | wgpu.BufferUsage.COPY_DST)
+    promise = buf.map_async("READ")
+    assert isinstance(promise._state, str) and promise._state.startswith(("pending", "fulfilled"))
+    promise.sync_wait()
+    compat.poll_device(device)
+    assert compat.promise_settled(promise) and promise._state == "fulfilled"
+    buf.unmap()
+    from wgpu.backends.wgpu_native import extras
+
+    assert callable(extras.write_timestamp)
+
+
+def test_event_formats():
+    """Our handlers read both jupyter-rfb formats: current ("type", "ratio") and legacy."""
+    current = {"type": "resize", "width": 10, "height": 8, "ratio": 2.0, "timestamp": 1.0}
+    legacy = {"event_type": "resize", "width": 10, "height": 8, "pixel_ratio": 2.0, "time_stamp": 1.0}
+    for event in (current, legacy):
+        assert compat.event_type(event) == "resize" and compat.event_ratio(event) == 2.0
+        capped = compat.with_ratio(event, 1.0)
+        assert compat.event_ratio(capped) == 1.0 and compat.event_ratio(event) == 2.0
+
+
+def test_jupyter_event_format_still_legacy_for_rendercanvas():
+    """rendercanvas 2.7's Jupyter canvas asks jupyter-rfb for the legacy format (bitmask 1),
+    and jupyter-rfb turns a browser message into it. When this changes, our handlers
+    keep working (they read both), but pygfx's controllers may not: re-check."""
+    from jupyter_rfb import RemoteFrameBuffer
+    from rendercanvas.jupyter import RenderCanvas
+
+    assert RenderCanvas._event_compatibility == 1
+    assert callable(getattr(RemoteFrameBuffer, "_rfb_handle_msg", None))
+    seen = []
+
+    class Probe(RemoteFrameBuffer):
+        _event_compatibility = 3
+
+        def handle_event(self, event):
+            seen.append(event)
+
+    probe = Probe()
+    probe._rfb_handle_msg(probe, {"type": "pointer_down", "x": 1, "y": 2, "buttons": [1], "modifiers": [],
+                                  "timestamp": 5.0}, [])
+    probe.close()
+    event = seen[0]
+    assert event["type"] == event["event_type"] == "pointer_down" and event["time_stamp"] == 5.0
+    assert compat.event_type(event) == "pointer_down"
+
+
+@pytest.mark.parametrize("fmt", ["current", "legacy"])
+def test_widget_handlers_take_both_event_formats(widget, fmt):
+    """A drag sent in either format orbits the camera (EventsWithoutPicking via compat)."""
+    widget.canvas.handle_event({"event_type": "resize", "width": 160, "height": 120, "pixel_ratio": 1.0})
+    cam = widget.scene.camera
+    p0 = np.array(cam.world.position)
+    key, stamp = ("type", "timestamp") if fmt == "current" else ("event_type", "time_stamp")
+    base = dict(modifiers=(), ntouches=0, touches={}, **{stamp: 0})
+    widget.view.events({key: "pointer_down", "x": 80, "y": 60, "button": 1, "buttons": (1,), **base})
+    for i in range(1, 11):
+        widget.view.events({key: "pointer_move", "x": 80 + 6 * i, "y": 60, "button": 0, "buttons": (1,), **base})
+    widget.view.events({key: "pointer_up", "x": 140, "y": 60, "button": 1, "buttons": (), **base})
+    for _ in range(60):
+        widget.controller.tick()
+    assert np.linalg.norm(np.array(cam.world.position) - p0) > 0.05
+
+
+def test_held_orbit_controller_hooks_every_step():
+    """The OrbitController hooks (grasswidget.orbit holds the camera with them) still
+    see every orbit, zoom and pan step, and what they return is what the camera gets."""
+    import pygfx as gfx
+
+    calls = []
+
+    def hold(controller, position, target, state):
+        calls.append(tuple(np.round(position, 6)))
+        # keep the camera's height: a "floor" at its start
+        if position[1] < 2.0:
+            p = np.array(position, np.float64)
+            p[1] = 2.0
+            return p, state["rotation"], np.asarray(target, np.float64)
+        return None
+
+    camera = gfx.PerspectiveCamera(45, 1.0)
+    camera.local.position = (0, 2, 10)
+    controller = compat.held_orbit_controller_class(hold)(camera, target=(0, 2, 0))
+    rect = (0, 0, 100, 100)
+    controller.rotate((0.3, 0.0), rect)        # azimuth only: inside the floor
+    controller.rotate((0.0, -0.4), rect)       # down: held at the floor
+    assert camera.local.position[1] == pytest.approx(2.0)
+    controller.zoom(0.2, rect)
+    controller.pan((5.0, 0.0), rect)
+    assert len(calls) == 4
+
+
+def test_pygfx_hooks_the_teaching_views_override():
+    """pygfx calls WorldObject._update_object on every visible object in each render,
+    and get_pick_info hands the pick value to the material's _wgpu_get_pick_info."""
+    import inspect
+
+    import pygfx as gfx
+    from pygfx.renderers.wgpu.engine import renderer
+
+    assert callable(getattr(gfx.WorldObject, "_update_object", None))
+    assert "wobject._update_object()" in inspect.getsource(renderer.FlatScene)
+    assert callable(getattr(gfx.Material, "_wgpu_get_pick_info", None))
+    source = inspect.getsource(renderer.WgpuRenderer.get_pick_info)
+    assert "_wgpu_get_pick_info(pick_value)" in source
+    assert "pick_value & 1048575" in source  # 20 bits of object id; the blade id is packed above them
