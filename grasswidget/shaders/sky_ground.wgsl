@@ -2,7 +2,7 @@
 // Drawn after the opaque objects at the far depth with the "<" depth test, so only
 // the pixels nothing else covered are shaded. Per pixel: the view ray meets the
 // ground plane y = ground.y inside the square of half-size ground.w around
-// ground.xz -> the flat ground colour; else the sky gradient (bottom -> top of
+// ground.xz, nearer than the far plane -> the flat ground colour; else the sky gradient (bottom -> top of
 // the view, like pygfx's two-colour Background).
 
 {$ include 'pygfx.std.wgsl' $}
@@ -39,7 +39,9 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
         let s = (g.y - near.y) / dir.y;
         if (s > 0.0) {
             let hit = near + s * dir;
-            if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w) {
+            // inside the square, and nearer than the far plane (where a mesh would be clipped)
+            let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * vec4<f32>(hit, 1.0);
+            if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
                 rgb = u_material.ground_color.rgb;
             }
         }
