@@ -152,6 +152,8 @@ class KernelView:
     """
 
     backend = "kernel"
+    #: This view draws the teaching views (colour by, frozen culling, inspector).
+    teaching_views = True
 
     def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
                  on_inspect=None):

@@ -51,8 +51,11 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``collision_passes``, ``noise_scale`` (from ``reference.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
 ``n_classes``, ``lod_segments``, ``lod_min_pixels`` (level-of-detail classes),
-``blades_writable`` (False; True in the simulation) and ``user_wind_body``
-(the custom wind; default: no wind).
+``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
+True in the pygfx shader classes: the frozen culling camera, ``color_by`` and the
+draw of culled blades, which need ``u_cull``'s ``color_by``/``frozen_*`` fields,
+``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.teaching`) and
+``user_wind_body`` (the custom wind; default: no wind).
 """
 
 from __future__ import annotations
@@ -114,6 +117,7 @@ def template_vars() -> dict:
         "culled_segments": int(CULLED_SEGMENTS),
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
+        "teaching_views": False,
         "user_wind_body": NO_WIND_BODY,
     }
 

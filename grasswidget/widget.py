@@ -49,7 +49,7 @@ import weakref
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import Bool
+from traitlets import All, Bool
 
 from .blades import Blades
 from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
@@ -306,6 +306,7 @@ class GrassWidget(ipw.VBox):
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
         self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.params.observe(self._on_color_by, names="color_by")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -334,7 +335,8 @@ class GrassWidget(ipw.VBox):
 
     def _kernel_view(self):
         return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
-                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats, on_inspect=self._show_inspected)
+                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          on_inspect=self._show_inspected)
 
     def _make_ball(self):
         from .widget_ball import BallControl
@@ -564,10 +566,11 @@ class GrassWidget(ipw.VBox):
         self._closed = True
         params = getattr(self, "params", None)
         if params is not None:
-            try:
-                params.unobserve(self._on_param_change)
-            except ValueError:
-                pass
+            for handler, names in ((self._on_param_change, All), (self._on_color_by, "color_by")):
+                try:
+                    params.unobserve(handler, names=names)
+                except ValueError:
+                    pass
         if self.panel is not None:
             self.panel.close()
         if self.view is not None:
@@ -620,6 +623,10 @@ class GrassWidget(ipw.VBox):
     def _show_inspected(self, blades):
         if self.panel is not None:
             self.panel.show_inspected(blades)
+
+    def _on_color_by(self, change):
+        if not self._closed and change["new"] != "natural" and not getattr(self.view, "teaching_views", False):
+            self.panel.show_unsupported(f"colour by {change['new']}", self.view.backend)
 
     def _on_culling_frozen(self, change):
         if self._closed:

@@ -192,3 +192,37 @@ def test_freeze_bad_viewport(scene):
     with pytest.raises(ValueError, match="viewport_size"):
         scene.field.freeze_culling(scene.camera, (0, 10))
     assert not scene.field.culling_frozen
+
+
+def test_grass_field_freezes_in_any_pygfx_scene():
+    """GrassField.freeze_culling on its own: a plain pygfx scene, two cameras."""
+    import pygfx as gfx
+    from rendercanvas.offscreen import RenderCanvas
+
+    field = gw.GrassField(gw.Blades.on_plane(2000, 10.0, seed=2), gw.GrassParams(cull_distance_max=20.0))
+    scene = gfx.Scene()
+    scene.add(field)
+    canvas = RenderCanvas(size=(200, 150), pixel_ratio=1)
+    renderer = gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none")
+    a = gfx.PerspectiveCamera(50, 4 / 3)
+    a.local.position = (-4, 1.5, 8)
+    a.look_at((2, 0, 0))
+    b = gfx.PerspectiveCamera(50, 4 / 3)
+    b.local.position = (0, 25, 0.01)
+    b.look_at((0, 0, 0))
+    field.freeze_culling(a, (200, 150))
+    frozen = field.frozen_camera
+    assert np.allclose(frozen.position, (-4, 1.5, 8))
+    for cam in (b, a):
+        canvas.request_draw(lambda cam=cam: renderer.render(scene, cam))
+        canvas.draw()
+        drawn = np.zeros(field.count, bool)
+        drawn[field.read_visible()] = True
+        expected = ref.cull(field.read_state(), field.params, frozen.view_proj, frozen.position)
+        assert (drawn != expected).sum() <= 2 and 100 < drawn.sum() < field.count - 100
+    field.unfreeze_culling()
+    canvas.request_draw(lambda: renderer.render(scene, b))
+    canvas.draw()
+    assert abs(len(field.read_visible()) - drawn.sum()) > 100  # the bird's-eye camera culls otherwise
+    canvas.close()
+    field.release()

@@ -139,3 +139,26 @@ def test_inspect_from_code_and_bad_input(widget):
     widget.inspect([])
     assert widget.inspected == ()
     assert teaching.MAX_INSPECTED == 64
+
+
+def test_a_view_without_teaching_views_says_so_instead_of_failing(widget):
+    """The browser engine (or any view lacking them) gets a message, not an exception."""
+
+    class PlainView:
+        backend = "browser"
+
+        def request_draw(self):
+            pass
+
+    real = widget.view
+    widget.view = PlainView()
+    try:
+        widget.inspect([1])
+        assert "blade inspector is not available in the browser engine" in widget.panel.message_line.value
+        widget.culling_frozen = True
+        assert "freeze culling is not available in the browser engine" in widget.panel.message_line.value
+        widget.params.color_by = "cull"
+        assert "colour by cull is not available in the browser engine" in widget.panel.message_line.value
+    finally:
+        widget.view = real
+        widget.params.color_by = "natural"

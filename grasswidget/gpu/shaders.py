@@ -35,7 +35,7 @@ class ResetArgsShader(GrassComputeShader):
     and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject)
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
@@ -54,8 +54,12 @@ class CullShader(GrassComputeShader):
     """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
     The pygfx bindings are generated here (``s_args`` and ``s_culled_args`` by
-    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body.
+    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body,
+    rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
     """
+
+    def __init__(self, wobject):
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -95,7 +99,7 @@ class BladeRenderShader(BaseShader):
 
     def __init__(self, wobject, lod_class):
         culled = lod_class == len(LOD_SEGMENTS)
-        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class)))
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=True))
         self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)

@@ -4,7 +4,8 @@
 // and class; the instance counts in s_args feed draw_indirect.
 // The twin of reference.cull_reason() and reference.lod_class().
 //
-// The culling camera is the rendering camera (u_stdinfo), or a frozen copy of
+// Teaching views (template variable teaching_views, on in the kernel engine):
+// the culling camera is the rendering camera (u_stdinfo), or a frozen copy of
 // one (u_cull.frozen != 0: GrassField.freeze_culling). With color_by "cull",
 // culled blades are appended too, to s_culled as id | reason << 30 (reason 1
 // orientation, 2 frustum, 3 distance: the first test that culled the blade),
@@ -14,8 +15,9 @@
 // (projection_transform, cam_transform, cam_transform_inv, physical_size),
 // u_wobject (world_transform), u_cull (fields of grasswidget.gpu.field.CULL_UNIFORM),
 // s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>), s_visible
-// (array<u32>), s_culled (array<u32>) and s_culled_args (array<atomic<u32>>);
-// see grasswidget.shader_files.
+// (array<u32>); with teaching_views also u_cull's color_by and frozen_* fields,
+// s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); see
+// grasswidget.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
@@ -62,11 +64,13 @@ fn main(
         var view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
         var cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
         var viewport_height = u_stdinfo.physical_size.y;
+        $$ if teaching_views
         if (u_cull.frozen != 0) {
             view_proj = u_cull.frozen_view_proj;
             cam_pos = u_cull.frozen_cam_pos.xyz;
             viewport_height = u_cull.frozen_viewport_height;
         }
+        $$ endif
         let scale = length(m[1].xyz);
         let h = blade.height * scale;
 
@@ -85,7 +89,10 @@ fn main(
         if (!visible) {
             cls = CULLED;
         }
+        listed = visible;
+        $$ if teaching_views
         listed = visible || u_cull.color_by == {{ color_by_cull }};
+        $$ endif
         if (listed) {
             slot = atomicAdd(&wg_count[cls], 1u);
         }
@@ -96,16 +103,22 @@ fn main(
         if (c > 0u) {
             wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
         }
-    } else if (lid == CULLED) {
+    }
+    $$ if teaching_views
+    if (lid == CULLED) {
         let c = atomicLoad(&wg_count[lid]);
         if (c > 0u) {
             wg_base[lid] = atomicAdd(&s_culled_args[1], c);
         }
     }
+    $$ endif
     workgroupBarrier();
     if (visible) {
         s_visible[cls * n + wg_base[cls] + slot] = i;
-    } else if (listed) {
+    }
+    $$ if teaching_views
+    if (listed && !visible) {
         s_culled[wg_base[CULLED] + slot] = i | (reason << 30u);
     }
+    $$ endif
 }
