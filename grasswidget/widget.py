@@ -284,7 +284,8 @@ class GrassWidget(ipw.VBox):
 
                 self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
-                                              on_unavailable=self._on_browser_unavailable)
+                                              on_unavailable=self._on_browser_unavailable,
+                                              pixel_ratio=pixel_ratio)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,

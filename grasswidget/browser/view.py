@@ -114,6 +114,8 @@ class BrowserView(anywidget.AnyWidget):
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
     scene_style = Dict().tag(sync=True)
+    #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
+    pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(480).tag(sync=True)
     # ---- set by the browser
