@@ -52,7 +52,7 @@ _ENGINE = "(() => { const es = [...(globalThis.__grasswidgetEngines || [])]; ret
 def engine_info(page):
     return page.evaluate(f"""() => {{ const e = {_ENGINE}; if (!e) return null;
         return {{frames: e.frames, n: e.n, timing: e.timing, adapter: e.adapterText, now: performance.now(),
-                 canvas: [e.canvas.width, e.canvas.height]}}; }}""")
+                 canvas: [e.canvas.width, e.canvas.height], visible: e.visible, lastArgsRead: e.lastArgsRead || 0}}; }}""")
 
 
 def presented_fps(page, seconds):
@@ -93,7 +93,13 @@ def main(argv=None):
                             timeout=60)
             page.wait_for_timeout(1500)  # let the first frames after the rebuild pass
             fps = presented_fps(page, WINDOW_S)
-            visible = kernel_eval(page, "w.stats['visible']")
+            # The visible count read back by a frame drawn with these blades (the readback is asynchronous).
+            since = engine_info(page)["now"]
+            info = poll(lambda: (lambda e: (e["lastArgsRead"] > since and e["visible"] is not None
+                                            and e["frames"] > 0, e))(engine_info(page)),
+                        "a visible count read back after the measurement", 120, 0.5, page=page)
+            page.wait_for_timeout(200)
+            visible = sum(engine_info(page)["visible"])
             result["fps"][str(n)] = {"frames_per_s": round(fps, 2), "visible": visible}
             print(f"{n:>8} blades: {fps:6.2f} frames/s presented, {visible} visible")
         # The same 2^16 blades with a quarter of the pixels (GrassWidget(pixel_ratio=0.5)).

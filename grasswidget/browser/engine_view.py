@@ -67,7 +67,7 @@ class BrowserEngineView:
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
                  on_unavailable, pixel_ratio=None):
-        from ..scene import preset_field
+        from ..framing import preset_field
 
         self.size = tuple(size)
         self.params = params
