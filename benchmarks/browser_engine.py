@@ -52,7 +52,7 @@ _ENGINE = "(() => { const es = [...(globalThis.__grasswidgetEngines || [])]; ret
 def engine_info(page):
     return page.evaluate(f"""() => {{ const e = {_ENGINE}; if (!e) return null;
         return {{frames: e.frames, n: e.n, timing: e.timing, adapter: e.adapterText, now: performance.now(),
-                 canvas: [e.canvas.width, e.canvas.height], visible: e.visible, lastArgsRead: e.lastArgsRead || 0}}; }}""")
+                 canvas: [e.canvas.width, e.canvas.height], visible: e.visible, visibleAt: e.visibleAt || 0}}; }}""")
 
 
 def presented_fps(page, seconds):
@@ -95,11 +95,9 @@ def main(argv=None):
             fps = presented_fps(page, WINDOW_S)
             # The visible count read back by a frame drawn with these blades (the readback is asynchronous).
             since = engine_info(page)["now"]
-            info = poll(lambda: (lambda e: (e["lastArgsRead"] > since and e["visible"] is not None
-                                            and e["frames"] > 0, e))(engine_info(page)),
+            info = poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
                         "a visible count read back after the measurement", 120, 0.5, page=page)
-            page.wait_for_timeout(200)
-            visible = sum(engine_info(page)["visible"])
+            visible = sum(info["visible"])
             result["fps"][str(n)] = {"frames_per_s": round(fps, 2), "visible": visible}
             print(f"{n:>8} blades: {fps:6.2f} frames/s presented, {visible} visible")
         # The same 2^16 blades with a quarter of the pixels (GrassWidget(pixel_ratio=0.5)).

@@ -674,6 +674,7 @@ class GrassEngine {
       const a = new Uint32Array(buf.getMappedRange().slice(0));
       buf.unmap();
       this.visible = this.lodSegments.map((_, k) => a[4 * k + 1]);
+      this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });
   }
