@@ -13,6 +13,8 @@ from .blades import Blades  # noqa: E402
 from .colliders import SphereCollider  # noqa: E402
 from .errors import BladeCountError, BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError  # noqa: E402
 from .params import GrassParams  # noqa: E402
+from .params import ParameterError  # noqa: E402
+from .teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -24,8 +26,8 @@ _LAZY = {
 }
 
 __all__ = [
-    "Blades", "GrassParams", "SphereCollider",
-    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError",
+    "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
+    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError", "ParameterError",
     *_LAZY,
 ]
 

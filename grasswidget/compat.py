@@ -31,6 +31,7 @@ __all__ = [
     "render_pipeline_container_class",
     "set_render_pipeline_container_class",
     "pygfx_event_class",
+    "held_orbit_controller_class",
     "pygfx_event_fields",
     "event_type",
     "event_ratio",
@@ -51,6 +52,14 @@ PRIVATE_USES = (
      "whether pygfx has created its device yet (the adapter choice must come first)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
+    ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
+     "_last_cam_state",
+     "the controller's per-step hooks, to hold every orbit, zoom and pan step to OrbitLimits"),
+    ("pygfx", "WorldObject._update_object",
+     "overridden by the blade inspector: pygfx calls it on every object before each render (its docstring: "
+     "'a good time for lazy updates'); the inspector refreshes the simulation uniforms it reads"),
+    ("pygfx", "Material._wgpu_get_pick_info",
+     "overridden by GrassMaterial: renderer.get_pick_info asks the material to decode a pick value (blade id)"),
     ("pygfx", "renderers.wgpu.engine.renderer.EVENT_TYPE_MAP",
      "pygfx event classes, to forward canvas events to controllers without a pick readback"),
     ("wgpu", "GPUDevice._poll", "process finished GPU work without blocking (statistics)"),
@@ -160,6 +169,51 @@ def set_render_pipeline_container_class(cls):
     if not hasattr(pipeline, "RenderPipelineContainer"):
         raise RuntimeError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
+
+
+def held_orbit_controller_class(hold):
+    """A subclass of pygfx's ``OrbitController`` whose every orbit, zoom and pan step
+    is passed through ``hold(controller, position, target, state)``, which returns
+    ``(position, rotation, target)`` or None (the step stands), before the camera sees it.
+
+    It overrides the controller's per-action hooks ``_update_rotate``,
+    ``_update_zoom`` and ``_update_pan`` (the extension points pygfx's own
+    controllers use) and reads/writes the step's camera state with
+    ``_get_camera_state``, ``_last_cam_state`` and ``_set_camera_state``. The target is set through the
+    public ``target`` property.
+    """
+    import pygfx as gfx
+
+    base = gfx.OrbitController
+    for name in ("_update_rotate", "_update_zoom", "_update_pan", "_get_camera_state", "_set_camera_state"):
+        if not callable(getattr(base, name, None)):
+            raise RuntimeError(f"pygfx internals changed: OrbitController.{name} not found")
+
+    class HeldOrbitController(base):
+        def _hold(self):
+            state = self._get_camera_state()
+            # the step's result: _get_camera_state() gives it while a (damped) action runs, but the
+            # camera's own state for a direct call (rotate(..., animate=False)); _last_cam_state has it both times
+            position = self._last_cam_state.get("position", state["position"])
+            held = hold(self, position, self.target, state)
+            if held is not None:
+                position, rotation, target = held
+                self.target = target
+                self._set_camera_state({"position": position, "rotation": rotation})
+
+        def _update_rotate(self, delta):
+            super()._update_rotate(delta)
+            self._hold()
+
+        def _update_zoom(self, delta):
+            super()._update_zoom(delta)
+            self._hold()
+
+        def _update_pan(self, delta, *, vecx, vecy):
+            super()._update_pan(delta, vecx=vecx, vecy=vecy)
+            self._hold()
+
+    return HeldOrbitController
 
 
 def pygfx_event_class(name):

@@ -9,14 +9,14 @@ enums) and the names that :class:`~grasswidget.GrassParams` accepts
 "triangle-tip"``). To add a wind field: add a member here, its NumPy function in
 ``reference.py`` (and a branch in ``reference.wind_field``), its WGSL twin in
 ``shaders/blade_math.wgsl`` and a ``case {{ wind_field_<name> }}`` in
-``shaders/simulate.wgsl``; the tests compare the two functions.
+``shaders/wind_field.wgsl``; the tests compare the two functions.
 """
 
 from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["WindField", "BladeShape", "GravityMode", "LabeledIntEnum"]
+__all__ = ["WindField", "BladeShape", "GravityMode", "ColorBy", "LabeledIntEnum"]
 
 
 class LabeledIntEnum(IntEnum):
@@ -47,7 +47,7 @@ class LabeledIntEnum(IntEnum):
 
 
 class WindField(LabeledIntEnum):
-    """Wind fields (``params.wind_field``); ids of ``simulate.wgsl``'s ``wind_field()`` switch."""
+    """Wind fields (``params.wind_field``); ids of ``wind_field.wgsl``'s ``wind_field()`` switch."""
 
     WAVE = 0
     RADIAL = 1
@@ -71,3 +71,11 @@ class GravityMode(LabeledIntEnum):
 
     DIRECTION = 0
     POINT = 1
+
+
+class ColorBy(LabeledIntEnum):
+    """How blades are coloured (``params.color_by``); ids of the cull and blade shaders' ``u_cull.color_by``."""
+
+    NATURAL = 0
+    LOD = 1
+    CULL = 2

@@ -19,8 +19,17 @@ How it streams (chosen for the adapter, see :func:`streaming_defaults`):
   steps of ``params.dt`` (capped at :data:`MAX_STEPS_PER_FRAME`).
 
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
-``OrbitController``), without the renderer's per-event GPU pick readback (see
-:class:`EventsWithoutPicking`). Shift + drag goes to the ball first.
+``OrbitController``, held to :class:`~grasswidget.orbit.OrbitLimits`: the camera
+stays above the ground, the target over the field, the zoom in range), without
+the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
+Shift + drag goes to the ball first. Ctrl (or
+Cmd) + click inspects the blade under the pointer: one pick readback per click
+(the grass material writes pick ids in this view).
+
+Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
+current camera (kept across a new blade count), :meth:`KernelView.inspect`
+shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
+refresh (one small readback, only while blades are inspected).
 """
 
 from __future__ import annotations
@@ -143,8 +152,11 @@ class KernelView:
     """
 
     backend = "kernel"
+    #: This view draws the teaching views (colour by, frozen culling, inspector).
+    teaching_views = True
 
-    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats):
+    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
+                 on_inspect=None):
         self.size = tuple(size)
         self.params = params
         self._preset = preset
@@ -153,6 +165,10 @@ class KernelView:
         self._actions = actions
         self._on_error = on_error
         self._on_stats = on_stats
+        self._on_inspect = on_inspect
+        self._frozen_camera = None  # the frozen culling camera, kept across set_blades
+        self._inspected = ()
+        self._report_pending = False  # report the inspected numbers after the next frame
         self.scene = None
         self.controller = None
         self.ball = None
@@ -194,7 +210,7 @@ class KernelView:
     def set_blades(self, blades):
         """Build the scene for ``blades`` on this canvas, replacing and releasing
         the previous one (the camera view, the orbit target and the ball are kept)."""
-        import pygfx as gfx
+        from .orbit import GroundOrbitController, OrbitLimits
 
         old = self.scene
         cam_state = old.camera.get_state() if old is not None else None
@@ -206,12 +222,20 @@ class KernelView:
         # the browser's pixel ratio capped for the adapter (GrassCanvas), so the
         # render cost follows the frame size chosen for streaming.
         scene.renderer.pixel_scale = 1
+        scene.field.material.pick_write = True  # ctrl + click picks a blade
+        if self._frozen_camera is not None:
+            scene.field.freeze_culling(self._frozen_camera)
+        self._inspected = tuple(i for i in self._inspected if i < scene.field.count)
+        if self._inspected:
+            scene.inspect(self._inspected)
         self.scene = scene
         if self.ball is not None:
             self.ball.attach(scene)
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
-        self.controller = gfx.OrbitController(scene.camera, register_events=scene.renderer)
+        # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+                                                register_events=scene.renderer)
         # A custom target: orbit and zoom around the point the view looks at
         # (GrassScene aims with look_at, which leaves the camera extent unrelated
         # to that distance, so pygfx's implicit target would be far off).
@@ -301,6 +325,43 @@ class KernelView:
         if not self._closed:
             self.canvas.request_draw()
 
+    # ------------------------------------------------------------------ teaching views
+
+    def set_culling_frozen(self, frozen: bool):
+        """Freeze culling at the current camera (True) or cull against it again (False)."""
+        if frozen:
+            self.scene.freeze_culling()
+            self._frozen_camera = self.scene.field.frozen_camera
+        else:
+            self.scene.unfreeze_culling()
+            self._frozen_camera = None
+        self.request_draw()
+
+    def inspect(self, ids):
+        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        self.scene.inspect(ids)
+        self._inspected = tuple(self.scene.inspected)
+        if self._on_inspect is not None and not self._inspected:
+            self._on_inspect([])
+        self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
+        self.request_draw()
+
+    @property
+    def inspected(self) -> tuple:
+        return self._inspected
+
+    def pick_blade(self, x, y):
+        """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
+        (one GPU pick readback)."""
+        info = self.scene.renderer.get_pick_info((x, y))
+        if info.get("world_object") is self.scene.field:
+            return info.get("blade_index")
+        return None
+
+    def _report_inspected(self):
+        if self._on_inspect is not None:
+            self._on_inspect(self.scene.read_inspected() if self._inspected else [])
+
     # ------------------------------------------------------------------ pictures
 
     def save_png(self, path, size):
@@ -330,6 +391,9 @@ class KernelView:
                 scene.step(chunk)
         scene.draw_frame()
         self._draw_ms = 1000.0 * (time.perf_counter() - t0)
+        if self._report_pending:
+            self._report_pending = False
+            self._report_inspected()
         self._frames += 1
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
@@ -387,12 +451,25 @@ class KernelView:
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()),
         )
         self._on_stats(self.current_stats())
+        if self._inspected:
+            self._report_inspected()
 
     # ------------------------------------------------------------------ events
 
     def _on_pointer(self, event):
-        """Shift + drag moves the ball; other events go on to the camera controller."""
-        if self.ball is None or self._closed:
+        """Ctrl + click inspects a blade; shift + drag moves the ball; other events go
+        on to the camera controller."""
+        if self._closed:
+            return False
+        if self._is_inspect_click(event):
+            try:
+                blade = self.pick_blade(event["x"], event["y"])
+                if blade is not None:
+                    self._actions.inspect([int(blade)])
+            except Exception as err:  # never let a pointer event break the canvas
+                self._on_error(err)
+            return True
+        if self.ball is None:
             return False
         try:
             w, h = self.canvas.get_logical_size()
@@ -401,6 +478,12 @@ class KernelView:
         except Exception as err:  # never let a pointer event break the canvas
             self._on_error(err)
             return False
+
+    @staticmethod
+    def _is_inspect_click(event):
+        mods = tuple(event.get("modifiers") or ())
+        return (compat.event_type(event) == "pointer_down" and event.get("button", 1) == 1
+                and ("Control" in mods or "Meta" in mods) and "x" in event and "y" in event)
 
     def on_key(self, event):
         """Keys (canvas focused): space = play/pause, s = step one frame, r = reset the camera."""

@@ -11,6 +11,12 @@ another engine) can sit above the same panel.
 
 A control given a value its trait refuses snaps back and the message line says
 why (see :class:`~grasswidget.control_link.ControlLink`).
+
+The teaching row: a "colour by" dropdown (``params.color_by``), a "freeze
+culling" checkbox (the widget's ``culling_frozen`` trait), the legend of the
+active colouring, and the inspected blade's numbers with a "Clear" button
+(ctrl + click on a blade in the view inspects it). A view that cannot do one of
+these says so on the message line (``show_unsupported``).
 """
 
 from __future__ import annotations
@@ -20,9 +26,11 @@ import html
 import ipywidgets as ipw
 
 from .control_link import ControlLink
-from .params import WIND_FIELDS
+from .params import COLOR_BY, WIND_FIELDS
+from .reference import FORCE_NAMES
+from .teaching import legend
 
-__all__ = ["ControlPanel", "PARAM_SLIDERS", "CULL_CHECKBOXES", "format_stats"]
+__all__ = ["ControlPanel", "PARAM_SLIDERS", "CULL_CHECKBOXES", "format_stats", "legend_html", "inspected_html"]
 
 #: Sliders of the panel: (GrassParams trait, slider step, readout format).
 PARAM_SLIDERS = (
@@ -42,6 +50,18 @@ CULL_CHECKBOXES = (
 )
 
 _DESC = {"description_width": "110px"}
+#: Width (CSS px) of one column of controls: two columns (and their margins) fill a 640 px view.
+COLUMN_WIDTH = 314
+
+
+def _column_width(view_width) -> str:
+    """A control's width: one column, never wider than the view."""
+    return f"{max(120, min(COLUMN_WIDTH, int(view_width) - 8))}px"
+
+
+def _wrapping_row(children, **layout):
+    """A row as wide as the view; what does not fit goes on to the next line."""
+    return ipw.HBox(children, layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center", **layout))
 
 
 def format_stats(stats: dict) -> str:
@@ -73,11 +93,42 @@ def format_stats(stats: dict) -> str:
     return " · ".join(parts)
 
 
-def _slider(name, owner, step, fmt):
+def legend_html(color_by: str) -> str:
+    """HTML of the legend of a colouring (see :func:`grasswidget.teaching.legend`)."""
+    rows = legend(color_by)
+    if not rows:
+        return "<small>natural colours (lit grass)</small>"
+    items = []
+    for label, color in rows:
+        swatch = ("<span style='display:inline-block;width:12px;height:12px;margin-right:4px;"
+                  f"vertical-align:middle;background:{color}'></span>") if color else ""
+        items.append(f"<span style='margin-right:12px;white-space:nowrap'>{swatch}{html.escape(label)}</span>")
+    return "<small>" + "".join(items) + "</small>"
+
+
+def inspected_html(blades: list) -> str:
+    """HTML of the inspected blades' numbers: a list of dicts with ``id``,
+    ``height`` (m), ``stiffness`` (1/s^2, with stiffness_scale) and one force
+    vector per name of ``reference.FORCE_NAMES`` (m/s^2; collision: the push of
+    one step in m). Empty list: a hint."""
+    if not blades:
+        return "<small>ctrl + click a blade to inspect it</small>"
+    lines = []
+    for b in blades[:4]:
+        size = {name: float(sum(float(x) * float(x) for x in b[name])) ** 0.5 for name in FORCE_NAMES}
+        forces = ", ".join(f"{name} {size[name]:.2f}" for name in FORCE_NAMES if name != "collision")
+        lines.append(f"blade {b['id']}: height {b['height']:.2f} m, stiffness {b['stiffness']:.2f} /s², "
+                     f"|force| (m/s²): {forces}; collision push {1000 * size['collision']:.1f} mm/step")
+    if len(blades) > 4:
+        lines.append(f"... and {len(blades) - 4} more")
+    return "<small><code>" + "<br>".join(html.escape(x) for x in lines) + "</code></small>"
+
+
+def _slider(name, owner, step, fmt, width):
     """A FloatSlider for a RangedFloat trait (its range and help text)."""
     trait = owner.traits()[name]
     return ipw.FloatSlider(value=getattr(owner, name), min=trait.lo, max=trait.hi, step=step, description=name,
-                           continuous_update=True, style=_DESC, layout=ipw.Layout(width="360px"),
+                           continuous_update=True, style=_DESC, layout=ipw.Layout(width=width),
                            tooltip=(trait.help or name), readout_format=fmt)
 
 
@@ -86,18 +137,19 @@ class ControlPanel:
 
     Args:
         params: the :class:`GrassParams` the sliders, dropdown and checkboxes edit.
-        clock: a HasTraits with a ``time_scale`` trait (the widget) for the
-            ``time_scale`` slider.
+        clock: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
+            widget) for the ``time_scale`` slider and the "freeze culling" checkbox.
         actions: the object whose methods the buttons call: ``toggle_play()``,
-            ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``
-            and ``save_png(size=(w, h)) -> path``.
+            ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``,
+            ``save_png(size=(w, h)) -> path`` and ``inspect(ids)`` ("Clear": ``inspect([])``).
         blade_count, max_blades: the blade slider's value and top.
         view_size: (w, h) CSS pixels of the view (Save PNG multiplies it).
         ball_row: an ipywidget row (the ball's controls) or None.
 
     Attributes: ``sliders`` (dict name -> slider, incl. "blades" and
     "time_scale"), ``blade_slider``, ``wind_field_dropdown``, ``checkboxes``
-    (dict trait -> checkbox), ``play_button``, ``step_button``,
+    (dict trait -> checkbox), ``color_by_dropdown``, ``freeze_checkbox``,
+    ``legend_line``, ``inspect_line``, ``clear_inspect_button``, ``play_button``, ``step_button``,
     ``reset_blades_button``, ``reset_camera_button``, ``save_button``,
     ``png_scale``, ``file_line``, ``stats_line``, ``message_line``, ``rows``
     (the list of ipywidgets to put under the view).
@@ -109,32 +161,51 @@ class ControlPanel:
         self.view_size = tuple(view_size)
         self._links = []
         err = self.show_error
+        column = _column_width(self.view_size[0])
 
         # blade count: rebuilds the field, so only on release
         self.blade_slider = ipw.IntSlider(
             value=blade_count, min=1, max=max_blades, step=1, description="blades",
-            continuous_update=False, style=_DESC, layout=ipw.Layout(width="360px"),
+            continuous_update=False, style=_DESC, layout=ipw.Layout(width=column),
             tooltip="Number of blades (rebuilds the field; applied on release)",
         )
         self.blade_slider.observe(self._on_blade_slider, names="value")
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
-            self.sliders[name] = s = _slider(name, params, step, fmt)
+            self.sliders[name] = s = _slider(name, params, step, fmt, column)
             self._links.append(ControlLink(s, params, name, err))
-        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f")
+        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f", column)
         self._links.append(ControlLink(ts, clock, "time_scale", err))
 
         choices = tuple(getattr(params.traits()["wind_field"], "choices", None) or WIND_FIELDS)
         self.wind_field_dropdown = ipw.Dropdown(options=choices, value=params.wind_field, description="wind_field",
-                                                style=_DESC, layout=ipw.Layout(width="360px"))
+                                                style=_DESC, layout=ipw.Layout(width=column))
         self._links.append(ControlLink(self.wind_field_dropdown, params, "wind_field", err))
 
         self.checkboxes = {}
         for label, name in CULL_CHECKBOXES:
             cb = ipw.Checkbox(value=getattr(params, name), description=label, indent=False,
-                              layout=ipw.Layout(width="180px"))
+                              layout=ipw.Layout(width="auto", margin="2px 12px 2px 2px"))
             self._links.append(ControlLink(cb, params, name, err))
             self.checkboxes[name] = cb
+
+        # teaching views
+        self.color_by_dropdown = ipw.Dropdown(options=COLOR_BY, value=params.color_by, description="colour by",
+                                              style=_DESC, layout=ipw.Layout(width="240px"),
+                                              tooltip=params.traits()["color_by"].help)
+        self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
+        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(clock, "culling_frozen", False)),
+                                            description="freeze culling", indent=False,
+                                            layout=ipw.Layout(width="auto", margin="2px 12px 2px 8px"))
+        if clock.has_trait("culling_frozen"):
+            self._links.append(ControlLink(self.freeze_checkbox, clock, "culling_frozen", err))
+        self.legend_line = ipw.HTML(value=legend_html(params.color_by),
+                                    layout=ipw.Layout(min_height="20px", max_width="100%"))
+        params.observe(self._on_color_by, names="color_by")
+        self.inspect_line = ipw.HTML(value=inspected_html([]), layout=ipw.Layout(min_height="20px", max_width="100%"))
+        self.clear_inspect_button = ipw.Button(description="Clear", icon="times", layout=ipw.Layout(width="80px"),
+                                               tooltip="Stop inspecting blades")
+        self.clear_inspect_button.on_click(lambda _b: self._on_clear_inspect())
 
         bl = ipw.Layout(width="130px")
         self.play_button = ipw.Button(description="Pause", icon="pause", layout=bl,
@@ -156,21 +227,25 @@ class ControlPanel:
         self.save_button = ipw.Button(description="Save PNG", icon="camera", layout=bl,
                                       tooltip="Write a PNG next to the notebook")
         self.save_button.on_click(lambda _b: self._on_save_click())
-        self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
-        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))
+        self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px", max_width="100%"))
+        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # wraps within the view
         self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
 
-        sliders = list(self.sliders.values())
-        left = ipw.VBox(sliders[:4])
-        middle = ipw.VBox(sliders[4:] + [self.wind_field_dropdown])
-        right = ipw.VBox(list(self.checkboxes.values()))
-        buttons = ipw.HBox([self.play_button, self.step_button, self.reset_blades_button,
-                            self.reset_camera_button])
-        save = ipw.HBox([self.save_button, self.png_scale, self.file_line])
+        # Rows that fit the view (two columns of controls in 640 px); each wraps when the view is narrower.
+        sliders = _wrapping_row(list(self.sliders.values()) + [self.wind_field_dropdown])
+        checkboxes = _wrapping_row(list(self.checkboxes.values()))
+        buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,
+                                 self.reset_camera_button])
+        save = _wrapping_row([self.save_button, self.png_scale, self.file_line])
         #: The panel's widgets, top to bottom: stats line first (just under the view).
-        self.rows = [self.stats_line, ipw.HBox([left, middle, right])]
+        teach = ipw.VBox([
+            _wrapping_row([self.color_by_dropdown, self.freeze_checkbox, self.legend_line]),
+            _wrapping_row([self.clear_inspect_button, self.inspect_line]),
+        ], layout=ipw.Layout(width="100%"))
+        self.rows = [self.stats_line, sliders, checkboxes]
         if ball_row is not None:
             self.rows.append(ball_row)
+        self.rows.append(teach)
         self.rows += [buttons, save, self.message_line]
 
     # ------------------------------------------------------------------ from the widget
@@ -193,6 +268,15 @@ class ControlPanel:
         """Show a view's stats dict (see :func:`format_stats`) on the stats line."""
         self.stats_line.value = "<code>" + html.escape(format_stats(stats)) + "</code>"
 
+    def show_inspected(self, blades: list):
+        """Show the inspected blades' numbers (see :func:`inspected_html`)."""
+        self.inspect_line.value = inspected_html(blades)
+
+    def show_unsupported(self, what: str, backend: str):
+        """Say that the view in use cannot show ``what`` (instead of failing)."""
+        self.message_line.value = (f"<span style='color:#a60'>{html.escape(what)} is not available in the "
+                                   f"{html.escape(backend)} engine yet</span>")
+
     def show_error(self, err):
         """Show an error (an exception or a text) on the message line, in red."""
         self.message_line.value = f"<span style='color:#b00'>{html.escape(str(err))}</span>"
@@ -209,6 +293,15 @@ class ControlPanel:
         except Exception as err:  # e.g. out of GPU memory: the old field stays
             self.show_error(err)
             self.show_blade_count(int(change["old"]))
+
+    def _on_color_by(self, change):
+        self.legend_line.value = legend_html(change["new"])
+
+    def _on_clear_inspect(self):
+        try:
+            self._actions.inspect([])
+        except Exception as err:
+            self.show_error(err)
 
     def _on_save_click(self):
         w, h = self.view_size  # the widget's size, not the measured view (a border makes that 638 x 478)
@@ -231,6 +324,10 @@ class ControlPanel:
         for link in self._links:
             link.unlink()
         self._links = []
+        try:
+            self.params.unobserve(self._on_color_by, names="color_by")
+        except ValueError:
+            pass
         todo = list(self.rows)
         while todo:
             w = todo.pop()

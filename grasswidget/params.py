@@ -1,9 +1,10 @@
 """Simulation, wind and culling parameters as one validated traitlets object.
 
 ``GrassParams`` is pure Python (no GPU import). Every numeric trait refuses NaN,
-inf and values outside its documented range with a ``TraitError`` whose message
-names the trait, its unit and the allowed range; the previous value stays in
-force. ipywidgets can ``link`` to these traits directly.
+inf and values outside its documented range (every choice trait, values outside
+its choices) with a ``ParameterError``, both a traitlets ``TraitError`` and a
+``ValueError``, whose message names the trait, its unit and the allowed range;
+the previous value stays in force. ipywidgets can ``link`` to these traits directly.
 """
 
 from __future__ import annotations
@@ -14,9 +15,13 @@ import math
 import traitlets
 from traitlets import Bool, HasTraits, TraitError, Unicode
 
-from .enums import BladeShape, GravityMode, WindField
+from .enums import BladeShape, ColorBy, GravityMode, WindField
+from .errors import GrassError
 
-__all__ = ["GrassParams", "StrictTraits", "RangedFloat", "RangedInt", "Vec3", "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES"]
+__all__ = [
+    "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
+]
 
 #: Wind fields understood by the simulation (see ``reference.wind_field``; ids: ``enums.WindField``).
 WIND_FIELDS = WindField.labels()
@@ -24,6 +29,17 @@ WIND_FIELDS = WindField.labels()
 BLADE_SHAPES = BladeShape.labels()
 #: How environmental gravity is aimed (see ``reference.environmental_gravity``; ids: ``enums.GravityMode``).
 GRAVITY_MODES = GravityMode.labels()
+#: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.teaching``; ids: ``enums.ColorBy``).
+COLOR_BY = ColorBy.labels()
+
+
+class ParameterError(GrassError, TraitError, ValueError):
+    """A parameter value outside its documented range or choices.
+
+    A traitlets ``TraitError`` (what traitlets and ipywidgets expect) that is also
+    a ``ValueError`` and a :class:`~grasswidget.errors.GrassError`, so ``except
+    ValueError`` catches bad input too.
+    """
 
 
 class RangedFloat(traitlets.Float):
@@ -51,12 +67,12 @@ class RangedFloat(traitlets.Float):
                 else:
                     raise TypeError
             except TypeError:
-                raise TraitError(
+                raise ParameterError(
                     f"{self.name} must be a number in {self.range_text()}; got {value!r}"
                 ) from None
         value = float(value)
         if not math.isfinite(value) or not (self.lo <= value <= self.hi):
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be a finite number in {self.range_text()}; got {value!r}"
             )
         return value
@@ -80,7 +96,7 @@ class RangedInt(traitlets.Int):
             except ImportError:  # pragma: no cover
                 ok = False
         if not ok or not (self.lo <= int(value) <= self.hi):
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be an integer in [{self.lo}, {self.hi}]{unit}; got {value!r}"
             )
         return int(value)
@@ -95,7 +111,7 @@ class ChoiceTrait(Unicode):
 
     def validate(self, obj, value):
         if not isinstance(value, str) or value not in self.choices:
-            raise TraitError(
+            raise ParameterError(
                 f"{self.name} must be one of {', '.join(map(repr, self.choices))}; got {value!r}"
             )
         return value
@@ -126,9 +142,9 @@ class Vec3(traitlets.TraitType):
                 raise TypeError
             out = tuple(float(x) for x in items)
         except (TypeError, ValueError):
-            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
+            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
         if not all(math.isfinite(x) for x in out) or (self.nonzero and not any(out)):
-            raise TraitError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
+            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
         return out
 
 
@@ -216,6 +232,9 @@ class GrassParams(StrictTraits):
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
     lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
+
+    # ---- teaching views -----------------------------------------------------------
+    color_by = ChoiceTrait("natural", COLOR_BY, help='How blades are coloured: "natural" (lit grass), "lod" (every drawn blade flat in its level-of-detail class colour, grasswidget.LOD_COLORS) or "cull" (every blade drawn; culled ones flat in the colour of the first test that culled them, grasswidget.CULL_COLORS). Applies at the next render.').tag(sync=True)
 
     def copy(self) -> "GrassParams":
         """A new GrassParams with the same values."""

@@ -58,6 +58,7 @@ __all__ = [
     "simulate",
     "wind_period",
     "LOD_SEGMENTS",
+    "CULLED_SEGMENTS",
     "LOD_MIN_PIXELS",
     "orientation_cull",
     "clip_outside",
@@ -65,7 +66,11 @@ __all__ = [
     "distance_cull",
     "projected_pixels",
     "lod_class",
+    "CULL_REASONS",
+    "cull_reason",
     "cull",
+    "blade_forces",
+    "FORCE_NAMES",
     "blade_shape_t",
     "hash01",
 ]
@@ -522,37 +527,52 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     v0 = np.asarray(state["v0"], np.float64)
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
-    v2 = np.asarray(state["v2"], np.float64)
     n = len(v0)
     eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
     eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
     s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
     s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    v1, v2 = _forces_and_validation(state, params, t, user_wind, s)
+    spheres = _spheres(colliders)
+    if len(spheres):
+        v1, v2, add_total = _collision_passes(v0, up, h, v1, v2, spheres)
+        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add_total, COLLISION_MAX)
+    out = dict(state)
+    out["v1"], out["v2"], out["collision"] = v1, v2, eta
+    return out
+
+
+def _forces_and_validation(state, params, t, user_wind, s_eff):
+    """Steps 2-3 of simulate_step: the semi-implicit force update of v2, then validation."""
+    v0 = np.asarray(state["v0"], np.float64)
+    up = np.asarray(state["up"], np.float64)
+    h = np.asarray(state["height"], np.float64)
+    v2 = np.asarray(state["v2"], np.float64)
     t1 = width_direction(up, state["orientation"])
     f = front_direction(up, t1)
     g_env = environmental_gravity(params, v0)
     g = g_env + front_gravity(g_env, f, params.front_gravity)
     w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
     iv2 = v0 + up * h[:, None]
-    v2 = integrate_tip(v2, iv2, s, g + w, params.dt)
+    v2 = integrate_tip(v2, iv2, s_eff, g + w, params.dt)
     v2 = validate_ground(v0, v2, up)
     v1 = validate_v1(v0, v2, up, h)
-    v1, v2 = validate_length(v0, v1, v2, h)
-    spheres = _spheres(colliders)
-    if len(spheres):
-        add_total = np.zeros(n)
-        for _ in range(COLLISION_PASSES):
-            v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
-            add_total += add
-            v2c = validate_ground(v0, v2c, up)
-            v1c = validate_v1(v0, v2c, up, h)
-            v1c, v2c = validate_length(v0, v1c, v2c, h)
-            v1 = np.where(hit[:, None], v1c, v1)
-            v2 = np.where(hit[:, None], v2c, v2)
-        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add_total, COLLISION_MAX)
-    out = dict(state)
-    out["v1"], out["v2"], out["collision"] = v1, v2, eta
-    return out
+    return validate_length(v0, v1, v2, h)
+
+
+def _collision_passes(v0, up, h, v1, v2, spheres):
+    """Step 4 of simulate_step: COLLISION_PASSES pushes out of the spheres, each
+    followed by validation of the pushed blades; returns (v1, v2, sum of |d|^2)."""
+    add_total = np.zeros(len(v0))
+    for _ in range(COLLISION_PASSES):
+        v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
+        add_total += add
+        v2c = validate_ground(v0, v2c, up)
+        v1c = validate_v1(v0, v2c, up, h)
+        v1c, v2c = validate_length(v0, v1c, v2c, h)
+        v1 = np.where(hit[:, None], v1c, v1)
+        v2 = np.where(hit[:, None], v2c, v2)
+    return v1, v2, add_total
 
 
 def _spheres(colliders):
@@ -589,6 +609,8 @@ def simulate(state, params, steps, first_step=0, colliders=None, user_wind=None)
 #: below. (15, 8, 4, 2) was indistinguishable and drew twice the triangles, which
 #: costs a CPU rasterizer (lavapipe) about 20 % of a frame in the cis565 view.
 LOD_SEGMENTS = (8, 4, 2, 1)
+#: Segments of the culled blades drawn with ``color_by = "cull"`` (context, not detail).
+CULLED_SEGMENTS = LOD_SEGMENTS[1]
 #: A blade goes to class k when its projected height in pixels is >= LOD_MIN_PIXELS[k].
 LOD_MIN_PIXELS = (192.0, 64.0, 20.0, 0.0)
 
@@ -663,20 +685,87 @@ def lod_class(v0, v2, height, view_proj, viewport_height):
     return cls
 
 
-def cull(state, params, view_proj, cam_pos, ids=None):
-    """Which blades survive all enabled culling tests (bool (N,), True = drawn)."""
+#: What :func:`cull_reason` returns, by index: 0 kept, then the culling tests in
+#: the order they are applied (the first one that culls a blade is its reason).
+CULL_REASONS = ("kept", "orientation", "frustum", "distance")
+
+
+def cull_reason(state, params, view_proj, cam_pos, ids=None):
+    """Why each blade is culled: an int array (N,) indexing :data:`CULL_REASONS`.
+
+    0 means the blade survives every enabled test; otherwise the value names the
+    first enabled test that culls it, in the order orientation (1), frustum (2),
+    distance (3). A blade culled by frustum and distance is a frustum blade.
+    ``view_proj`` (4x4, world to clip) and ``cam_pos`` describe the culling camera;
+    ``ids`` (default 0..N-1) feed the distance buckets.
+    """
     v0, v1, v2, up = (np.asarray(state[k], np.float64) for k in ("v0", "v1", "v2", "up"))
     n = len(v0)
     ids = np.arange(n) if ids is None else ids
-    culled = np.zeros(n, bool)
+    reason = np.zeros(n, np.int32)
+    tests = []
     if params.cull_orientation:
         t1 = width_direction(up, state["orientation"])
-        culled |= orientation_cull(v0, t1, cam_pos, params.cull_orientation_threshold)
+        tests.append((1, lambda: orientation_cull(v0, t1, cam_pos, params.cull_orientation_threshold)))
     if params.cull_frustum:
-        culled |= frustum_cull(v0, v1, v2, view_proj, params.cull_frustum_tolerance)
+        tests.append((2, lambda: frustum_cull(v0, v1, v2, view_proj, params.cull_frustum_tolerance)))
     if params.cull_distance:
-        culled |= distance_cull(v0, up, cam_pos, ids, params.cull_buckets, params.cull_distance_max)
-    return ~culled
+        tests.append((3, lambda: distance_cull(v0, up, cam_pos, ids, params.cull_buckets, params.cull_distance_max)))
+    for code, test in tests:
+        reason = np.where((reason == 0) & test(), code, reason)
+    return reason
+
+
+def cull(state, params, view_proj, cam_pos, ids=None):
+    """Which blades survive all enabled culling tests (bool (N,), True = drawn)."""
+    return cull_reason(state, params, view_proj, cam_pos, ids) == 0
+
+
+# --------------------------------------------------------------------------- forces, for the inspector
+
+#: The arrows of the blade inspector, in drawing order (see :func:`blade_forces`).
+FORCE_NAMES = ("gravity", "recovery", "wind", "collision")
+
+
+def blade_forces(state, params, t, colliders=None, user_wind=None):
+    """What moves each tip guide v2 in the next step from ``state``: three
+    accelerations (m/s^2) and the collision push (m).
+
+    Returns a dict of (N, 3) arrays, keyed by :data:`FORCE_NAMES`:
+
+    - ``gravity``: g = gE + gF (environmental plus front gravity, eq. 1-2);
+    - ``recovery``: r = (iv2 - v2) s_eff with s_eff = s * stiffness_scale *
+      max(1 - eta, RECOVERY_FLOOR), eta the collision strength after this step's
+      fade (the explicit form of the paper's eq. 4; the integrator takes it at the
+      end of the step, see :func:`integrate_tip`);
+    - ``wind``: w = W(v0, t) fd fr (eq. 3-5) at time ``t`` (s);
+    - ``collision``: the displacement d (m, not an acceleration) by which the
+      colliders push v2 in this step, after the forces and the validation, as
+      :func:`simulate_step` does. Zero where no sphere touches the blade.
+
+    The state is not changed. ``colliders`` and ``user_wind`` as in :func:`simulate_step`.
+    """
+    v0 = np.asarray(state["v0"], np.float64)
+    up = np.asarray(state["up"], np.float64)
+    h = np.asarray(state["height"], np.float64)
+    v2 = np.asarray(state["v2"], np.float64)
+    n = len(v0)
+    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
+    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
+    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
+    s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    t1 = width_direction(up, state["orientation"])
+    g_env = environmental_gravity(params, v0)
+    g = g_env + front_gravity(g_env, front_direction(up, t1), params.front_gravity)
+    w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
+    r = (v0 + up * h[:, None] - v2) * s[:, None]
+    collision = np.zeros((n, 3))
+    spheres = _spheres(colliders)
+    if len(spheres):
+        v1_step, v2_step = _forces_and_validation(state, params, t, user_wind, s)
+        _, v2_pushed, _ = _collision_passes(v0, up, h, v1_step, v2_step, spheres)
+        collision = v2_pushed - v2_step
+    return {"gravity": g, "recovery": r, "wind": w, "collision": collision}
 
 
 # --------------------------------------------------------------------------- drawing

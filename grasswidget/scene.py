@@ -75,13 +75,11 @@ class GrassScene:
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
-        ground = gfx.Mesh(
-            gfx.plane_geometry(extent * 1.2, extent * 1.2),
-            gfx.MeshPhongMaterial(color="#3b2a1a"),
-        )
+        ground = gfx.Mesh(gfx.plane_geometry(1.0, 1.0), gfx.MeshPhongMaterial(color="#3b2a1a"))
         ground.local.rotation = (-np.sqrt(0.5), 0, 0, np.sqrt(0.5))  # xy plane -> xz plane, facing +y
         ground.local.position = (center[0], -0.01, center[2])
         self.ground = ground
+        self._field_extent = extent
         self.scene.add(ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
@@ -96,6 +94,7 @@ class GrassScene:
         set_vertical_fov(self.camera, 45, self.size[0] / self.size[1])
         self.preset_name = None
         self._default_view(extent, center)
+        self._fit_ground()
 
         if canvas is None:
             from rendercanvas.offscreen import RenderCanvas
@@ -136,6 +135,14 @@ class GrassScene:
         self.camera.depth_range = (near, far)
         set_vertical_fov(self.camera, fov, self.size[0] / self.size[1])
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
+        self._fit_ground()
+
+    def _fit_ground(self):
+        """Size the ground plane to reach the far plane from anywhere over the field,
+        so that a low camera sees ground, not sky, below the horizon."""
+        far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
+        side = 1.2 * self._field_extent + 2.0 * far
+        self.ground.local.scale = (side, side, 1.0)
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a
@@ -186,6 +193,55 @@ class GrassScene:
     def reset_camera(self):
         """Put the camera back where the scene started."""
         self.camera.local.position, self.camera.local.rotation = self._home
+
+    # ------------------------------------------------------------------ teaching views
+
+    def viewport_size(self) -> tuple:
+        """(width, height) in physical pixels of the scene's view (its renderer's
+        target; the asked ``size`` while the canvas has none yet)."""
+        try:
+            w, h = self.renderer.physical_size
+        except Exception:
+            w = h = 0
+        return (int(w), int(h)) if w > 0 and h > 0 else tuple(self.size)
+
+    def freeze_culling(self):
+        """Freeze culling at the current camera: from now on the field culls and
+        picks LOD classes against a copy of this camera (pose, projection,
+        viewport), however the camera moves, and the copy's view volume is drawn
+        as white lines. Fly out (e.g. above the field) to see what the frozen view
+        keeps; with ``params.color_by = "cull"`` every culled blade shows the test
+        that culled it. Freezing again takes a new copy. See :meth:`unfreeze_culling`.
+        """
+        self.field.freeze_culling(self.camera, self.viewport_size())
+
+    def unfreeze_culling(self):
+        """Cull against the rendering camera again (the default)."""
+        self.field.unfreeze_culling()
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True between :meth:`freeze_culling` and :meth:`unfreeze_culling`."""
+        return self.field.culling_frozen
+
+    def inspect(self, ids):
+        """Show up to 64 blades in the blade inspector: v0, v1, v2 as dots, the
+        control polygon, and arrows for the forces of the current step on v2
+        (gravity: violet, recovery: cyan, wind: red; an acceleration of 20 m/s^2
+        is as long as the blade) and the push of a touching sphere in this step
+        (amber, drawn 10 times its length), every frame from the GPU state. ``inspect([])`` clears. Ids out of range, more than 64 ids
+        or non-integers raise ValueError naming the limit. See GrassField.inspect.
+        """
+        self.field.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades."""
+        return self.field.inspected
+
+    def read_inspected(self) -> list:
+        """Numbers of the inspected blades as of the last render: GrassField.read_inspected."""
+        return self.field.read_inspected()
 
     # ------------------------------------------------------------------ time
 

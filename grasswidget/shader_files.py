@@ -23,31 +23,39 @@ The engine-neutral files and what they need:
 ``blade_math.wgsl``
     The blade math, one function per NumPy twin of ``reference.py`` (same names).
     Pure functions: no bindings.
+``wind_field.wgsl``
+    ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
+    ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
+    of ``gpu.simulation.SIM_UNIFORM``). Included by the simulation and the inspector.
 ``simulate_body.wgsl``
-    ``wind_field(p, t)``, the compute entry point ``main`` and ``user_wind`` (body
-    ``{{ user_wind_body }}``). Expects, declared by the engine: ``u_sim`` (a
-    uniform whose fields are those of ``gpu.simulation.SIM_UNIFORM``),
+    The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
     ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
 ``cull_body.wgsl``
     The culling entry point ``main``. Expects ``u_stdinfo`` (fields
     ``projection_transform``, ``cam_transform``, ``cam_transform_inv``,
     ``physical_size``; pygfx's names), ``u_wobject.world_transform``, ``u_cull``
     (fields of ``gpu.field.CULL_UNIFORM``), ``s_blades`` (read), ``s_args:
-    array<atomic<u32>>`` and ``s_visible: array<u32>`` (read_write).
+    array<atomic<u32>>``, ``s_visible: array<u32>``, ``s_culled: array<u32>`` and
+    ``s_culled_args: array<atomic<u32>>`` (read_write; the culled blades drawn
+    with ``color_by = "cull"``).
 
 ``simulate.wgsl`` and ``cull.wgsl`` are the pygfx wrappers: ``{{ bindings_code }}``
 (pygfx's generated declarations) and the few declarations pygfx cannot generate,
-then the body. ``blade_render.wgsl`` and ``reset_args.wgsl`` are pygfx-only.
+then the body. ``blade_render.wgsl``, ``reset_args.wgsl`` and ``inspect.wgsl``
+(the blade inspector, :mod:`grasswidget.gpu.inspector`) are pygfx-only.
 
 Template variables (:func:`template_vars`): ``wind_field_<name>``,
-``blade_shape_<name>``, ``gravity_mode_<name>`` (the ids of
+``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
 :mod:`grasswidget.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
 ``collision_passes``, ``noise_scale`` (from ``reference.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
 ``n_classes``, ``lod_segments``, ``lod_min_pixels`` (level-of-detail classes),
-``blades_writable`` (False; True in the simulation) and ``user_wind_body``
-(the custom wind; default: no wind).
+``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
+True in the pygfx shader classes: the frozen culling camera, ``color_by`` and the
+draw of culled blades, which need ``u_cull``'s ``color_by``/``frozen_*`` fields,
+``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.teaching`) and
+``user_wind_body`` (the custom wind; default: no wind).
 """
 
 from __future__ import annotations
@@ -90,13 +98,15 @@ def wgsl_float(x: float) -> str:
 
 def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
-    from .enums import BladeShape, GravityMode, WindField
-    from .reference import COLLISION_MAX, COLLISION_PASSES, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE, RECOVERY_FLOOR
+    from .enums import BladeShape, ColorBy, GravityMode, WindField
+    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
+                            RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
         **BladeShape.template_vars("blade_shape"),
         **GravityMode.template_vars("gravity_mode"),
+        **ColorBy.template_vars("color_by"),
         "recovery_floor": wgsl_float(RECOVERY_FLOOR),
         "collision_max": wgsl_float(COLLISION_MAX),
         "collision_passes": int(COLLISION_PASSES),
@@ -104,9 +114,31 @@ def template_vars() -> dict:
         "workgroup_size": WORKGROUP_SIZE,
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),
+        "culled_segments": int(CULLED_SEGMENTS),
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
+        "teaching_views": False,
         "user_wind_body": NO_WIND_BODY,
+    }
+
+
+def ribbon_vars(lod_class: int) -> dict:
+    """The template variables of ``blade_render.wgsl`` for one draw: LOD classes
+    ``0 .. len(LOD_SEGMENTS) - 1``, and ``len(LOD_SEGMENTS)`` for the culled blades
+    drawn with ``color_by = "cull"`` (CULLED_SEGMENTS segments, flat in CULL_COLORS)."""
+    from .reference import CULLED_SEGMENTS, LOD_SEGMENTS
+    from .teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
+
+    def rgb(color):
+        return ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(color))
+
+    culled = lod_class == len(LOD_SEGMENTS)
+    return {
+        "lod_class": int(lod_class),
+        "culled": culled,
+        "segments": CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
+        "lod_color": rgb(LOD_COLORS[0 if culled else lod_class]),
+        "cull_colors": [rgb(c) for c in CULL_COLORS.values()],
     }
 
 

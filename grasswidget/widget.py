@@ -8,7 +8,8 @@ own module:
   its mouse and key events and its clock;
 * a control panel (:class:`grasswidget.panel.ControlPanel`): sliders, culling
   checkboxes, the ball row (:mod:`grasswidget.widget_ball`), play/pause/step/
-  reset buttons, a live stats line and a "Save PNG" button, linked to the
+  reset buttons, a live stats line, a "Save PNG" button and the teaching row
+  (colour by, freeze culling, legend, inspected blade), linked to the
   :class:`GrassParams` traits.
 
 ::
@@ -29,12 +30,15 @@ browser when it offers a WebGPU adapter. A browser without WebGPU makes a
 "browser" or "auto" widget fall back to kernel streaming with one line saying so.
 
 Streaming and time: see :mod:`grasswidget.kernel_view`. Mouse: drag to orbit,
-right-drag to pan, wheel to zoom. Shift + drag puts the ball (a sphere
+right-drag to pan, wheel to zoom (the camera stays above the ground and the
+field in sight, see :mod:`grasswidget.orbit`). Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
 input, not to the notebook): space = play/pause, ``s`` = step one frame,
-``r`` = reset the camera.
+``r`` = reset the camera. Ctrl + click on a blade inspects it (``w.inspect(ids)``
+from code); "freeze culling" (``w.culling_frozen = True``) freezes culling at the
+current camera, so orbiting away shows what that view culls.
 """
 
 from __future__ import annotations
@@ -45,7 +49,7 @@ import weakref
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import Bool
+from traitlets import All, Bool
 
 from .blades import Blades
 from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
@@ -199,12 +203,14 @@ class GrassWidget(ipw.VBox):
         step_button, reset_blades_button, reset_camera_button, save_button,
         png_scale, file_line, stats_line, message_line: the panel's controls.
 
-    Traits: ``time_scale`` (simulated seconds per real second, 0..10) and ``playing``.
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
+    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
     """
 
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per real second (at the nominal frame rate).")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -295,11 +301,15 @@ class GrassWidget(ipw.VBox):
         except BaseException:
             self.close()
             raise
-        super().__init__(children=[self.view.widget, *self.panel.rows])
+        # The panel is exactly as wide as the view; its rows wrap within it.
+        super().__init__(children=[self.view.widget, *self.panel.rows],
+                         layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
         self.add_class("grasswidget")
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
+        self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.params.observe(self._on_color_by, names="color_by")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -335,7 +345,8 @@ class GrassWidget(ipw.VBox):
             self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
             self._streaming["max_blades"] = blades
         return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
-                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats)
+                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          on_inspect=self._show_inspected)
 
     def _make_ball(self):
         from .widget_ball import BallControl
@@ -459,6 +470,21 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         self.view.reset_camera()
 
+    def inspect(self, ids):
+        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
+        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
+        else raises ValueError naming the limit (nothing changes then)."""
+        self._check_open()
+        if not hasattr(self.view, "inspect"):
+            self.panel.show_unsupported("the blade inspector", self.view.backend)
+            return
+        self.view.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
+        return tuple(getattr(self.view, "inspected", ()))
+
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
         browser renders it at that size and Python writes it; this waits for it).
@@ -550,10 +576,11 @@ class GrassWidget(ipw.VBox):
         self._closed = True
         params = getattr(self, "params", None)
         if params is not None:
-            try:
-                params.unobserve(self._on_param_change)
-            except ValueError:
-                pass
+            for handler, names in ((self._on_param_change, All), (self._on_color_by, "color_by")):
+                try:
+                    params.unobserve(handler, names=names)
+                except ValueError:
+                    pass
         if self.panel is not None:
             self.panel.close()
         if self.view is not None:
@@ -602,6 +629,22 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+
+    def _show_inspected(self, blades):
+        if self.panel is not None:
+            self.panel.show_inspected(blades)
+
+    def _on_color_by(self, change):
+        if not self._closed and change["new"] != "natural" and not getattr(self.view, "teaching_views", False):
+            self.panel.show_unsupported(f"colour by {change['new']}", self.view.backend)
+
+    def _on_culling_frozen(self, change):
+        if self._closed:
+            return
+        if not hasattr(self.view, "set_culling_frozen"):
+            self.panel.show_unsupported("freeze culling", self.view.backend)
+            return
+        self.view.set_culling_frozen(bool(change["new"]))
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""

@@ -152,10 +152,12 @@ class BallControl(HasTraits):
     # ------------------------------------------------------------------ controls
 
     def _build_controls(self):
-        lay = ipw.Layout(width="240px")
+        # Sized to fit a 640 px view: "sphere", x and z on one line, radius and Roll on the next
+        # (the row wraps on a narrower view).
+        lay = ipw.Layout(width="272px")
         style = {"description_width": "50px"}
         self.checkbox = ipw.Checkbox(value=False, description="sphere", indent=False,
-                                     layout=ipw.Layout(width="80px"),
+                                     layout=ipw.Layout(width="76px"),
                                      tooltip="A sphere collider on the ground (shift + drag on the view moves it)")
         self.x_slider = ipw.FloatSlider(description="x", step=0.05, readout_format=".2f", style=style, layout=lay,
                                         continuous_update=True, tooltip="Ball centre x (m)")
@@ -177,7 +179,8 @@ class BallControl(HasTraits):
                         to_control=lambda c: c[2]),
             ControlLink(self.radius_slider, col, "radius", err),
         ]
-        self.controls = ipw.HBox([self.checkbox, self.x_slider, self.z_slider, self.radius_slider, self.roll_button])
+        self.controls = ipw.HBox([self.checkbox, self.x_slider, self.z_slider, self.radius_slider, self.roll_button],
+                                 layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center"))
 
     def _update_slider_ranges(self):
         """Slider ranges for the current field (a ball outside is brought to the edge)."""

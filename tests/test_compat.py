@@ -136,3 +136,47 @@ def test_widget_handlers_take_both_event_formats(widget, fmt):
     for _ in range(60):
         widget.controller.tick()
     assert np.linalg.norm(np.array(cam.world.position) - p0) > 0.05
+
+
+def test_held_orbit_controller_hooks_every_step():
+    """The OrbitController hooks (grasswidget.orbit holds the camera with them) still
+    see every orbit, zoom and pan step, and what they return is what the camera gets."""
+    import pygfx as gfx
+
+    calls = []
+
+    def hold(controller, position, target, state):
+        calls.append(tuple(np.round(position, 6)))
+        # keep the camera's height: a "floor" at its start
+        if position[1] < 2.0:
+            p = np.array(position, np.float64)
+            p[1] = 2.0
+            return p, state["rotation"], np.asarray(target, np.float64)
+        return None
+
+    camera = gfx.PerspectiveCamera(45, 1.0)
+    camera.local.position = (0, 2, 10)
+    controller = compat.held_orbit_controller_class(hold)(camera, target=(0, 2, 0))
+    rect = (0, 0, 100, 100)
+    controller.rotate((0.3, 0.0), rect)        # azimuth only: inside the floor
+    controller.rotate((0.0, -0.4), rect)       # down: held at the floor
+    assert camera.local.position[1] == pytest.approx(2.0)
+    controller.zoom(0.2, rect)
+    controller.pan((5.0, 0.0), rect)
+    assert len(calls) == 4
+
+
+def test_pygfx_hooks_the_teaching_views_override():
+    """pygfx calls WorldObject._update_object on every visible object in each render,
+    and get_pick_info hands the pick value to the material's _wgpu_get_pick_info."""
+    import inspect
+
+    import pygfx as gfx
+    from pygfx.renderers.wgpu.engine import renderer
+
+    assert callable(getattr(gfx.WorldObject, "_update_object", None))
+    assert "wobject._update_object()" in inspect.getsource(renderer.FlatScene)
+    assert callable(getattr(gfx.Material, "_wgpu_get_pick_info", None))
+    source = inspect.getsource(renderer.WgpuRenderer.get_pick_info)
+    assert "_wgpu_get_pick_info(pick_value)" in source
+    assert "pick_value & 1048575" in source  # 20 bits of object id; the blade id is packed above them

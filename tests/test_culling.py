@@ -206,7 +206,8 @@ def test_indirect_patch_is_live(scene):
     assert indirect.is_installed()
     used = _containers(scene)
     draws = [c for c in used if hasattr(c, "shader") and getattr(c.shader, "indirect_args", None) is not None]
-    assert len(draws) == len(ref.LOD_SEGMENTS), "pygfx no longer draws the grass through the indirect container"
+    # one draw per LOD class, and one of the culled blades (color_by "cull")
+    assert len(draws) == len(ref.LOD_SEGMENTS) + 1, "pygfx no longer draws the grass through the indirect container"
     assert all(isinstance(c, indirect.IndirectRenderPipelineContainer) for c in draws)
     # the args buffer really drives the draw: zero instances -> no grass on screen
     img = scene.render()

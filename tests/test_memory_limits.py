@@ -98,6 +98,16 @@ def test_every_generator_checks_the_count(tmp_path, monkeypatch):
 
 
 def test_gpu_limit_arithmetic():
+    # the constants are the GPU layer's real sizes
+    from grasswidget.blades import BLADE_BYTES
+
+    assert memory.GPU_STATE_BYTES_PER_BLADE == BLADE_BYTES
+    field = gw.GrassField(gw.Blades.on_plane(64))
+    try:
+        assert field.bytes_per_blade == (memory.GPU_STATE_BYTES_PER_BLADE + memory.GPU_INDEX_BYTES_PER_BLADE
+                                         + memory.GPU_COLLISION_BYTES_PER_BLADE)
+    finally:
+        field.release()
     limits = {"max-storage-buffer-binding-size": 128 << 20, "max-buffer-size": 1 << 31}
     assert memory.max_blades_for_gpu(limits) == (128 << 20) // 64 == 2_097_152
     assert memory.check_gpu_blade_count(2_097_152, limits) == 2_097_152

@@ -100,6 +100,14 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     if path.stem == "01_tour":
         assert (tmp_path / "output" / "tour.png").stat().st_size > 1000
         assert (tmp_path / "output" / "tour.gif").stat().st_size > 1000
+    if path.stem == "02_blade_model":  # the inspector in calm air, in wind, under a ball
+        assert (tmp_path / "output" / "inspector.png").stat().st_size > 1000
+        text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+        assert "against a ball" in text and "collision push" in text
+    if path.stem == "03_culling":  # each test seen from above through a frozen camera, with counts
+        assert (tmp_path / "output" / "culling_birdseye.png").stat().st_size > 1000
+        text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+        assert "drawn per LOD class, GPU" in text and "orientation" in text
     if path.stem == "05_colliders_and_wind":
         for name in ("trampled.png", "vortex.png", "planet.png"):
             assert (tmp_path / "output" / name).stat().st_size > 1000

@@ -21,7 +21,7 @@ from conftest import HARNESS_BINDINGS
 
 from grasswidget import reference as ref
 from grasswidget.blades import BLADE_LAYOUT, pack_state
-from grasswidget.enums import BladeShape, GravityMode, WindField
+from grasswidget.enums import BladeShape, ColorBy, GravityMode, WindField
 from grasswidget.shader_files import read_shader, render_wgsl, template_vars
 
 N = 256
@@ -412,13 +412,14 @@ def _field_words(fields):
 def test_ids_and_constants_come_from_python():
     """No hand-written copies: the WGSL switches on the enums' ids and uses the reference's constants."""
     v = template_vars()
-    for enum, prefix in ((WindField, "wind_field"), (BladeShape, "blade_shape"), (GravityMode, "gravity_mode")):
+    for enum, prefix in ((WindField, "wind_field"), (BladeShape, "blade_shape"), (GravityMode, "gravity_mode"),
+                         (ColorBy, "color_by")):
         for m in enum:
             assert v[f"{prefix}_{m.name.lower()}"] == int(m)
     assert v["collision_passes"] == ref.COLLISION_PASSES
     assert float(v["recovery_floor"]) == ref.RECOVERY_FLOOR and float(v["collision_max"]) == ref.COLLISION_MAX
     assert float(v["noise_scale"]) == ref.NOISE_SCALE
-    simulate = read_shader("simulate.wgsl")
+    simulate = read_shader("simulate.wgsl") + read_shader("wind_field.wgsl")  # wind_field() lives in the include
     for m in WindField:
         if m != WindField.WAVE:
             assert f"case {{{{ wind_field_{m.name.lower()} }}}}" in simulate
@@ -433,7 +434,7 @@ def test_ids_and_constants_come_from_python():
 
 def test_shared_includes_are_engine_neutral():
     """The includes another engine reuses declare no bindings of pygfx's (it prepends its own)."""
-    for name in ("blade.wgsl", "blade_math.wgsl", "simulate.wgsl", "cull.wgsl"):
+    for name in ("blade.wgsl", "blade_math.wgsl", "wind_field.wgsl", "simulate.wgsl", "cull.wgsl"):
         code = read_shader(name)
         assert "@group(" not in code and "bindings_code" not in code and "pygfx" not in code, name
         render_wgsl(name)  # renders without pygfx

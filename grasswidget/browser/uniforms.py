@@ -66,6 +66,11 @@ CULL_LAYOUT = (
     ("cull_distance", "i32"),
     ("lod", "i32"),
     ("n_blades", "u32"),
+    ("color_by", "i32"),
+    ("frozen", "i32"),
+    ("frozen_viewport_height", "f32"),
+    ("frozen_cam_pos", "vec4<f32>"),
+    ("frozen_view_proj", "mat4x4<f32>"),
 )
 
 STDINFO_LAYOUT = (

@@ -23,7 +23,7 @@ from pathlib import Path
 import jinja2
 
 from ..reference import LOD_SEGMENTS
-from ..shader_files import NO_WIND_BODY, shader_dir, template_vars
+from ..shader_files import NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -186,8 +186,8 @@ class BrowserShaders:
     def blades() -> list:
         """One ribbon shader per level-of-detail class (segments along the blade)."""
         return [
-            render_shader("blade_render.wgsl", "render", lod_class=k, segments=s)
-            for k, s in enumerate(LOD_SEGMENTS)
+            render_shader("blade_render.wgsl", "render", **ribbon_vars(k))
+            for k in range(len(LOD_SEGMENTS))
         ]
 
     @staticmethod

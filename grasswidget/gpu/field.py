@@ -16,6 +16,7 @@ from pygfx.utils import array_from_shadertype
 from .. import compat
 from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
+from ..enums import ColorBy
 from ..errors import BladeLimitError, WindShaderError
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
@@ -23,6 +24,7 @@ from ..reference import LOD_SEGMENTS
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
+from .frozen_camera import FrozenCamera
 from .material import GrassMaterial
 from .simulation import Simulation
 
@@ -42,7 +44,13 @@ CULL_UNIFORM = dict(
     cull_distance="i4",
     lod="i4",
     n_blades="u4",
+    color_by="i4",
+    frozen="i4",
+    frozen_viewport_height="f4",
+    frozen_cam_pos="4xf4",
+    frozen_view_proj="4x4xf4",
 )
+
 
 
 def check_blade_limits(count, device):
@@ -118,6 +126,18 @@ class GrassField(gfx.WorldObject):
             nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
         )
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
+        # The draw of the culled blades (color_by "cull"): args, and the list of
+        # id | reason << 30, allocated (N u32) the first time "cull" is used.
+        self._store.culled_args_buffer = gfx.Buffer(
+            nbytes=16, nitems=4, format="u4", usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC
+        )
+        self._store.culled_buffer = gfx.Buffer(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        self._frozen_camera = None
+        #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
+        self.frustum_lines = None
+        #: The blade inspector (a child :class:`~grasswidget.gpu.inspector.BladeInspector`),
+        #: created by the first :meth:`inspect`.
+        self.inspector = None
         #: The physics: compute program, ``u_sim`` uniform writer and step counter.
         self.simulation = Simulation(self)
         # Per-blade collision strength eta (N float32), persistent across steps.
@@ -157,6 +177,17 @@ class GrassField(gfx.WorldObject):
     def visible_buffer(self):
         """pygfx Buffer of LOD classes x N u32: compacted ids of the blades drawn per class."""
         return self._store.visible_buffer
+
+    @property
+    def culled_args_buffer(self):
+        """pygfx Buffer of (vertex_count, instance_count, 0, 0) u32: the draw of the
+        culled blades (instances only with ``params.color_by == "cull"``)."""
+        return self._store.culled_args_buffer
+
+    @property
+    def culled_buffer(self):
+        """pygfx Buffer of u32: ids of culled blades | reason << 30 (color_by "cull")."""
+        return self._store.culled_buffer
 
     @property
     def cull_uniform_buffer(self):
@@ -206,7 +237,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
-        if change["name"].startswith("cull_") or change["name"] == "lod":
+        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by"):
             self._write_cull_uniform()
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
@@ -225,7 +256,96 @@ class GrassField(gfx.WorldObject):
         d["cull_distance"] = int(p.cull_distance)
         d["lod"] = int(p.lod)
         d["n_blades"] = self.count
+        d["color_by"] = ColorBy.from_label(p.color_by)
+        if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
+            self._store.culled_buffer = gfx.Buffer(
+                nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
+            )
+        frozen = self._frozen_camera
+        d["frozen"] = int(frozen is not None)
+        if frozen is not None:
+            d["frozen_view_proj"] = frozen.view_proj.T  # WGSL matrices are column-major
+            d["frozen_cam_pos"] = (*frozen.position, 1.0)
+            d["frozen_viewport_height"] = frozen.viewport_size[1]
         self.cull_uniform_buffer.update_full()
+
+    # ------------------------------------------------------------------ frozen culling
+
+    def freeze_culling(self, camera, viewport_size=None):
+        """Cull and pick LOD classes against a copy of ``camera`` from now on.
+
+        Copies the camera's world pose and projection at the aspect of
+        ``viewport_size`` ((width, height) in physical pixels of the view it
+        renders; also the pixel scale of the LOD classes). Any camera may then
+        render the field: the same blades stay culled, and the copy's view volume
+        is drawn as white lines (:attr:`frustum_lines`, a child of the field).
+        Freezing again replaces the copy. ``camera`` may also be a
+        :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
+        :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
+        """
+        if isinstance(camera, FrozenCamera):
+            frozen = camera
+        elif viewport_size is None:
+            raise ValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
+        else:
+            frozen = FrozenCamera(camera, viewport_size)
+        to_local = np.linalg.inv(np.asarray(self.world.matrix, np.float64))
+        if self.frustum_lines is not None:
+            self.remove(self.frustum_lines)
+        self._frozen_camera = frozen
+        self.frustum_lines = frozen.make_lines(to_local)
+        self.add(self.frustum_lines)
+        self._write_cull_uniform()
+
+    def unfreeze_culling(self):
+        """Cull against the camera of each render again (and remove the frustum lines)."""
+        if self.frustum_lines is not None:
+            self.remove(self.frustum_lines)
+        self.frustum_lines = None
+        self._frozen_camera = None
+        self._write_cull_uniform()
+
+    # ------------------------------------------------------------------ inspector
+
+    def inspect(self, ids):
+        """Draw these blades' control points v0, v1, v2, control polygon and the
+        forces of the current step on v2 (gravity, recovery, wind, and the
+        collision push when a sphere touches) as arrows, every frame, from the GPU
+        state (see :mod:`grasswidget.gpu.inspector`). ``[]`` clears.
+
+        At most 64 ids, each an integer in [0, count - 1]; anything else raises
+        ValueError naming the limit and changes nothing.
+        """
+        from .inspector import BladeInspector
+        from ..teaching import check_inspect_ids
+
+        check_inspect_ids(ids, self.count)
+        if self.inspector is None:
+            self.inspector = BladeInspector(self)
+            self.add(self.inspector)
+        self.inspector.set_ids(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the blades shown by the inspector (empty when none)."""
+        return self.inspector.ids if self.inspector is not None else ()
+
+    def read_inspected(self) -> list:
+        """The inspected blades' numbers as of the last render (one small readback):
+        see :meth:`grasswidget.gpu.inspector.BladeInspector.read`."""
+        return self.inspector.read() if self.inspector is not None else []
+
+    # ------------------------------------------------------------------ frozen culling (state)
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True while the field culls against a frozen camera (:meth:`freeze_culling`)."""
+        return self._frozen_camera is not None
+
+    @property
+    def frozen_camera(self):
+        """The :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` culled against, or None."""
+        return self._frozen_camera
 
     # ------------------------------------------------------------------ simulation
 
@@ -273,7 +393,10 @@ class GrassField(gfx.WorldObject):
         if self.stats is not None:
             self.stats.release()
             self.stats = None
-        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer")
+        if self.inspector is not None:
+            self.inspector.release()
+        names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
+                 "culled_args_buffer", "culled_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.simulation.release()
 

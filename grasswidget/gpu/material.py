@@ -65,6 +65,11 @@ class GrassMaterial(gfx.Material):
         self.uniform_buffer.data[key] = value
         self.uniform_buffer.update_full()
 
+    def _wgpu_get_pick_info(self, pick_value) -> dict:
+        """pygfx's hook for ``renderer.get_pick_info``: the blade shader packs the
+        blade id in the 26 bits after the object id (with ``pick_write = True``)."""
+        return {"blade_index": int((pick_value >> 20) & ((1 << 26) - 1))}
+
     @property
     def root_color(self):
         """Colour at the blade root (sRGB)."""

@@ -7,7 +7,8 @@ every ``renderer.render()``:
 
 1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts.
 2. ``CullShader`` (compute): cull, bin into LOD classes, append survivors.
-3. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class.
+3. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
+   then one more for the culled blades (instances only with ``color_by = "cull"``).
 
 The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
 dispatched by ``GrassField.step()``, never by ``render()``.
@@ -19,20 +20,28 @@ import weakref
 
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import LOD_SEGMENTS
-from ..shader_files import read_shader
+from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..shader_files import read_shader, ribbon_vars
 from .field import GrassField
 from .material import GrassMaterial
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 
-__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP"]
+__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP",
+           "CULLED_SEGMENTS"]
 
 
 class ResetArgsShader(GrassComputeShader):
-    """Reset the indirect draw arguments at the start of each frame."""
+    """Reset the indirect draw arguments at the start of each frame (the LOD classes'
+    and the culled blades')."""
+
+    def __init__(self, wobject):
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
-        return {0: {0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE")}}
+        return {0: {
+            0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+            1: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
+        }}
 
     def get_code(self):
         return read_shader("reset_args.wgsl")
@@ -44,9 +53,13 @@ class ResetArgsShader(GrassComputeShader):
 class CullShader(GrassComputeShader):
     """Per-frame culling + LOD binning into compacted lists (feeds draw_indirect).
 
-    The pygfx bindings are generated here (``s_args`` by hand: pygfx does not
-    declare atomics); ``cull.wgsl`` is the engine-neutral body.
+    The pygfx bindings are generated here (``s_args`` and ``s_culled_args`` by
+    hand: pygfx does not declare atomics); ``cull.wgsl`` is the engine-neutral body,
+    rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
     """
+
+    def __init__(self, wobject):
+        super().__init__(wobject, teaching_views=True)
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -56,8 +69,10 @@ class CullShader(GrassComputeShader):
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
+            13: Binding("s_culled", "buffer/storage", wobject.culled_buffer, "COMPUTE"),
+            14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2, 10, 12):
+        for slot in (0, 1, 2, 10, 12, 13):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
@@ -65,6 +80,7 @@ class CullShader(GrassComputeShader):
         return (
             "{{ bindings_code }}\n"
             "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
             "{$ include 'grasswidget.cull.wgsl' $}\n"
         )
 
@@ -73,17 +89,22 @@ class CullShader(GrassComputeShader):
 
 
 class BladeRenderShader(BaseShader):
-    """Ribbons of one LOD class, drawn with ``draw_indirect`` from the class's args."""
+    """Ribbons of one LOD class, drawn with ``draw_indirect`` from the class's args.
+
+    ``lod_class = len(LOD_SEGMENTS)`` is the draw of the culled blades
+    (``color_by = "cull"``): CULLED_SEGMENTS segments, flat in CULL_COLORS.
+    """
 
     type = "render"
 
     def __init__(self, wobject, lod_class):
-        super().__init__(wobject, **shader_vars(lod_class=lod_class, segments=LOD_SEGMENTS[lod_class]))
-        self.indirect_args = wobject.args_buffer
-        self.indirect_offset = 16 * lod_class
+        culled = lod_class == len(LOD_SEGMENTS)
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=True))
+        self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
+        self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)
         self._when = ("before",) if lod_class == 0 else ()
-        self._when += ("after",) if lod_class == len(LOD_SEGMENTS) - 1 else ()
+        self._when += ("after",) if culled else ()
 
     def draw_hook(self, render_pass, when):
         """GPU timestamps around the field's draws (first class: begin, last: end)."""
@@ -102,6 +123,8 @@ class BladeRenderShader(BaseShader):
             Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
             Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
         ]
+        if self["culled"]:
+            bindings.append(Binding("s_culled", rbuffer, wobject.culled_buffer, "VERTEX"))
         bindings = dict(enumerate(bindings))
         self.define_bindings(0, bindings)
         return {0: bindings}
@@ -111,7 +134,7 @@ class BladeRenderShader(BaseShader):
 
     def get_render_info(self, wobject, shared):
         # Ignored when drawing indirectly; kept valid for pygfx's checks.
-        return {"indices": (2 * (LOD_SEGMENTS[self["lod_class"]] + 1), 0)}
+        return {"indices": (2 * (self["segments"] + 1), 0)}
 
     def get_code(self):
         return read_shader("blade_render.wgsl")
@@ -119,9 +142,10 @@ class BladeRenderShader(BaseShader):
 
 @register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
-    """The passes of one GrassField: reset, cull, then one draw per LOD class."""
+    """The passes of one GrassField: reset, cull, then one draw per LOD class and
+    one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
         CullShader(wobject),
-        *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS))),
+        *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
     ]

@@ -136,7 +136,9 @@ class Simulation:
 
     def __init__(self, field):
         self.field = field
-        self.uniform_buffer = gfx.Buffer(array_from_shadertype(SIM_UNIFORM), force_contiguous=True)
+        self.uniform_buffer = gfx.Buffer(
+            array_from_shadertype(SIM_UNIFORM), force_contiguous=True, usage=wgpu.BufferUsage.UNIFORM
+        )  # UNIFORM from the start: the inspector may write it before the first step
         self.step_count = 0
         self.wind_body = None
         self._program = None

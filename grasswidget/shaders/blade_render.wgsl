@@ -2,6 +2,11 @@
 // pulling: no vertex buffers. Instance i is the i-th entry of the class's
 // compacted list; vertex k of its triangle strip is row k/2 (v = row / segments)
 // and side k%2 (u). Ribbon formulas: paper section 6 / reference ribbons.
+//
+// Colouring, with teaching_views (the pygfx engine): u_cull.color_by 0 natural (lit), 1 "lod" (flat, the class's
+// colour, teaching.LOD_COLORS), 2 "cull" (kept blades natural; the extra draw of
+// culled blades, `culled`, is flat in the colour of the test that culled each
+// one, teaching.CULL_COLORS). Flat colours are sRGB, unlit.
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
@@ -9,6 +14,18 @@
 
 const SEGMENTS: u32 = {{ segments }}u;
 const LOD_CLASS: u32 = {{ lod_class }}u;
+$$ if teaching_views
+const LOD_COLOR = vec3<f32>({{ lod_color }});
+
+// sRGB colour of a blade culled by test `reason` (1 orientation, 2 frustum, 3 distance).
+fn cull_color(reason: u32) -> vec3<f32> {
+    switch reason {
+        case 1u: { return vec3<f32>({{ cull_colors[0] }}); }
+        case 2u: { return vec3<f32>({{ cull_colors[1] }}); }
+        default: { return vec3<f32>({{ cull_colors[2] }}); }
+    }
+}
+$$ endif
 
 struct VertexInput {
     @builtin(vertex_index) vertex_index: u32,
@@ -17,7 +34,17 @@ struct VertexInput {
 
 @vertex
 fn vs_main(in: VertexInput) -> Varyings {
+    $$ if teaching_views and culled
+    let entry = s_culled[in.instance_index];
+    let blade = entry & 0x3fffffffu;
+    let flat_color = vec4<f32>(cull_color(entry >> 30u), 1.0);
+    $$ else
     let blade = s_visible[LOD_CLASS * u_cull.n_blades + in.instance_index];
+    $$ endif
+    $$ if teaching_views and not culled
+    var flat_color = vec4<f32>(0.0);  // a = 1: draw flat in rgb (sRGB)
+    if (u_cull.color_by == {{ color_by_lod }}) { flat_color = vec4<f32>(LOD_COLOR, 1.0); }
+    $$ endif
     let rec = load_blade(blade);
     let v0 = rec.v0;
     let v1 = rec.v1;
@@ -56,6 +83,9 @@ fn vs_main(in: VertexInput) -> Varyings {
     varyings.along = f32(v);
     varyings.variation = f32(hash01(blade));
     varyings.pick_idx = u32(blade);
+    $$ if teaching_views
+    varyings.flat_color = vec4<f32>(flat_color);
+    $$ endif
     return varyings;
 }
 
@@ -80,7 +110,10 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let translucency = 0.35 * max(dot(-n, l), 0.0);
     let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
     let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
-    let rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    var rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    $$ if teaching_views
+    if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
+    $$ endif
 
     var out: FragmentOutput;
     out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);

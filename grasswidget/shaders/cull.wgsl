@@ -2,20 +2,31 @@
 // Survivors are appended to the compacted list of their LOD class
 // (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
 // and class; the instance counts in s_args feed draw_indirect.
-// The twin of reference.cull() and reference.lod_class().
+// The twin of reference.cull_reason() and reference.lod_class().
+//
+// Teaching views (template variable teaching_views, on in the kernel engine):
+// the culling camera is the rendering camera (u_stdinfo), or a frozen copy of
+// one (u_cull.frozen != 0: GrassField.freeze_culling). With color_by "cull",
+// culled blades are appended too, to s_culled as id | reason << 30 (reason 1
+// orientation, 2 frustum, 3 distance: the first test that culled the blade),
+// counted in s_culled_args: one more indirect draw, flat coloured.
 //
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, cam_transform_inv, physical_size),
 // u_wobject (world_transform), u_cull (fields of grasswidget.gpu.field.CULL_UNIFORM),
-// s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>) and s_visible
-// (array<u32>); see grasswidget.shader_files.
+// s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>), s_visible
+// (array<u32>); with teaching_views also u_cull's color_by and frozen_* fields,
+// s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); see
+// grasswidget.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 const N_CLASSES: u32 = {{ n_classes }}u;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes }}>;
+// One counter per LOD class, then one for the culled blades (color_by "cull").
+const CULLED: u32 = {{ n_classes }}u;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes + 1 }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes + 1 }}>;
 
 fn lod_class_of(pixels: f32) -> u32 {
     $$ for min_pixels in lod_min_pixels
@@ -30,15 +41,18 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    if (lid < N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
+    if (lid <= N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
     workgroupBarrier();
 
     let n = u_cull.n_blades;
     let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
-    var visible = i < n;
+    let valid = i < n;
+    var visible = false;
+    var listed = false;  // appended to a list (visible, or culled with color_by "cull")
     var cls = 0u;
+    var reason = 0u;
     var slot = 0u;
-    if (visible) {
+    if (valid) {
         let blade = load_blade(i);
         // To world space (blades live in the object's local space).
         let m = u_wobject.world_transform;
@@ -47,24 +61,39 @@ fn main(
         let v2 = (m * vec4<f32>(blade.v2, 1.0)).xyz;
         let up = normalize((m * vec4<f32>(blade.up, 0.0)).xyz);
         let t1 = normalize((m * vec4<f32>(width_direction(blade.up, blade.orientation), 0.0)).xyz);
-        let view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
-        let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+        var view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
+        var cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+        var viewport_height = u_stdinfo.physical_size.y;
+        $$ if teaching_views
+        if (u_cull.frozen != 0) {
+            view_proj = u_cull.frozen_view_proj;
+            cam_pos = u_cull.frozen_cam_pos.xyz;
+            viewport_height = u_cull.frozen_viewport_height;
+        }
+        $$ endif
         let scale = length(m[1].xyz);
         let h = blade.height * scale;
 
+        // The first test that culls the blade is its reason (reference.cull_reason).
         if (u_cull.cull_orientation != 0 && orientation_cull(v0, t1, cam_pos, u_cull.orientation_threshold)) {
-            visible = false;
+            reason = 1u;
+        } else if (u_cull.cull_frustum != 0 && frustum_cull(v0, v1, v2, view_proj, u_cull.frustum_tolerance)) {
+            reason = 2u;
+        } else if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
+            reason = 3u;
         }
-        if (u_cull.cull_frustum != 0 && frustum_cull(v0, v1, v2, view_proj, u_cull.frustum_tolerance)) {
-            visible = false;
-        }
-        if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
-            visible = false;
-        }
+        visible = reason == 0u;
         if (u_cull.lod != 0) {
-            cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, u_stdinfo.physical_size.y));
+            cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, viewport_height));
         }
-        if (visible) {
+        if (!visible) {
+            cls = CULLED;
+        }
+        listed = visible;
+        $$ if teaching_views
+        listed = visible || u_cull.color_by == {{ color_by_cull }};
+        $$ endif
+        if (listed) {
             slot = atomicAdd(&wg_count[cls], 1u);
         }
     }
@@ -75,8 +104,21 @@ fn main(
             wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
         }
     }
+    $$ if teaching_views
+    if (lid == CULLED) {
+        let c = atomicLoad(&wg_count[lid]);
+        if (c > 0u) {
+            wg_base[lid] = atomicAdd(&s_culled_args[1], c);
+        }
+    }
+    $$ endif
     workgroupBarrier();
     if (visible) {
         s_visible[cls * n + wg_base[cls] + slot] = i;
     }
+    $$ if teaching_views
+    if (listed && !visible) {
+        s_culled[wg_base[CULLED] + slot] = i | (reason << 30u);
+    }
+    $$ endif
 }

@@ -1,7 +1,11 @@
 // Reset the indirect draw arguments at the start of every frame's compute pass:
-// one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0).
+// one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0),
+// and the draw of the culled blades (color_by "cull").
 
 @group(0) @binding(0) var<storage, read_write> s_args: array<u32>;
+$$ if teaching_views
+@group(0) @binding(1) var<storage, read_write> s_culled_args: array<u32>;
+$$ endif
 
 @compute @workgroup_size(1)
 fn main() {
@@ -11,4 +15,10 @@ fn main() {
     s_args[{{ loop.index0 }}u * 4u + 2u] = 0u;
     s_args[{{ loop.index0 }}u * 4u + 3u] = 0u;
     $$ endfor
+    $$ if teaching_views
+    s_culled_args[0] = {{ 2 * (culled_segments + 1) }}u;
+    s_culled_args[1] = 0u;
+    s_culled_args[2] = 0u;
+    s_culled_args[3] = 0u;
+    $$ endif
 }

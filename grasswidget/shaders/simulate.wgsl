@@ -11,30 +11,12 @@
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+{$ include 'grasswidget.wind_field.wgsl' $}
 
 // Collision passes per step (reference.COLLISION_PASSES): push, then validate the pushed blades.
 const COLLISION_PASSES: i32 = {{ collision_passes }};
 
-// Wind field by WindField id; "custom" is user_wind.
-fn wind_field(p: vec3<f32>, t: f32) -> vec3<f32> {
-    switch u_sim.wind_field {
-        case {{ wind_field_radial }}: {
-            return wind_radial(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case {{ wind_field_vortex }}: {
-            return wind_vortex(p, t, u_sim.wind_strength, u_sim.wind_center.xyz, u_sim.wind_radius, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case {{ wind_field_noise }}: {
-            return wind_noise(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_direction_rad, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-        case {{ wind_field_custom }}: {
-            return user_wind(p, t);
-        }
-        default: {  // {{ wind_field_wave }}
-            return wind_wave(p, t, u_sim.wind_strength, u_sim.wind_dir.xy, u_sim.wind_speed, u_sim.wind_wavelength);
-        }
-    }
-}
+// wind_field(p, t) and the user's user_wind(p, t): see wind_field.wgsl.
 
 @compute @workgroup_size({{ workgroup_size }})
 fn main(
@@ -98,11 +80,4 @@ fn main(
     blade.v2 = v2;
     store_blade_guides(i, blade);
     s_collision[i] = eta;
-}
-
-// The user's wind (wind_field "custom"): params.wind_wgsl is the body, inserted
-// verbatim on the line after this signature (GrassField maps compile errors back
-// to lines of the snippet from there). Empty snippet: no wind.
-fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {
-{{ user_wind_body }}
 }
