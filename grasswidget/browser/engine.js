@@ -230,7 +230,7 @@ class GrassEngine {
     let az = Math.atan2(off[0], off[2]);
     let el = Math.asin(Math.max(-1, Math.min(1, off[1] / r)));
     az -= dx * 0.008;
-    el = Math.max(-1.45, Math.min(1.45, el + dy * 0.008));
+    el = Math.max(0.02, Math.min(1.45, el + dy * 0.008));  // stay above the ground, short of the pole
     off = [r * Math.cos(el) * Math.sin(az), r * Math.sin(el), r * Math.cos(el) * Math.cos(az)];
     this.setCamera({ ...cam, position: add(target, off) }, false);
   }
@@ -247,8 +247,10 @@ class GrassEngine {
     e.preventDefault();
     const cam = this.camera();
     const off = sub(cam.position, cam.target);
+    const r = Math.hypot(...off);
     const k = Math.exp(Math.max(-0.5, Math.min(0.5, e.deltaY * 0.001)));
-    this.setCamera({ ...cam, position: add(cam.target, scale(off, k)) }, true);
+    const rNew = Math.max(0.5, Math.min(0.8 * cam.far, r * k));  // zoom range: near the target .. inside the far plane
+    this.setCamera({ ...cam, position: add(cam.target, scale(off, rNew / r)) }, true);
   }
 
   onKey(e) {
