@@ -14,6 +14,8 @@ import argparse
 import os
 import sys
 
+from .errors import GrassValueError
+
 #: Image formats ``snapshot`` writes, by extension (written with imageio).
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg")
 #: JPEG quality of ``snapshot out.jpg``.
@@ -190,7 +192,7 @@ def write_image(path, img):
     elif ext in (".jpg", ".jpeg"):
         iio.imwrite(path, img[..., :3], extension=ext, quality=JPEG_QUALITY)
     else:
-        raise ValueError(f"path must end in {', '.join(IMAGE_EXTENSIONS)}; got {os.fspath(path)!r}")
+        raise GrassValueError(f"path must end in {', '.join(IMAGE_EXTENSIONS)}; got {os.fspath(path)!r}")
     return os.fspath(path)
 
 

@@ -17,6 +17,8 @@ read events only through :func:`event_type`, :func:`event_ratio` and
 
 from __future__ import annotations
 
+from .errors import UpstreamChangedError
+
 __all__ = [
     "CHECKED",
     "PRIVATE_USES",
@@ -167,7 +169,7 @@ def set_render_pipeline_container_class(cls):
     from pygfx.renderers.wgpu.engine import pipeline
 
     if not hasattr(pipeline, "RenderPipelineContainer"):
-        raise RuntimeError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
+        raise UpstreamChangedError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
 
 
@@ -187,7 +189,7 @@ def held_orbit_controller_class(hold):
     base = gfx.OrbitController
     for name in ("_update_rotate", "_update_zoom", "_update_pan", "_get_camera_state", "_set_camera_state"):
         if not callable(getattr(base, name, None)):
-            raise RuntimeError(f"pygfx internals changed: OrbitController.{name} not found")
+            raise UpstreamChangedError(f"pygfx internals changed: OrbitController.{name} not found")
 
     class HeldOrbitController(base):
         def _hold(self):

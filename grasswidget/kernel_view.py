@@ -40,6 +40,7 @@ import numpy as np
 
 from . import compat
 from .blades import Blades
+from .errors import GrassValueError
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
@@ -315,7 +316,7 @@ class KernelView:
         position = state.get("position", current["position"])
         target = state.get("target", current["target"])
         if np.allclose(position, target):
-            raise ValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
         self.scene.look(position, target, state.get("fov_deg"))
         if self.controller is not None:
             self.controller.target = np.asarray(target, np.float64)

@@ -14,6 +14,7 @@ import numpy as np
 import pygfx as gfx
 
 from .blades import Blades
+from .errors import GrassTypeError, GrassValueError
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
@@ -50,7 +51,7 @@ def parse_size(size, name="size"):
     except (TypeError, ValueError, IndexError):
         ok = False
     if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise ValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
+        raise GrassValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
     return w, h
 
 
@@ -62,7 +63,7 @@ def preset_field(name, blades=None, seed=0):
     engine builds its presets from it too).
     """
     if name not in PRESETS:
-        raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+        raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
     if name == "cis565":
         n = 1 << 13 if blades is None else blades
         b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
@@ -103,10 +104,10 @@ class GrassScene:
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
             if blades < 1:
-                raise ValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
+                raise GrassValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
             blades = Blades.on_plane(check_blade_count_fits(blades, "blades"))
         if not isinstance(blades, Blades):
-            raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
         ensure_device()
         self.field = GrassField(blades, params=params, material=GrassMaterial())
@@ -160,10 +161,10 @@ class GrassScene:
           3 m above its edge, 1920 x 1080. Default 2^20 blades.
         """
         if name not in PRESETS:
-            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+            raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
         if blades is not None and not isinstance(blades, Blades):
             if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
-                raise ValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
+                raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
@@ -215,7 +216,7 @@ class GrassScene:
     @show_colliders.setter
     def show_colliders(self, value):
         if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"show_colliders must be True or False; got {value!r}")
+            raise GrassTypeError(f"show_colliders must be True or False; got {value!r}")
         self.collider_balls.visible = bool(value)
 
     colliders = property(

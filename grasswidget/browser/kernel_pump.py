@@ -20,11 +20,9 @@ from __future__ import annotations
 import asyncio
 import time
 
+from ..errors import BrowserTimeoutError
+
 __all__ = ["wait_for", "BrowserTimeoutError"]
-
-
-class BrowserTimeoutError(TimeoutError):
-    """The browser view did not answer a request in time."""
 
 
 def _kernel():
