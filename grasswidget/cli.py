@@ -125,14 +125,13 @@ def build_parser():
     b.add_argument("--cull", choices=["on", "off", "each"], default="on")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
+    p.subcommands = {"snapshot": s, "bench": b}
     return p
 
 
 def _subparser(parser, name):
-    for action in parser._actions:  # argparse offers no public lookup of a subparser
-        if isinstance(action, argparse._SubParsersAction):
-            return action.choices[name]
-    return parser
+    """The parser of subcommand ``name`` (build_parser keeps them: argparse offers no public lookup)."""
+    return getattr(parser, "subcommands", {}).get(name, parser)
 
 
 def _make_folder(parser, path, what):

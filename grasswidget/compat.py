@@ -38,10 +38,11 @@ __all__ = [
     "event_type",
     "event_ratio",
     "with_ratio",
+    "kernel_parent_ident",
 ]
 
 #: The versions every use below was written and tested against.
-CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2"}
+CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0"}
 
 #: (package, what is used, why): the table ``tests/test_compat.py`` walks.
 PRIVATE_USES = (
@@ -70,6 +71,8 @@ PRIVATE_USES = (
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("ipykernel", "Kernel._parent_ident",
+     "the routing identity of the running cell's request, to hand deferred shell messages back (browser.kernel_pump)"),
 )
 
 
@@ -254,3 +257,16 @@ def with_ratio(event, ratio):
         if key in event:
             event[key] = ratio
     return event
+
+
+# ------------------------------------------------------------------ ipykernel
+
+
+def kernel_parent_ident(kernel, channel: str = "shell") -> bytes:
+    """The routing identity of the request the kernel is running on ``channel``
+    (ipykernel 7.4: ``Kernel._parent_ident[channel]``, kept there for backward
+    compatibility); ``b""`` when the kernel has none."""
+    idents = getattr(kernel, "_parent_ident", None)
+    if idents is None:
+        return b""
+    return idents[channel]
