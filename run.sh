@@ -29,6 +29,11 @@ install() {
   local missing=""
   for p in $pkgs; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done
   if [ -n "$missing" ]; then
+    if [ -n "$SUDO" ] && ! command -v sudo >/dev/null 2>&1; then
+      echo "run.sh: these Debian packages are missing:$missing. Install them as root" \
+           "(apt-get install -y$missing), or run ./run.sh as root, then run it again." >&2
+      exit 1
+    fi
     $SUDO apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq $missing >/dev/null
   fi

@@ -51,7 +51,7 @@ ANSWER_TIMEOUT = 30.0
 SCENE_STYLE = dict(
     sky_bottom=(0x9C / 255, 0xC3 / 255, 0xE6 / 255, 1.0),
     sky_top=(0xE8 / 255, 0xF1 / 255, 0xF8 / 255, 1.0),
-    ground_color=(0x6B / 255, 0x52 / 255, 0x3A / 255, 1.0),
+    ground_color=(51 / 255, 36 / 255, 22 / 255, 1.0),
     ball_color=(0xDF / 255, 0xE8 / 255, 0xFF / 255, 0.35),
     light_direction=(4.0, 10.0, 3.0),
 )
@@ -115,6 +115,8 @@ class BrowserView(anywidget.AnyWidget):
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
     scene_style = Dict().tag(sync=True)
+    #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
+    pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(480).tag(sync=True)
     # ---- set by the browser
@@ -310,6 +312,11 @@ class BrowserView(anywidget.AnyWidget):
         self.errors = (self.errors + [str(err)])[-20:]
         for cb in self._listeners["error"]:
             cb(err)
+
+    def handle_message(self, content: dict, buffers=()):
+        """Handle one message from the page (what engine.js sends over the comm:
+        ``{"type": "ball" | "steps" | "stats" | ..., ...}``); never raises."""
+        self._on_browser_msg(self, content, buffers)
 
     def _on_browser_msg(self, _widget, content, buffers):
         # Never let a front-end message raise into the notebook.

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from .harness import kernel_execute, open_notebook, run_all_cells, wait_for_kernel, wait_for_view, write_notebook
+from .harness import kernel_eval, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, wait_for_view, write_notebook
 
 pytestmark = pytest.mark.browser
 
@@ -79,10 +79,12 @@ MEASURE = """
 STATES = {
     "default": "w.pause()",
     "squeezed": "w.sliders['blades'].layout.width = '150px'; w.pause()",  # not a state a user meets: proves the checks bite
-    "widest": ("w.blade_slider.value = w.blade_slider.max\n"
+    # the slider shows its top value (as after a drag to the end) without building that many blades
+    "widest": ("w.panel.show_blade_count(w.blade_slider.max)\n"
                "w.params.wind_direction = -360; w.params.wind_strength = 200; w.params.wind_speed = 50\n"
                "w.params.gravity = 50; w.params.stiffness_scale = 20; w.time_scale = 10\n"
-               "w.ball.enabled = True; w.ball.move_to(-8.25, -8.25); w.ball.set_radius(4.5)\n"
+               "w.ball.enabled = True; w.ball.set_radius(w.ball.radius_slider.max)\n"
+               "w.ball.move_to(w.ball.x_slider.min, w.ball.z_slider.min)\n"
                "w.panel.show_file('grass-20261123-101010-2.png', (1280, 960))\n"
                "w.panel.show_error('blades: count=1,000,000,000,000 blades would take 268.2 GiB of memory')\n"
                "w.params.color_by = 'cull'; w.culling_frozen = True\n"
@@ -141,6 +143,8 @@ def _check_states(page, size):
         assert m["rootWidth"] <= m["viewWidth"] + 0.5, (m["rootWidth"], m["viewWidth"])
         assert not m["problems"], "\n".join(m["problems"])
         if state == "widest":  # the widest values are on screen, whole
-            for text in ("262144", "−360", "200.0", "20.00", "10.00", "−8.25", "4.50", "orientation culling",
+            ball = kernel_eval(page, "[f'{s.value:.2f}' for s in (w.ball.x_slider, w.ball.radius_slider)]")
+            ball = [t.replace("-", "\u2212") for t in ball]  # the readouts write a minus sign
+            for text in ("262144", "−360", "200.0", "20.00", "10.00", *ball, "orientation culling",
                          "blade 0: height", "freeze culling"):
                 assert any(text in t for t in m["texts"]), (text, m["texts"])
