@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from .errors import GrassValueError
 from . import compat
 
 __all__ = ["run_bench", "format_table", "CULL_MODES"]
@@ -46,7 +47,7 @@ def _modes(cull):
         return ["off", "on"]
     if cull == "each":
         return ["off", "orientation", "frustum", "distance", "on"]
-    raise ValueError(f"cull must be one of {', '.join(CULL_MODES)}; got {cull!r}")
+    raise GrassValueError(f"cull must be one of {', '.join(CULL_MODES)}; got {cull!r}")
 
 
 def _apply_mode(params, mode):
@@ -174,10 +175,10 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
     modes = _modes(cull)
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
-        raise ValueError(f"frames must be an integer >= 1; got {frames!r}")
+        raise GrassValueError(f"frames must be an integer >= 1; got {frames!r}")
     counts = [int(n) for n in blades]
     if not counts or min(counts) < 1:
-        raise ValueError(f"blades must be one or more counts >= 1; got {blades!r}")
+        raise GrassValueError(f"blades must be one or more counts >= 1; got {blades!r}")
     ensure_device()
     info = adapter_info()
     results = []

@@ -53,6 +53,7 @@ from . import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from .blades import Blades
 from .clock import SimClock
+from .errors import GrassValueError
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
@@ -414,7 +415,7 @@ class KernelView:
         position = state.get("position", current["position"])
         target = state.get("target", current["target"])
         if np.allclose(position, target):
-            raise ValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
         self.scene.look(position, target, state.get("fov_deg"))
         if self.controller is not None:
             self.controller.target = np.asarray(target, np.float64)

@@ -14,6 +14,7 @@ import numpy as np
 import pygfx as gfx
 
 from .blades import Blades
+from .errors import GrassTypeError, GrassValueError
 from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
@@ -67,10 +68,10 @@ class GrassScene:
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
             if blades < 1:
-                raise ValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
+                raise GrassValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
             blades = Blades.on_plane(check_blade_count_fits(blades, "blades"))
         if not isinstance(blades, Blades):
-            raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
         ensure_device()
         self.field = GrassField(blades, params=params, material=GrassMaterial())
@@ -128,10 +129,10 @@ class GrassScene:
           3 m above its edge, 1920 x 1080. Default 2^20 blades.
         """
         if name not in PRESETS:
-            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+            raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
         if blades is not None and not isinstance(blades, Blades):
             if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
-                raise ValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
+                raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if name == "cis565" and params is None:
             params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
@@ -185,7 +186,7 @@ class GrassScene:
     @show_colliders.setter
     def show_colliders(self, value):
         if not isinstance(value, (bool, np.bool_)):
-            raise TypeError(f"show_colliders must be True or False; got {value!r}")
+            raise GrassTypeError(f"show_colliders must be True or False; got {value!r}")
         self.collider_balls.visible = bool(value)
 
     colliders = property(

@@ -53,6 +53,7 @@ from traitlets import All, Bool
 
 from .adaptive import check_target_fps
 from .blades import Blades
+from .errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
 from .params import GrassParams, RangedFloat
@@ -156,7 +157,7 @@ def _check_number(name, value, lo, hi, integer=False):
     kind = "an integer" if integer else "a number"
     types = (int, np.integer) if integer else (int, float, np.integer, np.floating)
     if isinstance(value, bool) or not isinstance(value, types) or not (lo <= value <= hi):
-        raise ValueError(f"{name} must be {kind} in [{lo}, {hi}]; got {value!r}")
+        raise GrassValueError(f"{name} must be {kind} in [{lo}, {hi}]; got {value!r}")
     return value
 
 
@@ -250,19 +251,19 @@ class GrassWidget(ipw.VBox):
         from .framing import PRESETS, parse_size
 
         if not isinstance(backend, str) or backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
+            raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
         self._requested_backend = backend
         if params is not None and not isinstance(params, GrassParams):
-            raise TypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+            raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
         if preset is not None and preset not in PRESETS:
-            raise ValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
+            raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
         self.size = parse_size(size)
         overrides = {}
         if max_fps is not None:
             overrides["max_fps"] = float(_check_number("max_fps", max_fps, 1, 240))
         if quality is not None:
             if isinstance(quality, bool) or not isinstance(quality, int) or not (1 <= quality <= 100):
-                raise ValueError(f"quality must be an integer in [1, 100] (JPEG quality); got {quality!r}")
+                raise GrassValueError(f"quality must be an integer in [1, 100] (JPEG quality); got {quality!r}")
             overrides["quality"] = quality
         if pixel_ratio is not None:
             overrides["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
@@ -335,16 +336,16 @@ class GrassWidget(ipw.VBox):
     def _check_blades(self, blades):
         if isinstance(blades, Blades):
             if len(blades) > self.max_blades:
-                raise ValueError(f"blades: at most {self.max_blades} blades on this adapter; got {len(blades)}")
+                raise GrassValueError(f"blades: at most {self.max_blades} blades on this adapter; got {len(blades)}")
             return blades
         if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
-            raise TypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
         if blades >= 1 and self._cpu is not None:  # the kernel renders (the browser's own limits apply there)
             from .gpu.field import check_blade_count_fits
 
             check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
         if not (1 <= int(blades) <= self.max_blades):
-            raise ValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
+            raise GrassValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
         return int(blades)
 
     def _kernel_view(self):
@@ -381,7 +382,7 @@ class GrassWidget(ipw.VBox):
     def blade_count(self, count):
         count = self._check_blades(count)
         if isinstance(count, Blades):
-            raise TypeError("blade_count must be an int; pass a Blades to set_blades()")
+            raise GrassTypeError("blade_count must be an int; pass a Blades to set_blades()")
         self.set_blades(count)
 
     def set_blades(self, blades):
@@ -502,7 +503,7 @@ class GrassWidget(ipw.VBox):
         if n is None:
             n = max(1, self.steps_per_frame)
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.playing = False
         self.view.step(n)
 
@@ -548,7 +549,7 @@ class GrassWidget(ipw.VBox):
             path = _unique_name(os.getcwd(), "grass", ".png")
         path = os.fspath(path)
         if not path.lower().endswith(".png"):
-            raise ValueError(f"path must end in .png; got {path!r}")
+            raise GrassValueError(f"path must end in .png; got {path!r}")
         self.view.save_png(path, size)
         return path
 
@@ -653,7 +654,7 @@ class GrassWidget(ipw.VBox):
 
     def _check_open(self):
         if self._closed:
-            raise RuntimeError("this GrassWidget is closed; create a new one")
+            raise WidgetClosedError("this GrassWidget is closed; create a new one")
 
     def _request_draw(self):
         if not self._closed and self.view is not None:

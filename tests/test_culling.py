@@ -11,9 +11,8 @@ from grasswidget.gpu import indirect
 from conftest import grass_mask
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return gw.GrassScene.preset("cis565", blades=3000, size=(160, 120), seed=5)
+# Fixture scene (conftest).
+SCENE = dict(preset="cis565", blades=3000, size=(160, 120), seed=5)
 
 
 def _camera_matrices(scene):

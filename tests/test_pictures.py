@@ -3,13 +3,12 @@
 import numpy as np
 import pytest
 
-import grasswidget as gw
 from conftest import grass_mask, sky_mask
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return gw.GrassScene(gw.Blades.on_plane(4096, seed=11), size=(200, 150))
+# Fixtures blades and scene (conftest).
+BLADES = dict(count=4096, seed=11)
+SCENE = dict(size=(200, 150))
 
 
 def test_render_shape_and_grass(scene):

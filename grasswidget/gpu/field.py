@@ -17,7 +17,7 @@ from .. import compat
 from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
 from ..enums import ColorBy
-from ..errors import BladeLimitError, WindShaderError
+from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS
@@ -103,9 +103,9 @@ class GrassField(gfx.WorldObject):
 
     def __init__(self, blades: Blades, params: GrassParams | None = None, material: GrassMaterial | None = None):
         if not isinstance(blades, Blades):
-            raise TypeError(f"blades must be a grasswidget.Blades, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a grasswidget.Blades, not {type(blades).__name__}")
         if params is not None and not isinstance(params, GrassParams):
-            raise TypeError(f"params must be a GrassParams, not {type(params).__name__}")
+            raise GrassTypeError(f"params must be a GrassParams, not {type(params).__name__}")
         device = ensure_device()
         check_blade_limits(len(blades), device)
         indirect.install()
@@ -241,7 +241,7 @@ class GrassField(gfx.WorldObject):
     @step_count.setter
     def step_count(self, value):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValueError(f"step_count must be an integer >= 0; got {value!r}")
+            raise GrassValueError(f"step_count must be an integer >= 0; got {value!r}")
         self.simulation.step_count = int(value)
 
     @property
@@ -301,7 +301,7 @@ class GrassField(gfx.WorldObject):
         if isinstance(camera, FrozenCamera):
             frozen = camera
         elif viewport_size is None:
-            raise ValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
+            raise GrassValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
         else:
             frozen = FrozenCamera(camera, viewport_size)
         to_local = np.linalg.inv(np.asarray(self.world.matrix, np.float64))
@@ -381,7 +381,7 @@ class GrassField(gfx.WorldObject):
             field.set_wind_wgsl("return vec3<f32>(8.0 * (1.0 + sin(t + 0.3 * p.x)), 0.0, 0.0);")
         """
         if not isinstance(body, str):
-            raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
+            raise GrassTypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
         self.params.wind_wgsl = body
         if self.simulation.wind_body != body:  # params unchanged but never compiled here
             self.simulation.compile_wind(body, self.params.wind_wgsl)
@@ -396,7 +396,7 @@ class GrassField(gfx.WorldObject):
         ``(k * dt) mod wind_period`` like the NumPy reference.
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.simulation.step(int(n))
 
     def release(self):

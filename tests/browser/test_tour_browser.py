@@ -43,6 +43,7 @@ from .harness import (
     kernel_eval,
     kernel_execute,
     open_notebook,
+    poll,
     run_all_cells,
     save_debug_artifacts,
     set_slider,
@@ -147,6 +148,13 @@ def _run_checks(page, server, folder):
     open_notebook(page, server, "01_tour.ipynb")
     run_all_cells(page, timeout=180)
 
+    # The tour's browser-engine section made a second widget with backend="auto": this Chromium
+    # has no WebGPU, so it fell back to kernel streaming and said so. Then it is closed, so the
+    # checks below find each control of the first widget by its label alone.
+    wait_for_kernel(page, "wb.backend", "kernel", timeout=90)
+    assert "WebGPU is not available in this browser" in kernel_eval(page, "wb.message_line.value")
+    kernel_execute(page, "wb.close()")
+
     # 1. Frames stream and show grass.
     wait_for_view(page, 0, timeout=60)
     wait_for_frames(page, 5, timeout=60, index=0)
@@ -195,6 +203,16 @@ def _run_checks(page, server, folder):
     p1 = np.array(wait_for_kernel(
         page, "w.scene.camera.world.position.tolist()",
         predicate=lambda p: float(np.linalg.norm(np.array(p) - p0)) > 0.5, timeout=20))
+    # The kernel may still be working through the drag's last pointer events: wait until it is still.
+    last = {"p": p1}
+
+    def settled():
+        p = np.array(kernel_eval(page, "w.scene.camera.world.position.tolist()"))
+        still = np.allclose(p, last["p"], atol=1e-9)
+        last["p"] = p
+        return still, p.tolist()
+
+    p1 = np.array(poll(settled, "the camera to stop moving after the drag", 20, 0.5, page=page))
     target = np.array(kernel_eval(page, "w.controller.target.tolist()"))
     print(f"[tour] camera moved {np.linalg.norm(p1 - p0):.2f} m around {np.round(target, 2)}")
 
