@@ -130,6 +130,7 @@ def _live_figures(page, seconds):
     ratio over the same window, the render scale in use; then the render-only rate
     (paused, so nothing else runs in the kernel meanwhile)."""
     kernel_execute(page, "w.play()", timeout=30)
+    view_locator(page, 0).scroll_into_view_if_needed()  # jupyter-rfb draws only while the view is visible
     wait_for_frames(page, 40, timeout=120, index=0)  # the adaptive scale settles over these frames
     a = kernel_eval(page, "_gw_clocks(w)")
     fps = frames_per_second(page, seconds=seconds, index=0)
@@ -259,6 +260,7 @@ def _run_checks(page, server, folder):
 
     # 7. Benchmark: frames/s reaching Chromium at 640 x 480 with 2^14 blades.
     kernel_execute(page, f"w.blade_count = {BENCH_BLADES}", timeout=60)
+    view_locator(page, 0).scroll_into_view_if_needed()  # the panel above may have scrolled it away
     wait_for_kernel(page, "w.scene.field.count", BENCH_BLADES, timeout=30)
     wait_for_frames(page, 3, timeout=60, index=0)
     live = _live_figures(page, 5.0)
