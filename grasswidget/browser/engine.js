@@ -445,6 +445,8 @@ class GrassEngine {
       s_collision: buffer(n * 4, U.STORAGE | U.COPY_SRC | U.COPY_DST, "collision"),
       s_args: buffer(classes * 16, U.STORAGE | U.INDIRECT | U.COPY_SRC | U.COPY_DST, "draw args"),
       s_visible: buffer(classes * n * 4, U.STORAGE, "visible"),
+      s_culled: buffer(n * 4, U.STORAGE, "culled"),
+      s_culled_args: buffer(16, U.STORAGE | U.INDIRECT | U.COPY_DST, "culled draw args"),
       u_sim: buffer(this.model.get("sim_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_sim"),
       u_cull: buffer(this.model.get("cull_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_cull"),
       u_material: buffer(this.model.get("material_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_material"),
@@ -591,7 +593,8 @@ class GrassEngine {
     this.bladePipes.forEach((p, k) => {
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
-      pass.drawIndirect(this.res.s_args, 16 * k);
+      if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
+      else pass.drawIndirect(this.res.s_args, 16 * k);
     });
     const balls = Math.min((this.model.get("balls") || []).length, 16);
     if (balls > 0 && this.model.get("show_colliders")) {

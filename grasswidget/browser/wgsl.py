@@ -48,10 +48,13 @@ _STORAGE = {
         "s_collision": "var<storage, read_write> s_collision: array<f32>",
         "s_args": "var<storage, read_write> s_args: array<atomic<u32>>",
         "s_visible": "var<storage, read_write> s_visible: array<u32>",
+        "s_culled": "var<storage, read_write> s_culled: array<u32>",
+        "s_culled_args": "var<storage, read_write> s_culled_args: array<atomic<u32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
         "s_visible": "var<storage, read> s_visible: array<u32>",
+        "s_culled": "var<storage, read> s_culled: array<u32>",
     },
 }
 
@@ -118,7 +121,8 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     """
     env = _environment()
     source = (shader_dir() / filename).read_text(encoding="utf-8")
-    values = {**template_vars(), "bindings_code": _MARK, "write_pick": False, **variables}
+    # teaching_views: the colour-by views (the culled blades' list and draw, flat colours).
+    values = {**template_vars(), "teaching_views": True, "bindings_code": _MARK, "write_pick": False, **variables}
     body = env.from_string(source).render(**values)
     declared = {b["name"] for b in binding_map(body)}
     used_numbers = {b["binding"] for b in binding_map(body)}
@@ -141,7 +145,7 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     for name, decl in _STORAGE[stage].items():
         if name in declared or not _uses(body.replace(_MARK, ""), name):
             continue
-        if name == "s_args" and "atomicAdd(&s_args" not in body:
+        if "atomic" in decl and f"atomicAdd(&{name}" not in body:
             decl = decl.replace("array<atomic<u32>>", "array<u32>")
         lines.append(f"@group(0) @binding({take()}) {decl};")
     header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
@@ -184,11 +188,13 @@ class BrowserShaders:
 
     @staticmethod
     def blades() -> list:
-        """One ribbon shader per level-of-detail class (segments along the blade)."""
-        return [
-            render_shader("blade_render.wgsl", "render", **ribbon_vars(k))
-            for k in range(len(LOD_SEGMENTS))
-        ]
+        """One ribbon shader per level-of-detail class (segments along the blade), and
+        one for the culled blades drawn flat when ``color_by`` is "cull" (``culled``: True)."""
+        out = []
+        for k in range(len(LOD_SEGMENTS) + 1):  # the LOD classes, then the culled blades (color_by "cull")
+            values = ribbon_vars(k)
+            out.append(dict(render_shader("blade_render.wgsl", "render", **values), culled=bool(values["culled"])))
+        return out
 
     @staticmethod
     def scene() -> dict:
