@@ -11,9 +11,12 @@ ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from compla
 
 from .blades import Blades  # noqa: E402
 from .colliders import SphereCollider  # noqa: E402
-from .errors import BladeCountError, BladeLimitError, GrassError, NoGPUAdapterError, WindShaderError  # noqa: E402
+from .errors import (  # noqa: E402
+    BladeCountError, BladeLimitError, BrowserTimeoutError, GrassError, GrassTypeError, GrassValueError, MissingDependencyError,
+    MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
+    WidgetClosedError, WindShaderError,
+)
 from .params import GrassParams  # noqa: E402
-from .params import ParameterError  # noqa: E402
 from .teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
 
 __version__ = "0.1.0"
@@ -27,7 +30,9 @@ _LAZY = {
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
-    "GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError", "ParameterError",
+    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
+    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
     *_LAZY,
 ]
 
@@ -38,4 +43,4 @@ def __getattr__(name):
 
         module, attr = _LAZY[name]
         return getattr(importlib.import_module(module), attr)
-    raise AttributeError(f"module 'grasswidget' has no attribute {name!r}")
+    raise UnknownNameError(f"module 'grasswidget' has no attribute {name!r}")

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import GrassTypeError, GrassValueError
 from .memory import BladeCountError, check_blade_count
 
 __all__ = ["Blades", "BladeCountError"]
@@ -27,9 +28,9 @@ def _check_range(name, value, lo_min=0.0):
     try:
         lo, hi = (float(value[0]), float(value[1]))
     except (TypeError, IndexError, ValueError):
-        raise ValueError(f"{name} must be a (min, max) pair of numbers; got {value!r}") from None
+        raise GrassValueError(f"{name} must be a (min, max) pair of numbers; got {value!r}") from None
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= lo_min or hi < lo:
-        raise ValueError(
+        raise GrassValueError(
             f"{name} must be a (min, max) pair with {lo_min:g} < min <= max, finite; got {value!r}"
         )
     return lo, hi
@@ -61,17 +62,17 @@ class Blades:
         up = np.asarray(self.up, np.float64).reshape(n, 3)
         norm = np.linalg.norm(up, axis=1, keepdims=True)
         if n and (not np.all(np.isfinite(up)) or np.any(norm < 1e-12)):
-            raise ValueError("up vectors must be finite and non-zero")
+            raise GrassValueError("up vectors must be finite and non-zero")
         self.up = (up / np.maximum(norm, 1e-30)).astype(np.float32)
         for name in ("orientation", "height", "width", "stiffness"):
             arr = np.ascontiguousarray(getattr(self, name), np.float32).reshape(n)
             if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{name} must be finite")
+                raise GrassValueError(f"{name} must be finite")
             setattr(self, name, arr)
         if not np.all(np.isfinite(self.v0)):
-            raise ValueError("v0 (roots) must be finite")
+            raise GrassValueError("v0 (roots) must be finite")
         if n and (self.height.min() <= 0 or self.width.min() <= 0 or self.stiffness.min() <= 0):
-            raise ValueError("height, width and stiffness must be > 0")
+            raise GrassValueError("height, width and stiffness must be > 0")
 
     def __len__(self):
         return len(self.v0)
@@ -108,10 +109,10 @@ class Blades:
             height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2.
         """
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f"count must be an integer >= 1; got {count!r}")
+            raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
         count = check_blade_count(count)
         if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
-            raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
+            raise GrassValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         h = _check_range("height", height)
         w = _check_range("width", width)
         s = _check_range("stiffness", stiffness)
@@ -168,7 +169,7 @@ class Blades:
         area2 = np.linalg.norm(face, axis=1)
         total = float(area2.sum()) * 0.5
         if len(tris) == 0 or not np.isfinite(total) or total <= 0.0:
-            raise ValueError(
+            raise GrassValueError(
                 f"geometry is an empty mesh: it has {len(tris)} triangles and total area {total:g} m^2; "
                 "blades need at least one triangle of non-zero area"
             )
@@ -217,14 +218,14 @@ class Blades:
         """
         h = np.asarray(heights, np.float64)
         if h.ndim != 2 or h.shape[0] < 2 or h.shape[1] < 2:
-            raise ValueError(f"heights must be a 2D (H, W) array with H, W >= 2; got shape {h.shape}")
+            raise GrassValueError(f"heights must be a 2D (H, W) array with H, W >= 2; got shape {h.shape}")
         if not np.all(np.isfinite(h)):
             bad = int(np.count_nonzero(~np.isfinite(h)))
-            raise ValueError(f"heights must be finite; {bad} of {h.size} values are NaN or inf")
+            raise GrassValueError(f"heights must be finite; {bad} of {h.size} values are NaN or inf")
         if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
-            raise ValueError(f"size must be a finite number > 0 (metres); got {size!r}")
+            raise GrassValueError(f"size must be a finite number > 0 (metres); got {size!r}")
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f"count must be an integer >= 1; got {count!r}")
+            raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
         count, size = check_blade_count(count), float(size)
         hr, wr, sr = _check_range("height", height), _check_range("width", width), _check_range("stiffness", stiffness)
         rng = np.random.default_rng(seed)
@@ -292,7 +293,7 @@ def _mesh_arrays(geometry):
         pos, idx, nrm = geometry.get("positions"), geometry.get("indices"), geometry.get("normals")
     elif isinstance(geometry, (tuple, list)):
         if not 2 <= len(geometry) <= 3:
-            raise ValueError("geometry as a tuple must be (positions, indices) or (positions, indices, normals)")
+            raise GrassValueError("geometry as a tuple must be (positions, indices) or (positions, indices, normals)")
         pos, idx = geometry[0], geometry[1]
         nrm = geometry[2] if len(geometry) == 3 else None
     elif hasattr(geometry, "positions"):
@@ -300,54 +301,54 @@ def _mesh_arrays(geometry):
         idx = getattr(geometry, "indices", None)
         nrm = getattr(geometry, "normals", None)
     else:
-        raise TypeError(
+        raise GrassTypeError(
             "geometry must be a pygfx Geometry (with .positions and .indices), a dict or a "
             f"(positions, indices[, normals]) tuple; got {type(geometry).__name__}"
         )
     if pos is None:
-        raise ValueError("geometry has no positions")
+        raise GrassValueError("geometry has no positions")
     try:
         pos = np.asarray(_array_of(pos), np.float64)
     except (TypeError, ValueError):
-        raise ValueError("geometry positions must be a numeric (V, 3) array") from None
+        raise GrassValueError("geometry positions must be a numeric (V, 3) array") from None
     if pos.ndim != 2 or pos.shape[1] != 3:
-        raise ValueError(f"geometry positions must be a (V, 3) array; got shape {pos.shape}")
+        raise GrassValueError(f"geometry positions must be a (V, 3) array; got shape {pos.shape}")
     if not np.all(np.isfinite(pos)):
-        raise ValueError("geometry positions must be finite (found NaN or inf)")
+        raise GrassValueError("geometry positions must be finite (found NaN or inf)")
     if idx is None:
         if len(pos) % 3:
-            raise ValueError("geometry has no indices and its vertex count is not a multiple of 3")
+            raise GrassValueError("geometry has no indices and its vertex count is not a multiple of 3")
         tris = np.arange(len(pos), dtype=np.int64).reshape(-1, 3)
     else:
         raw = np.asarray(_array_of(idx))
         if raw.size and not np.issubdtype(raw.dtype, np.integer):
-            raise ValueError(f"geometry indices must be integers; got dtype {raw.dtype}")
+            raise GrassValueError(f"geometry indices must be integers; got dtype {raw.dtype}")
         if raw.size % 3:
-            raise ValueError(f"geometry indices must form triangles ((M, 3) or 3M values); got {raw.size} values")
+            raise GrassValueError(f"geometry indices must form triangles ((M, 3) or 3M values); got {raw.size} values")
         tris = raw.astype(np.int64).reshape(-1, 3)
         if tris.size and (tris.min() < 0 or tris.max() >= len(pos)):
-            raise ValueError(f"geometry indices must be in [0, {len(pos)}) (the number of positions)")
+            raise GrassValueError(f"geometry indices must be in [0, {len(pos)}) (the number of positions)")
     if nrm is not None:
         nrm = np.asarray(_array_of(nrm), np.float64)
         if nrm.shape != pos.shape:
-            raise ValueError(f"geometry normals must have the shape of positions {pos.shape}; got {nrm.shape}")
+            raise GrassValueError(f"geometry normals must have the shape of positions {pos.shape}; got {nrm.shape}")
         if not np.all(np.isfinite(nrm)):
-            raise ValueError("geometry normals must be finite (found NaN or inf)")
+            raise GrassValueError("geometry normals must be finite (found NaN or inf)")
     return pos, tris, nrm
 
 
 def _count_from(count, density, area):
     if (count is None) == (density is None):
-        raise ValueError("give exactly one of count (blades) or density (blades per m^2)")
+        raise GrassValueError("give exactly one of count (blades) or density (blades per m^2)")
     if count is not None:
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-            raise ValueError(f"count must be an integer >= 1; got {count!r}")
+            raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
         return int(count)
     if isinstance(density, bool) or not isinstance(density, (int, float, np.number)) or not np.isfinite(density) or density <= 0:
-        raise ValueError(f"density must be a finite number > 0 (blades per m^2); got {density!r}")
+        raise GrassValueError(f"density must be a finite number > 0 (blades per m^2); got {density!r}")
     n = int(round(float(density) * area))
     if n < 1:
-        raise ValueError(f"density {density:g} per m^2 on {area:g} m^2 gives no blades; raise density or give count")
+        raise GrassValueError(f"density {density:g} per m^2 on {area:g} m^2 gives no blades; raise density or give count")
     return n
 
 

@@ -14,6 +14,8 @@ import argparse
 import os
 import sys
 
+from .errors import GrassValueError
+
 #: Image formats ``snapshot`` writes, by extension (written with imageio).
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg")
 #: JPEG quality of ``snapshot out.jpg``.
@@ -120,17 +122,16 @@ def build_parser():
                    help="blade counts (default: 2^10..2^17 for cis565, 2^16..2^22 for meadow)")
     b.add_argument("--frames", type=_positive, default=30)
     b.add_argument("--size", type=_size, default=None, help="WxH (default: the preset's)")
-    b.add_argument("--cull", choices=["on", "off", "each"], default="on")
+    b.add_argument("--cull", choices=["on", "off", "both", "each"], default="on")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
+    p.subcommands = {"snapshot": s, "bench": b}
     return p
 
 
 def _subparser(parser, name):
-    for action in parser._actions:  # argparse offers no public lookup of a subparser
-        if isinstance(action, argparse._SubParsersAction):
-            return action.choices[name]
-    return parser
+    """The parser of subcommand ``name`` (build_parser keeps them: argparse offers no public lookup)."""
+    return getattr(parser, "subcommands", {}).get(name, parser)
 
 
 def _make_folder(parser, path, what):
@@ -190,7 +191,7 @@ def write_image(path, img):
     elif ext in (".jpg", ".jpeg"):
         iio.imwrite(path, img[..., :3], extension=ext, quality=JPEG_QUALITY)
     else:
-        raise ValueError(f"path must end in {', '.join(IMAGE_EXTENSIONS)}; got {os.fspath(path)!r}")
+        raise GrassValueError(f"path must end in {', '.join(IMAGE_EXTENSIONS)}; got {os.fspath(path)!r}")
     return os.fspath(path)
 
 

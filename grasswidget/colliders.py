@@ -21,6 +21,7 @@ import numpy as np
 import traitlets
 from traitlets import TraitError
 
+from .errors import GrassTypeError, ParameterError
 from .params import StrictTraits, Vec3
 
 __all__ = ["SphereCollider", "ColliderList", "MAX_COLLIDERS", "collider_array"]
@@ -33,14 +34,15 @@ class _PositiveFloat(traitlets.Float):
     """A finite float > 0 with an error message naming the trait."""
 
     def validate(self, obj, value):
+        bad = ParameterError(f"{self.name} must be a finite number > 0 (metres); got {value!r}")
+        if isinstance(value, (bool, str, bytes)):
+            raise bad
         try:
-            if isinstance(value, (bool, str, bytes)):
-                raise TypeError
             v = float(value)
         except (TypeError, ValueError):
-            raise TraitError(f"{self.name} must be a finite number > 0 (metres); got {value!r}") from None
+            raise bad from None
         if not (math.isfinite(v) and v > 0):
-            raise TraitError(f"{self.name} must be a finite number > 0 (metres); got {value!r}")
+            raise bad
         return v
 
 
@@ -80,7 +82,7 @@ class SphereCollider(StrictTraits):
 
 def _check_item(item):
     if not isinstance(item, SphereCollider):
-        raise TypeError(
+        raise GrassTypeError(
             f"colliders must hold SphereCollider objects (gw.SphereCollider(center=..., radius=...)); "
             f"got {type(item).__name__}"
         )
@@ -167,7 +169,7 @@ def collider_array(colliders) -> np.ndarray:
             except TraitError:
                 raise
             except (TypeError, ValueError):
-                raise TypeError(
+                raise GrassTypeError(
                     f"colliders must hold SphereCollider objects or (center, radius) pairs; got {item!r}"
                 ) from None
             rows.append(probe.as_vec4())

@@ -17,6 +17,8 @@ read events only through :func:`event_type`, :func:`event_ratio` and
 
 from __future__ import annotations
 
+from .errors import UpstreamChangedError
+
 __all__ = [
     "CHECKED",
     "PRIVATE_USES",
@@ -36,10 +38,11 @@ __all__ = [
     "event_type",
     "event_ratio",
     "with_ratio",
+    "kernel_parent_ident",
 ]
 
 #: The versions every use below was written and tested against.
-CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2"}
+CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0"}
 
 #: (package, what is used, why): the table ``tests/test_compat.py`` walks.
 PRIVATE_USES = (
@@ -68,6 +71,8 @@ PRIVATE_USES = (
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("ipykernel", "Kernel._parent_ident",
+     "the routing identity of the running cell's request, to hand deferred shell messages back (browser.kernel_pump)"),
 )
 
 
@@ -167,7 +172,7 @@ def set_render_pipeline_container_class(cls):
     from pygfx.renderers.wgpu.engine import pipeline
 
     if not hasattr(pipeline, "RenderPipelineContainer"):
-        raise RuntimeError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
+        raise UpstreamChangedError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
 
 
@@ -187,7 +192,7 @@ def held_orbit_controller_class(hold):
     base = gfx.OrbitController
     for name in ("_update_rotate", "_update_zoom", "_update_pan", "_get_camera_state", "_set_camera_state"):
         if not callable(getattr(base, name, None)):
-            raise RuntimeError(f"pygfx internals changed: OrbitController.{name} not found")
+            raise UpstreamChangedError(f"pygfx internals changed: OrbitController.{name} not found")
 
     class HeldOrbitController(base):
         def _hold(self):
@@ -252,3 +257,16 @@ def with_ratio(event, ratio):
         if key in event:
             event[key] = ratio
     return event
+
+
+# ------------------------------------------------------------------ ipykernel
+
+
+def kernel_parent_ident(kernel, channel: str = "shell") -> bytes:
+    """The routing identity of the request the kernel is running on ``channel``
+    (ipykernel 7.4: ``Kernel._parent_ident[channel]``, kept there for backward
+    compatibility); ``b""`` when the kernel has none."""
+    idents = getattr(kernel, "_parent_ident", None)
+    if idents is None:
+        return b""
+    return idents[channel]

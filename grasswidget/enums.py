@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from enum import IntEnum
 
+from .errors import GrassValueError
+
 __all__ = ["WindField", "BladeShape", "GravityMode", "ColorBy", "LabeledIntEnum"]
 
 
@@ -38,7 +40,7 @@ class LabeledIntEnum(IntEnum):
         for m in cls:
             if m.label == label:
                 return m
-        raise ValueError(f"{cls.__name__} has no member {label!r}; allowed: {', '.join(cls.labels())}")
+        raise GrassValueError(f"{cls.__name__} has no member {label!r}; allowed: {', '.join(cls.labels())}")
 
     @classmethod
     def template_vars(cls, prefix: str) -> dict[str, int]:

@@ -2,20 +2,74 @@
 
 Every one derives from :class:`GrassError`, so ``except gw.GrassError`` catches
 anything the project raises deliberately, and each is also the built-in error
-it has always been (``ValueError`` for bad input, ``RuntimeError`` for the
-environment), so existing ``except ValueError`` code keeps working.
+it has always been (``ValueError`` for a bad value, ``TypeError`` for a value of
+the wrong kind, ``RuntimeError`` for the environment, ...), so existing
+``except ValueError`` code keeps working.
+
+=========================  ==================================  ===============================================
+error                      also a                              raised for
+=========================  ==================================  ===============================================
+``GrassValueError``        ``ValueError``                      a bad value (range, shape, choice, file suffix)
+``GrassTypeError``         ``TypeError``                       an argument of the wrong kind
+``ParameterError``         ``GrassValueError``, ``TraitError``  a trait value outside its range or choices
+``UnknownNameError``       ``AttributeError``                  an unknown trait/attribute name (with a hint)
+``MissingLimitError``      ``KeyError``                        device limits without the buffer-size keys
+``BladeCountError``        ``GrassValueError``                 more blades than memory holds
+``BladeLimitError``        ``BladeCountError``                 more blades than one GPU buffer binding holds
+``WindShaderError``        ``GrassValueError``                 a ``wind_wgsl`` snippet that does not compile
+``MissingFileError``       ``FileNotFoundError``               an output folder or shipped shader not there
+``MissingDependencyError`` ``ImportError``                     an optional package a feature needs
+``NoGPUAdapterError``      ``RuntimeError``                    no usable WebGPU adapter
+``WidgetClosedError``      ``RuntimeError``                    using a closed widget
+``UpstreamChangedError``   ``RuntimeError``                    a pygfx internal that compat.py relies on moved
+``BrowserTimeoutError``    ``TimeoutError``                    the browser view did not answer in time
+=========================  ==================================  ===============================================
 """
 
 from __future__ import annotations
 
-__all__ = ["GrassError", "BladeCountError", "BladeLimitError", "WindShaderError", "NoGPUAdapterError"]
+from traitlets import TraitError
+
+__all__ = [
+    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
+    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
+]
 
 
 class GrassError(Exception):
     """Root of every error grasswidget raises on purpose."""
 
 
-class BladeCountError(GrassError, ValueError):
+class GrassValueError(GrassError, ValueError):
+    """A bad value: out of range, wrong shape, not one of the choices. The message
+    names the argument, the allowed range and what was given."""
+
+
+class GrassTypeError(GrassError, TypeError):
+    """An argument of the wrong kind (e.g. a string where a Blades is expected)."""
+
+
+class ParameterError(GrassValueError, TraitError):
+    """A parameter value outside its documented range or choices.
+
+    A traitlets ``TraitError`` (what traitlets and ipywidgets expect) that is also
+    a ``ValueError`` and a :class:`GrassError`, so ``except ValueError`` catches
+    bad input too.
+    """
+
+
+class UnknownNameError(GrassError, AttributeError):
+    """An unknown attribute name, e.g. a misspelt trait (``params.wind_strenght``);
+    the message suggests the closest name."""
+
+
+class MissingLimitError(GrassError, KeyError):
+    """Device limits given without ``max-storage-buffer-binding-size`` or
+    ``max-buffer-size`` (see :mod:`grasswidget.memory`)."""
+
+
+class BladeCountError(GrassValueError):
     """A blade count that does not fit in memory (host RAM or a GPU buffer); raised
     before anything is allocated (see :mod:`grasswidget.memory`).
 
@@ -34,7 +88,7 @@ class BladeLimitError(BladeCountError):
     """The blade count does not fit the device's storage-buffer limits."""
 
 
-class WindShaderError(GrassError, ValueError):
+class WindShaderError(GrassValueError):
     """A ``wind_wgsl`` snippet (the body of ``user_wind``) does not compile.
 
     Attributes: ``line`` and ``column`` (1-based, within the snippet; None when
@@ -48,5 +102,28 @@ class WindShaderError(GrassError, ValueError):
         self.line, self.column, self.reason, self.naga_message = line, column, reason, naga_message
 
 
+class MissingFileError(GrassError, FileNotFoundError):
+    """A file or folder grasswidget needs is not there (an export's folder, a
+    shader file of an incomplete installation)."""
+
+
+class MissingDependencyError(GrassError, ImportError):
+    """An optional package a feature needs is not installed; the message says
+    what to ``pip install``."""
+
+
 class NoGPUAdapterError(GrassError, RuntimeError):
     """No WebGPU adapter that pygfx can use; the message says what to install."""
+
+
+class WidgetClosedError(GrassError, RuntimeError):
+    """A closed GrassWidget was asked to do something; create a new one."""
+
+
+class UpstreamChangedError(GrassError, RuntimeError):
+    """A pygfx/wgpu internal that :mod:`grasswidget.compat` relies on is not where
+    it was in the version checked; the message names it."""
+
+
+class BrowserTimeoutError(GrassError, TimeoutError):
+    """The browser view did not answer a request in time."""

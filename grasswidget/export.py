@@ -34,6 +34,8 @@ import os
 
 import numpy as np
 
+from .errors import GrassTypeError, GrassValueError, MissingDependencyError, MissingFileError
+
 __all__ = ["save_animation", "plan_animation", "FORMATS", "MAX_FRAMES"]
 
 #: Supported file suffixes.
@@ -47,20 +49,20 @@ def plan_animation(dt, seconds, fps) -> dict:
     simulated seconds per real second of the result (1.0 = real time)."""
     for name, value in (("seconds", seconds), ("fps", fps)):
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise TypeError(f"{name} must be a number; got {value!r}")
+            raise GrassTypeError(f"{name} must be a number; got {value!r}")
         if not math.isfinite(float(value)) or float(value) <= 0:
-            raise ValueError(f"{name} must be a finite number > 0; got {value!r}")
+            raise GrassValueError(f"{name} must be a finite number > 0; got {value!r}")
     seconds, fps = float(seconds), float(fps)
     if fps > 120:
-        raise ValueError(f"fps must be at most 120; got {fps!r}")
+        raise GrassValueError(f"fps must be at most 120; got {fps!r}")
     frames = int(round(seconds * fps))
     if frames < 1:
-        raise ValueError(f"seconds * fps must give at least one frame; got {seconds} s at {fps} fps")
+        raise GrassValueError(f"seconds * fps must give at least one frame; got {seconds} s at {fps} fps")
     if frames > MAX_FRAMES:
-        raise ValueError(f"seconds * fps = {frames} frames; at most {MAX_FRAMES} frames per export")
+        raise GrassValueError(f"seconds * fps = {frames} frames; at most {MAX_FRAMES} frames per export")
     steps = int(round(1.0 / (fps * dt)))
     if steps < 1:
-        raise ValueError(
+        raise GrassValueError(
             f"fps {fps:g} is faster than the simulation step (params.dt = {dt:g} s, at most {1 / dt:g} "
             "frames per simulated second): lower fps or params.dt"
         )
@@ -71,10 +73,10 @@ def _check_path(path):
     path = os.fspath(path)
     ext = os.path.splitext(path)[1].lower()
     if ext not in FORMATS:
-        raise ValueError(f"path must end in one of {', '.join(FORMATS)}; got {path!r}")
+        raise GrassValueError(f"path must end in one of {', '.join(FORMATS)}; got {path!r}")
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
-        raise FileNotFoundError(f"folder {folder!r} of {path!r} does not exist")
+        raise MissingFileError(f"folder {folder!r} of {path!r} does not exist")
     return path, ext
 
 
@@ -111,13 +113,13 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
     plan = plan_animation(params.dt, seconds, fps)
     if ext == ".mp4":
         if size[0] % 2 or size[1] % 2:
-            raise ValueError(f"MP4 (H.264, yuv420p) needs an even width and height; got size {size}")
+            raise GrassValueError(f"MP4 (H.264, yuv420p) needs an even width and height; got size {size}")
         try:
             import imageio_ffmpeg  # noqa: F401
         except ImportError:
-            raise ImportError("writing MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg") from None
+            raise MissingDependencyError("writing MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg") from None
     if not isinstance(progress, bool):
-        raise TypeError(f"progress must be True or False; got {progress!r}")
+        raise GrassTypeError(f"progress must be True or False; got {progress!r}")
 
     from tqdm.auto import tqdm
 

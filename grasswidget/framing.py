@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from .blades import Blades
+from .errors import GrassValueError
 
 __all__ = ["PRESETS", "preset_field", "parse_size"]
 
@@ -34,7 +35,7 @@ def parse_size(size, name="size"):
     except (TypeError, ValueError, IndexError):
         ok = False
     if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise ValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
+        raise GrassValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
     return w, h
 
 
@@ -46,7 +47,7 @@ def preset_field(name, blades=None, seed=0):
     engine builds its presets from it too).
     """
     if name not in PRESETS:
-        raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+        raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
     if name == "cis565":
         n = 1 << 13 if blades is None else blades
         b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n

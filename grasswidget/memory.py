@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import os
 
-from .errors import BladeCountError
+from .errors import BladeCountError, MissingLimitError
 
 __all__ = [
     "BladeCountError",
@@ -150,7 +150,7 @@ def _gpu_caps(limits):
     binding = get("max-storage-buffer-binding-size")
     buffer = get("max-buffer-size")
     if binding is None and buffer is None:
-        raise KeyError("limits must give max-storage-buffer-binding-size or max-buffer-size")
+        raise MissingLimitError("limits must give max-storage-buffer-binding-size or max-buffer-size")
     cap = min(x for x in (binding, buffer) if x is not None)
     return binding, buffer, cap
 

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import UnknownNameError
+
 __all__ = ["OrbitLimits", "clamp_orbit", "GroundOrbitController"]
 
 
@@ -182,4 +184,4 @@ def __getattr__(name):  # GroundOrbitController is built on first use (pygfx is 
         cls = _controller_class()
         globals()[name] = cls
         return cls
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")

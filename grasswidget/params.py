@@ -13,10 +13,10 @@ import difflib
 import math
 
 import traitlets
-from traitlets import Bool, HasTraits, TraitError, Unicode
+from traitlets import Bool, HasTraits, Unicode
 
 from .enums import BladeShape, ColorBy, GravityMode, WindField
-from .errors import GrassError
+from .errors import ParameterError, UnknownNameError
 
 __all__ = [
     "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
@@ -31,15 +31,6 @@ BLADE_SHAPES = BladeShape.labels()
 GRAVITY_MODES = GravityMode.labels()
 #: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.teaching``; ids: ``enums.ColorBy``).
 COLOR_BY = ColorBy.labels()
-
-
-class ParameterError(GrassError, TraitError, ValueError):
-    """A parameter value outside its documented range or choices.
-
-    A traitlets ``TraitError`` (what traitlets and ipywidgets expect) that is also
-    a ``ValueError`` and a :class:`~grasswidget.errors.GrassError`, so ``except
-    ValueError`` catches bad input too.
-    """
 
 
 class RangedFloat(traitlets.Float):
@@ -59,17 +50,11 @@ class RangedFloat(traitlets.Float):
 
     def validate(self, obj, value):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            try:
-                import numpy as np
+            import numpy as np
 
-                if isinstance(value, np.generic) and np.issubdtype(type(value), np.number):
-                    value = float(value)
-                else:
-                    raise TypeError
-            except TypeError:
-                raise ParameterError(
-                    f"{self.name} must be a number in {self.range_text()}; got {value!r}"
-                ) from None
+            if not (isinstance(value, np.generic) and np.issubdtype(type(value), np.number)):
+                raise ParameterError(f"{self.name} must be a number in {self.range_text()}; got {value!r}")
+            value = float(value)
         value = float(value)
         if not math.isfinite(value) or not (self.lo <= value <= self.hi):
             raise ParameterError(
@@ -134,27 +119,31 @@ class Vec3(traitlets.TraitType):
     def validate(self, obj, value):
         unit = f" in {self.unit}" if self.unit else ""
         what = "a finite non-zero 3-vector" if self.nonzero else "3 finite numbers"
+        bad = ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
+        if isinstance(value, (str, bytes)):
+            raise bad
         try:
-            if isinstance(value, (str, bytes)):
-                raise TypeError
             items = list(value)
-            if len(items) != 3 or any(isinstance(x, bool) for x in items):
-                raise TypeError
+        except TypeError:
+            raise bad from None
+        if len(items) != 3 or any(isinstance(x, bool) for x in items):
+            raise bad
+        try:
             out = tuple(float(x) for x in items)
         except (TypeError, ValueError):
-            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}") from None
+            raise bad from None
         if not all(math.isfinite(x) for x in out) or (self.nonzero and not any(out)):
             raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
         return out
 
 
-def _unknown_name(obj, name) -> AttributeError:
-    """An AttributeError for an unknown public name that suggests the closest trait."""
+def _unknown_name(obj, name) -> UnknownNameError:
+    """An UnknownNameError (an AttributeError) for an unknown public name that suggests the closest trait."""
     kind = type(obj).__name__
     names = sorted(obj.trait_names())
     close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
     hint = f"; did you mean {close[0]!r}?" if close else f"; its traits are: {', '.join(names)}"
-    err = AttributeError(f"{kind} has no trait {name!r}{hint}")
+    err = UnknownNameError(f"{kind} has no trait {name!r}{hint}")
     err.name, err.obj = name, obj
     return err
 
@@ -182,7 +171,7 @@ class StrictTraits(HasTraits):
 
     def __getattr__(self, name):  # only called for names not found the usual way
         if name.startswith("_"):
-            raise AttributeError(name)
+            raise UnknownNameError(name)
         raise _unknown_name(self, name)
 
 

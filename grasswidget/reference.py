@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from .enums import BladeShape, GravityMode
+from .errors import GrassValueError
 
 __all__ = [
     "safe_normalize",
@@ -141,7 +142,7 @@ def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitu
         mode = getattr(params, "gravity_mode", "direction")
         if isinstance(v0, (int, np.integer)):
             if mode == "point":
-                raise ValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
+                raise GrassValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
             v0 = np.zeros((int(v0), 3))
         return environmental_gravity(v0, mode, getattr(params, "gravity_direction", (0.0, -1.0, 0.0)),
                                      getattr(params, "gravity_center", (0.0, 0.0, 0.0)), params.gravity)
@@ -352,13 +353,13 @@ def wind_field(p, t, params, user_wind=None):
         p = np.asarray(p, np.float64)
         if user_wind is None:
             if getattr(params, "wind_wgsl", "").strip():
-                raise ValueError(
+                raise GrassValueError(
                     "wind_field 'custom' runs WGSL on the GPU; the NumPy reference needs user_wind, "
                     "a Python callable (p, t) -> W equivalent to params.wind_wgsl"
                 )
             return np.zeros(p.shape)
         return np.broadcast_to(np.asarray(user_wind(p, t), np.float64), p.shape).copy()
-    raise ValueError(f"unknown wind_field {kind!r}")
+    raise GrassValueError(f"unknown wind_field {kind!r}")
 
 
 def wind_force(W, v0, v2, up, height):

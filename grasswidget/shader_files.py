@@ -63,6 +63,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from .errors import MissingFileError
+
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
@@ -86,7 +88,7 @@ def read_shader(name: str) -> str:
     """Text of one WGSL file as stored (an unrendered template), e.g. ``read_shader("simulate.wgsl")``."""
     path = shader_dir() / name
     if not path.is_file():
-        raise FileNotFoundError(f"grasswidget has no shader {name!r} in {shader_dir()}; the installation is incomplete")
+        raise MissingFileError(f"grasswidget has no shader {name!r} in {shader_dir()}; the installation is incomplete")
     return path.read_text(encoding="utf-8")
 
 
@@ -118,6 +120,7 @@ def template_vars() -> dict:
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
+        "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
         "user_wind_body": NO_WIND_BODY,
     }
 

@@ -16,6 +16,7 @@ import numbers
 
 import numpy as np
 
+from .errors import GrassValueError
 from .params import COLOR_BY
 from .reference import CULL_REASONS, LOD_MIN_PIXELS, LOD_SEGMENTS
 
@@ -74,7 +75,7 @@ def hex_to_rgb(color: str) -> tuple:
 def legend(color_by: str) -> list:
     """(label, sRGB hex or None) rows explaining a colouring; None = natural grass colours."""
     if color_by not in COLOR_BY:
-        raise ValueError(f"color_by must be one of {', '.join(map(repr, COLOR_BY))}; got {color_by!r}")
+        raise GrassValueError(f"color_by must be one of {', '.join(map(repr, COLOR_BY))}; got {color_by!r}")
     if color_by == "lod":
         rows = []
         for k, (segments, pixels) in enumerate(zip(LOD_SEGMENTS, LOD_MIN_PIXELS)):
@@ -121,15 +122,15 @@ def check_inspect_ids(ids, count: int) -> np.ndarray:
     floats such as 1.0 are refused).
     """
     if isinstance(ids, (str, bytes)) or not np.iterable(ids):
-        raise ValueError(f"inspect takes a list of blade ids (integers in [0, {count - 1}]); got {ids!r}")
+        raise GrassValueError(f"inspect takes a list of blade ids (integers in [0, {count - 1}]); got {ids!r}")
     items = list(np.asarray(ids, dtype=object).reshape(-1)) if isinstance(ids, np.ndarray) else list(ids)
     for x in items:
         if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Integral):
-            raise ValueError(f"inspect: blade ids must be integers in [0, {count - 1}]; got {x!r}")
+            raise GrassValueError(f"inspect: blade ids must be integers in [0, {count - 1}]; got {x!r}")
     out = list(dict.fromkeys(int(x) for x in items))
     if len(out) > MAX_INSPECTED:
-        raise ValueError(f"inspect takes at most {MAX_INSPECTED} blade ids; got {len(out)}")
+        raise GrassValueError(f"inspect takes at most {MAX_INSPECTED} blade ids; got {len(out)}")
     bad = [x for x in out if not 0 <= x < count]
     if bad:
-        raise ValueError(f"inspect: blade ids must be in [0, {count - 1}] ({count} blades); got {bad[0]}")
+        raise GrassValueError(f"inspect: blade ids must be in [0, {count - 1}] ({count} blades); got {bad[0]}")
     return np.array(out, np.int64)

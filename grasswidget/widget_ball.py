@@ -24,11 +24,12 @@ import math
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import Any, Bool, HasTraits, TraitError
+from traitlets import Any, Bool, HasTraits
 
 from . import compat
 from .colliders import SphereCollider
 from .control_link import ControlLink
+from .errors import GrassValueError, ParameterError
 from .params import RangedFloat
 
 __all__ = ["BallControl", "ground_point"]
@@ -204,7 +205,7 @@ class BallControl(HasTraits):
         z = cz if z is None else z
         for name, v in (("x", x), ("z", z)):
             if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or not math.isfinite(float(v)):
-                raise ValueError(f"ball {name} must be a finite number (metres); got {v!r}")
+                raise GrassValueError(f"ball {name} must be a finite number (metres); got {v!r}")
         return (float(x), self._ground_y + self.collider.radius, float(z))
 
     def move_to(self, x=None, z=None):
@@ -239,7 +240,7 @@ class BallControl(HasTraits):
     def _on_path(self, change):
         if change["new"] is not None and not callable(change["new"]):
             self.path = change["old"]
-            raise TraitError(f"path must be None or a callable s -> (x, z); got {change['new']!r}")
+            raise ParameterError(f"path must be None or a callable s -> (x, z); got {change['new']!r}")
         self._rolled, self._circle = 0.0, None
 
     def _start_circle(self):

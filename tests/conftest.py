@@ -31,16 +31,102 @@ def small_blades():
     return gw.Blades.on_plane(2048, seed=3)
 
 
+# ---------------------------------------------------------------- shared GPU fixtures
+#
+# A test module says what it needs with module-level dicts and takes these fixtures
+# (one field or scene per module, built on first use):
+#   BLADES = dict(count=..., size=..., seed=..., ...)  -> ``blades`` (Blades.on_plane(**BLADES));
+#            without BLADES, ``blades`` is the session's ``small_blades``
+#   FIELD_PARAMS = dict(...)                           -> ``field`` (GrassField(blades, GrassParams(**FIELD_PARAMS)))
+#                                                         and ``fresh`` (that field at rest, restored after the test)
+#   SCENE = dict(size=..., params=dict(...))           -> ``scene`` (GrassScene(blades, size, GrassParams(**params)))
+#   SCENE = dict(preset=..., blades=..., size=..., seed=...)  -> ``scene`` (GrassScene.preset(...))
+
+
+def _module_spec(request, name, default=None):
+    return dict(getattr(request.module, name, default) or {})
+
+
+@pytest.fixture(scope="module")
+def blades(request):
+    """The module's blades: ``Blades.on_plane(**BLADES)``, or ``small_blades``."""
+    import grasswidget as gw
+
+    spec = _module_spec(request, "BLADES")
+    return gw.Blades.on_plane(**spec) if spec else request.getfixturevalue("small_blades")
+
+
+@pytest.fixture(scope="module")
+def field(request, blades):
+    """A GrassField of the module's blades with ``GrassParams(**FIELD_PARAMS)``."""
+    import grasswidget as gw
+
+    return gw.GrassField(blades, params=gw.GrassParams(**_module_spec(request, "FIELD_PARAMS")))
+
+
+@pytest.fixture
+def fresh(request, field):
+    """The module's field at rest with no colliders; afterwards every parameter is back
+    to ``FIELD_PARAMS`` (or its default), the colliders cleared and the field at rest."""
+    import grasswidget as gw
+
+    field.reset()
+    field.colliders.clear()
+    yield field
+    defaults = gw.GrassParams(**_module_spec(request, "FIELD_PARAMS"))
+    for name in defaults.trait_names():
+        if getattr(field.params, name) != getattr(defaults, name):
+            setattr(field.params, name, getattr(defaults, name))
+    field.colliders.clear()
+    field.reset()
+
+
+@pytest.fixture(scope="module")
+def scene(request):
+    """The module's GrassScene, from its ``SCENE`` dict (a preset, or the module's
+    ``blades`` at ``size`` with ``params``)."""
+    import grasswidget as gw
+
+    spec = _module_spec(request, "SCENE")
+    if "preset" in spec:
+        return gw.GrassScene.preset(spec.pop("preset"), **spec)
+    params = spec.pop("params", None)
+    return gw.GrassScene(request.getfixturevalue("blades"), params=gw.GrassParams(**params) if params else None,
+                         **spec)
+
+
 #: View size of the test widgets (CSS pixels).
 WIDGET_SIZE = (160, 120)
 
 
+
+
+class TickingWall:
+    """A simulated wall clock for GrassWidget's real-time clock: each reading is
+    ``tick`` seconds after the one before (``advance(s)`` adds more)."""
+
+    def __init__(self, tick=0.0):
+        self.t = 1000.0
+        self.tick = tick
+
+    def __call__(self):
+        self.t += self.tick
+        return self.t
+
+    def advance(self, seconds):
+        self.t += seconds
+
+
 @pytest.fixture
 def widget():
-    """A GrassWidget of 1024 blades at WIDGET_SIZE, closed after the test."""
+    """A GrassWidget of 1024 blades at WIDGET_SIZE, closed after the test. Its
+    simulation clock reads a TickingWall that moves one nominal frame interval
+    (1 / max_fps) per reading, so each frame drawn while playing advances exactly
+    ``steps_per_frame`` fixed steps (the clock reads the wall once per frame)."""
     import grasswidget as gw
 
     w = gw.GrassWidget(blades=1024, size=WIDGET_SIZE)
+    w.view.clock.now = TickingWall(1.0 / w.max_fps)
     yield w
     w.close()
 

@@ -127,24 +127,24 @@ def test_browser_messages_move_the_ball_and_never_raise():
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
     view = w.view.view
     try:
-        view._on_browser_msg(view, {"type": "ball", "phase": "down", "x": 1.0, "z": -0.5}, [])
+        view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
         assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5
         assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
         w.ball.rolling = True
         assert view.report_steps
-        view._on_browser_msg(view, {"type": "steps", "steps": 1}, [])    # onto its circle
+        view.handle_message({"type": "steps", "steps": 1})    # onto its circle
         before = w.ball.collider.center
-        view._on_browser_msg(view, {"type": "steps", "steps": 60}, [])   # 0.5 s of simulated time
+        view.handle_message({"type": "steps", "steps": 60})   # 0.5 s of simulated time
         moved = np.linalg.norm(np.subtract(w.ball.collider.center, before))   # a chord of the rolled arc
         arc = w.ball.roll_speed * 60 * w.params.dt
         assert 0.9 * arc < moved <= arc + 1e-9
         assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
-        view._on_browser_msg(view, {"type": "ball", "phase": "move", "x": "nowhere"}, [])
+        view.handle_message({"type": "ball", "phase": "move", "x": "nowhere"})
         assert "could not convert" in w.message_line.value
-        view._on_browser_msg(view, {"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 30,
-                                    "step_count": 99, "frame_size": [320, 240]}, [])
+        view.handle_message({"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 30,
+                                    "step_count": 99, "frame_size": [320, 240]})
         assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.stats_line.value
-        view._on_browser_msg(view, {"type": "gpu_status"}, None)   # unknown kinds are ignored
+        view.handle_message({"type": "gpu_status"}, None)   # unknown kinds are ignored
     finally:
         w.close()
 

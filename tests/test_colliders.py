@@ -11,27 +11,9 @@ from grasswidget.colliders import MAX_COLLIDERS, ColliderList
 R = 1.0
 
 
-@pytest.fixture(scope="module")
-def blades():
-    return gw.Blades.on_plane(2048, size=10.0, seed=5)
-
-
-@pytest.fixture(scope="module")
-def field(blades):
-    return gw.GrassField(blades, params=gw.GrassParams(wind_strength=0.0))
-
-
-@pytest.fixture
-def fresh(field):
-    """The shared field, reset, with no colliders and default params; restored afterwards."""
-    field.reset()
-    field.colliders.clear()
-    yield field
-    field.reset()
-    field.colliders.clear()
-    defaults = gw.GrassParams(wind_strength=0.0)
-    for name in ("wind_strength", "collision_fade", "collision_gain"):
-        setattr(field.params, name, getattr(defaults, name))
+# Fixtures blades, field and fresh (conftest): one field for the module, in calm air.
+BLADES = dict(count=2048, size=10.0, seed=5)
+FIELD_PARAMS = dict(wind_strength=0.0)
 
 
 def _rel_err(gpu, cpu, b):

@@ -180,3 +180,15 @@ def test_pygfx_hooks_the_teaching_views_override():
     source = inspect.getsource(renderer.WgpuRenderer.get_pick_info)
     assert "_wgpu_get_pick_info(pick_value)" in source
     assert "pick_value & 1048575" in source  # 20 bits of object id; the blade id is packed above them
+
+
+def test_ipykernel_parent_ident():
+    """browser.kernel_pump hands deferred shell messages back under the running request's
+    identity, read through compat.kernel_parent_ident (ipykernel 7.4: Kernel._parent_ident)."""
+    from ipykernel.kernelbase import Kernel
+
+    kernel = Kernel()
+    kernel._shell_parent_ident.set(b"cell-7")
+    assert compat.kernel_parent_ident(kernel, "shell") == b"cell-7"
+    assert compat.kernel_parent_ident(kernel, "control") == b""
+    assert compat.kernel_parent_ident(object()) == b""  # a kernel without it (ipykernel 6 path)

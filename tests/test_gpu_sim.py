@@ -3,13 +3,11 @@
 import numpy as np
 import pytest
 
-import grasswidget as gw
 from grasswidget import reference as ref
 
 
-@pytest.fixture(scope="module")
-def scene(small_blades):
-    return gw.GrassScene(small_blades, size=(96, 72))
+# Fixture scene (conftest) of the session's small_blades.
+SCENE = dict(size=(96, 72))
 
 
 def _rel_err(gpu, cpu, b):

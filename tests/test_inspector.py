@@ -12,14 +12,14 @@ from grasswidget.gpu.inspector import SEGMENT_VERTICES
 from grasswidget.teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, hex_to_rgb
 
 
-@pytest.fixture(scope="module")
-def scene():
-    b = gw.Blades.on_plane(1200, 8.0, seed=9, height=(1.3, 2.5), width=(0.1, 0.14))
-    return gw.GrassScene(b, size=(320, 240))
+# Fixtures blades and scene (conftest).
+BLADES = dict(count=1200, size=8.0, seed=9, height=(1.3, 2.5), width=(0.1, 0.14))
+SCENE = dict(size=(320, 240))
 
 
 @pytest.fixture
-def fresh(scene):
+def fresh_scene(scene):
+    """The module's scene at rest in a wave wind, nothing inspected afterwards."""
     scene.field.reset()
     scene.colliders.clear()
     p = scene.params
@@ -70,8 +70,8 @@ def _check(scene, ids, colliders=None, rtol=2e-3, atol=2e-3, atol_push=2e-5):
     return forces, expected
 
 
-def test_arrows_equal_the_reference_forces_in_wind(fresh):
-    scene = fresh
+def test_arrows_equal_the_reference_forces_in_wind(fresh_scene):
+    scene = fresh_scene
     scene.params.wind_strength = 25.0
     scene.step(50)
     ids = [3, 100, 777, 1199]
@@ -95,8 +95,8 @@ def test_arrows_equal_the_reference_forces_in_wind(fresh):
     assert np.all(forces[:, 2] == 0)
 
 
-def test_arrows_equal_the_reference_forces_against_a_ball(fresh):
-    scene = fresh
+def test_arrows_equal_the_reference_forces_against_a_ball(fresh_scene):
+    scene = fresh_scene
     p = scene.params
     p.wind_strength = 0.0
     ball = gw.SphereCollider(center=(0.0, 1.2, 0.0), radius=1.1)
@@ -121,8 +121,8 @@ def test_arrows_equal_the_reference_forces_against_a_ball(fresh):
     assert not np.any(forces[:, 3])
 
 
-def test_inspector_is_drawn_and_cleared(fresh, tmp_path):
-    scene = fresh
+def test_inspector_is_drawn_and_cleared(fresh_scene, tmp_path):
+    scene = fresh_scene
     scene.params.wind_strength = 25.0
     scene.step(30)
     v0 = scene.field.blades.v0
@@ -159,16 +159,16 @@ def test_inspector_is_drawn_and_cleared(fresh, tmp_path):
         ("12", "list of blade ids"),
     ],
 )
-def test_bad_ids_raise_and_change_nothing(fresh, ids, match):
-    scene = fresh
+def test_bad_ids_raise_and_change_nothing(fresh_scene, ids, match):
+    scene = fresh_scene
     scene.inspect([4, 5])
     with pytest.raises(ValueError, match=match):
         scene.inspect(ids)
     assert scene.inspected == (4, 5)
 
 
-def test_inspect_up_to_64_and_numpy_ids(fresh):
-    scene = fresh
+def test_inspect_up_to_64_and_numpy_ids(fresh_scene):
+    scene = fresh_scene
     ids = np.arange(64, dtype=np.int64) * 17
     scene.inspect(ids)
     scene.render()

@@ -10,11 +10,10 @@ from conftest import grass_mask
 from grasswidget.params import BLADE_SHAPES
 
 
-@pytest.fixture(scope="module")
-def scene():
-    # Few wide upright blades (rest pose, never stepped), so that blades rarely overlap.
-    blades = gw.Blades.on_plane(40, size=10.0, seed=9, width=(0.3, 0.4), height=(1.5, 2.0))
-    return gw.GrassScene(blades, size=(200, 150))
+# Fixtures blades and scene (conftest): few wide upright blades (rest pose, never
+# stepped), so that blades rarely overlap.
+BLADES = dict(count=40, size=10.0, seed=9, width=(0.3, 0.4), height=(1.5, 2.0))
+SCENE = dict(size=(200, 150))
 
 
 @pytest.fixture(scope="module")

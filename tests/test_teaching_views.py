@@ -12,12 +12,10 @@ from conftest import grass_mask
 SIZE = (400, 300)
 
 
-@pytest.fixture(scope="module")
-def scene():
-    """1500 tall blades on 15 x 15 m (quad ribbons: full width at their middle)."""
-    b = gw.Blades.on_plane(1500, 15.0, seed=7, height=(1.3, 2.5), width=(0.1, 0.14))
-    p = gw.GrassParams(blade_shape="quad", cull_distance_max=25.0, cull_buckets=10)
-    return gw.GrassScene(b, size=SIZE, params=p)
+# Fixtures blades and scene (conftest): 1500 tall blades on 15 x 15 m (quad ribbons:
+# full width at their middle).
+BLADES = dict(count=1500, size=15.0, seed=7, height=(1.3, 2.5), width=(0.1, 0.14))
+SCENE = dict(size=SIZE, params=dict(blade_shape="quad", cull_distance_max=25.0, cull_buckets=10))
 
 
 @pytest.fixture

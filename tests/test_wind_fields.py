@@ -11,31 +11,8 @@ from grasswidget.shader_files import render_wgsl
 
 from conftest import HARNESS_BINDINGS
 
-CHANGED = (
-    "wind_field", "wind_strength", "wind_center", "wind_radius", "wind_wavelength", "wind_speed",
-    "wind_direction", "dt", "gravity", "gravity_direction", "stiffness_scale",
-)
-
-
-@pytest.fixture(scope="module")
-def blades():
-    return gw.Blades.on_plane(2048, size=12.0, seed=7)
-
-
-@pytest.fixture(scope="module")
-def field(blades):
-    return gw.GrassField(blades)
-
-
-@pytest.fixture
-def fresh(field):
-    """The shared field reset to rest with default params; restored afterwards."""
-    field.reset()
-    yield field
-    defaults = gw.GrassParams()
-    for name in CHANGED:
-        setattr(field.params, name, getattr(defaults, name))
-    field.reset()
+# Fixtures blades, field and fresh (conftest): one field for the module, default params.
+BLADES = dict(count=2048, size=12.0, seed=7)
 
 
 def _set(params, values):

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import GrassTypeError, GrassValueError
 from ..blades import Blades
 from ..colliders import ColliderList
 from .view import BrowserView
@@ -248,7 +249,7 @@ class BrowserEngineView:
     def camera_state(self, state):
         new = dict(self.view.camera, **_check_camera_state(state))
         if np.allclose(new["position"], new["target"]):
-            raise ValueError(f"camera_state position and target must differ; both are {tuple(new['position'])}")
+            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(new['position'])}")
         self.view.camera = new
 
     # ------------------------------------------------------------------ pictures and state
@@ -330,20 +331,20 @@ class BrowserEngineView:
 def _check_camera_state(state) -> dict:
     """Validate a camera_state dict: position, target (3 finite numbers each, apart), fov_deg in (1, 179)."""
     if not isinstance(state, dict):
-        raise TypeError(f"camera_state must be a dict with position, target and fov_deg; got {state!r}")
+        raise GrassTypeError(f"camera_state must be a dict with position, target and fov_deg; got {state!r}")
     unknown = set(state) - {"position", "target", "fov_deg"}
     if unknown:
-        raise ValueError(f"camera_state keys are position, target and fov_deg; got {sorted(unknown)}")
+        raise GrassValueError(f"camera_state keys are position, target and fov_deg; got {sorted(unknown)}")
     out = {}
     for key in ("position", "target"):
         if key in state:
             v = np.asarray(state[key], np.float64).reshape(-1)
             if v.size != 3 or not np.all(np.isfinite(v)):
-                raise ValueError(f"camera_state {key} must be 3 finite numbers (metres); got {state[key]!r}")
+                raise GrassValueError(f"camera_state {key} must be 3 finite numbers (metres); got {state[key]!r}")
             out[key] = [float(x) for x in v]
     if "fov_deg" in state:
         fov = state["fov_deg"]
         if isinstance(fov, bool) or not isinstance(fov, (int, float, np.number)) or not (1.0 <= float(fov) <= 179.0):
-            raise ValueError(f"camera_state fov_deg must be a number in [1, 179] degrees; got {fov!r}")
+            raise GrassValueError(f"camera_state fov_deg must be a number in [1, 179] degrees; got {fov!r}")
         out["fov_deg"] = float(fov)
     return out

@@ -20,11 +20,10 @@ from __future__ import annotations
 import asyncio
 import time
 
+from .. import compat
+from ..errors import BrowserTimeoutError
+
 __all__ = ["wait_for", "BrowserTimeoutError"]
-
-
-class BrowserTimeoutError(TimeoutError):
-    """The browser view did not answer a request in time."""
 
 
 def _kernel():
@@ -83,7 +82,7 @@ def _wait_ipykernel7(kernel, check, deadline, timeout, what):
         sock = kernel.shell_stream.socket
         on_recv = kernel.shell_main
     parent = kernel.get_parent("shell")
-    ident = kernel._parent_ident["shell"] if hasattr(kernel, "_parent_ident") else b""
+    ident = compat.kernel_parent_ident(kernel, "shell")
     deferred = []
 
     def handle_one():

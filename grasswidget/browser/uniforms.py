@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from ..errors import GrassValueError
 from ..colliders import MAX_COLLIDERS, collider_array
 from ..enums import BladeShape, ColorBy, GravityMode, WindField
 from ..params import GrassParams
@@ -111,7 +112,7 @@ def _size_align(wgsl_type):
     if wgsl_type.startswith("array<vec4<f32>,"):
         n = int(wgsl_type.rsplit(",", 1)[1].rstrip(">").strip())
         return 16 * n, 16, "<f4", 4 * n
-    raise ValueError(f"unsupported uniform type {wgsl_type!r}")
+    raise GrassValueError(f"unsupported uniform type {wgsl_type!r}")
 
 
 def offsets(layout) -> dict:

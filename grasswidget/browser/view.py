@@ -30,6 +30,7 @@ import anywidget
 import numpy as np
 from traitlets import Bool, Bytes, Dict, Float, Int, List
 
+from ..errors import GrassTypeError, GrassValueError
 from ..blades import Blades, unpack_state
 from ..colliders import ColliderList, collider_array
 from ..params import GrassParams
@@ -125,9 +126,9 @@ class BrowserView(anywidget.AnyWidget):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
             blades = Blades.on_plane(int(blades))
         if not isinstance(blades, Blades):
-            raise TypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         if params is not None and not isinstance(params, GrassParams):
-            raise TypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+            raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
         self.params = params if params is not None else GrassParams()
         self._colliders = ColliderList()
         self._answers = {}
@@ -205,7 +206,7 @@ class BrowserView(anywidget.AnyWidget):
     def step(self, n: int = 1):
         """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests)."""
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         if n:
             self.send({"type": "step", "n": int(n)})
 
@@ -288,7 +289,7 @@ class BrowserView(anywidget.AnyWidget):
         the old wind and ``params.wind_wgsl`` stay in force.
         """
         if not isinstance(body, str):
-            raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
+            raise GrassTypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
         old = self.params.wind_wgsl
         self._reverting_wind = True
         try:
@@ -311,6 +312,11 @@ class BrowserView(anywidget.AnyWidget):
         self.errors = (self.errors + [str(err)])[-20:]
         for cb in self._listeners["error"]:
             cb(err)
+
+    def handle_message(self, content: dict, buffers=()):
+        """Handle one message from the page (what engine.js sends over the comm:
+        ``{"type": "ball" | "steps" | "stats" | ..., ...}``); never raises."""
+        self._on_browser_msg(self, content, buffers)
 
     def _on_browser_msg(self, _widget, content, buffers):
         # Never let a front-end message raise into the notebook.

@@ -17,7 +17,7 @@ from .. import compat
 from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..colliders import ColliderList
 from ..enums import ColorBy
-from ..errors import BladeLimitError, WindShaderError
+from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS
@@ -30,6 +30,11 @@ from .simulation import Simulation
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
+
+#: Distance bands per LOD class: the culling draws each class nearest band first (see cull.wgsl).
+DISTANCE_BANDS = 64
+#: The bands are log-spaced over this range of distances to the camera (m).
+BAND_RANGE = (0.5, 512.0)
 
 
 N_CLASSES = len(LOD_SEGMENTS)
@@ -98,9 +103,9 @@ class GrassField(gfx.WorldObject):
 
     def __init__(self, blades: Blades, params: GrassParams | None = None, material: GrassMaterial | None = None):
         if not isinstance(blades, Blades):
-            raise TypeError(f"blades must be a grasswidget.Blades, not {type(blades).__name__}")
+            raise GrassTypeError(f"blades must be a grasswidget.Blades, not {type(blades).__name__}")
         if params is not None and not isinstance(params, GrassParams):
-            raise TypeError(f"params must be a GrassParams, not {type(params).__name__}")
+            raise GrassTypeError(f"params must be a GrassParams, not {type(params).__name__}")
         device = ensure_device()
         check_blade_limits(len(blades), device)
         indirect.install()
@@ -124,6 +129,11 @@ class GrassField(gfx.WorldObject):
         )
         self._store.visible_buffer = gfx.Buffer(
             nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
+        )
+        # Culling's distance-band counters and cursors (see cull.wgsl).
+        self._store.band_buffer = gfx.Buffer(
+            nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
+            usage=usage.STORAGE,
         )
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
         # The draw of the culled blades (color_by "cull"): args, and the list of
@@ -179,6 +189,11 @@ class GrassField(gfx.WorldObject):
         return self._store.visible_buffer
 
     @property
+    def band_buffer(self):
+        """pygfx Buffer of the culling's per (LOD class, distance band) counters and cursors (u32)."""
+        return self._store.band_buffer
+
+    @property
     def culled_args_buffer(self):
         """pygfx Buffer of (vertex_count, instance_count, 0, 0) u32: the draw of the
         culled blades (instances only with ``params.color_by == "cull"``)."""
@@ -226,7 +241,7 @@ class GrassField(gfx.WorldObject):
     @step_count.setter
     def step_count(self, value):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValueError(f"step_count must be an integer >= 0; got {value!r}")
+            raise GrassValueError(f"step_count must be an integer >= 0; got {value!r}")
         self.simulation.step_count = int(value)
 
     @property
@@ -286,7 +301,7 @@ class GrassField(gfx.WorldObject):
         if isinstance(camera, FrozenCamera):
             frozen = camera
         elif viewport_size is None:
-            raise ValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
+            raise GrassValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
         else:
             frozen = FrozenCamera(camera, viewport_size)
         to_local = np.linalg.inv(np.asarray(self.world.matrix, np.float64))
@@ -366,7 +381,7 @@ class GrassField(gfx.WorldObject):
             field.set_wind_wgsl("return vec3<f32>(8.0 * (1.0 + sin(t + 0.3 * p.x)), 0.0, 0.0);")
         """
         if not isinstance(body, str):
-            raise TypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
+            raise GrassTypeError(f"wind_wgsl must be a str (WGSL function body); got {type(body).__name__}")
         self.params.wind_wgsl = body
         if self.simulation.wind_body != body:  # params unchanged but never compiled here
             self.simulation.compile_wind(body, self.params.wind_wgsl)
@@ -381,7 +396,7 @@ class GrassField(gfx.WorldObject):
         ``(k * dt) mod wind_period`` like the NumPy reference.
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.simulation.step(int(n))
 
     def release(self):
@@ -396,7 +411,7 @@ class GrassField(gfx.WorldObject):
         if self.inspector is not None:
             self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
-                 "culled_args_buffer", "culled_buffer")
+                 "culled_args_buffer", "culled_buffer", "band_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.simulation.release()
 
@@ -448,13 +463,15 @@ class GrassField(gfx.WorldObject):
         raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
         return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
 
-    def read_visible(self) -> np.ndarray:
-        """Sorted ids of the blades drawn by the last render (synchronous)."""
+    def read_visible(self, draw_order: bool = False):
+        """Ids of the blades drawn by the last render (synchronous): sorted, or with
+        ``draw_order=True`` a list per LOD class in the order they were drawn."""
         device = ensure_device()
         args = self.read_draw_args()
         visible = compat.gpu_buffer(self.visible_buffer)
         if visible is None:
-            return np.zeros(0, np.uint32)
+            return [np.zeros(0, np.uint32)] * N_CLASSES if draw_order else np.zeros(0, np.uint32)
         raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
-        return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))
+        lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
+        return lists if draw_order else np.sort(np.concatenate(lists))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pygfx as gfx
 
+from ..errors import GrassValueError
 from ..teaching import FROZEN_FRUSTUM_COLOR, frustum_segments
 
 __all__ = ["FrozenCamera"]
@@ -32,7 +33,7 @@ class FrozenCamera:
     def __init__(self, camera, viewport_size):
         w, h = viewport_size
         if not (w > 0 and h > 0):
-            raise ValueError(f"viewport_size must be (width, height) > 0 pixels; got {viewport_size!r}")
+            raise GrassValueError(f"viewport_size must be (width, height) > 0 pixels; got {viewport_size!r}")
         camera.set_view_size(float(w), float(h))  # what a render of that size does first
         # The same product the render shaders use: projection_transform * cam_transform.
         proj = np.asarray(camera.projection_matrix, np.float64)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import pygfx
 
 from .. import compat
+from ..errors import UpstreamChangedError
 
 __all__ = ["IndirectRenderPipelineContainer", "install", "is_installed", "SUPPORTED_PYGFX"]
 
@@ -47,11 +48,11 @@ class IndirectRenderPipelineContainer(_Original):
 def install():
     """Install the subclass (idempotent). Raises if pygfx is not a supported version."""
     if not pygfx.__version__.startswith(SUPPORTED_PYGFX):
-        raise RuntimeError(
+        raise UpstreamChangedError(
             f"grasswidget's indirect-draw patch supports pygfx {SUPPORTED_PYGFX}, not {pygfx.__version__}"
         )
     if not hasattr(_Original, "draw"):
-        raise RuntimeError("pygfx internals changed: RenderPipelineContainer.draw not found")
+        raise UpstreamChangedError("pygfx internals changed: RenderPipelineContainer.draw not found")
     compat.set_render_pipeline_container_class(IndirectRenderPipelineContainer)
 
 

@@ -91,6 +91,12 @@ class BladeInspector(gfx.WorldObject):
         self._store.user_wind_body = field.params.wind_wgsl
         field.params.observe(self._on_wind_wgsl, names="wind_wgsl")
 
+    @property
+    def user_wind_body(self) -> str:
+        """The field's ``wind_wgsl`` that the inspector's compute pass compiles (read
+        from the pygfx store, so a change rebuilds the shader)."""
+        return self._store.user_wind_body
+
     def _on_wind_wgsl(self, change):
         self._store.user_wind_body = change["new"]  # pygfx rebuilds the shader
 
@@ -176,7 +182,7 @@ class InspectShader(GrassComputeShader):
     """The inspector's compute pass (one workgroup of 64), in every render."""
 
     def __init__(self, wobject):
-        body = wobject._store.user_wind_body
+        body = wobject.user_wind_body
         super().__init__(
             wobject,
             user_wind_body=body if body.strip() else NO_WIND_BODY,

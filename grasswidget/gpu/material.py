@@ -12,6 +12,7 @@ import numpy as np
 import pygfx as gfx
 
 from ..enums import BladeShape
+from ..errors import GrassValueError
 
 __all__ = ["GrassMaterial"]
 
@@ -116,7 +117,7 @@ class GrassMaterial(gfx.Material):
         v = np.asarray(value, np.float64).reshape(3)
         norm = np.linalg.norm(v)
         if not np.all(np.isfinite(v)) or norm == 0:
-            raise ValueError(f"light_direction must be a finite non-zero 3-vector; got {value!r}")
+            raise GrassValueError(f"light_direction must be a finite non-zero 3-vector; got {value!r}")
         self._set("light_direction", (*(v / norm), 0.0))
 
     @property
@@ -127,7 +128,7 @@ class GrassMaterial(gfx.Material):
     @blade_shape.setter
     def blade_shape(self, value):
         if value not in SHAPES:
-            raise ValueError(f"blade_shape must be one of {', '.join(SHAPES)}; got {value!r}")
+            raise GrassValueError(f"blade_shape must be one of {', '.join(SHAPES)}; got {value!r}")
         self._set("blade_shape", int(BladeShape.from_label(value)))
 
     @property
@@ -139,12 +140,12 @@ class GrassMaterial(gfx.Material):
     def tip_threshold(self, value):
         v = float(value)
         if not (math.isfinite(v) and 0.0 <= v <= 0.99):
-            raise ValueError(f"tip_threshold must be in [0, 0.99]; got {value!r}")
+            raise GrassValueError(f"tip_threshold must be in [0, 0.99]; got {value!r}")
         self._set("tip_threshold", v)
 
 
 def _check_unit(name, value):
     v = float(value)
     if not (math.isfinite(v) and 0.0 <= v <= 1.0):
-        raise ValueError(f"{name} must be in [0, 1]; got {value!r}")
+        raise GrassValueError(f"{name} must be in [0, 1]; got {value!r}")
     return v

@@ -44,7 +44,7 @@ def pytest_collection_modifyitems(config, items):
 @pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_makereport(item, call):
     rep = yield
-    setattr(item, f"_gw_rep_{rep.when}", rep)
+    setattr(item, f"gw_report_{rep.when}", rep)
     return rep
 
 
@@ -76,7 +76,7 @@ def page(browser, lab_server, request):
     page = browser.page
     n_console = len(browser.console)
     yield page
-    rep = getattr(request.node, "_gw_rep_call", None)
+    rep = getattr(request.node, "gw_report_call", None)
     if rep is not None and rep.failed:
         out = Path(os.environ.get("GW_ARTIFACTS_DIR") or tempfile.mkdtemp(prefix="gw-browser-failure-"))
         save_debug_artifacts(page, out, request.node.name, browser, lab_server)
