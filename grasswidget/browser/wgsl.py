@@ -23,7 +23,7 @@ from pathlib import Path
 import jinja2
 
 from ..reference import LOD_SEGMENTS
-from ..shader_files import NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
+from ..shader_files import BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -50,6 +50,7 @@ _STORAGE = {
         "s_visible": "var<storage, read_write> s_visible: array<u32>",
         "s_culled": "var<storage, read_write> s_culled: array<u32>",
         "s_culled_args": "var<storage, read_write> s_culled_args: array<atomic<u32>>",
+        "s_bands": "var<storage, read_write> s_bands: array<atomic<u32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
@@ -180,11 +181,19 @@ class BrowserShaders:
 
     @staticmethod
     def reset_args() -> dict:
-        return render_shader("reset_args.wgsl", "compute")
+        return render_shader("reset_args.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def cull() -> dict:
-        return render_shader(_body_file("cull"), "compute")
+    def cull(phase: str = "scatter") -> dict:
+        """The culling pass, drawing order by distance band as in the kernel: phase "count"
+        counts survivors per (class, band), :meth:`prefix_bands` turns counts into slots,
+        phase "scatter" writes the lists nearest band first."""
+        return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase,
+                             band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+
+    @staticmethod
+    def prefix_bands() -> dict:
+        return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
     def blades() -> list:
@@ -206,8 +215,11 @@ class BrowserShaders:
         return {
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
-            "cull": cls.cull(),
+            "cull_count": cls.cull("count"),
+            "prefix_bands": cls.prefix_bands(),
+            "cull": cls.cull("scatter"),
             "blades": cls.blades(),
             "scene": cls.scene(),
             "lod_segments": list(LOD_SEGMENTS),
+            "bands": DISTANCE_BANDS,
         }
