@@ -24,6 +24,8 @@ import math
 import numbers
 import time
 
+from .errors import GrassValueError
+
 __all__ = ["ResolutionGovernor", "SCALES", "check_target_fps", "TARGET_FPS_RANGE"]
 
 #: Render scales, largest first (fraction of the full pixel ratio per axis).
@@ -40,7 +42,7 @@ def check_target_fps(value) -> float:
     lo, hi = TARGET_FPS_RANGE
     ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
     if not ok or not math.isfinite(float(value)) or not lo <= float(value) <= hi:
-        raise ValueError(f"target_fps must be a number in [{lo:g}, {hi:g}] (frames per second); got {value!r}")
+        raise GrassValueError(f"target_fps must be a number in [{lo:g}, {hi:g}] (frames per second); got {value!r}")
     return float(value)
 
 

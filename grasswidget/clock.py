@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 import time
 
+from .errors import GrassValueError
+
 __all__ = ["SimClock"]
 
 
@@ -44,7 +46,7 @@ class SimClock:
 
     def __init__(self, max_steps: int = 64, now=None):
         if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
-            raise ValueError(f"max_steps must be an integer >= 1; got {max_steps!r}")
+            raise GrassValueError(f"max_steps must be an integer >= 1; got {max_steps!r}")
         self.max_steps = max_steps
         self.now = now or time.perf_counter
         self.sim_time = 0.0
@@ -94,7 +96,7 @@ class SimClock:
             self.last_steps, self.capped = 0, False
             return 0
         if not (dt > 0 and math.isfinite(dt)):
-            raise ValueError(f"dt must be a finite number > 0 (seconds); got {dt!r}")
+            raise GrassValueError(f"dt must be a finite number > 0 (seconds); got {dt!r}")
         now = self.now()
         wall = max(0.0, now - self._last) * max(0.0, float(time_scale))
         self._last = now

@@ -27,6 +27,7 @@ import weakref
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..errors import GrassValueError
 from ..shader_files import read_shader, ribbon_vars
 from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
@@ -86,7 +87,7 @@ class CullShader(GrassComputeShader):
 
     def __init__(self, wobject, phase="scatter"):
         if phase not in ("count", "scatter"):
-            raise ValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
+            raise GrassValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
         super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, phase=phase,
                          band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 

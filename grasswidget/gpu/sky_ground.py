@@ -17,6 +17,7 @@ import pygfx as gfx
 import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
+from ..errors import GrassValueError
 from ..shader_files import read_shader
 from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
 
@@ -55,7 +56,7 @@ class SkyGroundMaterial(gfx.Material):
         """Move the ground square: ``center`` (x, y, z) metres, ``half_size`` metres (> 0)."""
         half_size = float(half_size)
         if not half_size > 0:
-            raise ValueError(f"ground_half_size must be > 0 (metres); got {half_size!r}")
+            raise GrassValueError(f"ground_half_size must be > 0 (metres); got {half_size!r}")
         c = np.asarray(center, np.float32).reshape(3)
         self.uniform_buffer.data["ground"] = (c[0], c[1], c[2], half_size)
         self.uniform_buffer.update_full()
