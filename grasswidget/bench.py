@@ -5,6 +5,9 @@
 Per blade count and culling mode it measures, after warm-up:
 - frame ms (median, p10, p90): one simulation step + one render, GPU-synchronised
   every frame (a 64-byte readback waits for the queue);
+- frame CPU ms (median): the process's CPU time over the same frame, all threads
+  (on a CPU adapter this is the rendering work itself, and it moves much less than
+  wall time when other processes load the machine);
 - simulation ms and culling+draw ms: the same two halves timed separately (wall
   clock, GPU-synchronised);
 - GPU ms from timestamp queries where the adapter has them: the simulation pass
@@ -30,8 +33,9 @@ from . import compat
 
 __all__ = ["run_bench", "format_table", "CULL_MODES"]
 
-#: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "each" (on, off, and each test alone).
-CULL_MODES = ("on", "off", "each")
+#: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "both" (off, then on, in
+#: one run: their ratio is what culling buys), "each" (on, off, and each test alone).
+CULL_MODES = ("on", "off", "both", "each")
 
 
 def _modes(cull):
@@ -39,6 +43,8 @@ def _modes(cull):
         return ["on"]
     if cull == "off":
         return ["off"]
+    if cull == "both":
+        return ["off", "on"]
     if cull == "each":
         return ["off", "orientation", "frustum", "distance", "on"]
     raise GrassValueError(f"cull must be one of {', '.join(CULL_MODES)}; got {cull!r}")
@@ -61,7 +67,7 @@ class _Timer:
 
     def __init__(self, scene):
         from .gpu.compute import ComputeProgram
-        from .gpu.shaders import CullShader, ResetArgsShader
+        from .gpu.shaders import CullShader, PrefixBandsShader, ResetArgsShader
 
         self.scene = scene
         self.device = scene.field.stats.device
@@ -73,10 +79,12 @@ class _Timer:
         self.qs = self.device.create_query_set(type="timestamp", count=4)
         self.buf = self.device.create_buffer(size=32, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
         self.reset = ComputeProgram(ResetArgsShader(scene.field), scene.field)
-        self.cull = ComputeProgram(CullShader(scene.field), scene.field)
+        self.count = ComputeProgram(CullShader(scene.field, "count"), scene.field)
+        self.prefix = ComputeProgram(PrefixBandsShader(scene.field), scene.field)
+        self.cull = ComputeProgram(CullShader(scene.field, "scatter"), scene.field)
 
     def cull_ms(self):
-        """GPU ms of reset + cull for the current camera (uniforms of the last render)."""
+        """GPU ms of reset + cull (count, prefix, scatter) for the current camera (uniforms of the last render)."""
         from .gpu.shaders import workgroups
 
         enc = self.device.create_command_encoder()
@@ -84,6 +92,8 @@ class _Timer:
             timestamp_writes={"query_set": self.qs, "beginning_of_pass_write_index": 0, "end_of_pass_write_index": 1}
         )
         self.reset.dispatch(cp, (1, 1, 1))
+        self.count.dispatch(cp, workgroups(self.scene.field.count))
+        self.prefix.dispatch(cp, (1, 1, 1))
         self.cull.dispatch(cp, workgroups(self.scene.field.count))
         cp.end()
         enc.resolve_query_set(self.qs, 0, 2, self.buf, 0)
@@ -110,16 +120,17 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         field.step(steps_per_frame)
         render()
         sync()
-    frame, sim, cull_draw, gpu_sim, gpu_draw = [], [], [], [], []
+    frame, frame_cpu, sim, cull_draw, gpu_sim, gpu_draw = [], [], [], [], [], []
     visible = None
     for _ in range(frames):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         field.step(steps_per_frame)
         sync()
         t1 = time.perf_counter()
         render()
         args = sync()
         t2 = time.perf_counter()
+        frame_cpu.append((time.process_time() - c0) * 1e3)
         frame.append((t2 - t0) * 1e3)
         sim.append((t1 - t0) * 1e3)
         cull_draw.append((t2 - t1) * 1e3)
@@ -141,6 +152,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         pipelined_fps=pipelined_fps,
         frame_ms=dict(median=_pct(frame, 50), p10=_pct(frame, 10), p90=_pct(frame, 90)),
         fps=1000.0 / _pct(frame, 50),
+        frame_cpu_ms=_pct(frame_cpu, 50),
         simulation_ms=_pct(sim, 50),
         cull_draw_ms=_pct(cull_draw, 50),
         visible=visible,
@@ -205,7 +217,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 def format_table(report: dict) -> str:
     """A plain-text table of a run_bench report."""
-    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
+    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 
     def g(row, key):
@@ -215,7 +227,8 @@ def format_table(report: dict) -> str:
     for r in report["results"]:
         f = r["frame_ms"]
         lines.append(
-            f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} {r['fps']:7.1f} "
+            f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
+            f"{r.get('frame_cpu_ms', float('nan')):7.1f} {r['fps']:7.1f} "
             f"{r['simulation_ms']:7.2f} {r['cull_draw_ms']:9.2f} {g(r, 'gpu_simulation_ms')} {g(r, 'gpu_cull_ms')} "
             f"{g(r, 'gpu_draw_ms')} {r['visible']:>9} {r['pipelined_fps']:8.1f}"
         )

@@ -122,7 +122,7 @@ def build_parser():
                    help="blade counts (default: 2^10..2^17 for cis565, 2^16..2^22 for meadow)")
     b.add_argument("--frames", type=_positive, default=30)
     b.add_argument("--size", type=_size, default=None, help="WxH (default: the preset's)")
-    b.add_argument("--cull", choices=["on", "off", "each"], default="on")
+    b.add_argument("--cull", choices=["on", "off", "both", "each"], default="on")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
     p.subcommands = {"snapshot": s, "bench": b}

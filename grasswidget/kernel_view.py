@@ -2,21 +2,32 @@
 
 :class:`KernelView` owns a jupyter-rfb canvas (``rendercanvas.jupyter.RenderCanvas``),
 the :class:`~grasswidget.scene.GrassScene` drawn into it, the camera's
-``OrbitController``, the canvas events (orbit, ball drag, keys) and the clock
-that advances the simulation while playing. It knows nothing of the control
-panel: the widget that composes them tells it what to do (``set_playing``,
-``step``, ``set_blades`` ...) and receives its stats through ``on_stats``.
+``OrbitController``, the canvas events (orbit, ball drag, keys), the real-time
+clock that advances the simulation while playing and the adaptive render
+scale. It knows nothing of the control panel: the widget that composes them
+tells it what to do (``set_playing``, ``step``, ``set_blades`` ...) and
+receives its stats through ``on_stats``.
 
-How it streams (chosen for the adapter, see :func:`streaming_defaults`):
+Time (see :class:`~grasswidget.clock.SimClock`): while playing, simulated time
+follows the wall clock (times ``time_scale``) in whole fixed steps of
+``params.dt``, at most :data:`MAX_STEPS_PER_FRAME` per frame; when that cap
+binds the stats line says "slow motion 0.6x". Paused, no time passes;
+``step(n)`` advances exactly n steps.
 
-* ``update_mode="continuous"`` while playing, ``"ondemand"`` while paused;
-  jupyter-rfb only draws while a browser view is visible, so an invisible or
-  headless widget costs nothing (no view: no size, no draw request; harmless).
-* ``max_fps`` 20 on a CPU adapter (lavapipe), 30 on a GPU; JPEG quality 70 /
-  85; the frame is rendered at the browser's pixel ratio capped to 1 on a CPU
-  adapter and to 2 on a GPU.
-* Time: each drawn frame advances ``round(time_scale / max_fps / dt)`` fixed
-  steps of ``params.dt`` (capped at :data:`MAX_STEPS_PER_FRAME`).
+How a frame travels (each stage is timed and shown on the stats line):
+step + render (the draw function submits the GPU work), readback (rendercanvas
+copies the frame into a mapped buffer without stalling the queue and presents
+it when the copy is done), JPEG encode + send (jupyter-rfb), and the browser's
+acknowledgement. jupyter-rfb lets :data:`MAX_BUFFERED_FRAMES` frames be in
+flight, so the kernel renders the next frame while the last one travels and is
+decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
+CPU adapter, 60 on a GPU).
+
+Adaptive resolution (see :class:`~grasswidget.adaptive.ResolutionGovernor`):
+while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
+render pixel ratio goes down step by step to half, and back up when there is
+headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
+last frame), Save PNG and exports always render at full resolution.
 
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
 ``OrbitController``, held to :class:`~grasswidget.orbit.OrbitLimits`: the camera
@@ -39,7 +50,9 @@ import time
 import numpy as np
 
 from . import compat
+from .adaptive import ResolutionGovernor, check_target_fps
 from .blades import Blades
+from .clock import SimClock
 from .errors import GrassValueError
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
@@ -53,36 +66,71 @@ CPU_MAX_BLADES = 1 << 18
 GPU_MAX_BLADES = 1 << 22
 #: How often (seconds) the stats line is refreshed (it does one small GPU readback).
 STATS_INTERVAL = 0.5
+#: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
+MAX_BUFFERED_FRAMES = 3
+#: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
+SLOW_MOTION_BELOW = 0.97
 
 
 def streaming_defaults(cpu: bool) -> dict:
     """Streaming settings for a CPU adapter (``cpu=True``) or a GPU.
 
-    Returns ``max_fps`` (frames per second asked of the scheduler), ``quality``
-    (jupyter-rfb JPEG quality while animating), ``max_pixel_ratio`` (cap on the
-    browser's device pixel ratio for the rendered frame) and ``max_blades``
-    (top of the blade-count slider).
+    Returns ``max_fps`` (the stream cap: frames per second asked of the
+    scheduler), ``target_fps`` (the rate adaptive resolution aims for),
+    ``quality`` (jupyter-rfb JPEG quality while animating), ``max_pixel_ratio``
+    (cap on the browser's device pixel ratio for the rendered frame) and
+    ``max_blades`` (top of the blade-count slider).
     """
     if cpu:
-        return dict(max_fps=20, quality=70, max_pixel_ratio=1.0, max_blades=CPU_MAX_BLADES)
-    return dict(max_fps=30, quality=85, max_pixel_ratio=2.0, max_blades=GPU_MAX_BLADES)
+        return dict(max_fps=30, target_fps=24.0, quality=70, max_pixel_ratio=1.0, max_blades=CPU_MAX_BLADES)
+    return dict(max_fps=60, target_fps=60.0, quality=85, max_pixel_ratio=2.0, max_blades=GPU_MAX_BLADES)
 
 
 def _canvas_class():
-    """A jupyter RenderCanvas whose frames are rendered at a capped pixel ratio."""
+    """A jupyter RenderCanvas with a capped, scalable pixel ratio and timed presents."""
     from rendercanvas.jupyter import RenderCanvas
 
     class GrassCanvas(RenderCanvas):
-        """rendercanvas.jupyter.RenderCanvas that renders at most ``max_pixel_ratio``
-        physical pixels per CSS pixel (the browser's devicePixelRatio otherwise)."""
+        """rendercanvas.jupyter.RenderCanvas that renders at ``render_scale`` times the
+        browser's devicePixelRatio capped to ``max_pixel_ratio``, and reports when a
+        frame's pixels arrived (``on_present``) and when it was sent (``on_sent``)."""
 
         max_pixel_ratio = 2.0
+        render_scale = 1.0
+        on_present = None
+        on_sent = None
+        _browser_resize = None
 
         def handle_event(self, event):
-            ratio = compat.event_ratio(event)
-            if compat.event_type(event) == "resize" and ratio is not None:
-                event = compat.with_ratio(event, min(float(ratio), float(self.max_pixel_ratio)))
+            if compat.event_type(event) == "resize" and compat.event_ratio(event) is not None:
+                self._browser_resize = dict(event)
+                event = self._scaled(event)
             super().handle_event(event)
+
+        def _scaled(self, event):
+            ratio = min(float(compat.event_ratio(event)), float(self.max_pixel_ratio)) * float(self.render_scale)
+            width = float(event.get("width") or 0)
+            if width and self.render_scale != 1.0:  # whole physical pixels: the ratio that gives them
+                ratio = max(1, int(width * ratio)) / width
+            return compat.with_ratio(event, ratio)
+
+        def set_render_scale(self, scale):
+            """Render at ``scale`` (0.5..1) of the full pixel ratio from the next frame on."""
+            if scale == self.render_scale:
+                return
+            self.render_scale = float(scale)
+            if self._browser_resize is not None:
+                super().handle_event(self._scaled(self._browser_resize))
+
+        def _rc_present_bitmap(self, *, data, format, **kwargs):
+            if self.on_present is not None:
+                self.on_present(time.perf_counter())
+            super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+        def send_frame(self, array):
+            super().send_frame(array)
+            if self.on_sent is not None:
+                self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
 
     return GrassCanvas
 
@@ -149,7 +197,9 @@ class KernelView:
         on_stats: called with the stats dict whenever it is refreshed.
 
     Attributes: ``widget`` (the ipywidget to show: the canvas), ``canvas``,
-    ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``.
+    ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``,
+    ``clock`` (the :class:`~grasswidget.clock.SimClock`), ``governor`` (the
+    :class:`~grasswidget.adaptive.ResolutionGovernor`).
     """
 
     backend = "kernel"
@@ -175,10 +225,15 @@ class KernelView:
         self.ball = None
         self._closed = False
 
+        self.clock = SimClock(MAX_STEPS_PER_FRAME)
+        self.governor = ResolutionGovernor(self._streaming["target_fps"])
         self.canvas = _canvas_class()(size=self.size, update_mode="continuous", max_fps=self.max_fps)
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
+        self.canvas.max_buffered_frames = MAX_BUFFERED_FRAMES
         self.canvas.resizable = False
+        self.canvas.on_present = self._on_present
+        self.canvas.on_sent = self._on_sent
         self.widget = self.canvas
         self.events = EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
                                            intercept=self._on_pointer)
@@ -189,8 +244,11 @@ class KernelView:
         self._draw_ms = 0.0
         from .gpu.adapter import cpu_notice
 
+        self._timing = _FrameTiming()
         self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
-                       "steps_per_frame": None, "frame_size": None,
+                       "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
+                       "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
+                       "target_fps": self.target_fps,
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
@@ -230,6 +288,7 @@ class KernelView:
         if self._inspected:
             scene.inspect(self._inspected)
         self.scene = scene
+        self.governor.restart()
         if self.ball is not None:
             self.ball.attach(scene)
         self._home_state = scene.camera.get_state()
@@ -257,36 +316,76 @@ class KernelView:
 
     @property
     def max_fps(self) -> float:
-        """Frames per second asked of the canvas scheduler (the nominal frame rate)."""
+        """The stream cap: frames per second asked of the canvas scheduler."""
         return float(self._streaming["max_fps"])
 
     @property
     def frame_interval(self) -> float:
-        """Nominal seconds between frames, 1 / max_fps (used for time_scale)."""
+        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
         return 1.0 / self.max_fps
 
     @property
     def steps_per_frame(self) -> int:
-        """Fixed steps per drawn frame: round(time_scale * frame_interval / dt), capped."""
+        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped:
+        what :meth:`GrassWidget.step` does by default (while playing, the clock decides)."""
         return max(0, min(self._wanted_steps(), MAX_STEPS_PER_FRAME))
 
     def _wanted_steps(self):
         return int(round(self._clock.time_scale * self.frame_interval / self.params.dt))
 
+    @property
+    def sim_time(self) -> float:
+        """Simulated seconds since the last reset_blades()."""
+        return self.clock.sim_time
+
+    @property
+    def target_fps(self) -> float:
+        """Frames per second adaptive resolution aims for while playing."""
+        return self.governor.target_fps
+
+    @target_fps.setter
+    def target_fps(self, value):
+        self.governor.target_fps = check_target_fps(value)
+        self.governor.restart()
+
+    @property
+    def render_scale(self) -> float:
+        """Fraction of the full pixel ratio the live frames render at (1 when paused)."""
+        return float(self.canvas.render_scale)
+
     def set_playing(self, playing: bool):
-        """Draw continuously (playing) or on demand (paused)."""
+        """Draw continuously (playing) or on demand (paused). Pausing stops the clock
+        at once and puts the render scale back to 1, so the still frame is sharp."""
+        if not playing:
+            self.clock.stop()
+            self.governor.restart()
+            self.canvas.set_render_scale(1.0)
         if not self._closed:
             self.canvas.set_update_mode("continuous" if playing else "ondemand")
             self.canvas.request_draw()
 
     def step(self, n: int):
         """Advance exactly ``n`` fixed steps and redraw."""
-        self.scene.step(n)
+        self._simulate(n)
         self.request_draw()
 
+    def _simulate(self, n):
+        """n fixed steps, the ball moving between chunks (simulated time, not wall clock)."""
+        dt = self.params.dt
+        for chunk in (self.ball.step_chunks(n, dt) if self.ball is not None else [n]):
+            if self.ball is not None:
+                try:
+                    self.ball.advance(chunk * dt)
+                except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
+                    self.ball.rolling = False
+                    self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+            self.scene.step(chunk)
+            self.clock.count(chunk, dt)
+
     def reset_blades(self):
-        """Every blade back to its rest pose; the step counter back to 0."""
+        """Every blade back to its rest pose; the step counter and sim_time back to 0."""
         self.scene.field.reset()
+        self.clock.reset()
         self.request_draw()
 
     def reset_camera(self):
@@ -381,53 +480,66 @@ class KernelView:
         if scene is None or scene.renderer is None:
             return
         t0 = time.perf_counter()
-        if self._clock.playing:
-            # A rolling ball moves between chunks of steps (simulated time, not wall clock).
-            for chunk in self.ball.step_chunks(self.steps_per_frame, self.params.dt):
-                try:
-                    self.ball.advance(chunk * self.params.dt)
-                except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
-                    self.ball.rolling = False
-                    self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
-                scene.step(chunk)
+        playing = bool(self._clock.playing)
+        if playing:
+            if not self.clock.running:
+                self.clock.start()
+            self._simulate(self.clock.frame_steps(self.params.dt, self._clock.time_scale))
         scene.draw_frame()
-        self._draw_ms = 1000.0 * (time.perf_counter() - t0)
+        t1 = time.perf_counter()
+        self._draw_ms = 1000.0 * (t1 - t0)
+        self._timing.drawn(t0, t1)
         if self._report_pending:
             self._report_pending = False
             self._report_inspected()
         self._frames += 1
+        if playing:
+            # The next frame's scale, from how long the kernel was busy per frame.
+            self.canvas.set_render_scale(self.governor.frame(self._timing.busy_s()))
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
+
+    def _on_present(self, t):
+        self._timing.presented(t)
+
+    def _on_sent(self, t, size):
+        self._timing.sent(t)
 
     # ------------------------------------------------------------------ stats
 
     @property
     def stats(self) -> dict:
-        """The last stats: fps (delivered to the browser), visible, blades, draw_ms,
-        gpu_ms, steps_per_frame, frame_size (see GrassWidget.stats)."""
-        return {k: v for k, v in self._stats.items() if k != "capped"}
+        """The last stats (see GrassWidget.stats)."""
+        return self.current_stats()
 
     def current_stats(self) -> dict:
         """The stats dict for the stats line, with what is known now (no readback)."""
         s = dict(self._stats)
         s["blades"] = self.blade_count
-        s["steps_per_frame"] = self.steps_per_frame
-        s["capped"] = self._wanted_steps() > MAX_STEPS_PER_FRAME
+        s["scale"] = self.render_scale
+        s["target_fps"] = self.target_fps
+        playing = bool(self._clock.playing)
+        s["steps_per_frame"] = self.clock.last_steps if playing else 0
+        s["sim_speed"] = self.clock.speed if playing else None
+        s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
 
     def refresh_stats(self):
-        """Measure frames/s delivered (confirmed by the browser), read the visible count
-        and GPU times, and pass the stats to ``on_stats``."""
+        """Measure frames/s delivered (confirmed by the browser) and the time of each
+        stage of a frame, read the visible count and GPU times, and pass the stats to
+        ``on_stats``."""
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
+        ack_ms = None
         try:
-            confirmed = int(self.canvas.get_stats()["confirmed_frames"])
+            rfb = self.canvas.get_stats()
+            self.canvas.reset_stats()  # the next figures cover the next window only
+            fps = rfb["confirmed_frames"] / dt if rfb["sent_frames"] or rfb["confirmed_frames"] else None
+            if rfb["confirmed_frames"]:
+                ack_ms = 1000.0 * rfb["roundtrip"]
         except Exception:
-            confirmed = None
-        if confirmed is not None and confirmed >= self._stats_confirmed:
-            fps = (confirmed - self._stats_confirmed) / dt
-            self._stats_confirmed = confirmed
-        else:
+            fps = None
+        if fps is None:  # no browser: frames drawn
             fps = (self._frames - self._stats_frames) / dt
         self._stats_frames = self._frames
         self._stats_t = now
@@ -448,8 +560,8 @@ class KernelView:
                 visible = None
         self._stats.update(
             fps=fps, visible=visible, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
-            steps_per_frame=self.steps_per_frame if self._clock.playing else 0,
-            frame_size=tuple(int(x) for x in self.canvas.get_physical_size()),
+            frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            **self._timing.averages(),
         )
         self._on_stats(self.current_stats())
         if self._inspected:
@@ -516,3 +628,42 @@ class KernelView:
             self.scene.release()
         self.scene = None
         self.controller = None
+
+
+class _FrameTiming:
+    """Where a streamed frame's time goes, averaged over the frames since the last
+    :meth:`averages`: render (the draw function: steps + render submit), readback
+    (until rendercanvas presents the pixels), encode + send (jupyter-rfb)."""
+
+    def __init__(self):
+        self._draw = None  # (start, end) of the frame on its way
+        self._present = None
+        self._last_full = 0.0  # kernel seconds of the last frame that was sent
+        self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
+
+    def drawn(self, t0, t1):
+        self._draw, self._present = (t0, t1), None
+        self._sums["render_ms"].append(1000.0 * (t1 - t0))
+
+    def presented(self, t):
+        if self._draw is not None:
+            self._present = t
+            self._sums["readback_ms"].append(1000.0 * (t - self._draw[1]))
+
+    def sent(self, t):
+        if self._draw is not None and self._present is not None:
+            self._sums["encode_send_ms"].append(1000.0 * (t - self._present))
+            self._last_full = t - self._draw[0]
+            self._draw = None
+
+    def busy_s(self) -> float:
+        """Kernel seconds per frame: the last sent frame's render + readback + encode +
+        send, or the frame just drawn's render if that took longer (or none was sent)."""
+        current = (self._draw[1] - self._draw[0]) if self._draw is not None else 0.0
+        return max(self._last_full, current)
+
+    def averages(self) -> dict:
+        out = {k: (sum(v) / len(v) if v else None) for k, v in self._sums.items()}
+        for v in self._sums.values():
+            v.clear()
+        return out

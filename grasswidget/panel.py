@@ -67,27 +67,41 @@ def _wrapping_row(children, **layout):
 def format_stats(stats: dict) -> str:
     """The stats line's text (plain, " · " separated) from a view's stats dict.
 
-    Known keys (each optional, None = unknown): ``fps`` (frames/s delivered),
-    ``visible`` and ``blades``, ``draw_ms`` (kernel CPU ms per frame),
-    ``gpu_ms`` (dict pass -> ms), ``steps_per_frame``, ``capped`` (bool: the
-    steps-per-frame cap binds), ``frame_size`` ((w, h) rendered pixels),
+    Known keys (each optional, None = unknown): ``fps`` (frames/s delivered) and
+    ``target_fps``; ``visible`` and ``blades``; the stages of a frame in ms:
+    ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
+    ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when
+    the stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render
+    scale of the pixel ratio) and ``frame_size`` ((w, h) rendered pixels);
+    ``steps_per_frame``; ``slow_motion`` and ``sim_speed`` (simulated / wall);
     ``adapter`` (a notice about the adapter, e.g. the CPU adapter's cheap defaults).
     """
     s = stats
-    parts = [f"{s['fps']:.1f} frames/s delivered" if s.get("fps") is not None else "– frames/s delivered"]
+    fps = f"{s['fps']:.1f}" if s.get("fps") is not None else "–"
+    target = f" (target {s['target_fps']:g})" if s.get("target_fps") else ""
+    parts = [f"{fps} frames/s delivered{target}"]
+    if s.get("slow_motion") and s.get("sim_speed") is not None:
+        parts.append(f"slow motion {s['sim_speed']:.1f}x")
     blades = s.get("blades")
     if s.get("visible") is not None and blades is not None:
         parts.append(f"{s['visible']:,} / {blades:,} blades visible")
     elif blades is not None:
         parts.append(f"{blades:,} blades")
-    if s.get("draw_ms") is not None:
+    stages = [(name, s.get(key)) for name, key in (("render", "render_ms"), ("readback", "readback_ms"),
+                                                   ("encode+send", "encode_send_ms"), ("ack", "ack_ms"))]
+    if any(v is not None for _n, v in stages):
+        parts.append(" ".join(f"{n} {v:.0f}" for n, v in stages if v is not None) + " ms")
+    elif s.get("draw_ms") is not None:
         parts.append(f"draw {s['draw_ms']:.0f} ms")
     if s.get("gpu_ms"):
         parts.append("GPU " + ", ".join(f"{k} {v:.2f} ms" for k, v in dict(s["gpu_ms"]).items()))
     if s.get("steps_per_frame") is not None:
-        parts.append(f"{s['steps_per_frame']} steps/frame" + (" (capped)" if s.get("capped") else ""))
-    if s.get("frame_size"):
-        parts.append("{}×{} px".format(*s["frame_size"]))
+        parts.append(f"{s['steps_per_frame']} steps/frame")
+    size = "{}×{} px".format(*s["frame_size"]) if s.get("frame_size") else ""
+    if s.get("scale") is not None:
+        parts.append(f"scale {s['scale']:.2f}" + (f" ({size})" if size else ""))
+    elif size:
+        parts.append(size)
     if s.get("adapter"):
         parts.append(s["adapter"])
     return " · ".join(parts)

@@ -19,9 +19,13 @@ from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .gpu.collider_view import ColliderBalls
 from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
 from .framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
+from .gpu.sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from .params import GrassParams
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
+
+#: The cis565 preset's distance-culling reach (m) when it makes its own params.
+CIS565_DISTANCE_MAX = 40.0
 
 
 def set_vertical_fov(camera, fov_deg, aspect):
@@ -54,7 +58,9 @@ class GrassScene:
 
     Attributes: ``params``, ``camera`` (a pygfx PerspectiveCamera), ``field``
     (the :class:`GrassField`), ``scene`` (the pygfx Scene), ``renderer``, ``canvas``,
-    ``ground`` (the ground plane mesh), ``collider_balls`` (a
+    ``sky_ground`` (a :class:`~grasswidget.gpu.sky_ground.SkyGround`: the sky
+    gradient and a flat ground square in one full-screen pass), ``ground``
+    (``ground.visible`` switches the ground square), ``collider_balls`` (a
     :class:`~grasswidget.gpu.collider_view.ColliderBalls`: every sphere in
     ``colliders`` is drawn as a translucent ball; ``show_colliders = False`` hides them).
     """
@@ -72,16 +78,16 @@ class GrassScene:
         self.params = self.field.params
 
         self.scene = gfx.Scene()
-        self.scene.add(gfx.Background.from_color("#9cc3e6", "#e8f1f8"))
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
-        ground = gfx.Mesh(gfx.plane_geometry(1.0, 1.0), gfx.MeshPhongMaterial(color="#3b2a1a"))
-        ground.local.rotation = (-np.sqrt(0.5), 0, 0, np.sqrt(0.5))  # xy plane -> xz plane, facing +y
-        ground.local.position = (center[0], -0.01, center[2])
-        self.ground = ground
+        # Sky and a flat ground square in one full-screen pass (sized by _fit_ground).
+        self._ground_center = (float(center[0]), -0.01, float(center[2]))
+        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=self._ground_center,
+                                                      ground_half_size=0.6 * extent))
+        self.ground = GroundSwitch(self.sky_ground.material)
         self._field_extent = extent
-        self.scene.add(ground)
+        self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
         self.field.add(self.collider_balls)  # colliders live in the field's local space
@@ -113,7 +119,11 @@ class GrassScene:
         - ``"cis565"``: the CIS 565 course scene, to compare with the seed projects:
           a 15 x 15 plane at y = 0, blades h 1.3-2.5, w 0.1-0.14, stiffness 7-13,
           camera at (0, 1, 10) looking at (0, 1, 0), vertical fov 45 degrees, near
-          0.1, far 100, 640 x 480. Default 2^13 blades.
+          0.1, far 100, 640 x 480. Default 2^13 blades. With ``params=None`` its
+          distance culling reaches zero at 40 m (``cull_distance_max``; the
+          paper's 100 is for fields of hundreds of metres): the far corner is 18 m
+          away, so up to 46% of the far blades go, where the near grass hides them
+          (0.2% of the pixels of the 2^16 view change, all in the gaps at the top).
         - ``"meadow"``: a wide field of meadow grass (h 0.5-1.0 m, w 0.02-0.04 m)
           at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
           3 m above its edge, 1920 x 1080. Default 2^20 blades.
@@ -124,6 +134,8 @@ class GrassScene:
             if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
+        if name == "cis565" and params is None:
+            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
@@ -143,7 +155,7 @@ class GrassScene:
         so that a low camera sees ground, not sky, below the horizon."""
         far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
         side = 1.2 * self._field_extent + 2.0 * far
-        self.ground.local.scale = (side, side, 1.0)
+        self.sky_ground.material.set_ground(self._ground_center, 0.5 * side)
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a

@@ -120,6 +120,7 @@ def template_vars() -> dict:
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
+        "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
         "user_wind_body": NO_WIND_BODY,
     }
 

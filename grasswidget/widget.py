@@ -51,6 +51,7 @@ import ipywidgets as ipw
 import numpy as np
 from traitlets import All, Bool
 
+from .adaptive import check_target_fps
 from .blades import Blades
 from .errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
@@ -180,7 +181,9 @@ class GrassWidget(ipw.VBox):
         size: (width, height) of the view in CSS pixels, or "WxH".
         params: a :class:`GrassParams` to use (and share); default a new one.
         max_fps, quality: override the adapter's streaming defaults
-            (:func:`streaming_defaults`).
+            (:func:`streaming_defaults`): the stream cap (frames/s) and JPEG quality.
+        target_fps: frames per second adaptive resolution aims for while playing
+            (default 24 on a CPU adapter, 60 on a GPU; 1..240).
         pixel_ratio: the most rendered pixels per CSS pixel (default 1 on a CPU
             adapter, 2 on a GPU; the browser's devicePixelRatio below that).
             E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
@@ -206,10 +209,16 @@ class GrassWidget(ipw.VBox):
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
     and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
+
+    Time: while playing, simulated time follows the wall clock in whole fixed
+    steps of ``params.dt`` (:attr:`sim_time` counts it); when a frame would need
+    more than :data:`MAX_STEPS_PER_FRAME` steps the meadow runs in slow motion and
+    the stats line says so. ``pause()`` stops it at once, ``step(n)`` advances
+    exactly n steps, ``save_animation`` is deterministic (fixed steps per frame).
     """
 
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
-                             help="Simulated seconds per real second (at the nominal frame rate).")
+                             help="Simulated seconds per wall-clock second while playing.")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
     culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
 
@@ -238,7 +247,7 @@ class GrassWidget(ipw.VBox):
     message_line = _panel_property("message_line")
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None, backend="kernel"):
+                 pixel_ratio=None, backend="kernel", target_fps=None):
         from .framing import PRESETS, parse_size
 
         if not isinstance(backend, str) or backend not in BACKENDS:
@@ -258,6 +267,8 @@ class GrassWidget(ipw.VBox):
             overrides["quality"] = quality
         if pixel_ratio is not None:
             overrides["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
+        if target_fps is not None:
+            overrides["target_fps"] = check_target_fps(target_fps)
         self._streaming_overrides = overrides
         # The kernel's adapter (2 s to open lavapipe) is asked only when the kernel renders.
         if backend == "kernel":
@@ -421,19 +432,54 @@ class GrassWidget(ipw.VBox):
 
     @property
     def frame_interval(self) -> float:
-        """Nominal seconds between frames, 1 / max_fps (used for time_scale)."""
+        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
         return self.view.frame_interval
 
     @property
     def steps_per_frame(self) -> int:
-        """Fixed steps per drawn frame: round(time_scale * frame_interval / dt), capped."""
+        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt),
+        capped: what ``step()`` advances by default. While playing the real-time
+        clock decides each frame's steps (``stats["steps_per_frame"]``)."""
         return self.view.steps_per_frame
 
     @property
+    def sim_time(self) -> float:
+        """Simulated seconds since the last :meth:`reset_blades` (read-only): every
+        fixed step taken while playing or by :meth:`step` adds ``params.dt``. None
+        in the browser engine (its clock runs in the browser)."""
+        return getattr(self.view, "sim_time", None)
+
+    @property
+    def target_fps(self) -> float:
+        """Frames per second adaptive resolution aims for while playing (1..240;
+        default 24 on a CPU adapter, 60 on a GPU). A bad value raises ValueError
+        naming ``target_fps`` and the range, and the old value stays. The kernel
+        engine's setting (the browser engine draws at the browser's own rate)."""
+        return float(getattr(self.view, "target_fps", self._streaming["target_fps"]))
+
+    @target_fps.setter
+    def target_fps(self, value):
+        value = check_target_fps(value)
+        if hasattr(self.view, "target_fps"):
+            self.view.target_fps = value
+        self._streaming["target_fps"] = value
+        self._streaming_overrides["target_fps"] = value
+
+    @property
+    def render_scale(self) -> float:
+        """Fraction of the full pixel ratio live frames render at now (0.5..1;
+        1 while paused). Save PNG and exports always render at full resolution."""
+        return float(getattr(self.view, "render_scale", 1.0))
+
+    @property
     def stats(self) -> dict:
-        """The last stats shown: fps (delivered to the browser), visible, blades,
-        draw_ms (CPU time of the last frame's step + render calls), gpu_ms
-        (per pass, when the scene reports it), steps_per_frame, frame_size."""
+        """The last stats shown: fps (frames/s delivered to the browser, confirmed
+        by it; frames drawn when there is no browser), target_fps, visible, blades,
+        render_ms / readback_ms / encode_send_ms / ack_ms (where a frame's time
+        goes, averaged since the last refresh), draw_ms (step + render calls of the
+        last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame
+        (of the last frame), frame_size (rendered pixels), scale (render scale),
+        sim_speed (simulated / scaled wall seconds while playing)."""
         return self.view.stats
 
     # ------------------------------------------------------------------ actions

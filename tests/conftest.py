@@ -99,12 +99,34 @@ def scene(request):
 WIDGET_SIZE = (160, 120)
 
 
+
+
+class TickingWall:
+    """A simulated wall clock for GrassWidget's real-time clock: each reading is
+    ``tick`` seconds after the one before (``advance(s)`` adds more)."""
+
+    def __init__(self, tick=0.0):
+        self.t = 1000.0
+        self.tick = tick
+
+    def __call__(self):
+        self.t += self.tick
+        return self.t
+
+    def advance(self, seconds):
+        self.t += seconds
+
+
 @pytest.fixture
 def widget():
-    """A GrassWidget of 1024 blades at WIDGET_SIZE, closed after the test."""
+    """A GrassWidget of 1024 blades at WIDGET_SIZE, closed after the test. Its
+    simulation clock reads a TickingWall that moves one nominal frame interval
+    (1 / max_fps) per reading, so each frame drawn while playing advances exactly
+    ``steps_per_frame`` fixed steps (the clock reads the wall once per frame)."""
     import grasswidget as gw
 
     w = gw.GrassWidget(blades=1024, size=WIDGET_SIZE)
+    w.view.clock.now = TickingWall(1.0 / w.max_fps)
     yield w
     w.close()
 

@@ -64,3 +64,23 @@ def test_save_png_any_size(scene, tmp_path):
         assert grass_mask(img).mean() > 0.2
     with pytest.raises(ValueError, match="size"):
         scene.save_png(tmp_path / "bad.png", size=(0, 10))
+
+
+def test_sky_and_ground_in_one_pass():
+    """The backdrop: sky gradient above, the flat lit ground colour below (what the
+    Phong plane it replaced gave: sRGB (51, 36, 22)), sky past the ground's edge and
+    everywhere when the ground is switched off; grass covers it."""
+    s = gw.GrassScene.preset("cis565", blades=2048)
+    s.field.visible = False
+    img = s.render()[..., :3].astype(int)
+    ground = img[400:]
+    assert np.abs(ground - (51, 36, 22)).max() <= 2
+    top, mid = img[0].mean(0), img[200].mean(0)
+    assert sky_mask(img[:150]).mean() > 0.99 and top[0] > mid[0]  # lighter towards the top
+    s.ground.visible = False
+    img2 = s.render()[..., :3]
+    assert sky_mask(img2[400:]).mean() > 0.99
+    s.ground.visible = True
+    s.field.visible = True
+    img3 = s.render()
+    assert grass_mask(img3[250:460]).mean() > 0.5  # drawn after the grass, only where nothing is

@@ -32,6 +32,11 @@ from .simulation import Simulation
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
 
+#: Distance bands per LOD class: the culling draws each class nearest band first (see cull.wgsl).
+DISTANCE_BANDS = 64
+#: The bands are log-spaced over this range of distances to the camera (m).
+BAND_RANGE = (0.5, 512.0)
+
 
 N_CLASSES = len(LOD_SEGMENTS)
 
@@ -112,6 +117,11 @@ class GrassField(gfx.WorldObject):
         self._store.visible_buffer = gfx.Buffer(
             nbytes=4 * N_CLASSES * n, nitems=N_CLASSES * n, format="u4", usage=usage.STORAGE | usage.COPY_SRC
         )
+        # Culling's distance-band counters and cursors (see cull.wgsl).
+        self._store.band_buffer = gfx.Buffer(
+            nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
+            usage=usage.STORAGE,
+        )
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
         # The draw of the culled blades (color_by "cull"): args, and the list of
         # id | reason << 30, allocated (N u32) the first time "cull" is used.
@@ -164,6 +174,11 @@ class GrassField(gfx.WorldObject):
     def visible_buffer(self):
         """pygfx Buffer of LOD classes x N u32: compacted ids of the blades drawn per class."""
         return self._store.visible_buffer
+
+    @property
+    def band_buffer(self):
+        """pygfx Buffer of the culling's per (LOD class, distance band) counters and cursors (u32)."""
+        return self._store.band_buffer
 
     @property
     def culled_args_buffer(self):
@@ -383,7 +398,7 @@ class GrassField(gfx.WorldObject):
         if self.inspector is not None:
             self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
-                 "culled_args_buffer", "culled_buffer")
+                 "culled_args_buffer", "culled_buffer", "band_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.simulation.release()
 
@@ -435,13 +450,15 @@ class GrassField(gfx.WorldObject):
         raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
         return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
 
-    def read_visible(self) -> np.ndarray:
-        """Sorted ids of the blades drawn by the last render (synchronous)."""
+    def read_visible(self, draw_order: bool = False):
+        """Ids of the blades drawn by the last render (synchronous): sorted, or with
+        ``draw_order=True`` a list per LOD class in the order they were drawn."""
         device = ensure_device()
         args = self.read_draw_args()
         visible = compat.gpu_buffer(self.visible_buffer)
         if visible is None:
-            return np.zeros(0, np.uint32)
+            return [np.zeros(0, np.uint32)] * N_CLASSES if draw_order else np.zeros(0, np.uint32)
         raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
-        return np.sort(np.concatenate([ids[k, : args[k, 1]] for k in range(N_CLASSES)]))
+        lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
+        return lists if draw_order else np.sort(np.concatenate(lists))

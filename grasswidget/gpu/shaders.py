@@ -5,9 +5,15 @@ Importing this module registers :func:`grass_render_function` with pygfx's
 any use of the GPU layer has it registered). It composes the passes pygfx runs in
 every ``renderer.render()``:
 
-1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts.
-2. ``CullShader`` (compute): cull, bin into LOD classes, append survivors.
-3. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
+1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts and
+   the distance-band counters.
+2. ``CullShader("count")`` (compute): cull, bin into LOD classes and distance
+   bands, count survivors per (class, band).
+3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
+4. ``CullShader("scatter")`` (compute): the same tests again; survivors written
+   to their class's list, with LOD on nearest band first (front-to-back draws:
+   the depth test rejects hidden fragments before they are written).
+5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
 The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
@@ -21,13 +27,14 @@ import weakref
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..errors import GrassValueError
 from ..shader_files import read_shader, ribbon_vars
-from .field import GrassField
+from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
 
-__all__ = ["ResetArgsShader", "CullShader", "BladeRenderShader", "grass_render_function", "workgroups", "WORKGROUP",
-           "CULLED_SEGMENTS"]
+__all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "grass_render_function",
+           "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE"]
 
 
 class ResetArgsShader(GrassComputeShader):
@@ -35,16 +42,36 @@ class ResetArgsShader(GrassComputeShader):
     and the culled blades')."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, teaching_views=True)
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
             0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             1: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
+            2: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }}
 
     def get_code(self):
         return read_shader("reset_args.wgsl")
+
+    def get_render_info(self, wobject, shared):
+        return {"indices": (1, 1, 1)}
+
+
+class PrefixBandsShader(GrassComputeShader):
+    """Between the culling phases: each distance band's first slot, the instance counts."""
+
+    def __init__(self, wobject):
+        super().__init__(wobject, bands=DISTANCE_BANDS)
+
+    def get_bindings(self, wobject, shared, scene):
+        return {0: {
+            0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+            1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+        }}
+
+    def get_code(self):
+        return read_shader("prefix_bands.wgsl")
 
     def get_render_info(self, wobject, shared):
         return {"indices": (1, 1, 1)}
@@ -58,8 +85,11 @@ class CullShader(GrassComputeShader):
     rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
     """
 
-    def __init__(self, wobject):
-        super().__init__(wobject, teaching_views=True)
+    def __init__(self, wobject, phase="scatter"):
+        if phase not in ("count", "scatter"):
+            raise GrassValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, phase=phase,
+                         band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -71,6 +101,7 @@ class CullShader(GrassComputeShader):
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
             13: Binding("s_culled", "buffer/storage", wobject.culled_buffer, "COMPUTE"),
             14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
+            15: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }
         for slot in (0, 1, 2, 10, 12, 13):
             self.define_binding(0, slot, bindings[slot])
@@ -81,6 +112,7 @@ class CullShader(GrassComputeShader):
             "{{ bindings_code }}\n"
             "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(15) var<storage, read_write> s_bands: array<atomic<u32>>;\n"
             "{$ include 'grasswidget.cull.wgsl' $}\n"
         )
 
@@ -142,10 +174,12 @@ class BladeRenderShader(BaseShader):
 
 @register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
-    """The passes of one GrassField: reset, cull, then one draw per LOD class and
-    one of the culled blades (empty unless ``color_by = "cull"``)."""
+    """The passes of one GrassField: reset, cull (count, prefix, scatter), then one
+    draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
-        CullShader(wobject),
+        CullShader(wobject, "count"),
+        PrefixBandsShader(wobject),
+        CullShader(wobject, "scatter"),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
     ]

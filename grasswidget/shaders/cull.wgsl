@@ -2,6 +2,16 @@
 // Survivors are appended to the compacted list of their LOD class
 // (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
 // and class; the instance counts in s_args feed draw_indirect.
+//
+// Draw order (template variable bands > 0; the kernel engine): with LOD on, each
+// class's list runs through `bands` log-spaced bands of the distance to the
+// camera, nearest first, so the draws go roughly front to back and the depth
+// test rejects hidden fragments before they are written (on a CPU adapter most
+// of the near overdraw's cost). The pass then runs twice (template variable
+// phase): "count" counts survivors per key = class * BANDS + band into s_bands;
+// prefix_bands.wgsl turns the counts into each band's first slot and the
+// instance counts in s_args; "scatter" writes the ids (and the culled list).
+// The engine then declares s_bands (array<atomic<u32>>: KEYS counts, KEYS cursors).
 // The twin of reference.cull_reason() and reference.lod_class().
 //
 // Teaching views (template variable teaching_views, on in the kernel engine):
@@ -23,10 +33,22 @@
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 const N_CLASSES: u32 = {{ n_classes }}u;
-// One counter per LOD class, then one for the culled blades (color_by "cull").
-const CULLED: u32 = {{ n_classes }}u;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes + 1 }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes + 1 }}>;
+$$ set n_bands = bands if bands else 1
+const BANDS: u32 = {{ n_bands }}u;
+const KEYS: u32 = N_CLASSES * BANDS;
+// One counter per key (LOD class, distance band), then one for the culled blades (color_by "cull").
+const CULLED: u32 = KEYS;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * n_bands + 1 }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes * n_bands + 1 }}>;
+
+$$ if bands
+// Distance band, 0 = nearest: log-spaced between band_near and band_far metres.
+fn distance_band(v0: vec3<f32>, cam_pos: vec3<f32>) -> u32 {
+    let d = max(length(v0 - cam_pos), {{ band_near }});
+    let b = f32(BANDS) * log2(d / {{ band_near }}) / log2({{ band_far }} / {{ band_near }});
+    return u32(clamp(b, 0.0, f32(BANDS - 1u)));
+}
+$$ endif
 
 fn lod_class_of(pixels: f32) -> u32 {
     $$ for min_pixels in lod_min_pixels
@@ -41,7 +63,7 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    if (lid <= N_CLASSES) { atomicStore(&wg_count[lid], 0u); }
+    for (var k = lid; k <= KEYS; k += {{ workgroup_size }}u) { atomicStore(&wg_count[k], 0u); }
     workgroupBarrier();
 
     let n = u_cull.n_blades;
@@ -50,6 +72,7 @@ fn main(
     var visible = false;
     var listed = false;  // appended to a list (visible, or culled with color_by "cull")
     var cls = 0u;
+    var key = 0u;
     var reason = 0u;
     var slot = 0u;
     if (valid) {
@@ -86,37 +109,52 @@ fn main(
         if (u_cull.lod != 0) {
             cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, viewport_height));
         }
+        key = cls * BANDS;
+        $$ if bands
+        if (u_cull.lod != 0) {
+            key += distance_band(v0, cam_pos);  // LOD: nearest band first
+        }
+        $$ endif
         if (!visible) {
             cls = CULLED;
+            key = CULLED;
         }
         listed = visible;
         $$ if teaching_views
         listed = visible || u_cull.color_by == {{ color_by_cull }};
         $$ endif
         if (listed) {
-            slot = atomicAdd(&wg_count[cls], 1u);
+            slot = atomicAdd(&wg_count[key], 1u);
         }
     }
     workgroupBarrier();
-    if (lid < N_CLASSES) {
-        let c = atomicLoad(&wg_count[lid]);
+    for (var k = lid; k < KEYS; k += {{ workgroup_size }}u) {
+        let c = atomicLoad(&wg_count[k]);
         if (c > 0u) {
-            wg_base[lid] = atomicAdd(&s_args[lid * 4u + 1u], c);
+            $$ if not bands
+            wg_base[k] = atomicAdd(&s_args[k * 4u + 1u], c);
+            $$ elif phase == "count"
+            atomicAdd(&s_bands[k], c);
+            $$ else
+            wg_base[k] = atomicAdd(&s_bands[KEYS + k], c);
+            $$ endif
         }
     }
-    $$ if teaching_views
-    if (lid == CULLED) {
-        let c = atomicLoad(&wg_count[lid]);
+    $$ if teaching_views and not (bands and phase == "count")
+    if (lid == 0u) {  // one thread reserves the culled list's range
+        let c = atomicLoad(&wg_count[CULLED]);
         if (c > 0u) {
-            wg_base[lid] = atomicAdd(&s_culled_args[1], c);
+            wg_base[CULLED] = atomicAdd(&s_culled_args[1], c);
         }
     }
     $$ endif
+    $$ if not (bands and phase == "count")
     workgroupBarrier();
     if (visible) {
-        s_visible[cls * n + wg_base[cls] + slot] = i;
+        s_visible[cls * n + wg_base[key] + slot] = i;
     }
-    $$ if teaching_views
+    $$ endif
+    $$ if teaching_views and not (bands and phase == "count")
     if (listed && !visible) {
         s_culled[wg_base[CULLED] + slot] = i | (reason << 30u);
     }

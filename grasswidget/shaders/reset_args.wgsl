@@ -6,6 +6,10 @@
 $$ if teaching_views
 @group(0) @binding(1) var<storage, read_write> s_culled_args: array<u32>;
 $$ endif
+$$ if bands
+// The culling's distance-band counters and cursors (see cull.wgsl).
+@group(0) @binding(2) var<storage, read_write> s_bands: array<u32>;
+$$ endif
 
 @compute @workgroup_size(1)
 fn main() {
@@ -20,5 +24,10 @@ fn main() {
     s_culled_args[1] = 0u;
     s_culled_args[2] = 0u;
     s_culled_args[3] = 0u;
+    $$ endif
+    $$ if bands
+    for (var k = 0u; k < arrayLength(&s_bands); k += 1u) {
+        s_bands[k] = 0u;
+    }
     $$ endif
 }
