@@ -78,7 +78,7 @@ def test_widget_real_time_pause_and_step_are_exact(widget):
     assert widget.playing and widget.sim_time == 0.0
     for k in range(30):
         wall.advance(0.02 + 0.03 * (k % 3))  # uneven frames
-        widget._draw()
+        widget.view.draw()
     played = 10 * (0.02 + 0.05 + 0.08) - 0.02  # the first frame starts the clock
     assert 0 <= played - widget.sim_time < DT
     assert widget.sim_time == pytest.approx(f.step_count * widget.params.dt)
@@ -86,7 +86,7 @@ def test_widget_real_time_pause_and_step_are_exact(widget):
     steps, t = f.step_count, widget.sim_time
     for _ in range(5):
         wall.advance(1.0)
-        widget._draw()
+        widget.view.draw()
     assert f.step_count == steps and widget.sim_time == t  # paused: exactly no time
     widget.step(7)
     assert f.step_count == steps + 7 and widget.sim_time == pytest.approx(t + 7 * widget.params.dt)
@@ -96,9 +96,9 @@ def test_widget_real_time_pause_and_step_are_exact(widget):
     assert widget.sim_time == 0.0 and f.step_count == 0
     widget.play()
     wall.advance(5.0)  # time while paused is not owed
-    widget._draw()
+    widget.view.draw()
     wall.advance(0.05)
-    widget._draw()
+    widget.view.draw()
     assert f.step_count == 6
 
 
@@ -109,16 +109,16 @@ def test_slow_motion_in_the_stats_line(widget):
     widget.time_scale = 10.0  # 0.1 s frames would need 120 steps
     for _ in range(6):
         wall.advance(0.1)
-        widget._draw()
-    widget._refresh_stats()
+        widget.view.draw()
+    widget.view.refresh_stats()
     line = widget.stats_line.value
     assert "slow motion 0.5x" in line, line
     assert widget.stats["steps_per_frame"] == gw.widget.MAX_STEPS_PER_FRAME
     widget.time_scale = 1.0
     for _ in range(30):
         wall.advance(0.1)
-        widget._draw()
-    widget._refresh_stats()
+        widget.view.draw()
+    widget.view.refresh_stats()
     assert "slow motion" not in widget.stats_line.value
 
 
@@ -140,14 +140,14 @@ def test_adaptive_scale_goes_down_when_slow_and_back_up_when_fast(widget, tmp_pa
     monkeypatch.setattr(widget.scene, "draw_frame", slow_draw)
     scales = []
     for _ in range(40):
-        widget._draw()
+        widget.view.draw()
         scales.append(widget.render_scale)
     assert scales[-1] == SCALES[-1] == 0.5, str(scales)
     assert sorted(set(scales), reverse=True) == list(SCALES)  # step by step, every scale on the way
     assert all(a >= b for a, b in zip(scales, scales[1:]))
     w, h = widget.canvas.get_physical_size()
     assert (w, h) == (full[0] // 2, full[1] // 2)
-    widget._refresh_stats()
+    widget.view.refresh_stats()
     line = widget.stats_line.value
     assert "scale 0.50" in line and "render" in line and " ms" in line, line
 
@@ -155,12 +155,12 @@ def test_adaptive_scale_goes_down_when_slow_and_back_up_when_fast(widget, tmp_pa
     widget.pause()
     assert widget.render_scale == 1.0 and widget.canvas.get_physical_size() == full
     monkeypatch.setattr(widget.scene, "draw_frame", real_draw)
-    widget._draw()
+    widget.view.draw()
     assert tuple(widget.scene.renderer.physical_size) == tuple(full)
     widget.play()
     monkeypatch.setattr(widget.scene, "draw_frame", slow_draw)
     for _ in range(12):
-        widget._draw()
+        widget.view.draw()
     assert widget.render_scale < 1.0
     path = widget.save_png(tmp_path / "live.png")
     assert iio.imread(path).shape[:2] == (2 * WIDGET_SIZE[1], 2 * WIDGET_SIZE[0])
@@ -173,7 +173,7 @@ def test_adaptive_scale_goes_down_when_slow_and_back_up_when_fast(widget, tmp_pa
     monkeypatch.setattr(widget.scene, "draw_frame", fast_draw)
     scales = []
     for _ in range(80):
-        widget._draw()
+        widget.view.draw()
         scales.append(widget.render_scale)
     assert scales[-1] == 1.0, scales
     assert all(a <= b for a, b in zip(scales, scales[1:]))
@@ -191,7 +191,7 @@ def test_target_fps_defaults_and_bad_values(widget):
             widget.target_fps = bad
         assert widget.target_fps == 30.0  # the old value stays
     _resize(widget)
-    widget._draw()  # still drawing
+    widget.view.draw()  # still drawing
     with pytest.raises(ValueError, match="target_fps"):
         gw.GrassWidget(blades=16, size=WIDGET_SIZE, target_fps=float("nan"))
     w = gw.GrassWidget(blades=16, size=WIDGET_SIZE, target_fps=12)
@@ -208,12 +208,12 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     _resize(widget)
     # what the canvas reports for a streamed frame: pixels presented, then sent
     view = widget.view
-    widget._draw()
-    t = view._timing
-    d0, d1 = t._draw
+    widget.view.draw()
+    t = view.frame_timing
+    d0, d1 = t.last_draw
     t.presented(d1 + 0.004)
     t.sent(d1 + 0.010)
-    widget._refresh_stats()
+    widget.view.refresh_stats()
     s = widget.stats
     assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6) and s["encode_send_ms"] == pytest.approx(6.0, abs=1e-6)
     assert s["render_ms"] is not None and s["scale"] == 1.0
