@@ -26,7 +26,7 @@ The engine-neutral files and what they need:
 ``wind_field.wgsl``
     ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
-    of ``gpu.simulation.SIM_UNIFORM``). Included by the simulation and the inspector.
+    of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
     ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
@@ -34,7 +34,7 @@ The engine-neutral files and what they need:
     The culling entry point ``main``. Expects ``u_stdinfo`` (fields
     ``projection_transform``, ``cam_transform``, ``cam_transform_inv``,
     ``physical_size``; pygfx's names), ``u_wobject.world_transform``, ``u_cull``
-    (fields of ``gpu.field.CULL_UNIFORM``), ``s_blades`` (read), ``s_args:
+    (fields of ``uniform_layouts.CULL_LAYOUT``), ``s_blades`` (read), ``s_args:
     array<atomic<u32>>``, ``s_visible: array<u32>``, ``s_culled: array<u32>`` and
     ``s_culled_args: array<atomic<u32>>`` (read_write; the culled blades drawn
     with ``color_by = "cull"``).
