@@ -525,6 +525,12 @@ class KernelView:
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
 
+    @property
+    def frame_timing(self) -> "_FrameTiming":
+        """Where the streamed frames' time goes (render, readback, encode + send);
+        the canvas reports ``presented``/``sent`` to it, ``refresh_stats`` reads it."""
+        return self._timing
+
     def refresh_stats(self):
         """Measure frames/s delivered (confirmed by the browser) and the time of each
         stage of a frame, read the visible count and GPU times, and pass the stats to
@@ -642,6 +648,11 @@ class FrameTiming:
         self._present = None
         self._last_full = 0.0  # kernel seconds of the last frame that was sent
         self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
+
+    @property
+    def last_draw(self):
+        """(start, end) kernel seconds of the frame on its way, or None."""
+        return self._draw
 
     def drawn(self, t0, t1):
         self.last_draw, self._present = (t0, t1), None

@@ -26,7 +26,7 @@ The engine-neutral files and what they need:
 ``wind_field.wgsl``
     ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
-    of ``gpu.simulation.SIM_UNIFORM``). Included by the simulation and the inspector.
+    of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
     ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
@@ -34,7 +34,7 @@ The engine-neutral files and what they need:
     The culling entry point ``main``. Expects ``u_stdinfo`` (fields
     ``projection_transform``, ``cam_transform``, ``cam_transform_inv``,
     ``physical_size``; pygfx's names), ``u_wobject.world_transform``, ``u_cull``
-    (fields of ``gpu.field.CULL_UNIFORM``), ``s_blades`` (read), ``s_args:
+    (fields of ``uniform_layouts.CULL_LAYOUT``), ``s_blades`` (read), ``s_args:
     array<atomic<u32>>``, ``s_visible: array<u32>``, ``s_culled: array<u32>`` and
     ``s_culled_args: array<atomic<u32>>`` (read_write; the culled blades drawn
     with ``color_by = "cull"``).
@@ -65,13 +65,20 @@ from pathlib import Path
 
 from .errors import MissingFileError
 
-__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY"]
+__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
+           "DISTANCE_BANDS", "BAND_RANGE"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"
+
+#: Distance bands per LOD class: the culling draws each class nearest band first (cull.wgsl with
+#: ``bands``), so the depth test rejects hidden fragments before they are shaded.
+DISTANCE_BANDS = 64
+#: The bands are log-spaced over this range of distances to the camera (m).
+BAND_RANGE = (0.5, 512.0)
 
 
 def shader_dir() -> Path:

@@ -31,6 +31,7 @@ def test_importing_any_gpu_module_registers_the_render_function(module):
 
 def test_pure_core_imports_no_gpu_code():
     code = ("import sys, grasswidget, grasswidget.reference, grasswidget.errors, grasswidget.shader_files\n"
+            "import grasswidget.uniform_layouts, grasswidget.framing, grasswidget.memory, grasswidget.teaching\n"
             "bad = [m for m in ('pygfx', 'wgpu', 'grasswidget.gpu') if m in sys.modules]\n"
             "assert not bad, bad\n")
     r = _run(code)

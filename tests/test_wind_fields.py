@@ -7,6 +7,7 @@ from traitlets import TraitError
 
 import grasswidget as gw
 from grasswidget import reference as ref
+from grasswidget.params import WIND_FIELDS
 from grasswidget.shader_files import render_wgsl
 
 from conftest import HARNESS_BINDINGS
@@ -41,6 +42,14 @@ FIELDS = {
     "noise": dict(wind_field="noise", wind_strength=35.0, wind_wavelength=5.0, wind_direction=-60.0),
     "gravity-direction": dict(wind_field="wave", gravity_direction=(0.6, -1.0, 0.3), gravity=12.0),
 }
+
+
+def test_every_wind_field_has_a_gpu_vs_reference_case():
+    """A new member of enums.WindField gets a FIELDS entry (custom has its own test below)."""
+    from grasswidget.enums import WindField
+
+    missing = set(WindField.labels()) - {"custom"} - {values["wind_field"] for values in FIELDS.values()}
+    assert not missing, f"add a FIELDS entry (params for a GPU vs reference run) for {sorted(missing)}"
 
 
 @pytest.mark.parametrize("steps", [1, 200])
@@ -176,7 +185,7 @@ def test_noise_gusts_vary_in_space(fresh):
     assert np.std(angle) > 15 and np.std(strength) > 0.1 * np.mean(strength)  # ... but gusty
 
 
-@pytest.mark.parametrize("name", ["wave", "radial", "vortex", "noise", "custom"])
+@pytest.mark.parametrize("name", WIND_FIELDS)
 def test_no_nan_at_extremes(fresh, blades, name):
     values = dict(wind_field=name, wind_strength=200.0, dt=0.05, gravity=50.0, stiffness_scale=0.01,
                   wind_center=tuple(float(x) for x in blades.v0[0]), wind_radius=0.01, wind_wavelength=0.1,

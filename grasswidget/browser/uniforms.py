@@ -1,6 +1,7 @@
 """Uniform structs of the browser engine: layouts, WGSL text and packing (pure Python).
 
-A layout is a tuple of ``(field, wgsl_type)``; offsets follow WGSL's uniform
+A layout is a tuple of ``(field, wgsl_type)``; ``SIM_LAYOUT`` and ``CULL_LAYOUT``
+are the ones both engines use (:mod:`grasswidget.uniform_layouts`). Offsets follow WGSL's uniform
 address-space rules (scalars 4 bytes, vec2 8, vec4 16, mat4x4 64 bytes aligned
 to 16, ``array<vec4<f32>, N>`` 16 N). Python packs the parameter-driven
 uniforms (simulation, culling, material) into bytes and sends them; the browser
@@ -19,9 +20,10 @@ import numpy as np
 
 from ..errors import GrassValueError
 from ..colliders import MAX_COLLIDERS, collider_array
-from ..enums import BladeShape, GravityMode, WindField
+from ..enums import BladeShape, ColorBy, GravityMode, WindField
 from ..params import GrassParams
 from ..reference import wind_period
+from ..uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
 
 __all__ = [
     "SIM_LAYOUT", "CULL_LAYOUT", "STDINFO_LAYOUT", "WOBJECT_LAYOUT", "MATERIAL_LAYOUT", "WIND_FIELD_IDS",
@@ -31,48 +33,6 @@ __all__ = [
 
 #: Wind field ids of simulate.wgsl's wind_field() (grasswidget.enums.WindField).
 WIND_FIELD_IDS = {label: int(WindField.from_label(label)) for label in WindField.labels()}
-
-SIM_LAYOUT = (
-    ("gravity_dir", "vec4<f32>"),
-    ("wind_dir", "vec4<f32>"),
-    ("gravity_center", "vec4<f32>"),
-    ("wind_center", "vec4<f32>"),
-    ("colliders", f"array<vec4<f32>, {MAX_COLLIDERS}>"),
-    ("gravity", "f32"),
-    ("front_gravity", "f32"),
-    ("stiffness_scale", "f32"),
-    ("dt", "f32"),
-    ("time0", "f32"),
-    ("wind_strength", "f32"),
-    ("wind_speed", "f32"),
-    ("wind_wavelength", "f32"),
-    ("wind_field", "i32"),
-    ("steps", "i32"),
-    ("n_blades", "u32"),
-    ("gravity_mode", "i32"),
-    ("wind_radius", "f32"),
-    ("wind_direction_rad", "f32"),
-    ("collision_fade", "f32"),
-    ("collision_gain", "f32"),
-    ("n_colliders", "i32"),
-)
-
-CULL_LAYOUT = (
-    ("orientation_threshold", "f32"),
-    ("frustum_tolerance", "f32"),
-    ("distance_max", "f32"),
-    ("buckets", "i32"),
-    ("cull_orientation", "i32"),
-    ("cull_frustum", "i32"),
-    ("cull_distance", "i32"),
-    ("lod", "i32"),
-    ("n_blades", "u32"),
-    ("color_by", "i32"),
-    ("frozen", "i32"),
-    ("frozen_viewport_height", "f32"),
-    ("frozen_cam_pos", "vec4<f32>"),
-    ("frozen_view_proj", "mat4x4<f32>"),
-)
 
 STDINFO_LAYOUT = (
     ("cam_transform", "mat4x4<f32>"),
@@ -206,6 +166,8 @@ def cull_uniform(params: GrassParams, n_blades: int) -> bytes:
         cull_distance=int(p.cull_distance),
         lod=int(p.lod),
         n_blades=n_blades,
+        color_by=int(ColorBy.from_label(getattr(p, "color_by", "natural"))),
+        frozen=0,  # the browser engine culls against its live camera
     ))
 
 

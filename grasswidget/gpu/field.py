@@ -21,6 +21,7 @@ from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShade
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..params import GrassParams
 from ..reference import LOD_SEGMENTS
+from ..uniform_layouts import CULL_LAYOUT, shadertype
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
@@ -31,30 +32,15 @@ from .simulation import Simulation
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
 
-#: Distance bands per LOD class: the culling draws each class nearest band first (see cull.wgsl).
-DISTANCE_BANDS = 64
-#: The bands are log-spaced over this range of distances to the camera (m).
-BAND_RANGE = (0.5, 512.0)
+# Distance bands per LOD class (the draw order of the culled lists): one source for both
+# engines, in grasswidget.shader_files.
+from ..shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)
 
-CULL_UNIFORM = dict(
-    orientation_threshold="f4",
-    frustum_tolerance="f4",
-    distance_max="f4",
-    buckets="i4",
-    cull_orientation="i4",
-    cull_frustum="i4",
-    cull_distance="i4",
-    lod="i4",
-    n_blades="u4",
-    color_by="i4",
-    frozen="i4",
-    frozen_viewport_height="f4",
-    frozen_cam_pos="4xf4",
-    frozen_view_proj="4x4xf4",
-)
+#: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.CULL_LAYOUT``).
+CULL_UNIFORM = shadertype(CULL_LAYOUT)
 
 
 

@@ -18,11 +18,12 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..colliders import MAX_COLLIDERS, collider_array
+from ..colliders import collider_array
 from ..enums import GravityMode, WindField
 from ..errors import WindShaderError
 from ..reference import wind_period
 from ..shader_files import NO_WIND_BODY
+from ..uniform_layouts import SIM_LAYOUT, shadertype
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
@@ -32,30 +33,8 @@ __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
 MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
 
-SIM_UNIFORM = dict(
-    gravity_dir="4xf4",
-    wind_dir="4xf4",
-    gravity="f4",
-    front_gravity="f4",
-    stiffness_scale="f4",
-    dt="f4",
-    time0="f4",
-    wind_strength="f4",
-    wind_speed="f4",
-    wind_wavelength="f4",
-    wind_field="i4",
-    steps="i4",
-    n_blades="u4",
-    gravity_center="4xf4",
-    wind_center="4xf4",
-    colliders=f"{MAX_COLLIDERS}*4xf4",
-    gravity_mode="i4",
-    wind_radius="f4",
-    wind_direction_rad="f4",
-    collision_fade="f4",
-    collision_gain="f4",
-    n_colliders="i4",
-)
+#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.SIM_LAYOUT``).
+SIM_UNIFORM = shadertype(SIM_LAYOUT)
 
 _USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
 
