@@ -649,11 +649,6 @@ class FrameTiming:
         self._last_full = 0.0  # kernel seconds of the last frame that was sent
         self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
 
-    @property
-    def last_draw(self):
-        """(start, end) kernel seconds of the frame on its way, or None."""
-        return self._draw
-
     def drawn(self, t0, t1):
         self.last_draw, self._present = (t0, t1), None
         self._sums["render_ms"].append(1000.0 * (t1 - t0))
