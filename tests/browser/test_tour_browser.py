@@ -37,6 +37,7 @@ from .harness import (
     kernel_eval,
     kernel_execute,
     open_notebook,
+    poll,
     run_all_cells,
     save_debug_artifacts,
     set_slider,
@@ -60,6 +61,19 @@ def _grass_fraction(px):
     rgb = px[..., :3].astype(np.int32)
     r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
     return float(((g > r + 8) & (g > b + 8)).mean())
+
+
+def _settled_camera(page, timeout=30.0):
+    """The camera position once two readings 0.5 s apart (several frames) agree."""
+    last = [None]
+
+    def check():
+        p = np.array(kernel_eval(page, "w.scene.camera.world.position.tolist()"))
+        ok = last[0] is not None and bool(np.allclose(p, last[0], atol=1e-6))
+        last[0] = p
+        return ok, p
+
+    return poll(check, "the camera to come to rest after the drag", timeout, interval=0.5, page=page)
 
 
 def _adapter_tag(summary: str) -> str:
@@ -139,6 +153,9 @@ def _run_checks(page, server, folder):
     p1 = np.array(wait_for_kernel(
         page, "w.scene.camera.world.position.tolist()",
         predicate=lambda p: float(np.linalg.norm(np.array(p) - p0)) > 0.5, timeout=20))
+    # The orbit is damped: it runs on for a few frames after the drag (longer on a slow machine).
+    # What the user sees next starts from where the view came to rest.
+    p1 = _settled_camera(page)
     target = np.array(kernel_eval(page, "w.controller.target.tolist()"))
     print(f"[tour] camera moved {np.linalg.norm(p1 - p0):.2f} m around {np.round(target, 2)}")
 
