@@ -238,9 +238,7 @@ class GrassWidget(ipw.VBox):
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None, backend="kernel"):
-        from .gpu.adapter import is_cpu_adapter
-        from .gpu.field import max_blade_count
-        from .scene import PRESETS, parse_size
+        from .framing import PRESETS, parse_size
 
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
@@ -250,25 +248,29 @@ class GrassWidget(ipw.VBox):
         if preset is not None and preset not in PRESETS:
             raise ValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
         self.size = parse_size(size)
-        if backend == "kernel":
-            self._cpu = is_cpu_adapter()
-        else:  # the kernel may have no GPU at all when the browser draws
-            try:
-                self._cpu = is_cpu_adapter()
-            except Exception:
-                self._cpu = True
-        streaming = streaming_defaults(self._cpu)
+        overrides = {}
         if max_fps is not None:
-            streaming["max_fps"] = float(_check_number("max_fps", max_fps, 1, 240))
+            overrides["max_fps"] = float(_check_number("max_fps", max_fps, 1, 240))
         if quality is not None:
             if isinstance(quality, bool) or not isinstance(quality, int) or not (1 <= quality <= 100):
                 raise ValueError(f"quality must be an integer in [1, 100] (JPEG quality); got {quality!r}")
-            streaming["quality"] = quality
+            overrides["quality"] = quality
         if pixel_ratio is not None:
-            streaming["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
+            overrides["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
+        self._streaming_overrides = overrides
+        # The kernel's adapter (2 s to open lavapipe) is asked only when the kernel renders.
+        if backend == "kernel":
+            from .gpu.adapter import is_cpu_adapter
+
+            self._cpu = is_cpu_adapter()
+        else:
+            self._cpu = None
+        streaming = dict(streaming_defaults(self._cpu if self._cpu is not None else True), **overrides)
         self._streaming = streaming
         self._preset = preset
         if backend == "kernel":
+            from .gpu.field import max_blade_count
+
             # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
             self.max_blades = min(streaming["max_blades"], max_blade_count())
         else:  # the browser's device decides; the blade state is still built in the kernel's memory
@@ -290,7 +292,8 @@ class GrassWidget(ipw.VBox):
 
                 self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
-                                              on_unavailable=self._on_browser_unavailable)
+                                              on_unavailable=self._on_browser_unavailable,
+                                              pixel_ratio=pixel_ratio)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
@@ -325,7 +328,7 @@ class GrassWidget(ipw.VBox):
             return blades
         if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
             raise TypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
-        if blades >= 1:
+        if blades >= 1 and self._cpu is not None:  # the kernel renders (the browser's own limits apply there)
             from .gpu.field import check_blade_count_fits
 
             check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
@@ -334,6 +337,13 @@ class GrassWidget(ipw.VBox):
         return int(blades)
 
     def _kernel_view(self):
+        if self._cpu is None:  # a browser widget falling back: now the kernel's adapter matters
+            from .gpu.adapter import is_cpu_adapter
+
+            self._cpu = is_cpu_adapter()
+            blades = self._streaming["max_blades"]
+            self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
+            self._streaming["max_blades"] = blades
         return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
                           clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
                           on_inspect=self._show_inspected)
@@ -484,7 +494,7 @@ class GrassWidget(ipw.VBox):
                 working directory, i.e. next to the notebook).
             size: (width, height) or "WxH"; default twice the view size.
         """
-        from .scene import parse_size
+        from .framing import parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])

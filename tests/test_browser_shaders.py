@@ -115,3 +115,47 @@ def test_backend_argument_and_browser_widget_api():
             w.step(-1)
     finally:
         w.close()
+
+
+def test_browser_messages_move_the_ball_and_never_raise():
+    """What the page sends (shift + drag, the steps simulated while rolling, junk) reaches
+    the ball, and a malformed message shows on the message line instead of raising."""
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    view = w.view.view
+    try:
+        view._on_browser_msg(view, {"type": "ball", "phase": "down", "x": 1.0, "z": -0.5}, [])
+        assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5
+        assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        w.ball.rolling = True
+        assert view.report_steps
+        view._on_browser_msg(view, {"type": "steps", "steps": 1}, [])    # onto its circle
+        before = w.ball.collider.center
+        view._on_browser_msg(view, {"type": "steps", "steps": 60}, [])   # 0.5 s of simulated time
+        moved = np.linalg.norm(np.subtract(w.ball.collider.center, before))   # a chord of the rolled arc
+        arc = w.ball.roll_speed * 60 * w.params.dt
+        assert 0.9 * arc < moved <= arc + 1e-9
+        assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        view._on_browser_msg(view, {"type": "ball", "phase": "move", "x": "nowhere"}, [])
+        assert "could not convert" in w.message_line.value
+        view._on_browser_msg(view, {"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 30,
+                                    "step_count": 99, "frame_size": [320, 240]}, [])
+        assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.stats_line.value
+        view._on_browser_msg(view, {"type": "gpu_status"}, None)   # unknown kinds are ignored
+    finally:
+        w.close()
+
+
+def test_kernel_widget_camera_state_both_ways():
+    w = gw.GrassWidget(64)
+    try:
+        assert w.backend == "kernel"
+        w.camera_state = {"position": (1.0, 2.0, 9.0), "target": (0.0, 1.0, 0.0), "fov_deg": 30.0}
+        cam = w.camera_state
+        assert np.allclose(cam["position"], (1, 2, 9)) and np.allclose(cam["target"], (0, 1, 0))
+        assert cam["fov_deg"] == pytest.approx(30.0)
+        forward = -np.asarray(w.scene.camera.world.matrix)[:3, 2]
+        assert np.allclose(forward, np.subtract((0, 1, 0), (1, 2, 9)) / np.linalg.norm((1, 1, 9)), atol=1e-5)
+        with pytest.raises(ValueError, match="differ"):
+            w.camera_state = {"position": (0.0, 1.0, 0.0)}
+    finally:
+        w.close()

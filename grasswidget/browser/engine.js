@@ -16,6 +16,9 @@
 // steps of dt; playing follows the wall clock in whole steps of dt.
 
 const MAX_STEPS_PER_FRAME = 240;
+// Playing follows the wall clock down to 15 frames/s; a slower frame advances
+// 1/15 s of simulated time (slow motion) instead of taking ever more steps.
+const MAX_FRAME_TIME = 1 / 15;
 const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;
 const MAX_FRAMES_IN_FLIGHT = 2;
@@ -112,6 +115,8 @@ class GrassEngine {
     this.handlers = [];
     this.expectLoss = false;
     this.recoveries = 0;
+    // Start-up milestones (performance.now() ms), read by benchmarks.
+    this.timing = { created: performance.now() };
     this.buildDom();
   }
 
@@ -149,7 +154,9 @@ class GrassEngine {
 
   resize() {
     const w = this.model.get("width"), h = this.model.get("height");
-    const ratio = Math.min(window.devicePixelRatio || 1, 2);
+    // Rendered pixels per CSS pixel: the widget's pixel_ratio, else the display's (at most 2).
+    const asked = this.model.get("pixel_ratio");
+    const ratio = asked > 0 ? asked : Math.min(window.devicePixelRatio || 1, 2);
     this.wrapper.style.width = `${w}px`;
     this.wrapper.style.height = `${h}px`;
     this.canvas.style.width = `${w}px`;
@@ -223,7 +230,7 @@ class GrassEngine {
     let az = Math.atan2(off[0], off[2]);
     let el = Math.asin(Math.max(-1, Math.min(1, off[1] / r)));
     az -= dx * 0.008;
-    el = Math.max(-1.45, Math.min(1.45, el + dy * 0.008));
+    el = Math.max(0.02, Math.min(1.45, el + dy * 0.008));  // stay above the ground, short of the pole
     off = [r * Math.cos(el) * Math.sin(az), r * Math.sin(el), r * Math.cos(el) * Math.cos(az)];
     this.setCamera({ ...cam, position: add(target, off) }, false);
   }
@@ -240,8 +247,10 @@ class GrassEngine {
     e.preventDefault();
     const cam = this.camera();
     const off = sub(cam.position, cam.target);
+    const r = Math.hypot(...off);
     const k = Math.exp(Math.max(-0.5, Math.min(0.5, e.deltaY * 0.001)));
-    this.setCamera({ ...cam, position: add(cam.target, scale(off, k)) }, true);
+    const rNew = Math.max(0.5, Math.min(0.8 * cam.far, r * k));  // zoom range: near the target .. inside the far plane
+    this.setCamera({ ...cam, position: add(cam.target, scale(off, rNew / r)) }, true);
   }
 
   onKey(e) {
@@ -295,8 +304,11 @@ class GrassEngine {
       this.context = this.canvas.getContext("webgpu");
       this.format = navigator.gpu.getPreferredCanvasFormat();
       this.context.configure({ device, format: this.format, alphaMode: "opaque" });
+      this.timing.device = performance.now();
       await this.buildPipelines();
+      this.timing.pipelines = performance.now();
       this.buildBuffers();
+      this.timing.buffers = performance.now();
       this.note.textContent = "";
       this.ready = true;
       this.status("ok", this.adapterText);
@@ -609,7 +621,7 @@ class GrassEngine {
     try {
       if (this.model.get("playing")) {
         const dt = this.model.get("clock").dt;
-        this.accumulator += Math.min(elapsed, 0.25) * this.model.get("time_scale");
+        this.accumulator += Math.min(elapsed, MAX_FRAME_TIME) * this.model.get("time_scale");
         let n = Math.floor(this.accumulator / dt + 1e-9);
         if (n > MAX_STEPS_PER_FRAME) { n = MAX_STEPS_PER_FRAME; this.accumulator = 0; }
         else this.accumulator -= n * dt;
@@ -632,6 +644,7 @@ class GrassEngine {
       device.queue.onSubmittedWorkDone().then(() => {
         this.inFlight -= 1;
         this.frames += 1;
+        if (!this.timing.first_frame) this.timing.first_frame = performance.now();
         this.lastFrameMs = performance.now() - t0;
       }, () => { this.inFlight = 0; });
       if (readArgs) this.readArgs();
@@ -663,6 +676,7 @@ class GrassEngine {
       const a = new Uint32Array(buf.getMappedRange().slice(0));
       buf.unmap();
       this.visible = this.lodSegments.map((_, k) => a[4 * k + 1]);
+      this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });
   }
@@ -773,7 +787,7 @@ class GrassEngine {
         case "balls": this.writeBalls(); break;
         case "scene_style": this.writeSceneUniform(); break;
         case "blade_data": this.buildBuffers(); break;
-        case "width": case "height": this.resize(); break;
+        case "width": case "height": case "pixel_ratio": this.resize(); break;
         default: break;
       }
     } catch (err) {
@@ -798,7 +812,8 @@ export default {
     ENGINES.add(engine);
     const onMsg = (msg, buffers) => { engine.onMessage(msg, buffers); };
     model.on("msg:custom", onMsg);
-    const names = ["cull_uniform", "material_uniform", "balls", "scene_style", "blade_data", "width", "height"];
+    const names = ["cull_uniform", "material_uniform", "balls", "scene_style", "blade_data", "width", "height",
+      "pixel_ratio"];
     const listeners = names.map((name) => {
       const fn = () => engine.onChange(name);
       model.on(`change:${name}`, fn);

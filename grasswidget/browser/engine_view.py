@@ -9,8 +9,10 @@ the kernel view: ``set_playing``, ``step``, ``reset_blades``, ``reset_camera``,
 Differences, by design:
 
 * Time: the browser plays by the wall clock in whole fixed steps of
-  ``params.dt`` (``time_scale`` simulated seconds per real second), so the
-  kernel's "steps per frame" is an average here.
+  ``params.dt`` (``time_scale`` simulated seconds per real second; the rest of
+  a step carries over to the next frame), so the kernel's "steps per frame" is
+  an average here. Below 15 frames/s a frame advances at most 1/15 s of
+  simulated time: slow motion rather than ever more steps per frame.
 * The rolling ball: the browser reports the steps it simulated about every
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
@@ -53,7 +55,8 @@ class BrowserEngineView:
 
     Args: as :class:`~grasswidget.kernel_view.KernelView` (blades, size, params,
     preset, clock, actions, on_error, on_stats), plus ``on_unavailable(reason)``,
-    called once when the browser has no WebGPU adapter (the widget falls back).
+    called once when the browser has no WebGPU adapter (the widget falls back),
+    and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2).
     """
 
     backend = "browser"
@@ -63,8 +66,8 @@ class BrowserEngineView:
     events = None
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
-                 on_unavailable):
-        from ..scene import preset_field
+                 on_unavailable, pixel_ratio=None):
+        from ..framing import preset_field
 
         self.size = tuple(size)
         self.params = params
@@ -83,7 +86,8 @@ class BrowserEngineView:
                       "fov_deg": float(view["fov_deg"]), "near": float(view["near"]), "far": float(view["far"])}
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.view = BrowserView(blades, params=params, size=self.size, camera=camera)
+        self.view = BrowserView(blades, params=params, size=self.size, camera=camera,
+                                pixel_ratio=float(pixel_ratio or 0.0))
         self.view.playing = bool(clock.playing)
         self.view.time_scale = float(clock.time_scale)
         self.widget = self.view

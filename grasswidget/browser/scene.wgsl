@@ -93,6 +93,6 @@ fn fs_ball(in: BallOut) -> @location(0) vec4<f32> {
     let h = normalize(l + to_eye);
     let diffuse = max(dot(n, l), 0.0);
     let spec = pow(max(dot(n, h), 0.0), 60.0);
-    let rgb = u_scene.ball_color.rgb * (0.55 + 0.45 * diffuse) + vec3<f32>(0.35 * spec);
+    let rgb = u_scene.ball_color.rgb * (0.75 + 0.45 * diffuse) + vec3<f32>(0.35 * spec);
     return vec4<f32>(min(rgb, vec3<f32>(1.0)), u_scene.ball_color.a);
 }

@@ -50,7 +50,7 @@ ANSWER_TIMEOUT = 30.0
 SCENE_STYLE = dict(
     sky_bottom=(0x9C / 255, 0xC3 / 255, 0xE6 / 255, 1.0),
     sky_top=(0xE8 / 255, 0xF1 / 255, 0xF8 / 255, 1.0),
-    ground_color=(0x6B / 255, 0x52 / 255, 0x3A / 255, 1.0),
+    ground_color=(51 / 255, 36 / 255, 22 / 255, 1.0),
     ball_color=(0xDF / 255, 0xE8 / 255, 0xFF / 255, 0.35),
     light_direction=(4.0, 10.0, 3.0),
 )
@@ -114,6 +114,8 @@ class BrowserView(anywidget.AnyWidget):
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
     scene_style = Dict().tag(sync=True)
+    #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
+    pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(480).tag(sync=True)
     # ---- set by the browser
