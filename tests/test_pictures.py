@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+import grasswidget as gw
+
 from conftest import grass_mask, sky_mask
 
 
