@@ -199,7 +199,8 @@ class KernelView:
     Attributes: ``widget`` (the ipywidget to show: the canvas), ``canvas``,
     ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``,
     ``clock`` (the :class:`~grasswidget.clock.SimClock`), ``governor`` (the
-    :class:`~grasswidget.adaptive.ResolutionGovernor`).
+    :class:`~grasswidget.adaptive.ResolutionGovernor`), ``timing`` (the
+    :class:`FrameTiming` of the frames on their way).
     """
 
     backend = "kernel"
@@ -244,7 +245,7 @@ class KernelView:
         self._draw_ms = 0.0
         from .gpu.adapter import cpu_notice
 
-        self._timing = _FrameTiming()
+        self.timing = FrameTiming()
         self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
@@ -488,22 +489,22 @@ class KernelView:
         scene.draw_frame()
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
-        self._timing.drawn(t0, t1)
+        self.timing.drawn(t0, t1)
         if self._report_pending:
             self._report_pending = False
             self._report_inspected()
         self._frames += 1
         if playing:
             # The next frame's scale, from how long the kernel was busy per frame.
-            self.canvas.set_render_scale(self.governor.frame(self._timing.busy_s()))
+            self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
 
     def _on_present(self, t):
-        self._timing.presented(t)
+        self.timing.presented(t)
 
     def _on_sent(self, t, size):
-        self._timing.sent(t)
+        self.timing.sent(t)
 
     # ------------------------------------------------------------------ stats
 
@@ -567,7 +568,7 @@ class KernelView:
         self._stats.update(
             fps=fps, visible=visible, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
-            **self._timing.averages(),
+            **self.timing.averages(),
         )
         self._on_stats(self.current_stats())
         if self._inspected:
@@ -636,41 +637,37 @@ class KernelView:
         self.controller = None
 
 
-class _FrameTiming:
+class FrameTiming:
     """Where a streamed frame's time goes, averaged over the frames since the last
     :meth:`averages`: render (the draw function: steps + render submit), readback
     (until rendercanvas presents the pixels), encode + send (jupyter-rfb)."""
 
     def __init__(self):
-        self._draw = None  # (start, end) of the frame on its way
+        #: (start, end) perf_counter seconds of the draw of the frame on its way, or None.
+        self.last_draw = None
         self._present = None
         self._last_full = 0.0  # kernel seconds of the last frame that was sent
         self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
 
-    @property
-    def last_draw(self):
-        """(start, end) kernel seconds of the frame on its way, or None."""
-        return self._draw
-
     def drawn(self, t0, t1):
-        self._draw, self._present = (t0, t1), None
+        self.last_draw, self._present = (t0, t1), None
         self._sums["render_ms"].append(1000.0 * (t1 - t0))
 
     def presented(self, t):
-        if self._draw is not None:
+        if self.last_draw is not None:
             self._present = t
-            self._sums["readback_ms"].append(1000.0 * (t - self._draw[1]))
+            self._sums["readback_ms"].append(1000.0 * (t - self.last_draw[1]))
 
     def sent(self, t):
-        if self._draw is not None and self._present is not None:
+        if self.last_draw is not None and self._present is not None:
             self._sums["encode_send_ms"].append(1000.0 * (t - self._present))
-            self._last_full = t - self._draw[0]
-            self._draw = None
+            self._last_full = t - self.last_draw[0]
+            self.last_draw = None
 
     def busy_s(self) -> float:
         """Kernel seconds per frame: the last sent frame's render + readback + encode +
         send, or the frame just drawn's render if that took longer (or none was sent)."""
-        current = (self._draw[1] - self._draw[0]) if self._draw is not None else 0.0
+        current = (self.last_draw[1] - self.last_draw[0]) if self.last_draw is not None else 0.0
         return max(self._last_full, current)
 
     def averages(self) -> dict:

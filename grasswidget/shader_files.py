@@ -65,13 +65,20 @@ from pathlib import Path
 
 from .errors import MissingFileError
 
-__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY"]
+__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
+           "DISTANCE_BANDS", "BAND_RANGE"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"
+
+#: Distance bands per LOD class: the culling draws each class nearest band first (cull.wgsl with
+#: ``bands``), so the depth test rejects hidden fragments before they are shaded.
+DISTANCE_BANDS = 64
+#: The bands are log-spaced over this range of distances to the camera (m).
+BAND_RANGE = (0.5, 512.0)
 
 
 def shader_dir() -> Path:

@@ -45,7 +45,11 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     math_src = (shader_dir() / "blade_math.wgsl").read_text()
     fn = re.search(r"fn validate_length\([^)]*\)[^{]*\{[^}]*\}", math_src).group(0)
     assert fn in shaders["simulate"]["code"] and fn in shaders["cull"]["code"]
-    assert len(shaders["blades"]) == 4 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
+    assert len(shaders["blades"]) == 5 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
+    # The fifth draw is the culled blades (color_by "cull"), from the list the cull pass fills.
+    assert [b["culled"] for b in shaders["blades"]] == [False] * 4 + [True]
+    assert {b["name"] for b in shaders["blades"][4]["bindings"]} >= {"s_culled"}
+    assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
 
 
 def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():

@@ -207,12 +207,10 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # no refresh inside the draw: this test refreshes
     _resize(widget)
     # what the canvas reports for a streamed frame: pixels presented, then sent
-    view = widget.view
     widget.view.draw()
-    t = view.frame_timing
-    d0, d1 = t.last_draw
-    t.presented(d1 + 0.004)
-    t.sent(d1 + 0.010)
+    d0, d1 = widget.view.timing.last_draw
+    widget.canvas.on_present(d1 + 0.004)  # what the canvas calls for a streamed frame
+    widget.canvas.on_sent(d1 + 0.010, WIDGET_SIZE)
     widget.view.refresh_stats()
     s = widget.stats
     assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6) and s["encode_send_ms"] == pytest.approx(6.0, abs=1e-6)

@@ -388,6 +388,9 @@ class GrassEngine {
     this.sim = await this.computePipeline(shaders.simulate, "simulate.wgsl");
     this.resetArgs = await this.computePipeline(shaders.reset_args, "reset_args.wgsl");
     this.cull = await this.computePipeline(shaders.cull, "cull.wgsl");
+    // Draw order by distance band (nearest first): count, prefix, then the cull above scatters.
+    this.cullCount = shaders.cull_count ? await this.computePipeline(shaders.cull_count, "cull.wgsl (count)") : null;
+    this.prefixBands = shaders.prefix_bands ? await this.computePipeline(shaders.prefix_bands, "prefix_bands.wgsl") : null;
     const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
     this.bladePipes = [];
     for (let k = 0; k < shaders.blades.length; k++) {
@@ -445,6 +448,9 @@ class GrassEngine {
       s_collision: buffer(n * 4, U.STORAGE | U.COPY_SRC | U.COPY_DST, "collision"),
       s_args: buffer(classes * 16, U.STORAGE | U.INDIRECT | U.COPY_SRC | U.COPY_DST, "draw args"),
       s_visible: buffer(classes * n * 4, U.STORAGE, "visible"),
+      s_culled: buffer(n * 4, U.STORAGE, "culled"),
+      s_culled_args: buffer(16, U.STORAGE | U.INDIRECT | U.COPY_DST, "culled draw args"),
+      s_bands: buffer(2 * classes * Math.max(this.model.get("shaders").bands || 1, 1) * 4, U.STORAGE, "distance bands"),
       u_sim: buffer(this.model.get("sim_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_sim"),
       u_cull: buffer(this.model.get("cull_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_cull"),
       u_material: buffer(this.model.get("material_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_material"),
@@ -475,6 +481,7 @@ class GrassEngine {
     this.sim.group = group(this.sim);
     this.resetArgs.group = group(this.resetArgs);
     this.cull.group = group(this.cull);
+    if (this.cullCount) { this.cullCount.group = group(this.cullCount); this.prefixBands.group = group(this.prefixBands); }
     for (const p of this.bladePipes) p.group = group(p);
     this.scenePipes.group = group(this.scenePipes);
   }
@@ -573,9 +580,17 @@ class GrassEngine {
     cpass.setPipeline(this.resetArgs.pipeline);
     cpass.setBindGroup(0, this.resetArgs.group);
     cpass.dispatchWorkgroups(1);
+    const [gx, gy] = this.workgroups(this.n);
+    if (this.cullCount) {
+      cpass.setPipeline(this.cullCount.pipeline);
+      cpass.setBindGroup(0, this.cullCount.group);
+      cpass.dispatchWorkgroups(gx, gy);
+      cpass.setPipeline(this.prefixBands.pipeline);
+      cpass.setBindGroup(0, this.prefixBands.group);
+      cpass.dispatchWorkgroups(1);
+    }
     cpass.setPipeline(this.cull.pipeline);
     cpass.setBindGroup(0, this.cull.group);
-    const [gx, gy] = this.workgroups(this.n);
     cpass.dispatchWorkgroups(gx, gy);
     cpass.end();
     const pass = encoder.beginRenderPass({
@@ -591,7 +606,8 @@ class GrassEngine {
     this.bladePipes.forEach((p, k) => {
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
-      pass.drawIndirect(this.res.s_args, 16 * k);
+      if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
+      else pass.drawIndirect(this.res.s_args, 16 * k);
     });
     const balls = Math.min((this.model.get("balls") || []).length, 16);
     if (balls > 0 && this.model.get("show_colliders")) {

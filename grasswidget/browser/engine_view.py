@@ -61,6 +61,8 @@ class BrowserEngineView:
     """
 
     backend = "browser"
+    #: The colour-by views (params.color_by "lod" and "cull") work here; freeze culling and the inspector do not.
+    teaching_views = True
     scene = None        # no kernel scene: the browser holds the state
     canvas = None
     controller = None

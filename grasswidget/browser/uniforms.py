@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import GrassValueError
 from ..colliders import MAX_COLLIDERS, collider_array
-from ..enums import BladeShape, GravityMode, WindField
+from ..enums import BladeShape, ColorBy, GravityMode, WindField
 from ..params import GrassParams
 from ..reference import wind_period
 from ..uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
@@ -166,6 +166,8 @@ def cull_uniform(params: GrassParams, n_blades: int) -> bytes:
         cull_distance=int(p.cull_distance),
         lod=int(p.lod),
         n_blades=n_blades,
+        color_by=int(ColorBy.from_label(getattr(p, "color_by", "natural"))),
+        frozen=0,  # the browser engine culls against its live camera
     ))
 
 

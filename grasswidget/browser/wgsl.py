@@ -23,7 +23,7 @@ from pathlib import Path
 import jinja2
 
 from ..reference import LOD_SEGMENTS
-from ..shader_files import NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
+from ..shader_files import BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -48,10 +48,14 @@ _STORAGE = {
         "s_collision": "var<storage, read_write> s_collision: array<f32>",
         "s_args": "var<storage, read_write> s_args: array<atomic<u32>>",
         "s_visible": "var<storage, read_write> s_visible: array<u32>",
+        "s_culled": "var<storage, read_write> s_culled: array<u32>",
+        "s_culled_args": "var<storage, read_write> s_culled_args: array<atomic<u32>>",
+        "s_bands": "var<storage, read_write> s_bands: array<atomic<u32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
         "s_visible": "var<storage, read> s_visible: array<u32>",
+        "s_culled": "var<storage, read> s_culled: array<u32>",
     },
 }
 
@@ -118,7 +122,8 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     """
     env = _environment()
     source = (shader_dir() / filename).read_text(encoding="utf-8")
-    values = {**template_vars(), "bindings_code": _MARK, "write_pick": False, **variables}
+    # teaching_views: the colour-by views (the culled blades' list and draw, flat colours).
+    values = {**template_vars(), "teaching_views": True, "bindings_code": _MARK, "write_pick": False, **variables}
     body = env.from_string(source).render(**values)
     declared = {b["name"] for b in binding_map(body)}
     used_numbers = {b["binding"] for b in binding_map(body)}
@@ -141,7 +146,7 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     for name, decl in _STORAGE[stage].items():
         if name in declared or not _uses(body.replace(_MARK, ""), name):
             continue
-        if name == "s_args" and "atomicAdd(&s_args" not in body:
+        if "atomic" in decl and f"atomicAdd(&{name}" not in body:
             decl = decl.replace("array<atomic<u32>>", "array<u32>")
         lines.append(f"@group(0) @binding({take()}) {decl};")
     header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
@@ -176,19 +181,29 @@ class BrowserShaders:
 
     @staticmethod
     def reset_args() -> dict:
-        return render_shader("reset_args.wgsl", "compute")
+        return render_shader("reset_args.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def cull() -> dict:
-        return render_shader(_body_file("cull"), "compute")
+    def cull(phase: str = "scatter") -> dict:
+        """The culling pass, drawing order by distance band as in the kernel: phase "count"
+        counts survivors per (class, band), :meth:`prefix_bands` turns counts into slots,
+        phase "scatter" writes the lists nearest band first."""
+        return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase,
+                             band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+
+    @staticmethod
+    def prefix_bands() -> dict:
+        return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
     def blades() -> list:
-        """One ribbon shader per level-of-detail class (segments along the blade)."""
-        return [
-            render_shader("blade_render.wgsl", "render", **ribbon_vars(k))
-            for k in range(len(LOD_SEGMENTS))
-        ]
+        """One ribbon shader per level-of-detail class (segments along the blade), and
+        one for the culled blades drawn flat when ``color_by`` is "cull" (``culled``: True)."""
+        out = []
+        for k in range(len(LOD_SEGMENTS) + 1):  # the LOD classes, then the culled blades (color_by "cull")
+            values = ribbon_vars(k)
+            out.append(dict(render_shader("blade_render.wgsl", "render", **values), culled=bool(values["culled"])))
+        return out
 
     @staticmethod
     def scene() -> dict:
@@ -200,8 +215,11 @@ class BrowserShaders:
         return {
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
-            "cull": cls.cull(),
+            "cull_count": cls.cull("count"),
+            "prefix_bands": cls.prefix_bands(),
+            "cull": cls.cull("scatter"),
             "blades": cls.blades(),
             "scene": cls.scene(),
             "lod_segments": list(LOD_SEGMENTS),
+            "bands": DISTANCE_BANDS,
         }

@@ -32,10 +32,9 @@ from .simulation import Simulation
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
 
-#: Distance bands per LOD class: the culling draws each class nearest band first (see cull.wgsl).
-DISTANCE_BANDS = 64
-#: The bands are log-spaced over this range of distances to the camera (m).
-BAND_RANGE = (0.5, 512.0)
+# Distance bands per LOD class (the draw order of the culled lists): one source for both
+# engines, in grasswidget.shader_files.
+from ..shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)

@@ -166,6 +166,23 @@ print('PHYSICS', err, err1, bent)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")
 
+    # 3b. Colour by: LOD classes and cull tests drawn flat in their colours (the shared ribbon shader).
+    from grasswidget.teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
+
+    def share_of(colors, px):
+        rgb = px[..., :3].astype(int)
+        return sum(float((np.abs(rgb - np.array(hex_to_rgb(c))).max(axis=-1) <= 12).mean()) for c in colors)
+
+    kernel_execute(page, "w.params.color_by = 'lod'")
+    lod = poll(lambda: (lambda f: (f > 0.2, f))(share_of(LOD_COLORS, _canvas_pixels(page))),
+               "the LOD colours to cover the grass", 30, 0.3, page=page)
+    kernel_execute(page, "w.params.color_by = 'cull'")
+    cull = poll(lambda: (lambda f: (f > 0.01, f))(share_of(CULL_COLORS.values(), _canvas_pixels(page))),
+                "culled blades in the cull-test colours", 30, 0.3, page=page)
+    kernel_execute(page, "w.params.color_by = 'natural'")
+    print(f"[browser engine] colour by lod: {lod:.0%} of the view in LOD colours; by cull: {cull:.1%} in cull colours")
+    assert "not available" not in kernel_eval(page, "w.message_line.value")
+
     # 4. A drag on the canvas moves w.camera_state; assigning it moves the view.
     before = kernel_eval(page, "list(w.camera_state['position'])")
     canvas = page.locator("canvas.grasswidget-canvas").first

@@ -160,7 +160,8 @@ def _run_checks(page, server, folder):
     wait_for_frames(page, 5, timeout=60, index=0)
     px = view_pixels(page, 0)
     h, w, _ = px.shape
-    assert abs(w - 640) <= 4 and abs(h - 480) <= 4, px.shape
+    # 640 x 480 at the adaptive render scale (0.5 .. 1) in use while playing
+    assert 0.49 <= w / 640 <= 1.01 and abs(w / 640 - h / 480) < 0.02, px.shape
     lower = _grass_fraction(px[int(0.55 * h):int(0.85 * h)])
     upper = _grass_fraction(px[: int(0.1 * h)])
     print(f"\n[tour] frame {w}x{h}: grass in the lower part {lower:.0%}, in the top rows {upper:.0%}")
@@ -170,7 +171,7 @@ def _run_checks(page, server, folder):
     fps_default = live_default["delivered_fps"]
     print(f"[tour] default widget: {live_default}")
     # real time: simulated seconds follow the kernel's wall clock while playing
-    assert 0.9 <= live_default["sim_over_wall"] <= 1.02, live_default
+    assert 0.9 <= live_default["sim_over_wall"] <= 1.1, live_default  # within 10% (a frame is a step of it)
     n_default = kernel_eval(page, "w.blade_count")
     print(f"[tour] {n_default} blades (the default) at 640x480: {fps_default:.1f} frames/s reach Chromium")
 
