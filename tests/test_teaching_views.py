@@ -224,3 +224,21 @@ def test_grass_field_freezes_in_any_pygfx_scene():
     assert abs(len(field.read_visible()) - drawn.sum()) > 100  # the bird's-eye camera culls otherwise
     canvas.close()
     field.release()
+
+
+def test_flat_colours_are_compiled_in_only_while_shown(scene):
+    """The natural view carries no flat-colour path (it costs GPU draw time): switching
+    colour modes after a render rebuilds the ribbons, and back gives the same pixels."""
+    scene.field.reset()
+    scene.step(2)
+    natural = scene.render().copy()
+    assert scene.field.flat_colors is False
+    scene.params.color_by = "lod"
+    assert scene.field.flat_colors is True
+    lod = scene.render().copy()
+    lod_rgb = {tuple(int(c) for c in teaching.hex_to_rgb(h)) for h in teaching.LOD_COLORS}
+    flat = np.array([tuple(p) in lod_rgb for p in lod[..., :3].reshape(-1, 3)])
+    assert flat.mean() > 0.05  # blades now show their class colours
+    scene.params.color_by = "natural"
+    assert scene.field.flat_colors is False
+    assert np.array_equal(scene.render(), natural)

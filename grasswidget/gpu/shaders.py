@@ -131,7 +131,9 @@ class BladeRenderShader(BaseShader):
 
     def __init__(self, wobject, lod_class):
         culled = lod_class == len(LOD_SEGMENTS)
-        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=True))
+        # The flat teaching colours only while they are shown (GrassField.flat_colors is
+        # tracked by pygfx: a change rebuilds these pipelines).
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=wobject.flat_colors))
         self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(wobject)
