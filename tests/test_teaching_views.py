@@ -18,6 +18,16 @@ BLADES = dict(count=1500, size=15.0, seed=7, height=(1.3, 2.5), width=(0.1, 0.14
 SCENE = dict(size=SIZE, params=dict(blade_shape="quad", cull_distance_max=25.0, cull_buckets=10))
 
 
+@pytest.fixture(autouse=True)
+def exact_colours(scene):
+    """These tests read the flat teaching colours pixel by pixel: no post-process
+    anti-aliasing (pygfx's default on a GPU), which blends the edges of thin blades."""
+    before = scene.renderer.ppaa
+    scene.renderer.ppaa = "none"
+    yield
+    scene.renderer.ppaa = before
+
+
 @pytest.fixture
 def frozen(scene):
     """The scene's field culling against a camera at (0, 1, 10) looking at (4, 1, 0)."""
