@@ -30,7 +30,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     resources its text uses, each once, with the access the engine provides."""
     shaders = BrowserShaders.all()
     device = _device()
-    texts = [shaders[k] for k in ("simulate", "reset_args", "cull", "scene")] + shaders["blades"]
+    texts = [shaders[k] for k in ("simulate", "reset_args", "cull", "scene")] + shaders["blades"] + shaders["blades_flat"]
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -45,10 +45,16 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     math_src = (shader_dir() / "blade_math.wgsl").read_text()
     fn = re.search(r"fn validate_length\([^)]*\)[^{]*\{[^}]*\}", math_src).group(0)
     assert fn in shaders["simulate"]["code"] and fn in shaders["cull"]["code"]
-    assert len(shaders["blades"]) == 5 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
-    # The fifth draw is the culled blades (color_by "cull"), from the list the cull pass fills.
-    assert [b["culled"] for b in shaders["blades"]] == [False] * 4 + [True]
-    assert {b["name"] for b in shaders["blades"][4]["bindings"]} >= {"s_culled"}
+    assert len(shaders["blades"]) == 4 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
+    # The natural view's ribbons carry no flat-colour path (it costs GPU draw time); the colour-by set
+    # does, and its fifth draw is the culled blades (color_by "cull"), from the list the cull pass fills.
+    assert all("flat_color" not in b["code"] for b in shaders["blades"])
+    assert len(shaders["blades_flat"]) == 5 and all("flat_color" in b["code"] for b in shaders["blades_flat"])
+    assert [b["culled"] for b in shaders["blades_flat"]] == [False] * 4 + [True]
+    assert {b["name"] for b in shaders["blades_flat"][4]["bindings"]} >= {"s_culled"}
+    offset = BrowserShaders.all()["color_by_offset"]
+    from grasswidget.browser.uniforms import CULL_LAYOUT, offsets
+    assert offset == offsets(CULL_LAYOUT)["color_by"][0]
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
 
 

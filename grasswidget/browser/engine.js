@@ -392,20 +392,27 @@ class GrassEngine {
     this.cullCount = shaders.cull_count ? await this.computePipeline(shaders.cull_count, "cull.wgsl (count)") : null;
     this.prefixBands = shaders.prefix_bands ? await this.computePipeline(shaders.prefix_bands, "prefix_bands.wgsl") : null;
     const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
-    this.bladePipes = [];
-    for (let k = 0; k < shaders.blades.length; k++) {
-      const shader = shaders.blades[k];
-      const module = await this.compile(shader, `blade_render.wgsl (class ${k})`);
-      const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
-      const pipeline = await device.createRenderPipelineAsync({
-        layout: device.createPipelineLayout({ bindGroupLayouts: [layout] }),
-        vertex: { module, entryPoint: "vs_main" },
-        fragment: { module, entryPoint: "fs_main", targets: [{ format: this.format }] },
-        primitive: { topology: "triangle-strip", cullMode: "none" },
-        depthStencil,
-      });
-      this.bladePipes.push({ pipeline, layout, shader });
-    }
+    // Two sets of ribbon pipelines: the natural view's, and the colour-by views' (flat colours and
+    // the culled blades' draw), which cost GPU draw time and are only used while color_by shows them.
+    const ribbons = async (list, label) => {
+      const pipes = [];
+      for (let k = 0; k < list.length; k++) {
+        const shader = list[k];
+        const module = await this.compile(shader, `blade_render.wgsl (${label}class ${k})`);
+        const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
+        const pipeline = await device.createRenderPipelineAsync({
+          layout: device.createPipelineLayout({ bindGroupLayouts: [layout] }),
+          vertex: { module, entryPoint: "vs_main" },
+          fragment: { module, entryPoint: "fs_main", targets: [{ format: this.format }] },
+          primitive: { topology: "triangle-strip", cullMode: "none" },
+          depthStencil,
+        });
+        pipes.push({ pipeline, layout, shader });
+      }
+      return pipes;
+    };
+    this.bladePipes = await ribbons(shaders.blades, "");
+    this.flatBladePipes = shaders.blades_flat ? await ribbons(shaders.blades_flat, "colour by, ") : this.bladePipes;
     const scene = shaders.scene;
     const module = await this.compile(scene, "browser scene.wgsl");
     const layout = this.layoutFor(scene, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
@@ -483,6 +490,7 @@ class GrassEngine {
     this.cull.group = group(this.cull);
     if (this.cullCount) { this.cullCount.group = group(this.cullCount); this.prefixBands.group = group(this.prefixBands); }
     for (const p of this.bladePipes) p.group = group(p);
+    for (const p of this.flatBladePipes) p.group = group(p);
     this.scenePipes.group = group(this.scenePipes);
   }
 
@@ -493,6 +501,14 @@ class GrassEngine {
     this.device.queue.writeBuffer(this.res.s_collision, 0, new Float32Array(this.n));
     this.stepCount = 0;
     this.accumulator = 0;
+  }
+
+  // The ribbon pipelines for the current params.color_by (u_cull.color_by: 0 natural).
+  ribbonPipes() {
+    const off = this.model.get("shaders").color_by_offset;
+    const cu = this.model.get("cull_uniform");
+    const colorBy = off === undefined ? 1 : new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(off, true);
+    return colorBy === 0 ? this.bladePipes : this.flatBladePipes;
   }
 
   writeUniform(name, trait) {
@@ -603,7 +619,7 @@ class GrassEngine {
     pass.draw(3);
     pass.setPipeline(sp.ground);
     pass.draw(4);
-    this.bladePipes.forEach((p, k) => {
+    this.ribbonPipes().forEach((p, k) => {
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades

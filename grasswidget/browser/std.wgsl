@@ -11,7 +11,9 @@ struct Varyings {
     @location(2) along: f32,
     @location(3) variation: f32,
     @location(4) @interpolate(flat) pick_idx: u32,
-    @location(5) flat_color: vec4<f32>,  // teaching views: a = 1 draws the blade flat in rgb (sRGB)
+$$ if teaching_views
+    @location(5) flat_color: vec4<f32>,  // colour-by views: a = 1 draws the blade flat in rgb (sRGB)
+$$ endif
 };
 
 struct FragmentOutput {

@@ -24,7 +24,7 @@ import jinja2
 
 from ..reference import LOD_SEGMENTS
 from ..shader_files import BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
-from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, wgsl_struct
+from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, offsets, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
 
@@ -196,13 +196,16 @@ class BrowserShaders:
         return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def blades() -> list:
-        """One ribbon shader per level-of-detail class (segments along the blade), and
-        one for the culled blades drawn flat when ``color_by`` is "cull" (``culled``: True)."""
+    def blades(flat_colors: bool = True) -> list:
+        """One ribbon shader per level-of-detail class (segments along the blade); with
+        ``flat_colors`` (the colour-by views) also one for the culled blades drawn flat
+        when ``color_by`` is "cull" (``culled``: True). The natural view uses the set
+        without the flat-colour path, as the kernel engine does (it costs GPU draw time)."""
         out = []
-        for k in range(len(LOD_SEGMENTS) + 1):  # the LOD classes, then the culled blades (color_by "cull")
+        for k in range(len(LOD_SEGMENTS) + (1 if flat_colors else 0)):
             values = ribbon_vars(k)
-            out.append(dict(render_shader("blade_render.wgsl", "render", **values), culled=bool(values["culled"])))
+            out.append(dict(render_shader("blade_render.wgsl", "render", **values, teaching_views=flat_colors),
+                            culled=bool(values["culled"])))
         return out
 
     @staticmethod
@@ -218,7 +221,10 @@ class BrowserShaders:
             "cull_count": cls.cull("count"),
             "prefix_bands": cls.prefix_bands(),
             "cull": cls.cull("scatter"),
-            "blades": cls.blades(),
+            "blades": cls.blades(flat_colors=False),
+            "blades_flat": cls.blades(flat_colors=True),
+            # byte offset of u_cull.color_by: the engine draws "blades_flat" while it is not natural (0)
+            "color_by_offset": int(offsets(CULL_LAYOUT)["color_by"][0]),
             "scene": cls.scene(),
             "lod_segments": list(LOD_SEGMENTS),
             "bands": DISTANCE_BANDS,
