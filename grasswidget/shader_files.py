@@ -152,9 +152,13 @@ def ribbon_vars(lod_class: int) -> dict:
     }
 
 
-def _environment():
+def wgsl_environment(includes=None, **options):
+    """A jinja2 Environment with pygfx's WGSL template syntax (``{{ }}``, ``{$ $}``, ``$$``
+    lines, undefined names are errors) that includes ``grasswidget.<file>`` from the
+    package's shader folder, plus ``includes``: {prefix: jinja2 loader} of an engine's own."""
     import jinja2
 
+    loaders = {"grasswidget": jinja2.FileSystemLoader(str(shader_dir())), **(includes or {})}
     return jinja2.Environment(
         block_start_string="{$",
         block_end_string="$}",
@@ -162,9 +166,13 @@ def _environment():
         variable_end_string="}}",
         line_statement_prefix="$$",
         undefined=jinja2.StrictUndefined,
-        loader=jinja2.PrefixLoader({"grasswidget": jinja2.FileSystemLoader(str(shader_dir()))}, delimiter="."),
-        keep_trailing_newline=True,
+        loader=jinja2.PrefixLoader(loaders, delimiter="."),
+        **options,
     )
+
+
+def _environment():
+    return wgsl_environment(keep_trailing_newline=True)
 
 
 def render_wgsl(source: str, **variables) -> str:

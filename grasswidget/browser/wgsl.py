@@ -23,7 +23,8 @@ from pathlib import Path
 import jinja2
 
 from ..reference import LOD_SEGMENTS
-from ..shader_files import BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars
+from ..shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
+                            wgsl_environment)
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, offsets, wgsl_struct
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -69,23 +70,8 @@ def _std_include() -> str:
 
 @lru_cache(maxsize=1)
 def _environment() -> jinja2.Environment:
-    loader = jinja2.PrefixLoader(
-        {
-            "grasswidget": jinja2.FileSystemLoader(str(shader_dir())),
-            "pygfx": jinja2.FunctionLoader(lambda name: _std_include() if name == "std.wgsl" else None),
-        },
-        delimiter=".",
-    )
-    return jinja2.Environment(
-        block_start_string="{$",
-        block_end_string="$}",
-        variable_start_string="{{",
-        variable_end_string="}}",
-        line_statement_prefix="$$",
-        undefined=jinja2.StrictUndefined,
-        loader=loader,
-        auto_reload=True,
-    )
+    std = jinja2.FunctionLoader(lambda name: _std_include() if name == "std.wgsl" else None)
+    return wgsl_environment({"pygfx": std}, auto_reload=True)
 
 
 def binding_map(code: str) -> list:
