@@ -501,6 +501,16 @@ def fade_collision(eta, fade, dt):
 # --------------------------------------------------------------------------- one step
 
 
+def _faded_collision_and_stiffness(state, params):
+    """The step's faded collision strength eta (N,) and effective stiffness
+    s * stiffness_scale * max(1 - eta, RECOVERY_FLOOR) (1/s, (N,))."""
+    n = len(state["v0"])
+    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
+    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
+    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
+    return eta, s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+
+
 def simulate_step(state, params, t, colliders=None, user_wind=None):
     """Advance a state dict by one fixed step ``params.dt`` at time t (s).
 
@@ -528,11 +538,7 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     v0 = np.asarray(state["v0"], np.float64)
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
-    n = len(v0)
-    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
-    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
-    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
-    s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    eta, s = _faded_collision_and_stiffness(state, params)
     v1, v2 = _forces_and_validation(state, params, t, user_wind, s)
     spheres = _spheres(colliders)
     if len(spheres):
@@ -751,10 +757,7 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
     h = np.asarray(state["height"], np.float64)
     v2 = np.asarray(state["v2"], np.float64)
     n = len(v0)
-    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
-    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
-    s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
-    s = s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    eta, s = _faded_collision_and_stiffness(state, params)
     t1 = width_direction(up, state["orientation"])
     g_env = environmental_gravity(params, v0)
     g = g_env + front_gravity(g_env, front_direction(up, t1), params.front_gravity)
