@@ -103,8 +103,6 @@ class _Timer:
 
 
 def _bench_one(scene, renderer, frames, steps_per_frame):
-    import pygfx as gfx  # noqa: F401
-
     field = scene.field
     stats = field.stats
     device = stats.device
@@ -171,7 +169,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     import tqdm
 
     from .gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
-    from .scene import GrassScene, parse_size
+    from .scene import GrassScene
 
     modes = _modes(cull)
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:

@@ -525,12 +525,6 @@ class KernelView:
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
 
-    @property
-    def frame_timing(self) -> "_FrameTiming":
-        """Where the streamed frames' time goes (render, readback, encode + send);
-        the canvas reports ``presented``/``sent`` to it, ``refresh_stats`` reads it."""
-        return self._timing
-
     def refresh_stats(self):
         """Measure frames/s delivered (confirmed by the browser) and the time of each
         stage of a frame, read the visible count and GPU times, and pass the stats to

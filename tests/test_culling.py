@@ -1,7 +1,6 @@
 """GPU culling, LOD binning and indirect draw against an independent NumPy computation."""
 
 import numpy as np
-import pygfx as gfx
 import pytest
 from traitlets import TraitError
 

@@ -1,7 +1,6 @@
 """Blade shapes: params.blade_shape drives the material, every shape renders, and
 wider shapes cover more pixels."""
 
-import numpy as np
 import pytest
 from traitlets import TraitError
 

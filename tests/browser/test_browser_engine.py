@@ -25,7 +25,6 @@ one line saying WebGPU is not available, and that the controls keep working.
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 import pytest
