@@ -112,7 +112,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         return np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(args_gpu)), np.uint32).reshape(-1, 4)
 
     def render():
-        renderer.render(scene.scene, scene.camera)
+        scene.draw_into(renderer)
 
     for _ in range(3):  # warm-up: compile, allocate
         field.step(steps_per_frame)

@@ -192,3 +192,29 @@ def test_ipykernel_parent_ident():
     assert compat.kernel_parent_ident(kernel, "shell") == b"cell-7"
     assert compat.kernel_parent_ident(kernel, "control") == b""
     assert compat.kernel_parent_ident(object()) == b""  # a kernel without it (ipykernel 6 path)
+
+
+def test_renderer_depth_texture():
+    """The occlusion culling copies pygfx's depth buffer: a depth32float texture of the
+    render's physical size that can be copied from, holding 1.0 (far) where nothing is."""
+    import numpy as np
+    import pygfx as gfx
+    import wgpu
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    target = gfx.Texture(dim=2, size=(40, 30, 1), format="rgba8unorm")
+    renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none", enable_events=False)
+    assert compat.renderer_depth_texture(renderer) is None  # nothing rendered yet
+    renderer.render(gfx.Scene(), gfx.PerspectiveCamera(45))
+    depth = compat.renderer_depth_texture(renderer)
+    assert depth.format == wgpu.TextureFormat.depth32float and tuple(depth.size[:2]) == (40, 30)
+    assert depth.usage & wgpu.TextureUsage.COPY_SRC
+    buf = device.create_buffer(size=256 * 30, usage=wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC)
+    enc = device.create_command_encoder()
+    enc.copy_texture_to_buffer({"texture": depth, "aspect": "depth-only"},
+                               {"buffer": buf, "bytes_per_row": 256, "rows_per_image": 30}, (40, 30, 1))
+    device.queue.submit([enc.finish()])
+    values = np.frombuffer(device.queue.read_buffer(buf), np.float32).reshape(30, 64)[:, :40]
+    assert np.all(values == 1.0)

@@ -168,6 +168,7 @@ def cull_uniform(params: GrassParams, n_blades: int) -> bytes:
         n_blades=n_blades,
         color_by=int(ColorBy.from_label(getattr(p, "color_by", "natural"))),
         frozen=0,  # the browser engine culls against its live camera
+        occlusion_phase=0,  # no occlusion culling in the browser engine yet
     ))
 
 
