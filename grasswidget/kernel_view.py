@@ -455,7 +455,8 @@ class KernelView:
         """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
         (one GPU pick readback)."""
         info = self.scene.renderer.get_pick_info((x, y))
-        if info.get("world_object") is self.scene.field:
+        field = self.scene.field
+        if info.get("world_object") in (field, field.occlusion.draws):  # either occlusion phase's draws
             return info.get("blade_index")
         return None
 

@@ -132,9 +132,11 @@ class GrassField(gfx.WorldObject):
         self._store.culled_buffer = gfx.Buffer(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
         # Occlusion culling: one bit per blade "seen last frame" (whole workgroups of
         # words), and the second phase's draw args + occluded count (see cull.wgsl).
+        # All seen at first: the first frame draws everything the other tests keep in
+        # its first phase, and culling frozen before any frame hides nothing.
         words = workgroups(n)[0] * workgroups(n)[1] * (WORKGROUP // 32)
         self._store.occlusion_flags_buffer = gfx.Buffer(
-            np.zeros(words, np.uint32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+            np.full(words, 0xFFFFFFFF, np.uint32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
         )
         self._store.occlusion_args_buffer = gfx.Buffer(
             nbytes=16 * (N_CLASSES + 1), nitems=4 * (N_CLASSES + 1), format="u4",
@@ -316,7 +318,10 @@ class GrassField(gfx.WorldObject):
         renders; also the pixel scale of the LOD classes). Any camera may then
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
-        Freezing again replaces the copy. ``camera`` may also be a
+        Freezing again replaces the copy. Occlusion culling freezes too: the next
+        :func:`~grasswidget.gpu.occlusion.render_frame` first renders the frozen view
+        once (same target) to find the blades it hides; those stay culled (and the
+        ones it sees stay kept) until unfrozen. ``camera`` may also be a
         :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
         :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
         """
@@ -333,6 +338,8 @@ class GrassField(gfx.WorldObject):
         self.frustum_lines = frozen.make_lines(to_local)
         self.add(self.frustum_lines)
         self._write_cull_uniform()
+        # Occlusion freezes too: the next render_frame first captures what the frozen view hides.
+        self.occlusion.capture_camera = frozen.camera
 
     def unfreeze_culling(self):
         """Cull against the camera of each render again (and remove the frustum lines)."""
@@ -340,6 +347,7 @@ class GrassField(gfx.WorldObject):
             self.remove(self.frustum_lines)
         self.frustum_lines = None
         self._frozen_camera = None
+        self.occlusion.capture_camera = None
         self._write_cull_uniform()
 
     # ------------------------------------------------------------------ inspector

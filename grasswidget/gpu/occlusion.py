@@ -78,6 +78,9 @@ class OcclusionCulling:
         self.hzb_buffer = gfx.Buffer(nbytes=4, nitems=1, format="f4", usage=usage.STORAGE | usage.COPY_DST)
         #: [levels, width, height, 0], then (offset, width, height, pitch) per level (u32).
         self.levels_buffer = gfx.Buffer(np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32), usage=usage.STORAGE)
+        #: Set by GrassField.freeze_culling: a copy of the frozen camera whose view the
+        #: next render_frame renders once to find the blades it hides (then None).
+        self.capture_camera = None
         self.size = None
         self.layout = None
         self._level_programs = None
@@ -92,10 +95,29 @@ class OcclusionCulling:
 
     def arm(self, phase: int):
         """Set ``u_cull.occlusion_phase`` for the next render (1: first phase, 0: off)."""
+        self._set_uniform("occlusion_phase", phase)
+
+    def _set_uniform(self, name, value):
         data = self.field.cull_uniform_buffer.data
-        if int(data["occlusion_phase"]) != phase:
-            data["occlusion_phase"] = phase
+        if int(data[name]) != value:
+            data[name] = value
             self.field.cull_uniform_buffer.update_full()
+
+    def capture(self, renderer, scene):
+        """Render ``scene`` once with :attr:`capture_camera` (the frozen view), culling
+        against that camera, so that the seen flags are the frozen view's (no flush:
+        the frame that follows clears the target)."""
+        camera, self.capture_camera = self.capture_camera, None
+        if camera is None:
+            return
+        try:
+            self._set_uniform("frozen", 0)  # cull against the render camera: the frozen view itself
+            self.arm(1)
+            renderer.render(scene, camera, flush=False)
+            self.second_phase(renderer)
+        finally:
+            self.arm(0)
+            self._set_uniform("frozen", 1)
 
     # ------------------------------------------------------------------ second phase
 
@@ -205,6 +227,9 @@ def render_frame(renderer, scene, camera, late=()):
     if not fields:
         renderer.render(scene, camera)
         return
+    capturing = [f for f in fields if f.occlusion.capture_camera is not None]
+    for field in capturing:
+        field.occlusion.capture(renderer, scene)
     late = [ob for ob in late if ob.visible]
     for ob in late:
         if ob.parent is not scene:
@@ -214,7 +239,7 @@ def render_frame(renderer, scene, camera, late=()):
             ob.visible = False
         for field in fields:
             field.occlusion.arm(1)
-        renderer.render(scene, camera, flush=False)
+        renderer.render(scene, camera, clear=True, flush=False)
     finally:
         for ob in late:
             ob.visible = True
