@@ -132,7 +132,8 @@ class OcclusionCulling:
         total = last[0] + last[1] * last[2]
         old = self.hzb_buffer
         usage = wgpu.BufferUsage
-        self.hzb_buffer = gfx.Buffer(nbytes=4 * total, nitems=total, format="f4", usage=usage.STORAGE | usage.COPY_DST)
+        self.hzb_buffer = gfx.Buffer(nbytes=4 * total, nitems=total, format="f4",
+                                     usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC)
         destroy_buffers([old])
         table = np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32)
         table[0] = (len(layout), width, height, 0)
