@@ -80,6 +80,8 @@ __all__ = [
     "build_hzb",
     "hzb_max",
     "occlusion_cull",
+    "curve_pieces",
+    "OCCLUSION_PIECES",
     "OCCLUSION_RADIUS_PER_WIDTH",
     "HZB_ROW_ALIGN",
 ]
@@ -819,6 +821,9 @@ def hash01(x):
 #: A ribbon point lies within this many blade widths of the curve (blade_render.wgsl:
 #: c -+ width * t1, and the "fold" shape adds width / 2 along the normal: sqrt(1.25) < 1.5).
 OCCLUSION_RADIUS_PER_WIDTH = 1.5
+#: The occlusion test splits the curve into this many pieces (t in [k/P, (k+1)/P]), each
+#: boxed by its own control points: a bent blade's one box would cover much empty screen.
+OCCLUSION_PIECES = 4
 #: Rows of the pyramid's level 0 start every HZB_ROW_ALIGN texels (a depth texture is
 #: copied into a buffer in rows of a multiple of 256 bytes = 64 float32).
 HZB_ROW_ALIGN = 64
@@ -926,16 +931,37 @@ def hzb_max(levels, rect, level):
 
 
 def occlusion_cull(state, view_proj, depth, world_scale=1.0):
-    """True where a blade is hidden: its nearest depth (:func:`occlusion_bounds`,
-    radius OCCLUSION_RADIUS_PER_WIDTH x width x ``world_scale``) is farther than the
-    farthest depth of ``depth`` (an (H, W) float32 depth buffer of the same camera,
-    0 near .. 1 far) over its screen rect, read at :func:`hzb_level` of the rect from
+    """True where a blade is hidden: for each piece of its curve (:func:`curve_pieces`),
+    the piece's nearest depth (:func:`occlusion_bounds`, radius
+    OCCLUSION_RADIUS_PER_WIDTH x width x ``world_scale``) is farther than the farthest
+    depth of ``depth`` (an (H, W) float32 depth buffer of the same camera, 0 near ..
+    1 far) over the piece's screen rect, read at :func:`hzb_level` of the rect from
     the pyramid :func:`build_hzb`. Conservative: every pixel the blade could cover
     already holds something nearer.
     """
     depth = np.asarray(depth, np.float32)
     h, w = depth.shape
+    levels = build_hzb(depth)
     radius = OCCLUSION_RADIUS_PER_WIDTH * np.asarray(state["width"], np.float64) * world_scale
-    rect, near = occlusion_bounds(state["v0"], state["v1"], state["v2"], radius, view_proj, (w, h))
-    far = hzb_max(build_hzb(depth), rect, hzb_level(rect))
-    return near.astype(np.float32) > far
+    hidden = np.ones(len(radius), bool)
+    for p0, p1, p2 in curve_pieces(state["v0"], state["v1"], state["v2"]):
+        rect, near = occlusion_bounds(p0, p1, p2, radius, view_proj, (w, h))
+        hidden &= near.astype(np.float32) > hzb_max(levels, rect, hzb_level(rect))
+    return hidden
+
+
+def curve_pieces(v0, v1, v2, pieces=None):
+    """The control points (p0, p1, p2) of the quadratic Bezier v0, v1, v2 on each of
+    ``pieces`` (default OCCLUSION_PIECES) equal spans of t: on [a, b], p0 = B(a),
+    p2 = B(b), p1 = (1-a)(1-b) v0 + (a(1-b) + b(1-a)) v1 + a b v2."""
+    v0, v1, v2 = (np.asarray(x, np.float64) for x in (v0, v1, v2))
+    n = OCCLUSION_PIECES if pieces is None else int(pieces)
+
+    def point(t):
+        return (1 - t) ** 2 * v0 + 2 * t * (1 - t) * v1 + t * t * v2
+
+    out = []
+    for k in range(n):
+        a, b = k / n, (k + 1) / n
+        out.append((point(a), (1 - a) * (1 - b) * v0 + (a * (1 - b) + b * (1 - a)) * v1 + a * b * v2, point(b)))
+    return out

@@ -37,6 +37,18 @@ def _differing(a, b, tol=24):
     return float((np.abs(a[..., :3].astype(int) - b[..., :3].astype(int)).max(axis=2) > tol).mean())
 
 
+def test_curve_pieces_cover_the_curve():
+    rng = np.random.default_rng(0)
+    v0, v1, v2 = rng.normal(size=(3, 5, 3))
+    pieces = ref.curve_pieces(v0, v1, v2, 4)
+    assert np.allclose(pieces[0][0], v0) and np.allclose(pieces[-1][2], v2)
+    for k, (p0, p1, p2) in enumerate(pieces):
+        for t in np.linspace(0, 1, 7):  # the piece's own curve is the blade's on its span of t
+            u = (k + t) / 4
+            blade = (1 - u) ** 2 * v0 + 2 * u * (1 - u) * v1 + u * u * v2
+            assert np.allclose((1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t * t * p2, blade)
+
+
 def test_hzb_layout_and_pyramid_reference():
     layout = ref.hzb_layout(37, 10)
     assert layout[0] == (0, 37, 10, 64)  # level 0: rows every 64 texels (256 bytes)
@@ -74,9 +86,10 @@ def test_gpu_occlusion_matches_numpy_blade_for_blade(scene):
     seen = scene.field.read_seen()
     # Blades whose nearest depth is within float32 noise of the pyramid's are left out.
     radius = ref.OCCLUSION_RADIUS_PER_WIDTH * state["width"]
-    rect, near = ref.occlusion_bounds(state["v0"], state["v1"], state["v2"], radius, vp, (160, 120))
-    far = ref.hzb_max(levels, rect, ref.hzb_level(rect))
-    close = np.abs(near - far) < 1e-5
+    close = np.zeros(len(radius), bool)
+    for piece in ref.curve_pieces(state["v0"], state["v1"], state["v2"]):
+        rect, near = ref.occlusion_bounds(*piece, radius, vp, (160, 120))
+        close |= np.abs(near - ref.hzb_max(levels, rect, ref.hzb_level(rect))) < 1e-5
     expected = kept & ~hidden
     assert kept.sum() > 1500 and (kept & hidden).sum() > 0.3 * kept.sum()  # the near grass hides much
     mismatch = (seen != expected) & ~close
@@ -227,3 +240,23 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
         scene.unfreeze_culling()
         p.color_by = "natural"
         scene.reset_camera()
+
+
+def test_stats_count_the_occluded_blades(scene):
+    from grasswidget.panel import CULL_CHECKBOXES, format_stats
+
+    scene.field.reset()
+    scene.reset_camera()
+    for _ in range(4):
+        scene.render()
+    stats = scene.stats
+    for _ in range(50):  # the non-blocking stats land a frame or two later
+        stats.poll()
+        if stats.occluded == scene.field.read_occluded_count():
+            break
+        scene.render()
+    assert stats.occluded == scene.field.read_occluded_count() > 500
+    assert stats.visible == scene.visible_count()
+    line = format_stats(dict(visible=stats.visible, blades=6000, occluded=stats.occluded))
+    assert f"{stats.occluded:,} occluded" in line
+    assert ("occlusion culling", "cull_occlusion") in CULL_CHECKBOXES

@@ -155,7 +155,7 @@ fn main(
             if (!frozen) {
                 let stretch = max(length(m[0].xyz), max(length(m[1].xyz), length(m[2].xyz)));
                 let radius = {{ occlusion_radius_per_width }} * blade.width * stretch;
-                hidden = occluded(occlusion_bounds(v0, v1, v2, radius, view_proj, u_stdinfo.physical_size));
+                hidden = blade_occluded(v0, v1, v2, radius, view_proj, u_stdinfo.physical_size);
             }
             seen = !hidden;
             if (drawn_first) {
