@@ -135,8 +135,7 @@ def template_vars() -> dict:
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),
         "occlusion_pieces": int(OCCLUSION_PIECES),
-        "from_end": False,
-        "only_bands": False,  # reset_args.wgsl: reset only the distance-band counters  # blade_render.wgsl: the second occlusion phase's lists (from the end)
+        "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "user_wind_body": NO_WIND_BODY,
     }
 

@@ -144,19 +144,14 @@ class OcclusionCulling:
         self._level_programs = self._cull_programs = None
 
     def _programs(self):
-        from .shaders import CullShader, HzbLevelShader, PrefixBandsShader, ResetArgsShader
+        from .shaders import CullShader, HzbLevelShader
 
         field = self.field
         if self._level_programs is None:
             self._level_programs = [ComputeProgram(HzbLevelShader(field, k), field) for k in range(1, len(self.layout))]
         key = (id(self.hzb_buffer), id(field.culled_buffer))
         if self._cull_programs is None or key != self._cull_key:
-            self._cull_programs = (
-                ComputeProgram(ResetArgsShader(field, only_bands=True), field),
-                ComputeProgram(CullShader(field, "count", occlusion=2), field),
-                ComputeProgram(PrefixBandsShader(field, second_phase=True), field),
-                ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
-            )
+            self._cull_programs = ComputeProgram(CullShader(field, "scatter", occlusion=2), field)
             self._cull_key = key
         return self._level_programs, self._cull_programs
 
@@ -170,7 +165,7 @@ class OcclusionCulling:
             return False
         width, height = int(depth.size[0]), int(depth.size[1])
         self._ensure_size(width, height)
-        levels, (reset, count, prefix, scatter) = self._programs()
+        levels, cull = self._programs()
         device = ensure_device()
         hzb = sync_buffer(self.hzb_buffer)
         sync_buffer(self.levels_buffer)
@@ -183,11 +178,7 @@ class OcclusionCulling:
         cp = enc.begin_compute_pass()
         for program, (_, w, h, _) in zip(levels, self.layout[1:]):
             program.dispatch(cp, (-(-w // 8), -(-h // 8), 1))
-        groups = workgroups(self.field.count)
-        reset.dispatch(cp, (1, 1, 1))
-        count.dispatch(cp, groups)
-        prefix.dispatch(cp, (1, 1, 1))
-        scatter.dispatch(cp, groups)
+        cull.dispatch(cp, workgroups(self.field.count))
         cp.end()
         device.queue.submit([enc.finish()])
         return True

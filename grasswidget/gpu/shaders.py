@@ -18,7 +18,8 @@ every ``renderer.render()``:
 
 Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.occlusion.render_frame`)
 arms steps 2-4 as its first phase (only blades seen last frame), then runs the
-pyramid (``HzbLevelShader``) and the second phase (``CullShader(..., occlusion=2)``)
+pyramid (``HzbLevelShader``) and the second phase (``CullShader("scatter", occlusion=2)``,
+one pass without distance bands)
 outside render(), and draws with ``occlusion_render_function`` (the field's
 :class:`~grasswidget.gpu.occlusion.OcclusionDraws` child) in a second render().
 
@@ -47,19 +48,12 @@ __all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderSha
 
 class ResetArgsShader(GrassComputeShader):
     """Reset the indirect draw arguments at the start of each frame (the LOD classes',
-    the culled blades' and the second occlusion phase's). ``only_bands``: reset just
-    the distance-band counters (between the two occlusion phases)."""
+    the culled blades' and the second occlusion phase's)."""
 
-    def __init__(self, wobject, only_bands=False):
-        super().__init__(wobject, teaching_views=not only_bands, bands=DISTANCE_BANDS, occlusion=int(not only_bands),
-                         only_bands=only_bands)
+    def __init__(self, wobject):
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, occlusion=1)
 
     def get_bindings(self, wobject, shared, scene):
-        if self["only_bands"]:
-            return {0: {
-                0: Binding("s_args", "buffer/storage", wobject.occlusion_args_buffer, "COMPUTE"),
-                2: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
-            }}
         return {0: {
             0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             1: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
@@ -75,16 +69,14 @@ class ResetArgsShader(GrassComputeShader):
 
 
 class PrefixBandsShader(GrassComputeShader):
-    """Between the culling passes: each distance band's first slot, the instance counts
-    (``second_phase``: of the second occlusion phase's args)."""
+    """Between the culling passes: each distance band's first slot, the instance counts."""
 
-    def __init__(self, wobject, second_phase=False):
-        super().__init__(wobject, bands=DISTANCE_BANDS, second_phase=second_phase)
+    def __init__(self, wobject):
+        super().__init__(wobject, bands=DISTANCE_BANDS)
 
     def get_bindings(self, wobject, shared, scene):
-        args = wobject.occlusion_args_buffer if self["second_phase"] else wobject.args_buffer
         return {0: {
-            0: Binding("s_args", "buffer/storage", args, "COMPUTE"),
+            0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             1: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }}
 
@@ -108,7 +100,10 @@ class CullShader(GrassComputeShader):
             raise GrassValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
         if occlusion not in (1, 2):
             raise GrassValueError(f"occlusion must be 1 (first phase) or 2 (second phase); got {occlusion!r}")
-        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, phase=phase, occlusion=occlusion,
+        # The second occlusion phase runs once, without distance bands: it lists the few
+        # blades that became visible (the occlusion test is its cost, not the draw order).
+        bands = DISTANCE_BANDS if occlusion == 1 else 0
+        super().__init__(wobject, teaching_views=True, bands=bands, phase=phase, occlusion=occlusion,
                          band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     def get_bindings(self, wobject, shared, scene):

@@ -1,8 +1,7 @@
 // Reset the indirect draw arguments at the start of every frame's compute pass:
 // one draw per level-of-detail class, (vertex_count, instance_count = 0, 0, 0),
 // and the draw of the culled blades (color_by "cull"); with occlusion the second
-// occlusion phase's args too. only_bands: just the distance-band counters (between
-// the two occlusion phases).
+// occlusion phase's args too.
 
 @group(0) @binding(0) var<storage, read_write> s_args: array<u32>;
 $$ if teaching_views
@@ -20,7 +19,6 @@ $$ endif
 
 @compute @workgroup_size(1)
 fn main() {
-    $$ if not only_bands
     $$ for segments in lod_segments
     s_args[{{ loop.index0 }}u * 4u + 0u] = {{ 2 * (segments + 1) }}u;
     s_args[{{ loop.index0 }}u * 4u + 1u] = 0u;
@@ -41,7 +39,6 @@ fn main() {
     s_occlusion_args[{{ loop.index0 }}u * 4u + 3u] = 0u;
     $$ endfor
     s_occlusion_args[{{ n_classes }}u * 4u] = 0u;
-    $$ endif
     $$ endif
     $$ if bands
     for (var k = 0u; k < arrayLength(&s_bands); k += 1u) {
