@@ -1,7 +1,7 @@
 """The reference is the WGSL, enforced.
 
 Every function of ``shaders/blade_math.wgsl`` has a NumPy twin of the same name in
-``grasswidget/reference.py``; each one runs here on random inputs on the GPU (a
+``grasswidget/core/reference.py``; each one runs here on random inputs on the GPU (a
 small compute harness, lavapipe on CPU machines) and is compared with its twin.
 The blade record of ``shaders/blade.wgsl`` is compared with ``blades.BLADE_LAYOUT``,
 and the ids and constants the WGSL switches on come from one Python source.
@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from conftest import HARNESS_BINDINGS
 
-from grasswidget import reference as ref
-from grasswidget.blades import BLADE_LAYOUT, pack_state
-from grasswidget.enums import BladeShape, ColorBy, GravityMode, WindField
-from grasswidget.shader_files import read_shader, render_wgsl, template_vars
+from grasswidget.core import reference as ref
+from grasswidget.core.blades import BLADE_LAYOUT, pack_state
+from grasswidget.core.enums import BladeShape, ColorBy, GravityMode, WindField
+from grasswidget.core.shader_files import read_shader, render_wgsl, template_vars
 
 N = 256
 WORDS = {"f32": 1, "i32": 1, "u32": 1, "bool": 1, "vec2<f32>": 2, "vec3<f32>": 3, "vec4<f32>": 4, "mat4x4<f32>": 16}

@@ -7,7 +7,7 @@
 // Engine-neutral body: the engine declares (before this file) the uniform u_sim
 // (fields of grasswidget.gpu.simulation.SIM_UNIFORM), s_blades (array<vec4<f32>>,
 // read_write) and s_collision (array<f32>, read_write: the per-blade collision
-// strength eta, 0..1, persistent across steps); see grasswidget.shader_files.
+// strength eta, 0..1, persistent across steps); see grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}

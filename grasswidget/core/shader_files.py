@@ -46,7 +46,7 @@ then the body. ``blade_render.wgsl``, ``reset_args.wgsl`` and ``inspect.wgsl``
 
 Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
-:mod:`grasswidget.enums`; names in lowercase with underscores, e.g.
+:mod:`grasswidget.core.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
 ``collision_passes``, ``noise_scale`` (from ``reference.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
@@ -54,7 +54,7 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
 True in the pygfx shader classes: the frozen culling camera, ``color_by`` and the
 draw of culled blades, which need ``u_cull``'s ``color_by``/``frozen_*`` fields,
-``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.teaching`) and
+``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.core.teaching`) and
 ``user_wind_body`` (the custom wind; default: no wind).
 """
 
@@ -63,7 +63,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from .errors import MissingFileError
+from ..errors import MissingFileError
 
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
            "DISTANCE_BANDS", "BAND_RANGE"]

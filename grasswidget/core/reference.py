@@ -6,7 +6,7 @@ names, so the two can be read side by side. Equation numbers refer to Jahrmann &
 Wimmer, "Responsive Real-Time Grass Rendering for General 3D Scenes", I3D 2017.
 
 State dicts hold ``v0, v1, v2, up`` as (N, 3) and ``height, width, orientation,
-stiffness`` as (N,) arrays (see :mod:`grasswidget.blades`). Computations run in
+stiffness`` as (N,) arrays (see :mod:`grasswidget.core.blades`). Computations run in
 float64; the GPU runs float32 and agrees to ~1e-5 of the blade height.
 
 Sign conventions chosen here (the sources differ): the width direction ``t1`` is
@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from .enums import BladeShape, GravityMode
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = [
     "safe_normalize",
@@ -126,7 +126,7 @@ def front_direction(up, t1):
 def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitude=None):
     """Environmental gravity per blade (paper eq. 1), ``magnitude`` in m/s^2.
 
-    ``gravity_mode`` (a :class:`~grasswidget.enums.GravityMode` id or label)
+    ``gravity_mode`` (a :class:`~grasswidget.core.enums.GravityMode` id or label)
     "direction": gE = normalize(direction) * magnitude (``params.gravity_direction``,
     default (0, -1, 0)). "point": gE = :func:`gravity_point` (v0, center, magnitude),
     the paper's gravity point, so grass on a small planet leans towards its centre
@@ -778,7 +778,7 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
 def blade_shape_t(u, v, shape, tau):
     """Across-blade parameter t of the paper's blade shapes (section 6), u, v in [0, 1].
 
-    ``shape`` is a :class:`~grasswidget.enums.BladeShape` id or label: quad and fold
+    ``shape`` is a :class:`~grasswidget.core.enums.BladeShape` id or label: quad and fold
     t = u; triangle t = u + v/2 - u v; quadratic t = u - u v^2; triangle-tip
     t = 1/2 + (u - 1/2) (1 - max(v - tau, 0) / (1 - tau)).
     """
