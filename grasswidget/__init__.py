@@ -42,8 +42,42 @@ _MODULES = {
     **{name: f"grasswidget.notebook.{name}" for name in (
         "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
     "ball": "grasswidget.notebook.ball",
+    "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
     **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export")},
 }
+
+
+
+class _OldPathFinder:
+    """Keeps the import paths of before the layout working: ``import grasswidget.reference``
+    or ``from grasswidget.scene import GrassScene`` give the module under its new path
+    (``grasswidget.core.reference``, ``grasswidget.gpu.scene``; the same module object)."""
+
+    @staticmethod
+    def find_spec(fullname, path=None, target=None):
+        prefix, _, name = fullname.partition(".")
+        if prefix != "grasswidget" or name not in _MODULES:
+            return None
+        import importlib.machinery
+
+        return importlib.machinery.ModuleSpec(fullname, _OldPathFinder, origin=_MODULES[name])
+
+    @staticmethod
+    def create_module(spec):
+        return None
+
+    @staticmethod
+    def exec_module(module):
+        import importlib
+        import sys
+
+        sys.modules[module.__name__] = importlib.import_module(module.__spec__.origin)
+
+
+import sys as _sys  # noqa: E402
+
+if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.meta_path):
+    _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",

@@ -127,3 +127,26 @@ def test_errors_have_one_root():
     assert issubclass(gw.BladeLimitError, gw.GrassError) and issubclass(gw.BladeLimitError, ValueError)
     assert issubclass(gw.WindShaderError, gw.GrassError) and issubclass(gw.WindShaderError, ValueError)
     assert issubclass(gw.NoGPUAdapterError, gw.GrassError) and issubclass(gw.NoGPUAdapterError, RuntimeError)
+
+
+def test_import_paths_of_before_the_layout_still_work():
+    """``import grasswidget.reference`` / ``from grasswidget.scene import GrassScene`` (the paths of
+    before the subpackages) give the very module under its new path; an unknown name still fails."""
+    code = ("import grasswidget.reference as old, grasswidget.core.reference as new\n"
+            "assert old is new and new.__name__ == 'grasswidget.core.reference'\n"
+            "from grasswidget.scene import GrassScene\n"
+            "import grasswidget as gw\n"
+            "assert GrassScene is gw.GrassScene\n"
+            "import grasswidget.widget_ball, grasswidget.notebook.ball\n"
+            "assert grasswidget.widget_ball is grasswidget.notebook.ball\n"
+            "from grasswidget.cli import main\n"
+            "import grasswidget.tools.cli as cli\n"
+            "assert main is cli.main\n"
+            "try:\n"
+            "    import grasswidget.nonsense\n"
+            "except ModuleNotFoundError:\n"
+            "    pass\n"
+            "else:\n"
+            "    raise AssertionError('grasswidget.nonsense imported')\n")
+    r = _run(code)
+    assert r.returncode == 0, r.stderr
