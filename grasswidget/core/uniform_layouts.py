@@ -6,7 +6,7 @@ its fields. The kernel engine (pygfx) takes it as a shadertype dict through
 from it (``grasswidget.browser.uniforms``). The order is the one pygfx lays a
 struct out in (16-byte-aligned fields first, then the 4-byte ones, each group in
 the order given), so both engines put every field at the same byte offset;
-``tests/test_uniform_layouts.py`` checks that field for field.
+``tests/core/test_uniform_layouts.py`` checks that field for field.
 
 To add a uniform field: one line here, then write it in ``GrassField.update_cull``
 / ``Simulation`` (kernel) and ``browser.uniforms.sim_uniform`` / ``cull_uniform``

@@ -1,7 +1,8 @@
 """The browser engine's Python side, without a browser: the WGSL it sends, the
 uniforms it packs, errors, and the GrassWidget backend choice.
 
-The browser itself is tested in tests/browser/test_browser_engine.py.
+Runs without Chromium (not marked ``browser``); the engine in a real page is
+tested in tests/browser/test_browser_engine.py.
 """
 
 from __future__ import annotations
