@@ -2,7 +2,7 @@
 
 ``{$ include 'grasswidget.<file>' $}`` resolves to ``grasswidget/shaders/<file>``
 (registered with pygfx's WGSL loader when this module is imported). Every shader
-class starts from :func:`grasswidget.shader_files.template_vars` (the ids of the
+class starts from :func:`grasswidget.core.shader_files.template_vars` (the ids of the
 enums and the constants of the reference; documented there) and adds its own.
 Compute shaders share :class:`GrassComputeShader` and :func:`workgroups`.
 
@@ -22,8 +22,8 @@ from __future__ import annotations
 import jinja2
 from pygfx.renderers.wgpu import BaseShader, register_wgsl_loader
 
-from ..shader_files import WORKGROUP_SIZE, shader_dir, template_vars
-from ..uniform_layouts import wgsl_struct
+from ..core.shader_files import WORKGROUP_SIZE, shader_dir, template_vars
+from ..core.uniform_layouts import wgsl_struct
 
 __all__ = ["WORKGROUP", "workgroups", "GrassComputeShader", "shader_vars", "storage_struct_code"]
 
@@ -60,7 +60,7 @@ class GrassComputeShader(BaseShader):
 
 def storage_struct_code(group: int, slot: int, name: str, struct_name: str, layout) -> str:
     """WGSL that declares ``name`` (a struct of ``layout``, see
-    :mod:`grasswidget.uniform_layouts`) as a read-only storage buffer at
+    :mod:`grasswidget.core.uniform_layouts`) as a read-only storage buffer at
     ``@group(group) @binding(slot)``; pair it with a pygfx
     ``Binding(name, "buffer/read_only_storage", buffer)`` that is *not* passed to
     ``define_binding``. Shaders read it as ``name.field``, as they would a uniform
