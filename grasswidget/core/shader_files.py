@@ -27,6 +27,12 @@ The engine-neutral files and what they need:
     ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
     of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
+``collisions.wgsl``
+    ``collide_spheres(v0, v1, v2)`` (the one loop over ``u_sim.n_colliders`` /
+    ``u_sim.colliders``, calling blade_math's ``collide_sphere``) and
+    ``collision_passes(v0, v1, v2, up, height)`` (``collision_passes`` times: push,
+    then ``validate_pushed``); twins of the same names in ``reference.py``. Expects
+    ``u_sim``; included after ``blade_math.wgsl`` by the simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
     ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
