@@ -39,7 +39,7 @@ import wgpu
 
 from .. import compat
 from ..errors import GrassValueError
-from ..reference import hzb_layout
+from ..core.reference import hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 

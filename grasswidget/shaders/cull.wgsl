@@ -44,7 +44,7 @@
 // s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); with occlusion also
 // u_cull.occlusion_phase and s_occlusion_flags (array<u32>; read_write in phase 2),
 // and in phase 2 s_hzb and s_hzb_levels (see occlusion.wgsl); see
-// grasswidget.shader_files.
+// grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
