@@ -358,7 +358,8 @@ class GrassEngine {
     this.closed = false;
     this.device = null;
     this.stepCount = 0;
-    this.clock = new SimClock(this.rules().clock.max_steps_per_frame);
+    // The clock's step cap is read from frame_rules every frame (Python sends it after the model opens).
+    this.clock = new SimClock(1);
     this.inFlight = 0;
     this.frames = 0;          // frames whose GPU work completed
     this.statsFrames = 0;
@@ -941,7 +942,6 @@ class GrassEngine {
   // ---------------------------------------------------------------- trait changes
 
   onChange(name) {
-    if (name === "frame_rules") this.clock.maxSteps = this.rules().clock.max_steps_per_frame;
     if (name === "width" || name === "height" || name === "pixel_ratio") {
       for (const v of this.views) v.resize();
       return;
