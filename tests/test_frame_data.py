@@ -4,8 +4,8 @@
   GrassField / Simulation) hold byte for byte what the browser engine is sent
   (``browser.uniforms``), both from ``frame_data``.
 * The clock's rules and the orbit limits: engine.js's ``SimClock`` and ``clampOrbit``
-  (run here with Node.js, the ES module as shipped) give what ``grasswidget.clock.SimClock``
-  and ``grasswidget.orbit.clamp_orbit`` give, frame by frame and pose by pose.
+  (run here with Node.js, the ES module as shipped) give what ``grasswidget.notebook.clock.SimClock``
+  and ``grasswidget.core.orbit_limits.clamp_orbit`` give, frame by frame and pose by pose.
 * The scene style: GrassScene's sky and ground are the ones the browser is sent.
 """
 
@@ -20,12 +20,12 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import frame_data
+from grasswidget.core import frame_data
 from grasswidget.browser import uniforms
 from grasswidget.browser.view import HERE as BROWSER_DIR
-from grasswidget.clock import MAX_STEPS_PER_FRAME, SimClock
-from grasswidget.orbit import OrbitLimits, clamp_orbit
-from grasswidget.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT, pack
+from grasswidget.notebook.clock import MAX_STEPS_PER_FRAME, SimClock
+from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
+from grasswidget.core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT, pack
 
 
 def _params():
@@ -86,7 +86,7 @@ def test_clock_rules_are_the_kernel_clocks():
 
 
 def test_scene_style_is_the_kernel_scenes_sky_and_ground():
-    from grasswidget.scene import GrassScene
+    from grasswidget.gpu.scene import GrassScene
 
     blades = gw.Blades.on_plane(256, size=6.0)
     scene = GrassScene(blades, size=(64, 48))

@@ -7,7 +7,7 @@
 //            N x 64 bytes), n_blades, shaders (WGSL text + binding maps + the
 //            compute passes of a frame, in order), sim_uniform / cull_uniform /
 //            material_uniform / sky_ground_uniform / ball_uniform (packed structs,
-//            computed in Python: grasswidget.frame_data), sim_layout / stdinfo_layout
+//            computed in Python: grasswidget.core.frame_data), sim_layout / stdinfo_layout
 //            (field offsets), frame_rules ({clock: {dt, wind_period,
 //            max_steps_per_frame}, orbit: OrbitLimits, style}), playing,
 //            time_scale, camera ({position, target, fov_deg, near, far}), balls,
@@ -16,7 +16,7 @@
 //            compile_simulate {id, shader}, lose_device (tests).
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
 // compiled, error and device_lost messages. Fixed steps: step(n) runs exactly n
-// steps of dt; playing follows the wall clock with grasswidget.clock.SimClock's
+// steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
 // rules (SimClock below).
 //
 // One engine per widget model (GPU device, buffers, simulation, clock), however
@@ -102,7 +102,7 @@ function perspective(fovDeg, aspect, near, far) {
 
 // ------------------------------------------------------------------ rules from Python, executed here
 
-// grasswidget.clock.SimClock, line for line: wall seconds (times time_scale) spent in
+// grasswidget.notebook.clock.SimClock, line for line: wall seconds (times time_scale) spent in
 // whole fixed steps of dt; at most maxSteps a frame, the rest dropped (slow motion).
 export class SimClock {
   constructor(maxSteps) {
@@ -145,7 +145,7 @@ export class SimClock {
 
 function clamp(x, lo, hi) { return Math.min(Math.max(x, lo), hi); }
 
-// grasswidget.orbit.clamp_orbit, line for line: (position, target) moved the least way into
+// grasswidget.core.orbit_limits.clamp_orbit, line for line: (position, target) moved the least way into
 // the limits (an OrbitLimits as a dict): target into its box (the camera follows), distance
 // into the zoom range, elevation into its range (keeping the azimuth).
 export function clampOrbit(position, target, limits) {

@@ -1,8 +1,8 @@
 """Uniform structs of the browser engine: layouts, WGSL text and packed bytes (pure Python).
 
 ``SIM_LAYOUT``, ``CULL_LAYOUT`` and ``SKY_GROUND_LAYOUT`` are the layouts both
-engines use (:mod:`grasswidget.uniform_layouts`), and their values come from
-the one function each engine uses (:mod:`grasswidget.frame_data`); here they are
+engines use (:mod:`grasswidget.core.uniform_layouts`), and their values come from
+the one function each engine uses (:mod:`grasswidget.core.frame_data`); here they are
 only packed into bytes for the browser, which writes them into its buffers as
 they are. The browser patches only the per-dispatch fields of ``u_sim``
 (``steps``, ``time0``) and writes the camera uniform (``StdInfo``) itself, at
@@ -17,10 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..enums import BladeShape, WindField
-from ..frame_data import clock_rules, cull_uniform_values, sim_uniform_values, srgb
-from ..params import GrassParams
-from ..uniform_layouts import (CULL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, layout_description, offsets, pack,
+from ..core.enums import BladeShape, WindField
+from ..core.frame_data import clock_rules, cull_uniform_values, sim_uniform_values, srgb
+from ..core.params import GrassParams
+from ..core.uniform_layouts import (CULL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, layout_description, offsets, pack,
                                struct_size)
 
 __all__ = [
@@ -29,7 +29,7 @@ __all__ = [
     "material_uniform", "sky_ground_uniform", "ball_uniform", "BALL_LAYOUT", "layout_description", "srgb_color",
 ]
 
-#: Wind field ids of simulate.wgsl's wind_field() (grasswidget.enums.WindField).
+#: Wind field ids of simulate.wgsl's wind_field() (grasswidget.core.enums.WindField).
 WIND_FIELD_IDS = {label: int(WindField.from_label(label)) for label in WindField.labels()}
 
 STDINFO_LAYOUT = (
@@ -71,23 +71,23 @@ def wgsl_struct(name, layout) -> str:
 
 def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
     """``u_sim`` for an untransformed field (the browser's field has no transform), packed:
-    :func:`grasswidget.frame_data.sim_uniform_values`, as the kernel engine writes it.
+    :func:`grasswidget.core.frame_data.sim_uniform_values`, as the kernel engine writes it.
     ``steps`` and ``time0`` are 0: the browser writes them for each dispatch."""
     return pack(SIM_LAYOUT, sim_uniform_values(params, n_blades, colliders))
 
 
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
-    """``u_cull`` packed: :func:`grasswidget.frame_data.cull_uniform_values`."""
+    """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values`."""
     return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen))
 
 
 def sky_ground_uniform(style: dict) -> bytes:
-    """``u_material`` of sky_ground.wgsl from a :func:`grasswidget.frame_data.scene_style` dict."""
+    """``u_material`` of sky_ground.wgsl from a :func:`grasswidget.core.frame_data.scene_style` dict."""
     return pack(SKY_GROUND_LAYOUT, {k: style[k] for k, _ in SKY_GROUND_LAYOUT})
 
 
 def ball_uniform(style: dict) -> bytes:
-    """``u_balls`` of balls.wgsl from a :func:`grasswidget.frame_data.scene_style` dict."""
+    """``u_balls`` of balls.wgsl from a :func:`grasswidget.core.frame_data.scene_style` dict."""
     return pack(BALL_LAYOUT, {"ball_color": style["ball_color"], "light_direction": (*style["light_direction"], 0.0)})
 
 
@@ -118,5 +118,5 @@ def material_uniform(params: GrassParams, **overrides) -> bytes:
 
 
 def clock(params: GrassParams) -> dict:
-    """The clock's rules: :func:`grasswidget.frame_data.clock_rules`."""
+    """The clock's rules: :func:`grasswidget.core.frame_data.clock_rules`."""
     return clock_rules(params)

@@ -32,10 +32,10 @@ import numpy as np
 from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 
 from ..errors import GrassTypeError, GrassValueError
-from ..blades import Blades, unpack_state
-from ..colliders import ColliderList, collider_array
-from ..frame_data import frame_rules
-from ..params import GrassParams
+from ..core.blades import Blades, unpack_state
+from ..core.colliders import ColliderList, collider_array
+from ..core.frame_data import frame_rules
+from ..core.params import GrassParams
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body
@@ -100,7 +100,7 @@ class BrowserView(anywidget.AnyWidget):
     ball_uniform = Bytes(b"").tag(sync=True)
     stdinfo_size = Int(0).tag(sync=True)
     stdinfo_layout = Dict().tag(sync=True)
-    #: grasswidget.frame_data.frame_rules: the clock's rules, the orbit limits, the scene style.
+    #: grasswidget.core.frame_data.frame_rules: the clock's rules, the orbit limits, the scene style.
     frame_rules = Dict().tag(sync=True)
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)

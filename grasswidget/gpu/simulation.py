@@ -18,12 +18,12 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..colliders import collider_array
-from ..frame_data import sim_uniform_values
+from ..core.colliders import collider_array
+from ..core.frame_data import sim_uniform_values
 from ..errors import WindShaderError
-from ..reference import wind_period
-from ..shader_files import NO_WIND_BODY
-from ..uniform_layouts import SIM_LAYOUT, shadertype, write_values
+from ..core.reference import wind_period
+from ..core.shader_files import NO_WIND_BODY
+from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
@@ -33,7 +33,7 @@ __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
 MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
 
-#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.SIM_LAYOUT``).
+#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.SIM_LAYOUT``).
 SIM_UNIFORM = shadertype(SIM_LAYOUT)
 
 _USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
@@ -158,7 +158,7 @@ class Simulation:
 
     def uniform_values(self, steps=0, time0=0.0) -> dict:
         """The ``u_sim`` values for a dispatch of ``steps`` steps from ``time0`` s
-        (:func:`grasswidget.frame_data.sim_uniform_values` of the params, colliders and world matrix)."""
+        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix)."""
         field = self.field
         return sim_uniform_values(field.params, field.count, field.colliders, world_matrix=field.world.matrix,
                                   steps=steps, time0=time0)

@@ -2,7 +2,7 @@
 
 ``shaders/sky_ground.wgsl`` is drawn by both engines (the browser engine renders
 it for its own bindings); the colours and the ground square come from
-:func:`grasswidget.frame_data.scene_style`.
+:func:`grasswidget.core.frame_data.scene_style`.
 
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
@@ -22,9 +22,9 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..frame_data import GROUND_COLOR, SKY_BOTTOM, SKY_TOP
-from ..shader_files import read_shader
-from ..uniform_layouts import SKY_GROUND_LAYOUT, shadertype
+from ..core.frame_data import GROUND_COLOR, SKY_BOTTOM, SKY_TOP
+from ..core.shader_files import read_shader
+from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype
 from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]

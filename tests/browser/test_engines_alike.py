@@ -78,7 +78,7 @@ def test_browser_and_kernel_engines_draw_the_same_picture(webgpu_browser, lab_se
         status = wait_for_kernel(page, "w.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
         assert status["state"] == "ok", status
         out = kernel_execute(page, f"""
-from grasswidget.scene import GrassScene
+from grasswidget.gpu.scene import GrassScene
 w.pause()
 w.params.wind_strength = 10.0
 w.reset_blades()

@@ -1,12 +1,11 @@
-"""Orbit limits: the camera stays above the ground, the field stays in sight.
+"""Orbit limits, pure: the camera stays above the ground, the field stays in sight.
 
-pygfx's ``OrbitController`` lets a drag take the camera under the ground plane
-(the sky then shows beneath the grass), a pan carry the orbit target far off the
-field, and the wheel zoom in through the target or out past the far plane.
 :class:`OrbitLimits` describes what a meadow view allows; :func:`clamp_orbit`
-(pure NumPy) puts a camera position and orbit target back inside those limits;
-:class:`GroundOrbitController` is pygfx's controller with every orbit, zoom and
-pan step held to them, so a drag simply stops at a limit and turns back at once.
+(NumPy) puts a camera position and orbit target back inside those limits. Both
+engines hold their orbit to them: the kernel's
+:class:`grasswidget.notebook.orbit.GroundOrbitController`, and the browser's
+drag (engine.js ``clampOrbit``, with the limits sent as data by
+:func:`grasswidget.core.frame_data.orbit_rules`).
 
 The limits, for a field on a y-up ground plane:
 
@@ -25,9 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import UnknownNameError
-
-__all__ = ["OrbitLimits", "clamp_orbit", "GroundOrbitController"]
+__all__ = ["OrbitLimits", "clamp_orbit"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +81,7 @@ class OrbitLimits:
 
     @classmethod
     def for_scene(cls, scene):
-        """Limits for a :class:`~grasswidget.scene.GrassScene`'s field and camera."""
+        """Limits for a :class:`~grasswidget.gpu.scene.GrassScene`'s field and camera."""
         blades = scene.field.blades
         far = scene.camera.depth_range[1] if scene.camera.depth_range else None
         return cls.for_field(blades.v0, blades.up, blades.height, far)
@@ -136,52 +133,3 @@ def clamp_orbit(position, target, limits: OrbitLimits):
         horizontal = horizontal / h if h > 1e-9 else np.array([0.0, 0.0, 1.0])
         direction = horizontal * math.cos(el_new) + np.array([0.0, math.sin(el_new), 0.0])
     return tgt + direction * d_new, tgt
-
-
-def _controller_class():
-    from .compat import held_orbit_controller_class
-
-    class GroundOrbitController(held_orbit_controller_class(_hold)):
-        """pygfx's ``OrbitController`` (a custom target is required) whose orbit,
-        zoom and pan steps are held to an :class:`OrbitLimits` (``limits``).
-
-        Each step is taken as pygfx computes it, then put back inside the limits
-        with :func:`clamp_orbit` before the camera sees it (the hook on pygfx's
-        controller lives in :func:`grasswidget.compat.held_orbit_controller_class`).
-        So a drag stops at a limit and, reversed, moves back at once.
-        """
-
-        def __init__(self, *args, limits: OrbitLimits, **kwargs):
-            self.limits = limits
-            super().__init__(*args, **kwargs)
-
-    return GroundOrbitController
-
-
-def _hold(controller, position, target, state):
-    """The step's camera pose held to ``controller.limits``: (position, rotation,
-    target), or None when the step is inside them."""
-    pos, tgt = clamp_orbit(position, target, controller.limits)
-    if np.allclose(pos, position) and np.allclose(tgt, target):
-        return None
-    return pos, _look_rotation(pos, tgt, state), tgt
-
-
-def _look_rotation(position, target, state):
-    """The camera rotation (quaternion x, y, z, w) looking from ``position`` at
-    ``target`` with the state's ``reference_up`` (no roll), as pygfx's look_at."""
-    import pylinalg as la
-
-    up = np.asarray(state.get("reference_up", (0.0, 1.0, 0.0)), np.float64)
-    eye = np.asarray(position, np.float64)
-    # pylinalg aims +z at the point; a pygfx camera looks along -z: aim +z away from the target
-    m = la.mat_look_at(eye, 2.0 * eye - np.asarray(target, np.float64), up)
-    return la.quat_from_mat(m)
-
-
-def __getattr__(name):  # GroundOrbitController is built on first use (pygfx is imported then)
-    if name == "GroundOrbitController":
-        cls = _controller_class()
-        globals()[name] = cls
-        return cls
-    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")

@@ -20,13 +20,10 @@ from __future__ import annotations
 import math
 import time
 
-from .errors import GrassValueError
+from ..core.frame_data import MAX_STEPS_PER_FRAME  # the rule both engines' clocks follow
+from ..errors import GrassValueError
 
 __all__ = ["SimClock", "MAX_STEPS_PER_FRAME"]
-
-#: The most fixed steps one drawn frame may take while playing, in both engines (a
-#: frame owed more gets this many and the rest is dropped: slow motion).
-MAX_STEPS_PER_FRAME = 64
 
 
 class SimClock:

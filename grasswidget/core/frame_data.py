@@ -7,14 +7,14 @@ and each engine only writes it into its own buffers:
 
 * :func:`sim_uniform_values` / :func:`cull_uniform_values`: the *values* of the
   ``u_sim`` and ``u_cull`` structs (field name -> number or array; the layouts
-  are :mod:`grasswidget.uniform_layouts`). The kernel copies them into its
+  are :mod:`grasswidget.core.uniform_layouts`). The kernel copies them into its
   pygfx uniform arrays; the browser receives them packed as bytes
-  (:func:`grasswidget.uniform_layouts.pack`) and writes the bytes as they are.
+  (:func:`grasswidget.core.uniform_layouts.pack`) and writes the bytes as they are.
 * :func:`clock_rules`: the simulation clock's rules (``dt``, the wind period, at
   most ``max_steps_per_frame`` fixed steps per drawn frame, the rest dropped:
-  slow motion). :class:`grasswidget.clock.SimClock` executes them in the kernel;
+  slow motion). :class:`grasswidget.notebook.clock.SimClock` executes them in the kernel;
   the browser's clock executes the same rules from this dict.
-* :func:`orbit_rules`: the orbit limits (:class:`grasswidget.orbit.OrbitLimits`)
+* :func:`orbit_rules`: the orbit limits (:class:`grasswidget.core.orbit_limits.OrbitLimits`)
   as a dict; pygfx's held controller and the browser's drag both clamp with them.
 * :func:`scene_style`: sky and ground colours and the ground square (one
   ``shaders/sky_ground.wgsl`` draws them in both engines), collider-ball colour.
@@ -31,18 +31,21 @@ from dataclasses import asdict
 
 import numpy as np
 
-from .clock import MAX_STEPS_PER_FRAME
+from ..errors import GrassValueError
 from .colliders import MAX_COLLIDERS, collider_array
 from .enums import ColorBy, GravityMode, WindField
-from .errors import GrassValueError
-from .orbit import OrbitLimits
+from .orbit_limits import OrbitLimits
 from .reference import wind_period
 
 __all__ = [
     "sim_uniform_values", "cull_uniform_values", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "frame_rules", "srgb", "SKY_BOTTOM", "SKY_TOP", "GROUND_COLOR", "BALL_COLOR", "BALL_OPACITY",
-    "LIGHT_DIRECTION", "GROUND_DROP",
+    "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
 ]
+
+#: The most fixed steps one drawn frame may take while playing, in both engines (a frame
+#: owed more gets this many and the rest is dropped: slow motion).
+MAX_STEPS_PER_FRAME = 64
 
 #: Sky gradient, bottom and top of the view (sRGB hex).
 SKY_BOTTOM = "#9cc3e6"
@@ -170,7 +173,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None) -> dict:
 
 
 def clock_rules(params) -> dict:
-    """The clock's rules for playing by the wall clock (see :class:`grasswidget.clock.SimClock`):
+    """The clock's rules for playing by the wall clock (see :class:`grasswidget.notebook.clock.SimClock`):
     ``dt`` (s, the fixed step), ``wind_period`` (s, 0 = none: the wind time of step k
     is ``(k dt) mod wind_period``), ``max_steps_per_frame`` (a frame owed more steps
     gets this many and the rest is dropped: slow motion)."""
@@ -179,7 +182,7 @@ def clock_rules(params) -> dict:
 
 
 def orbit_rules(blades, far) -> dict:
-    """:class:`grasswidget.orbit.OrbitLimits.for_field` of these blades and a far plane
+    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades and a far plane
     of ``far`` metres, as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground)."""
     limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}

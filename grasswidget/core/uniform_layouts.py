@@ -9,7 +9,7 @@ the order given), so both engines put every field at the same byte offset;
 ``tests/test_uniform_layouts.py`` checks that field for field.
 
 The values are computed once too, for both engines, by
-:mod:`grasswidget.frame_data` (``sim_uniform_values``, ``cull_uniform_values``):
+:mod:`grasswidget.core.frame_data` (``sim_uniform_values``, ``cull_uniform_values``):
 the kernel copies them into its pygfx arrays, the browser gets them as bytes
 from :func:`pack`. To add a uniform field: one line here, its value in
 ``frame_data``, and read it in the WGSL as ``u_sim.<field>`` or ``u_cull.<field>``.
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .colliders import MAX_COLLIDERS
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
            "struct_size", "pack", "layout_description", "write_values"]
