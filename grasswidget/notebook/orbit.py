@@ -3,19 +3,12 @@
 pygfx's ``OrbitController`` lets a drag take the camera under the ground plane
 (the sky then shows beneath the grass), a pan carry the orbit target far off the
 field, and the wheel zoom in through the target or out past the far plane.
-:class:`OrbitLimits` describes what a meadow view allows; :func:`clamp_orbit`
-(pure NumPy, in :mod:`grasswidget.core.orbit_limits`) puts a camera position and orbit target back inside those limits;
-:class:`GroundOrbitController` is pygfx's controller with every orbit, zoom and
-pan step held to them, so a drag simply stops at a limit and turns back at once.
-
-The limits, for a field on a y-up ground plane:
-
-- the camera is at least ``clearance`` above the ground (``ground_y``), and at
-  most ``max_elevation_deg`` above the target's horizon (not straight down,
-  where the orbit would flip);
-- the camera is ``min_distance`` .. ``max_distance`` from the target (zoom);
-- the target stays over the field (its x/z bounds, plus ``margin``) and between
-  the ground and ``top_y`` (a pan cannot carry the view off the field).
+:class:`OrbitLimits` describes what a meadow view allows and :func:`clamp_orbit`
+(pure NumPy) puts a camera position and orbit target back inside those limits
+(both in :mod:`grasswidget.core.orbit_limits`, which lists the limits; the
+browser engine clamps its drags with the same rules). :class:`GroundOrbitController`
+is pygfx's controller with every orbit, zoom and pan step held to them, so a
+drag simply stops at a limit and turns back at once.
 """
 
 from __future__ import annotations
