@@ -159,6 +159,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None) -> dict:
         frozen_view_proj=np.zeros((4, 4), np.float32),
         frozen_cam_pos=(0.0, 0.0, 0.0, 0.0),
         frozen_viewport_height=0.0,
+        raster_max_px=p.compute_raster_max_px,
     )
     if frozen is not None:
         values.update(
