@@ -95,7 +95,7 @@ __all__ = [
     "HZB_ROW_ALIGN",
     "blade_shade",
     "clip_to_pixel",
-    "raster_samples",
+    "raster_step",
     "raster_span",
     "raster_cover",
     "raster_payload",
@@ -1069,7 +1069,7 @@ def blade_shade(normal, to_eye, along, variation, root, tip, color_variation, li
 
 # --------------------------------------------------------------------------- compute rasterization
 
-#: Most samples the compute walk takes along one blade (raster_samples).
+#: Most samples the compute walk takes along one blade (raster_step: at least 1 / this).
 RASTER_MAX_SAMPLES = 256.0
 #: Most pixels the walk writes across one cross-section (a blade sent to the compute
 #: rasterizer is under GrassParams.compute_raster_max_px wide; this bounds a blade seen
@@ -1089,12 +1089,14 @@ def clip_to_pixel(clip, viewport_size):
                      ndc[..., 2]], axis=-1)
 
 
-def raster_samples(s0, s1, s2):
-    """Samples of the compute walk along a blade: ceil(screen control polygon length in
-    pixels) + 1, clamped to [2, RASTER_MAX_SAMPLES] (consecutive samples at most a pixel apart)."""
-    s0, s1, s2 = (np.asarray(s, np.float64) for s in (s0, s1, s2))
-    polygon = np.linalg.norm(s1 - s0, axis=-1) + np.linalg.norm(s2 - s1, axis=-1)
-    return np.clip(np.ceil(polygon) + 1.0, 2.0, RASTER_MAX_SAMPLES).astype(np.int64)
+def raster_step(s0, s1, s2, v):
+    """The compute walk's step in v at v: 0.9 / (the curve's screen speed there,
+    ``|2 (1 - v) (s1 - s0) + 2 v (s2 - s1)|`` pixels per unit v), clamped to
+    [1 / RASTER_MAX_SAMPLES, 1]: samples about 0.9 pixels apart along the curve."""
+    s0, s1, s2 = (np.asarray(x, np.float64) for x in (s0, s1, s2))
+    v = np.asarray(v, np.float64)[..., None]
+    speed = np.linalg.norm(2.0 * (1.0 - v) * (s1 - s0) + 2.0 * v * (s2 - s1), axis=-1)
+    return np.clip(0.9 / np.maximum(speed, 1e-6), 1.0 / RASTER_MAX_SAMPLES, 1.0)
 
 
 def raster_span(c0, c1, c2, across, v, shape, tau, viewport_size):
@@ -1141,8 +1143,8 @@ def raster_payload(blade, v):
 def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
     """The compute rasterizer's walk of one blade (raster.wgsl), in float32 like the GPU.
 
-    Samples v = s / (n - 1), s = 0 .. n - 1 (n = raster_samples of the projected control
-    points); at each, the cross-section (raster_span) of length L pixels is covered by
+    Samples s = 0, 1, ... at v = 0, then v += raster_step(projected control points, v)
+    (the last sample at v = 1, at most RASTER_MAX_SAMPLES + 1 samples); at each, the cross-section (raster_span) of length L pixels is covered by
     m = raster_cover(blade, s, L) points at (j + 0.5) / m along it. A point writes pixel floor(x, y) when it is inside the view
     and 0 < depth <= 1. Returns (x, y, depth, v) arrays, one entry per written pixel
     (a pixel may repeat)."""
@@ -1150,10 +1152,9 @@ def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
     size = np.asarray(viewport_size, f32)
     c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
     s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
-    n = int(raster_samples(s0, s1, s2))
     xs, ys, ds, vs = [], [], [], []
-    for s in range(n):
-        v = f32(s) / f32(n - 1)
+    v = f32(0.0)
+    for s in range(int(RASTER_MAX_SAMPLES) + 1):
         a, b = raster_span(c0, c1, c2, across, v, shape, tau, size)
         a, b = a.astype(f32), b.astype(f32)
         span_px = np.float32(np.linalg.norm(b[:2] - a[:2]))
@@ -1163,6 +1164,9 @@ def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
             x, y = int(np.floor(p[0])), int(np.floor(p[1]))
             if 0 <= x < size[0] and 0 <= y < size[1] and 0.0 < p[2] <= 1.0:
                 xs.append(x), ys.append(y), ds.append(float(p[2])), vs.append(float(v))
+        if v >= 1.0:
+            break
+        v = f32(min(f32(v + f32(raster_step(s0, s1, s2, v))), f32(1.0)))
     return np.array(xs, np.int64), np.array(ys, np.int64), np.array(ds), np.array(vs)
 
 

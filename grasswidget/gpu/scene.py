@@ -323,5 +323,12 @@ class GrassScene:
     # ------------------------------------------------------------------ stats
 
     def visible_count(self) -> int:
-        """Blades drawn by the last render (synchronous GPU readback)."""
-        return int(self.field.read_draw_args()[:, 1].sum())
+        """Blades drawn by the last render, as ribbons or by the compute rasterizer
+        (synchronous GPU readback; see :meth:`drawn_counts`)."""
+        return sum(self.drawn_counts().values())
+
+    def drawn_counts(self) -> dict:
+        """Blades the last render drew by each path (synchronous GPU readback):
+        {"hardware": ribbons, "compute": the compute rasterizer's (GrassParams.compute_raster)}."""
+        return {"hardware": int(self.field.read_draw_args()[:, 1].sum()),
+                "compute": self.field.read_raster_count()}

@@ -395,12 +395,14 @@ fn clip_to_pixel(clip: vec4<f32>, viewport_size: vec2<f32>) -> vec3<f32> {
     return vec3<f32>((ndc.x * 0.5 + 0.5) * viewport_size.x, (0.5 - 0.5 * ndc.y) * viewport_size.y, ndc.z);
 }
 
-// Samples of the compute walk along a blade's curve: one per pixel of its screen
-// control polygon s0, s1, s2 (pixels) plus one, so consecutive samples are at most a
-// pixel apart (no gaps); at least 2, at most RASTER_MAX_SAMPLES.
-fn raster_samples(s0: vec2<f32>, s1: vec2<f32>, s2: vec2<f32>) -> u32 {
-    let polygon = length(s1 - s0) + length(s2 - s1);
-    return u32(clamp(ceil(polygon) + 1.0, 2.0, {{ raster_max_samples }}));
+// The compute walk's step along a blade's curve at v: the screen speed of the curve
+// there is |2 (1 - v) (s1 - s0) + 2 v (s2 - s1)| pixels per unit v (s0, s1, s2: the
+// control points in pixels), and the step is 0.9 / speed, so consecutive samples are
+// about 0.9 pixels apart wherever the curve goes (no gaps, no pile-up of samples where
+// it slows down); at least 1 / RASTER_MAX_SAMPLES, at most 1.
+fn raster_step(s0: vec2<f32>, s1: vec2<f32>, s2: vec2<f32>, v: f32) -> f32 {
+    let speed = length(2.0 * (1.0 - v) * (s1 - s0) + 2.0 * v * (s2 - s1));
+    return clamp(0.9 / max(speed, 1e-6), 1.0 / {{ raster_max_samples }}, 1.0);
 }
 
 // The two ends of a blade's cross-section on screen: pixels x, y and depth.

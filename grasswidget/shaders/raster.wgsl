@@ -19,7 +19,7 @@
 // (s_raster_args[1]) and the second phase's steps walk only the rest.
 //
 // The per-blade walk is reference.raster_walk (its NumPy twin), built from the
-// blade_math functions raster_samples, raster_span, raster_cover, raster_payload.
+// blade_math functions raster_step, raster_span, raster_cover, raster_payload.
 //
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, physical_size), u_wobject (world_transform),
@@ -42,9 +42,11 @@ fn raster_blade(blade_id: u32) {
     let across = mvp * vec4<f32>(rec.width * width_direction(rec.up, rec.orientation), 0.0);
     let size = vec2<f32>(u_cull.raster_width, u_cull.raster_height);
     let width = u32(size.x);
-    let n = raster_samples(clip_to_pixel(c0, size).xy, clip_to_pixel(c1, size).xy, clip_to_pixel(c2, size).xy);
-    for (var s = 0u; s < n; s += 1u) {
-        let v = f32(s) / f32(n - 1u);
+    let s0 = clip_to_pixel(c0, size).xy;
+    let s1 = clip_to_pixel(c1, size).xy;
+    let s2 = clip_to_pixel(c2, size).xy;
+    var v = 0.0;
+    for (var s = 0u; s <= u32({{ raster_max_samples }}); s += 1u) {
         let span = raster_span(c0, c1, c2, across, v, u_cull.raster_blade_shape, u_cull.raster_tip_threshold, size);
         let m = raster_cover(blade_id, s, length(span.b.xy - span.a.xy));
         for (var j = 0u; j < m; j += 1u) {
@@ -63,6 +65,10 @@ fn raster_blade(blade_id: u32) {
             }
             $$ endif
         }
+        if (v >= 1.0) {
+            break;
+        }
+        v = min(v + raster_step(s0, s1, s2, v), 1.0);
     }
 }
 $$ endif
