@@ -76,6 +76,8 @@ class GrassScene:
             raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
         ensure_device()
+        if params is None:  # the compute rasterizer where it is faster: a GPU adapter (see GrassParams.compute_raster)
+            params = GrassParams(compute_raster=not is_cpu_adapter())
         self.field = GrassField(blades, params=params, material=GrassMaterial())
         self.params = self.field.params
 
@@ -138,7 +140,7 @@ class GrassScene:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if name == "cis565" and params is None:
-            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
+            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX, compute_raster=not is_cpu_adapter())
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
