@@ -127,7 +127,10 @@ function choose(control, index) {
   applying = true;
   try {
     applyPatch(control, index);
-    if (control.kind === "ball" && control.values[index]) placeBall(control, ...control.position);
+    if (control.kind === "ball") {
+      control.on = control.values[index] === true;
+      if (control.on) placeBall(control, ...control.position);
+    }
   } finally { applying = false; }
   refresh();
 }
@@ -179,7 +182,12 @@ function buildPanel() {
       const box = document.createElement("input");
       box.type = "checkbox";
       box.addEventListener("change", () => choose(c, c.values.indexOf(box.checked)));
-      refreshers.push(() => { const i = currentIndex(c); box.checked = i >= 0 && c.values[i] === true; });
+      if (c.kind === "ball") {  // its position moves it off the patch it was switched on with
+        c.on = c.values[c.value] === true;
+        refreshers.push(() => { box.checked = c.on; });
+      } else {
+        refreshers.push(() => { const i = currentIndex(c); box.checked = i >= 0 && c.values[i] === true; });
+      }
       label.append(box, text);
     }
     panel.append(label);
@@ -219,7 +227,7 @@ model.onSend = (msg) => {
     case "ball": {
       const ball = controls.ball;
       if (!ball) break;
-      if (currentIndex(ball) !== 1) choose(ball, 1);
+      if (!ball.on) choose(ball, 1);
       applying = true;
       try { placeBall(ball, msg.x, msg.z); } finally { applying = false; }
       break;

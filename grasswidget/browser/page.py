@@ -213,7 +213,7 @@ def _affine(rec, place, x0, z0, step):
         predicted = c + ax * step + az * step
         if abs(predicted - values[3]) > 1e-4 * max(1.0, abs(values[3])):
             raise PageBuildError(f"the ball's position does not map affinely onto {where}")
-        return [c, ax, az]
+        return [c - ax * x0 - az * z0, ax, az]  # intercept at x = z = 0
 
     for k, b in snaps[0].items():
         if isinstance(b, bytes):
