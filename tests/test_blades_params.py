@@ -9,12 +9,12 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
-from grasswidget.params import GrassParams, RangedFloat, RangedInt
+from grasswidget.core.params import GrassParams, RangedFloat, RangedInt
 
 
 def test_core_imports_no_gpu_code():
     code = (
-        "import sys, grasswidget, grasswidget.reference, grasswidget.blades, grasswidget.params;"
+        "import sys, grasswidget, grasswidget.core.reference, grasswidget.core.blades, grasswidget.core.params;"
         "bad=[m for m in ('wgpu','pygfx','rendercanvas') if m in sys.modules]; print(bad); assert not bad"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

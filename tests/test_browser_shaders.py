@@ -16,7 +16,7 @@ from grasswidget.browser import uniforms
 from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
 from grasswidget.browser.view import BrowserView, wind_error_from_messages
 from grasswidget.browser.wgsl import BrowserShaders, binding_map
-from grasswidget.shader_files import shader_dir
+from grasswidget.core.shader_files import shader_dir
 
 
 def _device():

@@ -5,8 +5,8 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
-from grasswidget import reference as ref
-from grasswidget.colliders import MAX_COLLIDERS, ColliderList
+from grasswidget.core import reference as ref
+from grasswidget.core.colliders import MAX_COLLIDERS, ColliderList
 
 R = 1.0
 

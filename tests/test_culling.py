@@ -5,7 +5,7 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
-from grasswidget import reference as ref
+from grasswidget.core import reference as ref
 from grasswidget.gpu import indirect
 from conftest import grass_mask
 

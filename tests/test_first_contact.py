@@ -75,7 +75,7 @@ def test_no_vulkan_loader_noise_without_xdg_runtime_dir(tmp_path):
 
 
 def test_runtime_dir_never_uses_a_dir_open_to_others(tmp_path, monkeypatch):
-    from grasswidget.runtime_dir import ensure_runtime_dir
+    from grasswidget.gpu.runtime_dir import ensure_runtime_dir
 
     monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
@@ -140,7 +140,7 @@ def test_cli_bad_arguments_are_one_line_argument_errors(tmp_path, args, word):
 
 def test_cli_gpu_limit_is_an_argument_error(tmp_path):
     from grasswidget.gpu.adapter import ensure_device
-    from grasswidget.memory import max_blades_for_gpu
+    from grasswidget.core.memory import max_blades_for_gpu
 
     n = max_blades_for_gpu(ensure_device().limits) + 1
     r = _cli("snapshot", tmp_path / "x.png", "--blades", n)

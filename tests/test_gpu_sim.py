@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from grasswidget import reference as ref
+from grasswidget.core import reference as ref
 
 
 # Fixture scene (conftest) of the session's small_blades.

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
+from grasswidget.core import reference as ref
 from grasswidget.gpu.inspector import SEGMENT_VERTICES
-from grasswidget.teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, hex_to_rgb
+from grasswidget.core.teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, hex_to_rgb
 
 
 # Fixtures blades and scene (conftest).

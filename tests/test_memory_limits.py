@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import memory
+from grasswidget.core import memory
 
 
 def _fake_meminfo(tmp_path, monkeypatch, available_kib):
@@ -99,7 +99,7 @@ def test_every_generator_checks_the_count(tmp_path, monkeypatch):
 
 def test_gpu_limit_arithmetic():
     # the constants are the GPU layer's real sizes
-    from grasswidget.blades import BLADE_BYTES
+    from grasswidget.core.blades import BLADE_BYTES
 
     assert memory.GPU_STATE_BYTES_PER_BLADE == BLADE_BYTES
     field = gw.GrassField(gw.Blades.on_plane(64))

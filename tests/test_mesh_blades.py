@@ -10,7 +10,7 @@ import pygfx as gfx
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
+from grasswidget.core import reference as ref
 
 RADIUS = 3.0
 
@@ -112,7 +112,7 @@ def test_vertex_normals_are_used():
 def test_blades_module_does_not_import_pygfx():
     code = (
         "import sys, numpy as np\n"
-        "from grasswidget.blades import Blades\n"
+        "from grasswidget.core.blades import Blades\n"
         "b = Blades.on_mesh((np.eye(3), [[0, 1, 2]]), count=3)\n"
         "h = Blades.on_heightmap(np.zeros((2, 2)), 1.0, 3)\n"
         "assert 'pygfx' not in sys.modules and 'wgpu' not in sys.modules, 'GPU import'\n"

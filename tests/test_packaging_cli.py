@@ -22,7 +22,7 @@ def _shader_files():
 def test_shaders_live_in_the_package_only():
     """One folder: the WGSL sits inside the package, not in a second top-level folder."""
     assert not (ROOT / "shaders").exists()
-    from grasswidget.shader_files import shader_dir, shader_names
+    from grasswidget.core.shader_files import shader_dir, shader_names
 
     assert shader_dir().resolve() == (ROOT / "grasswidget" / "shaders").resolve()
     assert shader_names() == _shader_files()
@@ -43,7 +43,7 @@ def test_wheel_contains_shaders(tmp_path):
     # an installed copy (outside the checkout) finds them
     target = tmp_path / "site"
     zipfile.ZipFile(wheel).extractall(target)
-    code = ("from grasswidget.shader_files import shader_dir, read_shader; p = shader_dir(); print(p); "
+    code = ("from grasswidget.core.shader_files import shader_dir, read_shader; p = shader_dir(); print(p); "
             "assert 'site' in str(p); assert 'fn main' in read_shader('simulate.wgsl')")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(target)})
 
@@ -81,7 +81,7 @@ def test_cli_bad_input(tmp_path, args, word):
 
 def test_console_script_declared():
     text = (ROOT / "pyproject.toml").read_text()
-    assert 'grasswidget = "grasswidget.cli:main"' in text
+    assert 'grasswidget = "grasswidget.tools.cli:main"' in text
 
 
 def test_no_adapter_message():

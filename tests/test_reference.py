@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
+from grasswidget.core import reference as ref
 
 EXTREME = dict(gravity=50, wind_strength=200, stiffness_scale=0.01, dt=0.05, wind_speed=50, wind_wavelength=0.1)
 

@@ -6,7 +6,7 @@ from traitlets import TraitError
 
 import grasswidget as gw
 from conftest import grass_mask
-from grasswidget.params import BLADE_SHAPES
+from grasswidget.core.params import BLADE_SHAPES
 
 
 # Fixtures blades and scene (conftest): few wide upright blades (rest pose, never

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
-from grasswidget import teaching
+from grasswidget.core import reference as ref
+from grasswidget.core import teaching
 
 
 def _look_at(eye, target, fov_deg=45.0, aspect=4 / 3, near=0.1, far=100.0):

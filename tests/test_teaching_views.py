@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
-from grasswidget import teaching
+from grasswidget.core import reference as ref
+from grasswidget.core import teaching
 from conftest import grass_mask
 
 SIZE = (400, 300)

@@ -1,4 +1,4 @@
-"""Issue 12 item 2: each uniform struct is written once (grasswidget/uniform_layouts.py)
+"""Issue 12 item 2: each uniform struct is written once (grasswidget/core/uniform_layouts.py)
 and both engines lay it out the same: pygfx's struct (the kernel engine) and the
 browser engine's packing put every field at the same byte offset, with the same
 type and the same size, and the WGSL reads no field the layout lacks."""
@@ -10,7 +10,7 @@ import re
 import numpy as np
 import pytest
 
-from grasswidget import shader_files, uniform_layouts
+from grasswidget.core import shader_files, uniform_layouts
 from grasswidget.browser import uniforms as browser_uniforms
 
 LAYOUTS = {"u_sim": uniform_layouts.SIM_LAYOUT, "u_cull": uniform_layouts.CULL_LAYOUT}

@@ -1,7 +1,7 @@
 """The reference is the WGSL, enforced.
 
 Every function of ``shaders/blade_math.wgsl`` has a NumPy twin of the same name in
-``grasswidget/reference.py``; each one runs here on random inputs on the GPU (a
+``grasswidget/core/reference.py``; each one runs here on random inputs on the GPU (a
 small compute harness, lavapipe on CPU machines) and is compared with its twin.
 The blade record of ``shaders/blade.wgsl`` is compared with ``blades.BLADE_LAYOUT``,
 and the ids and constants the WGSL switches on come from one Python source.
@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from conftest import HARNESS_BINDINGS
 
-from grasswidget import reference as ref
-from grasswidget.blades import BLADE_LAYOUT, pack_state
-from grasswidget.enums import BladeShape, ColorBy, GravityMode, WindField
-from grasswidget.shader_files import read_shader, render_wgsl, template_vars
+from grasswidget.core import reference as ref
+from grasswidget.core.blades import BLADE_LAYOUT, pack_state
+from grasswidget.core.enums import BladeShape, ColorBy, GravityMode, WindField
+from grasswidget.core.shader_files import read_shader, render_wgsl, template_vars
 
 N = 256
 WORDS = {"f32": 1, "i32": 1, "u32": 1, "bool": 1, "vec2<f32>": 2, "vec3<f32>": 3, "vec4<f32>": 4, "mat4x4<f32>": 16}
@@ -90,15 +90,30 @@ def test_parameter_names_match_except_documented():
 # ------------------------------------------------------------------ the harness
 
 
+def _words(ptype):
+    """Words (u32) of one parameter or return value; structs count their fields."""
+    if ptype in STRUCTS:
+        return sum(_words(ftype) for _, ftype in STRUCTS[ptype])
+    return WORDS[ptype]
+
+
 def _decode(ptype, w):
     word = lambda k: f"harness_in[b + {w + k}u]"  # noqa: E731
     f = lambda k: f"bitcast<f32>({word(k)})"  # noqa: E731
+    if ptype in STRUCTS:  # a struct parameter: its fields in order (e.g. validate_pushed's Collision)
+        fields, offset = [], w
+        for _, ftype in STRUCTS[ptype]:
+            fields.append(_decode(ftype, offset))
+            offset += _words(ftype)
+        return f"{ptype}({', '.join(fields)})"
     if ptype == "f32":
         return f(0)
     if ptype == "i32":
         return f"bitcast<i32>({word(0)})"
     if ptype == "u32":
         return word(0)
+    if ptype == "bool":
+        return f"({word(0)} != 0u)"
     if ptype.startswith("vec"):
         n = WORDS[ptype]
         return f"{ptype}({', '.join(f(k) for k in range(n))})"
@@ -134,7 +149,7 @@ def _harness(name):
     lines, w = [], 0
     for k, (_, ptype) in enumerate(params):
         lines.append(f"    let a{k} = {_decode(ptype, w)};")
-        w += WORDS[ptype]
+        w += _words(ptype)
     lines.append(f"    let r = {name}({', '.join(f'a{k}' for k in range(len(params)))});")
     outs = [word for expr, ltype in _leaves(rtype) for word in _encode(expr, ltype)]
     lines += [f"    harness_out[o + {k}u] = {word};" for k, word in enumerate(outs)]
@@ -151,16 +166,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     return code, w, len(outs)
 
 
+def _pack_one(ptype, x):
+    """(N, words) uint32 of one parameter; a struct parameter's input is a tuple of its fields."""
+    if ptype in STRUCTS:
+        return np.concatenate([_pack_one(ftype, xf) for (_, ftype), xf in zip(STRUCTS[ptype], x)], axis=1)
+    x = np.asarray(x)
+    if ptype in ("i32", "u32", "bool"):
+        words = x.astype(np.int64).astype(np.int32 if ptype == "i32" else np.uint32).view(np.uint32)
+    else:
+        words = np.ascontiguousarray(x, np.float32).view(np.uint32)
+    return words.reshape(N, -1)
+
+
 def _pack(params, inputs):
-    cols = []
-    for (_, ptype), x in zip(params, inputs):
-        x = np.asarray(x)
-        if ptype in ("i32", "u32"):
-            words = x.astype(np.int64).astype(np.uint32 if ptype == "u32" else np.int32).view(np.uint32)
-        else:
-            words = np.ascontiguousarray(x, np.float32).view(np.uint32)
-        cols.append(words.reshape(N, -1))
-    return np.concatenate(cols, axis=1)
+    return np.concatenate([_pack_one(ptype, x) for (_, ptype), x in zip(params, inputs)], axis=1)
+
+
+def _as_gpu_sees(x):
+    """Float inputs rounded to float32 (the GPU's view of them), tuples field by field."""
+    if isinstance(x, tuple):
+        return tuple(_as_gpu_sees(xf) for xf in x)
+    return x if np.asarray(x).dtype.kind in "iub" else np.asarray(x, np.float32).astype(np.float64)
 
 
 def _unpack(rtype, words):
@@ -253,6 +279,20 @@ def _spheres(rng, v2):
     return np.concatenate([center, _u(rng, 0.2, 1.5)[:, None]], axis=1)
 
 
+def _valid_blade(rng):
+    """v0, v1, v2, up, height of blades that passed validation (length = height)."""
+    v0, _, v2, up, h = _blade_state(rng)
+    v1, v2 = ref.validate_state(v0, v2, up, h)
+    return v0, v1, v2, up, h
+
+
+def _pushed(rng, v2, h):
+    """A collision pass's (v2, add, hit): tips pushed by up to ~h / 3 where hit (about half)."""
+    hit = rng.uniform(0, 1, N) < 0.5
+    moved = v2 + rng.normal(scale=0.3, size=(N, 3)) * h[:, None]
+    return np.where(hit[:, None], moved, v2), np.where(hit, _u(rng, 1e-4, 0.1), 0.0), hit
+
+
 #: name -> (inputs(rng) in WGSL order, twin(*inputs) -> output or tuple, tolerance scale)
 TWINS = {
     "safe_normalize": (lambda r: [np.where(_u(r, 0, 1)[:, None] < 0.1, 0.0, _pts(r))], ref.safe_normalize, 1),
@@ -293,6 +333,13 @@ TWINS = {
     "collide_sphere": (lambda r: (lambda b: [b[0], b[1], b[2], _spheres(r, b[2])])(_blade_state(r)),
                        ref.collide_sphere, 5),
     "fade_collision": (lambda r: [_u(r, 0, 1), _u(r, 0, 2), _u(r, 1e-3, 0.1)], ref.fade_collision, 1),
+    "gain_collision": (lambda r: [_u(r, 0, 1), _u(r, 0, 0.005), _u(r, 0, 400)], ref.gain_collision, 1),
+    "effective_stiffness": (lambda r: [_u(r, 0, 40), _u(r, 0, 1)], ref.effective_stiffness, 1),
+    "validate_pushed": (lambda r: (lambda b: [*b, _pushed(r, b[2], b[4])])(_valid_blade(r)), ref.validate_pushed, 5),
+    "validate_state": (lambda r: (lambda b: [b[0], b[2], b[3], b[4]])(_blade_state(r)), ref.validate_state, 5),
+    "tip_step": (lambda r: (lambda b: [b[0], b[2], b[3], b[4], _u(r, 0, 40), _pts(r, 15.0), _pts(r, 20.0),
+                                       _u(r, 1e-3, 0.05)])(_valid_blade(r)),
+                 lambda v0, v2, up, h, s, g, wind, dt: ref.tip_step(v0, v2, up, h, s, g, wind, dt[:, None]), 10),
     "orientation_cull": (lambda r: [_pts(r), _unit(r), _pts(r), _u(r, 0.5, 1.0)], ref.orientation_cull, 0),
     "clip_outside": (lambda r: [np.concatenate([_pts(r, 2.0), _u(r, 0.2, 2.0)[:, None]], axis=1), _u(r, 0, 0.5)],
                      ref.clip_outside, 0),
@@ -326,7 +373,7 @@ def test_wgsl_function_equals_numpy_twin(name, run_compute):
     params, rtype = FUNCTIONS[name]
     inputs = make_inputs(rng)
     # The GPU sees float32 inputs: give the twin the same (rounded) values.
-    inputs = [x if np.asarray(x).dtype.kind in "iu" else np.asarray(x, np.float32).astype(np.float64) for x in inputs]
+    inputs = [_as_gpu_sees(x) for x in inputs]
     code, w_in, w_out = _harness(name)
     words = run_compute(code, _pack(params, _to_wgsl_inputs(params, inputs)), w_out, N)
     gpu = _unpack(rtype, words)
@@ -347,6 +394,80 @@ def test_wgsl_function_equals_numpy_twin(name, run_compute):
                                         f"(row {worst}: wgsl {g[worst]}, numpy {c[worst]})")
     # The test must be able to fail: the values vary across the random inputs.
     assert any(np.ptp(np.asarray(g, np.float64)) > 0 for g in gpu), f"{name}: constant output, weak inputs"
+
+
+# ------------------------------------------------------------------ the collision include
+
+#: Colliders per row in the collision include's test (a stand-in for u_sim's array).
+K_SPHERES = 4
+
+
+def test_collision_include_equals_numpy_twins(run_compute):
+    """collisions.wgsl (the one loop over the colliders) against reference.collide_spheres and
+    reference.collision_passes: per row a blade, 0..K_SPHERES spheres around it and the stand-in
+    u_sim (n_colliders, colliders) the include reads."""
+    rng = np.random.default_rng(16)
+    v0, v1, v2, up, h = _valid_blade(rng)
+    mid = 0.25 * v0 + 0.5 * v1 + 0.25 * v2
+    spheres = np.empty((N, K_SPHERES, 4))
+    spheres[..., :3] = np.where(rng.uniform(0, 1, (N, K_SPHERES, 1)) < 0.5, v2[:, None], mid[:, None])
+    spheres[..., :3] += rng.normal(scale=0.4, size=(N, K_SPHERES, 3)) * h[:, None, None]
+    spheres[..., 3] = rng.uniform(0.1, 0.6, (N, K_SPHERES)) * h[:, None]
+    n_colliders = rng.integers(0, K_SPHERES + 1, N)
+    inputs = [_as_gpu_sees(x) for x in (v0, v1, v2, up, h, spheres)]
+    v0, v1, v2, up, h, spheres = inputs
+    words = np.concatenate([_pack_one("i32", n_colliders), _pack_one("vec4<f32>", spheres.reshape(N, -1))]
+                           + [_pack_one(t, x) for t, x in zip(("vec3<f32>",) * 4 + ("f32",), (v0, v1, v2, up, h))],
+                           axis=1)
+    w_in = words.shape[1]
+    s = 1 + 4 * K_SPHERES  # where the blade starts in a row
+    code = BLADE_MATH + HARNESS_BINDINGS + f"""
+struct HarnessSim {{ n_colliders: i32, colliders: array<vec4<f32>, {K_SPHERES}> }};
+var<private> u_sim: HarnessSim;
+""" + render_wgsl("collisions.wgsl") + f"""
+fn vec3_at(k: u32) -> vec3<f32> {{
+    return vec3<f32>(bitcast<f32>(harness_in[k]), bitcast<f32>(harness_in[k + 1u]), bitcast<f32>(harness_in[k + 2u]));
+}}
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
+    let i = gid.x;
+    if (i >= {N}u) {{ return; }}
+    let b = i * {w_in}u;
+    u_sim.n_colliders = bitcast<i32>(harness_in[b]);
+    for (var c = 0u; c < {K_SPHERES}u; c = c + 1u) {{
+        u_sim.colliders[c] = vec4<f32>(vec3_at(b + 1u + 4u * c), bitcast<f32>(harness_in[b + 4u + 4u * c]));
+    }}
+    let v0 = vec3_at(b + {s}u);
+    let v1 = vec3_at(b + {s + 3}u);
+    let v2 = vec3_at(b + {s + 6}u);
+    let up = vec3_at(b + {s + 9}u);
+    let h = bitcast<f32>(harness_in[b + {s + 12}u]);
+    let pushed = collide_spheres(v0, v1, v2);
+    let collided = collision_passes(v0, v1, v2, up, h);
+    let o = i * 12u;
+    let outs = array<f32, 12>(pushed.v2.x, pushed.v2.y, pushed.v2.z, pushed.add, select(0.0, 1.0, pushed.hit),
+                              collided.v1.x, collided.v1.y, collided.v1.z, collided.v2.x, collided.v2.y, collided.v2.z,
+                              collided.add);
+    for (var k = 0u; k < 12u; k = k + 1u) {{ harness_out[o + k] = bitcast<u32>(outs[k]); }}
+}}
+"""
+    gpu = run_compute(code, words, 12, N).view(np.float32).astype(np.float64)
+    cpu = np.zeros((N, 12))
+    for k in range(N):
+        row = spheres[k, : n_colliders[k]]
+        pv2, padd, phit = ref.collide_spheres(v0[k: k + 1], v1[k: k + 1], v2[k: k + 1], row)
+        cv1, cv2, cadd = ref.collision_passes(v0[k: k + 1], v1[k: k + 1], v2[k: k + 1], up[k: k + 1], h[k: k + 1], row)
+        cpu[k] = np.concatenate([pv2[0], padd, phit.astype(float), cv1[0], cv2[0], cadd])
+    hit = cpu[:, 4] > 0
+    assert 0.2 < hit.mean() < 0.9, f"weak inputs: {hit.mean():.0%} of the rows collide"
+    assert not hit[n_colliders == 0].any()
+    assert np.array_equal(gpu[:, 4], cpu[:, 4]), "hit differs"
+    err = np.abs(gpu - cpu)
+    tol = 1e-4 * np.maximum(h, 1.0)[:, None] + 2e-5 * np.abs(cpu)
+    worst = int(np.argmax((err - tol).max(axis=1)))
+    assert np.all(err <= tol), f"max |wgsl - numpy| {err.max():.3g} (row {worst}: wgsl {gpu[worst]}, numpy {cpu[worst]})"
+    moved = np.linalg.norm(cpu[:, 8:11] - v2, axis=1)
+    assert np.median(moved[hit]) > 1e-3, "the passes must move the blades they hit"
 
 
 # ------------------------------------------------------------------ blade record and shared ids
@@ -419,7 +540,8 @@ def test_ids_and_constants_come_from_python():
     assert v["collision_passes"] == ref.COLLISION_PASSES
     assert float(v["recovery_floor"]) == ref.RECOVERY_FLOOR and float(v["collision_max"]) == ref.COLLISION_MAX
     assert float(v["noise_scale"]) == ref.NOISE_SCALE
-    simulate = read_shader("simulate.wgsl") + read_shader("wind_field.wgsl")  # wind_field() lives in the include
+    # wind_field() and the collision passes live in includes
+    simulate = read_shader("simulate.wgsl") + read_shader("wind_field.wgsl") + read_shader("collisions.wgsl")
     for m in WindField:
         if m != WindField.WAVE:
             assert f"case {{{{ wind_field_{m.name.lower()} }}}}" in simulate
@@ -434,7 +556,7 @@ def test_ids_and_constants_come_from_python():
 
 def test_shared_includes_are_engine_neutral():
     """The includes another engine reuses declare no bindings of pygfx's (it prepends its own)."""
-    for name in ("blade.wgsl", "blade_math.wgsl", "wind_field.wgsl", "simulate.wgsl", "cull.wgsl"):
+    for name in ("blade.wgsl", "blade_math.wgsl", "wind_field.wgsl", "collisions.wgsl", "simulate.wgsl", "cull.wgsl"):
         code = read_shader(name)
         assert "@group(" not in code and "bindings_code" not in code and "pygfx" not in code, name
         render_wgsl(name)  # renders without pygfx

@@ -279,7 +279,7 @@ def test_save_animation_gif_deterministic(widget, tmp_path):
 
 
 def test_export_argument_errors(widget, tmp_path):
-    from grasswidget.export import plan_animation, save_animation
+    from grasswidget.tools.export import plan_animation, save_animation
 
     s = widget.scene
     with pytest.raises(ValueError, match="path"):
@@ -386,7 +386,7 @@ def test_preset():
 def test_rerunning_a_cell_closes_the_previous_widget(monkeypatch):
     """JupyterLab sends the cell id with each execution: a new widget from the
     same cell closes the one before, so its GPU buffers are freed."""
-    import grasswidget.widget as gwmod
+    import grasswidget.notebook.widget as gwmod
 
     monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-xyz")
     a = gw.GrassWidget(blades=64, size=SIZE)
@@ -426,7 +426,7 @@ def test_rerun_keeps_a_widget_the_user_still_holds(monkeypatch):
     import gc
     import weakref
 
-    import grasswidget.widget as gwmod
+    import grasswidget.notebook.widget as gwmod
 
     namespace, after = {}, []
     monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-held")

@@ -9,7 +9,7 @@ from traitlets import TraitError
 
 import grasswidget as gw
 from conftest import WIDGET_SIZE
-from grasswidget.widget_ball import ground_point
+from grasswidget.notebook.ball import ground_point
 
 pytest.importorskip("jupyter_rfb")
 

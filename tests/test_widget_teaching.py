@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import teaching
+from grasswidget.core import teaching
 from conftest import WIDGET_SIZE
 
 pytest.importorskip("ipywidgets")

@@ -6,9 +6,9 @@ import pytest
 from traitlets import TraitError
 
 import grasswidget as gw
-from grasswidget import reference as ref
-from grasswidget.params import WIND_FIELDS
-from grasswidget.shader_files import render_wgsl
+from grasswidget.core import reference as ref
+from grasswidget.core.params import WIND_FIELDS
+from grasswidget.core.shader_files import render_wgsl
 
 from conftest import HARNESS_BINDINGS
 
@@ -46,7 +46,7 @@ FIELDS = {
 
 def test_every_wind_field_has_a_gpu_vs_reference_case():
     """A new member of enums.WindField gets a FIELDS entry (custom has its own test below)."""
-    from grasswidget.enums import WindField
+    from grasswidget.core.enums import WindField
 
     missing = set(WindField.labels()) - {"custom"} - {values["wind_field"] for values in FIELDS.values()}
     assert not missing, f"add a FIELDS entry (params for a GPU vs reference run) for {sorted(missing)}"

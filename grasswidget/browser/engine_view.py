@@ -25,8 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError
-from ..blades import Blades
-from ..colliders import ColliderList
+from ..core.blades import Blades
+from ..core.colliders import ColliderList
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -54,7 +54,7 @@ class _BallScene:
 class BrowserEngineView:
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
-    Args: as :class:`~grasswidget.kernel_view.KernelView` (blades, size, params,
+    Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
     preset, clock, actions, on_error, on_stats), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
     and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2).
@@ -70,7 +70,7 @@ class BrowserEngineView:
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
                  on_unavailable, pixel_ratio=None):
-        from ..framing import preset_field
+        from ..core.framing import preset_field
 
         self.size = tuple(size)
         self.params = params

@@ -1,7 +1,7 @@
 """Uniform structs of the browser engine: layouts, WGSL text and packing (pure Python).
 
 A layout is a tuple of ``(field, wgsl_type)``; ``SIM_LAYOUT`` and ``CULL_LAYOUT``
-are the ones both engines use (:mod:`grasswidget.uniform_layouts`). Offsets follow WGSL's uniform
+are the ones both engines use (:mod:`grasswidget.core.uniform_layouts`). Offsets follow WGSL's uniform
 address-space rules (scalars 4 bytes, vec2 8, vec4 16, mat4x4 64 bytes aligned
 to 16, ``array<vec4<f32>, N>`` 16 N). Python packs the parameter-driven
 uniforms (simulation, culling, material) into bytes and sends them; the browser
@@ -19,11 +19,11 @@ import math
 import numpy as np
 
 from ..errors import GrassValueError
-from ..colliders import MAX_COLLIDERS, collider_array
-from ..enums import BladeShape, ColorBy, GravityMode, WindField
-from ..params import GrassParams
-from ..reference import wind_period
-from ..uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
+from ..core.colliders import MAX_COLLIDERS, collider_array
+from ..core.enums import BladeShape, ColorBy, GravityMode, WindField
+from ..core.params import GrassParams
+from ..core.reference import wind_period
+from ..core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
 
 __all__ = [
     "SIM_LAYOUT", "CULL_LAYOUT", "STDINFO_LAYOUT", "WOBJECT_LAYOUT", "MATERIAL_LAYOUT", "WIND_FIELD_IDS",
@@ -31,7 +31,7 @@ __all__ = [
     "layout_description", "srgb_color",
 ]
 
-#: Wind field ids of simulate.wgsl's wind_field() (grasswidget.enums.WindField).
+#: Wind field ids of simulate.wgsl's wind_field() (grasswidget.core.enums.WindField).
 WIND_FIELD_IDS = {label: int(WindField.from_label(label)) for label in WindField.labels()}
 
 STDINFO_LAYOUT = (

@@ -31,9 +31,9 @@ import numpy as np
 from traitlets import Bool, Bytes, Dict, Float, Int, List
 
 from ..errors import GrassTypeError, GrassValueError
-from ..blades import Blades, unpack_state
-from ..colliders import ColliderList, collider_array
-from ..params import GrassParams
+from ..core.blades import Blades, unpack_state
+from ..core.colliders import ColliderList, collider_array
+from ..core.params import GrassParams
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import jinja2
 
-from ..reference import LOD_SEGMENTS
-from ..shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
+from ..core.reference import LOD_SEGMENTS
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
                             wgsl_environment)
 from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, offsets, wgsl_struct
 

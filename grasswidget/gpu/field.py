@@ -14,14 +14,14 @@ import wgpu
 from pygfx.utils import array_from_shadertype
 
 from .. import compat
-from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
-from ..colliders import ColliderList
-from ..enums import ColorBy
+from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
+from ..core.colliders import ColliderList
+from ..core.enums import ColorBy
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
-from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
-from ..params import GrassParams
-from ..reference import LOD_SEGMENTS
-from ..uniform_layouts import CULL_LAYOUT, shadertype
+from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
+from ..core.params import GrassParams
+from ..core.reference import LOD_SEGMENTS
+from ..core.uniform_layouts import CULL_LAYOUT, shadertype
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
@@ -33,26 +33,26 @@ __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", 
            "max_blade_count"]
 
 # Distance bands per LOD class (the draw order of the culled lists): one source for both
-# engines, in grasswidget.shader_files.
-from ..shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
+# engines, in grasswidget.core.shader_files.
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)
 
-#: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.CULL_LAYOUT``).
+#: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.CULL_LAYOUT``).
 CULL_UNIFORM = shadertype(CULL_LAYOUT)
 
 
 
 def check_blade_limits(count, device):
     """Raise BladeLimitError when ``count`` blades do not fit one storage binding
-    of ``device`` (see :func:`grasswidget.memory.check_gpu_blade_count`)."""
+    of ``device`` (see :func:`grasswidget.core.memory.check_gpu_blade_count`)."""
     check_gpu_blade_count(count, device.limits, device.adapter.summary, error=BladeLimitError)
 
 
 def check_blade_count_fits(count, name=None) -> int:
     """Return ``count`` as an int when that many blades fit both the host memory
-    (:func:`grasswidget.memory.check_blade_count`) and this device's buffers;
+    (:func:`grasswidget.core.memory.check_blade_count`) and this device's buffers;
     else raise a :class:`~grasswidget.errors.BladeCountError` (a ValueError) naming
     ``count`` (and the caller's parameter ``name``), the limit and the memory.
     Allocates nothing: call it before making blades."""
@@ -328,7 +328,7 @@ class GrassField(gfx.WorldObject):
         ValueError naming the limit and changes nothing.
         """
         from .inspector import BladeInspector
-        from ..teaching import check_inspect_ids
+        from ..core.teaching import check_inspect_ids
 
         check_inspect_ids(ids, self.count)
         if self.inspector is None:
@@ -471,3 +471,6 @@ class GrassField(gfx.WorldObject):
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
         return lists if draw_order else np.sort(np.concatenate(lists))
+
+
+from . import shaders  # noqa: E402,F401  (registers the render function of (GrassField, GrassMaterial))

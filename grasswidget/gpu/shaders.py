@@ -26,9 +26,9 @@ import weakref
 
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
-from ..reference import CULLED_SEGMENTS, LOD_SEGMENTS
+from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
-from ..shader_files import read_shader, ribbon_vars
+from ..core.shader_files import read_shader, ribbon_vars
 from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups

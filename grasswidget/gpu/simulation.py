@@ -18,12 +18,12 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..colliders import collider_array
-from ..enums import GravityMode, WindField
+from ..core.colliders import collider_array
+from ..core.enums import GravityMode, WindField
 from ..errors import WindShaderError
-from ..reference import wind_period
-from ..shader_files import NO_WIND_BODY
-from ..uniform_layouts import SIM_LAYOUT, shadertype
+from ..core.reference import wind_period
+from ..core.shader_files import NO_WIND_BODY
+from ..core.uniform_layouts import SIM_LAYOUT, shadertype
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
@@ -33,7 +33,7 @@ __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
 MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
 
-#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.SIM_LAYOUT``).
+#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.SIM_LAYOUT``).
 SIM_UNIFORM = shadertype(SIM_LAYOUT)
 
 _USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"

@@ -18,7 +18,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..shader_files import read_shader
+from ..core.shader_files import read_shader
 from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]

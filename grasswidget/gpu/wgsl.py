@@ -2,7 +2,7 @@
 
 ``{$ include 'grasswidget.<file>' $}`` resolves to ``grasswidget/shaders/<file>``
 (registered with pygfx's WGSL loader when this module is imported). Every shader
-class starts from :func:`grasswidget.shader_files.template_vars` (the ids of the
+class starts from :func:`grasswidget.core.shader_files.template_vars` (the ids of the
 enums and the constants of the reference; documented there) and adds its own.
 Compute shaders share :class:`GrassComputeShader` and :func:`workgroups`.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import jinja2
 from pygfx.renderers.wgpu import BaseShader, register_wgsl_loader
 
-from ..shader_files import WORKGROUP_SIZE, shader_dir, template_vars
+from ..core.shader_files import WORKGROUP_SIZE, shader_dir, template_vars
 
 __all__ = ["WORKGROUP", "workgroups", "GrassComputeShader", "shader_vars"]
 

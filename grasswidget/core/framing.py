@@ -3,7 +3,7 @@
 ``preset_field(name)`` gives the blades, default size and camera of a named
 scene (``GrassScene.preset`` builds its GPU scene from it; the browser engine
 sends the same blades and camera to the browser); ``parse_size`` reads a view
-size. ``grasswidget.scene`` re-exports both.
+size. ``grasswidget.gpu.scene`` re-exports both.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .blades import Blades
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["PRESETS", "preset_field", "parse_size"]
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import GrassTypeError, GrassValueError
+from ..errors import GrassTypeError, GrassValueError
 from .memory import BladeCountError, check_blade_count
 
 __all__ = ["Blades", "BladeCountError"]
@@ -102,7 +102,7 @@ class Blades:
 
         Args:
             count: number of blades N, >= 1. A count whose making would not fit in the
-                available memory raises :class:`~grasswidget.memory.BladeCountError`
+                available memory raises :class:`~grasswidget.core.memory.BladeCountError`
                 (a ValueError) at once, before anything is allocated.
             size: side of the square plane in metres, > 0 (default 15, the course scene).
             seed: random seed (int).

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import os
 
-from .errors import BladeCountError, MissingLimitError
+from ..errors import BladeCountError, MissingLimitError
 
 __all__ = [
     "BladeCountError",

@@ -1,14 +1,14 @@
 """The kernel engine's view: a GrassScene rendered in the kernel and streamed to the browser.
 
 :class:`KernelView` owns a jupyter-rfb canvas (``rendercanvas.jupyter.RenderCanvas``),
-the :class:`~grasswidget.scene.GrassScene` drawn into it, the camera's
+the :class:`~grasswidget.gpu.scene.GrassScene` drawn into it, the camera's
 ``OrbitController``, the canvas events (orbit, ball drag, keys), the real-time
 clock that advances the simulation while playing and the adaptive render
 scale. It knows nothing of the control panel: the widget that composes them
 tells it what to do (``set_playing``, ``step``, ``set_blades`` ...) and
 receives its stats through ``on_stats``.
 
-Time (see :class:`~grasswidget.clock.SimClock`): while playing, simulated time
+Time (see :class:`~grasswidget.notebook.clock.SimClock`): while playing, simulated time
 follows the wall clock (times ``time_scale``) in whole fixed steps of
 ``params.dt``, at most :data:`MAX_STEPS_PER_FRAME` per frame; when that cap
 binds the stats line says "slow motion 0.6x". Paused, no time passes;
@@ -23,14 +23,14 @@ flight, so the kernel renders the next frame while the last one travels and is
 decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
 CPU adapter, 60 on a GPU).
 
-Adaptive resolution (see :class:`~grasswidget.adaptive.ResolutionGovernor`):
+Adaptive resolution (see :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`):
 while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
 render pixel ratio goes down step by step to half, and back up when there is
 headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
 last frame), Save PNG and exports always render at full resolution.
 
 Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
-``OrbitController``, held to :class:`~grasswidget.orbit.OrbitLimits`: the camera
+``OrbitController``, held to :class:`~grasswidget.notebook.orbit.OrbitLimits`: the camera
 stays above the ground, the target over the field, the zoom in range), without
 the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
 Shift + drag goes to the ball first. Ctrl (or
@@ -49,11 +49,11 @@ import time
 
 import numpy as np
 
-from . import compat
+from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
-from .blades import Blades
+from ..core.blades import Blades
 from .clock import SimClock
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
@@ -198,8 +198,8 @@ class KernelView:
 
     Attributes: ``widget`` (the ipywidget to show: the canvas), ``canvas``,
     ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``,
-    ``clock`` (the :class:`~grasswidget.clock.SimClock`), ``governor`` (the
-    :class:`~grasswidget.adaptive.ResolutionGovernor`), ``timing`` (the
+    ``clock`` (the :class:`~grasswidget.notebook.clock.SimClock`), ``governor`` (the
+    :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`), ``timing`` (the
     :class:`FrameTiming` of the frames on their way).
     """
 
@@ -243,7 +243,7 @@ class KernelView:
 
         self._frames = 0
         self._draw_ms = 0.0
-        from .gpu.adapter import cpu_notice
+        from ..gpu.adapter import cpu_notice
 
         self.timing = FrameTiming()
         self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
@@ -259,7 +259,7 @@ class KernelView:
     # ------------------------------------------------------------------ scene
 
     def _make_scene(self, blades):
-        from .scene import GrassScene
+        from ..gpu.scene import GrassScene
 
         if self._preset is not None:
             count = len(blades) if isinstance(blades, Blades) else blades
@@ -306,7 +306,7 @@ class KernelView:
         self.canvas.request_draw(self.draw)
 
     def attach_ball(self, ball):
-        """The :class:`~grasswidget.widget_ball.BallControl` to move with shift + drag and roll."""
+        """The :class:`~grasswidget.notebook.ball.BallControl` to move with shift + drag and roll."""
         self.ball = ball
 
     @property
@@ -409,7 +409,7 @@ class KernelView:
 
     @camera_state.setter
     def camera_state(self, state):
-        from .browser.engine_view import _check_camera_state
+        from ..browser.engine_view import _check_camera_state
 
         state = _check_camera_state(state)
         current = self.camera_state

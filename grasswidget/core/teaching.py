@@ -16,7 +16,7 @@ import numbers
 
 import numpy as np
 
-from .errors import GrassValueError
+from ..errors import GrassValueError
 from .params import COLOR_BY
 from .reference import CULL_REASONS, LOD_MIN_PIXELS, LOD_SEGMENTS
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import UnknownNameError
+from ..errors import UnknownNameError
 
 __all__ = ["OrbitLimits", "clamp_orbit", "GroundOrbitController"]
 
@@ -84,7 +84,7 @@ class OrbitLimits:
 
     @classmethod
     def for_scene(cls, scene):
-        """Limits for a :class:`~grasswidget.scene.GrassScene`'s field and camera."""
+        """Limits for a :class:`~grasswidget.gpu.scene.GrassScene`'s field and camera."""
         blades = scene.field.blades
         far = scene.camera.depth_range[1] if scene.camera.depth_range else None
         return cls.for_field(blades.v0, blades.up, blades.height, far)
@@ -139,7 +139,7 @@ def clamp_orbit(position, target, limits: OrbitLimits):
 
 
 def _controller_class():
-    from .compat import held_orbit_controller_class
+    from ..compat import held_orbit_controller_class
 
     class GroundOrbitController(held_orbit_controller_class(_hold)):
         """pygfx's ``OrbitController`` (a custom target is required) whose orbit,

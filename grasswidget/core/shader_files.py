@@ -27,6 +27,12 @@ The engine-neutral files and what they need:
     ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
     of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
+``collisions.wgsl``
+    ``collide_spheres(v0, v1, v2)`` (the one loop over ``u_sim.n_colliders`` /
+    ``u_sim.colliders``, calling blade_math's ``collide_sphere``) and
+    ``collision_passes(v0, v1, v2, up, height)`` (``collision_passes`` times: push,
+    then ``validate_pushed``); twins of the same names in ``reference.py``. Expects
+    ``u_sim``; included after ``blade_math.wgsl`` by the simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
     ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
@@ -46,7 +52,7 @@ then the body. ``blade_render.wgsl``, ``reset_args.wgsl`` and ``inspect.wgsl``
 
 Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
-:mod:`grasswidget.enums`; names in lowercase with underscores, e.g.
+:mod:`grasswidget.core.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
 ``collision_passes``, ``noise_scale`` (from ``reference.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
@@ -54,7 +60,7 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
 True in the pygfx shader classes: the frozen culling camera, ``color_by`` and the
 draw of culled blades, which need ``u_cull``'s ``color_by``/``frozen_*`` fields,
-``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.teaching`) and
+``s_culled`` and ``s_culled_args``; see :mod:`grasswidget.core.teaching`) and
 ``user_wind_body`` (the custom wind; default: no wind).
 """
 
@@ -63,7 +69,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from .errors import MissingFileError
+from ..errors import MissingFileError
 
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
            "DISTANCE_BANDS", "BAND_RANGE"]

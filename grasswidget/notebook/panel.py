@@ -10,7 +10,7 @@ and a save function), and the view hands it a stats dict to show with
 another engine) can sit above the same panel.
 
 A control given a value its trait refuses snaps back and the message line says
-why (see :class:`~grasswidget.control_link.ControlLink`).
+why (see :class:`~grasswidget.notebook.control_link.ControlLink`).
 
 The teaching row: a "colour by" dropdown (``params.color_by``), a "freeze
 culling" checkbox (the widget's ``culling_frozen`` trait), the legend of the
@@ -26,9 +26,9 @@ import html
 import ipywidgets as ipw
 
 from .control_link import ControlLink
-from .params import COLOR_BY, WIND_FIELDS
-from .reference import FORCE_NAMES
-from .teaching import legend
+from ..core.params import COLOR_BY, WIND_FIELDS
+from ..core.reference import FORCE_NAMES
+from ..core.teaching import legend
 
 __all__ = ["ControlPanel", "PARAM_SLIDERS", "CULL_CHECKBOXES", "format_stats", "legend_html", "inspected_html"]
 
@@ -108,7 +108,7 @@ def format_stats(stats: dict) -> str:
 
 
 def legend_html(color_by: str) -> str:
-    """HTML of the legend of a colouring (see :func:`grasswidget.teaching.legend`)."""
+    """HTML of the legend of a colouring (see :func:`grasswidget.core.teaching.legend`)."""
     rows = legend(color_by)
     if not rows:
         return "<small>natural colours (lit grass)</small>"

@@ -14,7 +14,7 @@ import argparse
 import os
 import sys
 
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 #: Image formats ``snapshot`` writes, by extension (written with imageio).
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg")
@@ -30,7 +30,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _size(text):
-    from .scene import parse_size
+    from ..gpu.scene import parse_size
 
     try:
         return parse_size(text)
@@ -60,7 +60,7 @@ _non_negative = _int_at_least(0)
 def _blade_count(text):
     """A blade count >= 1 whose making fits in the host's memory (the GPU's
     buffers are checked once the device is known)."""
-    from .memory import BladeCountError, check_blade_count
+    from ..core.memory import BladeCountError, check_blade_count
 
     n = _positive(text)
     try:
@@ -76,7 +76,7 @@ def _param(name):
     def parse(text):
         from traitlets import TraitError
 
-        from .params import GrassParams
+        from ..core.params import GrassParams
 
         try:
             value = float(text)
@@ -200,10 +200,10 @@ def main(argv=None):
     elif args.command == "bench":
         _make_folder(sub, args.json, "--json")
 
-    from .errors import BladeCountError, NoGPUAdapterError
+    from ..errors import BladeCountError, NoGPUAdapterError
 
     try:
-        from .gpu.field import check_blade_count_fits
+        from ..gpu.field import check_blade_count_fits
 
         if args.command == "html":
             return _html(args)
@@ -240,8 +240,8 @@ def write_image(path, img):
 
 
 def _snapshot(args):
-    from . import GrassParams
-    from .scene import GrassScene
+    from .. import GrassParams
+    from ..gpu.scene import GrassScene
 
     params = GrassParams()
     if args.wind is not None:
@@ -258,8 +258,8 @@ def _snapshot(args):
 
 
 def _default_scene(args, params):
-    from .blades import Blades
-    from .scene import GrassScene
+    from ..core.blades import Blades
+    from ..gpu.scene import GrassScene
 
     return GrassScene(Blades.on_plane(args.blades, seed=args.seed), size=args.size, params=params)
 

@@ -7,7 +7,7 @@ the curve midpoint ``m = v0/4 + v1/2 + v2/4`` are pushed out of every sphere, th
 squared push lengths add up (times ``params.collision_gain``) in a per-blade
 collision strength eta (0..1) that weakens the blade's recovery, and eta fades
 over time (``params.collision_fade``).
-See :func:`grasswidget.reference.collide_spheres` for the exact rule.
+See :func:`grasswidget.core.reference.collide_spheres` for the exact rule.
 
 Coordinates are the grass field's local space, which is world space for a field
 with the default identity transform.
@@ -21,7 +21,7 @@ import numpy as np
 import traitlets
 from traitlets import TraitError
 
-from .errors import GrassTypeError, ParameterError
+from ..errors import GrassTypeError, ParameterError
 from .params import StrictTraits, Vec3
 
 __all__ = ["SphereCollider", "ColliderList", "MAX_COLLIDERS", "collider_array"]

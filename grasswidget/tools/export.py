@@ -34,7 +34,7 @@ import os
 
 import numpy as np
 
-from .errors import GrassTypeError, GrassValueError, MissingDependencyError, MissingFileError
+from ..errors import GrassTypeError, GrassValueError, MissingDependencyError, MissingFileError
 
 __all__ = ["save_animation", "plan_animation", "FORMATS", "MAX_FRAMES"]
 
@@ -83,7 +83,7 @@ def _check_path(path):
 def _offscreen_renderer(size):
     from rendercanvas.offscreen import RenderCanvas
 
-    from .scene import make_renderer
+    from ..gpu.scene import make_renderer
 
     canvas = RenderCanvas(size=size, pixel_ratio=1)
     return canvas, make_renderer(canvas)
@@ -105,7 +105,7 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
     Returns the path written. Raises ValueError/TypeError for bad arguments
     before rendering anything.
     """
-    from .scene import parse_size
+    from ..gpu.scene import parse_size
 
     path, ext = _check_path(path)
     size = scene.size if size is None else parse_size(size)

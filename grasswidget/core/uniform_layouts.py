@@ -16,7 +16,7 @@ To add a uniform field: one line here, then write it in ``GrassField.update_cull
 from __future__ import annotations
 
 from .colliders import MAX_COLLIDERS
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "shadertype", "wgsl_shadertype"]
 

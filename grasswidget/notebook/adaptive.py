@@ -24,7 +24,7 @@ import math
 import numbers
 import time
 
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["ResolutionGovernor", "SCALES", "check_target_fps", "TARGET_FPS_RANGE"]
 

@@ -3,11 +3,11 @@
 ``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
 own module:
 
-* a view (:class:`grasswidget.kernel_view.KernelView`): the jupyter-rfb canvas
-  streaming a :class:`~grasswidget.scene.GrassScene` rendered in the kernel,
+* a view (:class:`grasswidget.notebook.kernel_view.KernelView`): the jupyter-rfb canvas
+  streaming a :class:`~grasswidget.gpu.scene.GrassScene` rendered in the kernel,
   its mouse and key events and its clock;
-* a control panel (:class:`grasswidget.panel.ControlPanel`): sliders, culling
-  checkboxes, the ball row (:mod:`grasswidget.widget_ball`), play/pause/step/
+* a control panel (:class:`grasswidget.notebook.panel.ControlPanel`): sliders, culling
+  checkboxes, the ball row (:mod:`grasswidget.notebook.ball`), play/pause/step/
   reset buttons, a live stats line, a "Save PNG" button and the teaching row
   (colour by, freeze culling, legend, inspected blade), linked to the
   :class:`GrassParams` traits.
@@ -23,15 +23,15 @@ own module:
     w.close()                     # frees the GPU buffers
 
 Two engines (``backend=``): "kernel" (the default) renders in the kernel and
-streams frames (:mod:`grasswidget.kernel_view`); "browser" runs the same WGSL
+streams frames (:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL
 simulation, culling and ribbons in the notebook's browser through WebGPU
 (:mod:`grasswidget.browser`), as fast as the student's own GPU; "auto" picks the
 browser when it offers a WebGPU adapter. A browser without WebGPU makes a
 "browser" or "auto" widget fall back to kernel streaming with one line saying so.
 
-Streaming and time: see :mod:`grasswidget.kernel_view`. Mouse: drag to orbit,
+Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
 right-drag to pan, wheel to zoom (the camera stays above the ground and the
-field in sight, see :mod:`grasswidget.orbit`). Shift + drag puts the ball (a sphere
+field in sight, see :mod:`grasswidget.notebook.orbit`). Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
@@ -52,11 +52,11 @@ import numpy as np
 from traitlets import All, Bool
 
 from .adaptive import check_target_fps
-from .blades import Blades
-from .errors import GrassTypeError, GrassValueError, WidgetClosedError
+from ..core.blades import Blades
+from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
-from .params import GrassParams, RangedFloat
+from ..core.params import GrassParams, RangedFloat
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
 
@@ -163,7 +163,7 @@ def _check_number(name, value, lo, hi, integer=False):
 
 def _panel_property(name):
     return property(lambda self: getattr(self.panel, name) if self.panel is not None else None,
-                    doc=f"The control panel's ``{name}`` (see :class:`grasswidget.panel.ControlPanel`).")
+                    doc=f"The control panel's ``{name}`` (see :class:`grasswidget.notebook.panel.ControlPanel`).")
 
 
 def _view_property(name, doc):
@@ -195,12 +195,12 @@ class GrassWidget(ipw.VBox):
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
             with; link or observe its traits, set them from code).
-        view: the :class:`~grasswidget.kernel_view.KernelView` (None after close).
-        panel: the :class:`~grasswidget.panel.ControlPanel` (None after close).
+        view: the :class:`~grasswidget.notebook.kernel_view.KernelView` (None after close).
+        panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
         controller: the pygfx ``OrbitController`` of the camera.
-        ball: the :class:`~grasswidget.widget_ball.BallControl`: ``ball.collider``
+        ball: the :class:`~grasswidget.notebook.ball.BallControl`: ``ball.collider``
             is its :class:`SphereCollider`; ``ball.enabled``, ``ball.rolling``,
             ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
         sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
@@ -248,7 +248,7 @@ class GrassWidget(ipw.VBox):
 
     def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None, backend="kernel", target_fps=None):
-        from .framing import PRESETS, parse_size
+        from ..core.framing import PRESETS, parse_size
 
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
@@ -272,7 +272,7 @@ class GrassWidget(ipw.VBox):
         self._streaming_overrides = overrides
         # The kernel's adapter (2 s to open lavapipe) is asked only when the kernel renders.
         if backend == "kernel":
-            from .gpu.adapter import is_cpu_adapter
+            from ..gpu.adapter import is_cpu_adapter
 
             self._cpu = is_cpu_adapter()
         else:
@@ -281,13 +281,13 @@ class GrassWidget(ipw.VBox):
         self._streaming = streaming
         self._preset = preset
         if backend == "kernel":
-            from .gpu.field import max_blade_count
+            from ..gpu.field import max_blade_count
 
             # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
             self.max_blades = min(streaming["max_blades"], max_blade_count())
         else:  # the browser's device decides; the blade state is still built in the kernel's memory
-            from .browser.engine_view import BROWSER_MAX_BLADES
-            from .memory import max_blades_for_memory
+            from ..browser.engine_view import BROWSER_MAX_BLADES
+            from ..core.memory import max_blades_for_memory
 
             host = max_blades_for_memory()
             self.max_blades = BROWSER_MAX_BLADES if host is None else min(BROWSER_MAX_BLADES, host)
@@ -300,7 +300,7 @@ class GrassWidget(ipw.VBox):
             if backend == "kernel":
                 self.view = self._kernel_view()
             else:
-                from .browser.engine_view import BrowserEngineView
+                from ..browser.engine_view import BrowserEngineView
 
                 self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
@@ -341,7 +341,7 @@ class GrassWidget(ipw.VBox):
         if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
             raise GrassTypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
         if blades >= 1 and self._cpu is not None:  # the kernel renders (the browser's own limits apply there)
-            from .gpu.field import check_blade_count_fits
+            from ..gpu.field import check_blade_count_fits
 
             check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
         if not (1 <= int(blades) <= self.max_blades):
@@ -350,7 +350,7 @@ class GrassWidget(ipw.VBox):
 
     def _kernel_view(self):
         if self._cpu is None:  # a browser widget falling back: now the kernel's adapter matters
-            from .gpu.adapter import is_cpu_adapter
+            from ..gpu.adapter import is_cpu_adapter
 
             self._cpu = is_cpu_adapter()
             blades = self._streaming["max_blades"]
@@ -361,7 +361,7 @@ class GrassWidget(ipw.VBox):
                           on_inspect=self._show_inspected)
 
     def _make_ball(self):
-        from .widget_ball import BallControl
+        from .ball import BallControl
 
         self.ball = BallControl(getattr(self.view, "ball_scene", None) or self.view.scene, on_error=self._show_error)
         self.ball.observe(self._on_ball_rolling, names="rolling")
@@ -541,7 +541,7 @@ class GrassWidget(ipw.VBox):
                 working directory, i.e. next to the notebook).
             size: (width, height) or "WxH"; default twice the view size.
         """
-        from .framing import parse_size
+        from ..core.framing import parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
@@ -620,14 +620,14 @@ class GrassWidget(ipw.VBox):
 
     def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True) -> str:
         """Export an animation (GIF, or MP4 with imageio-ffmpeg); see
-        :func:`grasswidget.export.save_animation`. It starts from the current
+        :func:`grasswidget.tools.export.save_animation`. It starts from the current
         state and puts the live state back afterwards. Returns the path.
 
         It always renders with the kernel engine: in browser mode the browser's
         current blade state is read back and a kernel scene (which needs a WebGPU
         adapter in the kernel, lavapipe will do) films it from the same camera;
         the browser's own animation is not disturbed."""
-        from .export import save_animation
+        from ..tools.export import save_animation
 
         self._check_open()
         if self.backend == "browser":
@@ -637,8 +637,8 @@ class GrassWidget(ipw.VBox):
         return out
 
     def _save_animation_from_browser(self, path, seconds, fps, size, progress):
-        from .export import save_animation
-        from .scene import GrassScene
+        from ..tools.export import save_animation
+        from ..gpu.scene import GrassScene
 
         state = self.view.read_state()
         blades = self.view.view.blades

@@ -13,14 +13,14 @@ import time
 import numpy as np
 import pygfx as gfx
 
-from .blades import Blades
-from .errors import GrassTypeError, GrassValueError
-from .gpu.adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
-from .gpu.collider_view import ColliderBalls
-from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
-from .framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
-from .gpu.sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
-from .params import GrassParams
+from ..core.blades import Blades
+from ..errors import GrassTypeError, GrassValueError
+from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
+from .collider_view import ColliderBalls
+from .field import GrassField, GrassMaterial, check_blade_count_fits
+from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
+from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
+from ..core.params import GrassParams
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
 

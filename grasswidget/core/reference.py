@@ -2,11 +2,14 @@
 
 Everything here is vectorised over N blades and imports no GPU code. The WGSL
 include ``grasswidget/shaders/blade_math.wgsl`` implements the same functions under the same
-names, so the two can be read side by side. Equation numbers refer to Jahrmann &
+names (``shaders/collisions.wgsl`` the loop over the colliders: ``collide_spheres``,
+``collision_passes``), so the two can be read side by side: :func:`simulate_step` is
+``simulate.wgsl``'s step (fade_collision, tip_step, collision_passes, gain_collision),
+:func:`blade_forces` ``inspect.wgsl``'s. Equation numbers refer to Jahrmann &
 Wimmer, "Responsive Real-Time Grass Rendering for General 3D Scenes", I3D 2017.
 
 State dicts hold ``v0, v1, v2, up`` as (N, 3) and ``height, width, orientation,
-stiffness`` as (N,) arrays (see :mod:`grasswidget.blades`). Computations run in
+stiffness`` as (N,) arrays (see :mod:`grasswidget.core.blades`). Computations run in
 float64; the GPU runs float32 and agrees to ~1e-5 of the blade height.
 
 Sign conventions chosen here (the sources differ): the width direction ``t1`` is
@@ -22,7 +25,7 @@ import math
 import numpy as np
 
 from .enums import BladeShape, GravityMode
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = [
     "safe_normalize",
@@ -52,6 +55,12 @@ __all__ = [
     "collide_sphere",
     "collide_spheres",
     "fade_collision",
+    "gain_collision",
+    "effective_stiffness",
+    "validate_pushed",
+    "collision_passes",
+    "validate_state",
+    "tip_step",
     "COLLISION_MAX",
     "RECOVERY_FLOOR",
     "COLLISION_PASSES",
@@ -126,7 +135,7 @@ def front_direction(up, t1):
 def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitude=None):
     """Environmental gravity per blade (paper eq. 1), ``magnitude`` in m/s^2.
 
-    ``gravity_mode`` (a :class:`~grasswidget.enums.GravityMode` id or label)
+    ``gravity_mode`` (a :class:`~grasswidget.core.enums.GravityMode` id or label)
     "direction": gE = normalize(direction) * magnitude (``params.gravity_direction``,
     default (0, -1, 0)). "point": gE = :func:`gravity_point` (v0, center, magnitude),
     the paper's gravity point, so grass on a small planet leans towards its centre
@@ -475,9 +484,12 @@ def collide_sphere(v0, v1, v2, sphere):
 
 
 def collide_spheres(v0, v1, v2, spheres):
-    """Push each blade out of every sphere in turn (:func:`collide_sphere`);
+    """One push of each blade out of every sphere in turn (:func:`collide_sphere`);
     returns (v2, eta_add, hit) with ``eta_add`` summed over the spheres and ``hit``
-    True where any push happened (those blades are validated again)."""
+    True where any push happened (those blades are validated again).
+
+    The twin of ``collide_spheres(v0, v1, v2)`` of ``shaders/collisions.wgsl``,
+    which loops over the colliders of ``u_sim``; ``spheres`` is (K, 4) here."""
     v2 = np.array(v2, np.float64, copy=True)
     add = np.zeros(len(v2))
     hit = np.zeros(len(v2), bool)
@@ -498,33 +510,120 @@ def fade_collision(eta, fade, dt):
     return np.maximum(np.asarray(eta, np.float64) - fade * dt, 0.0)
 
 
+def gain_collision(eta, add, gain):
+    """Collision strength after a step's pushes: eta' = min(eta + gain * add, COLLISION_MAX).
+
+    ``add`` is the step's sum of |d|^2 (m^2, from :func:`collision_passes`), ``gain``
+    ``params.collision_gain`` (1/m^2, default 200; the paper adds |d|^2, gain 1).
+    """
+    return np.minimum(np.asarray(eta, np.float64) + gain * np.asarray(add, np.float64), COLLISION_MAX)
+
+
+def effective_stiffness(stiffness, eta):
+    """Recovery stiffness (1/s) of blades with collision strength eta (0..1):
+    s * max(1 - eta, RECOVERY_FLOOR), so a trampled blade recovers slowly (paper 5.1)."""
+    return np.asarray(stiffness, np.float64) * np.maximum(1.0 - np.asarray(eta, np.float64), RECOVERY_FLOOR)
+
+
+def validate_pushed(v0, v1, v2, up, height, pushed):
+    """The blades after one collision pass: where a sphere pushed them, the pushed
+    tip validated again (:func:`validate_state`); elsewhere (v1, v2) unchanged.
+
+    ``pushed`` is the pass's (v2, eta_add, hit) of :func:`collide_spheres`. Returns (v1, v2).
+    """
+    pushed_v2, _, hit = pushed
+    v1c, v2c = validate_state(v0, pushed_v2, up, height)
+    hit = np.asarray(hit, bool)[..., None]
+    return np.where(hit, v1c, v1), np.where(hit, v2c, v2)
+
+
+def collision_passes(v0, v1, v2, up, height, spheres):
+    """The collisions of one step: COLLISION_PASSES (2) times, push the blades out of
+    every sphere (:func:`collide_spheres`) and validate the pushed ones
+    (:func:`validate_pushed`); validation moves some tips back in, a second pass
+    halves that. ``spheres`` is (K, 4) (centre, radius; m), K may be 0.
+
+    Returns (v1, v2, eta_add), eta_add the sum of |d|^2 (m^2) over the passes and
+    spheres (for :func:`gain_collision`). The twin of ``collision_passes`` of
+    ``shaders/collisions.wgsl``.
+    """
+    v1 = np.asarray(v1, np.float64)
+    v2 = np.asarray(v2, np.float64)
+    add_total = np.zeros(len(v0))
+    if len(np.asarray(spheres).reshape(-1, 4)) == 0:
+        return v1, v2, add_total
+    for _ in range(COLLISION_PASSES):
+        pushed = collide_spheres(v0, v1, v2, spheres)
+        add_total = add_total + pushed[1]
+        v1, v2 = validate_pushed(v0, v1, v2, up, height, pushed)
+    return v1, v2, add_total
+
+
 # --------------------------------------------------------------------------- one step
 
 
-def _faded_collision_and_stiffness(state, params):
-    """The step's faded collision strength eta (N,) and effective stiffness
-    s * stiffness_scale * max(1 - eta, RECOVERY_FLOOR) (1/s, (N,))."""
+def validate_state(v0, v2, up, height):
+    """The paper's state validation (section 5.2) of moved tips v2: keep v2 above the
+    ground (:func:`validate_ground`), place v1 from the lean (:func:`validate_v1`),
+    then scale the curve to length ``height`` (:func:`validate_length`). Returns (v1, v2)."""
+    v2 = validate_ground(v0, v2, up)
+    return validate_length(v0, validate_v1(v0, v2, up, height), v2, height)
+
+
+def tip_step(v0, v2, up, height, stiffness, gravity, wind, dt):
+    """One fixed step ``dt`` (s) of the tips, collisions aside (paper 5.1-5.2).
+
+    ``wind`` is the wind field W at the roots (m/s^2, :func:`wind_field`), turned into
+    the wind force by :func:`wind_force`; ``gravity`` is gE + gF (m/s^2); the recovery
+    of ``stiffness`` (the effective stiffness, 1/s, :func:`effective_stiffness`)
+    pulls towards v0 + up * height; :func:`integrate_tip` moves v2 and
+    :func:`validate_state` validates it. Returns (v1, v2).
+    """
+    v0 = np.asarray(v0, np.float64)
+    up = np.asarray(up, np.float64)
+    height = np.asarray(height, np.float64)
+    v2 = np.asarray(v2, np.float64)
+    w = wind_force(wind, v0, v2, up, height)
+    moved = integrate_tip(v2, v0 + up * height[..., None], stiffness, gravity + w, dt)
+    return validate_state(v0, moved, up, height)
+
+
+def _gravity(state, params):
+    """g = gE + gF (m/s^2, (N, 3)) of each blade: environmental plus front gravity (eq. 1-2)."""
+    v0 = np.asarray(state["v0"], np.float64)
+    up = np.asarray(state["up"], np.float64)
+    g_env = environmental_gravity(params, v0)
+    return g_env + front_gravity(g_env, front_direction(up, width_direction(up, state["orientation"])),
+                                 params.front_gravity)
+
+
+def _step_collision_and_stiffness(state, params):
+    """The step's faded collision strength eta ((N,), :func:`fade_collision`) and the
+    effective stiffness ((N,), 1/s, :func:`effective_stiffness`)."""
     n = len(state["v0"])
-    eta = np.asarray(state.get("collision", np.zeros(n)), np.float64)
-    eta = fade_collision(eta, getattr(params, "collision_fade", 0.15), params.dt)
+    eta = fade_collision(state.get("collision", np.zeros(n)), getattr(params, "collision_fade", 0.15), params.dt)
     s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
-    return eta, s * np.maximum(1.0 - eta, RECOVERY_FLOOR)
+    return eta, effective_stiffness(s, eta)
 
 
 def simulate_step(state, params, t, colliders=None, user_wind=None):
     """Advance a state dict by one fixed step ``params.dt`` at time t (s).
 
-    1. Fade the collision strength: eta = max(eta - collision_fade * dt, 0).
-    2. Forces (section 5.1): gravity (direction or point), front gravity, wind,
-       recovery with stiffness s * max(1 - eta, 0.1); semi-implicit update of v2.
-    3. Validation (section 5.2): ground, v1, length.
-    4. Collisions with ``colliders`` (SphereColliders, (center, radius) pairs or a
-       (K, 4) array): push v2 and the midpoint out of the spheres and validate
-       the pushed blades again, COLLISION_PASSES (2) times (validation moves
-       some tips back in; a second pass halves that); then
-       eta += collision_gain * sum |d|^2 (clamped to COLLISION_MAX = 1). The
-       paper adds |d|^2 (gain 1); with small fixed steps the pushes are small,
-       hence the gain (default 200).
+    1. Fade the collision strength (:func:`fade_collision`):
+       eta = max(eta - collision_fade * dt, 0).
+    2. Forces and validation (:func:`tip_step`, sections 5.1-5.2): gravity
+       (direction or point), front gravity, wind, recovery with the effective
+       stiffness s * max(1 - eta, 0.1) (:func:`effective_stiffness`); semi-implicit
+       update of v2; validation: ground, v1, length.
+    3. Collisions with ``colliders`` (SphereColliders, (center, radius) pairs or a
+       (K, 4) array; :func:`collision_passes`): push v2 and the midpoint out of the
+       spheres and validate the pushed blades again, COLLISION_PASSES (2) times
+       (validation moves some tips back in; a second pass halves that); then
+       eta += collision_gain * sum |d|^2 (clamped to COLLISION_MAX = 1;
+       :func:`gain_collision`). The paper adds |d|^2 (gain 1); with small fixed
+       steps the pushes are small, hence the gain (default 200).
+
+    The same functions in the same order as ``shaders/simulate.wgsl``.
 
     Limits of these local pushes (the paper's): a blade taller than the sphere's
     diameter can stay pierced through it (its midpoint inside), and a blade rooted
@@ -538,48 +637,14 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     v0 = np.asarray(state["v0"], np.float64)
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
-    eta, s = _faded_collision_and_stiffness(state, params)
-    v1, v2 = _forces_and_validation(state, params, t, user_wind, s)
-    spheres = _spheres(colliders)
-    if len(spheres):
-        v1, v2, add_total = _collision_passes(v0, up, h, v1, v2, spheres)
-        eta = np.minimum(eta + getattr(params, "collision_gain", 1.0) * add_total, COLLISION_MAX)
+    v2 = np.asarray(state["v2"], np.float64)
+    eta, s_eff = _step_collision_and_stiffness(state, params)
+    v1, v2 = tip_step(v0, v2, up, h, s_eff, _gravity(state, params), wind_field(v0, t, params, user_wind), params.dt)
+    v1, v2, add = collision_passes(v0, v1, v2, up, h, _spheres(colliders))
+    eta = gain_collision(eta, add, getattr(params, "collision_gain", 1.0))
     out = dict(state)
     out["v1"], out["v2"], out["collision"] = v1, v2, eta
     return out
-
-
-def _forces_and_validation(state, params, t, user_wind, s_eff):
-    """Steps 2-3 of simulate_step: the semi-implicit force update of v2, then validation."""
-    v0 = np.asarray(state["v0"], np.float64)
-    up = np.asarray(state["up"], np.float64)
-    h = np.asarray(state["height"], np.float64)
-    v2 = np.asarray(state["v2"], np.float64)
-    t1 = width_direction(up, state["orientation"])
-    f = front_direction(up, t1)
-    g_env = environmental_gravity(params, v0)
-    g = g_env + front_gravity(g_env, f, params.front_gravity)
-    w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
-    iv2 = v0 + up * h[:, None]
-    v2 = integrate_tip(v2, iv2, s_eff, g + w, params.dt)
-    v2 = validate_ground(v0, v2, up)
-    v1 = validate_v1(v0, v2, up, h)
-    return validate_length(v0, v1, v2, h)
-
-
-def _collision_passes(v0, up, h, v1, v2, spheres):
-    """Step 4 of simulate_step: COLLISION_PASSES pushes out of the spheres, each
-    followed by validation of the pushed blades; returns (v1, v2, sum of |d|^2)."""
-    add_total = np.zeros(len(v0))
-    for _ in range(COLLISION_PASSES):
-        v2c, add, hit = collide_spheres(v0, v1, v2, spheres)
-        add_total += add
-        v2c = validate_ground(v0, v2c, up)
-        v1c = validate_v1(v0, v2c, up, h)
-        v1c, v2c = validate_length(v0, v1c, v2c, h)
-        v1 = np.where(hit[:, None], v1c, v1)
-        v2 = np.where(hit[:, None], v2c, v2)
-    return v1, v2, add_total
 
 
 def _spheres(colliders):
@@ -756,20 +821,14 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
     up = np.asarray(state["up"], np.float64)
     h = np.asarray(state["height"], np.float64)
     v2 = np.asarray(state["v2"], np.float64)
-    n = len(v0)
-    eta, s = _faded_collision_and_stiffness(state, params)
-    t1 = width_direction(up, state["orientation"])
-    g_env = environmental_gravity(params, v0)
-    g = g_env + front_gravity(g_env, front_direction(up, t1), params.front_gravity)
-    w = wind_force(wind_field(v0, t, params, user_wind), v0, v2, up, h)
-    r = (v0 + up * h[:, None] - v2) * s[:, None]
-    collision = np.zeros((n, 3))
-    spheres = _spheres(colliders)
-    if len(spheres):
-        v1_step, v2_step = _forces_and_validation(state, params, t, user_wind, s)
-        _, v2_pushed, _ = _collision_passes(v0, up, h, v1_step, v2_step, spheres)
-        collision = v2_pushed - v2_step
-    return {"gravity": g, "recovery": r, "wind": w, "collision": collision}
+    _, s_eff = _step_collision_and_stiffness(state, params)
+    g = _gravity(state, params)
+    wind = wind_field(v0, t, params, user_wind)
+    w = wind_force(wind, v0, v2, up, h)
+    r = (v0 + up * h[:, None] - v2) * s_eff[:, None]
+    v1_step, v2_step = tip_step(v0, v2, up, h, s_eff, g, wind, params.dt)
+    _, v2_pushed, _ = collision_passes(v0, v1_step, v2_step, up, h, _spheres(colliders))
+    return {"gravity": g, "recovery": r, "wind": w, "collision": v2_pushed - v2_step}
 
 
 # --------------------------------------------------------------------------- drawing
@@ -778,7 +837,7 @@ def blade_forces(state, params, t, colliders=None, user_wind=None):
 def blade_shape_t(u, v, shape, tau):
     """Across-blade parameter t of the paper's blade shapes (section 6), u, v in [0, 1].
 
-    ``shape`` is a :class:`~grasswidget.enums.BladeShape` id or label: quad and fold
+    ``shape`` is a :class:`~grasswidget.core.enums.BladeShape` id or label: quad and fold
     t = u; triangle t = u + v/2 - u v; quadratic t = u - u v^2; triangle-tip
     t = 1/2 + (u - 1/2) (1 - max(v - tau, 0) / (1 - tau)).
     """

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import time
 
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["SimClock"]
 

@@ -16,7 +16,7 @@ import traitlets
 from traitlets import Bool, HasTraits, Unicode
 
 from .enums import BladeShape, ColorBy, GravityMode, WindField
-from .errors import ParameterError, UnknownNameError
+from ..errors import ParameterError, UnknownNameError
 
 __all__ = [
     "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
@@ -29,7 +29,7 @@ WIND_FIELDS = WindField.labels()
 BLADE_SHAPES = BladeShape.labels()
 #: How environmental gravity is aimed (see ``reference.environmental_gravity``; ids: ``enums.GravityMode``).
 GRAVITY_MODES = GravityMode.labels()
-#: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.teaching``; ids: ``enums.ColorBy``).
+#: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.core.teaching``; ids: ``enums.ColorBy``).
 COLOR_BY = ColorBy.labels()
 
 
@@ -197,7 +197,7 @@ class GrassParams(StrictTraits):
     collision_fade = RangedFloat(0.15, 0.0, 100.0, "1/s", help="Rate at which a blade's collision strength eta (0..1) fades: eta -= collision_fade * dt each step. Recovery is scaled by max(1 - eta, 0.1), so a trampled trail stands back up within about 1 / collision_fade seconds.").tag(sync=True)
 
     # ---- wind -----------------------------------------------------------------
-    wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Wind field W(p, t): 'wave' (travelling gusts along wind_direction), 'radial' (away from wind_center, pulsing; helicopter downwash), 'vortex' (turning around the vertical axis through wind_center), 'noise' (simplex-noise gusts drifting along wind_direction) or 'custom' (the WGSL in wind_wgsl). See grasswidget.reference.").tag(sync=True)
+    wind_field = ChoiceTrait("wave", WIND_FIELDS, help="Wind field W(p, t): 'wave' (travelling gusts along wind_direction), 'radial' (away from wind_center, pulsing; helicopter downwash), 'vortex' (turning around the vertical axis through wind_center), 'noise' (simplex-noise gusts drifting along wind_direction) or 'custom' (the WGSL in wind_wgsl). See grasswidget.core.reference.").tag(sync=True)
     wind_strength = RangedFloat(5.0, 0.0, 200.0, "m/s^2", help="Peak wind acceleration |W|.").tag(sync=True)
     wind_direction = RangedFloat(0.0, -360.0, 360.0, "degrees", help="Direction the wind blows towards, in the ground plane: 0 = +x, 90 = +z.").tag(sync=True)
     wind_speed = RangedFloat(3.0, 0.0, 50.0, "m/s", help="Speed at which the wind wave travels along wind_direction.").tag(sync=True)

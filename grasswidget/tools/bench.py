@@ -28,8 +28,8 @@ import time
 
 import numpy as np
 
-from .errors import GrassValueError
-from . import compat
+from ..errors import GrassValueError
+from .. import compat
 
 __all__ = ["run_bench", "format_table", "CULL_MODES"]
 
@@ -66,8 +66,8 @@ class _Timer:
     """GPU timestamps of the simulation and culling passes, in passes of their own."""
 
     def __init__(self, scene):
-        from .gpu.compute import ComputeProgram
-        from .gpu.shaders import CullShader, PrefixBandsShader, ResetArgsShader
+        from ..gpu.compute import ComputeProgram
+        from ..gpu.shaders import CullShader, PrefixBandsShader, ResetArgsShader
 
         self.scene = scene
         self.device = scene.field.stats.device
@@ -85,7 +85,7 @@ class _Timer:
 
     def cull_ms(self):
         """GPU ms of reset + cull (count, prefix, scatter) for the current camera (uniforms of the last render)."""
-        from .gpu.shaders import workgroups
+        from ..gpu.shaders import workgroups
 
         enc = self.device.create_command_encoder()
         cp = enc.begin_compute_pass(
@@ -168,8 +168,8 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     import pygfx as gfx
     import tqdm
 
-    from .gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
-    from .scene import GrassScene
+    from ..gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
+    from ..gpu.scene import GrassScene
 
     modes = _modes(cull)
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:

@@ -1,7 +1,7 @@
 """The GrassWidget's ball: a sphere collider moved with the mouse, sliders, or rolled.
 
 :class:`BallControl` owns one :class:`~grasswidget.SphereCollider` resting on the
-ground of a :class:`~grasswidget.scene.GrassScene` and the controls for it:
+ground of a :class:`~grasswidget.gpu.scene.GrassScene` and the controls for it:
 
 * a "sphere" checkbox (``enabled``): the ball is in ``scene.colliders`` (and drawn
   as a translucent ball by the scene) or not;
@@ -26,11 +26,11 @@ import ipywidgets as ipw
 import numpy as np
 from traitlets import Any, Bool, HasTraits
 
-from . import compat
-from .colliders import SphereCollider
+from .. import compat
+from ..core.colliders import SphereCollider
 from .control_link import ControlLink
-from .errors import GrassValueError, ParameterError
-from .params import RangedFloat
+from ..errors import GrassValueError, ParameterError
+from ..core.params import RangedFloat
 
 __all__ = ["BallControl", "ground_point"]
 

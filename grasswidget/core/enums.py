@@ -3,7 +3,7 @@
 One source: these enums give the ids that the simulation and render shaders
 switch on (passed into the WGSL templates as ``wind_field_wave``,
 ``blade_shape_fold``, ``gravity_mode_point``, ... by
-:func:`grasswidget.shader_files.template_vars`, the way pygfx passes its marker
+:func:`grasswidget.core.shader_files.template_vars`, the way pygfx passes its marker
 enums) and the names that :class:`~grasswidget.GrassParams` accepts
 (``WindField.NOISE.label == "noise"``, ``BladeShape.TRIANGLE_TIP.label ==
 "triangle-tip"``). To add a wind field: add a member here, its NumPy function in
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from .errors import GrassValueError
+from ..errors import GrassValueError
 
 __all__ = ["WindField", "BladeShape", "GravityMode", "ColorBy", "LabeledIntEnum"]
 
