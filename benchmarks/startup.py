@@ -105,7 +105,7 @@ def widget_first_frames(root):
 
 
 def live_pages(root):
-    from grasswidget.html_export import save_html
+    from grasswidget.tools.html_export import save_html
 
     rows = []
     with StaticServer(root) as static, Browser(webgpu=True) as b:

@@ -22,7 +22,7 @@ import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.page import PAGE_MAX_BLADES, page_html
 from grasswidget.browser.view import BrowserView
-from grasswidget.colliders import SphereCollider
+from grasswidget.core.colliders import SphereCollider
 
 
 def _data(text):
@@ -117,7 +117,7 @@ def test_controls_send_what_the_kernel_would(page_data):
 
 
 def test_bad_input_names_the_limit(tmp_path):
-    from grasswidget.html_export import save_html
+    from grasswidget.tools.html_export import save_html
 
     with pytest.raises(gw.MissingFileError, match="nope"):
         save_html(tmp_path / "nope" / "m.html", 64)

@@ -22,7 +22,7 @@ view and comparing its state before and after:
 So whatever traits the engine reads, the page sends what the kernel would have.
 Footprints of different controls never overlap (checked when the page is built).
 
-Pure Python: no GPU import. :mod:`grasswidget.html_export` renders the still
+Pure Python: no GPU import. :mod:`grasswidget.tools.html_export` renders the still
 picture in the kernel engine and writes the file.
 """
 
@@ -35,10 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..colliders import SphereCollider
-from ..enums import ColorBy
-from ..errors import GrassError, GrassTypeError, GrassValueError, MissingFileError
-from ..params import GrassParams
+from ..core.colliders import SphereCollider
+from ..core.enums import ColorBy
+from ..core.params import GrassParams
+from ..errors import GrassTypeError, GrassValueError, MissingFileError, PageBuildError
 
 __all__ = ["PAGE_MAX_BLADES", "PAGE_MAX_PIXELS", "check_page_path", "check_page_blades", "page_state",
            "page_controls", "page_html", "PageBuildError"]
@@ -54,11 +54,6 @@ _PATCH_LIMIT = 65536
 WIND_STRENGTH_STEPS = 40
 #: Wind direction slider step (degrees).
 WIND_DIRECTION_STEP = 15
-
-
-class PageBuildError(GrassError, RuntimeError):
-    """The page's controls could not be described (two controls touch the same
-    state, or the ball's position does not map affinely); a bug, not bad input."""
 
 
 def check_page_path(path) -> Path:

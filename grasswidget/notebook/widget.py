@@ -562,7 +562,7 @@ class GrassWidget(ipw.VBox):
         pause, wind and culling controls, colour by and the ball (shift + drag). In a
         browser without WebGPU it shows a still picture of the same view (rendered
         now in the kernel engine; ``still=False`` leaves it out) and one line saying
-        WebGPU is needed. See :mod:`grasswidget.html_export`.
+        WebGPU is needed. See :mod:`grasswidget.tools.html_export`.
 
         Args:
             path: file name ending in .html, in an existing folder.
@@ -573,8 +573,8 @@ class GrassWidget(ipw.VBox):
         ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades, MissingFileError for a
         missing folder.
         """
-        from .browser.page import check_page_blades, check_page_path
-        from .html_export import save_html
+        from ..browser.page import check_page_blades, check_page_path
+        from ..tools.html_export import save_html
 
         self._check_open()
         check_page_path(path)

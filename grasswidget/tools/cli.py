@@ -102,14 +102,14 @@ def _image_path(text):
 
 
 def _page_max_blades():
-    from .browser.page import PAGE_MAX_BLADES
+    from ..browser.page import PAGE_MAX_BLADES
 
     return PAGE_MAX_BLADES
 
 
 def _page_blades(text):
     """A blade count a live page may carry (1 .. PAGE_MAX_BLADES)."""
-    from .browser.page import check_page_blades
+    from ..browser.page import check_page_blades
 
     try:
         return check_page_blades(int(text))
@@ -119,7 +119,7 @@ def _page_blades(text):
 
 
 def _html_path(text):
-    from .browser.page import check_page_path
+    from ..browser.page import check_page_path
 
     try:
         check_page_path(text)
@@ -265,9 +265,9 @@ def _default_scene(args, params):
 
 
 def _html(args):
-    from .blades import Blades
+    from ..core.blades import Blades
+    from ..core.params import GrassParams
     from .html_export import save_html
-    from .params import GrassParams
 
     params = GrassParams()
     if args.wind is not None:
@@ -276,7 +276,7 @@ def _html(args):
     if args.preset == "default":
         blades, size = Blades.on_plane(args.blades, seed=args.seed), args.size or (960, 540)
     else:
-        from .framing import preset_field
+        from ..core.framing import preset_field
 
         blades, preset_size, view = preset_field(args.preset, args.blades, seed=args.seed)
         size = args.size or preset_size

@@ -133,7 +133,7 @@ def test_live_page_with_webgpu(live_page, webgpu_browser):
             _set_checkbox(page, label, False)
         poll(lambda: (lambda s: (sum(s["visible"] or [0]) == N_BLADES, s["visible"]))(_stats(page)),
              "every blade drawn with culling off", 30, 0.2, page=page)
-        from grasswidget.teaching import LOD_COLORS, hex_to_rgb
+        from grasswidget.core.teaching import LOD_COLORS, hex_to_rgb
 
         page.locator("#gw-panel label", has_text="colour by").locator("select").select_option(label="lod")
         share = poll(lambda: (lambda f: (f > 0.2, f))(sum(

@@ -4,7 +4,7 @@
 here. The page (see :mod:`grasswidget.browser.page`) carries the browser engine,
 the WGSL, the blades and the current parameters and camera; in a browser without
 WebGPU it shows a still picture of the same view, rendered here in the kernel
-engine (a :class:`~grasswidget.scene.GrassScene` with the same camera), and one
+engine (a :class:`~grasswidget.gpu.scene.GrassScene` with the same camera), and one
 line saying WebGPU is needed.
 
 Limits (checked before anything is built): the name must end in ``.html``, its
@@ -17,10 +17,10 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from .blades import Blades
-from .browser.page import PAGE_MAX_BLADES, check_page_blades, check_page_path, page_html
-from .errors import GrassTypeError
-from .params import GrassParams
+from ..browser.page import PAGE_MAX_BLADES, check_page_blades, check_page_path, page_html
+from ..core.blades import Blades
+from ..core.params import GrassParams
+from ..errors import GrassTypeError
 
 __all__ = ["save_html", "still_picture", "PAGE_MAX_BLADES", "STILL_STEPS"]
 
@@ -34,7 +34,7 @@ def still_picture(blades: Blades, params: GrassParams, camera: dict, size, colli
     seen by ``camera`` ({position, target, fov_deg, near, far}) at ``size`` (w, h)."""
     import imageio.v3 as iio
 
-    from .scene import GrassScene
+    from ..gpu.scene import GrassScene
 
     scene = GrassScene(blades, size=tuple(size), params=params.copy())
     try:
@@ -67,7 +67,7 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
         playing, time_scale: the page's clock at the start.
         still: render the still picture shown without WebGPU (False: the line alone).
     """
-    from .browser.view import BrowserView
+    from ..browser.view import BrowserView
 
     p = check_page_path(path)
     if isinstance(blades, (int,)) and not isinstance(blades, bool):
