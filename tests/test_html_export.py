@@ -168,3 +168,13 @@ def test_widget_save_html_carries_its_view(tmp_path):
     assert still.shape[:2] == (240, 320)
     rgb = still[int(0.6 * 240):, :, :3].astype(int)
     assert ((rgb[..., 1] > rgb[..., 0] + 8) & (rgb[..., 1] > rgb[..., 2] + 8)).mean() > 0.3  # grass in the still
+
+
+def test_front_end_modules_import_nothing():
+    """engine.js and page.js are self-contained: no import of JupyterLab (or of anything),
+    so they run in Notebook 7, Voila, VS Code, Colab and the live page alike."""
+    folder = Path(gw.__file__).parent / "browser"
+    for name in ("engine.js", "page.js"):
+        source = (folder / name).read_text(encoding="utf-8")
+        assert not re.search(r"^\s*import\s|\brequire\(|@jupyter", source, re.M), name
+        assert "http://" not in source and "https://" not in source, name
