@@ -15,7 +15,6 @@ blades (64 bytes each, base64 in the file).
 from __future__ import annotations
 
 import io
-from pathlib import Path
 
 from ..browser.page import PAGE_MAX_BLADES, check_page_blades, check_page_path, page_html
 from ..core.blades import Blades

@@ -5,10 +5,11 @@ For each front end, two notebooks, as in tests/browser/test_browser_engine.py:
 * ``GrassWidget(backend="browser")`` in a Chromium with WebGPU (SwiftShader): the
   canvas shows grass under a sky, the panel's stats line counts frames and
   visible blades, culling checkboxes turned off make every blade visible, a
-  mouse drag orbits and a shift + drag switches the ball on and moves it;
+  shift + drag switches the ball on and moves it (and in Notebook 7 a drag
+  orbits ``w.camera_state``);
 * ``GrassWidget(backend="auto")`` in a Chromium without WebGPU: the widget falls
   back to the kernel engine (one line says WebGPU is not available), frames
-  stream into the jupyter-rfb view, a slider and a drag change the picture.
+  stream into the jupyter-rfb view, the wind slider and Pause reach the kernel.
 
 Notebook 7 is driven like JupyterLab (the app is exposed as ``window.jupyterapp``),
 so the kernel side is checked too. Voila shows outputs only: everything is checked
@@ -33,8 +34,6 @@ from .harness import (
     set_slider,
     slider_readout,
     toggle_checkbox,
-    view_locator,
-    view_screenshot,
     wait_for_frames,
     wait_for_kernel,
     wait_for_view,
@@ -139,16 +138,14 @@ def test_browser_engine_in_front_end(server, webgpu_browser):
             toggle_checkbox(page, label, False)
         poll(lambda: (_visible(page) or (0,))[0] == N_BLADES, "every blade visible with culling off", 30, 0.3,
              page=page)
-        # a drag orbits: the picture changes (and the kernel's camera_state)
-        before = kernel_eval(page, "list(w.camera_state['position'])") if kernel else None
-        shot = _canvas_pixels(page)
+        # pointer input reaches the engine: shift + drag (below) moves the ball; in Notebook 7 a
+        # plain drag also orbits the kernel's camera_state (orbiting itself: test_browser_engine.py)
         canvas = page.locator("canvas.grasswidget-canvas").first
-        drag(page, canvas, 120, 0)
         if kernel:
+            before = kernel_eval(page, "list(w.camera_state['position'])")
+            drag(page, canvas, 120, 0)
             wait_for_kernel(page, "list(w.camera_state['position'])",
                             predicate=lambda p: np.abs(np.subtract(p, before)).max() > 0.5, timeout=20)
-        poll(lambda: (np.abs(_canvas_pixels(page).astype(int) - shot.astype(int)).max(axis=2) > 40).mean() > 0.05,
-             "the drag to change the view", 20, 0.3, page=page)
         # shift + drag: the ball switches on and follows the pointer (its x slider moves)
         x_before = slider_readout(page, "x")
         page.keyboard.down("Shift")
@@ -184,15 +181,11 @@ def test_fallback_in_front_end(server, browser):
         set_slider(page, "wind_strength", 21.5)
         if kernel:
             wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
-        click = page.locator("button.jupyter-button", has_text=re.compile(r"^\s*Pause\s*$"))
-        click.first.click()
+        # Pause reaches the kernel: its stream stops (in Voila the only way to see the kernel act)
+        page.locator("button.jupyter-button", has_text=re.compile(r"^\s*Pause\s*$")).first.click()
         wait_until_quiet(page, 0.8, timeout=30, index=0)
-        before = view_screenshot(page, 0)
-        drag(page, view_locator(page, 0), 100, 0)
-        wait_until_quiet(page, 0.8, timeout=30, index=0)
-        after = view_screenshot(page, 0)
-        changed = float((np.abs(after.astype(int) - before.astype(int)).max(axis=2) > 40).mean())
-        print(f"\n[{server.app}] fallback: kernel frames stream; a drag changed {changed:.0%} of the picture")
-        assert changed > 0.05
+        if kernel:
+            assert kernel_eval(page, "w.playing") is False
+        print(f"\n[{server.app}] fallback: kernel frames stream, the wind slider and Pause reach the kernel")
     finally:
         _leave(page, server)
