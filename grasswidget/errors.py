@@ -23,6 +23,7 @@ error                      also a                              raised for
 ``WidgetClosedError``      ``RuntimeError``                    using a closed widget
 ``UpstreamChangedError``   ``RuntimeError``                    a pygfx internal that compat.py relies on moved
 ``BrowserTimeoutError``    ``TimeoutError``                    the browser view did not answer in time
+``PageBuildError``         ``RuntimeError``                    a live page's controls could not be described (a bug)
 =========================  ==================================  ===============================================
 """
 
@@ -33,7 +34,7 @@ from traitlets import TraitError
 __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
-    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
+    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
 ]
 
 
@@ -127,3 +128,9 @@ class UpstreamChangedError(GrassError, RuntimeError):
 
 class BrowserTimeoutError(GrassError, TimeoutError):
     """The browser view did not answer a request in time."""
+
+
+class PageBuildError(GrassError, RuntimeError):
+    """The live page's controls could not be described as patches of the browser
+    engine's state (two controls touch the same state, or the ball's position does
+    not map affinely onto it): a bug in grasswidget, not bad input."""

@@ -553,6 +553,47 @@ class GrassWidget(ipw.VBox):
         self.view.save_png(path, size)
         return path
 
+    def save_html(self, path, still: bool = True, title: str = "grasswidget meadow") -> str:
+        """Write a live page: one self-contained HTML file that runs this meadow in any
+        browser with WebGPU, with no Python and no kernel. Returns the path.
+
+        The page carries the browser engine, the WGSL and the blades, and starts from
+        the current parameters, camera, ball and play state; it offers orbit, play /
+        pause, wind and culling controls, colour by and the ball (shift + drag). In a
+        browser without WebGPU it shows a still picture of the same view (rendered
+        now in the kernel engine; ``still=False`` leaves it out) and one line saying
+        WebGPU is needed. See :mod:`grasswidget.tools.html_export`.
+
+        Args:
+            path: file name ending in .html, in an existing folder.
+            still: render the still picture (about a second on a CPU adapter).
+            title: the page's title.
+
+        Raises GrassValueError for a name not ending in .html or more than
+        ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades, MissingFileError for a
+        missing folder.
+        """
+        from ..browser.page import check_page_blades, check_page_path
+        from ..tools.html_export import save_html
+
+        self._check_open()
+        check_page_path(path)
+        check_page_blades(self.blade_count)
+        if self.scene is not None:
+            blades = self.scene.field.blades
+            near, far = (float(x) for x in self.scene.camera.depth_range)
+        else:
+            blades = self.view.view.blades
+            near, far = float(self.view.view.camera.get("near", 0.1)), float(self.view.view.camera.get("far", 100.0))
+        cam = self.camera_state
+        camera = {"position": list(cam["position"]), "target": list(cam["target"]), "fov_deg": float(cam["fov_deg"]),
+                  "near": near, "far": far}
+        ball = self.ball
+        colliders = [ball.collider] if ball is not None and ball.enabled else []
+        return save_html(path, blades, self.params, size=self.size, camera=camera, colliders=colliders,
+                         ball_radius=float(ball.collider.radius) if ball is not None else None,
+                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title)
+
     def set_wind_wgsl(self, body: str, select: bool = True):
         """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
         in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
