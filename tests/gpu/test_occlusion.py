@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget import reference as ref
-from grasswidget import teaching
+from grasswidget.core import reference as ref
+from grasswidget.core import teaching
 from conftest import grass_mask
 
 SCENE = dict(preset="cis565", blades=6000, size=(160, 120), seed=3)
@@ -243,7 +243,7 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
 
 
 def test_stats_count_the_occluded_blades(scene):
-    from grasswidget.panel import CULL_CHECKBOXES, format_stats
+    from grasswidget.notebook.panel import CULL_CHECKBOXES, format_stats
 
     scene.field.reset()
     scene.reset_camera()
