@@ -254,16 +254,10 @@ class GrassEngine {
   }
 
   onKey(e) {
+    // Python decides what a key does (view_api.GrassView.on_key, shared with the kernel engine).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
-    if (e.key === " ") {
-      e.preventDefault();
-      this.model.set("playing", !this.model.get("playing"));
-      this.model.save_changes();
-    } else if (e.key === "s") {
-      this.model.send({ type: "key", key: "s" });
-    } else if (e.key === "r") {
-      this.model.send({ type: "key", key: "r" });
-    }
+    if (e.key === " ") e.preventDefault();  // not the page's scroll
+    this.model.send({ type: "key", key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
   }
 
   sendBall(e, phase) {
