@@ -1,4 +1,4 @@
-"""Every use of private or internal API of pygfx, wgpu, jupyter-rfb and rendercanvas.
+"""Every use of private or internal API of pygfx, wgpu, jupyter-rfb, rendercanvas, ipykernel and ipywidgets.
 
 Nothing else in grasswidget touches a name that starts with an underscore in
 another package, or an internal module of one. Each function below names what
@@ -44,10 +44,12 @@ __all__ = [
     "kernel_dispatch_comm",
     "kernel_requeue_shell",
     "timed_jupyter_canvas_class",
+    "widget_registry",
 ]
 
 #: The versions every use below was written and tested against.
-CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0"}
+CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0",
+           "ipywidgets": "8.1.9"}
 
 #: (package, what is used, why): the table ``tests/test_compat.py`` walks.
 PRIVATE_USES = (
@@ -78,6 +80,9 @@ PRIVATE_USES = (
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("ipywidgets", "widgets.widget._instances",
+     "the registry of open widgets (model id -> widget): not a holder when a re-run cell decides whether to close "
+     "its earlier widget (cell_rerun.holder_of)"),
     ("ipykernel", "Kernel._parent_ident",
      "the routing identity of the running cell's request, to hand deferred shell messages back (browser.kernel_pump)"),
     ("ipykernel", "Kernel.shell_channel_thread.manager.get_shell_channel_to_subshell_pair(None).to_socket",
@@ -343,3 +348,16 @@ def timed_jupyter_canvas_class():
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
 
     return TimedJupyterCanvas
+
+
+# ------------------------------------------------------------------ ipywidgets
+
+
+def widget_registry() -> dict:
+    """ipywidgets' registry of open widgets, {model_id: widget} (ipywidgets 8.1:
+    ``ipywidgets.widgets.widget._instances``; the public ``Widget.widgets`` that
+    returns it is deprecated). An empty dict when this ipywidgets has none."""
+    from ipywidgets.widgets import widget
+
+    registry = getattr(widget, "_instances", None)
+    return registry if isinstance(registry, dict) else {}

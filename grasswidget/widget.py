@@ -47,12 +47,12 @@ from __future__ import annotations
 
 import datetime
 import os
-import weakref
 
 import ipywidgets as ipw
 import numpy as np
 from traitlets import All, Bool
 
+from . import cell_rerun
 from .adaptive import check_target_fps
 from .blades import Blades
 from .errors import GrassTypeError, GrassValueError, WidgetClosedError
@@ -67,95 +67,6 @@ __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_IN
 BACKENDS = ("kernel", "browser", "auto")
 
 
-def _current_cell_id():
-    """The JupyterLab cell id of the running execute request, or None."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-        kernel = getattr(ip, "kernel", None)
-        parent = kernel.get_parent() if kernel is not None else None
-        return (parent or {}).get("metadata", {}).get("cellId")
-    except Exception:
-        return None
-
-
-#: cell id -> weak references to the GrassWidgets that cell created (never strong:
-#: the registry itself keeps no widget alive).
-_BY_CELL: dict = {}
-
-#: Names of IPython's own bookkeeping in the user namespace (output history etc.).
-_IPYTHON_NAMES = {"In", "Out", "exit", "quit", "get_ipython"}
-
-
-def _user_namespace():
-    """The IPython user namespace, or None outside IPython."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-        return ip.user_ns if ip is not None else None
-    except Exception:
-        return None
-
-
-def _after_cell(callback):
-    """Run ``callback`` once after the running IPython cell finishes (its assignments
-    done), or now outside IPython."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-    except Exception:
-        ip = None
-    if ip is None or not hasattr(ip, "events"):
-        callback()
-        return
-
-    def once(*_args):
-        try:
-            ip.events.unregister("post_run_cell", once)
-        finally:
-            callback()
-
-    ip.events.register("post_run_cell", once)
-
-
-def held_by_user(widget, namespace) -> bool:
-    """Whether a user variable refers to ``widget`` (directly, or in a list, tuple,
-    set or dict it holds). IPython's history names (``_``, ``Out``, ...) do not count."""
-    for name, value in list(namespace.items()):
-        if name.startswith("_") or name in _IPYTHON_NAMES:
-            continue
-        if value is widget:
-            return True
-        items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple, set)) else ()
-        if any(item is widget for item in items):
-            return True
-    return False
-
-
-def _adopt_for_cell(cell, widget):
-    """Remember ``widget`` as made by ``cell``; close the widgets an earlier run of that
-    cell made, once this run is over, unless the user still holds them in a variable."""
-    earlier = [ref for ref in _BY_CELL.get(cell, []) if ref() is not None and ref() is not widget]
-    _BY_CELL[cell] = [weakref.ref(widget)]
-
-    def close_unheld():
-        namespace = _user_namespace()
-        for ref in earlier:
-            old = ref()
-            if old is None or old.closed:
-                continue
-            if namespace is not None and held_by_user(old, namespace):
-                _BY_CELL.setdefault(cell, []).append(ref)  # still the cell's, still the user's
-                continue
-            old.close()
-
-    if earlier:
-        _after_cell(close_unheld)
-
-
 def _check_number(name, value, lo, hi, integer=False):
     kind = "an integer" if integer else "a number"
     types = (int, np.integer) if integer else (int, float, np.integer, np.floating)
@@ -167,10 +78,6 @@ def _check_number(name, value, lo, hi, integer=False):
 def _panel_property(name):
     return property(lambda self: getattr(self.panel, name) if self.panel is not None else None,
                     doc=f"The control panel's ``{name}`` (see :class:`grasswidget.panel.ControlPanel`).")
-
-
-def _view_property(name, doc):
-    return property(lambda self: getattr(self.view, name) if self.view is not None else None, doc=doc)
 
 
 class GrassWidget(ipw.VBox):
@@ -232,9 +139,12 @@ class GrassWidget(ipw.VBox):
     panel = None
     ball = None
 
-    scene = _view_property("scene", "The :class:`GrassScene` drawn by the view (None after close).")
-    canvas = _view_property("canvas", "The jupyter-rfb canvas widget.")
-    controller = _view_property("controller", "The pygfx ``OrbitController`` of the camera.")
+    scene = property(lambda self: self.view.scene if self.view is not None else None,
+                     doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
+    canvas = property(lambda self: self.view.canvas if self.view is not None else None,
+                      doc="The kernel engine's jupyter-rfb canvas widget (None in the browser engine).")
+    controller = property(lambda self: self.view.controller if self.view is not None else None,
+                          doc="The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine).")
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
     blade_slider = _panel_property("blade_slider")
@@ -329,10 +239,11 @@ class GrassWidget(ipw.VBox):
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
         # sends the cell id with each execution), so its GPU buffers are freed; one
-        # the user still holds in a variable stays open.
-        cell = _current_cell_id()
+        # that something still holds (a variable, a list, an attribute, a closure,
+        # another widget) stays open (see grasswidget.cell_rerun).
+        cell = cell_rerun.current_cell_id()
         if cell:
-            _adopt_for_cell(cell, self)
+            cell_rerun.adopt_for_cell(cell, self)
 
     # ------------------------------------------------------------------ building
 
@@ -608,6 +519,16 @@ class GrassWidget(ipw.VBox):
             return save_animation(scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
         finally:
             scene.release()
+
+    def parts(self) -> tuple:
+        """The objects this widget is made of and owns: its view, the view's widget,
+        scene and camera controller, the control panel and the ball (those that exist).
+        Something holding one of them holds the widget (see :mod:`grasswidget.cell_rerun`)."""
+        view = self.view
+        found = (view, self.panel, self.ball)
+        if view is not None:
+            found += (view.widget, view.scene, view.controller, view.canvas)
+        return tuple(p for p in found if p is not None)
 
     @property
     def closed(self) -> bool:
