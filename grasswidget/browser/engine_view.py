@@ -1,25 +1,26 @@
-"""The browser engine's view for GrassWidget: a :class:`~grasswidget.view_api.GrassView`.
+"""The browser engine's view for GrassWidget: a :class:`~grasswidget.core.view_api.GrassView`.
 
 :class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.view.BrowserView`
 (the anywidget that simulates and draws in the browser) so that
 :class:`grasswidget.GrassWidget` drives it through the same interface as the
-kernel view (:mod:`grasswidget.view_api`): ``set_playing``, ``step``,
+kernel view (:mod:`grasswidget.core.view_api`): ``set_playing``, ``step``,
 ``reset_blades``, ``reset_camera``, ``save_png``, ``stats``, ``camera_state``,
 the keys, the ball (shift + drag, Roll).
 
 Not here yet: freeze culling and the blade inspector. :meth:`BrowserEngineView.inspect`
 and :meth:`BrowserEngineView.set_culling_frozen` raise
-:class:`~grasswidget.view_api.FeatureNotAvailableError` (the widget shows it on
+:class:`~grasswidget.core.view_api.FeatureNotAvailableError` (the widget shows it on
 its message line); adding them to the browser engine means filling in those two
 methods (and ``inspected``).
 
 Differences, by design:
 
-* Time: the browser plays by the wall clock in whole fixed steps of
-  ``params.dt`` (``time_scale`` simulated seconds per real second; the rest of
-  a step carries over to the next frame), so the kernel's "steps per frame" is
-  an average here. Below 15 frames/s a frame advances at most 1/15 s of
-  simulated time: slow motion rather than ever more steps per frame.
+* Time: the browser plays by the wall clock with the kernel's clock rules
+  (:func:`grasswidget.core.frame_data.clock_rules`, executed by engine.js as
+  :class:`grasswidget.notebook.clock.SimClock` does): whole fixed steps of ``params.dt``,
+  at most ``MAX_STEPS_PER_FRAME`` a frame, the rest dropped (slow motion). The
+  kernel's "steps per frame" is an average of the browser's frames here.
+* One engine per widget: displayed twice, both views show the same meadow.
 * The rolling ball: the browser reports the steps it simulated about every
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
@@ -31,9 +32,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..blades import Blades
-from ..colliders import ColliderList
-from ..view_api import FeatureNotAvailableError, GrassView
+from ..core.blades import Blades
+from ..core.colliders import ColliderList
+from ..core.view_api import FeatureNotAvailableError, GrassView
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -61,7 +62,7 @@ class _BallScene:
 class BrowserEngineView(GrassView):
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
-    Args: as :class:`~grasswidget.kernel_view.KernelView` (blades, size, params,
+    Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
     preset, clock, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
     ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
@@ -74,7 +75,7 @@ class BrowserEngineView(GrassView):
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
                  on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0):
-        from ..framing import preset_field
+        from ..core.framing import preset_field
 
         super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pygfx as gfx
 
-from ..enums import BladeShape
+from ..core.enums import BladeShape
 from ..errors import GrassValueError
 
 __all__ = ["GrassMaterial"]
