@@ -23,6 +23,7 @@ error                      also a                              raised for
 ``WidgetClosedError``      ``RuntimeError``                    using a closed widget
 ``UpstreamChangedError``   ``RuntimeError``                    a pygfx internal that compat.py relies on moved
 ``BrowserTimeoutError``    ``TimeoutError``                    the browser view did not answer in time
+``FeatureNotAvailableError`` ``NotImplementedError``           a feature one engine does not have (yet)
 =========================  ==================================  ===============================================
 """
 
@@ -34,6 +35,7 @@ __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
+    "FeatureNotAvailableError",
 ]
 
 
@@ -127,3 +129,15 @@ class UpstreamChangedError(GrassError, RuntimeError):
 
 class BrowserTimeoutError(GrassError, TimeoutError):
     """The browser view did not answer a request in time."""
+
+
+class FeatureNotAvailableError(GrassError, NotImplementedError):
+    """A view of one engine does not have this feature (yet), e.g. the blade inspector in
+    the browser engine. ``feature`` names it for people ("the blade inspector") and
+    ``backend`` is the engine ("browser"); the message says both. GrassWidget shows it on
+    its message line instead of raising."""
+
+    def __init__(self, feature: str, backend: str):
+        super().__init__(f"{feature} is not available in the {backend} engine yet")
+        self.feature = feature
+        self.backend = backend

@@ -38,7 +38,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import GrassError, GrassTypeError, GrassValueError
+from ..errors import FeatureNotAvailableError, GrassTypeError, GrassValueError
 from .frame_data import MAX_STEPS_PER_FRAME
 
 __all__ = ["GrassView", "ViewClock", "ViewActions", "FeatureNotAvailableError", "check_camera_state",
@@ -48,19 +48,6 @@ __all__ = ["GrassView", "ViewClock", "ViewActions", "FeatureNotAvailableError", 
 CAMERA_KEYS = ("position", "target", "fov_deg")
 #: The vertical field of view a camera may have, degrees (inclusive).
 FOV_RANGE_DEG = (1.0, 179.0)
-
-
-class FeatureNotAvailableError(GrassError, NotImplementedError):
-    """A view of one engine does not have this feature (yet).
-
-    ``feature`` names it for people ("the blade inspector") and ``backend`` is
-    the engine ("browser"); the message says both.
-    """
-
-    def __init__(self, feature: str, backend: str):
-        super().__init__(f"{feature} is not available in the {backend} engine yet")
-        self.feature = feature
-        self.backend = backend
 
 
 class ViewClock(Protocol):
