@@ -40,6 +40,16 @@ class FrozenCamera:
         self.view_proj = proj @ np.asarray(camera.world.inverse_matrix, np.float64)
         self.position = np.array(camera.world.position, np.float64)
         self.viewport_size = (float(w), float(h))
+        #: A pygfx camera with the same pose and projection (renders the frozen view,
+        #: e.g. to capture what it hides for occlusion culling); None if it cannot be copied.
+        self.camera = None
+        try:
+            clone = type(camera)()
+            clone.set_state(camera.get_state())
+            clone.local.matrix = camera.world.matrix
+            self.camera = clone
+        except Exception:
+            pass
 
     def segments(self, to_local=None) -> np.ndarray:
         """(24, 3) float32 end points of the 12 frustum edges; in world space, or
