@@ -6,8 +6,7 @@ lavapipe compiled (and kept) a new shader variant on every pipeline bind. Since
 ``u_cull`` is a read-only storage buffer the growth is gone. These tests render
 and step a field, and run the widget's own draw loop (draw, present, JPEG frame
 sent) without a browser, and bound the growth of the process's resident memory
-after a warm-up: before the fix it grew 170-290 MB over these loops (300 and
-200 frames), now 0-2 MB.
+after a warm-up: before the fix they grew 170-290 MB (over 200-300 frames), now 0-2 MB.
 """
 
 from __future__ import annotations
