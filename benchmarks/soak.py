@@ -162,7 +162,7 @@ def summarize(samples, minutes) -> dict:
     early = sum(rates[third:2 * third]) / max(1, len(rates[third:2 * third])) if len(rates) >= 3 else None
     late = sum(rates[-third:]) / third if rates else None
     ratio = (late / early) if early and late is not None else None
-    browser_pss = [sum(r["pss_mb"] for r in s["chromium"].values()) for s in after]
+    browser_pss = [round(sum(r["pss_mb"] for r in s["chromium"].values()), 1) for s in after]
     return {
         "minutes": minutes,
         "kernel_rss_first_mb": samples[0]["kernel_rss_mb"],
@@ -192,6 +192,9 @@ def main(argv=None):
     ap.add_argument("--interval", type=float, default=30.0, help="seconds between samples (default 30)")
     ap.add_argument("--action-every", type=float, default=5.0, help="seconds between interactions (default 5)")
     ap.add_argument("--blades", type=int, default=8192, help="blade count of the widget (default 8192)")
+    ap.add_argument("--blade-changes", action=argparse.BooleanOptionalAction, default=True,
+                    help="every fourth action changes the blade count (default on; --no-blade-changes: "
+                         "that action moves the gravity slider instead)")
     ap.add_argument("--out", default=None, help="JSON file (default benchmarks/soak_<engine>_<adapter>.json)")
     args = ap.parse_args(argv)
     for name in ("minutes", "interval", "action_every"):
@@ -235,6 +238,8 @@ def main(argv=None):
                 set_slider(page, "wind_strength", [3.0, 8.0, 12.5][k % 3])
             elif which == 2:
                 set_slider(page, "stiffness_scale", [0.8, 1.0, 1.6][k % 3])
+            elif not args.blade_changes:
+                set_slider(page, "gravity", [9.8, 6.0, 14.0][k % 3])
             else:  # a blade-count change, every fourth action
                 count = counts[(k // 4) % 2]
                 set_slider(page, "blades", count)
@@ -249,7 +254,7 @@ def main(argv=None):
                 "t_s": round(now - t0, 1),
                 "kernel_rss_mb": round(resident_mb(kernel_pid), 1),
                 "frames": frames - frames_before,
-                "frames_per_s": round((frames - frames_before) / max(now - t_before, 1e-9), 2),
+                "frames_per_s": round((frames - frames_before) / (now - t_before), 2) if now - t_before > 1.0 else None,
                 "frames_since_start": frames - frames0,
                 "blades": kernel_eval(page, "w.blade_count"),
                 "render_scale": kernel_eval(page, "w.stats.get('scale')"),
@@ -262,7 +267,7 @@ def main(argv=None):
             }
             total = sum(r["pss_mb"] for r in row["chromium"].values())
             gpu = row["chromium"].get("gpu-process", {}).get("pss_mb")
-            print(f"t={row['t_s']:6.1f}s kernel {row['kernel_rss_mb']:7.1f} MB | {row['frames_per_s']:5.2f} frames/s "
+            print(f"t={row['t_s']:6.1f}s kernel {row['kernel_rss_mb']:7.1f} MB | {row['frames_per_s']} frames/s "
                   f"({row['blades']} blades) | chromium PSS {total:7.1f} MB (gpu {gpu}) | JS heap "
                   f"{row['js_heap_used_mb']} MB | load {row['load_avg_1min']}", flush=True)
             return row, frames, now
@@ -308,8 +313,9 @@ def main(argv=None):
                     "note": "shared with other engineers' test runs: load_avg_1min in each sample"},
         "interval_s": args.interval,
         "action_every_s": args.action_every,
-        "interaction": "drag, wind_strength slider, stiffness_scale slider, blades slider "
-                       f"({counts[0]} <-> {counts[1]}) in turn; sphere rolling throughout",
+        "interaction": "drag, wind_strength slider, stiffness_scale slider, "
+                       + (f"blades slider ({counts[0]} <-> {counts[1]})" if args.blade_changes else "gravity slider")
+                       + " in turn; sphere rolling throughout",
         "summary": summarize(samples, args.minutes),
         "error": error,
         "samples": samples,
