@@ -1,4 +1,4 @@
-"""Issue 12 item 5: ``gw.GrassError`` is the root of every error grasswidget raises on purpose.
+"""``gw.GrassError`` is the root of every error grasswidget raises on purpose.
 
 Two checks: the package's source never raises a bare built-in exception class (or
 traitlets' TraitError) -- every ``raise`` names one of :mod:`grasswidget.errors`,

@@ -52,14 +52,12 @@ import numpy as np
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.blades import Blades
-from .clock import SimClock
+from .clock import MAX_STEPS_PER_FRAME, SimClock
 from ..errors import GrassValueError
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
 
-#: At most this many fixed steps are simulated per drawn frame.
-MAX_STEPS_PER_FRAME = 64
 #: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
 CPU_MAX_BLADES = 1 << 18
 #: Largest blade count the slider offers on a GPU.
