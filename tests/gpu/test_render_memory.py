@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -28,6 +29,26 @@ def resident_mb() -> float:
     """This process's resident memory (MB), from /proc/self/statm."""
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def run_in_own_loop(coroutine_function):
+    """Run ``coroutine_function()`` to completion in a new event loop on a worker thread
+    (this thread may already run one: Playwright's sync API, used by other tests, leaves
+    its loop running) and return its result; the calling thread waits."""
+    outcome = {}
+
+    def target():
+        try:
+            outcome["value"] = asyncio.run(coroutine_function())
+        except BaseException as exc:  # re-raised in the calling thread
+            outcome["error"] = exc
+
+    worker = threading.Thread(target=target, name="widget-draw-loop")
+    worker.start()
+    worker.join()
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["value"]
 
 
 pytestmark = pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc/self/statm (Linux)")
@@ -113,7 +134,7 @@ def test_widget_draw_loop_keeps_memory_flat(widget):
         await run(200, 40)
         return resident_mb() - before, steps, center
 
-    growth, steps, center = asyncio.run(soak())
+    growth, steps, center = run_in_own_loop(soak)
     assert len(sent) == 240 and sent[-1][2] == 4 and min(sent[-1][:2]) > 0  # RGBA frames (size: adaptive)
     assert widget.scene.field.step_count > steps  # it played
     assert tuple(widget.ball.collider.center) != center  # the ball rolled
