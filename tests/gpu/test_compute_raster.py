@@ -20,6 +20,7 @@ SIZE = (192, 108)
 @pytest.fixture(scope="module")
 def meadow():
     sc = gw.GrassScene.preset("meadow", blades=1 << 14, size=SIZE, seed=2)
+    sc.params.compute_raster = True  # GrassScene's default is off on a CPU adapter (lavapipe here)
     yield sc
     sc.release()
 
