@@ -19,6 +19,11 @@ Differences, by design:
   and sends the new position (the ball lags the grass by that interval).
 * ``fps`` is frames presented per second in the browser and ``visible`` the
   browser's indirect-draw instance counts, read back asynchronously.
+* Teaching views: freeze culling copies the browser's camera (its matrices
+  computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
+  browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
+  message (one small request while blades are inspected); ctrl + click inspects
+  the blade whose rest pose is nearest the pointer's ray.
 """
 
 from __future__ import annotations
@@ -58,11 +63,12 @@ class BrowserEngineView:
     Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
     preset, clock, actions, on_error, on_stats), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
-    and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2).
+    and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2),
+    and ``on_inspect(blades)`` (the inspected blades' numbers, as KernelView reports them).
     """
 
     backend = "browser"
-    #: The colour-by views (params.color_by "lod" and "cull") work here; freeze culling and the inspector do not.
+    #: The teaching views work here: colour by (LOD, cull), freeze culling, the blade inspector.
     teaching_views = True
     scene = None        # no kernel scene: the browser holds the state
     canvas = None
@@ -70,7 +76,7 @@ class BrowserEngineView:
     events = None
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
-                 on_unavailable, pixel_ratio=None):
+                 on_unavailable, pixel_ratio=None, on_inspect=None):
         from ..core.framing import preset_field
 
         self.size = tuple(size)
@@ -80,6 +86,8 @@ class BrowserEngineView:
         self._on_error = on_error
         self._on_stats = on_stats
         self._on_unavailable = on_unavailable
+        self._on_inspect = on_inspect
+        self._inspect_request_pending = False
         self._closed = False
         self._unavailable_sent = False
         self.ball = None
@@ -104,6 +112,7 @@ class BrowserEngineView:
         self.view.on("ball", self._on_ball_msg)
         self.view.on("key", self._on_key_msg)
         self.view.on("steps", self._on_steps_msg)
+        self.view.on("pick", self._on_pick_msg)
         self.view.observe(self._on_gpu_status, names="gpu_status")
         self.view.observe(self._on_browser_playing, names="playing")
 
@@ -174,6 +183,18 @@ class BrowserEngineView:
         except Exception as err:  # noqa: BLE001 - a user path that raises stops the rolling
             ball.rolling = False
             self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+
+    def _on_pick_msg(self, msg):
+        """Ctrl + click in the browser: inspect the blade on the pointer's ray (none: nothing)."""
+        from ..core.teaching import pick_blade_on_ray
+
+        b = self.view.blades
+        try:
+            blade = pick_blade_on_ray(b.v0, b.up, b.height, b.width, msg["origin"], msg["direction"])
+            if blade is not None:
+                self._actions.inspect([blade])
+        except Exception as err:  # noqa: BLE001 - never raise into the comm handler
+            self._on_error(err)
 
     def _on_key_msg(self, msg):
         key = msg.get("key")
@@ -284,6 +305,58 @@ class BrowserEngineView:
         state.pop("step_count", None)
         return state
 
+    # ------------------------------------------------------------------ teaching views
+
+    def set_culling_frozen(self, frozen: bool):
+        """Freeze culling at the browser's current camera (True) or cull against it again (False)."""
+        if frozen:
+            self.view.freeze_culling()
+        else:
+            self.view.unfreeze_culling()
+
+    @property
+    def frozen_camera(self):
+        """The :class:`~grasswidget.core.teaching.FrozenView` culled against, or None."""
+        return self.view.frozen_camera
+
+    def inspect(self, ids):
+        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        self.view.inspect(ids)
+        if not self.view.inspected:
+            self._report_inspected([])
+        else:
+            self._request_inspected()
+
+    @property
+    def inspected(self) -> tuple:
+        return tuple(self.view.inspected)
+
+    def read_inspected(self, timeout=None) -> list:
+        """The inspected blades' numbers (GrassScene.read_inspected's format), from the browser."""
+        return self.view.read_inspected() if timeout is None else self.view.read_inspected(timeout=timeout)
+
+    def _report_inspected(self, rows):
+        if self._on_inspect is not None:
+            self._on_inspect(rows)
+
+    def _request_inspected(self):
+        """Ask the browser for the inspected numbers; the panel shows them when they come."""
+        if self._on_inspect is None or self._inspect_request_pending or self._closed:
+            return
+        ids = list(self.view.inspected)
+
+        def done(msg, buffers):
+            self._inspect_request_pending = False
+            try:
+                if msg.get("type") != "inspected":
+                    return
+                self._report_inspected(self.view.inspected_from_answer(msg, buffers, ids))
+            except Exception as err:  # noqa: BLE001
+                self._on_error(err)
+
+        self._inspect_request_pending = True
+        self.view.request_async({"type": "read_inspected"}, done)
+
     # ------------------------------------------------------------------ stats
 
     @property
@@ -315,6 +388,8 @@ class BrowserEngineView:
             step_count=msg.get("step_count"),
         )
         self._on_stats(self.current_stats())
+        if self.view.inspected:
+            self._request_inspected()
 
     # ------------------------------------------------------------------ keys, closing
 

@@ -25,7 +25,8 @@ from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
-from .frozen_camera import FrozenCamera
+from ..core.teaching import FrozenView
+from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
 from .simulation import Simulation
 
@@ -278,10 +279,11 @@ class GrassField(gfx.WorldObject):
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
         Freezing again replaces the copy. ``camera`` may also be a
-        :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
-        :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
+        :class:`~grasswidget.core.teaching.FrozenView` (e.g. another field's
+        :attr:`frozen_camera`, or the browser engine's frozen camera; no viewport_size
+        then). See :meth:`unfreeze_culling`.
         """
-        if isinstance(camera, FrozenCamera):
+        if isinstance(camera, FrozenView):
             frozen = camera
         elif viewport_size is None:
             raise GrassValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
@@ -291,7 +293,7 @@ class GrassField(gfx.WorldObject):
         if self.frustum_lines is not None:
             self.remove(self.frustum_lines)
         self._frozen_camera = frozen
-        self.frustum_lines = frozen.make_lines(to_local)
+        self.frustum_lines = frustum_line(frozen, to_local)
         self.add(self.frustum_lines)
         self._write_cull_uniform()
 

@@ -305,7 +305,7 @@ class GrassWidget(ipw.VBox):
                 self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                               on_unavailable=self._on_browser_unavailable,
-                                              pixel_ratio=pixel_ratio)
+                                              pixel_ratio=pixel_ratio, on_inspect=self._show_inspected)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
@@ -531,6 +531,18 @@ class GrassWidget(ipw.VBox):
     def inspected(self) -> tuple:
         """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
         return tuple(getattr(self.view, "inspected", ()))
+
+    def read_inspected(self, timeout: float = 30.0) -> list:
+        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them:
+        one dict per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times
+        ``params.stiffness_scale``), ``v0``, ``v1``, ``v2`` and the forces on v2 of the
+        next step (gravity, recovery, wind in m/s^2; collision: the push of one step in m),
+        for the current state and parameters; ``[]`` when none is inspected.
+
+        In browser mode the browser computes them (the same inspect.wgsl) and this waits for
+        its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
+        self._check_open()
+        return self.view.read_inspected(timeout=timeout)
 
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
