@@ -337,14 +337,10 @@ class GrassView {
   }
 
   onKey(e) {
+    // Python decides what a key does (view_api.GrassView.on_key, shared with the kernel engine).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
-    if (e.key === " ") {
-      e.preventDefault();
-      this.model.set("playing", !this.model.get("playing"));
-      this.model.save_changes();
-    } else if (e.key === "s" || e.key === "r") {
-      this.engine.report("key", "", { key: e.key });
-    }
+    if (e.key === " ") e.preventDefault();  // not the page's scroll
+    this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
   }
 
   // Ctrl + click: Python picks the blade on this ray and inspects it.

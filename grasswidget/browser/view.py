@@ -93,7 +93,10 @@ class BrowserView(anywidget.AnyWidget):
     "detail"}), ``camera`` (both ways), ``playing``, ``time_scale``.
     """
 
-    _esm = HERE / "engine.js"
+    # The module's text, not its path: anywidget 0.11 connects every instance of a
+    # widget whose _esm is a file path to that file's class-wide change signal with a
+    # strong closure, which keeps every BrowserView (and its GrassWidget) alive forever.
+    _esm = (HERE / "engine.js").read_text(encoding="utf-8")
 
     # ---- state sent to the browser
     #: One engine per widget in the page, however many times it is displayed (engine.js keys it by this).

@@ -4,7 +4,8 @@ No GPU import. The GPU side lives in :mod:`grasswidget.gpu.frozen_camera` and
 :mod:`grasswidget.gpu.inspector`; ``params.color_by`` picks the colouring.
 
 - ``CULL_COLORS``: for ``color_by = "cull"``, the flat colour of a blade culled by
-  each test (keys in the order the tests run: orientation, frustum, distance).
+  each test (keys in the order the tests run: orientation, frustum, distance,
+  occlusion: hidden behind nearer grass, the ground or anything opaque).
   None of them is green, so they stand out against the kept (natural) grass.
 - ``LOD_COLORS``: for ``color_by = "lod"``, one flat colour per level-of-detail
   class, nearest (most segments, ``reference.LOD_SEGMENTS[0]``) first.
@@ -43,8 +44,8 @@ __all__ = [
     "pick_blade_on_ray",
 ]
 
-#: sRGB colour of a blade culled by each test (color_by "cull"): magenta, amber, blue.
-CULL_COLORS = {"orientation": "#e6007e", "frustum": "#ff9900", "distance": "#2f4bff"}
+#: sRGB colour of a blade culled by each test (color_by "cull"): magenta, amber, blue, cyan.
+CULL_COLORS = {"orientation": "#e6007e", "frustum": "#ff9900", "distance": "#2f4bff", "occlusion": "#00e5ff"}
 #: sRGB colour of each level-of-detail class (color_by "lod"), nearest first:
 #: yellow (8 segments), orange (4), red-pink (2), purple (1).
 LOD_COLORS = ["#ffe119", "#f58231", "#d6336c", "#7b00b4"]
@@ -161,6 +162,8 @@ class FrozenView:
         self.view_proj = np.array(view_proj, np.float64).reshape(4, 4)
         self.position = np.array(position, np.float64).reshape(3)
         self.viewport_size = (float(w), float(h))
+        #: A renderer's camera of the same view (the kernel engine's pygfx copy), or None.
+        self.camera = None
 
     def segments(self, to_local=None) -> np.ndarray:
         """(24, 3) float32 end points of the 12 frustum edges; in world space, or

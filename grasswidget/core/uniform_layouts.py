@@ -69,6 +69,7 @@ CULL_LAYOUT = (
     ("color_by", "i32"),                  # enums.ColorBy
     ("frozen", "i32"),                    # 0/1
     ("frozen_viewport_height", "f32"),    # frozen camera viewport height (pixels)
+    ("occlusion_phase", "i32"),           # 1: this render is occlusion culling's first phase (cull.wgsl), else 0
 )
 
 #: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it).

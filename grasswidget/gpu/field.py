@@ -28,7 +28,9 @@ from .compute import destroy_buffers, sync_buffer
 from ..core.teaching import FrozenView
 from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
+from .occlusion import OcclusionCulling
 from .simulation import Simulation
+from .wgsl import WORKGROUP, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
@@ -131,6 +133,18 @@ class GrassField(gfx.WorldObject):
             nbytes=16, nitems=4, format="u4", usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC
         )
         self._store.culled_buffer = gfx.Buffer(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        # Occlusion culling: one bit per blade "seen last frame" (whole workgroups of
+        # words), and the second phase's draw args + occluded count (see cull.wgsl).
+        # All seen at first: the first frame draws everything the other tests keep in
+        # its first phase, and culling frozen before any frame hides nothing.
+        words = workgroups(n)[0] * workgroups(n)[1] * (WORKGROUP // 32)
+        self._store.occlusion_flags_buffer = gfx.Buffer(
+            np.full(words, 0xFFFFFFFF, np.uint32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+        )
+        self._store.occlusion_args_buffer = gfx.Buffer(
+            nbytes=16 * (N_CLASSES + 1), nitems=4 * (N_CLASSES + 1), format="u4",
+            usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC,
+        )
         self._store.flat_colors = self.params.color_by != "natural"
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
@@ -153,6 +167,8 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
         self.stats = None
+        #: Occlusion culling's pyramid, second phase and draws (see :mod:`grasswidget.gpu.occlusion`).
+        self.occlusion = OcclusionCulling(self)
         self._write_cull_uniform()
         self.params.observe(self._on_params_change)
 
@@ -188,6 +204,18 @@ class GrassField(gfx.WorldObject):
         """pygfx Buffer of (vertex_count, instance_count, 0, 0) u32: the draw of the
         culled blades (instances only with ``params.color_by == "cull"``)."""
         return self._store.culled_args_buffer
+
+    @property
+    def occlusion_flags_buffer(self):
+        """pygfx Buffer of u32: bit i of word i // 32 is 1 when blade i passed every
+        culling test, occlusion included, in the last frame with occlusion culling."""
+        return self._store.occlusion_flags_buffer
+
+    @property
+    def occlusion_args_buffer(self):
+        """pygfx Buffer of u32: the second occlusion phase's (vertex_count,
+        instance_count, 0, 0) per LOD class, then (occluded blades, 0, 0, 0)."""
+        return self._store.occlusion_args_buffer
 
     @property
     def flat_colors(self) -> bool:
@@ -278,7 +306,11 @@ class GrassField(gfx.WorldObject):
         renders; also the pixel scale of the LOD classes). Any camera may then
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
-        Freezing again replaces the copy. ``camera`` may also be a
+        Freezing again replaces the copy. Occlusion culling freezes too: the next
+        :func:`~grasswidget.gpu.occlusion.render_frame` first renders the frozen view
+        once (same target) to find the blades it hides; those stay culled (and the
+        ones it sees stay kept) until unfrozen (a frozen view without a pygfx camera,
+        e.g. the browser engine's, freezes no occlusion). ``camera`` may also be a
         :class:`~grasswidget.core.teaching.FrozenView` (e.g. another field's
         :attr:`frozen_camera`, or the browser engine's frozen camera; no viewport_size
         then). See :meth:`unfreeze_culling`.
@@ -296,6 +328,8 @@ class GrassField(gfx.WorldObject):
         self.frustum_lines = frustum_line(frozen, to_local)
         self.add(self.frustum_lines)
         self._write_cull_uniform()
+        # Occlusion freezes too: the next render_frame first captures what the frozen view hides.
+        self.occlusion.capture_camera = frozen.camera
 
     def unfreeze_culling(self):
         """Cull against the camera of each render again (and remove the frustum lines)."""
@@ -303,6 +337,7 @@ class GrassField(gfx.WorldObject):
             self.remove(self.frustum_lines)
         self.frustum_lines = None
         self._frozen_camera = None
+        self.occlusion.capture_camera = None
         self._write_cull_uniform()
 
     # ------------------------------------------------------------------ inspector
@@ -396,8 +431,10 @@ class GrassField(gfx.WorldObject):
         if self.inspector is not None:
             self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
-                 "culled_args_buffer", "culled_buffer", "band_buffer")
+                 "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
+                 "occlusion_args_buffer")
         destroy_buffers([self._store[name] for name in names])
+        self.occlusion.release()
         self.simulation.release()
 
     def enable_stats(self):
@@ -443,23 +480,44 @@ class GrassField(gfx.WorldObject):
             sync_buffer(self.collision_buffer)
 
     def read_draw_args(self) -> np.ndarray:
-        """(LOD classes, 4) u32 draw arguments of the last render (synchronous)."""
+        """(LOD classes, 4) u32 draw arguments of the last render (synchronous); with
+        occlusion culling the instance counts of both phases added."""
+        first, second, _ = self._read_phase_args()
+        first[:, 1] += second[:, 1]
+        return first
+
+    def _read_phase_args(self):
         device = ensure_device()
-        raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
-        return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
+        first = np.frombuffer(device.queue.read_buffer(sync_buffer(self.args_buffer)), np.uint32)
+        raw = np.frombuffer(device.queue.read_buffer(sync_buffer(self.occlusion_args_buffer)), np.uint32)
+        second = raw.reshape(N_CLASSES + 1, 4)
+        return first.reshape(N_CLASSES, 4).copy(), second[:N_CLASSES].copy(), int(second[N_CLASSES, 0])
+
+    def read_occluded_count(self) -> int:
+        """Blades culled by occlusion in the last render (0 without occlusion culling; synchronous)."""
+        return self._read_phase_args()[2]
 
     def read_visible(self, draw_order: bool = False):
         """Ids of the blades drawn by the last render (synchronous): sorted, or with
-        ``draw_order=True`` a list per LOD class in the order they were drawn."""
+        ``draw_order=True`` a list per LOD class in the order they were drawn (with
+        occlusion culling: the first phase's, then the second's)."""
         device = ensure_device()
-        args = self.read_draw_args()
+        first, second, _ = self._read_phase_args()
         visible = compat.gpu_buffer(self.visible_buffer)
         if visible is None:
             return [np.zeros(0, np.uint32)] * N_CLASSES if draw_order else np.zeros(0, np.uint32)
         raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
-        lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
+        n = self.count
+        lists = [np.concatenate([ids[k, : first[k, 1]], ids[k, n - second[k, 1]:][::-1]]) for k in range(N_CLASSES)]
         return lists if draw_order else np.sort(np.concatenate(lists))
+
+    def read_seen(self) -> np.ndarray:
+        """bool (N,): the blades that passed every culling test, occlusion included, in
+        the last frame with occlusion culling (what the next first phase draws; synchronous)."""
+        raw = np.frombuffer(ensure_device().queue.read_buffer(sync_buffer(self.occlusion_flags_buffer)), np.uint32)
+        bits = np.unpackbits(raw.view(np.uint8), bitorder="little").astype(bool)
+        return bits[: self.count]
 
 
 from . import shaders  # noqa: E402,F401  (registers the render function of (GrassField, GrassMaterial))

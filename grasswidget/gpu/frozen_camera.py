@@ -46,6 +46,16 @@ class FrozenCamera(FrozenView):
         # The same product the render shaders use: projection_transform * cam_transform.
         proj = np.asarray(camera.projection_matrix, np.float64)
         super().__init__(proj @ np.asarray(camera.world.inverse_matrix, np.float64), camera.world.position, (w, h))
+        #: A pygfx camera with the same pose and projection (renders the frozen view,
+        #: e.g. to capture what it hides for occlusion culling); None if it cannot be copied.
+        self.camera = None
+        try:
+            clone = type(camera)()
+            clone.set_state(camera.get_state())
+            clone.local.matrix = camera.world.matrix
+            self.camera = clone
+        except Exception:
+            pass
 
     def make_lines(self, to_local=None, thickness=2.0) -> gfx.Line:
         """A pygfx Line (segments) tracing the frozen view volume."""

@@ -18,6 +18,7 @@ from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
+from .occlusion import render_frame
 from ..core.frame_data import ground_square
 from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
@@ -88,8 +89,11 @@ class GrassScene:
         self.ground = GroundSwitch(self.sky_ground.material)
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
+        # Colliders live in the field's local space: the balls follow the field's transform
+        # (ColliderBalls.sync). A direct child of the scene, drawn after the occlusion
+        # culling's second phase (render_frame's late objects: translucent, no depth).
         self.collider_balls = ColliderBalls(self.field)
-        self.field.add(self.collider_balls)  # colliders live in the field's local space
+        self.scene.add(self.collider_balls)
         self.scene.add(gfx.AmbientLight(intensity=0.6))
         sun = gfx.DirectionalLight(intensity=2.0)
         sun.local.position = (4, 10, 3)
@@ -266,9 +270,15 @@ class GrassScene:
         """Render one frame into the scene's canvas (its draw function); feeds ``stats``.
         Never advances time."""
         t0 = time.perf_counter()
-        self.collider_balls.sync()
-        self.renderer.render(self.scene, self.camera)
+        self.draw_into(self.renderer)
         self.stats.after_render((time.perf_counter() - t0) * 1000.0)
+
+    def draw_into(self, renderer):
+        """Render the scene with its camera through ``renderer`` (any pygfx WgpuRenderer:
+        the scene's own, an offscreen one), occlusion culling included
+        (:func:`grasswidget.gpu.occlusion.render_frame`). Never advances time."""
+        self.collider_balls.sync()
+        render_frame(renderer, self.scene, self.camera, late=[self.collider_balls])
 
     def render(self) -> np.ndarray:
         """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""
@@ -283,8 +293,7 @@ class GrassScene:
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
         renderer = make_renderer(canvas)
         aspect = self.camera.aspect
-        self.collider_balls.sync()
-        canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
+        canvas.request_draw(lambda: self.draw_into(renderer))
         try:
             return np.asarray(canvas.draw())
         finally:

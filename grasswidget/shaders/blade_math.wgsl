@@ -297,6 +297,51 @@ fn projected_pixels(v0: vec3<f32>, v2: vec3<f32>, height: f32, view_proj: mat4x4
     return height * focal * viewport_height * 0.5 / w;
 }
 
+// ---------------------------------------------------------------- occlusion
+
+// A blade's screen bounds for the occlusion test: rect (x0, y0, x1, y1) in pixels
+// (y down, clamped to the view) and the nearest depth (0 near .. 1 far).
+struct ScreenBounds { rect: vec4<f32>, depth: f32 };
+
+// The box around v0, v1, v2 grown by radius, its 8 corners projected; a box that
+// reaches behind the near plane gets the whole view and depth 0 (never hidden).
+fn occlusion_bounds(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, radius: f32, view_proj: mat4x4<f32>, viewport_size: vec2<f32>) -> ScreenBounds {
+    let lo = min(min(v0, v1), v2) - vec3<f32>(radius);
+    let hi = max(max(v0, v1), v2) + vec3<f32>(radius);
+    var nmin = vec3<f32>(1e30);
+    var nmax = vec3<f32>(-1e30);
+    var behind = false;
+    for (var k = 0u; k < 8u; k += 1u) {
+        let corner = select(lo, hi, vec3<bool>((k & 1u) != 0u, (k & 2u) != 0u, (k & 4u) != 0u));
+        let clip = view_proj * vec4<f32>(corner, 1.0);
+        behind = behind || clip.w <= 1e-6 || clip.z < 0.0;
+        let ndc = clip.xyz / select(clip.w, 1.0, clip.w <= 1e-6);
+        nmin = min(nmin, ndc);
+        nmax = max(nmax, ndc);
+    }
+    var b: ScreenBounds;
+    if (behind) {
+        b.rect = vec4<f32>(0.0, 0.0, viewport_size.x, viewport_size.y);
+        b.depth = 0.0;
+        return b;
+    }
+    let x0 = clamp((nmin.x * 0.5 + 0.5) * viewport_size.x, 0.0, viewport_size.x);
+    let x1 = clamp((nmax.x * 0.5 + 0.5) * viewport_size.x, 0.0, viewport_size.x);
+    let y0 = clamp((0.5 - 0.5 * nmax.y) * viewport_size.y, 0.0, viewport_size.y);
+    let y1 = clamp((0.5 - 0.5 * nmin.y) * viewport_size.y, 0.0, viewport_size.y);
+    b.rect = vec4<f32>(x0, y0, x1, y1);
+    b.depth = max(nmin.z, 0.0);
+    return b;
+}
+
+// The max-depth pyramid level at which a pixel rect spans at most 2 x 2 texels.
+fn hzb_level(rect: vec4<f32>) -> u32 {
+    let span = u32(max(ceil(max(rect.z - rect.x, rect.w - rect.y)), 1.0));
+    var level = 0u;
+    while ((1u << level) < span) { level += 1u; }
+    return level;
+}
+
 // ---------------------------------------------------------------- drawing
 
 // Across-blade parameter t for the blade shapes of the paper, u, v in [0, 1].

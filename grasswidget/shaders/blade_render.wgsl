@@ -1,6 +1,6 @@
 // Draw every visible blade of one level-of-detail class as a ribbon, by vertex
 // pulling: no vertex buffers. Instance i is the i-th entry of the class's
-// compacted list; vertex k of its triangle strip is row k/2 (v = row / segments)
+// compacted list (with from_end, the second occlusion phase's, counted from the end); vertex k of its triangle strip is row k/2 (v = row / segments)
 // and side k%2 (u). Ribbon formulas: paper section 6 / reference ribbons.
 //
 // Colouring, with teaching_views (the pygfx engine): u_cull.color_by 0 natural (lit), 1 "lod" (flat, the class's
@@ -17,12 +17,13 @@ const LOD_CLASS: u32 = {{ lod_class }}u;
 $$ if teaching_views
 const LOD_COLOR = vec3<f32>({{ lod_color }});
 
-// sRGB colour of a blade culled by test `reason` (1 orientation, 2 frustum, 3 distance).
+// sRGB colour of a blade culled by test `reason` (1 orientation, 2 frustum, 3 distance, 4 occlusion).
 fn cull_color(reason: u32) -> vec3<f32> {
     switch reason {
         case 1u: { return vec3<f32>({{ cull_colors[0] }}); }
         case 2u: { return vec3<f32>({{ cull_colors[1] }}); }
-        default: { return vec3<f32>({{ cull_colors[2] }}); }
+        case 3u: { return vec3<f32>({{ cull_colors[2] }}); }
+        default: { return vec3<f32>({{ cull_colors[3] }}); }
     }
 }
 $$ endif
@@ -36,10 +37,15 @@ struct VertexInput {
 fn vs_main(in: VertexInput) -> Varyings {
     $$ if teaching_views and culled
     let entry = s_culled[in.instance_index];
-    let blade = entry & 0x3fffffffu;
-    let flat_color = vec4<f32>(cull_color(entry >> 30u), 1.0);
+    let blade = entry & 0x1fffffffu;
+    let flat_color = vec4<f32>(cull_color(entry >> 29u), 1.0);
+    $$ else
+    $$ if from_end
+    // The second phase of occlusion culling lists its blades from the end (cull.wgsl).
+    let blade = s_visible[LOD_CLASS * u_cull.n_blades + u_cull.n_blades - 1u - in.instance_index];
     $$ else
     let blade = s_visible[LOD_CLASS * u_cull.n_blades + in.instance_index];
+    $$ endif
     $$ endif
     $$ if teaching_views and not culled
     var flat_color = vec4<f32>(0.0);  // a = 1: draw flat in rgb (sRGB)

@@ -100,7 +100,7 @@ def _stats_after(page, n=3):
     """The visible counts of ``n`` stats messages from the browser (about 0.5 s apart), after
     two more (whose counts may have been read back before the last change reached the browser)."""
     kernel_execute(page, "if '_seen' not in globals():\n    _seen = []\n"
-                         "    w.view.view.on('stats', lambda m: _seen.append(sum(m['visible'] or [-1])))")
+                         "    w.view.browser_view.on('stats', lambda m: _seen.append(sum(m['visible'] or [-1])))")
     start = kernel_eval(page, "len(_seen)")
     wait_for_kernel(page, "len(_seen)", predicate=lambda k: k >= start + n + 2, timeout=30)
     return kernel_eval(page, "_seen[-%d:]" % n)
@@ -119,7 +119,7 @@ w.culling_frozen = True
 frozen = w.view.frozen_camera
 state = w.read_state()
 reason = ref.cull_reason(state, w.params, frozen.view_proj, frozen.position)
-scene = GrassScene(w.view.view.blades, size={SIZE}, params=w.params.copy())
+scene = GrassScene(w.view.browser_view.blades, size={SIZE}, params=w.params.copy())
 scene.field.write_state(state)
 scene.field.freeze_culling(frozen)
 scene.look({ABOVE['position']!r}, {ABOVE['target']!r})
@@ -140,7 +140,7 @@ scene.release()
         assert abs(count - reference) <= 2 and abs(count - kernel) <= 2, (count, reference, kernel)
 
     # The frozen frustum: white lines from the frozen camera's position across the field.
-    camera = kernel_eval(page, "dict(w.view.view.camera)")
+    camera = kernel_eval(page, "dict(w.view.browser_view.camera)")
     frozen_lines = poll(lambda: (lambda px: (bool((px >= 245).all(axis=-1).sum() > 150), px))(_canvas(page)),
                         "the frozen frustum to show as white lines", 20, 0.3, page=page)
     white = (frozen_lines >= 245).all(axis=-1)
@@ -174,7 +174,7 @@ w.culling_frozen = False
 w.reset_blades()
 w.camera_state = {{'position': (0.0, 2.6, 6.0), 'target': (0.0, 0.8, 0.0)}}
 w.params.wind_field, w.params.wind_strength = 'wave', 8.0
-b = w.view.view.blades
+b = w.view.browser_view.blades
 near = np.flatnonzero((np.abs(b.v0[:, 0]) < 1.5) & (np.abs(b.v0[:, 2] - 1.0) < 1.5))
 ids = [int(i) for i in near[:6]]
 w.step(41)
@@ -184,11 +184,11 @@ w.ball.set_radius(0.8)
 w.ball.move_to(float(b.v0[ids[0], 0]) + 0.2, float(b.v0[ids[0], 2]))
 w.inspect(ids)
 mine = w.read_inspected()
-raw = w.view.view.read_state()
+raw = w.view.browser_view.read_state()
 scene = GrassScene(b, size={SIZE}, params=w.params.copy())
 scene.field.write_state(raw)
 scene.field.step_count = raw['step_count']
-scene.colliders = list(w.view.view.colliders)
+scene.colliders = list(w.view.browser_view.colliders)
 scene.inspect(ids)
 scene.render()
 theirs = scene.read_inspected()

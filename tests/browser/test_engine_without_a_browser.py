@@ -141,9 +141,9 @@ def test_backend_argument_and_browser_widget_api():
         # Parameters reach the browser as packed uniforms.
         w.params.wind_strength = 33.0
         off = uniforms.offsets(uniforms.SIM_LAYOUT)["wind_strength"][0]
-        assert np.frombuffer(w.view.view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
+        assert np.frombuffer(w.view.browser_view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
-        assert w.view.view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        assert w.view.browser_view.balls == [list(map(float, w.ball.collider.as_vec4()))]
         with pytest.raises(ValueError, match="number of steps"):
             w.step(-1)
     finally:
@@ -154,7 +154,7 @@ def test_browser_messages_move_the_ball_and_never_raise():
     """What the page sends (shift + drag, the steps simulated while rolling, junk) reaches
     the ball, and a malformed message shows on the message line instead of raising."""
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
-    view = w.view.view
+    view = w.view.browser_view
     try:
         view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
         assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5

@@ -82,7 +82,7 @@ w.step(90)
 cam = {{'position': (5.0, 4.5, 15.0), 'target': (0.0, 0.0, 0.0), 'fov_deg': 50.0}}
 w.camera_state = cam
 w.save_png({os.path.join(out_dir, 'engine_browser.png')!r}, size={SIZE})
-scene = GrassScene(w.view.view.blades, size={SIZE}, params=w.params.copy())
+scene = GrassScene(w.view.browser_view.blades, size={SIZE}, params=w.params.copy())
 scene.step(90)
 scene.look(cam['position'], cam['target'], cam['fov_deg'])
 scene.save_png({os.path.join(out_dir, 'engine_kernel.png')!r})
@@ -146,9 +146,9 @@ def test_one_simulation_per_widget_and_the_engines_draw_alike(webgpu_browser, la
         print(f"[displayed twice] paused: the two canvases are identical ({a0.shape[1]}x{a0.shape[0]})")
         # step and read_state: one simulation answers
         out = kernel_execute(page, """
-s0 = w.view.view.read_state()['step_count']
+s0 = w.view.browser_view.read_state()['step_count']
 w.step(37)
-s1 = w.view.view.read_state()['step_count']
+s1 = w.view.browser_view.read_state()['step_count']
 print('STEPS', s0, s1)
 """, timeout=60)
         s0, s1 = map(int, out.stdout.split("STEPS")[1].split())

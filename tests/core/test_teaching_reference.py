@@ -122,8 +122,8 @@ def test_frustum_corners_invert_the_projection():
 
 def test_colours():
     all_colors = list(gw.CULL_COLORS.values())
-    assert list(gw.CULL_COLORS) == ["orientation", "frustum", "distance"]
-    assert len(set(all_colors)) == 3
+    assert list(gw.CULL_COLORS) == ["orientation", "frustum", "distance", "occlusion"]
+    assert len(set(all_colors)) == 4
     for c in all_colors:
         r, g, b = teaching.hex_to_rgb(c)
         assert not (g > r + 8 and g > b + 8), f"{c} looks green"  # the conftest grass test

@@ -354,6 +354,13 @@ TWINS = {
     "blade_shape_t": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99)],
                       lambda u, v, shape, tau: _rows(ref.blade_shape_t, u, v, shape, tau), 1),
     "hash01": (lambda r: [r.integers(0, 2**32, N)], ref.hash01, 1),
+    "occlusion_bounds": (
+        lambda r: (lambda b: [b[0], b[1], b[2], _u(r, 0.0, 0.3), _view_proj(r),
+                              np.stack([_u(r, 100, 2000), _u(r, 100, 1200)], axis=1)])(_blade_state(r)),
+        lambda v0, v1, v2, rad, vp, size: _rows(lambda *a: ref.occlusion_bounds(*a), v0, v1, v2, rad, vp, size), 100),
+    "hzb_level": (lambda r: (lambda x, y: [np.stack([x, y, x + r.exponential(40.0, N), y + r.exponential(20.0, N)],
+                                                    axis=1)])(_u(r, 0, 800), _u(r, 0, 600)),
+                  ref.hzb_level, 0),
 }
 
 
