@@ -11,11 +11,18 @@
 //            (field offsets), frame_rules ({clock: {dt, wind_period,
 //            max_steps_per_frame}, orbit: OrbitLimits, style}), playing,
 //            time_scale, camera ({position, target, fov_deg, near, far}), balls,
-//            show_colliders, report_steps, width, height, pixel_ratio.
+//            show_colliders, report_steps, width, height, pixel_ratio,
+//            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
+//            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
+//            (the inspected blade ids).
 //   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
-//            compile_simulate {id, shader}, lose_device (tests).
+//            read_inspected {id}, sync {id} (answered at once: "synced"),
+//            compile_simulate {id, shader, passes}, lose_device (tests).
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
-// compiled, error and device_lost messages. Fixed steps: step(n) runs exactly n
+// inspected, compiled, pick, error and device_lost messages. A compute pass or
+// an overlay with "only_if" runs while its condition holds ("frozen",
+// "inspecting"); a pass with sim_uniform "now" gets u_sim for the time of the
+// next step (no steps) first, as the kernel's inspector does. Fixed steps: step(n) runs exactly n
 // steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
 // rules (SimClock below).
 //
@@ -253,8 +260,8 @@ class GrassView {
     return [((e.clientX - r.left) / r.width) * 2 - 1, 1 - ((e.clientY - r.top) / r.height) * 2];
   }
 
-  // Where the view ray through the pointer meets the ground plane, or null (sky).
-  groundPoint(e) {
+  // The view ray through the pointer: its points on the near (a) and far (b) planes.
+  pointerRay(e) {
     const [x, y] = this.pointerNdc(e);
     const { view, proj } = this.engine.matrices(this.canvas.width / this.canvas.height);
     const inv = invert4(mul4(proj, view));
@@ -262,7 +269,12 @@ class GrassView {
       const p = [0, 1, 2, 3].map((r) => inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
       return [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
     };
-    const a = unproject(0), b = unproject(1);
+    return [unproject(0), unproject(1)];
+  }
+
+  // Where the view ray through the pointer meets the ground plane, or null (sky).
+  groundPoint(e) {
+    const [a, b] = this.pointerRay(e);
     const gy = this.model.get("frame_rules").style.ground[1];
     const d = sub(b, a);
     if (Math.abs(d[1]) < 1e-12) return null;
@@ -275,7 +287,8 @@ class GrassView {
   onPointerDown(e) {
     this.canvas.focus();
     this.canvas.setPointerCapture(e.pointerId);
-    this.drag = { x: e.clientX, y: e.clientY, button: e.button, ball: e.shiftKey && e.button === 0 };
+    this.drag = { x: e.clientX, y: e.clientY, x0: e.clientX, y0: e.clientY, button: e.button,
+      ball: e.shiftKey && e.button === 0, pick: (e.ctrlKey || e.metaKey) && e.button === 0 };
     if (this.drag.ball) this.sendBall(e, "down");
   }
 
@@ -311,6 +324,7 @@ class GrassView {
     this.drag = null;
     if (!d) return;
     if (d.ball) this.sendBall(e, "up");
+    else if (d.pick && Math.hypot(e.clientX - d.x0, e.clientY - d.y0) < 4) this.sendPick(e);
     else this.engine.setCamera({ ...this.engine.camera() }, true);
   }
 
@@ -327,6 +341,12 @@ class GrassView {
     if (e.ctrlKey || e.altKey || e.metaKey) return;
     if (e.key === " ") e.preventDefault();  // not the page's scroll
     this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
+  }
+
+  // Ctrl + click: Python picks the blade on this ray and inspects it.
+  sendPick(e) {
+    const [a, b] = this.pointerRay(e);
+    this.engine.report("pick", "", { origin: a, direction: sub(b, a) });
   }
 
   sendBall(e, phase) {
@@ -377,7 +397,7 @@ class GrassEngine {
     this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
     const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "balls", "frame_rules",
-      "blade_data", "width", "height", "pixel_ratio"];
+      "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
     this.listeners = names.map((name) => {
       const fn = () => this.onChange(name);
       this.model.on(`change:${name}`, fn);
@@ -541,7 +561,8 @@ class GrassEngine {
     this.computePasses = [];
     for (const pass of shaders.compute_passes) {
       const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
-      this.computePasses.push({ ...pipe, dispatch: pass.dispatch });
+      this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
+        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now" });
     }
     const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
     const renderPipeline = async (shader, label, { topology, depth, blend }) => {
@@ -577,6 +598,21 @@ class GrassEngine {
     };
     this.balls = await renderPipeline({ ...shaders.balls, vertex: "vs_ball", fragment: "fs_ball" }, "balls.wgsl",
       { topology: "triangle-list", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" }, blend });
+    // Lines and points over the meadow (overlay.wgsl): a quad per item, `instances` items.
+    this.overlays = [];
+    for (const o of shaders.overlays || []) {
+      const depth = { format: "depth24plus", depthWriteEnabled: false, depthCompare: o.depth_test ? "less" : "always" };
+      const pipe = await renderPipeline(o, `overlay.wgsl (${o.name})`, { topology: "triangle-list", depth });
+      this.overlays.push({ ...pipe, instances: o.instances, onlyIf: o.only_if });
+    }
+  }
+
+  // Whether a pass or overlay with this "only_if" runs now (no condition: always).
+  active(condition) {
+    if (!condition) return true;
+    if (condition === "frozen") return this.model.get("frustum_lines").byteLength > 0;
+    if (condition === "inspecting") return (this.model.get("inspected") || []).length > 0;
+    return false;
   }
 
   buildBuffers() {
@@ -592,6 +628,7 @@ class GrassEngine {
     const uniform = (trait, label) => buffer(this.model.get(trait).byteLength, U.UNIFORM | U.COPY_DST, label);
     const n = this.model.get("n_blades");
     const classes = this.lodSegments.length;
+    const sizes = this.model.get("shaders").inspector_sizes;
     this.n = n;
     this.res = {
       s_blades: buffer(n * 64, U.STORAGE | U.COPY_SRC | U.COPY_DST, "blades"),
@@ -607,13 +644,20 @@ class GrassEngine {
       u_sky_ground: uniform("sky_ground_uniform", "u_sky_ground"),
       u_balls: uniform("ball_uniform", "u_balls"),
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
-      u_wobject: buffer(64, U.UNIFORM | U.COPY_DST, "u_wobject"),
+      u_wobject: buffer(128, U.UNIFORM | U.COPY_DST, "u_wobject"),
       s_balls: buffer(16 * MAX_BALLS, U.STORAGE | U.COPY_DST, "balls"),
+      u_inspect: uniform("inspect_uniform", "u_inspect"),
+      s_frustum: buffer(sizes.frustum, U.STORAGE | U.COPY_DST, "frustum lines"),
+      s_segments: buffer(sizes.segments, U.STORAGE, "inspector lines"),
+      s_points: buffer(sizes.points, U.STORAGE | U.COPY_SRC, "inspector points"),
+      s_forces: buffer(sizes.forces, U.STORAGE | U.COPY_SRC, "inspector forces"),
     };
     this.argsRead = buffer(classes * 16, U.MAP_READ | U.COPY_DST, "args readback");
-    device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]));
+    const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];  // world_transform and its inverse
+    device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([...identity, ...identity]));
     this.uploadRestPose();
     for (const [name, trait] of UNIFORM_TRAITS) this.writeUniform(name, trait);
+    this.writeFrustum();
     this.writeBalls();
     this.makeBindGroups();
   }
@@ -628,7 +672,7 @@ class GrassEngine {
       }),
     });
     for (const p of [this.sim, ...this.computePasses, ...this.bladePipes, ...this.flatBladePipes, this.skyGround,
-      this.balls]) p.group = group(p);
+      this.balls, ...this.overlays]) p.group = group(p);
   }
 
   uploadRestPose() {
@@ -654,6 +698,12 @@ class GrassEngine {
     this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
   }
 
+  // The frozen camera's frustum edges (Python's core.teaching.frustum_segments), when frozen.
+  writeFrustum() {
+    const data = this.model.get("frustum_lines");
+    if (data.byteLength) this.device.queue.writeBuffer(this.res.s_frustum, 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+  }
+
   writeBalls() {
     const balls = this.model.get("balls") || [];
     const f = new Float32Array(4 * MAX_BALLS);
@@ -670,25 +720,40 @@ class GrassEngine {
   }
 
   // Exactly n fixed steps of dt, like GrassField.step (wind time (k dt) mod period).
-  simulate(n) {
-    if (n <= 0) return;
-    const device = this.device;
-    const clock = this.rules().clock;
+  // Python's u_sim bytes with this dispatch's time0 (s) and steps.
+  simUniformBytes(time0, steps) {
     const layout = this.model.get("sim_layout");
     const base = this.model.get("sim_uniform");
     const bytes = new Uint8Array(base.byteLength);
     bytes.set(new Uint8Array(base.buffer, base.byteOffset, base.byteLength));
     const view = new DataView(bytes.buffer);
+    view.setFloat32(layout.time0[0], time0, true);
+    view.setInt32(layout.steps[0], steps, true);
+    return bytes;
+  }
+
+  // The wind time of step k: (k dt) mod wind_period (the clock's rules from Python).
+  windTime(k) {
+    const clock = this.rules().clock;
+    const t = k * clock.dt;
+    return clock.wind_period > 0 ? t % clock.wind_period : t;
+  }
+
+  // u_sim for "now": the current parameters at the time of the next step, no steps
+  // (what the kernel's inspector writes before its pass: gpu.inspector.refresh_uniforms).
+  writeSimNow() {
+    this.device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), 0));
+  }
+
+  simulate(n) {
+    if (n <= 0) return;
+    const device = this.device;
     const perDispatch = Math.max(1, Math.floor(BLADE_STEPS_PER_DISPATCH / Math.max(this.n, 1)));
     const [gx, gy] = this.workgroups(this.n);
     let done = 0;
     while (done < n) {
       const chunk = Math.min(perDispatch, n - done);
-      let t0 = this.stepCount * clock.dt;
-      if (clock.wind_period > 0) t0 = t0 % clock.wind_period;
-      view.setFloat32(layout.time0[0], t0, true);
-      view.setInt32(layout.steps[0], chunk, true);
-      device.queue.writeBuffer(this.res.u_sim, 0, bytes);
+      device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), chunk));
       const encoder = device.createCommandEncoder();
       const pass = encoder.beginComputePass();
       pass.setPipeline(this.sim.pipeline);
@@ -732,6 +797,8 @@ class GrassEngine {
     const blades = this.workgroups(this.n);
     const cpass = encoder.beginComputePass();
     for (const p of this.computePasses) {
+      if (!this.active(p.onlyIf)) continue;
+      if (p.simNow) this.writeSimNow();
       cpass.setPipeline(p.pipeline);
       cpass.setBindGroup(0, p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
@@ -756,6 +823,12 @@ class GrassEngine {
       pass.setPipeline(this.balls.pipeline);
       pass.setBindGroup(0, this.balls.group);
       pass.draw(6 * 16 * 32, balls);
+    }
+    for (const o of this.overlays) {
+      if (!this.active(o.onlyIf)) continue;
+      pass.setPipeline(o.pipeline);
+      pass.setBindGroup(0, o.group);
+      pass.draw(6, o.instances);
     }
     pass.end();
   }
@@ -866,6 +939,8 @@ class GrassEngine {
         case "step": this.simulate(msg.n); break;
         case "reset": this.uploadRestPose(); break;
         case "read_state": await this.readState(msg.id); break;
+        case "read_inspected": await this.readInspected(msg); break;
+        case "sync": this.report("synced", "", { id: msg.id }); break;
         case "snapshot": await this.snapshot(msg); break;
         case "compile_simulate": await this.compileSimulate(msg); break;
         case "lose_device": this.expectLoss = true; this.device.destroy(); break;
@@ -891,6 +966,38 @@ class GrassEngine {
     const collision = b.getMappedRange().slice(0, this.n * 4);
     a.destroy(); b.destroy();
     this.model.send({ type: "state", id, step_count: steps, n: this.n }, undefined, [blades, collision]);
+  }
+
+  // The inspected blades' forces (vec4 each) and control points (3 floats each), computed now
+  // by the inspector's passes for the current state and parameters (as gpu.inspector.BladeInspector.read).
+  async readInspected(msg) {
+    const device = this.device;
+    const id = msg.id;
+    const n = (this.model.get("inspected") || []).length;
+    const passes = this.computePasses.filter((p) => p.onlyIf === "inspecting");
+    const forcesBytes = this.res.s_forces.size / 64 * n, pointsBytes = 36 * n;
+    const U = GPUBufferUsage;
+    const a = device.createBuffer({ size: Math.max(16, forcesBytes), usage: U.MAP_READ | U.COPY_DST });
+    const b = device.createBuffer({ size: Math.max(16, Math.ceil(pointsBytes / 4) * 4 + 4), usage: U.MAP_READ | U.COPY_DST });
+    const encoder = device.createCommandEncoder();
+    if (n > 0) {
+      const cpass = encoder.beginComputePass();
+      for (const p of passes) {
+        if (p.simNow) this.writeSimNow();
+        cpass.setPipeline(p.pipeline);
+        cpass.setBindGroup(0, p.group);
+        cpass.dispatchWorkgroups(1);
+      }
+      cpass.end();
+      encoder.copyBufferToBuffer(this.res.s_forces, 0, a, 0, forcesBytes);
+      encoder.copyBufferToBuffer(this.res.s_points, 0, b, 0, Math.ceil(pointsBytes / 4) * 4);
+    }
+    device.queue.submit([encoder.finish()]);
+    await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
+    const forces = a.getMappedRange().slice(0, forcesBytes);
+    const points = b.getMappedRange().slice(0, pointsBytes);
+    a.destroy(); b.destroy();
+    this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
   }
 
   async snapshot(msg) {
@@ -926,7 +1033,15 @@ class GrassEngine {
   async compileSimulate(msg) {
     try {
       const sim = await this.computePipeline(msg.shader, "simulate.wgsl");
+      // Compute passes that compile the same wind (the inspector): all compiled before any is swapped in.
+      const passes = [];
+      for (const [name, shader] of Object.entries(msg.passes || {})) {
+        for (const p of this.computePasses.filter((q) => q.name === name)) {
+          passes.push([p, await this.computePipeline(shader, p.label)]);
+        }
+      }
       this.sim = sim;
+      for (const [p, pipe] of passes) Object.assign(p, pipe);
       this.makeBindGroups();
       this.report("compiled", "", { id: msg.id, ok: true });
     } catch (err) {
@@ -947,6 +1062,7 @@ class GrassEngine {
       const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
       if (uniform) this.writeUniform(uniform[0], uniform[1]);
       else if (name === "balls") this.writeBalls();
+      else if (name === "frustum_lines") this.writeFrustum();
       else if (name === "blade_data") this.buildBuffers();
     } catch (err) {
       this.report("error", `browser engine: applying ${name} failed: ${err.message || err}`);
@@ -966,7 +1082,7 @@ class GrassEngine {
 // Uniform buffers filled with Python's packed bytes: [buffer name, trait].
 const UNIFORM_TRAITS = [
   ["u_cull", "cull_uniform"], ["u_material", "material_uniform"], ["u_sky_ground", "sky_ground_uniform"],
-  ["u_balls", "ball_uniform"],
+  ["u_balls", "ball_uniform"], ["u_inspect", "inspect_uniform"],
 ];
 
 // engine_key -> GrassEngine, for the whole page (the module is loaded once per page).

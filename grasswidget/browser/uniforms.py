@@ -42,7 +42,9 @@ STDINFO_LAYOUT = (
     ("ndc_offset", "vec4<f32>"),      # xy scale, zw offset of a sub-viewport (the browser: 1, 1, 0, 0)
 )
 
-WOBJECT_LAYOUT = (("world_transform", "mat4x4<f32>"),)
+#: pygfx's world-object uniform, the fields the project's WGSL reads (the browser's field is
+#: untransformed: both are the identity).
+WOBJECT_LAYOUT = (("world_transform", "mat4x4<f32>"), ("world_transform_inv", "mat4x4<f32>"))
 
 MATERIAL_LAYOUT = (
     ("root_color", "vec4<f32>"),

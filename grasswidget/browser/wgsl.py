@@ -22,9 +22,13 @@ from pathlib import Path
 
 import jinja2
 
-from ..core.reference import LOD_SEGMENTS
+from ..core.reference import FORCE_NAMES, LOD_SEGMENTS
 from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
                             wgsl_environment)
+from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
+                             MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
+from ..core.shader_files import wgsl_float
+from ..core.uniform_layouts import INSPECT_LAYOUT
 from .uniforms import (BALL_LAYOUT, CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, STDINFO_LAYOUT,
                        WOBJECT_LAYOUT, offsets, wgsl_struct)
 
@@ -43,6 +47,7 @@ _UNIFORMS = {
     "u_stdinfo": ("StdInfo", STDINFO_LAYOUT),
     "u_wobject": ("WorldObject", WOBJECT_LAYOUT),
     "u_material": ("GrassMaterialUniforms", MATERIAL_LAYOUT),
+    "u_inspect": ("InspectUniforms", INSPECT_LAYOUT),
 }
 
 #: Storage resources each kind of pass may use: name -> WGSL declaration tail.
@@ -55,6 +60,10 @@ _STORAGE = {
         "s_culled": "var<storage, read_write> s_culled: array<u32>",
         "s_culled_args": "var<storage, read_write> s_culled_args: array<atomic<u32>>",
         "s_bands": "var<storage, read_write> s_bands: array<atomic<u32>>",
+        # the blade inspector (inspect.wgsl): line vertices and points, 3 floats each; forces
+        "s_segments": "var<storage, read_write> s_segments: array<f32>",
+        "s_points": "var<storage, read_write> s_points: array<f32>",
+        "s_forces": "var<storage, read_write> s_forces: array<vec4<f32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
@@ -236,6 +245,48 @@ class BrowserShaders:
                 + (HERE / "balls.wgsl").read_text(encoding="utf-8"))
         return {"code": code, "bindings": binding_map(code)}
 
+    @staticmethod
+    def inspect(wind_wgsl: str = "") -> dict:
+        """``shaders/inspect.wgsl``, the blade inspector's compute pass (one workgroup of 64),
+        with the same template values as the kernel's ``gpu.inspector.InspectShader``."""
+        return render_shader("inspect.wgsl", "compute", user_wind_body=wind_body(wind_wgsl),
+                             segment_vertices=SEGMENT_VERTICES, n_forces=len(FORCE_NAMES),
+                             arrow_accel_per_height=wgsl_float(ARROW_ACCEL_PER_HEIGHT),
+                             collision_arrow_scale=wgsl_float(COLLISION_ARROW_SCALE))
+
+    @staticmethod
+    def overlay(primitive: str, size_px: float, colors, positions: str) -> dict:
+        """``overlay.wgsl`` for one overlay: "segments" (vertex pairs) or "points", each
+        ``size_px`` physical pixels across, vertex k coloured ``colors[k % len(colors)]``
+        (sRGB hex), positions read from the engine's buffer ``positions``."""
+        from .uniforms import srgb_color
+
+        env = _environment()
+        rgba = ", ".join("vec4<f32>({:.6f}, {:.6f}, {:.6f}, 1.0)".format(*srgb_color(c)[:3]) for c in colors)
+        body = env.from_string((HERE / "overlay.wgsl").read_text(encoding="utf-8")).render(
+            primitive=primitive, size_px=wgsl_float(size_px), period=len(colors), colors=rgba)
+        code = wgsl_struct("StdInfo", STDINFO_LAYOUT) + "\n" + body
+        bindings = binding_map(code)
+        for b in bindings:
+            if b["name"] == "s_overlay":
+                b["resource"] = positions
+        return {"code": code, "bindings": bindings}
+
+    @classmethod
+    def overlays(cls) -> list:
+        """The overlays drawn after the meadow, each while its condition holds (``only_if``):
+        the frozen camera's frustum (12 white segments from ``s_frustum``, depth-tested like
+        the kernel's Line), the inspector's polygon and arrows (``s_segments``) and its control
+        points (``s_points``), over everything (no depth test, as in the kernel)."""
+        return [
+            dict(cls.overlay("segments", 2.0, [FROZEN_FRUSTUM_COLOR], "s_frustum"), name="frustum",
+                 instances=12, depth_test=True, only_if="frozen"),
+            dict(cls.overlay("segments", 3.0, inspector_segment_colors(), "s_segments"), name="inspector lines",
+                 instances=MAX_INSPECTED * SEGMENT_VERTICES // 2, depth_test=False, only_if="inspecting"),
+            dict(cls.overlay("points", 9.0, [INSPECTOR_COLORS["points"]], "s_points"), name="inspector points",
+                 instances=MAX_INSPECTED * 3, depth_test=False, only_if="inspecting"),
+        ]
+
     @classmethod
     def all(cls, wind_wgsl: str = "") -> dict:
         return {
@@ -247,7 +298,16 @@ class BrowserShaders:
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
+                # the blade inspector's forces, polygon and points, while blades are inspected
+                # (u_sim for "now": the current parameters and colliders at the time of the next step)
+                {"shader": "inspect", "dispatch": "one", "label": "inspect.wgsl", "only_if": "inspecting",
+                 "sim_uniform": "now"},
             ],
+            "inspect": cls.inspect(wind_wgsl),
+            "overlays": cls.overlays(),
+            # bytes of the inspector's buffers (engine.js allocates them): vertices of 3 floats, forces vec4
+            "inspector_sizes": {"segments": MAX_INSPECTED * SEGMENT_VERTICES * 12, "points": MAX_INSPECTED * 3 * 12,
+                                "forces": MAX_INSPECTED * len(FORCE_NAMES) * 16, "frustum": 24 * 12},
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
             "cull_count": cls.cull("count"),

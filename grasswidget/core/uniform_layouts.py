@@ -23,7 +23,7 @@ import numpy as np
 from .colliders import MAX_COLLIDERS
 from ..errors import GrassValueError
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "INSPECT_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
            "struct_size", "pack", "layout_description", "write_values", "wgsl_struct"]
 
 #: ``u_sim``: the simulation's parameters (simulate.wgsl, inspect.wgsl). Vectors are
@@ -87,6 +87,13 @@ SKY_GROUND_LAYOUT = (
     ("show_ground", "i32"),               # 0/1
 )
 
+#: ``u_inspect``: the blade inspector's ids (inspect.wgsl): up to ``teaching.MAX_INSPECTED`` (64)
+#: blade ids, four per vec4, and how many are used.
+INSPECT_LAYOUT = (
+    ("ids", "array<vec4<u32>, 16>"),      # blade ids, ids[k / 4][k % 4]
+    ("n_ids", "u32"),                     # 0..64
+)
+
 _SCALARS = {"f32": "f4", "i32": "i4", "u32": "u4"}
 
 
@@ -103,7 +110,7 @@ def wgsl_shadertype(wgsl_type: str) -> str:
         if t.startswith(prefix) and t.endswith(">") and t[len(prefix):-1] in _SCALARS:
             return dims + _SCALARS[t[len(prefix):-1]]
     raise GrassValueError(f"unsupported uniform type {wgsl_type!r}; supported: f32, i32, u32, vec2/vec4/mat4x4 "
-                          "of them, array<vec4<f32>, N>")
+                          "of them, array<vec4<f32|i32|u32>, N>")
 
 
 def shadertype(layout) -> dict:
@@ -133,9 +140,10 @@ def _size_align(wgsl_type):
         return 16, 16, "<f4", 4
     if t == "mat4x4<f32>":
         return 64, 16, "<f4", 16
-    if t.startswith("array<vec4<f32>,"):
-        n = int(t.rsplit(",", 1)[1].rstrip(">"))
-        return 16 * n, 16, "<f4", 4 * n
+    for scalar in ("f32", "i32", "u32"):
+        if t.startswith(f"array<vec4<{scalar}>,"):
+            n = int(t.rsplit(",", 1)[1].rstrip(">"))
+            return 16 * n, 16, _NUMPY[scalar], 4 * n
     raise GrassValueError(f"unsupported uniform type {wgsl_type!r}")
 
 

@@ -315,6 +315,12 @@ class GrassView(abc.ABC):
     def inspected(self) -> tuple:
         """Ids of the inspected blades (``()`` when none)."""
 
+    @abc.abstractmethod
+    def read_inspected(self, timeout: float | None = None) -> list:
+        """The inspected blades' numbers for the current state and parameters, as
+        ``GrassScene.read_inspected()`` returns them (``[]`` when none). The browser engine
+        waits up to ``timeout`` seconds (None: its default, 30) for the browser's answer."""
+
     # ------------------------------------------------------------------ pictures and stats
 
     @abc.abstractmethod

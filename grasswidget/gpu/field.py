@@ -25,7 +25,8 @@ from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
-from .frozen_camera import FrozenCamera
+from ..core.teaching import FrozenView
+from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
 from .occlusion import OcclusionCulling
 from .simulation import Simulation
@@ -394,11 +395,13 @@ class GrassField(gfx.WorldObject):
         Freezing again replaces the copy. Occlusion culling freezes too: the next
         :func:`~grasswidget.gpu.occlusion.render_frame` first renders the frozen view
         once (same target) to find the blades it hides; those stay culled (and the
-        ones it sees stay kept) until unfrozen. ``camera`` may also be a
-        :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
-        :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
+        ones it sees stay kept) until unfrozen (a frozen view without a pygfx camera,
+        e.g. the browser engine's, freezes no occlusion). ``camera`` may also be a
+        :class:`~grasswidget.core.teaching.FrozenView` (e.g. another field's
+        :attr:`frozen_camera`, or the browser engine's frozen camera; no viewport_size
+        then). See :meth:`unfreeze_culling`.
         """
-        if isinstance(camera, FrozenCamera):
+        if isinstance(camera, FrozenView):
             frozen = camera
         elif viewport_size is None:
             raise GrassValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
@@ -408,7 +411,7 @@ class GrassField(gfx.WorldObject):
         if self.frustum_lines is not None:
             self.remove(self.frustum_lines)
         self._frozen_camera = frozen
-        self.frustum_lines = frozen.make_lines(to_local)
+        self.frustum_lines = frustum_line(frozen, to_local)
         self.add(self.frustum_lines)
         self._write_cull_uniform()
         # Occlusion freezes too: the next render_frame first captures what the frozen view hides.

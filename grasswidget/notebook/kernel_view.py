@@ -198,6 +198,7 @@ class KernelView(GrassView):
     scene = None
     controller = None
     canvas = None
+    _inspect_stale = True  # read_inspected renders first when something changed since the last frame
 
     def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
                  on_inspect=None):
@@ -208,6 +209,7 @@ class KernelView(GrassView):
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
+        self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
         self.scene = None
         self.controller = None
         self.ball = None
@@ -419,6 +421,7 @@ class KernelView(GrassView):
             self.controller.target = np.asarray(target, np.float64)
 
     def request_draw(self):
+        self._inspect_stale = True  # something changed: the inspector's numbers are of the next frame
         if not self.closed:
             self.canvas.request_draw()
 
@@ -446,6 +449,18 @@ class KernelView(GrassView):
     @property
     def inspected(self) -> tuple:
         return self._inspected
+
+    def read_inspected(self, timeout=None) -> list:
+        """The inspected blades' numbers (GrassScene.read_inspected) for the current state:
+        when the state, the ids or the parameters changed since the last drawn frame, a
+        frame of the view's size is rendered offscreen first (the inspector runs in renders).
+        ``timeout`` is unused (the kernel answers at once)."""
+        if not self._inspected:
+            return []
+        if self._inspect_stale:
+            self.scene.render_at(self.scene.size)
+            self._inspect_stale = False
+        return self.scene.read_inspected()
 
     def pick_blade(self, x, y):
         """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
@@ -487,6 +502,7 @@ class KernelView(GrassView):
                 self.clock.start()
             self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
         scene.draw_frame()
+        self._inspect_stale = False
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)

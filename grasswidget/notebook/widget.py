@@ -447,6 +447,18 @@ class GrassWidget(ipw.VBox):
         """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
         return tuple(self.view.inspected) if self.view is not None else ()
 
+    def read_inspected(self, timeout: float = 30.0) -> list:
+        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them:
+        one dict per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times
+        ``params.stiffness_scale``), ``v0``, ``v1``, ``v2`` and the forces on v2 of the
+        next step (gravity, recovery, wind in m/s^2; collision: the push of one step in m),
+        for the current state and parameters; ``[]`` when none is inspected.
+
+        In browser mode the browser computes them (the same inspect.wgsl) and this waits for
+        its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
+        self._check_open()
+        return self.view.read_inspected(timeout=timeout)
+
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
         browser renders it at that size and Python writes it; this waits for it).

@@ -31,8 +31,9 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     resources its text uses, each once, with the access the engine provides."""
     shaders = BrowserShaders.all()
     device = _device()
-    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls")]
-             + shaders["blades"] + shaders["blades_flat"])
+    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls",
+                                   "inspect")]
+             + shaders["blades"] + shaders["blades_flat"] + shaders["overlays"])
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -59,7 +60,18 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert offset == offsets(CULL_LAYOUT)["color_by"][0]
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
-    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull"]
+    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull",
+                                                                "inspect"]
+    # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
+    # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
+    assert shaders["compute_passes"][-1]["only_if"] == "inspecting"
+    assert shaders["compute_passes"][-1]["sim_uniform"] == "now"
+    assert "let moved = tip_step(" in shaders["inspect"]["code"]
+    kinds = {b["name"]: b["kind"] for b in shaders["inspect"]["bindings"]}
+    assert kinds["u_inspect"] == "uniform" and kinds["s_forces"] == "storage" and kinds["s_segments"] == "storage"
+    assert [(o["name"], o["only_if"], o["bindings"][1]["resource"]) for o in shaders["overlays"]] == [
+        ("frustum", "frozen", "s_frustum"), ("inspector lines", "inspecting", "s_segments"),
+        ("inspector points", "inspecting", "s_points")]
     # Sky and ground: the kernel engine's own file, its u_material bound to the engine's u_sky_ground buffer.
     sky = shaders["sky_ground"]
     body = (shader_dir() / "sky_ground.wgsl").read_text()
