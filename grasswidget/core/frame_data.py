@@ -167,6 +167,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         frozen_view_proj=np.zeros((4, 4), np.float32),
         frozen_cam_pos=(0.0, 0.0, 0.0, 0.0),
         frozen_viewport_height=0.0,
+        raster_max_px=p.compute_raster_max_px,
     )
     if every_frame_two_phases:
         values["occlusion_phase"] = int(bool(p.cull_occlusion))

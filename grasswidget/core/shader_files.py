@@ -119,7 +119,8 @@ def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
     from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
-                            OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH, RECOVERY_FLOOR)
+                            OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH, RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES,
+                            RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -141,6 +142,9 @@ def template_vars() -> dict:
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),
         "occlusion_pieces": int(OCCLUSION_PIECES),
+        "raster_max_samples": wgsl_float(RASTER_MAX_SAMPLES),
+        "raster_max_across": wgsl_float(RASTER_MAX_ACROSS),
+        "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "user_wind_body": NO_WIND_BODY,
     }
@@ -164,6 +168,14 @@ def ribbon_vars(lod_class: int) -> dict:
         "lod_color": rgb(LOD_COLORS[0 if culled else lod_class]),
         "cull_colors": [rgb(c) for c in CULL_COLORS.values()],
     }
+
+
+def raster_resolve_vars() -> dict:
+    """The template variables of ``raster_resolve.wgsl``: ``raster_color``, the
+    "drawn in compute" teaching colour (teaching.COMPUTE_RASTER_COLOR) as WGSL floats."""
+    from .teaching import COMPUTE_RASTER_COLOR, hex_to_rgb
+
+    return {"raster_color": ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(COMPUTE_RASTER_COLOR))}
 
 
 def wgsl_environment(includes=None, **options):

@@ -25,6 +25,7 @@ __all__ = [
     "COLOR_BY",
     "CULL_COLORS",
     "LOD_COLORS",
+    "COMPUTE_RASTER_COLOR",
     "FROZEN_FRUSTUM_COLOR",
     "INSPECTOR_COLORS",
     "MAX_INSPECTED",
@@ -42,6 +43,9 @@ CULL_COLORS = {"orientation": "#e6007e", "frustum": "#ff9900", "distance": "#2f4
 #: sRGB colour of each level-of-detail class (color_by "lod"), nearest first:
 #: yellow (8 segments), orange (4), red-pink (2), purple (1).
 LOD_COLORS = ["#ffe119", "#f58231", "#d6336c", "#7b00b4"]
+#: sRGB colour of the blades drawn by the compute rasterizer (color_by "lod";
+#: GrassParams.compute_raster): white, "drawn in compute", beside the LOD colours.
+COMPUTE_RASTER_COLOR = "#ffffff"
 #: Colour of the frozen camera's frustum lines.
 FROZEN_FRUSTUM_COLOR = "#ffffff"
 #: Colours of the inspector: control points and polygon, then one arrow per force
@@ -82,6 +86,7 @@ def legend(color_by: str) -> list:
         for k, (segments, pixels) in enumerate(zip(LOD_SEGMENTS, LOD_MIN_PIXELS)):
             what = f">= {pixels:g} px tall" if pixels > 0 else "smaller"
             rows.append((f"LOD {k}: {segments} segment{'s' if segments > 1 else ''} ({what})", LOD_COLORS[k]))
+        rows.append(("drawn in compute (thinner than compute_raster_max_px)", COMPUTE_RASTER_COLOR))
         return rows
     if color_by == "cull":
         return [("kept (drawn as usual)", None)] + [

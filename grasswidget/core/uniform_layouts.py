@@ -70,6 +70,12 @@ CULL_LAYOUT = (
     ("frozen", "i32"),                    # 0/1
     ("frozen_viewport_height", "f32"),    # frozen camera viewport height (pixels)
     ("occlusion_phase", "i32"),           # 1: this render is occlusion culling's first phase (cull.wgsl), else 0
+    ("compute_raster", "i32"),            # 1: list thin blades for the compute rasterizer (raster.wgsl), else 0
+    ("raster_max_px", "f32"),             # GrassParams.compute_raster_max_px (pixels)
+    ("raster_width", "f32"),              # the compute rasterizer's buffers: width and height (pixels); it
+    ("raster_height", "f32"),             #   runs only in renders of exactly that size
+    ("raster_blade_shape", "i32"),        # GrassMaterial.blade_shape (enums.BladeShape id)
+    ("raster_tip_threshold", "f32"),      # GrassMaterial.tip_threshold
 )
 
 #: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it).

@@ -41,6 +41,9 @@ from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 N_CLASSES = len(LOD_SEGMENTS)
 
+#: Most blades a field may have for the compute rasterizer (24 bits of blade id in its payload).
+MAX_RASTER_BLADES = 1 << 24
+
 #: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.CULL_LAYOUT``).
 CULL_UNIFORM = shadertype(CULL_LAYOUT)
 
@@ -145,6 +148,16 @@ class GrassField(gfx.WorldObject):
             usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC,
         )
         self._store.flat_colors = self.params.color_by != "natural"
+        # The compute rasterizer of thin blades (raster.wgsl): its list and counters
+        # (listed, first occlusion phase's part), and per-pixel depth and payload words,
+        # allocated by prepare_compute_raster (one item each until then).
+        one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        self._store.raster_list_buffer = gfx.Buffer(**one)
+        self._store.raster_args_buffer = gfx.Buffer(nbytes=16, nitems=4, format="u4",
+                                                    usage=usage.STORAGE | usage.COPY_SRC)
+        self._store.raster_depth_buffer = gfx.Buffer(**one)
+        self._store.raster_payload_buffer = gfx.Buffer(**one)
+        self._store.raster_size = (0, 0)
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
         self.frustum_lines = None
@@ -277,7 +290,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
-        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by"):
+        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by", "compute_raster_max_px"):
             self._write_cull_uniform()
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
@@ -294,6 +307,79 @@ class GrassField(gfx.WorldObject):
             )
         write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
         self.cull_uniform_buffer.update_full()
+
+    # ------------------------------------------------------------------ compute rasterizer
+
+    @property
+    def raster_list_buffer(self):
+        """pygfx Buffer of u32: ids of the blades the compute rasterizer draws (raster.wgsl)."""
+        return self._store.raster_list_buffer
+
+    @property
+    def raster_args_buffer(self):
+        """pygfx Buffer of 4 u32: blades listed for the compute rasterizer, where the first
+        occlusion phase's part ends, 0, 0."""
+        return self._store.raster_args_buffer
+
+    @property
+    def raster_depth_buffer(self):
+        """pygfx Buffer of u32 per pixel: the compute rasterizer's depth words (float bits)."""
+        return self._store.raster_depth_buffer
+
+    @property
+    def raster_payload_buffer(self):
+        """pygfx Buffer of u32 per pixel: the compute rasterizer's payload (blade << 8 | v)."""
+        return self._store.raster_payload_buffer
+
+    @property
+    def raster_size(self) -> tuple:
+        """(width, height) pixels of the renders the compute rasterizer runs in; (0, 0) while off."""
+        return self._store.raster_size
+
+    @property
+    def compute_raster_active(self) -> bool:
+        """True while the compute rasterizer draws this field's thin blades (see
+        :meth:`prepare_compute_raster`)."""
+        return self._store.raster_size != (0, 0)
+
+    def prepare_compute_raster(self, size):
+        """Set up the compute rasterizer for renders of ``size`` = (width, height) physical
+        pixels (``renderer.physical_size``), or switch it off when ``params.compute_raster``
+        is off (or ``compute_raster_max_px`` is 0). :func:`grasswidget.gpu.render_frame`
+        calls it before every frame; a plain ``renderer.render()`` of another size draws
+        every blade with the hardware rasterizer. Fields of more than 2^24 blades draw
+        every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
+        """
+        p = self.params
+        width, height = (int(size[0]), int(size[1])) if p.compute_raster else (0, 0)
+        if p.compute_raster_max_px <= 0 or self.count > MAX_RASTER_BLADES or width <= 0 or height <= 0:
+            width = height = 0
+        usage = wgpu.BufferUsage
+        if width and self.raster_list_buffer.nitems < self.count:
+            self._store.raster_list_buffer = gfx.Buffer(nbytes=4 * self.count, nitems=self.count, format="u4",
+                                                        usage=usage.STORAGE | usage.COPY_SRC)
+        if (width, height) != self._store.raster_size:
+            pixels = max(width * height, 1)
+            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer]
+            self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+                                                         usage=usage.STORAGE | usage.COPY_SRC)
+            self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+                                                           usage=usage.STORAGE | usage.COPY_SRC)
+            self._store.raster_size = (width, height)
+            destroy_buffers(old)
+        data = self.cull_uniform_buffer.data
+        shape = int(self.material.uniform_buffer.data["blade_shape"])
+        tau = float(self.material.uniform_buffer.data["tip_threshold"])
+        values = dict(compute_raster=int(width > 0), raster_width=float(width), raster_height=float(height),
+                      raster_blade_shape=shape, raster_tip_threshold=tau)
+        if any(data[k] != v for k, v in values.items()):
+            write_values(data, values)
+            self.cull_uniform_buffer.update_full()
+
+    def read_raster_count(self) -> int:
+        """Blades the compute rasterizer drew in the last render (both occlusion phases; synchronous)."""
+        raw = ensure_device().queue.read_buffer(sync_buffer(self.raster_args_buffer))
+        return int(np.frombuffer(raw, np.uint32)[0])
 
     # ------------------------------------------------------------------ frozen culling
 
@@ -429,7 +515,8 @@ class GrassField(gfx.WorldObject):
             self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
                  "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
-                 "occlusion_args_buffer")
+                 "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
+                 "raster_payload_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.occlusion.release()
         self.simulation.release()
@@ -507,7 +594,18 @@ class GrassField(gfx.WorldObject):
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         n = self.count
         lists = [np.concatenate([ids[k, : first[k, 1]], ids[k, n - second[k, 1]:][::-1]]) for k in range(N_CLASSES)]
-        return lists if draw_order else np.sort(np.concatenate(lists))
+        if draw_order:
+            return lists
+        return np.sort(np.concatenate(lists + [self.read_rastered()]))
+
+    def read_rastered(self) -> np.ndarray:
+        """Ids of the blades the compute rasterizer drew in the last render, in list order
+        (synchronous; empty while it is off)."""
+        count = self.read_raster_count() if self.compute_raster_active else 0
+        if count == 0:
+            return np.zeros(0, np.uint32)
+        raw = ensure_device().queue.read_buffer(sync_buffer(self.raster_list_buffer), 0, 4 * count)
+        return np.frombuffer(raw, np.uint32).copy()
 
     def read_seen(self) -> np.ndarray:
         """bool (N,): the blades that passed every culling test, occlusion included, in

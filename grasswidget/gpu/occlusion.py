@@ -144,14 +144,17 @@ class OcclusionCulling:
         self._level_programs = self._cull_programs = None
 
     def _programs(self):
-        from .shaders import CullShader, HzbLevelShader
+        from .shaders import CullShader, HzbLevelShader, RasterShader
 
         field = self.field
         if self._level_programs is None:
             self._level_programs = [ComputeProgram(HzbLevelShader(field, k), field) for k in range(1, len(self.layout))]
-        key = (id(self.hzb_buffer), id(field.culled_buffer))
+        key = (id(self.hzb_buffer), id(field.culled_buffer), id(field.raster_list_buffer),
+               id(field.raster_depth_buffer))
         if self._cull_programs is None or key != self._cull_key:
-            self._cull_programs = ComputeProgram(CullShader(field, "scatter", occlusion=2), field)
+            self._cull_programs = [ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
+                                   ComputeProgram(RasterShader(field, "depth", second=True), field),
+                                   ComputeProgram(RasterShader(field, "payload", second=True), field)]
             self._cull_key = key
         return self._level_programs, self._cull_programs
 
@@ -165,7 +168,7 @@ class OcclusionCulling:
             return False
         width, height = int(depth.size[0]), int(depth.size[1])
         self._ensure_size(width, height)
-        levels, cull = self._programs()
+        levels, (cull, raster_depth, raster_payload) = self._programs()
         device = ensure_device()
         hzb = sync_buffer(self.hzb_buffer)
         sync_buffer(self.levels_buffer)
@@ -179,6 +182,9 @@ class OcclusionCulling:
         for program, (_, w, h, _) in zip(levels, self.layout[1:]):
             program.dispatch(cp, (-(-w // 8), -(-h // 8), 1))
         cull.dispatch(cp, workgroups(self.field.count))
+        if self.field.compute_raster_active:  # the thin blades this phase found (cull.wgsl, raster.wgsl)
+            raster_depth.dispatch(cp, workgroups(self.field.count))
+            raster_payload.dispatch(cp, workgroups(self.field.count))
         cp.end()
         device.queue.submit([enc.finish()])
         return True
@@ -199,11 +205,11 @@ class OcclusionCulling:
         self._level_programs = self._cull_programs = None
 
 
-def _armed_fields(scene):
+def _fields(scene):
     out = []
     scene.traverse(lambda ob: out.append(ob) if isinstance(getattr(ob, "occlusion", None), OcclusionCulling) else None,
                    skip_invisible=True)
-    return [f for f in out if f.params.cull_occlusion]
+    return out
 
 
 def render_frame(renderer, scene, camera, late=()):
@@ -214,8 +220,15 @@ def render_frame(renderer, scene, camera, late=()):
     ``late``: direct children of ``scene`` drawn after the second phase (translucent
     objects that write no depth, e.g. collider balls), with the scene's lights. With
     no armed field this is one plain ``renderer.render(scene, camera)``.
+
+    Every visible GrassField is first set up for the renderer's size
+    (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
+    when ``params.compute_raster`` is on).
     """
-    fields = _armed_fields(scene)
+    all_fields = _fields(scene)
+    for field in all_fields:
+        field.prepare_compute_raster(renderer.physical_size)
+    fields = [f for f in all_fields if f.params.cull_occlusion]
     if not fields:
         renderer.render(scene, camera)
         return

@@ -76,6 +76,8 @@ class GrassScene:
             raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
         ensure_device()
+        if params is None:  # the compute rasterizer where it is faster: a GPU adapter (see GrassParams.compute_raster)
+            params = GrassParams(compute_raster=not is_cpu_adapter())
         self.field = GrassField(blades, params=params, material=GrassMaterial())
         self.params = self.field.params
 
@@ -138,7 +140,7 @@ class GrassScene:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if name == "cis565" and params is None:
-            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
+            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX, compute_raster=not is_cpu_adapter())
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
@@ -323,5 +325,12 @@ class GrassScene:
     # ------------------------------------------------------------------ stats
 
     def visible_count(self) -> int:
-        """Blades drawn by the last render (synchronous GPU readback)."""
-        return int(self.field.read_draw_args()[:, 1].sum())
+        """Blades drawn by the last render, as ribbons or by the compute rasterizer
+        (synchronous GPU readback; see :meth:`drawn_counts`)."""
+        return sum(self.drawn_counts().values())
+
+    def drawn_counts(self) -> dict:
+        """Blades the last render drew by each path (synchronous GPU readback):
+        {"hardware": ribbons, "compute": the compute rasterizer's (GrassParams.compute_raster)}."""
+        return {"hardware": int(self.field.read_draw_args()[:, 1].sum()),
+                "compute": self.field.read_raster_count()}

@@ -16,6 +16,12 @@ every ``renderer.render()``:
 5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
+The compute rasterizer (``params.compute_raster``, set up for the render size by
+``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
+the culling lists thin blades for it, ``RasterShader("depth")`` and
+``RasterShader("payload")`` walk them after step 4, and ``RasterResolveShader``
+(render, after the ribbons) writes their colour and depth.
+
 Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.occlusion.render_frame`)
 arms steps 2-4 as its first phase (only blades seen last frame), then runs the
 pyramid (``HzbLevelShader``) and the second phase (``CullShader("scatter", occlusion=2)``,
@@ -35,14 +41,14 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_funct
 
 from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
-from ..core.shader_files import read_shader, ribbon_vars
+from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
 from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
-__all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
+__all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
            "grass_render_function", "occlusion_render_function",
            "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE", "U_CULL_SLOT",
            "U_CULL_CODE", "cull_binding"]
@@ -119,7 +125,7 @@ class CullShader(GrassComputeShader):
         # blades that became visible (the occlusion test is its cost, not the draw order).
         bands = DISTANCE_BANDS if occlusion == 1 else 0
         super().__init__(wobject, teaching_views=True, bands=bands, phase=phase, occlusion=occlusion,
-                         band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+                         compute_raster=True, band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     def get_bindings(self, wobject, shared, scene):
         second = self["occlusion"] == 2
@@ -136,12 +142,14 @@ class CullShader(GrassComputeShader):
             15: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
             16: Binding("s_occlusion_flags", "buffer/storage" if second else "buffer/read_only_storage",
                         wobject.occlusion_flags_buffer, "COMPUTE"),
+            19: Binding("s_raster", "buffer/storage", wobject.raster_list_buffer, "COMPUTE"),
+            20: Binding("s_raster_args", "buffer/storage", wobject.raster_args_buffer, "COMPUTE"),
         }
         if second:
             occlusion = wobject.occlusion
             bindings[17] = Binding("s_hzb", "buffer/read_only_storage", occlusion.hzb_buffer, "COMPUTE")
             bindings[18] = Binding("s_hzb_levels", "buffer/read_only_storage", occlusion.levels_buffer, "COMPUTE")
-        for slot in (0, 1, 10, 12, 13, 16, 17, 18):
+        for slot in (0, 1, 10, 12, 13, 16, 17, 18, 19):
             if slot in bindings:
                 self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
@@ -153,6 +161,7 @@ class CullShader(GrassComputeShader):
             "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
             "@group(0) @binding(15) var<storage, read_write> s_bands: array<atomic<u32>>;\n"
+            "@group(0) @binding(20) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
             "{$ include 'grasswidget.cull.wgsl' $}\n"
         )
 
@@ -222,6 +231,86 @@ class BladeRenderShader(BaseShader):
         return U_CULL_CODE + read_shader("blade_render.wgsl")
 
 
+class RasterShader(GrassComputeShader):
+    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
+    words and counters, before the culling), "depth" or "payload" (the walks, after it);
+    ``second``: the walks of occlusion culling's second phase (run by
+    :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
+
+    def __init__(self, wobject, step, second=False):
+        if step not in ("clear", "depth", "payload"):
+            raise GrassValueError(f"step must be 'clear', 'depth' or 'payload'; got {step!r}")
+        super().__init__(wobject, step=step, second=bool(second))
+
+    def get_bindings(self, wobject, shared, scene):
+        bindings = {
+            0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
+            1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
+            U_CULL_SLOT: cull_binding(wobject, "COMPUTE"),
+            10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
+            11: Binding("s_raster", "buffer/read_only_storage", wobject.raster_list_buffer, "COMPUTE"),
+            12: Binding("s_raster_args", "buffer/storage", wobject.raster_args_buffer, "COMPUTE"),
+            13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
+            14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
+        }
+        for slot in (0, 1, 10, 11):
+            self.define_binding(0, slot, bindings[slot])
+        return {0: bindings}
+
+    def get_code(self):
+        return (
+            "{{ bindings_code }}\n"
+            + U_CULL_CODE +
+            "@group(0) @binding(12) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<u32>>;\n"
+            "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
+            "{$ include 'grasswidget.raster.wgsl' $}\n"
+        )
+
+    def get_render_info(self, wobject, shared):
+        width, height = wobject.raster_size
+        if not width:
+            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters
+        return {"indices": workgroups(width * height if self["step"] == "clear" else wobject.count)}
+
+
+class RasterResolveShader(BaseShader):
+    """The compute rasterizer's resolve (raster_resolve.wgsl): one full-screen draw that
+    shades the compute-rasterized pixels and writes their depth; no instance while the
+    compute rasterizer is off. ``wobject``: the GrassField or its OcclusionDraws."""
+
+    type = "render"
+
+    def __init__(self, wobject):
+        field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
+        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors))
+        self._field = weakref.ref(field)
+
+    def get_bindings(self, wobject, shared, scene):
+        rbuffer = "buffer/read_only_storage"
+        field = self._field()
+        bindings = {
+            0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
+            1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
+            U_CULL_SLOT: cull_binding(field, "FRAGMENT"),
+            3: Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
+            4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
+            5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
+            6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
+        }
+        self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
+        return {0: bindings}
+
+    def get_pipeline_info(self, wobject, shared):
+        return {"primitive_topology": "triangle-strip", "cull_mode": "none"}
+
+    def get_render_info(self, wobject, shared):
+        return {"indices": (4, 1 if self._field().compute_raster_active else 0)}
+
+    def get_code(self):
+        return U_CULL_CODE + read_shader("raster_resolve.wgsl")
+
+
 class HzbLevelShader(GrassComputeShader):
     """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl);
     run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
@@ -249,7 +338,7 @@ class HzbLevelShader(GrassComputeShader):
 def occlusion_render_function(wobject):
     """The second occlusion phase's draws (one per LOD class, lists from the end), then
     the culled blades (``color_by = "cull"``: every test's, occlusion included)."""
-    return [BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)]
+    return [*(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)), RasterResolveShader(wobject)]
 
 
 @register_wgpu_render_function(GrassField, GrassMaterial)
@@ -258,8 +347,12 @@ def grass_render_function(wobject):
     draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
+        RasterShader(wobject, "clear"),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
+        RasterShader(wobject, "depth"),
+        RasterShader(wobject, "payload"),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
+        RasterResolveShader(wobject),
     ]

@@ -231,7 +231,7 @@ class KernelView(GrassView):
         from ..gpu.adapter import cpu_notice
 
         self.timing = FrameTiming()
-        self._stats = {"fps": None, "visible": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
+        self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
                        "target_fps": self.target_fps,
@@ -540,7 +540,7 @@ class KernelView(GrassView):
         self._stats_frames = self._frames
         self._stats_t = now
         scene = self.scene
-        visible, gpu_ms, occluded = None, None, None
+        visible, gpu_ms, occluded, rastered = None, None, None, None
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
@@ -548,15 +548,16 @@ class KernelView(GrassView):
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
                 occluded = d.get("occluded") if scene.params.cull_occlusion else None
+                rastered = d.get("rastered")
             except Exception:
-                visible = gpu_ms = occluded = None
+                visible = gpu_ms = occluded = rastered = None
         if visible is None:
             try:
                 visible = scene.visible_count()
             except Exception:
                 visible = None
         self._stats.update(
-            fps=fps, visible=visible, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
+            fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
             **self.timing.averages(),
         )

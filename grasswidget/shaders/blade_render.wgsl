@@ -99,24 +99,10 @@ fn vs_main(in: VertexInput) -> Varyings {
 fn fs_main(varyings: Varyings) -> FragmentOutput {
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
-    // Two-sided: light the side that faces the camera.
-    var n = normalize(varyings.normal);
-    if (dot(n, to_eye) < 0.0) { n = -n; }
-
-    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
-    let var_s = varyings.variation - 0.5;
-    let root = u_material.root_color.rgb;
-    let tip = u_material.tip_color.rgb;
-    var base = mix(root, tip, pow(clamp(varyings.along, 0.0, 1.0), 0.8));
-    base = base * (1.0 + u_material.color_variation * var_s);
-    base = base + u_material.color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
-
-    let l = normalize(u_material.light_direction.xyz);
-    let diffuse = max(dot(n, l), 0.0);
-    let translucency = 0.35 * max(dot(-n, l), 0.0);
-    let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
-    let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
-    var rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    // Two-sided, root-to-tip gradient, per-blade variation (blade_math.blade_shade).
+    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.variation,
+                          u_material.root_color.rgb, u_material.tip_color.rgb, u_material.color_variation,
+                          u_material.light_direction.xyz, u_material.ambient);
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif

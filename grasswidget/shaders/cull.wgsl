@@ -36,6 +36,13 @@
 // With the culling frozen the second phase tests nothing: the blades not seen when
 // it froze are the occluded ones (the flags stop changing).
 //
+// Compute rasterization (template variable compute_raster; raster.wgsl): while
+// u_cull.compute_raster != 0 and the render is u_cull.raster_width x raster_height
+// pixels, a visible blade narrower on screen than u_cull.raster_max_px (full width at
+// its middle, the render camera's pixels) is appended to s_raster instead of its LOD
+// class's list (counted in s_raster_args[0]); the engine then declares s_raster
+// (array<u32>) and s_raster_args (array<atomic<u32>>).
+//
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, cam_transform_inv, physical_size),
 // u_wobject (world_transform), u_cull (fields of grasswidget.gpu.field.CULL_UNIFORM),
@@ -56,10 +63,12 @@ const N_CLASSES: u32 = {{ n_classes }}u;
 $$ set n_bands = bands if bands else 1
 const BANDS: u32 = {{ n_bands }}u;
 const KEYS: u32 = N_CLASSES * BANDS;
-// One counter per key (LOD class, distance band), then one for the culled blades (color_by "cull").
+// One counter per key (LOD class, distance band), then one for the culled blades (color_by "cull"),
+// then one for the compute rasterizer's blades.
 const CULLED: u32 = KEYS;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * n_bands + 1 }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes * n_bands + 1 }}>;
+const RASTER: u32 = KEYS + 1u;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * n_bands + 2 }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes * n_bands + 2 }}>;
 $$ if occlusion
 // Blade i was seen (passed every test) in the last frame with occlusion culling.
 fn seen_last_frame(i: u32) -> bool {
@@ -94,7 +103,7 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    for (var k = lid; k <= KEYS; k += {{ workgroup_size }}u) { atomicStore(&wg_count[k], 0u); }
+    for (var k = lid; k <= RASTER; k += {{ workgroup_size }}u) { atomicStore(&wg_count[k], 0u); }
     $$ if occlusion == 2 and phase != "count"
     if (lid < FLAG_WORDS) { atomicStore(&wg_seen[lid], 0u); }
     if (lid == 0u) { atomicStore(&wg_occluded, 0u); }
@@ -112,6 +121,7 @@ fn main(
     var slot = 0u;
     var frozen = false;
     var seen = false;  // passes every test, occlusion included (phase 2)
+    var rastered = false;  // visible, drawn by the compute rasterizer
     if (valid) {
         let blade = load_blade(i);
         // To world space (blades live in the object's local space).
@@ -166,6 +176,16 @@ fn main(
             }
         }
         $$ endif
+        $$ if compute_raster
+        let size = u_stdinfo.physical_size;
+        if (visible && u_cull.compute_raster != 0 && size.x == u_cull.raster_width && size.y == u_cull.raster_height) {
+            let render_view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
+            let across_px = projected_pixels(v0, v2, 2.0 * blade.width * scale, render_view_proj, size.y);
+            let in_front = min(min((render_view_proj * vec4<f32>(v0, 1.0)).w, (render_view_proj * vec4<f32>(v1, 1.0)).w),
+                               (render_view_proj * vec4<f32>(v2, 1.0)).w) > 1e-6;
+            rastered = in_front && across_px < u_cull.raster_max_px;
+        }
+        $$ endif
         if (u_cull.lod != 0) {
             cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, viewport_height));
         }
@@ -178,6 +198,9 @@ fn main(
         if (!visible) {
             cls = CULLED;
             key = CULLED;
+        }
+        if (rastered) {
+            key = RASTER;
         }
         listed = visible;
         $$ if teaching_views
@@ -232,9 +255,22 @@ fn main(
         }
     }
     $$ endif
+    $$ if compute_raster and not (bands and phase == "count")
+    if (lid == 0u) {  // one thread reserves the compute rasterizer's range
+        let c = atomicLoad(&wg_count[RASTER]);
+        if (c > 0u) {
+            wg_base[RASTER] = atomicAdd(&s_raster_args[0], c);
+        }
+    }
+    $$ endif
     $$ if not (bands and phase == "count")
     workgroupBarrier();
-    if (visible) {
+    $$ if compute_raster
+    if (rastered) {
+        s_raster[wg_base[RASTER] + slot] = i;
+    }
+    $$ endif
+    if (visible && !rastered) {
         $$ if occlusion == 2
         s_visible[cls * n + n - 1u - (wg_base[key] + slot)] = i;  // from the end: the second phase's list
         $$ else

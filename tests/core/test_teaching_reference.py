@@ -129,7 +129,8 @@ def test_colours():
         assert not (g > r + 8 and g > b + 8), f"{c} looks green"  # the conftest grass test
     assert len(gw.LOD_COLORS) == len(ref.LOD_SEGMENTS) == len(set(gw.LOD_COLORS))
     rows = teaching.legend("lod")
-    assert [c for _, c in rows] == gw.LOD_COLORS and "8 segments" in rows[0][0]
+    assert [c for _, c in rows] == gw.LOD_COLORS + [teaching.COMPUTE_RASTER_COLOR] and "8 segments" in rows[0][0]
+    assert "compute" in rows[-1][0]  # the compute rasterizer's blades (GrassParams.compute_raster)
     assert [c for _, c in teaching.legend("cull")][1:] == all_colors
     assert teaching.legend("natural") == []
 
