@@ -18,6 +18,10 @@
 //   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
 //            read_inspected {id}, sync {id} (answered at once: "synced"),
 //            compile_simulate {id, shader, passes}, lose_device (tests).
+// Occlusion culling (shaders.occlusion, grasswidget.browser.wgsl.BrowserShaders.occlusion): while
+// u_cull.occlusion_phase (Python's bytes) is 1, each frame is drawn in two phases around a
+// max-depth pyramid, as the kernel engine's grasswidget.gpu.occlusion.render_frame does; the
+// functions of this engine that do it are grouped under "occlusion culling" below.
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
 // inspected, compiled, pick, error and device_lost messages. A compute pass or
 // an overlay with "only_if" runs while its condition holds ("frozen",
@@ -181,6 +185,24 @@ export function clampOrbit(position, target, limits) {
   return [add(c, scale(dir, dNew)), c];
 }
 
+// grasswidget.core.reference.hzb_layout, line for line: where each level of the max-depth pyramid
+// lives in one float32 buffer, [offset, width, height, pitch] in texels, level 0 first. Level 0 is
+// the depth buffer (rows every rowAlign-aligned pitch: Python's HZB_ROW_ALIGN, sent in
+// shaders.occlusion.row_align); level k + 1 halves level k rounding up, down to 1 x 1, rows packed.
+export function hzbLayout(width, height, rowAlign) {
+  if (!(width >= 1 && height >= 1)) throw new Error(`hzbLayout needs a viewport of at least 1 x 1 pixels; got ${width} x ${height}`);
+  let w = Math.floor(width), h = Math.floor(height);
+  const pitch = Math.ceil(w / rowAlign) * rowAlign;
+  const levels = [[0, w, h, pitch]];
+  let offset = pitch * h;
+  while (w > 1 || h > 1) {
+    w = Math.ceil(w / 2); h = Math.ceil(h / 2);
+    levels.push([offset, w, h, w]);
+    offset += w * h;
+  }
+  return levels;
+}
+
 // ------------------------------------------------------------------ a view: one display of the widget
 
 class GrassView {
@@ -252,7 +274,7 @@ class GrassView {
       if (this.depth) this.depth.destroy();
       this.depth = this.engine.depthFor(w, h);
     }
-    return { color: this.context.getCurrentTexture().createView(), depth: this.depth.createView(), w, h };
+    return { color: this.context.getCurrentTexture().createView(), depth: this.depth, w, h };
   }
 
   pointerNdc(e) {
@@ -564,8 +586,9 @@ class GrassEngine {
       this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
         onlyIf: pass.only_if, simNow: pass.sim_uniform === "now" });
     }
-    const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
-    const renderPipeline = async (shader, label, { topology, depth, blend }) => {
+    this.depthFormat = (shaders.occlusion && shaders.occlusion.depth_format) || "depth24plus";
+    const depthStencil = { format: this.depthFormat, depthWriteEnabled: true, depthCompare: "less" };
+    const renderPipeline = this.renderPipeline = async (shader, label, { topology, depth, blend }) => {
       const module = await this.compile(shader, label);
       const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
       const pipeline = await device.createRenderPipelineAsync({
@@ -591,17 +614,18 @@ class GrassEngine {
     this.flatBladePipes = shaders.blades_flat ? await ribbons(shaders.blades_flat, "colour by, ") : this.bladePipes;
     // After the opaque grass, at the far depth with "less": only uncovered pixels are shaded.
     this.skyGround = await renderPipeline(shaders.sky_ground, "sky_ground.wgsl",
-      { topology: "triangle-strip", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" } });
+      { topology: "triangle-strip", depth: { format: this.depthFormat, depthWriteEnabled: false, depthCompare: "less" } });
     const blend = {
       color: { srcFactor: "src-alpha", dstFactor: "one-minus-src-alpha", operation: "add" },
       alpha: { srcFactor: "one", dstFactor: "one-minus-src-alpha", operation: "add" },
     };
     this.balls = await renderPipeline({ ...shaders.balls, vertex: "vs_ball", fragment: "fs_ball" }, "balls.wgsl",
-      { topology: "triangle-list", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" }, blend });
+      { topology: "triangle-list", depth: { format: this.depthFormat, depthWriteEnabled: false, depthCompare: "less" }, blend });
+    this.occlusion = shaders.occlusion ? await this.buildOcclusionPipelines(shaders.occlusion, ribbons) : null;
     // Lines and points over the meadow (overlay.wgsl): a quad per item, `instances` items.
     this.overlays = [];
     for (const o of shaders.overlays || []) {
-      const depth = { format: "depth24plus", depthWriteEnabled: false, depthCompare: o.depth_test ? "less" : "always" };
+      const depth = { format: this.depthFormat, depthWriteEnabled: false, depthCompare: o.depth_test ? "less" : "always" };
       const pipe = await renderPipeline(o, `overlay.wgsl (${o.name})`, { topology: "triangle-list", depth });
       this.overlays.push({ ...pipe, instances: o.instances, onlyIf: o.only_if });
     }
@@ -652,7 +676,10 @@ class GrassEngine {
       s_points: buffer(sizes.points, U.STORAGE | U.COPY_SRC, "inspector points"),
       s_forces: buffer(sizes.forces, U.STORAGE | U.COPY_SRC, "inspector forces"),
     };
-    this.argsRead = buffer(classes * 16, U.MAP_READ | U.COPY_DST, "args readback");
+    if (this.occlusion) this.buildOcclusionBuffers(buffer);
+    // The args of the first phase, then (with occlusion culling) the second's and the occluded count.
+    this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0),
+      U.MAP_READ | U.COPY_DST, "args readback");
     const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];  // world_transform and its inverse
     device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([...identity, ...identity]));
     this.uploadRestPose();
@@ -673,6 +700,7 @@ class GrassEngine {
     });
     for (const p of [this.sim, ...this.computePasses, ...this.bladePipes, ...this.flatBladePipes, this.skyGround,
       this.balls, ...this.overlays]) p.group = group(p);
+    if (this.occlusion) this.makeOcclusionBindGroups(group);
   }
 
   uploadRestPose() {
@@ -792,8 +820,10 @@ class GrassEngine {
   // Encode one frame of the current state into a colour view of (width, height): Python's
   // compute passes (culling) for this view's camera, then the draws. Submit before the next call
   // (the camera uniform is written now, for this encoder).
-  encodeFrame(encoder, colorView, depthView, width, height) {
+  encodeFrame(encoder, colorView, depthTexture, width, height) {
     this.writeStdInfo(width, height);
+    const twoPhases = this.occlusionOn();
+    const depthView = depthTexture.createView();
     const blades = this.workgroups(this.n);
     const cpass = encoder.beginComputePass();
     for (const p of this.computePasses) {
@@ -807,9 +837,11 @@ class GrassEngine {
     cpass.end();
     const pass = encoder.beginRenderPass({
       colorAttachments: [{ view: colorView, loadOp: "clear", storeOp: "store", clearValue: { r: 0, g: 0, b: 0, a: 1 } }],
-      depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1, depthStoreOp: "discard" },
+      depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1,
+        depthStoreOp: twoPhases ? "store" : "discard" },
     });
     this.ribbonPipes().forEach((p, k) => {
+      if (p.shader.culled && twoPhases) return;  // the culled blades are listed by the second phase
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
@@ -818,6 +850,17 @@ class GrassEngine {
     pass.setPipeline(this.skyGround.pipeline);
     pass.setBindGroup(0, this.skyGround.group);
     pass.draw(4);
+    if (twoPhases) {
+      pass.end();
+      this.encodeOcclusionSecondPhase(encoder, depthTexture, width, height);
+      this.encodeBalls(this.beginOcclusionDrawPass(encoder, colorView, depthView));
+      return;
+    }
+    this.encodeBalls(pass);
+  }
+
+  // The translucent collider balls (after every blade), then the pass ends.
+  encodeBalls(pass) {
     const balls = Math.min((this.model.get("balls") || []).length, MAX_BALLS);
     if (balls > 0 && this.model.get("show_colliders")) {
       pass.setPipeline(this.balls.pipeline);
@@ -834,7 +877,9 @@ class GrassEngine {
   }
 
   depthFor(width, height) {
-    return this.device.createTexture({ size: [width, height], format: "depth24plus", usage: GPUTextureUsage.RENDER_ATTACHMENT });
+    // COPY_SRC: occlusion culling copies the depth into its pyramid.
+    return this.device.createTexture({ size: [width, height], format: this.depthFormat,
+      usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
   }
 
   scheduleFrame() {
@@ -867,7 +912,7 @@ class GrassEngine {
         const encoder = device.createCommandEncoder();
         this.encodeFrame(encoder, color, depth, w, h);
         const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > STATS_INTERVAL_MS / 2;
-        if (readArgs) encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, this.argsRead.size);
+        if (readArgs) this.encodeArgsRead(encoder);
         device.queue.submit([encoder.finish()]);
         if (readArgs) this.readArgs();
         if (first) this.frameSize = [w, h];
@@ -907,7 +952,11 @@ class GrassEngine {
     buf.mapAsync(GPUMapMode.READ).then(() => {
       const a = new Uint32Array(buf.getMappedRange().slice(0));
       buf.unmap();
-      this.visible = this.lodSegments.map((_, k) => a[4 * k + 1]);
+      const classes = this.lodSegments.length;
+      const second = this.occlusion ? a.subarray(4 * classes) : null;
+      // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
+      this.visible = this.lodSegments.map((_, k) => a[4 * k + 1] + (second ? second[4 * k + 1] : 0));
+      this.occluded = second && this.occlusionOn() ? second[4 * classes] : null;
       this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });
@@ -922,9 +971,145 @@ class GrassEngine {
     const steps = this.pendingSteps || 0;
     this.pendingSteps = 0;
     this.report("stats", "", {
-      fps, visible: this.visible, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
+      fps, visible: this.visible, occluded: this.occluded === undefined ? null : this.occluded, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
       frame_size: this.frameSize || null, adapter: this.adapterText, views: this.views.size,
     });
+  }
+
+  // ---------------------------------------------------------------- occlusion culling
+  // Python's shaders.occlusion (grasswidget.browser.wgsl.BrowserShaders.occlusion) executed: the
+  // pyramid's levels, the second culling phase and its draws. Kept apart from the rest of the
+  // engine (buildPipelines, buildBuffers, makeBindGroups and encodeFrame each call in here once).
+
+  // The pipelines: one hzb_build.wgsl per pyramid level, the second phase's cull.wgsl, the
+  // second phase's ribbons (lists from the end; natural and colour-by sets).
+  async buildOcclusionPipelines(spec, ribbons) {
+    const levels = await Promise.all(spec.hzb_levels.map((sh, k) => this.computePipeline(sh, `hzb_build.wgsl (level ${k + 1})`)));
+    const cull = await this.computePipeline(spec.cull, "cull.wgsl (occlusion, second phase)");
+    const blades = await ribbons(spec.blades, "occlusion second phase, ");
+    const flatBlades = await ribbons(spec.blades_flat, "occlusion second phase, colour by, ");
+    return { spec, levels, cull, blades, flatBlades, targets: new Map() };
+  }
+
+  // u_cull.occlusion_phase of Python's bytes (frame_data.cull_uniform_values): 1 = two phases.
+  occlusionOn() {
+    if (!this.occlusion) return false;
+    const cu = this.model.get("cull_uniform");
+    const at = this.occlusion.spec.phase_offset;
+    if (!cu || cu.byteLength < at + 4) return false;
+    return new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(at, true) === 1;
+  }
+
+  // s_occlusion_flags (one bit per blade, whole workgroups of words, all ones: every blade seen)
+  // and s_occlusion_args (the second phase's draw args, then the occluded count).
+  buildOcclusionBuffers(buffer) {
+    const U = GPUBufferUsage;
+    const spec = this.occlusion.spec;
+    const [gx, gy] = this.workgroups(this.n);
+    const words = gx * gy * spec.flag_words_per_workgroup;
+    this.res.s_occlusion_flags = buffer(words * 4, U.STORAGE | U.COPY_DST, "occlusion flags");
+    this.device.queue.writeBuffer(this.res.s_occlusion_flags, 0, new Uint32Array(words).fill(0xFFFFFFFF));
+    this.res.s_occlusion_args = buffer(spec.args_words * 4, U.STORAGE | U.INDIRECT | U.COPY_SRC | U.COPY_DST,
+      "occlusion draw args");
+  }
+
+  // Bind groups of the second phase's draws; the per-size ones (pyramid) are made again on demand.
+  makeOcclusionBindGroups(group) {
+    const o = this.occlusion;
+    for (const p of [...o.blades, ...o.flatBlades]) p.group = group(p);
+    this.dropOcclusionTargets();
+  }
+
+  dropOcclusionTargets() {
+    for (const t of this.occlusion.targets.values()) { t.hzb.destroy(); t.table.destroy(); }
+    this.occlusion.targets.clear();
+  }
+
+  // The pyramid of a (width, height) view: its buffer (reference.hzb_layout's layout), its level
+  // table, the bind groups that use them. A few sizes are kept (views, snapshots).
+  occlusionTarget(width, height) {
+    const o = this.occlusion;
+    const key = `${width}x${height}`;
+    let t = o.targets.get(key);
+    if (t) { o.targets.delete(key); o.targets.set(key, t); return t; }
+    const spec = o.spec;
+    const layout = hzbLayout(width, height, spec.row_align);
+    if (layout.length > spec.max_levels) {
+      throw new Error(`occlusion culling supports views up to ${2 ** (spec.max_levels - 1)} pixels wide and high; got ${width} x ${height}`);
+    }
+    const U = GPUBufferUsage;
+    const last = layout[layout.length - 1];
+    const hzb = this.device.createBuffer({ size: 4 * (last[0] + last[1] * last[2]), usage: U.STORAGE | U.COPY_DST, label: "hzb" });
+    const words = new Uint32Array(4 * (spec.max_levels + 1));
+    words.set([layout.length, width, height, 0]);
+    layout.forEach((level, k) => words.set(level, 4 * (k + 1)));
+    const table = this.device.createBuffer({ size: words.byteLength, usage: U.STORAGE | U.COPY_DST, label: "hzb levels" });
+    this.device.queue.writeBuffer(table, 0, words);
+    const res = { ...this.res, s_hzb: hzb, s_hzb_levels: table };
+    const group = (p) => this.device.createBindGroup({
+      layout: p.layout,
+      entries: p.shader.bindings.map((b) => ({ binding: b.binding, resource: { buffer: res[b.resource || b.name] } })),
+    });
+    t = { layout, hzb, table, levelGroups: o.levels.slice(0, layout.length - 1).map(group), cullGroup: group(o.cull) };
+    o.targets.set(key, t);
+    while (o.targets.size > 3) {
+      const [oldKey, old] = o.targets.entries().next().value;
+      old.hzb.destroy(); old.table.destroy();
+      o.targets.delete(oldKey);
+    }
+    return t;
+  }
+
+  // Between the phases: the depth into the pyramid's level 0, the further levels, the second cull.
+  encodeOcclusionSecondPhase(encoder, depthTexture, width, height) {
+    const o = this.occlusion;
+    const t = this.occlusionTarget(width, height);
+    encoder.copyTextureToBuffer({ texture: depthTexture, aspect: "depth-only" },
+      { buffer: t.hzb, bytesPerRow: 4 * t.layout[0][3], rowsPerImage: height }, [width, height]);
+    const cpass = encoder.beginComputePass();
+    t.levelGroups.forEach((g, k) => {
+      const [, w, h] = t.layout[k + 1];
+      cpass.setPipeline(o.levels[k].pipeline);
+      cpass.setBindGroup(0, g);
+      cpass.dispatchWorkgroups(Math.ceil(w / 8), Math.ceil(h / 8));
+    });
+    const blades = this.workgroups(this.n);
+    cpass.setPipeline(o.cull.pipeline);
+    cpass.setBindGroup(0, t.cullGroup);
+    cpass.dispatchWorkgroups(blades[0], blades[1]);
+    cpass.end();
+  }
+
+  // The second phase's draws over the first's picture (colour and depth loaded), then the culled
+  // blades (colour by cull: every test's, occlusion included); returns the pass (balls follow).
+  beginOcclusionDrawPass(encoder, colorView, depthView) {
+    const o = this.occlusion;
+    const pass = encoder.beginRenderPass({
+      colorAttachments: [{ view: colorView, loadOp: "load", storeOp: "store" }],
+      depthStencilAttachment: { view: depthView, depthLoadOp: "load", depthStoreOp: "discard" },
+    });
+    const flat = this.ribbonPipes() !== this.bladePipes;
+    (flat ? o.flatBlades : o.blades).forEach((p, k) => {
+      pass.setPipeline(p.pipeline);
+      pass.setBindGroup(0, p.group);
+      pass.drawIndirect(this.res.s_occlusion_args, 16 * k);
+    });
+    const culled = flat ? this.flatBladePipes.find((p) => p.shader.culled) : null;
+    if (culled) {
+      pass.setPipeline(culled.pipeline);
+      pass.setBindGroup(0, culled.group);
+      pass.drawIndirect(this.res.s_culled_args, 0);
+    }
+    return pass;
+  }
+
+  // The stats' readback: the first phase's args, then the second's with the occluded count.
+  encodeArgsRead(encoder) {
+    const first = 16 * this.lodSegments.length;
+    encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, first);
+    if (this.occlusion) {
+      encoder.copyBufferToBuffer(this.res.s_occlusion_args, 0, this.argsRead, first, 4 * this.occlusion.spec.args_words);
+    }
   }
 
   // ---------------------------------------------------------------- requests from Python
@@ -1009,7 +1194,7 @@ class GrassEngine {
     const row = Math.ceil((w * 4) / 256) * 256;
     const out = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
     const encoder = device.createCommandEncoder();
-    this.encodeFrame(encoder, color.createView(), depth.createView(), w, h);
+    this.encodeFrame(encoder, color.createView(), depth, w, h);
     encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [w, h]);
     device.queue.submit([encoder.finish()]);
     await out.mapAsync(GPUMapMode.READ);

@@ -20,7 +20,9 @@ Differences, by design:
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
 * ``fps`` is frames presented per second in the browser and ``visible`` the
-  browser's indirect-draw instance counts, read back asynchronously.
+  browser's indirect-draw instance counts (both occlusion phases), ``occluded`` the
+  blades culled by occlusion (None while ``params.cull_occlusion`` is off), read back
+  asynchronously.
 * Teaching views: freeze culling copies the browser's camera (its matrices
   computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
   browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
@@ -97,7 +99,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.playing = bool(clock.playing)
         self.browser_view.time_scale = float(clock.time_scale)
         self._ball_scene = _BallScene(self.browser_view)
-        self._stats = {"fps": None, "visible": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
+        self._stats = {"fps": None, "visible": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None}
         self.browser_view.on("stats", self._on_browser_stats)
         self.browser_view.on("error", self.report_error)
@@ -405,6 +407,8 @@ class BrowserEngineView(GrassView):
             fps=fps,
             visible=int(sum(per_class)) if per_class else None,
             visible_per_class=list(per_class) if per_class else None,
+            # blades culled by occlusion (both phases' draws are in visible); None while it is off
+            occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
             steps_per_frame=int(round(steps / frames)) if self.clock_source.playing else 0,

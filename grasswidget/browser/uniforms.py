@@ -75,8 +75,10 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
 
 
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
-    """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values`."""
-    return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen))
+    """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values` (the
+    browser draws every frame in occlusion culling's two phases while
+    ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then)."""
+    return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True))
 
 
 def sky_ground_uniform(style: dict) -> bytes:

@@ -897,6 +897,9 @@ OCCLUSION_PIECES = 4
 #: Rows of the pyramid's level 0 start every HZB_ROW_ALIGN texels (a depth texture is
 #: copied into a buffer in rows of a multiple of 256 bytes = 64 float32).
 HZB_ROW_ALIGN = 64
+#: Levels of the depth pyramid the level table (``s_hzb_levels``) holds: views up to
+#: 2^15 pixels wide and high (both engines).
+HZB_MAX_LEVELS = 16
 
 
 def occlusion_bounds(v0, v1, v2, radius, view_proj, viewport_size):

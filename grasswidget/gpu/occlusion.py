@@ -39,14 +39,14 @@ import wgpu
 
 from .. import compat
 from ..errors import GrassValueError
-from ..core.reference import hzb_layout
+from ..core.reference import HZB_MAX_LEVELS, hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "render_frame", "MAX_HZB_LEVELS"]
 
 #: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
-MAX_HZB_LEVELS = 16
+MAX_HZB_LEVELS = HZB_MAX_LEVELS
 
 
 class OcclusionDraws(gfx.WorldObject):
