@@ -112,6 +112,7 @@ def test_frozen_culling_in_the_browser(teaching_page, browser_root):
 from grasswidget.core import reference as ref
 from grasswidget.gpu.scene import GrassScene
 w.pause()
+w.params.cull_occlusion = False  # the paper's three tests, as the NumPy reference's cull_reason knows them
 w.params.wind_field, w.params.wind_strength = 'wave', 8.0
 w.step(90)
 w.camera_state = {FROZEN_AT!r}
