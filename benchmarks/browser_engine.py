@@ -63,7 +63,8 @@ OCCLUSION_COUNTS = (1 << 13, 1 << 15)
 OCCLUSION_ROUNDS = 2
 RASTER_COUNTS = (4096, 1 << 14)
 RASTER_ROUNDS = 2
-PROFILE_FRAMES = 8
+PROFILE_FRAMES = 4
+PROFILE_ROUNDS = 3
 
 # The page's newest open engine (engine.js keeps them in a Map: engine_key -> engine).
 _ENGINE = ("(() => { const es = [...(globalThis.__grasswidgetEngines || new Map()).values()].filter((e) => !e.closed); "
@@ -140,21 +141,27 @@ def occlusion_on_off(page, server, root):
 # the canvas, submits them back to back and waits for the GPU (ms per frame). A variant leaves
 # out the draws / dispatches of some pipelines (a pass whose work is skipped: its cost is the
 # difference to the full frame). "simulate_ms": the simulation's dispatch of `steps` fixed steps.
-_PROFILE_JS = """async ({frames, steps}) => {
+_PROFILE_JS = """async ({frames, steps, rounds}) => {
   const es = [...(globalThis.__grasswidgetEngines || new Map()).values()].filter((e) => !e.closed);
   const e = es[es.length - 1];
   const device = e.device;
   const view = [...e.views][0];
-  const w = view.canvas.width, h = view.canvas.height;
-  const color = device.createTexture({ size: [w, h], format: e.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
-  const depth = e.depthFor(w, h);
-  const colorView = color.createView();
+  const W = view.canvas.width, H = view.canvas.height;
+  const targets = new Map();
+  const target = (w, h) => {
+    const key = `${w}x${h}`;
+    if (!targets.has(key)) {
+      const color = device.createTexture({ size: [w, h], format: e.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
+      targets.set(key, { color, view: color.createView(), depth: e.depthFor(w, h) });
+    }
+    return targets.get(key);
+  };
   const wrapPass = (pass, skip) => {
     let current = null;
     return new Proxy(pass, { get(t, k) {
       if (k === "setPipeline") return (p) => { current = p; t.setPipeline(p); };
       if (typeof k === "string" && (k.startsWith("draw") || k.startsWith("dispatch"))) {
-        return (...a) => { if (!skip.has(current)) t[k](...a); };
+        return (...a) => { if (!(skip === "all" || skip.has(current))) t[k](...a); };
       }
       const v = t[k];
       return typeof v === "function" ? v.bind(t) : v;
@@ -165,12 +172,13 @@ _PROFILE_JS = """async ({frames, steps}) => {
     const v = t[k];
     return typeof v === "function" ? v.bind(t) : v;
   } });
-  const timeFrames = async (skip) => {
+  const timeFrames = async (skip, w, h) => {
+    const t = target(w, h);
     await device.queue.onSubmittedWorkDone();
     const t0 = performance.now();
     for (let i = 0; i < frames; i++) {
       const enc = device.createCommandEncoder();
-      e.encodeFrame(wrapEncoder(enc, skip), colorView, depth, w, h);
+      e.encodeFrame(wrapEncoder(enc, skip), t.view, t.depth, w, h);
       device.queue.submit([enc.finish()]);
     }
     await device.queue.onSubmittedWorkDone();
@@ -178,29 +186,44 @@ _PROFILE_JS = """async ({frames, steps}) => {
   };
   const pipes = (list) => new Set((list || []).filter(Boolean).map((p) => p.pipeline));
   const o = e.occlusion, r = e.raster;
-  const groups = {
+  const variants = {
+    "full": () => timeFrames(new Set(), W, H),
+    "half_size": () => timeFrames(new Set(), Math.round(W / 2), Math.round(H / 2)),
+    "occlusion_off": async () => {
+      const keep = e.occlusionOn;
+      e.occlusionOn = () => false;
+      try { return await timeFrames(new Set(), W, H); } finally { e.occlusionOn = keep; }
+    },
+    "no_draws_or_dispatches": () => timeFrames("all", W, H),
+  };
+  const skips = {
     "sky_ground": pipes([e.skyGround]),
     "ribbons": pipes([...e.bladePipes, ...e.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
-    "compute_raster_resolve": pipes(r ? [r.resolve, r.resolveFlat] : []),
-    "compute_raster_walks": pipes([...e.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
-      ...(r ? [r.second_depth, r.second_payload] : [])]),
-    "compute_raster_clear": pipes(e.computePasses.filter((p) => p.name === "raster_clear")),
     "culling": pipes([...e.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
       ...(o ? [o.cull] : [])]),
     "occlusion_pyramid": pipes(o ? o.levels : []),
   };
-  const out = { size: [w, h], frames, full_ms: await timeFrames(new Set()), without_ms: {} };
-  for (const [name, skip] of Object.entries(groups)) {
-    if (skip.size) out.without_ms[name] = await timeFrames(skip);
+  if (e.rasterOn && e.rasterOn()) {
+    skips["compute_raster_resolve"] = pipes(r ? [r.resolve, r.resolveFlat] : []);
+    skips["compute_raster_walks"] = pipes([...e.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
+      ...(r ? [r.second_depth, r.second_payload] : [])]);
+    skips["compute_raster_clear"] = pipes(e.computePasses.filter((p) => p.name === "raster_clear"));
   }
-  out.full_again_ms = await timeFrames(new Set());
+  for (const [name, skip] of Object.entries(skips)) variants[`without_${name}`] = () => timeFrames(skip, W, H);
+  const samples = {};
+  for (let k = 0; k < rounds; k++) {
+    for (const [name, run] of Object.entries(variants)) (samples[name] = samples[name] || []).push(await run());
+  }
+  const median = (a) => { const b = [...a].sort((x, y) => x - y); return b[Math.floor(b.length / 2)]; };
+  const out = { size: [W, H], frames, rounds, ms: {}, samples };
+  for (const [name, a] of Object.entries(samples)) out.ms[name] = median(a);
   await device.queue.onSubmittedWorkDone();
-  let t0 = performance.now();
+  const t0 = performance.now();
   e.simulate(steps);
   await device.queue.onSubmittedWorkDone();
   out.simulate_ms = performance.now() - t0;
   out.simulate_steps = steps;
-  color.destroy(); depth.destroy();
+  for (const t of targets.values()) { t.color.destroy(); t.depth.destroy(); }
   return out;
 }"""
 
@@ -210,7 +233,7 @@ def profile_frame(page, steps):
     page.evaluate(f"() => {{ const e = {_ENGINE}; e.ready = false; }}")
     try:
         page.wait_for_timeout(1500)  # frames in flight finish
-        return page.evaluate(_PROFILE_JS, {"frames": PROFILE_FRAMES, "steps": steps})
+        return page.evaluate(_PROFILE_JS, {"frames": PROFILE_FRAMES, "steps": steps, "rounds": PROFILE_ROUNDS})
     finally:
         page.evaluate(f"() => {{ const e = {_ENGINE}; e.ready = true; e.scheduleFrame(); }}")
 
@@ -254,9 +277,13 @@ def compute_raster_on_off(page, server, root):
             frames_per_s_after(page, 2, 2, 1.0)
             prof = profile_frame(page, steps)
             row["profile"][mode] = prof
-            costs = {k: round(prof["full_ms"] - v, 1) for k, v in prof["without_ms"].items()}
-            print(f"{n:>8} blades, {mode:>3}: offscreen frame {prof['full_ms']:.1f} ms ({prof['full_again_ms']:.1f} "
-                  f"again), passes' cost (frame without it) {costs}, simulate {steps} steps {prof['simulate_ms']:.1f} ms")
+            ms = prof["ms"]
+            prof["pass_cost_ms"] = {k[len("without_"):]: round(ms["full"] - v, 1) for k, v in ms.items()
+                                    if k.startswith("without_")}
+            print(f"{n:>8} blades, {mode:>3}: offscreen frame {ms['full']:.1f} ms (median of {PROFILE_ROUNDS}), "
+                  f"half size {ms['half_size']:.1f}, occlusion off {ms['occlusion_off']:.1f}, no draws or "
+                  f"dispatches {ms['no_draws_or_dispatches']:.1f}; passes' cost (full - without) "
+                  f"{prof['pass_cost_ms']}; simulate {steps} steps {prof['simulate_ms']:.1f} ms")
         out["rows"].append(row)
     out["adapter"] = engine_info(page)["adapter"]
     kernel_execute(page, "w.close()")
