@@ -61,7 +61,8 @@ STARTUP_BLADES = 1 << 18
 WINDOW_S = 6.0
 OCCLUSION_COUNTS = (1 << 13, 1 << 15)
 OCCLUSION_ROUNDS = 2
-RASTER_COUNTS = (4096, 1 << 14)
+#: (preset, blades, profile): the default view has no blade under 2 px at 640 x 480; the meadow's far field has many.
+RASTER_ROWS = ((None, 4096, True), (None, 1 << 14, True), ("meadow", 1 << 14, False))
 RASTER_ROUNDS = 2
 PROFILE_FRAMES = 4
 PROFILE_ROUNDS = 3
@@ -242,7 +243,8 @@ def compute_raster_on_off(page, server, root):
     """The compute rasterizer off vs on in the default view, windows interleaved in one run, then
     where a frame's time goes (profile_frame) with it off and on."""
     write_notebook(root / "compute_raster.ipynb", [
-        f"import grasswidget as gw\nw = gw.GrassWidget({RASTER_COUNTS[0]}, backend='browser', size=(640, 480))\nw",
+        f"import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        f"w = gw.GrassWidget({RASTER_ROWS[0][1]}, backend='browser', size=(640, 480))\nw",
     ])
     open_notebook(page, server, "compute_raster.ipynb")
     run_all_cells(page, timeout=120)
@@ -250,12 +252,14 @@ def compute_raster_on_off(page, server, root):
     out = {"view": "default view, 640 x 480, playing (the widget's defaults: culling, LOD, occlusion culling on)",
            "window": f"at least 4 frames and {WINDOW_S} s after 2 warm-up frames", "rounds": RASTER_ROUNDS,
            "rows": []}
-    for n in RASTER_COUNTS:
-        if (engine_info(page) or {}).get("n") != n:
+    for preset, n, profile in RASTER_ROWS:
+        if preset is not None:  # the preset's blades and camera in the same widget
+            kernel_execute(page, f"b, _, v = preset_field({preset!r}, {n})\nw.set_blades(b)\n"
+                                 "w.camera_state = {k: v[k] for k in ('position', 'target', 'fov_deg')}")
+        elif (engine_info(page) or {}).get("n") != n:
             kernel_execute(page, f"w.set_blades({n})")
-            poll(lambda: (engine_info(page) or {}).get("n") == n, f"the browser to hold {n} blades", 120, 0.5,
-                 page=page)
-        row = {"blades": n, "off": [], "on": [], "profile": {}}
+        poll(lambda: (engine_info(page) or {}).get("n") == n, f"the browser to hold {n} blades", 120, 0.5, page=page)
+        row = {"view": preset or "default", "blades": n, "off": [], "on": [], "profile": {}}
         for _ in range(RASTER_ROUNDS):
             for mode in ("off", "on"):
                 kernel_execute(page, f"w.params.compute_raster = {mode == 'on'}")
@@ -266,13 +270,13 @@ def compute_raster_on_off(page, server, root):
                 rastered = page.evaluate(f"() => {_ENGINE}.rastered")
                 row[mode].append({"frames_per_s": round(fps, 3), "ribbons": sum(info["visible"]),
                                   "compute": rastered})
-                print(f"{n:>8} blades, compute raster {mode:>3}: {fps:6.2f} frames/s presented, "
+                print(f"{preset or 'default':>8} {n:>8} blades, compute raster {mode:>3}: {fps:6.2f} frames/s presented, "
                       f"{sum(info['visible'])} as ribbons, {rastered} in compute")
         med = {m: sorted(r["frames_per_s"] for r in row[m])[len(row[m]) // 2] for m in ("off", "on")}
         row["on_over_off"] = round(med["on"] / med["off"], 2) if med["off"] else None
         print(f"{n:>8} blades: compute raster on / off = {row['on_over_off']}x frames/s")
         steps = max(1, round(60 / max(med["off"], 1e-3)))  # the steps one presented frame simulates while playing
-        for mode in ("off", "on"):
+        for mode in ("off", "on") if profile else ():
             kernel_execute(page, f"w.params.compute_raster = {mode == 'on'}")
             frames_per_s_after(page, 2, 2, 1.0)
             prof = profile_frame(page, steps)

@@ -82,6 +82,7 @@ _STORAGE = {
         # the compute rasterizer's resolve (raster_resolve.wgsl)
         "s_raster_depth": "var<storage, read> s_raster_depth: array<u32>",
         "s_raster_payload": "var<storage, read> s_raster_payload: array<u32>",
+        "s_raster_args": "var<storage, read> s_raster_args: array<u32>",
     },
 }
 

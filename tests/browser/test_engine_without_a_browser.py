@@ -116,7 +116,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     for name, flat in (("resolve", False), ("resolve_flat", True)):
         sh = raster[name]
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
-        assert kinds["s_raster_depth"] == kinds["s_raster_payload"] == "read-only-storage"
+        assert kinds["s_raster_depth"] == kinds["s_raster_payload"] == kinds["s_raster_args"] == "read-only-storage"
+        assert "select(0.0, 1.0, s_raster_args[0] > 0u)" in sh["code"]  # nothing listed: no fragment shaded
         assert "@builtin(frag_depth) depth: f32" in sh["code"] and "blade_shade(" in sh["code"]
         assert ("const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]) == flat
     assert all("@builtin(frag_depth)" not in b["code"] for b in shaders["blades"])
