@@ -307,6 +307,16 @@ TWINS = {
     "blade_shape_t": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99)],
                       lambda u, v, shape, tau: _rows(ref.blade_shape_t, u, v, shape, tau), 1),
     "hash01": (lambda r: [r.integers(0, 2**32, N)], ref.hash01, 1),
+    "clump_noise": (lambda r: [_u(r, -50, 50), _u(r, -50, 50), _u(r, 0.5, 20)], ref.clump_noise, 1),
+    "blade_base_color": (lambda r: [r.uniform(0, 0.6, (N, 3)), r.uniform(0.2, 1, (N, 3)), _u(r, -0.1, 1.1), _u(r, 0, 1),
+                                    r.uniform(-1, 1, (N, 2)), _u(r, 0, 1), _u(r, 0, 1)], ref.blade_base_color, 1),
+    "backlight": (lambda r: [_unit(r), _unit(r), _u(r, -0.1, 1.1), _u(r, 0, 1)], ref.backlight, 1),
+    "fog_amount": (lambda r: [_u(r, -1, 400), _u(r, -0.01, 0.2)], ref.fog_amount, 1),
+    "sky_color": (lambda r: [_u(r, -1, 1), r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3))], ref.sky_color, 1),
+    "field_inside": (lambda r: [_u(r, -20, 20), _u(r, -20, 20), r.uniform(-5, 5, (N, 2)), r.uniform(1, 15, (N, 2)),
+                                _u(r, 0.1, 2)], ref.field_inside, 10),
+    "ground_color": (lambda r: [r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3)), _u(r, -0.2, 1.2), _u(r, 0, 1),
+                                _u(r, -1, 1)], ref.ground_color, 1),
 }
 
 
