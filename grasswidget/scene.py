@@ -21,8 +21,9 @@ from .gpu.field import GrassField, GrassMaterial, check_blade_count_fits
 from .framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .gpu.sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from .params import GrassParams
+from .reference import ground_cover
 
-__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer", "EXPORT_SUPERSAMPLE"]
 
 #: The cis565 preset's distance-culling reach (m) when it makes its own params.
 CIS565_DISTANCE_MAX = 40.0
@@ -39,13 +40,28 @@ def set_vertical_fov(camera, fov_deg, aspect):
     camera.aspect = aspect
 
 
-def make_renderer(canvas):
-    """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings:
-    pixel ratio 1, no post-process anti-aliasing on a CPU adapter, no picking events."""
-    if is_cpu_adapter():
+#: Supersampling of exported pictures (save_png, render_at, the CLI snapshot,
+#: save_animation): each output pixel is rendered as EXPORT_SUPERSAMPLE x
+#: EXPORT_SUPERSAMPLE pixels, filtered down by pygfx (its Mitchell filter). On
+#: lavapipe at 640 x 360 this halves the mean difference to a 4 x 4 supersample
+#: (benchmarks/looks_cost.py measures it and the time).
+EXPORT_SUPERSAMPLE = 2
+
+
+def make_renderer(canvas, *, export=False):
+    """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings.
+
+    Live view (``export=False``): pixel ratio 1, no post-process anti-aliasing on a
+    CPU adapter (pygfx's default one on a GPU), no picking events. Export
+    (``export=True``): anti-aliased on every adapter: rendered at
+    :data:`EXPORT_SUPERSAMPLE` times the size in each direction and filtered down
+    (supersampling), plus pygfx's default post-process anti-aliasing on a GPU.
+    """
+    cpu = is_cpu_adapter()
+    if cpu:
         announce_cpu_defaults()
-        return gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none", enable_events=False)
-    return gfx.WgpuRenderer(canvas, pixel_ratio=1, enable_events=False)
+    ratio = EXPORT_SUPERSAMPLE if export else 1
+    return gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
 
 
 class GrassScene:
@@ -86,6 +102,14 @@ class GrassScene:
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=self._ground_center,
                                                       ground_half_size=0.6 * extent))
         self.ground = GroundSwitch(self.sky_ground.material)
+        half = 0.5 * (hi - lo)
+        area = float(max(2 * half[0], 0.1) * max(2 * half[2], 0.1))
+        self.sky_ground.material.set_field((center[0], center[2]), (half[0], half[2]),
+                                           ground_cover(blades.height, blades.width, area),
+                                           self.params.patch_size)
+        self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
+        self._sync_sky_looks()
+        self.params.observe(self._sync_sky_looks, names=["fog_density", "patch_size"])
         self._field_extent = extent
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
@@ -152,10 +176,16 @@ class GrassScene:
 
     def _fit_ground(self):
         """Size the ground plane to reach the far plane from anywhere over the field,
-        so that a low camera sees ground, not sky, below the horizon."""
+        so that a low camera sees ground, not sky, below the horizon; the ground fades
+        into the horizon towards the far plane."""
         far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
         side = 1.2 * self._field_extent + 2.0 * far
-        self.sky_ground.material.set_ground(self._ground_center, 0.5 * side)
+        self.sky_ground.material.set_ground(self._ground_center, 0.5 * side, far)
+
+    def _sync_sky_looks(self, change=None):
+        """The sky/ground pass follows the params' fog density and patch size."""
+        self.sky_ground.material.fog_density = self.params.fog_density
+        self.sky_ground.material.patch_size = self.params.patch_size
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a
@@ -277,13 +307,16 @@ class GrassScene:
         img = self.canvas.draw()
         return np.asarray(img)
 
-    def render_at(self, size) -> np.ndarray:
-        """Render at another size (offscreen), same camera and state; (h, w, 4) uint8."""
+    def render_at(self, size=None, *, antialias=True) -> np.ndarray:
+        """Render at ``size`` (w, h) pixels (default the scene's) offscreen, same camera
+        and state; (h, w, 4) uint8. Never advances time. ``antialias=True`` (default,
+        what exports use): supersampled, see :func:`make_renderer`; False: like the
+        live view."""
         from rendercanvas.offscreen import RenderCanvas
 
-        w, h = parse_size(size)
+        w, h = self.size if size is None else parse_size(size)
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
-        renderer = make_renderer(canvas)
+        renderer = make_renderer(canvas, export=bool(antialias))
         aspect = self.camera.aspect
         self.collider_balls.sync()
         canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
@@ -294,10 +327,11 @@ class GrassScene:
             canvas.close()
 
     def save_png(self, path, size=None) -> str:
-        """Write a PNG of the current state (default: the scene's size); returns the path."""
+        """Write an anti-aliased PNG of the current state (default: the scene's size;
+        see :meth:`render_at`); returns the path."""
         import imageio.v3 as iio
 
-        img = self.render() if size is None or parse_size(size) == self.size else self.render_at(size)
+        img = self.render_at(size)
         path = os.fspath(path)
         iio.imwrite(path, img, extension=".png")
         return path

@@ -19,7 +19,7 @@ from ..colliders import ColliderList
 from ..enums import ColorBy
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
-from ..params import GrassParams
+from ..params import LOOK_TRAITS, GrassParams
 from ..reference import LOD_SEGMENTS
 from ..uniform_layouts import CULL_LAYOUT, shadertype
 from . import indirect
@@ -146,6 +146,8 @@ class GrassField(gfx.WorldObject):
             self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
         else:
             self.material.blade_shape = self.params.blade_shape
+        for name in LOOK_TRAITS:  # the params drive the material's looks
+            setattr(self.material, name, getattr(self.params, name))
         if self.params.wind_wgsl.strip():
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
@@ -252,6 +254,8 @@ class GrassField(gfx.WorldObject):
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
+        elif change["name"] in LOOK_TRAITS:
+            setattr(self.material, change["name"], change["new"])
         elif change["name"] == "wind_wgsl":
             self.simulation.compile_wind(change["new"], change["old"])
 

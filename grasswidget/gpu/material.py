@@ -24,7 +24,9 @@ class GrassMaterial(gfx.Material):
     """Colours, lighting and ribbon shape of grass blades.
 
     Uniforms (all documented as properties): ``root_color``, ``tip_color`` (sRGB),
-    ``color_variation`` (0..1, per-blade brightness/hue spread), ``ambient``
+    ``color_variation`` (0..1, per-blade brightness/hue spread, in patches of
+    ``patch_size`` metres), ``dryness`` (0..1), ``translucency`` (0..1, tips lit
+    from behind), ``fog_density`` (1/m) and ``fog_color`` (sRGB), ``ambient``
     (0..1), ``light_direction`` (towards the light, world space),
     ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
     ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
@@ -35,7 +37,12 @@ class GrassMaterial(gfx.Material):
         root_color="4xf4",
         tip_color="4xf4",
         light_direction="4xf4",
+        fog_color="4xf4",
         color_variation="f4",
+        patch_size="f4",
+        dryness="f4",
+        translucency="f4",
+        fog_density="f4",
         ambient="f4",
         tip_threshold="f4",
         blade_shape="i4",
@@ -47,6 +54,11 @@ class GrassMaterial(gfx.Material):
         root_color="#1d4a12",
         tip_color="#8fc246",
         color_variation=0.35,
+        patch_size=3.0,
+        dryness=0.2,
+        translucency=0.6,
+        fog_density=0.0,
+        fog_color="#e4edf5",
         ambient=0.4,
         light_direction=(0.4, 1.0, 0.3),
         blade_shape="triangle-tip",
@@ -57,6 +69,11 @@ class GrassMaterial(gfx.Material):
         self.root_color = root_color
         self.tip_color = tip_color
         self.color_variation = color_variation
+        self.patch_size = patch_size
+        self.dryness = dryness
+        self.translucency = translucency
+        self.fog_density = fog_density
+        self.fog_color = fog_color
         self.ambient = ambient
         self.light_direction = light_direction
         self.blade_shape = blade_shape
@@ -97,6 +114,54 @@ class GrassMaterial(gfx.Material):
     @color_variation.setter
     def color_variation(self, value):
         self._set("color_variation", _check_unit("color_variation", value))
+
+    @property
+    def patch_size(self):
+        """Size of the colour patches (clumps) in metres, 0.1..100."""
+        return float(self.uniform_buffer.data["patch_size"])
+
+    @patch_size.setter
+    def patch_size(self, value):
+        v = float(value)
+        if not (math.isfinite(v) and 0.1 <= v <= 100.0):
+            raise GrassValueError(f"patch_size must be in [0.1, 100] m; got {value!r}")
+        self._set("patch_size", v)
+
+    @property
+    def dryness(self):
+        """Share of dry, straw-coloured grass in patches, 0..1."""
+        return float(self.uniform_buffer.data["dryness"])
+
+    @dryness.setter
+    def dryness(self, value):
+        self._set("dryness", _check_unit("dryness", value))
+
+    @property
+    def translucency(self):
+        """How much the tips glow with the sun behind them, 0..1."""
+        return float(self.uniform_buffer.data["translucency"])
+
+    @translucency.setter
+    def translucency(self, value):
+        self._set("translucency", _check_unit("translucency", value))
+
+    @property
+    def fog_density(self):
+        """Distance fog density in 1/m (0 = no fog), 0..1."""
+        return float(self.uniform_buffer.data["fog_density"])
+
+    @fog_density.setter
+    def fog_density(self, value):
+        self._set("fog_density", _check_unit("fog_density", value))
+
+    @property
+    def fog_color(self):
+        """Colour far blades fade to (sRGB): the sky's at the horizon."""
+        return gfx.Color(self.uniform_buffer.data["fog_color"])
+
+    @fog_color.setter
+    def fog_color(self, color):
+        self._set("fog_color", gfx.Color(color))
 
     @property
     def ambient(self):

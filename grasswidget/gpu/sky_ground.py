@@ -4,10 +4,10 @@ On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
 lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
 at the far depth with the "<" depth test, so the pixels the grass covers are
-never shaded. The ground is a flat square of colour: the lit plane it replaces
-had one normal and one directional light, so it was one colour too (checked:
-sRGB (51, 36, 22) +- 1 over the whole plane), and that lit colour is the
-default ``ground_color``.
+never shaded. The ground is already lit (one normal, one sun): soil under the
+field, darker the more the grass covers it, a muted olive ground beyond it,
+both mottled by the meadow's patches; it fades into the sky's horizon colour
+towards the far plane and with the distance fog, so that the horizon is soft.
 """
 
 from __future__ import annotations
@@ -19,47 +19,117 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_funct
 
 from ..errors import GrassValueError
 from ..shader_files import read_shader
-from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
+from .wgsl import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
 
 
 class SkyGroundMaterial(gfx.Material):
-    """Colours and ground square of a :class:`SkyGround`.
+    """Colours, ground square, field rectangle and fog of a :class:`SkyGround`.
 
     Args:
-        sky_bottom, sky_top: sRGB colours of the sky gradient (bottom and top of the view).
-        ground_color: sRGB colour of the ground (already lit).
+        horizon_color, zenith_color: sRGB colours of the sky at the horizon (also the
+            fog's colour) and straight up; between them by the ray's elevation.
+        soil_color: sRGB colour of the bare soil under the field (already lit; the
+            grass' cover darkens it down to 0.4 of this).
+        beyond_color: sRGB colour of the ground beyond the field.
         ground_center: (x, y, z) metres: the ground plane is y = ground_center[1].
         ground_half_size: half the side of the ground square (m, > 0).
+        far_distance: the camera's far plane (m, > 0): the ground fades into the
+            horizon colour from 0.6 of it.
+
+    The field rectangle, the grass' cover and the patch size come from
+    :meth:`set_field`; the fog density from ``fog_density`` (1/m, 0 = none).
     """
 
     uniform_type = dict(
         gfx.Material.uniform_type,
-        sky_bottom="4xf4",
-        sky_top="4xf4",
-        ground_color="4xf4",
+        horizon_color="4xf4",
+        zenith_color="4xf4",
+        soil_color="4xf4",
+        beyond_color="4xf4",
         ground="4xf4",
+        field="4xf4",
         show_ground="i4",
+        far_distance="f4",
+        fog_density="f4",
+        cover="f4",
+        patch_size="f4",
+        field_edge="f4",
     )
 
-    def __init__(self, sky_bottom="#9cc3e6", sky_top="#e8f1f8", ground_color="#332416",
-                 ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0, **kwargs):
+    def __init__(self, horizon_color="#e4edf5", zenith_color="#8db8e3", soil_color="#3b2a1a",
+                 beyond_color="#6f7a45", ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
+                 far_distance=100.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
-        self.uniform_buffer.data["sky_bottom"] = gfx.Color(sky_bottom).rgba
-        self.uniform_buffer.data["sky_top"] = gfx.Color(sky_top).rgba
-        self.uniform_buffer.data["ground_color"] = gfx.Color(ground_color).rgba
-        self.set_ground(ground_center, ground_half_size)
+        data = self.uniform_buffer.data
+        for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
+                            ("soil_color", soil_color), ("beyond_color", beyond_color)):
+            data[name] = gfx.Color(color).rgba
+        data["fog_density"] = 0.0
+        self.set_field((ground_center[0], ground_center[2]), (ground_half_size, ground_half_size), 0.0)
+        self.set_ground(ground_center, ground_half_size, far_distance)
         self.show_ground = True
 
-    def set_ground(self, center, half_size):
-        """Move the ground square: ``center`` (x, y, z) metres, ``half_size`` metres (> 0)."""
+    def set_ground(self, center, half_size, far_distance=None):
+        """Move the ground square: ``center`` (x, y, z) metres, ``half_size`` metres (> 0);
+        ``far_distance`` (m, > 0): the camera's far plane (None keeps it)."""
         half_size = float(half_size)
         if not half_size > 0:
             raise GrassValueError(f"ground_half_size must be > 0 (metres); got {half_size!r}")
+        if far_distance is not None:
+            far_distance = float(far_distance)
+            if not (np.isfinite(far_distance) and far_distance > 0):
+                raise GrassValueError(f"far_distance must be > 0 (metres); got {far_distance!r}")
+            self.uniform_buffer.data["far_distance"] = far_distance
         c = np.asarray(center, np.float32).reshape(3)
         self.uniform_buffer.data["ground"] = (c[0], c[1], c[2], half_size)
         self.uniform_buffer.update_full()
+
+    def set_field(self, center_xz, half_xz, cover, patch_size=3.0, edge=0.5):
+        """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
+        soil under it darkened by ``cover`` (0..1, see ``reference.ground_cover``), mottled
+        in patches of ``patch_size`` metres (> 0), soft over ``edge`` metres (> 0)."""
+        cover, patch_size, edge = float(cover), float(patch_size), float(edge)
+        if not 0.0 <= cover <= 1.0:
+            raise GrassValueError(f"cover must be in [0, 1]; got {cover!r}")
+        if not (patch_size > 0 and edge > 0):
+            raise GrassValueError(f"patch_size and edge must be > 0 metres; got {patch_size!r}, {edge!r}")
+        d = self.uniform_buffer.data
+        d["field"] = (float(center_xz[0]), float(center_xz[1]), float(half_xz[0]), float(half_xz[1]))
+        d["cover"], d["patch_size"], d["field_edge"] = cover, patch_size, edge
+        self.uniform_buffer.update_full()
+
+    @property
+    def fog_density(self) -> float:
+        """Distance fog density in 1/m (0 = no fog), towards ``horizon_color``."""
+        return float(self.uniform_buffer.data["fog_density"])
+
+    @fog_density.setter
+    def fog_density(self, value):
+        v = float(value)
+        if not (np.isfinite(v) and 0.0 <= v <= 1.0):
+            raise GrassValueError(f"fog_density must be in [0, 1] 1/m; got {value!r}")
+        self.uniform_buffer.data["fog_density"] = v
+        self.uniform_buffer.update_full()
+
+    @property
+    def patch_size(self) -> float:
+        """Size (m) of the patches that mottle the ground."""
+        return float(self.uniform_buffer.data["patch_size"])
+
+    @patch_size.setter
+    def patch_size(self, value):
+        v = float(value)
+        if not (np.isfinite(v) and v > 0):
+            raise GrassValueError(f"patch_size must be > 0 metres; got {value!r}")
+        self.uniform_buffer.data["patch_size"] = v
+        self.uniform_buffer.update_full()
+
+    @property
+    def horizon_color(self):
+        """The sky's colour at the horizon (sRGB), also the fog's."""
+        return gfx.Color(self.uniform_buffer.data["horizon_color"])
 
     @property
     def show_ground(self) -> bool:
@@ -122,6 +192,9 @@ def _register():
 
         def get_render_info(self, wobject, shared):
             return {"indices": (4, 1)}
+
+        def __init__(self, wobject, **kwargs):
+            super().__init__(wobject, **shader_vars(**kwargs))  # blade_math.wgsl's ids and constants
 
         def get_code(self):
             return read_shader("sky_ground.wgsl")

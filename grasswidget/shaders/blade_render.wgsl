@@ -81,7 +81,11 @@ fn vs_main(in: VertexInput) -> Varyings {
     varyings.world_pos = vec3<f32>(world_pos.xyz / world_pos.w);
     varyings.normal = vec3<f32>(world_normal);
     varyings.along = f32(v);
-    varyings.variation = f32(hash01(blade));
+    // The blade's unlit colour, per vertex: its patch (clump noise of the root) and its own hash.
+    let clump = clump_noise(v0.x, v0.z, u_material.patch_size);
+    let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
+                                u_material.color_variation, u_material.dryness);
+    varyings.base_color = vec3<f32>(base);
     varyings.pick_idx = u32(blade);
     $$ if teaching_views
     varyings.flat_color = vec4<f32>(flat_color);
@@ -97,20 +101,18 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     var n = normalize(varyings.normal);
     if (dot(n, to_eye) < 0.0) { n = -n; }
 
-    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
-    let var_s = varyings.variation - 0.5;
-    let root = u_material.root_color.rgb;
-    let tip = u_material.tip_color.rgb;
-    var base = mix(root, tip, pow(clamp(varyings.along, 0.0, 1.0), 0.8));
-    base = base * (1.0 + u_material.color_variation * var_s);
-    base = base + u_material.color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
-
+    let base = varyings.base_color;
     let l = normalize(u_material.light_direction.xyz);
     let diffuse = max(dot(n, l), 0.0);
     let translucency = 0.35 * max(dot(-n, l), 0.0);
     let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
     let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
-    var rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    // Tips seen against the sun glow (light through the blade), warmer than the blade.
+    let glow = backlight(to_eye, l, varyings.along, u_material.translucency);
+    var rgb = clamp(base * shade + glow * (1.2 * base + vec3<f32>(0.16, 0.14, 0.02)), vec3<f32>(0.0), vec3<f32>(1.0));
+    // Distance fog towards the sky's horizon colour.
+    let fog = fog_amount(length(cam_pos - varyings.world_pos), u_material.fog_density);
+    rgb = mix(rgb, u_material.fog_color.rgb, fog);
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif
