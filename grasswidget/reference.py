@@ -892,14 +892,12 @@ def field_inside(x, z, c, half, edge):
     return np.clip(0.5 - d / edge, 0.0, 1.0)
 
 
-def ground_color(soil, beyond, inside, cover, mottle):
-    """Ground colour (sRGB): soil darkened by the grass' ``cover`` (0..1; see
-    :func:`ground_cover`) to ``1 - 0.6 cover`` and mottled by ``mottle`` (-1..1, x 0.25)
-    under the field, the ground ``beyond`` (mottled x 0.1) outside, blended by ``inside``."""
-    mottle = np.asarray(mottle, np.float64)[..., None]
-    under = np.asarray(soil, np.float64) * (1.0 - 0.6 * np.clip(cover, 0.0, 1.0))[..., None] * (1.0 + 0.25 * mottle)
-    far = np.asarray(beyond, np.float64) * (1.0 + 0.1 * mottle)
-    return np.clip(_mix(far, under, np.clip(inside, 0.0, 1.0)), 0.0, 1.0)
+def ground_color(soil, beyond, inside, cover):
+    """Ground colour (sRGB): ``soil`` darkened by the grass' ``cover`` (0..1; see
+    :func:`ground_cover`) to ``1 - 0.6 cover`` under the field, the ground ``beyond``
+    outside, blended by ``inside`` (0..1, :func:`field_inside`)."""
+    under = np.asarray(soil, np.float64) * (1.0 - 0.6 * np.clip(cover, 0.0, 1.0))[..., None]
+    return _mix(beyond, under, np.clip(inside, 0.0, 1.0))
 
 
 def ground_cover(heights, widths, area):

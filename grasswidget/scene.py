@@ -105,11 +105,10 @@ class GrassScene:
         half = 0.5 * (hi - lo)
         area = float(max(2 * half[0], 0.1) * max(2 * half[2], 0.1))
         self.sky_ground.material.set_field((center[0], center[2]), (half[0], half[2]),
-                                           ground_cover(blades.height, blades.width, area),
-                                           self.params.patch_size)
+                                           ground_cover(blades.height, blades.width, area))
         self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
         self._sync_sky_looks()
-        self.params.observe(self._sync_sky_looks, names=["fog_density", "patch_size"])
+        self.params.observe(self._sync_sky_looks, names=["fog_density"])
         self._field_extent = extent
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
@@ -183,9 +182,8 @@ class GrassScene:
         self.sky_ground.material.set_ground(self._ground_center, 0.5 * side, far)
 
     def _sync_sky_looks(self, change=None):
-        """The sky/ground pass follows the params' fog density and patch size."""
+        """The sky/ground pass follows the params' fog density."""
         self.sky_ground.material.fog_density = self.params.fog_density
-        self.sky_ground.material.patch_size = self.params.patch_size
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a

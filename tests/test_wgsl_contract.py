@@ -315,8 +315,8 @@ TWINS = {
     "sky_color": (lambda r: [_u(r, -1, 1), r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3))], ref.sky_color, 1),
     "field_inside": (lambda r: [_u(r, -20, 20), _u(r, -20, 20), r.uniform(-5, 5, (N, 2)), r.uniform(1, 15, (N, 2)),
                                 _u(r, 0.1, 2)], ref.field_inside, 10),
-    "ground_color": (lambda r: [r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3)), _u(r, -0.2, 1.2), _u(r, 0, 1),
-                                _u(r, -1, 1)], ref.ground_color, 1),
+    "ground_color": (lambda r: [r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3)), _u(r, -0.2, 1.2), _u(r, 0, 1)],
+                     ref.ground_color, 1),
 }
 
 

@@ -5,8 +5,8 @@ Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
 lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
 at the far depth with the "<" depth test, so the pixels the grass covers are
 never shaded. The ground is already lit (one normal, one sun): soil under the
-field, darker the more the grass covers it, a muted olive ground beyond it,
-both mottled by the meadow's patches; it fades into the sky's horizon colour
+field, darker the more the grass covers it, a muted olive ground beyond it
+(flat: a noise texture there cost a third of a lavapipe frame); it fades into the sky's horizon colour
 towards the far plane and with the distance fog, so that the horizon is soft.
 """
 
@@ -38,7 +38,7 @@ class SkyGroundMaterial(gfx.Material):
         far_distance: the camera's far plane (m, > 0): the ground fades into the
             horizon colour from 0.6 of it.
 
-    The field rectangle, the grass' cover and the patch size come from
+    The field rectangle and the grass' cover come from
     :meth:`set_field`; the fog density from ``fog_density`` (1/m, 0 = none).
     """
 
@@ -54,7 +54,6 @@ class SkyGroundMaterial(gfx.Material):
         far_distance="f4",
         fog_density="f4",
         cover="f4",
-        patch_size="f4",
         field_edge="f4",
     )
 
@@ -86,18 +85,18 @@ class SkyGroundMaterial(gfx.Material):
         self.uniform_buffer.data["ground"] = (c[0], c[1], c[2], half_size)
         self.uniform_buffer.update_full()
 
-    def set_field(self, center_xz, half_xz, cover, patch_size=3.0, edge=0.5):
+    def set_field(self, center_xz, half_xz, cover, edge=0.5):
         """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
-        soil under it darkened by ``cover`` (0..1, see ``reference.ground_cover``), mottled
-        in patches of ``patch_size`` metres (> 0), soft over ``edge`` metres (> 0)."""
-        cover, patch_size, edge = float(cover), float(patch_size), float(edge)
+        soil under it darkened by ``cover`` (0..1, see ``reference.ground_cover``), its
+        edge soft over ``edge`` metres (> 0)."""
+        cover, edge = float(cover), float(edge)
         if not 0.0 <= cover <= 1.0:
             raise GrassValueError(f"cover must be in [0, 1]; got {cover!r}")
-        if not (patch_size > 0 and edge > 0):
-            raise GrassValueError(f"patch_size and edge must be > 0 metres; got {patch_size!r}, {edge!r}")
+        if not edge > 0:
+            raise GrassValueError(f"edge must be > 0 metres; got {edge!r}")
         d = self.uniform_buffer.data
         d["field"] = (float(center_xz[0]), float(center_xz[1]), float(half_xz[0]), float(half_xz[1]))
-        d["cover"], d["patch_size"], d["field_edge"] = cover, patch_size, edge
+        d["cover"], d["field_edge"] = cover, edge
         self.uniform_buffer.update_full()
 
     @property
@@ -111,19 +110,6 @@ class SkyGroundMaterial(gfx.Material):
         if not (np.isfinite(v) and 0.0 <= v <= 1.0):
             raise GrassValueError(f"fog_density must be in [0, 1] 1/m; got {value!r}")
         self.uniform_buffer.data["fog_density"] = v
-        self.uniform_buffer.update_full()
-
-    @property
-    def patch_size(self) -> float:
-        """Size (m) of the patches that mottle the ground."""
-        return float(self.uniform_buffer.data["patch_size"])
-
-    @patch_size.setter
-    def patch_size(self, value):
-        v = float(value)
-        if not (np.isfinite(v) and v > 0):
-            raise GrassValueError(f"patch_size must be > 0 metres; got {value!r}")
-        self.uniform_buffer.data["patch_size"] = v
         self.uniform_buffer.update_full()
 
     @property

@@ -338,9 +338,8 @@ fn field_inside(x: f32, z: f32, c: vec2<f32>, half: vec2<f32>, edge: f32) -> f32
 
 // Ground colour (sRGB): the soil under the field, darkened by the grass' cover (0..1,
 // GrassScene: 1 - exp(-leaf area / 4)), blended by `inside` (field_inside) with the ground
-// beyond; `mottle` (-1..1) mottles both. See reference.ground_color.
-fn ground_color(soil: vec3<f32>, beyond: vec3<f32>, inside: f32, cover: f32, mottle: f32) -> vec3<f32> {
-    let under = soil * (1.0 - 0.6 * clamp(cover, 0.0, 1.0)) * (1.0 + 0.25 * mottle);
-    let far = beyond * (1.0 + 0.1 * mottle);
-    return clamp(mix(far, under, clamp(inside, 0.0, 1.0)), vec3<f32>(0.0), vec3<f32>(1.0));
+// beyond. See reference.ground_color.
+fn ground_color(soil: vec3<f32>, beyond: vec3<f32>, inside: f32, cover: f32) -> vec3<f32> {
+    let under = soil * (1.0 - 0.6 * clamp(cover, 0.0, 1.0));
+    return mix(beyond, under, clamp(inside, 0.0, 1.0));
 }

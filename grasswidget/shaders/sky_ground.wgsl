@@ -3,8 +3,8 @@
 // the pixels nothing else covered are shaded. Per pixel: the view ray meets the
 // ground plane y = ground.y inside the square of half-size ground.w around
 // ground.xz, nearer than the far plane -> the ground: soil under the field (the
-// rectangle `field`, darker the more the grass covers it), the ground beyond it,
-// both mottled by the meadow's patches, fading towards the horizon colour near
+// rectangle `field`, darker the more the grass covers it), the ground beyond it
+// (flat colours: a noise here cost a third of a lavapipe frame), fading towards the horizon colour near
 // the far plane and with distance fog; else the sky, from the horizon colour up
 // to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks).
 
@@ -48,9 +48,8 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
             // inside the square, and nearer than the far plane (where a mesh would be clipped)
             let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * vec4<f32>(hit, 1.0);
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
-                let mottle = clump_noise(hit.x, hit.z, 4.0 * m.patch_size).x;  // larger than the grass patches
                 let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
-                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover, mottle);
+                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover);
                 let cam = u_stdinfo.cam_transform_inv[3].xyz;
                 let dist = length(hit - cam);
                 // the ground fades into the horizon over the last 40 % before the far plane
