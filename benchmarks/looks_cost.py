@@ -4,6 +4,10 @@
     python benchmarks/looks_cost.py export  [--rounds 3] [--json benchmarks/looks_cost_export_lavapipe.json]
     python benchmarks/looks_cost.py meadow  [--rounds 3] [--json benchmarks/looks_cost_meadow_h100.json]
 
+On a machine without git (the GPU machine): check the baseline out beforehand, e.g.
+``git worktree add --detach looks-base 6c319ec`` in the repository, and pass
+``--base-tree looks-base``.
+
 The baseline is ``--base`` (default ``6c319ec``, main before the looks: flat brown
 ground, one colour ramp, no fog, exports without anti-aliasing), checked out in a
 temporary git worktree. Each round runs one child process per tree, in turns (base,
@@ -134,6 +138,8 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("kind", nargs="?", choices=["live", "export", "meadow"], default="live")
     p.add_argument("--base", default=DEFAULT_BASE, help=f"git revision of the baseline (default {DEFAULT_BASE})")
+    p.add_argument("--base-tree", default=None,
+                   help="an existing checkout of the baseline (instead of --base; for a machine without git)")
     p.add_argument("--rounds", type=int, default=None, help="rounds (default: live 6, export 3, meadow 3)")
     p.add_argument("--frames", type=int, default=None, help="frames per child (default: live 30, meadow 30)")
     p.add_argument("--json", default=None, help="write the report here")
@@ -149,9 +155,11 @@ def main(argv=None):
     kind = args.kind
     rounds = args.rounds or (6 if kind == "live" else 3)
     frames = args.frames or 30
-    base_tree = tempfile.mkdtemp(prefix="looks-base-")
-    subprocess.run(["git", "worktree", "add", "--detach", base_tree, args.base], cwd=REPO, check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    own_tree = args.base_tree is None
+    base_tree = tempfile.mkdtemp(prefix="looks-base-") if own_tree else os.path.abspath(args.base_tree)
+    if own_tree:
+        subprocess.run(["git", "worktree", "add", "--detach", base_tree, args.base], cwd=REPO, check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         rows = []
         for r in range(rounds):
@@ -177,7 +185,7 @@ def main(argv=None):
                 [row["new"]["export_s"] / row["base"]["plain_s"] for row in rows])
             summary["diff_to_4x"] = dict(base=rows[0]["base"]["plain_diff_to_4x"], new_export=new["export_diff_to_4x"],
                                          new_plain=new["plain_diff_to_4x"])
-        report = dict(kind=kind, base=args.base, head=_git(["rev-parse", "--short", "HEAD"]),
+        report = dict(kind=kind, base=args.base if own_tree else args.base_tree, head=_git(["rev-parse", "--short", "HEAD"]),
                       adapter=_adapter(REPO), rounds=rows, summary=summary,
                       note="ratios are new / base, round by round, in one run on one machine")
         print(json.dumps(summary, indent=1))
@@ -187,8 +195,9 @@ def main(argv=None):
                 json.dump(report, f, indent=1)
             print(f"wrote {args.json}")
     finally:
-        subprocess.run(["git", "worktree", "remove", "--force", base_tree], cwd=REPO, check=False,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        if own_tree:
+            subprocess.run(["git", "worktree", "remove", "--force", base_tree], cwd=REPO, check=False,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return 0
 
 

@@ -75,6 +75,10 @@ __all__ = [
     "blade_shape_t",
     "hash01",
     "DRY_COLOR",
+    "HORIZON_COLOR",
+    "ZENITH_COLOR",
+    "SOIL_COLOR",
+    "BEYOND_COLOR",
     "clump_noise",
     "blade_base_color",
     "backlight",
@@ -817,6 +821,9 @@ def hash01(x):
 
 #: sRGB colour of dry (straw) grass at the tip; the root of a dry blade is 0.45 of it.
 DRY_COLOR = (0.80, 0.72, 0.40)
+#: The backdrop's sRGB colours (both engines): the sky at the horizon (also the fog's
+#: colour), straight up, the bare soil under the field and the ground beyond it.
+HORIZON_COLOR, ZENITH_COLOR, SOIL_COLOR, BEYOND_COLOR = "#e4edf5", "#8db8e3", "#3b2a1a", "#6f7a45"
 
 
 def _mix(a, b, t):

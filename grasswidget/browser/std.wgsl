@@ -9,7 +9,7 @@ struct Varyings {
     @location(0) world_pos: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) along: f32,
-    @location(3) variation: f32,
+    @location(3) base_color: vec3<f32>,  // the blade's unlit colour (blade_base_color)
     @location(4) @interpolate(flat) pick_idx: u32,
 $$ if teaching_views
     @location(5) flat_color: vec4<f32>,  // colour-by views: a = 1 draws the blade flat in rgb (sRGB)

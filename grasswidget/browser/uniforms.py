@@ -22,7 +22,7 @@ from ..errors import GrassValueError
 from ..colliders import MAX_COLLIDERS, collider_array
 from ..enums import BladeShape, ColorBy, GravityMode, WindField
 from ..params import GrassParams
-from ..reference import wind_period
+from ..reference import HORIZON_COLOR, wind_period
 from ..uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
 
 __all__ = [
@@ -49,7 +49,12 @@ MATERIAL_LAYOUT = (
     ("root_color", "vec4<f32>"),
     ("tip_color", "vec4<f32>"),
     ("light_direction", "vec4<f32>"),
+    ("fog_color", "vec4<f32>"),
     ("color_variation", "f32"),
+    ("patch_size", "f32"),
+    ("dryness", "f32"),
+    ("translucency", "f32"),
+    ("fog_density", "f32"),
     ("ambient", "f32"),
     ("tip_threshold", "f32"),
     ("blade_shape", "i32"),
@@ -178,8 +183,8 @@ def srgb_color(hex_color: str) -> tuple:
 
 
 #: The kernel engine's GrassMaterial defaults (grasswidget.gpu.field.GrassMaterial).
-MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", color_variation=0.35, ambient=0.4,
-                         light_direction=(0.4, 1.0, 0.3), tip_threshold=0.5)
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4,
+                         light_direction=(0.4, 1.0, 0.3), tip_threshold=0.5, fog_color=HORIZON_COLOR)
 
 
 def material_uniform(params: GrassParams, **overrides) -> bytes:
@@ -190,7 +195,12 @@ def material_uniform(params: GrassParams, **overrides) -> bytes:
         root_color=srgb_color(m["root_color"]),
         tip_color=srgb_color(m["tip_color"]),
         light_direction=(*light, 0.0),
-        color_variation=m["color_variation"],
+        fog_color=srgb_color(m["fog_color"]),
+        color_variation=m.get("color_variation", params.color_variation),
+        patch_size=m.get("patch_size", params.patch_size),
+        dryness=m.get("dryness", params.dryness),
+        translucency=m.get("translucency", params.translucency),
+        fog_density=m.get("fog_density", params.fog_density),
         ambient=m["ambient"],
         tip_threshold=m["tip_threshold"],
         blade_shape=int(BladeShape.from_label(params.blade_shape)),

@@ -13,6 +13,7 @@ import pygfx as gfx
 
 from ..enums import BladeShape
 from ..errors import GrassValueError
+from ..reference import HORIZON_COLOR
 
 __all__ = ["GrassMaterial"]
 
@@ -58,7 +59,7 @@ class GrassMaterial(gfx.Material):
         dryness=0.2,
         translucency=0.6,
         fog_density=0.0,
-        fog_color="#e4edf5",
+        fog_color=HORIZON_COLOR,
         ambient=0.4,
         light_direction=(0.4, 1.0, 0.3),
         blade_shape="triangle-tip",

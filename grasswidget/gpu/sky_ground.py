@@ -18,6 +18,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
+from ..reference import BEYOND_COLOR, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
 from ..shader_files import read_shader
 from .wgsl import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
@@ -57,8 +58,8 @@ class SkyGroundMaterial(gfx.Material):
         field_edge="f4",
     )
 
-    def __init__(self, horizon_color="#e4edf5", zenith_color="#8db8e3", soil_color="#3b2a1a",
-                 beyond_color="#6f7a45", ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
+    def __init__(self, horizon_color=HORIZON_COLOR, zenith_color=ZENITH_COLOR, soil_color=SOIL_COLOR,
+                 beyond_color=BEYOND_COLOR, ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
                  far_distance=100.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
         data = self.uniform_buffer.data
