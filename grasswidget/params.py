@@ -215,9 +215,9 @@ class GrassParams(StrictTraits):
     # ---- looks (drawing only; the physics ignores them) ------------------------------
     color_variation = RangedFloat(0.35, 0.0, 1.0, help="How much the blades' colour (hue and brightness) varies, mostly in patches of patch_size: 0 every blade alike, 1 strong.").tag(sync=True)
     patch_size = RangedFloat(3.0, 0.1, 100.0, "m", help="Size of the meadow's colour patches (clumps of lighter, darker, drier grass).").tag(sync=True)
-    dryness = RangedFloat(0.2, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
+    dryness = RangedFloat(0.1, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
     translucency = RangedFloat(0.6, 0.0, 1.0, help="How much the tips light up when the sun is behind them (light through the blade): 0 not at all, 1 strongly.").tag(sync=True)
-    fog_density = RangedFloat(0.012, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
+    fog_density = RangedFloat(0.005, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
 
     # ---- time -----------------------------------------------------------------
     dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)

@@ -56,7 +56,7 @@ class GrassMaterial(gfx.Material):
         tip_color="#8fc246",
         color_variation=0.35,
         patch_size=3.0,
-        dryness=0.2,
+        dryness=0.1,
         translucency=0.6,
         fog_density=0.0,
         fog_color=HORIZON_COLOR,
