@@ -11,8 +11,10 @@ struct Varyings {
     @location(2) along: f32,
     @location(3) base_color: vec3<f32>,  // the blade's unlit colour (blade_base_color)
     @location(4) @interpolate(flat) pick_idx: u32,
+    @location(5) glow: f32,  // backlight of the tip (blade_math backlight)
+    @location(6) fog: f32,   // distance fog share (blade_math fog_amount)
 $$ if teaching_views
-    @location(5) flat_color: vec4<f32>,  // colour-by views: a = 1 draws the blade flat in rgb (sRGB)
+    @location(7) flat_color: vec4<f32>,  // colour-by views: a = 1 draws the blade flat in rgb (sRGB)
 $$ endif
 };
 

@@ -86,6 +86,12 @@ fn vs_main(in: VertexInput) -> Varyings {
     let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
                                 u_material.color_variation, u_material.dryness);
     varyings.base_color = vec3<f32>(base);
+    // Per vertex (cheaper than per fragment on a CPU adapter): the glow of a tip seen
+    // against the sun, and the distance fog.
+    let eye = u_stdinfo.cam_transform_inv[3].xyz - world_pos.xyz / world_pos.w;
+    let light = normalize(u_material.light_direction.xyz);
+    varyings.glow = f32(backlight(normalize(eye), light, v, u_material.translucency));
+    varyings.fog = f32(fog_amount(length(eye), u_material.fog_density));
     varyings.pick_idx = u32(blade);
     $$ if teaching_views
     varyings.flat_color = vec4<f32>(flat_color);
@@ -107,12 +113,11 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let translucency = 0.35 * max(dot(-n, l), 0.0);
     let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
     let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
-    // Tips seen against the sun glow (light through the blade), warmer than the blade.
-    let glow = backlight(to_eye, l, varyings.along, u_material.translucency);
+    // Tips seen against the sun glow (light through the blade), warmer than the blade;
+    // then the distance fog towards the sky's horizon colour (both from the vertices).
+    let glow = varyings.glow;
     var rgb = clamp(base * shade + glow * (1.2 * base + vec3<f32>(0.16, 0.14, 0.02)), vec3<f32>(0.0), vec3<f32>(1.0));
-    // Distance fog towards the sky's horizon colour.
-    let fog = fog_amount(length(cam_pos - varyings.world_pos), u_material.fog_density);
-    rgb = mix(rgb, u_material.fog_color.rgb, fog);
+    rgb = mix(rgb, u_material.fog_color.rgb, varyings.fog);
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif
