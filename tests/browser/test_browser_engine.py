@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    panel_label,
     Browser,
     click_button,
     drag,
@@ -262,7 +263,7 @@ def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
         assert "WebGPU is not available in this browser" in msg
         wait_for_view(page, 0, timeout=60)
         wait_for_frames(page, 3, timeout=60, index=0)
-        set_slider(page, "wind_strength", 21.5)
+        set_slider(page, panel_label("wind_strength"), 21.5)
         wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
         kernel_execute(page, "w.step(5)")
         assert kernel_eval(page, "w.scene.field.step_count") >= 5
