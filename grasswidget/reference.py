@@ -823,7 +823,7 @@ def hash01(x):
 DRY_COLOR = (0.80, 0.72, 0.40)
 #: The backdrop's sRGB colours (both engines): the sky at the horizon (also the fog's
 #: colour), straight up, the bare soil under the field and the ground beyond it.
-HORIZON_COLOR, ZENITH_COLOR, SOIL_COLOR, BEYOND_COLOR = "#e4edf5", "#8db8e3", "#3b2a1a", "#6f7a45"
+HORIZON_COLOR, ZENITH_COLOR, SOIL_COLOR, BEYOND_COLOR = "#e4edf5", "#8db8e3", "#3b2a1a", "#787a4e"
 
 
 def _mix(a, b, t):
@@ -913,6 +913,6 @@ def ground_cover(heights, widths, area):
     metres) per ``area`` square metres of ground. A lawn of 1000 blades/m^2 of 2 x 3 cm x
     75 cm has L = 45 (cover 1); 36 blades/m^2 of 24 cm x 1.9 m, L = 16 (cover 0.98)."""
     if not area > 0:
-        raise ValueError(f"area must be > 0 square metres; got {area!r}")
+        raise GrassValueError(f"area must be > 0 square metres; got {area!r}")
     leaf = float(np.sum(2.0 * np.asarray(widths, np.float64) * np.asarray(heights, np.float64))) / float(area)
     return float(1.0 - math.exp(-leaf / 4.0))
