@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from .harness import (
-    panel_label,
     HarnessTimeout,
     KernelExecutionError,
     cell_output_text,
@@ -91,10 +90,10 @@ def test_harness_selfcheck(page, lab_server, browser_root):
 
     # 3. Typing a slider value in the page reaches Python.
     assert kernel_eval(page, "s.value") == pytest.approx(9.8)
-    shown = set_slider(page, panel_label("gravity"), 25.5)
+    shown = set_slider(page, "gravity", 25.5)
     assert shown == "25.50", shown
     wait_for_kernel(page, "s.value", 25.5, timeout=15)
-    assert slider_readout(page, panel_label("gravity")) == "25.50"
+    assert slider_readout(page, "gravity") == "25.50"
 
     # 4. A mouse drag over the canvas reaches Python as pointer events.
     before = kernel_eval(page, "dict(pointer_events)")
