@@ -1,32 +1,83 @@
 """grasswidget: physically animated grass on the GPU, for notebooks and scripts.
 
-The pure core (``Blades``, ``GrassParams``, ``grasswidget.reference``) imports no
-GPU code. GPU classes (``GrassField``, ``GrassMaterial``, ``GrassScene``) load
-pygfx/wgpu on first use.
+The package's top level holds the public entry points; the code lives in
+subpackages: :mod:`.core` (pure: NumPy and traitlets, no GPU import),
+:mod:`.gpu` (pygfx/wgpu, knows no widgets), :mod:`.browser` (the WebGPU engine
+in the page), :mod:`.notebook` (the widget and its views) and :mod:`.tools`
+(CLI, benchmarks, export). GPU classes (``GrassField``, ``GrassMaterial``,
+``GrassScene``) and the widget load on first use. The public modules are
+attributes too, loaded on first use: ``gw.reference``, ``gw.teaching``,
+``gw.bench``, ...
 """
 
-from .runtime_dir import ensure_runtime_dir
+from .gpu.runtime_dir import ensure_runtime_dir
 
 ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
 
-from .blades import Blades  # noqa: E402
-from .colliders import SphereCollider  # noqa: E402
+from .core.blades import Blades  # noqa: E402
+from .core.colliders import SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, GrassError, GrassTypeError, GrassValueError, MissingDependencyError,
     MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
     WidgetClosedError, WindShaderError,
 )
-from .params import GrassParams  # noqa: E402
-from .teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
+from .core.params import GrassParams  # noqa: E402
+from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
 
 __version__ = "0.1.0"
 
 _LAZY = {
     "GrassField": ("grasswidget.gpu.field", "GrassField"),
     "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
-    "GrassScene": ("grasswidget.scene", "GrassScene"),
-    "GrassWidget": ("grasswidget.widget", "GrassWidget"),
+    "GrassScene": ("grasswidget.gpu.scene", "GrassScene"),
+    "GrassWidget": ("grasswidget.notebook.widget", "GrassWidget"),
 }
+
+#: Modules reachable as attributes of the package (``gw.reference``), loaded on first use.
+_MODULES = {
+    **{name: f"grasswidget.core.{name}" for name in (
+        "blades", "params", "enums", "colliders", "reference", "memory", "uniform_layouts", "shader_files",
+        "teaching", "framing")},
+    "scene": "grasswidget.gpu.scene",
+    **{name: f"grasswidget.notebook.{name}" for name in (
+        "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
+    "ball": "grasswidget.notebook.ball",
+    "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
+    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export")},
+}
+
+
+
+class _OldPathFinder:
+    """Keeps the import paths of before the layout working: ``import grasswidget.reference``
+    or ``from grasswidget.scene import GrassScene`` give the module under its new path
+    (``grasswidget.core.reference``, ``grasswidget.gpu.scene``; the same module object)."""
+
+    @staticmethod
+    def find_spec(fullname, path=None, target=None):
+        prefix, _, name = fullname.partition(".")
+        if prefix != "grasswidget" or name not in _MODULES:
+            return None
+        import importlib.machinery
+
+        return importlib.machinery.ModuleSpec(fullname, _OldPathFinder, origin=_MODULES[name])
+
+    @staticmethod
+    def create_module(spec):
+        return None
+
+    @staticmethod
+    def exec_module(module):
+        import importlib
+        import sys
+
+        sys.modules[module.__name__] = importlib.import_module(module.__spec__.origin)
+
+
+import sys as _sys  # noqa: E402
+
+if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.meta_path):
+    _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
@@ -38,9 +89,11 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name in _LAZY:
         module, attr = _LAZY[name]
         return getattr(importlib.import_module(module), attr)
+    if name in _MODULES:
+        return importlib.import_module(_MODULES[name])
     raise UnknownNameError(f"module 'grasswidget' has no attribute {name!r}")

@@ -66,12 +66,12 @@ class UnknownNameError(GrassError, AttributeError):
 
 class MissingLimitError(GrassError, KeyError):
     """Device limits given without ``max-storage-buffer-binding-size`` or
-    ``max-buffer-size`` (see :mod:`grasswidget.memory`)."""
+    ``max-buffer-size`` (see :mod:`grasswidget.core.memory`)."""
 
 
 class BladeCountError(GrassValueError):
     """A blade count that does not fit in memory (host RAM or a GPU buffer); raised
-    before anything is allocated (see :mod:`grasswidget.memory`).
+    before anything is allocated (see :mod:`grasswidget.core.memory`).
 
     Attributes: ``count`` (what was asked), ``limit`` (the most blades that fit),
     ``need_bytes`` (what ``count`` blades would take), ``available_bytes`` (what

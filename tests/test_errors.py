@@ -1,4 +1,4 @@
-"""Issue 12 item 5: ``gw.GrassError`` is the root of every error grasswidget raises on purpose.
+"""``gw.GrassError`` is the root of every error grasswidget raises on purpose.
 
 Two checks: the package's source never raises a bare built-in exception class (or
 traitlets' TraitError) -- every ``raise`` names one of :mod:`grasswidget.errors`,
@@ -115,25 +115,25 @@ def _bad_collider():
 
 
 def _bad_collider_item():
-    from grasswidget.colliders import collider_array
+    from grasswidget.core.colliders import collider_array
 
     collider_array(["not a sphere"])
 
 
 def _export_plan():
-    from grasswidget.export import plan_animation
+    from grasswidget.tools.export import plan_animation
 
     plan_animation(1 / 60, seconds=-1, fps=20)
 
 
 def _scene_size():
-    from grasswidget.scene import parse_size
+    from grasswidget.gpu.scene import parse_size
 
     parse_size("huge")
 
 
 def _enum_label():
-    from grasswidget.enums import WindField
+    from grasswidget.core.enums import WindField
 
     WindField.from_label("hurricane")
 
@@ -143,37 +143,37 @@ class _Params(dict):
 
 
 def _reference_wind():
-    from grasswidget import reference
+    from grasswidget.core import reference
 
     reference.wind_field(np.zeros((1, 3)), 0.0, _Params(wind_field="hurricane"))
 
 
 def _teaching_legend():
-    from grasswidget.teaching import legend
+    from grasswidget.core.teaching import legend
 
     legend("rainbow")
 
 
 def _inspect_ids():
-    from grasswidget.teaching import check_inspect_ids
+    from grasswidget.core.teaching import check_inspect_ids
 
     check_inspect_ids([5], count=3)
 
 
 def _memory_limits():
-    from grasswidget.memory import max_blades_for_gpu
+    from grasswidget.core.memory import max_blades_for_gpu
 
     max_blades_for_gpu({})
 
 
 def _gpu_blade_count():
-    from grasswidget.memory import check_gpu_blade_count
+    from grasswidget.core.memory import check_gpu_blade_count
 
     check_gpu_blade_count(10**9, {"max-storage-buffer-binding-size": 1024, "max-buffer-size": 1024})
 
 
 def _shader_file():
-    from grasswidget.shader_files import read_shader
+    from grasswidget.core.shader_files import read_shader
 
     read_shader("no_such_shader.wgsl")
 
@@ -191,7 +191,7 @@ def _browser_uniform_type():
 
 
 def _cli_image_path():
-    from grasswidget.cli import write_image
+    from grasswidget.tools.cli import write_image
 
     write_image("picture.bmp", np.zeros((2, 2, 4), np.uint8))
 

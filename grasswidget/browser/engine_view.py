@@ -8,11 +8,12 @@ the kernel view: ``set_playing``, ``step``, ``reset_blades``, ``reset_camera``,
 
 Differences, by design:
 
-* Time: the browser plays by the wall clock in whole fixed steps of
-  ``params.dt`` (``time_scale`` simulated seconds per real second; the rest of
-  a step carries over to the next frame), so the kernel's "steps per frame" is
-  an average here. Below 15 frames/s a frame advances at most 1/15 s of
-  simulated time: slow motion rather than ever more steps per frame.
+* Time: the browser plays by the wall clock with the kernel's clock rules
+  (:func:`grasswidget.core.frame_data.clock_rules`, executed by engine.js as
+  :class:`grasswidget.notebook.clock.SimClock` does): whole fixed steps of ``params.dt``,
+  at most ``MAX_STEPS_PER_FRAME`` a frame, the rest dropped (slow motion). The
+  kernel's "steps per frame" is an average of the browser's frames here.
+* One engine per widget: displayed twice, both views show the same meadow.
 * The rolling ball: the browser reports the steps it simulated about every
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
@@ -25,8 +26,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError
-from ..blades import Blades
-from ..colliders import ColliderList
+from ..core.blades import Blades
+from ..core.colliders import ColliderList
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -54,7 +55,7 @@ class _BallScene:
 class BrowserEngineView:
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
-    Args: as :class:`~grasswidget.kernel_view.KernelView` (blades, size, params,
+    Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
     preset, clock, actions, on_error, on_stats), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
     and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2).
@@ -70,7 +71,7 @@ class BrowserEngineView:
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
                  on_unavailable, pixel_ratio=None):
-        from ..framing import preset_field
+        from ..core.framing import preset_field
 
         self.size = tuple(size)
         self.params = params

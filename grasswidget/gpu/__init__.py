@@ -5,11 +5,25 @@ Laid out like pygfx: :mod:`.field` (the GrassField WorldObject and its buffers),
 compute program, uniform writer and fixed steps), :mod:`.shaders` (the shader
 classes registered for (GrassField, GrassMaterial) when imported here),
 :mod:`.wgsl` (templating helpers), :mod:`.compute`, :mod:`.indirect`,
-:mod:`.stats`, :mod:`.adapter`, :mod:`.collider_view`.
+:mod:`.stats`, :mod:`.adapter`, :mod:`.collider_view`, :mod:`.scene` (GrassScene)
+and :mod:`.runtime_dir`.
+
+Importing this package loads no pygfx/wgpu (``import grasswidget`` uses
+:mod:`.runtime_dir` before any Vulkan instance exists); ``GrassField``,
+``GrassMaterial`` and ``GrassScene`` load on first use. Importing :mod:`.field`
+registers the render function (its last line imports :mod:`.shaders`).
 """
 
-from .field import GrassField
-from .material import GrassMaterial
-from . import shaders  # noqa: F401  (registers the render function)
+from ..errors import UnknownNameError
 
-__all__ = ["GrassField", "GrassMaterial"]
+_LAZY = {"GrassField": ".field", "GrassMaterial": ".material", "GrassScene": ".scene"}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,14 +14,14 @@ import wgpu
 from pygfx.utils import array_from_shadertype
 
 from .. import compat
-from ..blades import BLADE_BYTES, Blades, pack_state, unpack_state
-from ..colliders import ColliderList
-from ..enums import ColorBy
+from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
+from ..core.colliders import ColliderList
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
-from ..memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
-from ..params import LOOK_TRAITS, GrassParams
-from ..reference import LOD_SEGMENTS
-from ..uniform_layouts import CULL_LAYOUT, shadertype
+from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
+from ..core.params import LOOK_TRAITS, GrassParams
+from ..core.reference import LOD_SEGMENTS
+from ..core.frame_data import cull_uniform_values, look_values
+from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
@@ -33,26 +33,26 @@ __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", 
            "max_blade_count"]
 
 # Distance bands per LOD class (the draw order of the culled lists): one source for both
-# engines, in grasswidget.shader_files.
-from ..shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
+# engines, in grasswidget.core.shader_files.
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)
 
-#: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.CULL_LAYOUT``).
+#: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.CULL_LAYOUT``).
 CULL_UNIFORM = shadertype(CULL_LAYOUT)
 
 
 
 def check_blade_limits(count, device):
     """Raise BladeLimitError when ``count`` blades do not fit one storage binding
-    of ``device`` (see :func:`grasswidget.memory.check_gpu_blade_count`)."""
+    of ``device`` (see :func:`grasswidget.core.memory.check_gpu_blade_count`)."""
     check_gpu_blade_count(count, device.limits, device.adapter.summary, error=BladeLimitError)
 
 
 def check_blade_count_fits(count, name=None) -> int:
     """Return ``count`` as an int when that many blades fit both the host memory
-    (:func:`grasswidget.memory.check_blade_count`) and this device's buffers;
+    (:func:`grasswidget.core.memory.check_blade_count`) and this device's buffers;
     else raise a :class:`~grasswidget.errors.BladeCountError` (a ValueError) naming
     ``count`` (and the caller's parameter ``name``), the limit and the memory.
     Allocates nothing: call it before making blades."""
@@ -121,7 +121,9 @@ class GrassField(gfx.WorldObject):
             nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
             usage=usage.STORAGE,
         )
-        self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
+        # u_cull is bound as read-only storage, not as a uniform (see gpu/wgsl.py: lavapipe's leak).
+        self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True,
+                                              usage=usage.STORAGE)
         # The draw of the culled blades (color_by "cull"): args, and the list of
         # id | reason << 30, allocated (N u32) the first time "cull" is used.
         self._store.culled_args_buffer = gfx.Buffer(
@@ -146,8 +148,8 @@ class GrassField(gfx.WorldObject):
             self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
         else:
             self.material.blade_shape = self.params.blade_shape
-        for name in LOOK_TRAITS:  # the params drive the material's looks
-            setattr(self.material, name, getattr(self.params, name))
+        for name, value in look_values(self.params).items():  # the params drive the material's looks
+            setattr(self.material, name, value)
         if self.params.wind_wgsl.strip():
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
@@ -254,34 +256,19 @@ class GrassField(gfx.WorldObject):
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
-        elif change["name"] in LOOK_TRAITS:
-            setattr(self.material, change["name"], change["new"])
+        elif change["name"] in LOOK_TRAITS:  # the values the browser engine is sent too
+            setattr(self.material, change["name"], look_values(self.params)[change["name"]])
         elif change["name"] == "wind_wgsl":
             self.simulation.compile_wind(change["new"], change["old"])
 
     def _write_cull_uniform(self):
+        """``u_cull`` from the params and the frozen camera (values: frame_data.cull_uniform_values)."""
         p = self.params
-        d = self.cull_uniform_buffer.data
-        d["orientation_threshold"] = p.cull_orientation_threshold
-        d["frustum_tolerance"] = p.cull_frustum_tolerance
-        d["distance_max"] = p.cull_distance_max
-        d["buckets"] = p.cull_buckets
-        d["cull_orientation"] = int(p.cull_orientation)
-        d["cull_frustum"] = int(p.cull_frustum)
-        d["cull_distance"] = int(p.cull_distance)
-        d["lod"] = int(p.lod)
-        d["n_blades"] = self.count
-        d["color_by"] = ColorBy.from_label(p.color_by)
         if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
             self._store.culled_buffer = gfx.Buffer(
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
             )
-        frozen = self._frozen_camera
-        d["frozen"] = int(frozen is not None)
-        if frozen is not None:
-            d["frozen_view_proj"] = frozen.view_proj.T  # WGSL matrices are column-major
-            d["frozen_cam_pos"] = (*frozen.position, 1.0)
-            d["frozen_viewport_height"] = frozen.viewport_size[1]
+        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
         self.cull_uniform_buffer.update_full()
 
     # ------------------------------------------------------------------ frozen culling
@@ -332,7 +319,7 @@ class GrassField(gfx.WorldObject):
         ValueError naming the limit and changes nothing.
         """
         from .inspector import BladeInspector
-        from ..teaching import check_inspect_ids
+        from ..core.teaching import check_inspect_ids
 
         check_inspect_ids(ids, self.count)
         if self.inspector is None:
@@ -475,3 +462,6 @@ class GrassField(gfx.WorldObject):
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
         lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
         return lists if draw_order else np.sort(np.concatenate(lists))
+
+
+from . import shaders  # noqa: E402,F401  (registers the render function of (GrassField, GrassMaterial))

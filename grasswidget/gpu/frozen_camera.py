@@ -12,7 +12,7 @@ import numpy as np
 import pygfx as gfx
 
 from ..errors import GrassValueError
-from ..teaching import FROZEN_FRUSTUM_COLOR, frustum_segments
+from ..core.teaching import FROZEN_FRUSTUM_COLOR, frustum_segments
 
 __all__ = ["FrozenCamera"]
 

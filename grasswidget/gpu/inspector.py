@@ -4,7 +4,7 @@
 ``GrassField.inspect(ids)`` (and ``GrassScene.inspect``) shows it. A compute
 shader (``inspect.wgsl``, registered for :class:`BladeInspector`) evaluates
 the forces of the next step with blade_math.wgsl's functions, the twin of
-:func:`grasswidget.reference.blade_forces`, and writes
+:func:`grasswidget.core.reference.blade_forces`, and writes
 
 * ``segments_buffer``: a pygfx Line of segments: per blade the polygon v0-v1,
   v1-v2, then one arrow (shaft + two head strokes) per force of
@@ -15,7 +15,7 @@ the forces of the next step with blade_math.wgsl's functions, the twin of
 * ``forces_buffer``: the raw vectors, for :meth:`BladeInspector.read`.
 
 Unused slots and zero forces (no sphere touching: no collision arrow) are NaN,
-which pygfx does not draw. Colours: :data:`grasswidget.teaching.INSPECTOR_COLORS`.
+which pygfx does not draw. Colours: :data:`grasswidget.core.teaching.INSPECTOR_COLORS`.
 """
 
 from __future__ import annotations
@@ -28,13 +28,13 @@ import wgpu
 from pygfx.renderers.wgpu import Binding, register_wgpu_render_function
 from pygfx.utils import array_from_shadertype
 
-from ..reference import FORCE_NAMES, wind_period
-from ..shader_files import NO_WIND_BODY
-from ..teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED, check_inspect_ids
+from ..core.reference import FORCE_NAMES, wind_period
+from ..core.shader_files import NO_WIND_BODY
+from ..core.teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED, check_inspect_ids
 from .compute import sync_buffer
 from .adapter import ensure_device
 from .wgsl import GrassComputeShader
-from ..shader_files import wgsl_float
+from ..core.shader_files import wgsl_float
 
 __all__ = ["BladeInspector", "BladeInspectorMaterial", "InspectShader", "SEGMENT_VERTICES"]
 

@@ -11,9 +11,10 @@ import math
 import numpy as np
 import pygfx as gfx
 
-from ..enums import BladeShape
+from ..core.enums import BladeShape
 from ..errors import GrassValueError
-from ..reference import HORIZON_COLOR
+from ..core.frame_data import MATERIAL_DEFAULTS
+from ..core.uniform_layouts import GRASS_MATERIAL_LAYOUT, shadertype
 
 __all__ = ["GrassMaterial"]
 
@@ -33,37 +34,25 @@ class GrassMaterial(gfx.Material):
     ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
     """
 
-    uniform_type = dict(
-        gfx.Material.uniform_type,
-        root_color="4xf4",
-        tip_color="4xf4",
-        light_direction="4xf4",
-        fog_color="4xf4",
-        color_variation="f4",
-        patch_size="f4",
-        dryness="f4",
-        translucency="f4",
-        fog_density="f4",
-        ambient="f4",
-        tip_threshold="f4",
-        blade_shape="i4",
-    )
+    #: pygfx's material uniforms plus ``uniform_layouts.GRASS_MATERIAL_LAYOUT`` (the browser
+    #: engine's struct; ``opacity`` and ``alpha_test`` are pygfx's own, at the same places).
+    uniform_type = dict(gfx.Material.uniform_type, **shadertype(GRASS_MATERIAL_LAYOUT))
 
     def __init__(
         self,
         *,
-        root_color="#1d4a12",
-        tip_color="#8fc246",
+        root_color=MATERIAL_DEFAULTS["root_color"],
+        tip_color=MATERIAL_DEFAULTS["tip_color"],
         color_variation=0.35,
         patch_size=3.0,
         dryness=0.1,
         translucency=0.6,
         fog_density=0.0,
-        fog_color=HORIZON_COLOR,
-        ambient=0.4,
-        light_direction=(0.4, 1.0, 0.3),
+        fog_color=MATERIAL_DEFAULTS["fog_color"],
+        ambient=MATERIAL_DEFAULTS["ambient"],
+        light_direction=MATERIAL_DEFAULTS["light_direction"],
         blade_shape="triangle-tip",
-        tip_threshold=0.5,
+        tip_threshold=MATERIAL_DEFAULTS["tip_threshold"],
         **kwargs,
     ):
         super().__init__(**kwargs)

@@ -18,12 +18,12 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..colliders import collider_array
-from ..enums import GravityMode, WindField
+from ..core.colliders import collider_array
+from ..core.frame_data import sim_uniform_values
 from ..errors import WindShaderError
-from ..reference import wind_period
-from ..shader_files import NO_WIND_BODY
-from ..uniform_layouts import SIM_LAYOUT, shadertype
+from ..core.reference import wind_period
+from ..core.shader_files import NO_WIND_BODY
+from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
@@ -33,7 +33,7 @@ __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
 MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
 
-#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.uniform_layouts.SIM_LAYOUT``).
+#: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.SIM_LAYOUT``).
 SIM_UNIFORM = shadertype(SIM_LAYOUT)
 
 _USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
@@ -156,54 +156,17 @@ class Simulation:
 
     # ------------------------------------------------------------------ uniforms
 
-    def local_gravity_direction(self):
-        """params.gravity_direction (world space) in the field's local space, unit length."""
-        world = np.asarray(self.field.params.gravity_direction, np.float64)
-        m = np.asarray(self.field.world.matrix, np.float64)[:3, :3]
-        try:
-            local = np.linalg.solve(m, world)
-        except np.linalg.LinAlgError:
-            local = world
-        return local / max(np.linalg.norm(local), 1e-12)
-
-    def local_gravity_center(self):
-        """params.gravity_center (world space) in the field's local space."""
-        world = np.array([*self.field.params.gravity_center, 1.0])
-        try:
-            return np.linalg.solve(np.asarray(self.field.world.matrix, np.float64), world)[:3]
-        except np.linalg.LinAlgError:
-            return world[:3]
+    def uniform_values(self, steps=0, time0=0.0) -> dict:
+        """The ``u_sim`` values for a dispatch of ``steps`` steps from ``time0`` s
+        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix)."""
+        field = self.field
+        return sim_uniform_values(field.params, field.count, field.colliders, world_matrix=field.world.matrix,
+                                  steps=steps, time0=time0)
 
     def write_uniform(self, steps, time0):
         """Fill ``u_sim`` from the params and colliders for a dispatch of ``steps`` steps from ``time0`` s."""
-        field = self.field
-        p = field.params
         d = self.uniform_buffer.data
-        d["gravity_dir"] = (*self.local_gravity_direction(), 0.0)
-        rad = math.radians(p.wind_direction)
-        d["wind_dir"] = (math.cos(rad), math.sin(rad), 0.0, 0.0)
-        d["gravity"] = p.gravity
-        d["front_gravity"] = p.front_gravity
-        d["stiffness_scale"] = p.stiffness_scale
-        d["dt"] = p.dt
-        d["time0"] = time0
-        d["wind_strength"] = p.wind_strength
-        d["wind_speed"] = p.wind_speed
-        d["wind_wavelength"] = p.wind_wavelength
-        d["wind_field"] = WindField.from_label(p.wind_field)
-        d["steps"] = steps
-        d["n_blades"] = field.count
-        d["gravity_mode"] = GravityMode.from_label(p.gravity_mode)
-        d["gravity_center"] = (*self.local_gravity_center(), 0.0)
-        d["wind_center"] = (*p.wind_center, 0.0)
-        d["wind_radius"] = p.wind_radius
-        d["wind_direction_rad"] = rad
-        d["collision_fade"] = p.collision_fade
-        d["collision_gain"] = p.collision_gain
-        spheres = collider_array(field.colliders)
-        d["n_colliders"] = len(spheres)
-        d["colliders"][:] = 0.0
-        d["colliders"][: len(spheres)] = spheres
+        write_values(d, self.uniform_values(steps, time0))
         device = ensure_device()
         device.queue.write_buffer(sync_buffer(self.uniform_buffer), 0, d.tobytes())
 

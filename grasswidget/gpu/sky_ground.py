@@ -1,5 +1,10 @@
 """Sky and ground in one full-screen pass: the cheap backdrop of GrassScene.
 
+``shaders/sky_ground.wgsl`` is drawn by both engines (the browser engine renders
+it for its own bindings); GrassScene writes the values both engines use,
+:func:`grasswidget.core.frame_data.sky_ground_values` (colours, ground square,
+field rectangle, cover, far plane, fog), with :meth:`SkyGroundMaterial.set_values`.
+
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
 lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
@@ -18,8 +23,9 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..reference import BEYOND_COLOR, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
-from ..shader_files import read_shader
+from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
+from ..core.shader_files import read_shader
+from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
@@ -43,20 +49,8 @@ class SkyGroundMaterial(gfx.Material):
     :meth:`set_field`; the fog density from ``fog_density`` (1/m, 0 = none).
     """
 
-    uniform_type = dict(
-        gfx.Material.uniform_type,
-        horizon_color="4xf4",
-        zenith_color="4xf4",
-        soil_color="4xf4",
-        beyond_color="4xf4",
-        ground="4xf4",
-        field="4xf4",
-        show_ground="i4",
-        far_distance="f4",
-        fog_density="f4",
-        cover="f4",
-        field_edge="f4",
-    )
+    #: pygfx's material uniforms plus ``uniform_layouts.SKY_GROUND_LAYOUT`` (the browser engine's struct).
+    uniform_type = dict(gfx.Material.uniform_type, **shadertype(SKY_GROUND_LAYOUT))
 
     def __init__(self, horizon_color=HORIZON_COLOR, zenith_color=ZENITH_COLOR, soil_color=SOIL_COLOR,
                  beyond_color=BEYOND_COLOR, ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
@@ -67,7 +61,7 @@ class SkyGroundMaterial(gfx.Material):
                             ("soil_color", soil_color), ("beyond_color", beyond_color)):
             data[name] = gfx.Color(color).rgba
         data["fog_density"] = 0.0
-        self.set_field((ground_center[0], ground_center[2]), (ground_half_size, ground_half_size), 0.0)
+        self.set_field((ground_center[0], ground_center[2]), (ground_half_size, ground_half_size), 0.0, FIELD_EDGE)
         self.set_ground(ground_center, ground_half_size, far_distance)
         self.show_ground = True
 
@@ -86,10 +80,20 @@ class SkyGroundMaterial(gfx.Material):
         self.uniform_buffer.data["ground"] = (c[0], c[1], c[2], half_size)
         self.uniform_buffer.update_full()
 
-    def set_field(self, center_xz, half_xz, cover, edge=0.5):
+    def set_values(self, values: dict):
+        """Write values of ``uniform_layouts.SKY_GROUND_LAYOUT`` fields as they are, e.g.
+        :func:`grasswidget.core.frame_data.sky_ground_values` (what the browser engine
+        is sent too)."""
+        unknown = set(values) - {name for name, _ in SKY_GROUND_LAYOUT}
+        if unknown:
+            raise GrassValueError(f"values name fields the sky/ground lacks: {sorted(unknown)}")
+        write_values(self.uniform_buffer.data, values)
+        self.uniform_buffer.update_full()
+
+    def set_field(self, center_xz, half_xz, cover, edge=FIELD_EDGE):
         """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
         soil under it darkened by ``cover`` (0..1, see ``reference.ground_cover``), its
-        edge soft over ``edge`` metres (> 0)."""
+        edge soft over ``edge`` metres (> 0, default 0.5)."""
         cover, edge = float(cover), float(edge)
         if not 0.0 <= cover <= 1.0:
             raise GrassValueError(f"cover must be in [0, 1]; got {cover!r}")

@@ -1,5 +1,5 @@
 // The blade record: 4 x vec4<f32> = 64 bytes per blade in `s_blades`, the twin
-// of grasswidget.blades.BLADE_LAYOUT / pack_state / unpack_state:
+// of grasswidget.core.blades.BLADE_LAYOUT / pack_state / unpack_state:
 //   row 0: v0.xyz root (m),        w orientation theta (rad)
 //   row 1: v1.xyz guide (m),       w height h (m)
 //   row 2: v2.xyz tip guide (m),   w width w (m)

@@ -1,13 +1,13 @@
 // Blade math shared by the simulation, culling and drawing shaders.
 //
-// Every function here has a twin of the same name in grasswidget/reference.py
+// Every function here has a twin of the same name in grasswidget/core/reference.py
 // (the NumPy reference, which is the spec). Equation numbers refer to
 // Jahrmann & Wimmer, "Responsive Real-Time Grass Rendering for General 3D
 // Scenes", I3D 2017. Units: metres, seconds, m/s^2.
 //
 // Engine-neutral: pure functions, no bindings. Ids and constants come from the
-// template variables of grasswidget.shader_files.template_vars() (the enums of
-// grasswidget/enums.py and the constants of reference.py); tests/test_wgsl_contract.py
+// template variables of grasswidget.core.shader_files.template_vars() (the enums of
+// grasswidget/core/enums.py and the constants of reference.py); tests/gpu/test_wgsl_contract.py
 // runs every function here against its NumPy twin.
 
 const PI_F = 3.141592653589793;
@@ -219,6 +219,44 @@ fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, sphere: vec4<f32>
 // eta' = max(eta - fade dt, 0); see reference.fade_collision.
 fn fade_collision(eta: f32, fade: f32, dt: f32) -> f32 {
     return max(eta - fade * dt, 0.0);
+}
+
+// eta' = min(eta + gain * add, COLLISION_MAX): a step's pushes (add = sum |d|^2, m^2)
+// strengthen the collision; see reference.gain_collision.
+fn gain_collision(eta: f32, add: f32, gain: f32) -> f32 {
+    return min(eta + gain * add, {{ collision_max }});
+}
+
+// Recovery stiffness of a blade with collision strength eta: s * max(1 - eta, RECOVERY_FLOOR).
+fn effective_stiffness(stiffness: f32, eta: f32) -> f32 {
+    return stiffness * max(1.0 - eta, {{ recovery_floor }});
+}
+
+// The blade after one collision pass: where a sphere pushed it (pushed.hit), the
+// pushed tip validated again (validate_state); elsewhere unchanged. pushed is the
+// pass's pushes over all spheres (collide_sphere in turn; see collisions.wgsl).
+fn validate_pushed(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32, pushed: Collision) -> Guides {
+    if (!pushed.hit) { return Guides(v1, v2); }
+    return validate_state(v0, pushed.v2, up, height);
+}
+
+// ---------------------------------------------------------------- one step of the tip
+
+// The paper's state validation (section 5.2) of a moved tip v2: above the ground,
+// v1 from the lean, then the curve scaled to length height.
+fn validate_state(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> Guides {
+    let v2g = validate_ground(v0, v2, up);
+    return validate_length(v0, validate_v1(v0, v2g, up, height), v2g, height);
+}
+
+// One fixed step dt of the tip (paper 5.1-5.2), collisions aside: the wind W at v0
+// (m/s^2) becomes the wind force, gravity (gE + gF, m/s^2) is added, recovery of
+// the given (effective) stiffness (1/s) pulls towards v0 + up * height, then
+// validate_state. Returns the new (v1, v2).
+fn tip_step(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32, stiffness: f32, gravity: vec3<f32>, wind: vec3<f32>, dt: f32) -> Guides {
+    let w = wind_force(wind, v0, v2, up, height);
+    let moved = integrate_tip(v2, v0 + up * height, stiffness, gravity + w, dt);
+    return validate_state(v0, moved, up, height);
 }
 
 // ---------------------------------------------------------------- culling

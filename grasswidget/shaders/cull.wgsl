@@ -27,7 +27,7 @@
 // s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>), s_visible
 // (array<u32>); with teaching_views also u_cull's color_by and frozen_* fields,
 // s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); see
-// grasswidget.shader_files.
+// grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}

@@ -15,6 +15,7 @@
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 {$ include 'grasswidget.wind_field.wgsl' $}
+{$ include 'grasswidget.collisions.wgsl' $}
 
 // Per blade: 2 polygon segments + N_FORCES arrows of 3 segments, 2 vertices each.
 const SEGMENT_VERTICES: u32 = {{ segment_vertices }}u;
@@ -23,8 +24,6 @@ const N_FORCES: u32 = {{ n_forces }}u;
 const ARROW_ACCEL_PER_HEIGHT: f32 = {{ arrow_accel_per_height }};
 // The collision arrow is the push (m) this many times longer.
 const COLLISION_ARROW_SCALE: f32 = {{ collision_arrow_scale }};
-// Collision passes per step (reference.COLLISION_PASSES), as in simulate.wgsl.
-const COLLISION_PASSES: i32 = {{ collision_passes }};
 
 fn not_drawn() -> vec3<f32> {
     return vec3<f32>(bitcast<f32>(0x7fc00000u));
@@ -86,41 +85,18 @@ fn main(@builtin(local_invocation_index) slot: u32) {
 
     // The forces of simulate.wgsl's next step (reference.blade_forces).
     let eta = fade_collision(s_collision[i], u_sim.collision_fade, dt);
-    let s_eff = blade.stiffness * u_sim.stiffness_scale * max(1.0 - eta, {{ recovery_floor }});
+    let s_eff = effective_stiffness(blade.stiffness * u_sim.stiffness_scale, eta);
     let t1 = width_direction(up, blade.orientation);
     let g_env = environmental_gravity(v0, u_sim.gravity_mode, u_sim.gravity_dir.xyz, u_sim.gravity_center.xyz, u_sim.gravity);
     let gravity = g_env + front_gravity(g_env, front_direction(up, t1), u_sim.front_gravity);
-    let iv2 = v0 + up * h;
-    let recovery = (iv2 - v2) * s_eff;
-    let wind = wind_force(wind_field(v0, t), v0, v2, up, h);
+    let recovery = (v0 + up * h - v2) * s_eff;
+    let wind_at_root = wind_field(v0, t);
+    let wind = wind_force(wind_at_root, v0, v2, up, h);
 
     // Collision: how far (m) the spheres push v2 in that step, after the forces
-    // and the validation.
-    var collision = vec3<f32>(0.0);
-    if (u_sim.n_colliders > 0) {
-        var v2s = integrate_tip(v2, iv2, s_eff, gravity + wind, dt);
-        v2s = validate_ground(v0, v2s, up);
-        let guides = validate_length(v0, validate_v1(v0, v2s, up, h), v2s, h);
-        var v1s = guides.v1;
-        v2s = guides.v2;
-        let before = v2s;
-        for (var pass_no = 0; pass_no < COLLISION_PASSES; pass_no = pass_no + 1) {
-            var v2c = v2s;
-            var hit = false;
-            for (var c = 0; c < u_sim.n_colliders; c = c + 1) {
-                let col = collide_sphere(v0, v1s, v2c, u_sim.colliders[c]);
-                v2c = col.v2;
-                hit = hit || col.hit;
-            }
-            if (hit) {
-                v2c = validate_ground(v0, v2c, up);
-                let again = validate_length(v0, validate_v1(v0, v2c, up, h), v2c, h);
-                v1s = again.v1;
-                v2s = again.v2;
-            }
-        }
-        collision = v2s - before;
-    }
+    // and the validation (the same tip_step and collision_passes as simulate.wgsl).
+    let moved = tip_step(v0, v2, up, h, s_eff, gravity, wind_at_root, dt);
+    let collision = collision_passes(v0, moved.v1, moved.v2, up, h).v2 - moved.v2;
 
     var forces = array<vec3<f32>, {{ n_forces }}>(gravity, recovery, wind, collision);
     let eye = (u_wobject.world_transform_inv * vec4<f32>(u_stdinfo.cam_transform_inv[3].xyz, 1.0)).xyz;

@@ -1,22 +1,22 @@
 // Blade simulation: `steps` fixed steps of length dt for every blade, in one
-// dispatch. Each step: fade the collision strength, forces (paper 5.1), state
-// validation (paper 5.2), sphere collisions and validation of the pushed blades.
+// dispatch. Each step: fade the collision strength (fade_collision), forces and
+// state validation (tip_step: paper 5.1-5.2), the sphere collisions with validation
+// of the pushed blades (collision_passes), and their strength (gain_collision).
 // Blades are independent, so looping inside the shader is exact and needs no
 // barriers. The twin of reference.simulate() / reference.simulate_step().
 //
 // Engine-neutral body: the engine declares (before this file) the uniform u_sim
 // (fields of grasswidget.gpu.simulation.SIM_UNIFORM), s_blades (array<vec4<f32>>,
 // read_write) and s_collision (array<f32>, read_write: the per-blade collision
-// strength eta, 0..1, persistent across steps); see grasswidget.shader_files.
+// strength eta, 0..1, persistent across steps); see grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 {$ include 'grasswidget.wind_field.wgsl' $}
+{$ include 'grasswidget.collisions.wgsl' $}
 
-// Collision passes per step (reference.COLLISION_PASSES): push, then validate the pushed blades.
-const COLLISION_PASSES: i32 = {{ collision_passes }};
-
-// wind_field(p, t) and the user's user_wind(p, t): see wind_field.wgsl.
+// wind_field(p, t) and the user's user_wind(p, t): see wind_field.wgsl;
+// collision_passes(v0, v1, v2, up, height) over u_sim's colliders: see collisions.wgsl.
 
 @compute @workgroup_size({{ workgroup_size }})
 fn main(
@@ -40,40 +40,15 @@ fn main(
     let f = front_direction(up, t1);
     let g_env = environmental_gravity(v0, u_sim.gravity_mode, u_sim.gravity_dir.xyz, u_sim.gravity_center.xyz, u_sim.gravity);
     let g = g_env + front_gravity(g_env, f, u_sim.front_gravity);
-    let iv2 = v0 + up * h;
 
     for (var k = 0; k < u_sim.steps; k = k + 1) {
         let t = u_sim.time0 + f32(k) * u_sim.dt;
         eta = fade_collision(eta, u_sim.collision_fade, u_sim.dt);
-        let s_eff = s * max(1.0 - eta, {{ recovery_floor }});
-        let w = wind_force(wind_field(v0, t), v0, v2, up, h);
-        v2 = integrate_tip(v2, iv2, s_eff, g + w, u_sim.dt);
-        v2 = validate_ground(v0, v2, up);
-        v1 = validate_v1(v0, v2, up, h);
-        let guides = validate_length(v0, v1, v2, h);
-        v1 = guides.v1;
-        v2 = guides.v2;
-
-        if (u_sim.n_colliders > 0) {
-            var add = 0.0;
-            for (var pass_no = 0; pass_no < COLLISION_PASSES; pass_no = pass_no + 1) {
-                var v2c = v2;
-                var hit = false;
-                for (var c = 0; c < u_sim.n_colliders; c = c + 1) {
-                    let col = collide_sphere(v0, v1, v2c, u_sim.colliders[c]);
-                    v2c = col.v2;
-                    add = add + col.add;
-                    hit = hit || col.hit;
-                }
-                if (hit) {
-                    v2c = validate_ground(v0, v2c, up);
-                    let again = validate_length(v0, validate_v1(v0, v2c, up, h), v2c, h);
-                    v1 = again.v1;
-                    v2 = again.v2;
-                }
-            }
-            eta = min(eta + u_sim.collision_gain * add, {{ collision_max }});
-        }
+        let moved = tip_step(v0, v2, up, h, effective_stiffness(s, eta), g, wind_field(v0, t), u_sim.dt);
+        let collided = collision_passes(v0, moved.v1, moved.v2, up, h);
+        v1 = collided.v1;
+        v2 = collided.v2;
+        eta = gain_collision(eta, collided.add, u_sim.collision_gain);
     }
 
     blade.v1 = v1;

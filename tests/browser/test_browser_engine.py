@@ -167,7 +167,7 @@ print('PHYSICS', err, err1, bent)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")
 
     # 3b. Colour by: LOD classes and cull tests drawn flat in their colours (the shared ribbon shader).
-    from grasswidget.teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
+    from grasswidget.core.teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
 
     def share_of(colors, px):
         rgb = px[..., :3].astype(int)

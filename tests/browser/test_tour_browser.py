@@ -119,7 +119,7 @@ KERNEL_HELPERS = """
 def _gw_render_only_fps(w, scale=1.0, frames=15):
     import time
     from rendercanvas.offscreen import RenderCanvas
-    from grasswidget.scene import make_renderer
+    from grasswidget.gpu.scene import make_renderer
     canvas = RenderCanvas(size=w.size, pixel_ratio=scale)
     renderer = make_renderer(canvas)
     renderer.pixel_scale = 1  # render at the canvas's physical size, as the widget does
@@ -233,7 +233,7 @@ def _run_checks(page, server, folder):
         page.keyboard.up("Shift")
     wait_for_kernel(page, "w.ball.enabled", True, timeout=20)
     # the ball ends where the pointer left the ground (the camera did not move)
-    foot = kernel_eval(page, "__import__('grasswidget.widget_ball', fromlist=['x'])"
+    foot = kernel_eval(page, "__import__('grasswidget.notebook.ball', fromlist=['x'])"
                              ".ground_point(w.scene.camera, 320, 400, w.size)")
     c1 = np.array(wait_for_kernel(
         page, "list(w.ball.collider.center)",

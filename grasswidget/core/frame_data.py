@@ -1,0 +1,315 @@
+"""What a frame needs besides GPU execution, decided once for both engines (pure Python).
+
+The kernel engine (pygfx, :mod:`grasswidget.gpu`) and the browser engine
+(``grasswidget/browser/engine.js``) run the same WGSL. Everything else a frame
+depends on is computed here, from the parameters, colliders, blades and camera,
+and each engine only writes it into its own buffers:
+
+* :func:`sim_uniform_values` / :func:`cull_uniform_values`: the *values* of the
+  ``u_sim`` and ``u_cull`` structs (field name -> number or array; the layouts
+  are :mod:`grasswidget.core.uniform_layouts`). The kernel copies them into its
+  pygfx uniform arrays; the browser receives them packed as bytes
+  (:func:`grasswidget.core.uniform_layouts.pack`) and writes the bytes as they are.
+* :func:`clock_rules`: the simulation clock's rules (``dt``, the wind period, at
+  most ``max_steps_per_frame`` fixed steps per drawn frame, the rest dropped:
+  slow motion). :class:`grasswidget.notebook.clock.SimClock` executes them in the kernel;
+  the browser's clock executes the same rules from this dict.
+* :func:`orbit_rules`: the orbit limits (:class:`grasswidget.core.orbit_limits.OrbitLimits`)
+  as a dict; pygfx's held controller and the browser's drag both clamp with them.
+* :func:`sky_ground_values`: the values of ``u_material`` of
+  ``shaders/sky_ground.wgsl`` (``uniform_layouts.SKY_GROUND_LAYOUT``: sky, soil,
+  ground beyond the field, horizon, fog), which both engines draw.
+* :func:`material_values` / :func:`look_values`: the blade material's values
+  (``uniform_layouts.GRASS_MATERIAL_LAYOUT``): the browser packs all of them, the
+  kernel's GrassField writes the params' looks into its GrassMaterial.
+* :func:`scene_style`: :func:`sky_ground_values` plus the collider balls' colour.
+* :func:`frame_rules`: the three above in one JSON-able dict (the browser's
+  ``frame_rules`` trait).
+
+Nothing here imports a GPU module.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+import numpy as np
+
+from ..errors import GrassValueError
+from .colliders import MAX_COLLIDERS, collider_array
+from .enums import ColorBy, GravityMode, WindField
+from .enums import BladeShape
+from .orbit_limits import OrbitLimits
+from .params import LOOK_TRAITS, GrassParams
+from .reference import ground_cover, wind_period
+
+__all__ = [
+    "sim_uniform_values", "cull_uniform_values", "clock_rules", "orbit_rules", "scene_style", "ground_square",
+    "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
+    "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
+    "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+]
+
+#: The most fixed steps one drawn frame may take while playing, in both engines (a frame
+#: owed more gets this many and the rest is dropped: slow motion).
+MAX_STEPS_PER_FRAME = 64
+
+#: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
+#: distance fog's colour and the far ground's), the sky straight up, the bare soil
+#: under the field (already lit; the grass' cover darkens it) and the ground beyond it
+#: (a khaki that the grass detectors of the tests do not take for grass).
+HORIZON_COLOR = "#e4edf5"
+ZENITH_COLOR = "#8db8e3"
+SOIL_COLOR = "#3b2a1a"
+BEYOND_COLOR = "#787a4e"
+#: Width (m) of the soft edge between the soil under the field and the ground beyond.
+FIELD_EDGE = 0.5
+#: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
+#: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
+#: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=(0.4, 1.0, 0.3),
+                         tip_threshold=0.5, fog_color=HORIZON_COLOR)
+#: Collider balls: colour (sRGB hex) and opacity (0..1).
+BALL_COLOR = "#dfe8ff"
+BALL_OPACITY = 0.35
+#: Direction towards the sun (world space, not normalized): the kernel scene's light position.
+LIGHT_DIRECTION = (4.0, 10.0, 3.0)
+#: The ground plane lies this far (m) below the lowest blade root (no z-fight with the roots).
+GROUND_DROP = 0.01
+
+
+def srgb(hex_color: str, alpha: float = 1.0) -> tuple:
+    """``(r, g, b, alpha)`` in 0..1 from ``"#rrggbb"`` (sRGB, as written)."""
+    h = str(hex_color).lstrip("#")
+    if len(h) != 6:
+        raise GrassValueError(f"colour must be '#rrggbb'; got {hex_color!r}")
+    return tuple(int(h[i: i + 2], 16) / 255.0 for i in (0, 2, 4)) + (float(alpha),)
+
+
+# ---------------------------------------------------------------------- uniform values
+
+
+def _local(world_matrix):
+    m = np.eye(4) if world_matrix is None else np.asarray(world_matrix, np.float64).reshape(4, 4)
+    return m
+
+
+def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None, steps: int = 0,
+                       time0: float = 0.0) -> dict:
+    """The ``u_sim`` values (``uniform_layouts.SIM_LAYOUT``) for a dispatch.
+
+    Args:
+        params: a :class:`~grasswidget.params.GrassParams`.
+        n_blades: blade count N.
+        colliders: sphere colliders (at most ``MAX_COLLIDERS`` = 16), in the field's local space.
+        world_matrix: the field's 4x4 world matrix (default identity): gravity's
+            direction and centre are given in world space and turned into local space.
+        steps: fixed steps in this dispatch (the browser writes its own per dispatch).
+        time0: simulation time of the dispatch's first step (s; same).
+
+    Returns {field: value}; vectors are 4 floats, ``colliders`` a (16, 4) array.
+    """
+    p = params
+    m = _local(world_matrix)
+    g = np.asarray(p.gravity_direction, np.float64)
+    try:
+        g = np.linalg.solve(m[:3, :3], g)
+    except np.linalg.LinAlgError:
+        pass
+    g = g / max(float(np.linalg.norm(g)), 1e-12)
+    centre = np.array([*p.gravity_center, 1.0])
+    try:
+        centre = np.linalg.solve(m, centre)
+    except np.linalg.LinAlgError:
+        pass
+    rad = math.radians(p.wind_direction)
+    spheres = collider_array(list(colliders))
+    padded = np.zeros((MAX_COLLIDERS, 4), np.float32)
+    padded[: len(spheres)] = spheres
+    return dict(
+        gravity_dir=(*g, 0.0),
+        wind_dir=(math.cos(rad), math.sin(rad), 0.0, 0.0),
+        gravity_center=(*centre[:3], 0.0),
+        wind_center=(*p.wind_center, 0.0),
+        colliders=padded,
+        gravity=p.gravity,
+        front_gravity=p.front_gravity,
+        stiffness_scale=p.stiffness_scale,
+        dt=p.dt,
+        time0=float(time0),
+        wind_strength=p.wind_strength,
+        wind_speed=p.wind_speed,
+        wind_wavelength=p.wind_wavelength,
+        wind_field=int(WindField.from_label(p.wind_field)),
+        steps=int(steps),
+        n_blades=int(n_blades),
+        gravity_mode=int(GravityMode.from_label(p.gravity_mode)),
+        wind_radius=p.wind_radius,
+        wind_direction_rad=rad,
+        collision_fade=p.collision_fade,
+        collision_gain=p.collision_gain,
+        n_colliders=len(spheres),
+    )
+
+
+def cull_uniform_values(params, n_blades: int, frozen=None) -> dict:
+    """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
+
+    ``frozen`` is the frozen culling camera or None (cull against each render's
+    camera): anything with ``view_proj`` (4x4, world to WebGPU clip space, row-major
+    as NumPy writes it), ``position`` (3 floats, m) and ``viewport_size`` ((w, h) pixels),
+    e.g. a :class:`grasswidget.gpu.frozen_camera.FrozenCamera`.
+    """
+    p = params
+    values = dict(
+        orientation_threshold=p.cull_orientation_threshold,
+        frustum_tolerance=p.cull_frustum_tolerance,
+        distance_max=p.cull_distance_max,
+        buckets=p.cull_buckets,
+        cull_orientation=int(p.cull_orientation),
+        cull_frustum=int(p.cull_frustum),
+        cull_distance=int(p.cull_distance),
+        lod=int(p.lod),
+        n_blades=int(n_blades),
+        color_by=int(ColorBy.from_label(p.color_by)),
+        frozen=int(frozen is not None),
+        frozen_view_proj=np.zeros((4, 4), np.float32),
+        frozen_cam_pos=(0.0, 0.0, 0.0, 0.0),
+        frozen_viewport_height=0.0,
+    )
+    if frozen is not None:
+        values.update(
+            frozen_view_proj=np.asarray(frozen.view_proj, np.float64).T,  # WGSL matrices are column-major
+            frozen_cam_pos=(*map(float, frozen.position), 1.0),
+            frozen_viewport_height=float(frozen.viewport_size[1]),
+        )
+    return values
+
+
+# ---------------------------------------------------------------------- frame rules
+
+
+def clock_rules(params) -> dict:
+    """The clock's rules for playing by the wall clock (see :class:`grasswidget.notebook.clock.SimClock`):
+    ``dt`` (s, the fixed step), ``wind_period`` (s, 0 = none: the wind time of step k
+    is ``(k dt) mod wind_period``), ``max_steps_per_frame`` (a frame owed more steps
+    gets this many and the rest is dropped: slow motion)."""
+    return {"dt": float(params.dt), "wind_period": float(wind_period(params) or 0.0),
+            "max_steps_per_frame": int(MAX_STEPS_PER_FRAME)}
+
+
+def orbit_rules(blades, far) -> dict:
+    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades and a far plane
+    of ``far`` metres, as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground)."""
+    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far)
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
+
+
+def ground_square(blades, far) -> tuple:
+    """``((x, y, z), half_size)``: the ground square under the field, reaching the far
+    plane (``far`` m) from anywhere over the field, so a low camera sees ground, not
+    sky, below the horizon. y is :data:`GROUND_DROP` below the lowest root."""
+    v0 = np.asarray(blades.v0, np.float64)
+    lo, hi = v0.min(axis=0), v0.max(axis=0)
+    extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
+    far = 100.0 if far is None else float(far)
+    centre = (float(0.5 * (lo[0] + hi[0])), float(lo[1]) - GROUND_DROP, float(0.5 * (lo[2] + hi[2])))
+    return centre, 0.5 * (1.2 * extent + 2.0 * far)
+
+
+def field_rectangle(blades) -> tuple:
+    """``((x, z), (half_x, half_z))``: the rectangle of the blades' roots on the ground (m)."""
+    v0 = np.asarray(blades.v0, np.float64)
+    lo, hi = v0.min(axis=0), v0.max(axis=0)
+    return (float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[2] + hi[2]))), \
+        (float(0.5 * (hi[0] - lo[0])), float(0.5 * (hi[2] - lo[2])))
+
+
+def field_cover(blades) -> float:
+    """How much the blades shade the soil of their rectangle, 0..1
+    (:func:`grasswidget.core.reference.ground_cover`; sides of at least 0.1 m)."""
+    _centre, (hx, hz) = field_rectangle(blades)
+    return ground_cover(blades.height, blades.width, max(2 * hx, 0.1) * max(2 * hz, 0.1))
+
+
+def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
+    """The ``u_material`` values of ``shaders/sky_ground.wgsl``
+    (``uniform_layouts.SKY_GROUND_LAYOUT``), the same for both engines.
+
+    Args:
+        blades: the field's :class:`~grasswidget.core.blades.Blades` (its rectangle
+            and cover decide where the soil is and how dark).
+        far: the camera's far plane in metres (None: 100): the ground square reaches
+            it (:func:`ground_square`) and fades into the horizon colour from 0.6 of it.
+        params: the :class:`~grasswidget.core.params.GrassParams` (its ``fog_density``,
+            1/m); None: the defaults.
+        show_ground: draw the ground (else sky everywhere).
+
+    Colours are (r, g, b, 1) sRGB 0..1, ``ground`` (x, y, z, half size) and
+    ``field`` (x, z, half_x, half_z) in metres.
+    """
+    centre, half = ground_square(blades, far)
+    (cx, cz), (hx, hz) = field_rectangle(blades)
+    fog = (params if params is not None else GrassParams()).fog_density
+    return {
+        "horizon_color": srgb(HORIZON_COLOR),
+        "zenith_color": srgb(ZENITH_COLOR),
+        "soil_color": srgb(SOIL_COLOR),
+        "beyond_color": srgb(BEYOND_COLOR),
+        "ground": (*centre, float(half)),
+        "field": (cx, cz, hx, hz),
+        "show_ground": int(bool(show_ground)),
+        "far_distance": 100.0 if far is None else float(far),
+        "fog_density": float(fog),
+        "cover": field_cover(blades),
+        "field_edge": FIELD_EDGE,
+    }
+
+
+def look_values(params) -> dict:
+    """The blade material's looks from the params (``params.LOOK_TRAITS``): colour
+    variety (0..1), patch size (m), dryness (0..1), translucency (0..1), fog density (1/m)."""
+    return {name: float(getattr(params, name)) for name in LOOK_TRAITS}
+
+
+def material_values(params, **material) -> dict:
+    """The blade material's ``u_material`` values (``uniform_layouts.GRASS_MATERIAL_LAYOUT``):
+    :data:`MATERIAL_DEFAULTS` with ``material``'s overrides (same keys), the looks from
+    :func:`look_values`, the ribbon shape from ``params.blade_shape``, opacity 1."""
+    unknown = set(material) - set(MATERIAL_DEFAULTS)
+    if unknown:
+        raise GrassValueError(f"material_values takes {', '.join(MATERIAL_DEFAULTS)}; got {sorted(unknown)}")
+    m = dict(MATERIAL_DEFAULTS, **material)
+    light = np.asarray(m["light_direction"], np.float64).reshape(3)
+    norm = float(np.linalg.norm(light))
+    if not (np.all(np.isfinite(light)) and norm > 0):
+        raise GrassValueError(f"light_direction must be a finite non-zero 3-vector; got {m['light_direction']!r}")
+    return {
+        "root_color": srgb(m["root_color"]),
+        "tip_color": srgb(m["tip_color"]),
+        "light_direction": (*(light / norm), 0.0),
+        "fog_color": srgb(m["fog_color"]),
+        "opacity": 1.0,
+        "alpha_test": 0.0,
+        **look_values(params),
+        "ambient": float(m["ambient"]),
+        "tip_threshold": float(m["tip_threshold"]),
+        "blade_shape": int(BladeShape.from_label(params.blade_shape)),
+    }
+
+
+def scene_style(blades, far, params=None) -> dict:
+    """Sky, ground and collider-ball style: :func:`sky_ground_values` (lists) plus
+    ``ball_color`` (r, g, b, opacity) and ``light_direction`` (x, y, z, towards the sun)."""
+    style = {k: (list(v) if isinstance(v, tuple) else v) for k, v in sky_ground_values(blades, far, params).items()}
+    style["ball_color"] = list(srgb(BALL_COLOR, BALL_OPACITY))
+    style["light_direction"] = list(LIGHT_DIRECTION)
+    return style
+
+
+def frame_rules(params, blades, far) -> dict:
+    """``{"clock": clock_rules, "orbit": orbit_rules, "style": scene_style}`` for a field
+    of ``blades`` seen by a camera whose far plane is ``far`` metres."""
+    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far),
+            "style": scene_style(blades, far, params)}

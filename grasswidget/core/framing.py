@@ -1,0 +1,61 @@
+"""What a view shows, in pure Python (no GPU import): named presets and view sizes.
+
+``preset_field(name)`` gives the blades, default size and camera of a named
+scene (``GrassScene.preset`` builds its GPU scene from it; the browser engine
+sends the same blades and camera to the browser); ``parse_size`` reads a view
+size. ``grasswidget.gpu.scene`` re-exports both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .blades import Blades
+from ..errors import GrassValueError
+
+__all__ = ["PRESETS", "preset_field", "parse_size"]
+
+#: Named scenes: see GrassScene.preset().
+PRESETS = ("cis565", "meadow")
+
+
+def parse_size(size, name="size"):
+    """(w, h) from a tuple or a "WxH" string; both within 1..16384 pixels."""
+    if isinstance(size, str):
+        parts = size.lower().split("x")
+        try:
+            size = tuple(int(p) for p in parts)
+        except ValueError:
+            size = None
+    try:
+        w, h = (int(size[0]), int(size[1]))
+        ok = len(size) == 2 and all(float(s) == int(s) for s in size)
+    except (TypeError, ValueError, IndexError):
+        ok = False
+    if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
+        raise GrassValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
+    return w, h
+
+
+def preset_field(name, blades=None, seed=0):
+    """The blades, default size and camera of a named scene (see :meth:`GrassScene.preset`).
+
+    Returns ``(Blades, (w, h), view)`` with view a dict of position, target
+    (metres), fov_deg (vertical), near, far. Pure: no GPU work (the browser
+    engine builds its presets from it too).
+    """
+    if name not in PRESETS:
+        raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+    if name == "cis565":
+        n = 1 << 13 if blades is None else blades
+        b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
+        view = dict(position=(0, 1, 10), target=(0, 1, 0), fov_deg=45, near=0.1, far=100)
+        return b, (640, 480), view
+    n = 1 << 20 if blades is None else blades
+    side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
+    if not isinstance(n, Blades):
+        n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
+    view = dict(position=(0, 3.0, side / 2 + 2.0), target=(0, 0.0, side / 2 - 30.0), fov_deg=50, near=0.1, far=400)
+    return n, (1920, 1080), view

@@ -1,0 +1,663 @@
+"""The kernel engine's view: a GrassScene rendered in the kernel and streamed to the browser.
+
+:class:`KernelView` owns a jupyter-rfb canvas (``rendercanvas.jupyter.RenderCanvas``),
+the :class:`~grasswidget.gpu.scene.GrassScene` drawn into it, the camera's
+``OrbitController``, the canvas events (orbit, ball drag, keys), the real-time
+clock that advances the simulation while playing and the adaptive render
+scale. It knows nothing of the control panel: the widget that composes them
+tells it what to do (``set_playing``, ``step``, ``set_blades`` ...) and
+receives its stats through ``on_stats``.
+
+Time (see :class:`~grasswidget.notebook.clock.SimClock`): while playing, simulated time
+follows the wall clock (times ``time_scale``) in whole fixed steps of
+``params.dt``, at most :data:`MAX_STEPS_PER_FRAME` per frame; when that cap
+binds the stats line says "slow motion 0.6x". Paused, no time passes;
+``step(n)`` advances exactly n steps.
+
+How a frame travels (each stage is timed and shown on the stats line):
+step + render (the draw function submits the GPU work), readback (rendercanvas
+copies the frame into a mapped buffer without stalling the queue and presents
+it when the copy is done), JPEG encode + send (jupyter-rfb), and the browser's
+acknowledgement. jupyter-rfb lets :data:`MAX_BUFFERED_FRAMES` frames be in
+flight, so the kernel renders the next frame while the last one travels and is
+decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
+CPU adapter, 60 on a GPU).
+
+Adaptive resolution (see :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`):
+while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
+render pixel ratio goes down step by step to half, and back up when there is
+headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
+last frame), Save PNG and exports always render at full resolution.
+
+Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
+``OrbitController``, held to :class:`~grasswidget.notebook.orbit.OrbitLimits`: the camera
+stays above the ground, the target over the field, the zoom in range), without
+the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
+Shift + drag goes to the ball first. Ctrl (or
+Cmd) + click inspects the blade under the pointer: one pick readback per click
+(the grass material writes pick ids in this view).
+
+Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
+current camera (kept across a new blade count), :meth:`KernelView.inspect`
+shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
+refresh (one small readback, only while blades are inspected).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .. import compat
+from .adaptive import ResolutionGovernor, check_target_fps
+from ..core.blades import Blades
+from .clock import MAX_STEPS_PER_FRAME, SimClock
+from ..errors import GrassValueError
+
+__all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
+           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
+
+#: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
+CPU_MAX_BLADES = 1 << 18
+#: Largest blade count the slider offers on a GPU.
+GPU_MAX_BLADES = 1 << 22
+#: How often (seconds) the stats line is refreshed (it does one small GPU readback).
+STATS_INTERVAL = 0.5
+#: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
+MAX_BUFFERED_FRAMES = 3
+#: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
+SLOW_MOTION_BELOW = 0.97
+
+
+def streaming_defaults(cpu: bool) -> dict:
+    """Streaming settings for a CPU adapter (``cpu=True``) or a GPU.
+
+    Returns ``max_fps`` (the stream cap: frames per second asked of the
+    scheduler), ``target_fps`` (the rate adaptive resolution aims for),
+    ``quality`` (jupyter-rfb JPEG quality while animating), ``max_pixel_ratio``
+    (cap on the browser's device pixel ratio for the rendered frame) and
+    ``max_blades`` (top of the blade-count slider).
+    """
+    if cpu:
+        return dict(max_fps=30, target_fps=24.0, quality=70, max_pixel_ratio=1.0, max_blades=CPU_MAX_BLADES)
+    return dict(max_fps=60, target_fps=60.0, quality=85, max_pixel_ratio=2.0, max_blades=GPU_MAX_BLADES)
+
+
+def _canvas_class():
+    """A jupyter RenderCanvas with a capped, scalable pixel ratio and timed presents."""
+    from rendercanvas.jupyter import RenderCanvas
+
+    class GrassCanvas(RenderCanvas):
+        """rendercanvas.jupyter.RenderCanvas that renders at ``render_scale`` times the
+        browser's devicePixelRatio capped to ``max_pixel_ratio``, and reports when a
+        frame's pixels arrived (``on_present``) and when it was sent (``on_sent``)."""
+
+        max_pixel_ratio = 2.0
+        render_scale = 1.0
+        on_present = None
+        on_sent = None
+        _browser_resize = None
+
+        def handle_event(self, event):
+            if compat.event_type(event) == "resize" and compat.event_ratio(event) is not None:
+                self._browser_resize = dict(event)
+                event = self._scaled(event)
+            super().handle_event(event)
+
+        def _scaled(self, event):
+            ratio = min(float(compat.event_ratio(event)), float(self.max_pixel_ratio)) * float(self.render_scale)
+            width = float(event.get("width") or 0)
+            if width and self.render_scale != 1.0:  # whole physical pixels: the ratio that gives them
+                ratio = max(1, int(width * ratio)) / width
+            return compat.with_ratio(event, ratio)
+
+        def set_render_scale(self, scale):
+            """Render at ``scale`` (0.5..1) of the full pixel ratio from the next frame on."""
+            if scale == self.render_scale:
+                return
+            self.render_scale = float(scale)
+            if self._browser_resize is not None:
+                super().handle_event(self._scaled(self._browser_resize))
+
+        def _rc_present_bitmap(self, *, data, format, **kwargs):
+            if self.on_present is not None:
+                self.on_present(time.perf_counter())
+            super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+        def send_frame(self, array):
+            super().send_frame(array)
+            if self.on_sent is not None:
+                self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
+
+    return GrassCanvas
+
+
+class EventsWithoutPicking:
+    """Forward canvas pointer/wheel/key events to the current pygfx renderer.
+
+    ``WgpuRenderer(enable_events=True)`` converts every canvas event through
+    ``renderer.convert_event``, which does a GPU pick readback (``get_pick_info``)
+    for every event with x/y: one synchronous readback per pointer move. This
+    forwards the same events with ``target=None`` and no ``pick_info``, so
+    handlers registered on the renderer (``OrbitController.register_events``)
+    work, without picking. ``renderer()`` is called per event, so the renderer
+    may be replaced (a new blade count) while this stays registered.
+    """
+
+    TYPES = ("pointer_down", "pointer_move", "pointer_up", "wheel", "key_down", "key_up")
+
+    def __init__(self, renderer_getter, intercept=None):
+        self._renderer = renderer_getter
+        self._intercept = intercept
+
+    def __call__(self, event):
+        renderer = self._renderer()
+        event_type = compat.event_type(event)
+        event_class = compat.pygfx_event_class(event_type)
+        if renderer is None or event_class is None:
+            return
+        if self._intercept is not None and self._intercept(event):
+            return  # e.g. shift + drag moves the ball
+        ev = event_class(type=event_type, **compat.pygfx_event_fields(event), target=None, root=renderer)
+        renderer.dispatch_event(ev)
+
+
+def orbit_target(scene):
+    """The point the scene's camera orbits around: ``scene.home_target`` when the
+    scene says, else the point on the view axis nearest the field's centre."""
+    target = getattr(scene, "home_target", None)
+    if target is not None:
+        return np.asarray(target, np.float64)
+    cam = scene.camera
+    pos = np.asarray(cam.world.position, np.float64)
+    forward = -np.asarray(cam.world.matrix, np.float64)[:3, 2]
+    forward /= max(np.linalg.norm(forward), 1e-12)
+    v0 = scene.field.blades.v0
+    center = 0.5 * (v0.min(axis=0) + v0.max(axis=0)).astype(np.float64)
+    d = float(np.dot(center - pos, forward))
+    d = min(max(d, 1.0), 0.5 * float(cam.depth_range[1]) if cam.depth_range else 50.0)
+    return pos + forward * d
+
+
+class KernelView:
+    """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock.
+
+    Args:
+        blades: a blade count or a :class:`Blades` for the first scene.
+        size: (w, h) of the view in CSS pixels.
+        params: the :class:`GrassParams` the scene simulates with.
+        preset: None or a ``GrassScene.preset`` name.
+        streaming: a :func:`streaming_defaults` dict (possibly overridden).
+        clock: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
+        actions: called by keys: ``toggle_play()``, ``step()``, ``reset_camera()``.
+        on_error: called with an exception or a text to show.
+        on_stats: called with the stats dict whenever it is refreshed.
+
+    Attributes: ``widget`` (the ipywidget to show: the canvas), ``canvas``,
+    ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``,
+    ``clock`` (the :class:`~grasswidget.notebook.clock.SimClock`), ``governor`` (the
+    :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`), ``timing`` (the
+    :class:`FrameTiming` of the frames on their way).
+    """
+
+    backend = "kernel"
+    #: This view draws the teaching views (colour by, frozen culling, inspector).
+    teaching_views = True
+
+    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
+                 on_inspect=None):
+        self.size = tuple(size)
+        self.params = params
+        self._preset = preset
+        self._streaming = dict(streaming)
+        self._clock = clock
+        self._actions = actions
+        self._on_error = on_error
+        self._on_stats = on_stats
+        self._on_inspect = on_inspect
+        self._frozen_camera = None  # the frozen culling camera, kept across set_blades
+        self._inspected = ()
+        self._report_pending = False  # report the inspected numbers after the next frame
+        self.scene = None
+        self.controller = None
+        self.ball = None
+        self._closed = False
+
+        self.clock = SimClock(MAX_STEPS_PER_FRAME)
+        self.governor = ResolutionGovernor(self._streaming["target_fps"])
+        self.canvas = _canvas_class()(size=self.size, update_mode="continuous", max_fps=self.max_fps)
+        self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
+        self.canvas.quality = self._streaming["quality"]
+        self.canvas.max_buffered_frames = MAX_BUFFERED_FRAMES
+        self.canvas.resizable = False
+        self.canvas.on_present = self._on_present
+        self.canvas.on_sent = self._on_sent
+        self.widget = self.canvas
+        self.events = EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
+                                           intercept=self._on_pointer)
+        self.canvas.add_event_handler(self.events, *EventsWithoutPicking.TYPES)
+        self.canvas.add_event_handler(self.on_key, "key_down")
+
+        self._frames = 0
+        self._draw_ms = 0.0
+        from ..gpu.adapter import cpu_notice
+
+        self.timing = FrameTiming()
+        self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
+                       "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
+                       "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
+                       "target_fps": self.target_fps,
+                       "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
+        self._stats_t = time.perf_counter()
+        self._stats_frames = 0
+        self._stats_confirmed = 0
+        self.set_blades(blades)
+
+    # ------------------------------------------------------------------ scene
+
+    def _make_scene(self, blades):
+        from ..gpu.scene import GrassScene
+
+        if self._preset is not None:
+            count = len(blades) if isinstance(blades, Blades) else blades
+            return GrassScene.preset(self._preset, blades=count, size=self.size, params=self.params,
+                                     canvas=self.canvas)
+        return GrassScene(blades, size=self.size, params=self.params, canvas=self.canvas)
+
+    def set_blades(self, blades):
+        """Build the scene for ``blades`` on this canvas, replacing and releasing
+        the previous one (the camera view, the orbit target and the ball are kept)."""
+        from .orbit import GroundOrbitController, OrbitLimits
+
+        old = self.scene
+        cam_state = old.camera.get_state() if old is not None else None
+        old_target = self.controller.target if (old is not None and self.controller is not None) else None
+        scene = self._make_scene(blades)
+        if old is not None:
+            old.release()
+        # Render at the canvas's physical size (no SSAA, no upscaling): that size is
+        # the browser's pixel ratio capped for the adapter (GrassCanvas), so the
+        # render cost follows the frame size chosen for streaming.
+        scene.renderer.pixel_scale = 1
+        scene.field.material.pick_write = True  # ctrl + click picks a blade
+        if self._frozen_camera is not None:
+            scene.field.freeze_culling(self._frozen_camera)
+        self._inspected = tuple(i for i in self._inspected if i < scene.field.count)
+        if self._inspected:
+            scene.inspect(self._inspected)
+        self.scene = scene
+        self.governor.restart()
+        if self.ball is not None:
+            self.ball.attach(scene)
+        self._home_state = scene.camera.get_state()
+        self._home_target = orbit_target(scene)
+        # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+                                                register_events=scene.renderer)
+        # A custom target: orbit and zoom around the point the view looks at
+        # (GrassScene aims with look_at, which leaves the camera extent unrelated
+        # to that distance, so pygfx's implicit target would be far off).
+        self.controller.target = self._home_target if old_target is None else old_target
+        if cam_state is not None:  # a new blade count keeps the view
+            scene.camera.set_state(cam_state)
+        self.canvas.request_draw(self.draw)
+
+    def attach_ball(self, ball):
+        """The :class:`~grasswidget.notebook.ball.BallControl` to move with shift + drag and roll."""
+        self.ball = ball
+
+    @property
+    def blade_count(self) -> int:
+        return self.scene.field.count
+
+    # ------------------------------------------------------------------ time
+
+    @property
+    def max_fps(self) -> float:
+        """The stream cap: frames per second asked of the canvas scheduler."""
+        return float(self._streaming["max_fps"])
+
+    @property
+    def frame_interval(self) -> float:
+        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
+        return 1.0 / self.max_fps
+
+    @property
+    def steps_per_frame(self) -> int:
+        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped:
+        what :meth:`GrassWidget.step` does by default (while playing, the clock decides)."""
+        return max(0, min(self._wanted_steps(), MAX_STEPS_PER_FRAME))
+
+    def _wanted_steps(self):
+        return int(round(self._clock.time_scale * self.frame_interval / self.params.dt))
+
+    @property
+    def sim_time(self) -> float:
+        """Simulated seconds since the last reset_blades()."""
+        return self.clock.sim_time
+
+    @property
+    def target_fps(self) -> float:
+        """Frames per second adaptive resolution aims for while playing."""
+        return self.governor.target_fps
+
+    @target_fps.setter
+    def target_fps(self, value):
+        self.governor.target_fps = check_target_fps(value)
+        self.governor.restart()
+
+    @property
+    def render_scale(self) -> float:
+        """Fraction of the full pixel ratio the live frames render at (1 when paused)."""
+        return float(self.canvas.render_scale)
+
+    def set_playing(self, playing: bool):
+        """Draw continuously (playing) or on demand (paused). Pausing stops the clock
+        at once and puts the render scale back to 1, so the still frame is sharp."""
+        if not playing:
+            self.clock.stop()
+            self.governor.restart()
+            self.canvas.set_render_scale(1.0)
+        if not self._closed:
+            self.canvas.set_update_mode("continuous" if playing else "ondemand")
+            self.canvas.request_draw()
+
+    def step(self, n: int):
+        """Advance exactly ``n`` fixed steps and redraw."""
+        self._simulate(n)
+        self.request_draw()
+
+    def _simulate(self, n):
+        """n fixed steps, the ball moving between chunks (simulated time, not wall clock)."""
+        dt = self.params.dt
+        for chunk in (self.ball.step_chunks(n, dt) if self.ball is not None else [n]):
+            if self.ball is not None:
+                try:
+                    self.ball.advance(chunk * dt)
+                except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
+                    self.ball.rolling = False
+                    self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+            self.scene.step(chunk)
+            self.clock.count(chunk, dt)
+
+    def reset_blades(self):
+        """Every blade back to its rest pose; the step counter and sim_time back to 0."""
+        self.scene.field.reset()
+        self.clock.reset()
+        self.request_draw()
+
+    def reset_camera(self):
+        """Back to the scene's starting view (position, rotation, fov, orbit target)."""
+        self.scene.reset_camera()
+        self.scene.camera.set_state(self._home_state)
+        if self.controller is not None:
+            self.controller.target = self._home_target  # panning moves the target
+            self.scene.camera.set_state(self._home_state)
+        self.request_draw()
+
+    @property
+    def camera_state(self) -> dict:
+        """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
+        cam = self.scene.camera
+        target = self.controller.target if self.controller is not None else orbit_target(self.scene)
+        return {"position": tuple(float(x) for x in cam.world.position),
+                "target": tuple(float(x) for x in target),
+                "fov_deg": self.scene.vertical_fov()}
+
+    @camera_state.setter
+    def camera_state(self, state):
+        from ..browser.engine_view import _check_camera_state
+
+        state = _check_camera_state(state)
+        current = self.camera_state
+        position = state.get("position", current["position"])
+        target = state.get("target", current["target"])
+        if np.allclose(position, target):
+            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+        self.scene.look(position, target, state.get("fov_deg"))
+        if self.controller is not None:
+            self.controller.target = np.asarray(target, np.float64)
+        self.request_draw()
+
+    def request_draw(self):
+        if not self._closed:
+            self.canvas.request_draw()
+
+    # ------------------------------------------------------------------ teaching views
+
+    def set_culling_frozen(self, frozen: bool):
+        """Freeze culling at the current camera (True) or cull against it again (False)."""
+        if frozen:
+            self.scene.freeze_culling()
+            self._frozen_camera = self.scene.field.frozen_camera
+        else:
+            self.scene.unfreeze_culling()
+            self._frozen_camera = None
+        self.request_draw()
+
+    def inspect(self, ids):
+        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        self.scene.inspect(ids)
+        self._inspected = tuple(self.scene.inspected)
+        if self._on_inspect is not None and not self._inspected:
+            self._on_inspect([])
+        self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
+        self.request_draw()
+
+    @property
+    def inspected(self) -> tuple:
+        return self._inspected
+
+    def pick_blade(self, x, y):
+        """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
+        (one GPU pick readback)."""
+        info = self.scene.renderer.get_pick_info((x, y))
+        if info.get("world_object") is self.scene.field:
+            return info.get("blade_index")
+        return None
+
+    def _report_inspected(self):
+        if self._on_inspect is not None:
+            self._on_inspect(self.scene.read_inspected() if self._inspected else [])
+
+    # ------------------------------------------------------------------ pictures
+
+    def save_png(self, path, size):
+        """Write a PNG of the current view at ``size`` (w, h) pixels."""
+        return self.scene.save_png(path, size=size)  # offscreen and anti-aliased, whatever the canvas
+
+    def draw(self):
+        """The canvas draw function: advance time (when playing), render, maybe refresh stats."""
+        scene = self.scene
+        if scene is None or scene.renderer is None:
+            return
+        t0 = time.perf_counter()
+        playing = bool(self._clock.playing)
+        if playing:
+            if not self.clock.running:
+                self.clock.start()
+            self._simulate(self.clock.frame_steps(self.params.dt, self._clock.time_scale))
+        scene.draw_frame()
+        t1 = time.perf_counter()
+        self._draw_ms = 1000.0 * (t1 - t0)
+        self.timing.drawn(t0, t1)
+        if self._report_pending:
+            self._report_pending = False
+            self._report_inspected()
+        self._frames += 1
+        if playing:
+            # The next frame's scale, from how long the kernel was busy per frame.
+            self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
+        if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
+            self.refresh_stats()
+
+    def _on_present(self, t):
+        self.timing.presented(t)
+
+    def _on_sent(self, t, size):
+        self.timing.sent(t)
+
+    # ------------------------------------------------------------------ stats
+
+    @property
+    def stats(self) -> dict:
+        """The last stats (see GrassWidget.stats)."""
+        return self.current_stats()
+
+    def current_stats(self) -> dict:
+        """The stats dict for the stats line, with what is known now (no readback)."""
+        s = dict(self._stats)
+        s["blades"] = self.blade_count
+        s["scale"] = self.render_scale
+        s["target_fps"] = self.target_fps
+        playing = bool(self._clock.playing)
+        s["steps_per_frame"] = self.clock.last_steps if playing else 0
+        s["sim_speed"] = self.clock.speed if playing else None
+        s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
+        return s
+
+    def refresh_stats(self):
+        """Measure frames/s delivered (confirmed by the browser) and the time of each
+        stage of a frame, read the visible count and GPU times, and pass the stats to
+        ``on_stats``."""
+        now = time.perf_counter()
+        dt = max(now - self._stats_t, 1e-6)
+        ack_ms = None
+        try:
+            rfb = self.canvas.get_stats()
+            self.canvas.reset_stats()  # the next figures cover the next window only
+            fps = rfb["confirmed_frames"] / dt if rfb["sent_frames"] or rfb["confirmed_frames"] else None
+            if rfb["confirmed_frames"]:
+                ack_ms = 1000.0 * rfb["roundtrip"]
+        except Exception:
+            fps = None
+        if fps is None:  # no browser: frames drawn
+            fps = (self._frames - self._stats_frames) / dt
+        self._stats_frames = self._frames
+        self._stats_t = now
+        scene = self.scene
+        visible, gpu_ms = None, None
+        stats = getattr(scene, "stats", None)
+        if stats is not None:
+            try:
+                d = stats.as_dict()
+                visible = d.get("visible", d.get("visible_blades"))
+                gpu_ms = d.get("gpu_ms")
+            except Exception:
+                visible = gpu_ms = None
+        if visible is None:
+            try:
+                visible = scene.visible_count()
+            except Exception:
+                visible = None
+        self._stats.update(
+            fps=fps, visible=visible, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
+            frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            **self.timing.averages(),
+        )
+        self._on_stats(self.current_stats())
+        if self._inspected:
+            self._report_inspected()
+
+    # ------------------------------------------------------------------ events
+
+    def _on_pointer(self, event):
+        """Ctrl + click inspects a blade; shift + drag moves the ball; other events go
+        on to the camera controller."""
+        if self._closed:
+            return False
+        if self._is_inspect_click(event):
+            try:
+                blade = self.pick_blade(event["x"], event["y"])
+                if blade is not None:
+                    self._actions.inspect([int(blade)])
+            except Exception as err:  # never let a pointer event break the canvas
+                self._on_error(err)
+            return True
+        if self.ball is None:
+            return False
+        try:
+            w, h = self.canvas.get_logical_size()
+            view = (w, h) if w > 1 and h > 1 else self.size  # no browser view yet: the asked size
+            return self.ball.handle_event(event, view)
+        except Exception as err:  # never let a pointer event break the canvas
+            self._on_error(err)
+            return False
+
+    @staticmethod
+    def _is_inspect_click(event):
+        mods = tuple(event.get("modifiers") or ())
+        return (compat.event_type(event) == "pointer_down" and event.get("button", 1) == 1
+                and ("Control" in mods or "Meta" in mods) and "x" in event and "y" in event)
+
+    def on_key(self, event):
+        """Keys (canvas focused): space = play/pause, s = step one frame, r = reset the camera."""
+        key = str(event.get("key", "")).lower()
+        if event.get("modifiers"):
+            return
+        if key in (" ", "space", "spacebar"):
+            self._actions.toggle_play()
+        elif key == "s":
+            self._actions.step()
+        elif key == "r":
+            self._actions.reset_camera()
+
+    # ------------------------------------------------------------------ closing
+
+    def close(self):
+        """Close the canvas and release the scene's GPU resources."""
+        if self._closed:
+            return
+        self._closed = True
+        canvas = self.canvas
+        try:
+            canvas.remove_event_handler(self.events, *EventsWithoutPicking.TYPES)
+            canvas.remove_event_handler(self.on_key, "key_down")
+        except Exception:
+            pass
+        canvas.close()
+        if self.scene is not None:
+            self.scene.release()
+        self.scene = None
+        self.controller = None
+
+
+class FrameTiming:
+    """Where a streamed frame's time goes, averaged over the frames since the last
+    :meth:`averages`: render (the draw function: steps + render submit), readback
+    (until rendercanvas presents the pixels), encode + send (jupyter-rfb)."""
+
+    def __init__(self):
+        #: (start, end) perf_counter seconds of the draw of the frame on its way, or None.
+        self.last_draw = None
+        self._present = None
+        self._last_full = 0.0  # kernel seconds of the last frame that was sent
+        self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
+
+    def drawn(self, t0, t1):
+        self.last_draw, self._present = (t0, t1), None
+        self._sums["render_ms"].append(1000.0 * (t1 - t0))
+
+    def presented(self, t):
+        if self.last_draw is not None:
+            self._present = t
+            self._sums["readback_ms"].append(1000.0 * (t - self.last_draw[1]))
+
+    def sent(self, t):
+        if self.last_draw is not None and self._present is not None:
+            self._sums["encode_send_ms"].append(1000.0 * (t - self._present))
+            self._last_full = t - self.last_draw[0]
+            self.last_draw = None
+
+    def busy_s(self) -> float:
+        """Kernel seconds per frame: the last sent frame's render + readback + encode +
+        send, or the frame just drawn's render if that took longer (or none was sent)."""
+        current = (self.last_draw[1] - self.last_draw[0]) if self.last_draw is not None else 0.0
+        return max(self._last_full, current)
+
+    def averages(self) -> dict:
+        out = {k: (sum(v) / len(v) if v else None) for k, v in self._sums.items()}
+        for v in self._sums.values():
+            v.clear()
+        return out

@@ -1,0 +1,744 @@
+"""GrassWidget: a live, controllable meadow in a Jupyter notebook.
+
+``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
+own module:
+
+* a view (:class:`grasswidget.notebook.kernel_view.KernelView`): the jupyter-rfb canvas
+  streaming a :class:`~grasswidget.gpu.scene.GrassScene` rendered in the kernel,
+  its mouse and key events and its clock;
+* a control panel (:class:`grasswidget.notebook.panel.ControlPanel`): sliders, culling
+  checkboxes, the ball row (:mod:`grasswidget.notebook.ball`), play/pause/step/
+  reset buttons, a live stats line, a "Save PNG" button and the teaching row
+  (colour by, freeze culling, legend, inspected blade), linked to the
+  :class:`GrassParams` traits.
+
+::
+
+    import grasswidget as gw
+    w = gw.GrassWidget()          # a meadow of 4096 blades, 640 x 480
+    w                             # (last expression of the cell: shows it)
+    w.params.wind_strength = 20   # moves the slider too
+    w.save_png("meadow.png")      # 2x the view size by default
+    w.save_animation("wind.gif", seconds=3, fps=15)
+    w.close()                     # frees the GPU buffers
+
+Two engines (``backend=``): "kernel" (the default) renders in the kernel and
+streams frames (:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL
+simulation, culling and ribbons in the notebook's browser through WebGPU
+(:mod:`grasswidget.browser`), as fast as the student's own GPU; "auto" picks the
+browser when it offers a WebGPU adapter. A browser without WebGPU makes a
+"browser" or "auto" widget fall back to kernel streaming with one line saying so.
+
+Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
+right-drag to pan, wheel to zoom (the camera stays above the ground and the
+field in sight, see :mod:`grasswidget.notebook.orbit`). Shift + drag puts the ball (a sphere
+collider) on the ground under the pointer; the "sphere" row switches it on and
+off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
+while the canvas has focus (click it first; the keys go to a hidden text
+input, not to the notebook): space = play/pause, ``s`` = step one frame,
+``r`` = reset the camera. Ctrl + click on a blade inspects it (``w.inspect(ids)``
+from code); "freeze culling" (``w.culling_frozen = True``) freezes culling at the
+current camera, so orbiting away shows what that view culls.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import weakref
+
+import ipywidgets as ipw
+import numpy as np
+from traitlets import All, Bool
+
+from .adaptive import check_target_fps
+from ..core.blades import Blades
+from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
+from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
+from .panel import ControlPanel
+from ..core.params import GrassParams, RangedFloat
+
+__all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
+
+#: The engines a GrassWidget can run on (``backend=``).
+BACKENDS = ("kernel", "browser", "auto")
+
+
+def _current_cell_id():
+    """The JupyterLab cell id of the running execute request, or None."""
+    try:
+        from IPython import get_ipython
+
+        ip = get_ipython()
+        kernel = getattr(ip, "kernel", None)
+        parent = kernel.get_parent() if kernel is not None else None
+        return (parent or {}).get("metadata", {}).get("cellId")
+    except Exception:
+        return None
+
+
+#: cell id -> weak references to the GrassWidgets that cell created (never strong:
+#: the registry itself keeps no widget alive).
+_BY_CELL: dict = {}
+
+#: Names of IPython's own bookkeeping in the user namespace (output history etc.).
+_IPYTHON_NAMES = {"In", "Out", "exit", "quit", "get_ipython"}
+
+
+def _user_namespace():
+    """The IPython user namespace, or None outside IPython."""
+    try:
+        from IPython import get_ipython
+
+        ip = get_ipython()
+        return ip.user_ns if ip is not None else None
+    except Exception:
+        return None
+
+
+def _after_cell(callback):
+    """Run ``callback`` once after the running IPython cell finishes (its assignments
+    done), or now outside IPython."""
+    try:
+        from IPython import get_ipython
+
+        ip = get_ipython()
+    except Exception:
+        ip = None
+    if ip is None or not hasattr(ip, "events"):
+        callback()
+        return
+
+    def once(*_args):
+        try:
+            ip.events.unregister("post_run_cell", once)
+        finally:
+            callback()
+
+    ip.events.register("post_run_cell", once)
+
+
+def held_by_user(widget, namespace) -> bool:
+    """Whether a user variable refers to ``widget`` (directly, or in a list, tuple,
+    set or dict it holds). IPython's history names (``_``, ``Out``, ...) do not count."""
+    for name, value in list(namespace.items()):
+        if name.startswith("_") or name in _IPYTHON_NAMES:
+            continue
+        if value is widget:
+            return True
+        items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple, set)) else ()
+        if any(item is widget for item in items):
+            return True
+    return False
+
+
+def _adopt_for_cell(cell, widget):
+    """Remember ``widget`` as made by ``cell``; close the widgets an earlier run of that
+    cell made, once this run is over, unless the user still holds them in a variable."""
+    earlier = [ref for ref in _BY_CELL.get(cell, []) if ref() is not None and ref() is not widget]
+    _BY_CELL[cell] = [weakref.ref(widget)]
+
+    def close_unheld():
+        namespace = _user_namespace()
+        for ref in earlier:
+            old = ref()
+            if old is None or old.closed:
+                continue
+            if namespace is not None and held_by_user(old, namespace):
+                _BY_CELL.setdefault(cell, []).append(ref)  # still the cell's, still the user's
+                continue
+            old.close()
+
+    if earlier:
+        _after_cell(close_unheld)
+
+
+def _check_number(name, value, lo, hi, integer=False):
+    kind = "an integer" if integer else "a number"
+    types = (int, np.integer) if integer else (int, float, np.integer, np.floating)
+    if isinstance(value, bool) or not isinstance(value, types) or not (lo <= value <= hi):
+        raise GrassValueError(f"{name} must be {kind} in [{lo}, {hi}]; got {value!r}")
+    return value
+
+
+def _panel_property(name):
+    return property(lambda self: getattr(self.panel, name) if self.panel is not None else None,
+                    doc=f"The control panel's ``{name}`` (see :class:`grasswidget.notebook.panel.ControlPanel`).")
+
+
+def _view_property(name, doc):
+    return property(lambda self: getattr(self.view, name) if self.view is not None else None, doc=doc)
+
+
+class GrassWidget(ipw.VBox):
+    """A live meadow: a view streaming a :class:`GrassScene`, and a control panel.
+
+    Args:
+        blades: a blade count (``Blades.on_plane(count)``, or the preset's field)
+            or a :class:`grasswidget.Blades`.
+        preset: None, or a preset name passed to ``GrassScene.preset`` (e.g.
+            "cis565", "meadow").
+        size: (width, height) of the view in CSS pixels, or "WxH".
+        params: a :class:`GrassParams` to use (and share); default a new one.
+        max_fps, quality: override the adapter's streaming defaults
+            (:func:`streaming_defaults`): the stream cap (frames/s) and JPEG quality.
+        target_fps: frames per second adaptive resolution aims for while playing
+            (default 24 on a CPU adapter, 60 on a GPU; 1..240).
+        pixel_ratio: the most rendered pixels per CSS pixel (default 1 on a CPU
+            adapter, 2 on a GPU; the browser's devicePixelRatio below that).
+            E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
+            twice the frames/s, and the browser scales the picture up.
+        backend: "kernel" (default: render in the kernel, stream frames),
+            "browser" (simulate and draw in the browser with WebGPU) or "auto"
+            (the browser when it offers WebGPU). ``w.backend`` says which is live.
+
+    Attributes:
+        params: the :class:`GrassParams` (the same object the scene simulates
+            with; link or observe its traits, set them from code).
+        view: the :class:`~grasswidget.notebook.kernel_view.KernelView` (None after close).
+        panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
+        scene: the :class:`GrassScene` (None after :meth:`close`).
+        canvas: the jupyter-rfb canvas widget.
+        controller: the pygfx ``OrbitController`` of the camera.
+        ball: the :class:`~grasswidget.notebook.ball.BallControl`: ``ball.collider``
+            is its :class:`SphereCollider`; ``ball.enabled``, ``ball.rolling``,
+            ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
+        sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
+        step_button, reset_blades_button, reset_camera_button, save_button,
+        png_scale, file_line, stats_line, message_line: the panel's controls.
+
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
+    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
+
+    Time: while playing, simulated time follows the wall clock in whole fixed
+    steps of ``params.dt`` (:attr:`sim_time` counts it); when a frame would need
+    more than :data:`MAX_STEPS_PER_FRAME` steps the meadow runs in slow motion and
+    the stats line says so. ``pause()`` stops it at once, ``step(n)`` advances
+    exactly n steps, ``save_animation`` is deterministic (fixed steps per frame).
+    """
+
+    time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
+                             help="Simulated seconds per wall-clock second while playing.")
+    playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
+
+    # Defaults, so close() (also called by ipywidgets' __del__) works on a
+    # half-built widget whose __init__ raised.
+    _closed = False
+    view = None
+    panel = None
+    ball = None
+
+    scene = _view_property("scene", "The :class:`GrassScene` drawn by the view (None after close).")
+    canvas = _view_property("canvas", "The jupyter-rfb canvas widget.")
+    controller = _view_property("controller", "The pygfx ``OrbitController`` of the camera.")
+    sliders = _panel_property("sliders")
+    checkboxes = _panel_property("checkboxes")
+    blade_slider = _panel_property("blade_slider")
+    wind_field_dropdown = _panel_property("wind_field_dropdown")
+    play_button = _panel_property("play_button")
+    step_button = _panel_property("step_button")
+    reset_blades_button = _panel_property("reset_blades_button")
+    reset_camera_button = _panel_property("reset_camera_button")
+    save_button = _panel_property("save_button")
+    png_scale = _panel_property("png_scale")
+    file_line = _panel_property("file_line")
+    stats_line = _panel_property("stats_line")
+    message_line = _panel_property("message_line")
+
+    def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
+                 pixel_ratio=None, backend="kernel", target_fps=None):
+        from ..core.framing import PRESETS, parse_size
+
+        if not isinstance(backend, str) or backend not in BACKENDS:
+            raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
+        self._requested_backend = backend
+        if params is not None and not isinstance(params, GrassParams):
+            raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+        if preset is not None and preset not in PRESETS:
+            raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
+        self.size = parse_size(size)
+        overrides = {}
+        if max_fps is not None:
+            overrides["max_fps"] = float(_check_number("max_fps", max_fps, 1, 240))
+        if quality is not None:
+            if isinstance(quality, bool) or not isinstance(quality, int) or not (1 <= quality <= 100):
+                raise GrassValueError(f"quality must be an integer in [1, 100] (JPEG quality); got {quality!r}")
+            overrides["quality"] = quality
+        if pixel_ratio is not None:
+            overrides["max_pixel_ratio"] = float(_check_number("pixel_ratio", pixel_ratio, 0.25, 4))
+        if target_fps is not None:
+            overrides["target_fps"] = check_target_fps(target_fps)
+        self._streaming_overrides = overrides
+        # The kernel's adapter (2 s to open lavapipe) is asked only when the kernel renders.
+        if backend == "kernel":
+            from ..gpu.adapter import is_cpu_adapter
+
+            self._cpu = is_cpu_adapter()
+        else:
+            self._cpu = None
+        streaming = dict(streaming_defaults(self._cpu if self._cpu is not None else True), **overrides)
+        self._streaming = streaming
+        self._preset = preset
+        if backend == "kernel":
+            from ..gpu.field import max_blade_count
+
+            # The slider's top: the adapter's comfortable maximum, within what memory and the GPU's buffers allow.
+            self.max_blades = min(streaming["max_blades"], max_blade_count())
+        else:  # the browser's device decides; the blade state is still built in the kernel's memory
+            from ..browser.engine_view import BROWSER_MAX_BLADES
+            from ..core.memory import max_blades_for_memory
+
+            host = max_blades_for_memory()
+            self.max_blades = BROWSER_MAX_BLADES if host is None else min(BROWSER_MAX_BLADES, host)
+        streaming["max_blades"] = self.max_blades
+        self._blades = self._check_blades(blades)
+        self._closed = False
+        self.params = params if params is not None else GrassParams()
+
+        try:
+            if backend == "kernel":
+                self.view = self._kernel_view()
+            else:
+                from ..browser.engine_view import BrowserEngineView
+
+                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
+                                              actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                                              on_unavailable=self._on_browser_unavailable,
+                                              pixel_ratio=pixel_ratio)
+            self._make_ball()
+            self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
+                                      max_blades=self.max_blades, view_size=self.size,
+                                      ball_row=self.ball.controls)
+        except BaseException:
+            self.close()
+            raise
+        # The panel is exactly as wide as the view; its rows wrap within it.
+        super().__init__(children=[self.view.widget, *self.panel.rows],
+                         layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
+        self.add_class("grasswidget")
+        self.params.observe(self._on_param_change)
+        self.observe(self._on_playing, names="playing")
+        self.observe(self._on_time_scale, names="time_scale")
+        self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.params.observe(self._on_color_by, names="color_by")
+        self._show_stats(self.view.current_stats())
+
+        # Re-running the cell that made a widget closes the previous one (JupyterLab
+        # sends the cell id with each execution), so its GPU buffers are freed; one
+        # the user still holds in a variable stays open.
+        cell = _current_cell_id()
+        if cell:
+            _adopt_for_cell(cell, self)
+
+    # ------------------------------------------------------------------ building
+
+    def _check_blades(self, blades):
+        if isinstance(blades, Blades):
+            if len(blades) > self.max_blades:
+                raise GrassValueError(f"blades: at most {self.max_blades} blades on this adapter; got {len(blades)}")
+            return blades
+        if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)):
+            raise GrassTypeError(f"blades must be a blade count (int) or a grasswidget.Blades, not {type(blades).__name__}")
+        if blades >= 1 and self._cpu is not None:  # the kernel renders (the browser's own limits apply there)
+            from ..gpu.field import check_blade_count_fits
+
+            check_blade_count_fits(blades, "blades")  # memory and GPU buffers, as GrassScene and the CLI do
+        if not (1 <= int(blades) <= self.max_blades):
+            raise GrassValueError(f"blades must be an integer in [1, {self.max_blades}] on this adapter; got {blades!r}")
+        return int(blades)
+
+    def _kernel_view(self):
+        if self._cpu is None:  # a browser widget falling back: now the kernel's adapter matters
+            from ..gpu.adapter import is_cpu_adapter
+
+            self._cpu = is_cpu_adapter()
+            blades = self._streaming["max_blades"]
+            self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
+            self._streaming["max_blades"] = blades
+        return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
+                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          on_inspect=self._show_inspected)
+
+    def _make_ball(self):
+        from .ball import BallControl
+
+        self.ball = BallControl(getattr(self.view, "ball_scene", None) or self.view.scene, on_error=self._show_error)
+        self.ball.observe(self._on_ball_rolling, names="rolling")
+        self.ball.collider.observe(lambda _c: self._request_draw(), names=["center", "radius"])
+        self.ball.observe(lambda _c: self._request_draw(), names="enabled")
+        self.view.attach_ball(self.ball)
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def blade_count(self) -> int:
+        """Number of blades; setting it rebuilds the field (a Blades given at
+        construction is then replaced by ``Blades.on_plane(count)``)."""
+        b = self._blades
+        return len(b) if isinstance(b, Blades) else int(b)
+
+    @blade_count.setter
+    def blade_count(self, count):
+        count = self._check_blades(count)
+        if isinstance(count, Blades):
+            raise GrassTypeError("blade_count must be an int; pass a Blades to set_blades()")
+        self.set_blades(count)
+
+    def set_blades(self, blades):
+        """Replace the field: a blade count or a :class:`Blades` (camera and params are kept)."""
+        self._check_open()
+        blades = self._check_blades(blades)
+        if blades == self._blades and not isinstance(blades, Blades):
+            return
+        self.view.set_blades(blades)
+        self._blades = blades
+        self.panel.show_blade_count(self.blade_count)
+        self._request_draw()
+
+    @property
+    def backend(self) -> str:
+        """The engine that is live: "kernel" or "browser" (a "browser" or "auto" widget
+        whose browser has no WebGPU adapter turns "kernel")."""
+        return self.view.backend if self.view is not None else self._requested_backend
+
+    @property
+    def camera_state(self) -> dict:
+        """The camera as a dict: position and target (metres, world space) and fov_deg
+        (vertical field of view). A drag in the view updates it; assigning a dict
+        (any of the three keys) moves the camera, in both engines."""
+        return self.view.camera_state
+
+    @camera_state.setter
+    def camera_state(self, state):
+        self._check_open()
+        self.view.camera_state = state
+
+    def read_state(self, timeout: float = 30.0) -> dict:
+        """The blade state of the live engine, as ``GrassField.read_state()`` returns it.
+
+        In browser mode it asks the browser and waits for its answer (processing
+        widget messages meanwhile, so it works inside a running cell); no answer
+        within ``timeout`` seconds raises TimeoutError naming the browser view."""
+        self._check_open()
+        if self.backend == "browser":
+            return self.view.read_state(timeout=timeout)
+        return self.scene.field.read_state()
+
+    @property
+    def max_fps(self) -> float:
+        """Frames per second asked of the canvas scheduler (the nominal frame rate)."""
+        return self.view.max_fps
+
+    @property
+    def frame_interval(self) -> float:
+        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
+        return self.view.frame_interval
+
+    @property
+    def steps_per_frame(self) -> int:
+        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt),
+        capped: what ``step()`` advances by default. While playing the real-time
+        clock decides each frame's steps (``stats["steps_per_frame"]``)."""
+        return self.view.steps_per_frame
+
+    @property
+    def sim_time(self) -> float:
+        """Simulated seconds since the last :meth:`reset_blades` (read-only): every
+        fixed step taken while playing or by :meth:`step` adds ``params.dt``. None
+        in the browser engine (its clock runs in the browser)."""
+        return getattr(self.view, "sim_time", None)
+
+    @property
+    def target_fps(self) -> float:
+        """Frames per second adaptive resolution aims for while playing (1..240;
+        default 24 on a CPU adapter, 60 on a GPU). A bad value raises ValueError
+        naming ``target_fps`` and the range, and the old value stays. The kernel
+        engine's setting (the browser engine draws at the browser's own rate)."""
+        return float(getattr(self.view, "target_fps", self._streaming["target_fps"]))
+
+    @target_fps.setter
+    def target_fps(self, value):
+        value = check_target_fps(value)
+        if hasattr(self.view, "target_fps"):
+            self.view.target_fps = value
+        self._streaming["target_fps"] = value
+        self._streaming_overrides["target_fps"] = value
+
+    @property
+    def render_scale(self) -> float:
+        """Fraction of the full pixel ratio live frames render at now (0.5..1;
+        1 while paused). Save PNG and exports always render at full resolution."""
+        return float(getattr(self.view, "render_scale", 1.0))
+
+    @property
+    def stats(self) -> dict:
+        """The last stats shown: fps (frames/s delivered to the browser, confirmed
+        by it; frames drawn when there is no browser), target_fps, visible, blades,
+        render_ms / readback_ms / encode_send_ms / ack_ms (where a frame's time
+        goes, averaged since the last refresh), draw_ms (step + render calls of the
+        last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame
+        (of the last frame), frame_size (rendered pixels), scale (render scale),
+        sim_speed (simulated / scaled wall seconds while playing)."""
+        return self.view.stats
+
+    # ------------------------------------------------------------------ actions
+
+    def play(self):
+        """Animate continuously (while a view is visible)."""
+        self.playing = True
+
+    def pause(self):
+        """Stop the animation; the view still redraws on camera or parameter changes."""
+        self.playing = False
+
+    def toggle_play(self):
+        self.playing = not self.playing
+
+    def step(self, n: int | None = None):
+        """Pause and advance exactly ``n`` fixed steps of ``params.dt`` (default: one
+        frame's worth, at least 1); in browser mode the browser runs them, in order
+        with every other request."""
+        self._check_open()
+        if n is None:
+            n = max(1, self.steps_per_frame)
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        self.playing = False
+        self.view.step(n)
+
+    def reset_blades(self):
+        """Every blade back to its rest pose; the simulation clock back to 0."""
+        self._check_open()
+        self.view.reset_blades()
+
+    def reset_camera(self):
+        """Back to the scene's starting view."""
+        self._check_open()
+        self.view.reset_camera()
+
+    def inspect(self, ids):
+        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
+        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
+        else raises ValueError naming the limit (nothing changes then)."""
+        self._check_open()
+        if not hasattr(self.view, "inspect"):
+            self.panel.show_unsupported("the blade inspector", self.view.backend)
+            return
+        self.view.inspect(ids)
+
+    @property
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
+        return tuple(getattr(self.view, "inspected", ()))
+
+    def save_png(self, path=None, size=None) -> str:
+        """Write a PNG of the current view and return its path (in browser mode the
+        browser renders it at that size and Python writes it; this waits for it).
+
+        Args:
+            path: file path (default: ``grass-YYYYmmdd-HHMMSS.png`` in the current
+                working directory, i.e. next to the notebook).
+            size: (width, height) or "WxH"; default twice the view size.
+        """
+        from ..core.framing import parse_size
+
+        self._check_open()
+        size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
+        if path is None:
+            path = _unique_name(os.getcwd(), "grass", ".png")
+        path = os.fspath(path)
+        if not path.lower().endswith(".png"):
+            raise GrassValueError(f"path must end in .png; got {path!r}")
+        self.view.save_png(path, size)
+        return path
+
+    def set_wind_wgsl(self, body: str, select: bool = True):
+        """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
+        in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
+        line inside ``body`` when it does not compile (in browser mode: compiled by the
+        browser; this waits for its answer); the old wind stays in force. With
+        ``select``, ``params.wind_field`` becomes "custom". Assigning
+        ``params.wind_wgsl`` does the same, reporting an error on the message line."""
+        self._check_open()
+        if self.backend == "browser":
+            self.view.view.set_wind_wgsl(body, select=select)
+        else:
+            self.scene.field.set_wind_wgsl(body, select=select)
+
+    def save_png_later(self, size, done) -> bool:
+        """The Save PNG button in browser mode: ask the browser for the picture and
+        call ``done(path)`` once written (a file next to the notebook). Returns False
+        (nothing done) with the kernel engine, which saves at once."""
+        if self.backend != "browser":
+            return False
+        self._check_open()
+        path = _unique_name(os.getcwd(), "grass", ".png")
+        self.view.save_png_async(path, size, done)
+        return True
+
+    def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True) -> str:
+        """Export an animation (GIF, or MP4 with imageio-ffmpeg); see
+        :func:`grasswidget.tools.export.save_animation`. It starts from the current
+        state and puts the live state back afterwards. Returns the path.
+
+        It always renders with the kernel engine: in browser mode the browser's
+        current blade state is read back and a kernel scene (which needs a WebGPU
+        adapter in the kernel, lavapipe will do) films it from the same camera;
+        the browser's own animation is not disturbed."""
+        from ..tools.export import save_animation
+
+        self._check_open()
+        if self.backend == "browser":
+            return self._save_animation_from_browser(path, seconds, fps, size, progress)
+        out = save_animation(self.scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
+        self._request_draw()
+        return out
+
+    def _save_animation_from_browser(self, path, seconds, fps, size, progress):
+        from ..tools.export import save_animation
+        from ..gpu.scene import GrassScene
+
+        state = self.view.read_state()
+        blades = self.view.view.blades
+        scene = GrassScene(blades, size=self.size, params=self.params.copy())
+        try:
+            scene.field.write_state(state)
+            scene.colliders = list(self.view.view.colliders)
+            cam = self.camera_state
+            scene.look(cam["position"], cam["target"], cam["fov_deg"])
+            return save_animation(scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
+        finally:
+            scene.release()
+
+    @property
+    def closed(self) -> bool:
+        """True after :meth:`close` (the GPU resources are released)."""
+        return self._closed
+
+    def close(self):
+        """Close the view and the controls and release the GPU resources."""
+        if self._closed:
+            return
+        self._closed = True
+        params = getattr(self, "params", None)
+        if params is not None:
+            for handler, names in ((self._on_param_change, All), (self._on_color_by, "color_by")):
+                try:
+                    params.unobserve(handler, names=names)
+                except ValueError:
+                    pass
+        if self.panel is not None:
+            self.panel.close()
+        if self.view is not None:
+            self.view.close()
+        if self.ball is not None:
+            self.ball.detach()
+        super().close()
+
+    # ------------------------------------------------------------------ internals
+
+    # What the view's canvas calls; kept as the widget's own names for tests and callers.
+    def _draw(self):
+        self.view.draw()
+
+    def _refresh_stats(self):
+        self.view.refresh_stats()
+
+    @property
+    def _events(self):
+        return self.view.events
+
+    def _on_key(self, event):
+        self.view.on_key(event)
+
+    def _check_open(self):
+        if self._closed:
+            raise WidgetClosedError("this GrassWidget is closed; create a new one")
+
+    def _request_draw(self):
+        if not self._closed and self.view is not None:
+            self.view.request_draw()
+
+    def _show_error(self, err):
+        if self.panel is not None:
+            self.panel.show_error(err)
+
+    def _show_stats(self, stats):
+        if self.panel is not None:
+            self.panel.show_stats(stats)
+
+    def _on_param_change(self, change):
+        self._request_draw()
+
+    def _on_playing(self, change):
+        playing = bool(change["new"])
+        self.panel.show_playing(playing)
+        if not self._closed:
+            self.view.set_playing(playing)
+
+    def _show_inspected(self, blades):
+        if self.panel is not None:
+            self.panel.show_inspected(blades)
+
+    def _on_color_by(self, change):
+        if not self._closed and change["new"] != "natural" and not getattr(self.view, "teaching_views", False):
+            self.panel.show_unsupported(f"colour by {change['new']}", self.view.backend)
+
+    def _on_culling_frozen(self, change):
+        if self._closed:
+            return
+        if not hasattr(self.view, "set_culling_frozen"):
+            self.panel.show_unsupported("freeze culling", self.view.backend)
+            return
+        self.view.set_culling_frozen(bool(change["new"]))
+
+    def _on_browser_unavailable(self, reason):
+        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
+        if self._closed or self.view is None or self.view.backend != "browser":
+            return
+        old = self.view
+        camera = old.camera_state
+        try:
+            new = self._kernel_view()
+        except Exception as err:  # no adapter in the kernel either
+            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
+                             f"render either: {err}")
+            return
+        self.view = new
+        new.attach_ball(self.ball)
+        self.ball.attach(new.scene)
+        try:
+            new.camera_state = camera
+        except Exception:
+            pass
+        self.children = [new.widget, *self.children[1:]]
+        old.close()
+        new.set_playing(self.playing)
+        self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
+                         "and streams it instead (use Chrome or Edge, or enable WebGPU, for backend='browser')")
+
+    def _on_time_scale(self, change):
+        if not self._closed:
+            setter = getattr(self.view, "set_time_scale", None)
+            if setter is not None:
+                setter(change["new"])
+            self._show_stats(self.view.current_stats())
+
+    def _on_ball_rolling(self, change):
+        if change["new"] and not self.playing:
+            self.playing = True  # the ball rolls with simulated time
+
+    def __repr__(self):
+        state = "closed" if self._closed else ("playing" if self.playing else "paused")
+        return f"<GrassWidget {self.blade_count} blades, {self.size[0]}x{self.size[1]}, {state}>"
+
+
+def _unique_name(folder, stem, ext):
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    path = os.path.join(folder, f"{stem}-{stamp}{ext}")
+    k = 2
+    while os.path.exists(path):
+        path = os.path.join(folder, f"{stem}-{stamp}-{k}{ext}")
+        k += 1
+    return path

@@ -1,0 +1,239 @@
+"""Command line: ``grasswidget snapshot ...`` and ``grasswidget bench ...``.
+
+Every bad argument is an argument error: exit status 2 and one line on stderr,
+``grasswidget snapshot: error: argument --wind: ...``, never a traceback. That
+covers values out of range (checked by the same traits the library uses), blade
+counts that do not fit in memory (checked before anything is allocated), image
+names whose extension is not .png, .jpg or .jpeg, and output folders that cannot
+be created (a missing folder is created).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ..errors import GrassValueError
+
+#: Image formats ``snapshot`` writes, by extension (written with imageio).
+IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg")
+#: JPEG quality of ``snapshot out.jpg``.
+JPEG_QUALITY = 95
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (no usage block), exit 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _size(text):
+    from ..gpu.scene import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _int_at_least(lo):
+    """An argparse type: an integer >= lo, with a message that says so."""
+
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            v = lo - 1
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {lo}; got {text!r}")
+        return v
+
+    return parse
+
+
+_positive = _int_at_least(1)
+_non_negative = _int_at_least(0)
+
+
+def _blade_count(text):
+    """A blade count >= 1 whose making fits in the host's memory (the GPU's
+    buffers are checked once the device is known)."""
+    from ..core.memory import BladeCountError, check_blade_count
+
+    n = _positive(text)
+    try:
+        return check_blade_count(n)
+    except BladeCountError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _param(name):
+    """An argparse type for a GrassParams trait: the trait's own validation
+    (range, finiteness) and message."""
+
+    def parse(text):
+        from traitlets import TraitError
+
+        from ..core.params import GrassParams
+
+        try:
+            value = float(text)
+        except ValueError:
+            value = text
+        try:
+            setattr(GrassParams(), name, value)
+        except TraitError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return float(value)
+
+    parse.__name__ = name
+    return parse
+
+
+def _image_path(text):
+    ext = os.path.splitext(text)[1].lower()
+    if ext not in IMAGE_EXTENSIONS:
+        raise argparse.ArgumentTypeError(
+            f"the image name must end in {', '.join(IMAGE_EXTENSIONS)} (the format follows the extension); got {text!r}"
+        )
+    return text
+
+
+def build_parser():
+    p = _Parser(prog="grasswidget", description="Physically animated grass on the GPU.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("snapshot", help="simulate a field and write a PNG or JPEG")
+    s.add_argument("out", type=_image_path,
+                   help="output image: .png, or .jpg/.jpeg (JPEG quality 95); a missing folder is created")
+    s.add_argument("--blades", type=_blade_count, default=65536, help="number of blades (default 65536)")
+    s.add_argument("--size", type=_size, default=(1280, 720), help="image size WxH (default 1280x720)")
+    s.add_argument("--steps", type=_non_negative, default=240, help="fixed simulation steps before the picture (default 240)")
+    s.add_argument("--preset", choices=["default", "cis565", "meadow"], default="default", help="scene preset")
+    s.add_argument("--wind", type=_param("wind_strength"), default=None,
+                   help="wind strength in m/s^2, 0..200 (default: GrassParams default)")
+    s.add_argument("--seed", type=_non_negative, default=0, help="random seed, an integer >= 0")
+
+    b = sub.add_parser("bench", help="benchmark frame, simulation and culling times")
+    b.add_argument("--preset", choices=["cis565", "meadow"], default="cis565")
+    b.add_argument("--blades", type=_blade_count, nargs="+", default=None,
+                   help="blade counts (default: 2^10..2^17 for cis565, 2^16..2^22 for meadow)")
+    b.add_argument("--frames", type=_positive, default=30)
+    b.add_argument("--size", type=_size, default=None, help="WxH (default: the preset's)")
+    b.add_argument("--cull", choices=["on", "off", "both", "each"], default="on")
+    b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
+    b.add_argument("--no-progress", action="store_true")
+    p.subcommands = {"snapshot": s, "bench": b}
+    return p
+
+
+def _subparser(parser, name):
+    """The parser of subcommand ``name`` (build_parser keeps them: argparse offers no public lookup)."""
+    return getattr(parser, "subcommands", {}).get(name, parser)
+
+
+def _make_folder(parser, path, what):
+    """Create the folder of ``path`` when it is missing; an argument error when it cannot be."""
+    if path is None:
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        parser.error(f"argument {what}: {path!r} is a folder; give a file name")
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as err:
+        parser.error(f"argument {what}: cannot create the folder {folder!r}: {err.strerror or err}")
+    if not os.access(folder, os.W_OK):
+        parser.error(f"argument {what}: the folder {folder!r} is not writable")
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    sub = _subparser(parser, args.command)
+    if args.command == "snapshot":
+        _make_folder(sub, args.out, "out")
+    else:
+        _make_folder(sub, args.json, "--json")
+
+    from ..errors import BladeCountError, NoGPUAdapterError
+
+    try:
+        from ..gpu.field import check_blade_count_fits
+
+        for count in ([args.blades] if args.command == "snapshot" else args.blades or ()):
+            check_blade_count_fits(count)  # the GPU's buffer limit, before any blade is made
+        if args.command == "snapshot":
+            return _snapshot(args)
+        return _bench(args)
+    except NoGPUAdapterError as err:
+        print(f"{sub.prog}: error: {err}", file=sys.stderr)
+        return 2
+    except BladeCountError as err:
+        sub.error(f"argument --blades: {err}")
+    except OSError as err:  # e.g. the image cannot be written
+        name = f" {err.filename!r}" if err.filename else ""
+        sub.error(f"cannot write{name}: {err.strerror or err}")
+    except ValueError as err:
+        sub.error(str(err))
+
+
+def write_image(path, img):
+    """Write an (h, w, 4) uint8 RGBA picture; the format follows the extension
+    (.png lossless with alpha; .jpg/.jpeg RGB at :data:`JPEG_QUALITY`)."""
+    import imageio.v3 as iio
+
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext == ".png":
+        iio.imwrite(path, img, extension=".png")
+    elif ext in (".jpg", ".jpeg"):
+        iio.imwrite(path, img[..., :3], extension=ext, quality=JPEG_QUALITY)
+    else:
+        raise GrassValueError(f"path must end in {', '.join(IMAGE_EXTENSIONS)}; got {os.fspath(path)!r}")
+    return os.fspath(path)
+
+
+def _snapshot(args):
+    from .. import GrassParams
+    from ..gpu.scene import GrassScene
+
+    params = GrassParams()
+    if args.wind is not None:
+        params.wind_strength = args.wind
+    if args.preset == "default":
+        scene = _default_scene(args, params)
+    else:
+        scene = GrassScene.preset(args.preset, blades=args.blades, size=args.size, params=params, seed=args.seed)
+    scene.step(args.steps)
+    path = write_image(args.out, scene.render_at(args.size))  # anti-aliased (see GrassScene.render_at)
+    print(f"wrote {path} ({args.size[0]}x{args.size[1]}, {args.blades} blades, {args.steps} steps, "
+          f"{scene.visible_count()} drawn)")
+    return 0
+
+
+def _default_scene(args, params):
+    from ..core.blades import Blades
+    from ..gpu.scene import GrassScene
+
+    return GrassScene(Blades.on_plane(args.blades, seed=args.seed), size=args.size, params=params)
+
+
+def _bench(args):
+    from .bench import format_table, run_bench, save_json
+
+    blades = args.blades
+    if blades is None:
+        blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
+    report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
+                       progress=not args.no_progress)
+    print(format_table(report))
+    if args.json:
+        save_json(report, args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

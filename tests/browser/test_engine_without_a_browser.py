@@ -1,0 +1,182 @@
+"""The browser engine's Python side, without a browser: the WGSL it sends, the
+uniforms it packs, errors, and the GrassWidget backend choice.
+
+Runs without Chromium (not marked ``browser``); the engine in a real page is
+tested in tests/browser/test_browser_engine.py.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import grasswidget as gw
+from grasswidget.browser import uniforms
+from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
+from grasswidget.browser.view import BrowserView, wind_error_from_messages
+from grasswidget.browser.wgsl import BrowserShaders, binding_map
+from grasswidget.core.shader_files import shader_dir
+
+
+def _device():
+    from grasswidget.gpu.adapter import ensure_device
+
+    return ensure_device()
+
+
+def test_browser_wgsl_compiles_and_declares_what_it_uses():
+    """Every shader the browser gets is valid WGSL (naga here) and binds exactly the
+    resources its text uses, each once, with the access the engine provides."""
+    shaders = BrowserShaders.all()
+    device = _device()
+    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls")]
+             + shaders["blades"] + shaders["blades_flat"])
+    for sh in texts:
+        device.create_shader_module(code=sh["code"])
+        names = [b["name"] for b in sh["bindings"]]
+        numbers = [b["binding"] for b in sh["bindings"]]
+        assert len(set(names)) == len(names) and len(set(numbers)) == len(numbers)
+        assert [{k: v for k, v in b.items() if k != "resource"} for b in sh["bindings"]] == binding_map(sh["code"])
+    kinds = {b["name"]: b["kind"] for b in shaders["simulate"]["bindings"]}
+    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage"}
+    kinds = {b["name"]: b["kind"] for b in shaders["blades"][0]["bindings"]}
+    assert kinds["s_blades"] == "read-only-storage" and kinds["u_material"] == "uniform"
+    # The same files: the blade math of the package is in the text, not a copy.
+    math_src = (shader_dir() / "blade_math.wgsl").read_text()
+    fn = re.search(r"fn validate_length\([^)]*\)[^{]*\{[^}]*\}", math_src).group(0)
+    assert fn in shaders["simulate"]["code"] and fn in shaders["cull"]["code"]
+    assert len(shaders["blades"]) == 4 and "const SEGMENTS: u32 = 8u;" in shaders["blades"][0]["code"]
+    # The natural view's ribbons carry no flat-colour path (it costs GPU draw time); the colour-by set
+    # does, and its fifth draw is the culled blades (color_by "cull"), from the list the cull pass fills.
+    assert all("flat_color" not in b["code"] for b in shaders["blades"])
+    assert len(shaders["blades_flat"]) == 5 and all("flat_color" in b["code"] for b in shaders["blades_flat"])
+    assert [b["culled"] for b in shaders["blades_flat"]] == [False] * 4 + [True]
+    assert {b["name"] for b in shaders["blades_flat"][4]["bindings"]} >= {"s_culled"}
+    offset = BrowserShaders.all()["color_by_offset"]
+    from grasswidget.browser.uniforms import CULL_LAYOUT, offsets
+    assert offset == offsets(CULL_LAYOUT)["color_by"][0]
+    assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
+    # Every compute pass of a frame names a shader that is sent.
+    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull"]
+    # Sky and ground: the kernel engine's own file, its u_material bound to the engine's u_sky_ground buffer.
+    sky = shaders["sky_ground"]
+    body = (shader_dir() / "sky_ground.wgsl").read_text()
+    assert re.search(r"let s = \(g\.y - near\.y\) / dir\.y;", body) and "let s = (g.y - near.y) / dir.y;" in sky["code"]
+    bound = {b["name"]: b.get("resource", b["name"]) for b in sky["bindings"]}
+    assert bound == {"u_stdinfo": "u_stdinfo", "u_material": "u_sky_ground"}
+
+
+def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():
+    body = "let k = 2.0;\nreturn vec3<f32>(k * oops, 0.0, 0.0);"
+    sh = BrowserShaders.simulate(body)
+    lines = sh["code"].splitlines()
+    line = next(i for i, text in enumerate(lines, 1) if "k * oops" in text)
+    err = wind_error_from_messages([{"line": line, "column": 22, "message": "unresolved identifier 'oops'"}],
+                                   sh["code"], body)
+    assert isinstance(err, gw.WindShaderError) and isinstance(err, ValueError)
+    assert err.line == 2 and "wind_wgsl line 2" in str(err) and "k * oops" in str(err)
+    outside = wind_error_from_messages([{"line": 1, "column": 1, "message": "boom"}], sh["code"], body)
+    assert outside.line is None and "boom" in str(outside)
+
+
+def test_uniform_layouts_match_wgsl_offsets():
+    """Offsets follow WGSL's uniform rules, and the packed bytes hold each parameter at its offset."""
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["colliders"][0] == 64
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64 + 16 * 16
+    assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16 + 16  # + ndc_offset
+    p = gw.GrassParams(wind_strength=7.5, wind_direction=90.0, wind_field="vortex", dt=0.01)
+    raw = uniforms.sim_uniform(p, 1234, [gw.SphereCollider(center=(1, 2, 3), radius=0.5)])
+    off = uniforms.offsets(uniforms.SIM_LAYOUT)
+
+    def read(name, dtype="<f4", count=1):
+        return np.frombuffer(raw, dtype, count, off[name][0])
+
+    assert read("wind_strength")[0] == np.float32(7.5)
+    assert read("wind_field", "<i4")[0] == 2 and read("n_blades", "<u4")[0] == 1234
+    assert np.allclose(read("wind_dir", count=4), [0, 1, 0, 0], atol=1e-7)
+    assert np.allclose(read("colliders", count=4), [1, 2, 3, 0.5]) and read("n_colliders", "<i4")[0] == 1
+    assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed,
+                                 "max_steps_per_frame": 64}
+
+
+def test_requests_outside_a_notebook_raise_timeout_naming_the_browser_view():
+    with pytest.raises(BrowserTimeoutError, match="browser view"):
+        wait_for(lambda: None, 1.0, "read_state() from the browser view")
+    view = BrowserView(gw.Blades.on_plane(64))
+    with pytest.raises(TimeoutError, match="browser view"):
+        view.read_state(timeout=0.5)
+    view.close()
+
+
+def test_backend_argument_and_browser_widget_api():
+    with pytest.raises(ValueError, match="backend must be one of 'kernel', 'browser', 'auto'"):
+        gw.GrassWidget(16, backend="gpu")
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    try:
+        assert w.backend == "browser" and w.scene is None
+        cam = w.camera_state
+        assert set(cam) == {"position", "target", "fov_deg"} and cam["fov_deg"] == 45.0
+        w.camera_state = {"fov_deg": 60, "target": (0, 0, 0)}
+        assert w.camera_state["fov_deg"] == 60 and w.camera_state["target"] == (0.0, 0.0, 0.0)
+        with pytest.raises(ValueError, match="fov_deg"):
+            w.camera_state = {"fov_deg": 500}
+        with pytest.raises(ValueError, match="position"):
+            w.camera_state = {"position": (1, float("nan"), 0)}
+        w.reset_camera()
+        assert w.camera_state == cam
+        # Parameters reach the browser as packed uniforms.
+        w.params.wind_strength = 33.0
+        off = uniforms.offsets(uniforms.SIM_LAYOUT)["wind_strength"][0]
+        assert np.frombuffer(w.view.view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
+        w.ball.enabled = True
+        assert w.view.view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        with pytest.raises(ValueError, match="number of steps"):
+            w.step(-1)
+    finally:
+        w.close()
+
+
+def test_browser_messages_move_the_ball_and_never_raise():
+    """What the page sends (shift + drag, the steps simulated while rolling, junk) reaches
+    the ball, and a malformed message shows on the message line instead of raising."""
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    view = w.view.view
+    try:
+        view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
+        assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5
+        assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        w.ball.rolling = True
+        assert view.report_steps
+        view.handle_message({"type": "steps", "steps": 1})    # onto its circle
+        before = w.ball.collider.center
+        view.handle_message({"type": "steps", "steps": 60})   # 0.5 s of simulated time
+        moved = np.linalg.norm(np.subtract(w.ball.collider.center, before))   # a chord of the rolled arc
+        arc = w.ball.roll_speed * 60 * w.params.dt
+        assert 0.9 * arc < moved <= arc + 1e-9
+        assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        view.handle_message({"type": "ball", "phase": "move", "x": "nowhere"})
+        assert "could not convert" in w.message_line.value
+        view.handle_message({"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 30,
+                                    "step_count": 99, "frame_size": [320, 240]})
+        assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.stats_line.value
+        view.handle_message({"type": "gpu_status"}, None)   # unknown kinds are ignored
+    finally:
+        w.close()
+
+
+def test_kernel_widget_camera_state_both_ways():
+    w = gw.GrassWidget(64)
+    try:
+        assert w.backend == "kernel"
+        w.camera_state = {"position": (1.0, 2.0, 9.0), "target": (0.0, 1.0, 0.0), "fov_deg": 30.0}
+        cam = w.camera_state
+        assert np.allclose(cam["position"], (1, 2, 9)) and np.allclose(cam["target"], (0, 1, 0))
+        assert cam["fov_deg"] == pytest.approx(30.0)
+        forward = -np.asarray(w.scene.camera.world.matrix)[:3, 2]
+        assert np.allclose(forward, np.subtract((0, 1, 0), (1, 2, 9)) / np.linalg.norm((1, 1, 9)), atol=1e-5)
+        with pytest.raises(ValueError, match="differ"):
+            w.camera_state = {"position": (0.0, 1.0, 0.0)}
+    finally:
+        w.close()

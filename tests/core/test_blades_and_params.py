@@ -1,0 +1,118 @@
+"""The pure core: blade generation and parameter validation (no GPU)."""
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from traitlets import TraitError
+
+import grasswidget as gw
+from grasswidget.core.params import GrassParams, RangedFloat, RangedInt
+
+
+def test_core_imports_no_gpu_code():
+    code = (
+        "import sys, grasswidget, grasswidget.core.reference, grasswidget.core.blades, grasswidget.core.params;"
+        "bad=[m for m in ('wgpu','pygfx','rendercanvas') if m in sys.modules]; print(bad); assert not bad"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_on_plane_layout_and_ranges():
+    b = gw.Blades.on_plane(5000, size=15.0, seed=7)
+    assert len(b) == 5000
+    assert np.all(np.abs(b.v0[:, [0, 2]]) <= 7.5) and np.all(b.v0[:, 1] == 0)
+    assert np.allclose(b.up, [0, 1, 0])
+    assert b.height.min() >= 1.3 and b.height.max() <= 2.5
+    assert b.width.min() >= 0.1 and b.width.max() <= 0.14
+    assert b.stiffness.min() >= 7 and b.stiffness.max() <= 13
+    assert b.orientation.min() >= 0 and b.orientation.max() < 2 * math.pi
+    p = b.packed()
+    assert p.shape == (5000, 4, 4) and p.dtype == np.float32
+    assert np.allclose(p[:, 0, :3], b.v0) and np.allclose(p[:, 0, 3], b.orientation)
+    assert np.allclose(p[:, 1, 3], b.height) and np.allclose(p[:, 2, 3], b.width)
+    assert np.allclose(p[:, 3, 3], b.stiffness)
+    # rest pose: v1 = v2 = v0 + h up
+    assert np.allclose(p[:, 2, :3], b.v0 + b.up * b.height[:, None])
+
+
+def test_on_plane_uniform_and_shuffled():
+    b = gw.Blades.on_plane(40000, size=10.0, seed=1)
+    # uniform: every 1 m^2 cell gets ~400 blades
+    hist, _, _ = np.histogram2d(b.v0[:, 0], b.v0[:, 2], bins=10, range=[[-5, 5], [-5, 5]])
+    assert hist.min() > 300 and hist.max() < 500
+    # ids carry no spatial pattern: position is uncorrelated with id
+    ids = np.arange(len(b))
+    for axis in (0, 2):
+        assert abs(np.corrcoef(ids, b.v0[:, axis])[0, 1]) < 0.03
+    # and a contiguous block of ids is spread over the whole field
+    block = b.v0[:1000]
+    assert np.ptp(block[:, 0]) > 9 and np.ptp(block[:, 2]) > 9
+
+
+def test_same_seed_same_blades():
+    a, b, c = (gw.Blades.on_plane(300, seed=s) for s in (4, 4, 5))
+    assert np.array_equal(a.packed(), b.packed())
+    assert not np.array_equal(a.packed(), c.packed())
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        (dict(count=0), "count"),
+        (dict(count=-3), "count"),
+        (dict(count=2.5), "count"),
+        (dict(count=10, size=0), "size"),
+        (dict(count=10, size=float("nan")), "size"),
+        (dict(count=10, height=(2, 1)), "height"),
+        (dict(count=10, width=(0, 0.1)), "width"),
+        (dict(count=10, stiffness=(float("nan"), 3)), "stiffness"),
+    ],
+)
+def test_on_plane_bad_input(kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        gw.Blades.on_plane(**kwargs)
+
+
+def _numeric_traits():
+    p = GrassParams()
+    return [(name, p.traits()[name]) for name in p.trait_names() if isinstance(p.traits()[name], (RangedFloat, RangedInt))]
+
+
+def test_defaults():
+    p = GrassParams()
+    assert p.gravity == 9.8 and p.front_gravity == 0.25 and p.stiffness_scale == 1.0
+    assert 3 <= p.wind_strength <= 8 and p.wind_field == "wave"
+    assert p.dt == pytest.approx(1 / 120)
+    t = p.traits()
+    assert (t["gravity"].lo, t["gravity"].hi) == (0, 50)
+    assert (t["stiffness_scale"].lo, t["stiffness_scale"].hi) == (0.01, 20)
+    assert (t["wind_strength"].lo, t["wind_strength"].hi) == (0, 200)
+
+
+@pytest.mark.parametrize("name, trait", _numeric_traits(), ids=lambda x: x if isinstance(x, str) else "")
+def test_every_numeric_param_refuses_bad_values(name, trait):
+    p = GrassParams()
+    before = getattr(p, name)
+    bad = [trait.hi + max(1, abs(trait.hi)), trait.lo - max(1, abs(trait.lo))]
+    if isinstance(trait, RangedFloat):
+        bad += [float("nan"), float("inf"), -float("inf")]
+    for value in bad:
+        with pytest.raises(TraitError) as info:
+            setattr(p, name, value)
+        msg = str(info.value)
+        assert name in msg and f"{trait.lo:g}" in msg and f"{trait.hi:g}" in msg
+        assert getattr(p, name) == before  # state kept
+
+
+def test_bad_wind_field_and_type():
+    p = GrassParams()
+    with pytest.raises(TraitError, match="wind_field"):
+        p.wind_field = "tornado"
+    with pytest.raises(TraitError, match="gravity"):
+        p.gravity = "strong"
+    assert p.wind_field == "wave" and p.gravity == 9.8
+    with pytest.raises(TraitError, match="gravity"):
+        GrassParams(gravity=-1)

@@ -1,0 +1,458 @@
+"""GrassWidget without a browser: controls <-> params, errors, PNG/animation export, GPU memory.
+
+No kernel and no view here: the jupyter canvas never gets a size or a draw
+request, so pictures come from offscreen renders (save_png, save_animation)
+and the draw function is called directly after a fake browser resize event.
+"""
+
+import gc
+
+import numpy as np
+import pytest
+from traitlets import TraitError
+
+import grasswidget as gw
+from conftest import WIDGET_SIZE, grass_mask
+
+ipywidgets = pytest.importorskip("ipywidgets")
+pytest.importorskip("jupyter_rfb")
+
+SIZE = WIDGET_SIZE  # the conftest's ``widget`` fixture has this view size
+
+
+def _resize(w, width=SIZE[0], height=SIZE[1], ratio=1.0):
+    """What the browser sends when a view appears."""
+    w.canvas.handle_event({"event_type": "resize", "width": width, "height": height, "pixel_ratio": ratio})
+
+
+def test_layout_and_labels(widget):
+    from rendercanvas.jupyter import RenderCanvas
+
+    assert isinstance(widget, ipywidgets.VBox)
+    assert isinstance(widget.canvas, RenderCanvas)
+    assert widget.children[0] is widget.canvas
+    labels = {s.description for s in widget.sliders.values()}
+    assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
+                      "stiffness ×", "time (× real time)"}
+    looks = {s.description for s in widget.panel.look_sliders.values()}
+    assert looks == {"colour variety", "patch size (m)", "dry grass", "sunlit tips", "fog (1/m)"}
+    tip = widget.sliders["wind_strength"].tooltip
+    assert tip.startswith(gw.GrassParams.class_traits()["wind_strength"].help) and "0 to 200 m/s²" in tip
+    assert [c.description for c in widget.checkboxes.values()] == [
+        "orientation culling", "frustum culling", "distance culling", "LOD"]
+    assert widget.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)
+    texts = {b.description for b in (widget.play_button, widget.step_button, widget.reset_blades_button,
+                                      widget.reset_camera_button, widget.save_button)}
+    assert texts == {"Pause", "Step", "Reset blades", "Reset camera", "Save PNG"}
+    assert widget.scene.params is widget.params
+    assert widget.canvas.quality in range(1, 101)
+
+
+def test_streaming_defaults_per_adapter(widget):
+    from grasswidget.gpu.adapter import is_cpu_adapter
+
+    d = gw.widget.streaming_defaults(is_cpu_adapter())
+    assert widget.max_fps == d["max_fps"] and widget.canvas.quality == d["quality"]
+    _resize(widget, ratio=2.0)  # a HiDPI browser
+    expected = 1.0 if is_cpu_adapter() else 2.0
+    assert widget.canvas.get_physical_size() == (int(SIZE[0] * expected), int(SIZE[1] * expected))
+    assert gw.widget.streaming_defaults(True)["max_pixel_ratio"] == 1.0
+    assert gw.widget.streaming_defaults(True)["max_fps"] < gw.widget.streaming_defaults(False)["max_fps"]
+
+
+def test_pixel_ratio_override():
+    w = gw.GrassWidget(blades=64, size=SIZE, pixel_ratio=0.5)
+    try:
+        _resize(w, ratio=1.0)
+        assert w.canvas.get_physical_size() == (SIZE[0] // 2, SIZE[1] // 2)
+        assert w.scene.renderer.pixel_ratio == 0.5  # renders a quarter of the pixels, not just sends them
+        w.view.draw()
+    finally:
+        w.close()
+    with pytest.raises(ValueError, match="pixel_ratio"):
+        gw.GrassWidget(blades=64, size=SIZE, pixel_ratio=0)
+
+
+def test_controls_change_params_and_back(widget):
+    p = widget.params
+    widget.sliders["wind_strength"].value = 33.5
+    assert p.wind_strength == 33.5
+    p.wind_strength = 12.0
+    assert widget.sliders["wind_strength"].value == 12.0
+    widget.sliders["stiffness_scale"].value = 2.5
+    assert p.stiffness_scale == 2.5
+    p.gravity = 20.0
+    assert widget.sliders["gravity"].value == 20.0
+    p.wind_direction = -90
+    assert widget.sliders["wind_direction"].value == -90
+    for name, cb in widget.checkboxes.items():
+        cb.value = False
+        assert getattr(p, name) is False
+        setattr(p, name, True)
+        assert cb.value is True
+    widget.time_scale = 0.5
+    assert widget.sliders["time_scale"].value == 0.5
+    widget.sliders["time_scale"].value = 2.0
+    assert widget.time_scale == 2.0
+    assert widget.steps_per_frame == round(2.0 / widget.max_fps / p.dt)
+    # ipywidgets.link from user code works both ways too
+    other = ipywidgets.FloatSlider(min=0, max=50)
+    link = ipywidgets.link((other, "value"), (p, "wind_speed"))
+    other.value = 7.0
+    assert p.wind_speed == 7.0 and widget.sliders["wind_speed"].value == 7.0
+    p.wind_speed = 4.0
+    assert other.value == 4.0
+    link.unlink()
+
+
+def test_time_scale_steps_per_frame_capped(widget):
+    widget.time_scale = 10.0
+    assert widget.steps_per_frame <= gw.widget.MAX_STEPS_PER_FRAME
+    widget.time_scale = 0.0
+    assert widget.steps_per_frame == 0
+
+
+def test_bad_values_raise_and_widget_keeps_working(widget, tmp_path):
+    p = widget.params
+    before = p.gravity
+    for bad in (float("nan"), float("inf"), -1.0, 1e9, "heavy"):
+        with pytest.raises(TraitError, match="gravity"):
+            p.gravity = bad
+    assert p.gravity == before and widget.sliders["gravity"].value == before
+    with pytest.raises(TraitError, match="wind_field"):
+        p.wind_field = "tornado"
+    with pytest.raises(TraitError, match="time_scale"):
+        widget.time_scale = -1
+    with pytest.raises(ValueError, match="blades"):
+        widget.blade_count = 0
+    with pytest.raises(ValueError, match="size"):
+        widget.save_png(tmp_path / "x.png", size=(0, 5))
+    # A value the control allows but the trait refuses (as if the slider's range
+    # were wider): the control snaps back and the message line says why.
+    s = widget.sliders["gravity"]
+    s.max = 100
+    s.value = 80
+    assert p.gravity == before and s.value == before
+    assert "gravity" in widget.message_line.value
+    # A huge number typed into a readout is clamped by the slider itself.
+    widget.sliders["wind_speed"].value = 1e12
+    assert p.wind_speed == widget.sliders["wind_speed"].max
+    # ...and a later valid change still applies, and drawing still works.
+    p.gravity = 12.5
+    assert widget.sliders["gravity"].value == 12.5
+    _resize(widget)
+    widget.view.draw()
+    img = widget.scene.render_at(SIZE)
+    assert grass_mask(img).mean() > 0.1
+
+
+def test_bad_constructor_args():
+    with pytest.raises(ValueError, match="size"):
+        gw.GrassWidget(blades=16, size=(0, 0))
+    with pytest.raises(TypeError, match="params"):
+        gw.GrassWidget(blades=16, size=SIZE, params={"gravity": 1})
+    with pytest.raises(ValueError, match="blades"):
+        gw.GrassWidget(blades=0, size=SIZE)
+    with pytest.raises(TypeError, match="blades"):
+        gw.GrassWidget(blades="many", size=SIZE)
+
+
+def test_shared_params_object():
+    p = gw.GrassParams(wind_strength=42.0)
+    w = gw.GrassWidget(blades=256, size=SIZE, params=p)
+    try:
+        assert w.params is p and w.scene.params is p
+        assert w.sliders["wind_strength"].value == 42.0
+    finally:
+        w.close()
+    # closing unhooks the controls: p keeps working on its own
+    p.wind_strength = 3.0
+    assert w.sliders["wind_strength"].value == 42.0
+
+
+def test_play_pause_step_reset(widget):
+    f = widget.scene.field
+    _resize(widget)
+    assert widget.playing
+    widget.view.draw()  # a frame while playing advances steps_per_frame steps
+    assert f.step_count == widget.steps_per_frame
+    widget.pause()
+    assert widget.play_button.description == "Play"
+    n = f.step_count
+    widget.view.draw()
+    assert f.step_count == n
+    widget.step_button.click()
+    assert f.step_count == n + max(1, widget.steps_per_frame) and not widget.playing
+    widget.step(5)
+    assert f.step_count == n + max(1, widget.steps_per_frame) + 5
+    widget.reset_blades_button.click()
+    assert f.step_count == 0
+    widget.play_button.click()
+    assert widget.playing and widget.play_button.description == "Pause"
+
+
+def test_orbit_without_picking_and_keys(widget, monkeypatch):
+    """Pointer events from the canvas reach the OrbitController; no pick readback."""
+    _resize(widget)
+    renderer = widget.scene.renderer
+    calls = []
+    monkeypatch.setattr(renderer, "get_pick_info", lambda pos: calls.append(pos) or {})
+    cam = widget.scene.camera
+    p0 = np.array(cam.world.position)
+    base = dict(modifiers=(), ntouches=0, touches={}, timestamp=0)  # jupyter-rfb's current event format
+    widget.view.events(dict(type="pointer_down", x=80, y=60, button=1, buttons=(1,), **base))
+    for i in range(1, 11):
+        widget.view.events(dict(type="pointer_move", x=80 + 6 * i, y=60, button=0, buttons=(1,), **base))
+    widget.view.events(dict(type="pointer_up", x=140, y=60, button=1, buttons=(), **base))
+    for _ in range(60):  # let the damped action converge
+        widget.controller.tick()
+    moved = np.linalg.norm(np.array(cam.world.position) - p0)
+    assert moved > 0.5
+    # orbiting keeps the distance to the target
+    t = widget.controller.target
+    assert np.isclose(np.linalg.norm(p0 - t), np.linalg.norm(np.array(cam.world.position) - t), rtol=1e-3)
+    assert calls == []
+    widget.view.on_key({"type": "key_down", "key": "r", "modifiers": ()})
+    assert np.allclose(cam.world.position, p0, atol=1e-5)
+    widget.view.on_key({"type": "key_down", "key": " ", "modifiers": ()})
+    assert not widget.playing
+    widget.view.on_key({"type": "key_down", "key": "s", "modifiers": ()})
+    assert widget.scene.field.step_count > 0
+    widget.view.on_key({"type": "key_down", "key": " ", "modifiers": ("Control",)})  # not ours
+    assert not widget.playing
+
+
+def test_stats_line(widget):
+    _resize(widget)
+    widget.view.draw()
+    widget.view.refresh_stats()
+    s = widget.stats
+    assert s["blades"] == 1024 and s["visible"] is not None and 0 <= s["visible"] <= 1024
+    assert "frames/s" in widget.stats_line.value and "blades" in widget.stats_line.value
+
+
+def test_blade_count_slider_rebuilds(widget):
+    cam_before = np.array(widget.scene.camera.world.position)
+    widget.blade_slider.value = 2048
+    assert widget.blade_count == 2048 and widget.scene.field.count == 2048
+    assert np.allclose(widget.scene.camera.world.position, cam_before)
+    widget.blade_count = 512
+    assert widget.blade_slider.value == 512 and widget.scene.field.count == 512
+    _resize(widget)
+    widget.view.draw()
+
+
+def test_save_png_from_code_and_button(widget, tmp_path, monkeypatch):
+    import imageio.v3 as iio
+
+    path = widget.save_png(tmp_path / "shot.png", size=(200, 150))
+    with open(path, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    img = iio.imread(path)
+    assert img.shape[:2] == (150, 200)
+    assert grass_mask(img).mean() > 0.1
+    # default: twice the view; the button writes into the working directory
+    monkeypatch.chdir(tmp_path)
+    widget.save_button.click()
+    pngs = sorted(tmp_path.glob("grass-*.png"))
+    assert len(pngs) == 1, widget.message_line.value
+    assert iio.imread(pngs[0]).shape[:2] == (2 * SIZE[1], 2 * SIZE[0])
+    assert pngs[0].name in widget.file_line.value
+    widget.png_scale.value = 1
+    widget.save_button.click()
+    assert len(sorted(tmp_path.glob("grass-*.png"))) == 2
+
+
+def test_save_animation_gif_deterministic(widget, tmp_path):
+    import imageio.v3 as iio
+
+    p = widget.params
+    p.wind_strength = 40.0
+    widget.scene.step(10)
+    state = widget.scene.field.read_state()
+    steps = widget.scene.field.step_count
+    a = widget.save_animation(tmp_path / "a.gif", seconds=0.5, fps=12, size=(96, 72), progress=False)
+    b = widget.save_animation(tmp_path / "b.gif", seconds=0.5, fps=12, size=(96, 72), progress=False)
+    fa, fb = iio.imread(a, index=None), iio.imread(b, index=None)
+    assert fa.shape[0] == 6 and fa.shape[1:3] == (72, 96)
+    assert np.array_equal(fa, fb)
+    # the live state is back where it was
+    after = widget.scene.field.read_state()
+    assert np.array_equal(after["v2"], state["v2"]) and widget.scene.field.step_count == steps
+    assert not np.array_equal(fa[0], fa[-1])  # the wind moved the grass
+
+
+def test_export_argument_errors(widget, tmp_path):
+    from grasswidget.tools.export import plan_animation, save_animation
+
+    s = widget.scene
+    with pytest.raises(ValueError, match="path"):
+        save_animation(s, tmp_path / "x.avi", 1, 10)
+    with pytest.raises(ValueError, match="seconds"):
+        save_animation(s, tmp_path / "x.gif", 0, 10)
+    with pytest.raises(ValueError, match="fps"):
+        save_animation(s, tmp_path / "x.gif", 1, float("nan"))
+    with pytest.raises(TypeError, match="fps"):
+        save_animation(s, tmp_path / "x.gif", 1, "fast")
+    with pytest.raises(ValueError, match="size"):
+        save_animation(s, tmp_path / "x.gif", 1, 10, size=(-1, 10))
+    with pytest.raises(ValueError, match="even"):
+        save_animation(s, tmp_path / "x.mp4", 1, 10, size=(101, 80))
+    with pytest.raises(FileNotFoundError):
+        save_animation(s, tmp_path / "nope" / "x.gif", 1, 10)
+    with pytest.raises(ValueError, match="dt"):
+        plan_animation(0.05, 1, 100)
+    plan = plan_animation(1 / 120, 2, 24)
+    assert plan == dict(frames=48, steps_per_frame=5, speed=1.0, fps=24.0)
+
+
+def test_save_animation_mp4(widget, tmp_path):
+    pytest.importorskip("imageio_ffmpeg")
+    import imageio.v3 as iio
+
+    path = widget.save_animation(tmp_path / "a.mp4", seconds=0.25, fps=20, size=(96, 64), progress=False)
+    frames = iio.imread(path, index=None, plugin="pyav") if _has_pyav() else _read_mp4(path)
+    assert len(frames) == 5 and frames[0].shape[:2] == (64, 96)
+
+
+def _has_pyav():
+    try:
+        import av  # noqa: F401
+
+        return True
+    except ImportError:
+        return False
+
+
+def _read_mp4(path):
+    import imageio.v2 as iio2
+
+    with iio2.get_reader(path, format="FFMPEG") as r:
+        return [f for f in r]
+
+
+def _gpu_bytes():
+    import wgpu
+
+    gc.collect()
+    d = wgpu.diagnostics.object_counts.get_dict()
+    return sum(v.get("resource_mem", 0) for k, v in d.items() if k in ("Buffer", "Texture")), d["Buffer"]["count"]
+
+
+def test_recreating_does_not_grow_gpu_memory():
+    import resource
+
+    def cycle():
+        w = gw.GrassWidget(blades=4096, size=SIZE)
+        _resize(w)
+        w.view.draw()
+        w.close()
+
+    cycle()
+    mem0, n0 = _gpu_bytes()
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    for _ in range(20):
+        cycle()
+    mem1, n1 = _gpu_bytes()
+    rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    field_bytes = 4096 * 80
+    # 20 leaked fields would be >= 20 * field_bytes; allow less than two.
+    assert mem1 - mem0 < 2 * field_bytes, (mem0, mem1, n0, n1)
+    assert n1 - n0 < 20, (n0, n1)
+    assert (rss1 - rss0) * 1024 < 300e6  # generous: ru_maxrss is in KiB on Linux
+
+
+def test_closed_widget_refuses_work(tmp_path):
+    w = gw.GrassWidget(blades=64, size=SIZE)
+    w.close()
+    w.close()  # twice is fine
+    assert w.scene is None
+    with pytest.raises(RuntimeError, match="closed"):
+        w.save_png(tmp_path / "x.png")
+
+
+def test_preset():
+    if not hasattr(gw.GrassScene, "preset"):
+        with pytest.raises(NotImplementedError, match="preset"):
+            gw.GrassWidget(blades=256, size=SIZE, preset="cis565")
+        return
+    w = gw.GrassWidget(blades=512, size=SIZE, preset="cis565")
+    try:
+        assert w.scene.field.count == 512 and w.scene.size == SIZE
+        # cis565: camera at (0, 1, 10) looking at (0, 1, 0): orbit around a point on that axis
+        assert np.allclose(w.controller.target[[0, 1]], (0, 1), atol=1e-3)
+        w.blade_count = 1024  # rebuilding keeps the preset
+        assert w.scene.field.count == 1024 and getattr(w.scene, "preset_name", "cis565") == "cis565"
+    finally:
+        w.close()
+
+
+def test_rerunning_a_cell_closes_the_previous_widget(monkeypatch):
+    """JupyterLab sends the cell id with each execution: a new widget from the
+    same cell closes the one before, so its GPU buffers are freed."""
+    import grasswidget.notebook.widget as gwmod
+
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-xyz")
+    a = gw.GrassWidget(blades=64, size=SIZE)
+    b = gw.GrassWidget(blades=64, size=SIZE)
+    try:
+        assert a.closed and a.scene is None
+        assert not b.closed and b.scene is not None
+    finally:
+        b.close()
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: None)
+    c = gw.GrassWidget(blades=64, size=SIZE)
+    d = gw.GrassWidget(blades=64, size=SIZE)
+    assert not c.closed and not d.closed  # no cell id (plain Python): nothing is closed
+    c.close()
+    d.close()
+
+
+def test_close_with_pending_uploads_leaves_other_scenes_working():
+    """Closing destroys buffers that may still have an upload queued in pygfx's
+    global registry (reset() queues one); the next render elsewhere must not touch them."""
+    a = gw.GrassWidget(blades=256, size=SIZE)
+    a.reset_blades()
+    a.params.cull_frustum = False
+    a.close()
+    b = gw.GrassWidget(blades=256, size=SIZE)
+    try:
+        _resize(b)
+        b.view.draw()
+        assert grass_mask(b.scene.render_at(SIZE)).mean() > 0.05
+    finally:
+        b.close()
+
+
+def test_rerun_keeps_a_widget_the_user_still_holds(monkeypatch):
+    """Re-running a cell closes the widget it made only if no user variable holds it
+    (decided after the cell ran, when its assignments are done); the registry is weak."""
+    import gc
+    import weakref
+
+    import grasswidget.notebook.widget as gwmod
+
+    namespace, after = {}, []
+    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-held")
+    monkeypatch.setattr(gwmod, "_user_namespace", lambda: namespace)
+    monkeypatch.setattr(gwmod, "_after_cell", after.append)
+    namespace["a"] = gw.GrassWidget(blades=64, size=SIZE)          # run 1: a = GrassWidget()
+    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 2, edited: b = GrassWidget()
+    after.pop()()                                                   # ... cell done
+    assert not namespace["a"].closed, "a is still held in a variable: it must stay open"
+    old_b = namespace["b"]
+    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 3: b = GrassWidget() again
+    after.pop()()
+    assert old_b.closed and not namespace["b"].closed and not namespace["a"].closed
+    namespace["keep"] = [namespace.pop("b")]                       # held inside a list counts too
+    namespace["c"] = gw.GrassWidget(blades=64, size=SIZE)
+    after.pop()()
+    assert not namespace["keep"][0].closed
+    for w in (namespace["a"], namespace["keep"][0], namespace["c"], old_b):
+        w.close()
+    # the registry keeps nobody alive
+    ref = weakref.ref(namespace.pop("c"))
+    namespace.clear()
+    del w, old_b
+    gc.collect()
+    assert ref() is None
