@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
+from ..core.frame_data import EXPORT_SUPERSAMPLE
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -256,10 +257,12 @@ class BrowserEngineView:
     # ------------------------------------------------------------------ pictures and state
 
     def save_png(self, path, size):
-        """Rendered by the browser at ``size``; written here (waits for the browser's answer)."""
+        """Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
+        (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
+        browser's answer)."""
         import imageio.v3 as iio
 
-        img = self.view.snapshot(size)
+        img = self.view.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
         iio.imwrite(path, img, extension=".png")
         return path
 
@@ -277,7 +280,7 @@ class BrowserEngineView:
             except Exception as err:  # noqa: BLE001
                 self._on_error(err)
 
-        self.view.request_async({"type": "snapshot", "width": int(size[0]), "height": int(size[1])}, write)
+        self.view.request_async(self.view.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
 
     def read_state(self, timeout=None) -> dict:
         state = self.view.read_state() if timeout is None else self.view.read_state(timeout=timeout)

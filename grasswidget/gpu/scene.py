@@ -18,6 +18,7 @@ from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
+from ..core import frame_data
 from ..core.frame_data import ground_square, sky_ground_values
 from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
@@ -40,12 +41,9 @@ def set_vertical_fov(camera, fov_deg, aspect):
     camera.aspect = aspect
 
 
-#: Supersampling of exported pictures (save_png, render_at, the CLI snapshot,
-#: save_animation): each output pixel is rendered as EXPORT_SUPERSAMPLE x
-#: EXPORT_SUPERSAMPLE pixels, filtered down by pygfx (its Mitchell filter). On
-#: lavapipe at 640 x 360 this halves the mean difference to a 4 x 4 supersample
-#: (benchmarks/looks_cost.py measures it and the time).
-EXPORT_SUPERSAMPLE = 2
+#: Supersampling of exported pictures (both engines; see ``core.frame_data``):
+#: pygfx renders at this pixel ratio and filters down with its Mitchell filter.
+EXPORT_SUPERSAMPLE = frame_data.EXPORT_SUPERSAMPLE
 
 
 def make_renderer(canvas, *, export=False):

@@ -51,3 +51,19 @@ def test_material_values_carry_the_params_looks():
     assert values["blade_shape"] == int(gw.core.enums.BladeShape.from_label("fold"))
     with pytest.raises(gw.GrassValueError, match="tip_colour"):
         frame_data.material_values(params, tip_colour="#ffffff")
+
+
+def test_export_filter_is_pygfx_mitchell_supersampling():
+    """The browser's export filter: pygfx's Mitchell SSAA at scale 2, whose 12-tap form
+    (pygfx's ssaa.wgsl) pairs taps: 0.269867 for the 2 x 2 nearest pairs, -0.009934 for
+    a near pair times a far one."""
+    f = frame_data.export_filter(2)
+    w = np.array(f["weights"])
+    assert f["factor"] == 2 and f["first"] == -3 and len(w) == 8 and w.sum() == pytest.approx(1.0)
+    near, far = w[2] + w[3], w[0] + w[1]
+    assert near * near == pytest.approx(0.269867, abs=1e-3)
+    assert near * far == pytest.approx(-0.009934, abs=2e-4)
+    assert frame_data.export_filter(1) == {"factor": 1, "first": 0, "weights": [1.0]}
+    for bad in (0, 5, 2.0, True):
+        with pytest.raises(gw.GrassValueError, match="factor"):
+            frame_data.export_filter(bad)
