@@ -126,7 +126,8 @@ def format_status(stats: dict) -> str:
     per second, blades drawn, and whether time runs in real time or slow motion.
     Keys of a view's stats dict (each optional, None = unknown): ``fps``,
     ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
-    seconds). The rest is in :func:`format_details`."""
+    seconds), ``playing`` (False: "paused" instead of the speed of time). The rest is
+    in :func:`format_details`."""
     s = stats
     parts = [f"{s['fps']:.1f} frames/s" if s.get("fps") is not None else "– frames/s"]
     blades = s.get("blades")
@@ -134,7 +135,9 @@ def format_status(stats: dict) -> str:
         parts.append(f"{s['visible']:,} of {blades:,} blades drawn")
     elif blades is not None:
         parts.append(f"{blades:,} blades")
-    if s.get("slow_motion") and s.get("sim_speed") is not None:
+    if s.get("playing") is False:
+        parts.append("paused")
+    elif s.get("slow_motion") and s.get("sim_speed") is not None:
         parts.append(f"slow motion {s['sim_speed']:.1f}x")
     elif s.get("fps") is not None:
         parts.append("real time")

@@ -229,3 +229,7 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     assert widget.panel.details_line.layout.display != "none"
     widget.panel.details_button.value = False
     assert math.isfinite(s["fps"])
+    widget.pause()  # paused, the status says so (not "real time" at a stale rate)
+    assert "paused" in widget.stats_line.value and "real time" not in widget.stats_line.value
+    widget.play()
+    assert "paused" not in widget.stats_line.value
