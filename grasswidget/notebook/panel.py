@@ -103,6 +103,7 @@ CULL_CHECKBOXES = (
     ("orientation culling", "cull_orientation"),
     ("frustum culling", "cull_frustum"),
     ("distance culling", "cull_distance"),
+    ("occlusion culling", "cull_occlusion"),
     ("LOD", "lod"),
 )
 
@@ -148,17 +149,22 @@ def format_details(stats: dict) -> str:
     """The detailed timings behind the "details" toggle (plain, " · " separated).
 
     Known keys (each optional, None = unknown): ``fps`` (frames/s delivered) and
-    ``target_fps``; the stages of a frame in ms: ``render_ms`` (steps + render
-    submit), ``readback_ms``, ``encode_send_ms``, ``ack_ms`` (send to the browser's
-    acknowledgement); ``draw_ms`` (shown when the stages are unknown); ``gpu_ms``
-    (dict pass -> ms); ``scale`` (render scale of the pixel ratio) and
-    ``frame_size`` ((w, h) rendered pixels); ``steps_per_frame``; ``adapter`` (a
-    notice about the adapter, e.g. the CPU adapter's cheap defaults).
+    ``target_fps``; ``visible``, ``rastered`` (of the visible, drawn by the compute
+    rasterizer) and ``occluded`` (blades culled by occlusion); the stages of a frame in
+    ms: ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
+    ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when the
+    stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render scale of the
+    pixel ratio) and ``frame_size`` ((w, h) rendered pixels); ``steps_per_frame``;
+    ``adapter`` (a notice about the adapter, e.g. the CPU adapter's cheap defaults).
     """
     s = stats
     fps = f"{s['fps']:.1f}" if s.get("fps") is not None else "–"
     target = f" (target {s['target_fps']:g})" if s.get("target_fps") else ""
     parts = [f"{fps} frames/s delivered{target}"]
+    if s.get("visible") is not None and s.get("rastered"):
+        parts.append(f"{s['visible'] - s['rastered']:,} as ribbons, {s['rastered']:,} in compute")
+    if s.get("occluded") is not None:
+        parts.append(f"{s['occluded']:,} occluded")
     stages = [(name, s.get(key)) for name, key in (("render", "render_ms"), ("readback", "readback_ms"),
                                                    ("encode+send", "encode_send_ms"), ("ack", "ack_ms"))]
     if any(v is not None for _n, v in stages):

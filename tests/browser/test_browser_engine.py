@@ -137,13 +137,13 @@ w.step(100)
 mine = w.read_state()
 kernel_params = w.params.copy()
 kernel_params.wind_field = 'wave'
-field = GrassField(w.view.view.blades, params=kernel_params)
+field = GrassField(w.view.browser_view.blades, params=kernel_params)
 field.step(200)
 kernel_params.wind_field = 'vortex'
 field.step(100)
 theirs = field.read_state()
 field.release()
-b = w.view.view.blades
+b = w.view.browser_view.blades
 err = float((np.abs(mine['v2'] - theirs['v2']).max(axis=1) / b.height).max())
 err1 = float((np.abs(mine['v1'] - theirs['v1']).max(axis=1) / b.height).max())
 bent = float((np.linalg.norm(theirs['v2'] - b.v0 - b.up * b.height[:, None], axis=1) / b.height).mean())
@@ -155,13 +155,15 @@ print('PHYSICS', err, err1, bent)
     assert bent > 0.05, "the wind did not bend the grass: the comparison would prove nothing"
     assert err < 1e-4 and err1 < 1e-4
 
-    # 3. Culling checkboxes change the browser's visible count; all off: every blade.
+    # 3. Culling checkboxes change the browser's visible count; all off: every blade (none occluded).
     kernel_execute(page, "w.play()")
     visible_on = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v is not None, timeout=20)
-    for label in ("orientation culling", "frustum culling", "distance culling"):
+    culling = ("orientation culling", "frustum culling", "distance culling", "occlusion culling")
+    for label in culling:
         toggle_checkbox(page, label, False)
     wait_for_kernel(page, "w.stats['visible']", N_BLADES, timeout=30)
-    for label in ("orientation culling", "frustum culling", "distance culling"):
+    assert kernel_eval(page, "w.stats['occluded']") is None  # occlusion culling off: no count
+    for label in culling:
         toggle_checkbox(page, label, True)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")
@@ -215,8 +217,8 @@ print('PHYSICS', err, err1, bent)
 import imageio.v3 as iio, numpy as np
 png = iio.imread({str(next(iter(new)))!r})[..., :3].astype(int)
 size = (png.shape[1], png.shape[0])
-aa = w.view.view.snapshot(size, supersample=2)[..., :3].astype(int)
-plain = w.view.view.snapshot(size)[..., :3].astype(int)
+aa = w.view.browser_view.snapshot(size, supersample=2)[..., :3].astype(int)
+plain = w.view.browser_view.snapshot(size)[..., :3].astype(int)
 print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
 """, timeout=120)
     to_aa, to_plain = map(float, out.stdout.split("DIFF")[1].split())
@@ -246,7 +248,7 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
     assert "RAISED 1" in out.stdout and "WIND custom return vec3<f32>(4.0" in out.stdout, out.stdout
 
     # 7. A lost device is recovered with a message; a view that is not shown times out.
-    kernel_execute(page, "w.play(); w.view.view.lose_device()")
+    kernel_execute(page, "w.play(); w.view.browser_view.lose_device()")
     wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")
     wait_for_kernel(page, "w.stats['step_count']", predicate=lambda s: s != steps, timeout=60)
