@@ -21,4 +21,6 @@ def __getattr__(name):
         from ..errors import BrowserTimeoutError
 
         return BrowserTimeoutError
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from ..errors import UnknownNameError
+
+    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")

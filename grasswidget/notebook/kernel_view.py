@@ -41,10 +41,25 @@ Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
 shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
 refresh (one small readback, only while blades are inspected).
+
+Threads: JupyterLab 4.4+ sends widget comm messages to a kernel subshell when
+ipykernel 7 offers them (the ``commsOverSubshells`` setting, "perCommTarget" by
+default), so the controls (the blades slider's :meth:`KernelView.set_blades`,
+steps, resets, the inspector ...) run on the subshell's thread while the draw
+loop runs on the kernel's main event loop, and jupyter-rfb asks for frames on
+either thread. A blade-count change released the old field's GPU buffers in the
+middle of a frame that was still recording and submitting work with them:
+wgpu-native aborts the kernel ("Buffer with '' label has been destroyed", in
+``wgpuQueueSubmit``, ``wgpuBufferGetMappedRange`` or ``wgpuCommandEncoderBeginComputePass``).
+Every frame (jupyter-rfb's ``get_frame``: draw, then the start of the pixel
+download) and every operation on the scene hold :attr:`KernelView.lock`, so the
+old scene is released only between frames, and two frames never overlap.
 """
 
 from __future__ import annotations
 
+import functools
+import threading
 import time
 
 import numpy as np
@@ -68,6 +83,15 @@ STATS_INTERVAL = 0.5
 MAX_BUFFERED_FRAMES = 3
 #: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
 SLOW_MOTION_BELOW = 0.97
+
+
+def _exclusive(method):
+    """Run a :class:`KernelView` method holding the view's :attr:`~KernelView.lock`."""
+    @functools.wraps(method)
+    def holding_lock(self, *args, **kwargs):
+        with self.lock:
+            return method(self, *args, **kwargs)
+    return holding_lock
 
 
 def streaming_defaults(cpu: bool) -> dict:
@@ -94,7 +118,17 @@ def _canvas_class():
         max_pixel_ratio = 2.0
         render_scale = 1.0
         on_sent = None
+        #: A lock held for each frame (draw + start of the download), or None.
+        frame_lock = None
         _browser_resize = None
+
+        def get_frame(self):
+            """jupyter-rfb asks for a frame (on the thread of whichever message scheduled
+            it): rendercanvas draws and starts the download, holding ``frame_lock``."""
+            if self.frame_lock is None:
+                return super().get_frame()
+            with self.frame_lock:
+                return super().get_frame()
 
         def handle_event(self, event):
             if compat.event_type(event) == "resize" and compat.event_ratio(event) is not None:
@@ -204,6 +238,9 @@ class KernelView(GrassView):
                  on_inspect=None):
         super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)
+        #: Re-entrant lock held by every frame and every operation on the scene (see
+        #: the module docstring, "Threads": controls may run on a comm subshell's thread).
+        self.lock = threading.RLock()
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
@@ -217,6 +254,7 @@ class KernelView(GrassView):
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
         self.canvas = _canvas_class()(size=self.size, update_mode="continuous", max_fps=self.max_fps)
+        self.canvas.frame_lock = self.lock
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
         self.canvas.max_buffered_frames = MAX_BUFFERED_FRAMES
@@ -254,6 +292,7 @@ class KernelView(GrassView):
                                      canvas=self.canvas)
         return GrassScene(blades, size=self.size, params=self.params, canvas=self.canvas)
 
+    @_exclusive
     def set_blades(self, blades):
         """Build the scene for ``blades`` on this canvas, replacing and releasing
         the previous one (the camera view, the orbit target and the ball are kept)."""
@@ -320,10 +359,12 @@ class KernelView(GrassView):
         """The scene's sphere colliders."""
         return self.scene.colliders
 
+    @_exclusive
     def read_state(self, timeout=None) -> dict:
         """The field's state (a GPU readback; ``timeout`` is not needed here)."""
         return self.scene.field.read_state()
 
+    @_exclusive
     def set_wind_wgsl(self, body, select=True):
         """Compile ``body`` as the custom wind in the kernel (see GrassField.set_wind_wgsl)."""
         self.scene.field.set_wind_wgsl(body, select=select)
@@ -355,6 +396,7 @@ class KernelView(GrassView):
         """Fraction of the full pixel ratio the live frames render at (1 when paused)."""
         return float(self.canvas.render_scale)
 
+    @_exclusive
     def set_playing(self, playing: bool):
         """Draw continuously (playing) or on demand (paused). Pausing stops the clock
         at once and puts the render scale back to 1, so the still frame is sharp."""
@@ -369,6 +411,7 @@ class KernelView(GrassView):
     def set_time_scale(self, time_scale: float):
         """Nothing to do: each frame reads ``time_scale`` from the clock."""
 
+    @_exclusive
     def step(self, n: int):
         """Advance exactly ``n`` fixed steps and redraw."""
         self._simulate(n)
@@ -387,12 +430,14 @@ class KernelView(GrassView):
             self.scene.step(chunk)
             self.clock.count(chunk, dt)
 
+    @_exclusive
     def reset_blades(self):
         """Every blade back to its rest pose; the step counter and sim_time back to 0."""
         self.scene.field.reset()
         self.clock.reset()
         self.request_draw()
 
+    @_exclusive
     def reset_camera(self):
         """Back to the scene's starting view (position, rotation, fov, orbit target)."""
         self.scene.reset_camera()
@@ -414,6 +459,7 @@ class KernelView(GrassView):
     def depth_range(self) -> tuple:
         return tuple(float(x) for x in self.scene.camera.depth_range)
 
+    @_exclusive
     def look(self, position, target, fov_deg):
         """Aim the scene's camera; the controller orbits around ``target`` from now on."""
         self.scene.look(position, target, fov_deg)
@@ -427,6 +473,7 @@ class KernelView(GrassView):
 
     # ------------------------------------------------------------------ teaching views
 
+    @_exclusive
     def set_culling_frozen(self, frozen: bool):
         """Freeze culling at the current camera (True) or cull against it again (False)."""
         if frozen:
@@ -437,6 +484,7 @@ class KernelView(GrassView):
             self._frozen_camera = None
         self.request_draw()
 
+    @_exclusive
     def inspect(self, ids):
         """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
         self.scene.inspect(ids)
@@ -450,6 +498,7 @@ class KernelView(GrassView):
     def inspected(self) -> tuple:
         return self._inspected
 
+    @_exclusive
     def read_inspected(self, timeout=None) -> list:
         """The inspected blades' numbers (GrassScene.read_inspected) for the current state:
         when the state, the ids or the parameters changed since the last drawn frame, a
@@ -462,6 +511,7 @@ class KernelView(GrassView):
             self._inspect_stale = False
         return self.scene.read_inspected()
 
+    @_exclusive
     def pick_blade(self, x, y):
         """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
         (one GPU pick readback)."""
@@ -476,6 +526,7 @@ class KernelView(GrassView):
 
     # ------------------------------------------------------------------ pictures
 
+    @_exclusive
     def save_png(self, path, size):
         """Write a PNG of the current view at ``size`` (w, h) pixels."""
         return self.scene.save_png(path, size=size)  # offscreen and anti-aliased, whatever the canvas
@@ -484,6 +535,7 @@ class KernelView(GrassView):
         """The kernel renders at once: write the PNG now and call ``done(path)``."""
         done(self.save_png(path, size))
 
+    @_exclusive
     def draw(self):
         """The canvas draw function: advance time (when playing), render, maybe refresh stats."""
         scene = self.scene
@@ -530,6 +582,7 @@ class KernelView(GrassView):
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
 
+    @_exclusive
     def refresh_stats(self):
         """Measure frames/s delivered (confirmed by the browser) and the time of each
         stage of a frame, read the visible count and GPU times, and pass the stats to
@@ -608,6 +661,7 @@ class KernelView(GrassView):
 
     # ------------------------------------------------------------------ closing
 
+    @_exclusive
     def close(self):
         """Close the canvas and release the scene's GPU resources."""
         if self.closed:

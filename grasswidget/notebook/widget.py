@@ -55,7 +55,7 @@ from traitlets import All, Bool
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
-from ..core.view_api import MAX_STEPS_PER_FRAME, FeatureNotAvailableError, GrassView
+from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
@@ -437,10 +437,7 @@ class GrassWidget(ipw.VBox):
         ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
         else raises ValueError naming the limit (nothing changes then)."""
         self._check_open()
-        try:
-            self.view.inspect(ids)
-        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
-            self.panel.show_unsupported(missing.feature, missing.backend)
+        self.view.inspect(ids)
 
     @property
     def inspected(self) -> tuple:
@@ -638,10 +635,7 @@ class GrassWidget(ipw.VBox):
     def _on_culling_frozen(self, change):
         if self._closed:
             return
-        try:
-            self.view.set_culling_frozen(bool(change["new"]))
-        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
-            self.panel.show_unsupported(missing.feature, missing.backend)
+        self.view.set_culling_frozen(bool(change["new"]))
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""

@@ -76,15 +76,22 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
                @ np.asarray(field.world.matrix, np.float64))
         shape = int(BladeShape.from_label(field.material.blade_shape))
         tau = field.material.tip_threshold
-        # A few blades alone, each against the GPU's words where it won the pixel.
+        # A few blades alone, each against the GPU's words where it won the pixel. A listed
+        # blade may write no pixel at all (a sub-pixel span whose coverage draw gives 0
+        # points, or a blade whose only points fall outside the view): those are skipped
+        # here and checked with the rest in the whole-frame comparison below.
         wins = []
-        for blade in ids[:: len(ids) // 12][:12]:
+        sampled = ids[:: max(1, len(ids) // 60)][:60]
+        for blade in sampled:
+            if len(wins) == 12:
+                break
             b = int(blade)
             c = [mvp @ np.append(state[k][b], 1.0) for k in ("v0", "v1", "v2")]
             across = mvp @ np.append(state["width"][b] * ref.width_direction(state["up"][b], state["orientation"][b]), 0.0)
             alone_depth, alone_payload = ref.raster_blades([(*c, across, b, shape, tau)], (w, h))
             ys, xs = np.nonzero(np.isfinite(alone_depth))
-            assert len(xs) > 0
+            if len(xs) == 0:
+                continue
             won = (payload[ys, xs] >> 8) == b
             wins.append(won.mean())
             ds = alone_depth[ys, xs]
@@ -92,6 +99,7 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
             assert np.all(np.abs((payload[ys, xs][won] & 255).astype(int) - (alone_payload[ys, xs][won] & 255)) <= 1)
             # where another blade won, it is nearer
             assert np.all(depth[ys, xs][~won].view(np.float32) <= ds[~won] + 2e-6)
+        assert len(wins) == 12  # most listed blades write pixels
         assert sum(w > 0 for w in wins) >= 4  # blades that show somewhere (the rest: behind nearer ones)
         # All listed blades together: the covered pixels are the reference's.
         blades = []
