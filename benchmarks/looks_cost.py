@@ -115,8 +115,15 @@ def _child_meadow(frames):
 # ------------------------------------------------------------------ parent
 
 
+def _tree_env(tree):
+    """The environment of a child run in ``tree``: the tree first on the import path,
+    then whatever the caller had there (the GPU machine's wheels)."""
+    rest = os.environ.get("PYTHONPATH", "")
+    return dict(os.environ, PYTHONPATH=tree + (os.pathsep + rest if rest else ""))
+
+
 def _run_child(tree, kind, frames):
-    env = dict(os.environ, PYTHONPATH=tree)
+    env = _tree_env(tree)
     proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", kind, "--frames", str(frames)],
                           cwd=tree, env=env, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
@@ -126,7 +133,7 @@ def _run_child(tree, kind, frames):
 
 def _adapter(tree):
     code = "from grasswidget.gpu.adapter import adapter_info; import json; print(json.dumps(adapter_info()))"
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tree, env=dict(os.environ, PYTHONPATH=tree),
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tree, env=_tree_env(tree),
                           capture_output=True, text=True, check=False)
     try:
         return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -202,7 +209,10 @@ def main(argv=None):
 
 
 def _git(cmd):
-    return subprocess.run(["git", *cmd], cwd=REPO, capture_output=True, text=True).stdout.strip()
+    try:
+        return subprocess.run(["git", *cmd], cwd=REPO, capture_output=True, text=True).stdout.strip()
+    except FileNotFoundError:  # no git (the GPU machine)
+        return None
 
 
 if __name__ == "__main__":
