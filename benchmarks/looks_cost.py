@@ -109,7 +109,8 @@ def _child_meadow(frames):
                        stdout=subprocess.DEVNULL)
         with open(path) as f:
             row = json.load(f)["results"][0]
-    return dict(frame_ms=row["frame_ms"]["median"], frame_cpu_ms=row.get("frame_cpu_ms"))
+    return dict(frame_ms=row["frame_ms"]["median"], frame_cpu_ms=row.get("frame_cpu_ms"),
+                gpu_draw_ms=row.get("gpu_draw_ms"), pipelined_fps=row.get("pipelined_fps"))
 
 
 # ------------------------------------------------------------------ parent
