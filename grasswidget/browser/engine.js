@@ -15,7 +15,8 @@
 //            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
 //            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
 //            (the inspected blade ids).
-//   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
+//   messages step {n}, reset, read_state {id}, snapshot {id, width, height, filter}
+//            (filter: grasswidget.core.frame_data.export_filter, the supersampling),
 //            read_inspected {id}, sync {id} (answered at once: "synced"),
 //            compile_simulate {id, shader, passes}, lose_device (tests).
 // Occlusion culling (shaders.occlusion, grasswidget.browser.wgsl.BrowserShaders.occlusion): while
@@ -159,6 +160,59 @@ function clamp(x, lo, hi) { return Math.min(Math.max(x, lo), hi); }
 // grasswidget.core.orbit_limits.clamp_orbit, line for line: (position, target) moved the least way into
 // the limits (an OrbitLimits as a dict): target into its box (the camera follows), distance
 // into the zoom range, elevation into its range (keeping the azimuth).
+// ------------------------------------------------------------------ exports: supersampling
+
+const SRGB_TO_LINEAR = Float32Array.from({ length: 256 }, (_, i) => {
+  const c = i / 255;
+  return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4);
+});
+
+function linearToSrgb8(x) {
+  const c = Math.min(Math.max(x, 0), 1);
+  const s = c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055;
+  return Math.round(s * 255);
+}
+
+// Filter an 8-bit picture of (width * f) x (height * f) pixels, rows `rowBytes` apart
+// (sRGB as the canvas stores it; `bgra`: blue first), down to width x height RGBA with
+// Python's separable filter {factor: f, first, weights} (frame_data.export_filter), in
+// linear light with indices clamped to the picture: what pygfx's renderer does for the
+// kernel engine's exports. Returns a Uint8Array of width * height * 4 (alpha 255).
+export function downsample(src, width, height, rowBytes, bgra, filter) {
+  const f = filter.factor, first = filter.first, wts = filter.weights, taps = wts.length;
+  const sw = width * f, sh = height * f;
+  const rx = bgra ? 2 : 0, bx = bgra ? 0 : 2;
+  const clampTo = (i, n) => (i < 0 ? 0 : i >= n ? n - 1 : i);
+  const rows = new Float32Array(width * sh * 3);  // filtered along x, all source rows
+  for (let y = 0; y < sh; y++) {
+    const line = y * rowBytes;
+    for (let x = 0; x < width; x++) {
+      let r = 0, g = 0, b = 0;
+      for (let k = 0; k < taps; k++) {
+        const i = line + 4 * clampTo(f * x + first + k, sw), w = wts[k];
+        r += w * SRGB_TO_LINEAR[src[i + rx]];
+        g += w * SRGB_TO_LINEAR[src[i + 1]];
+        b += w * SRGB_TO_LINEAR[src[i + bx]];
+      }
+      const o = 3 * (y * width + x);
+      rows[o] = r; rows[o + 1] = g; rows[o + 2] = b;
+    }
+  }
+  const out = new Uint8Array(width * height * 4);
+  for (let y = 0; y < height; y++) {
+    for (let x = 0; x < width; x++) {
+      let r = 0, g = 0, b = 0;
+      for (let k = 0; k < taps; k++) {
+        const i = 3 * (clampTo(f * y + first + k, sh) * width + x), w = wts[k];
+        r += w * rows[i]; g += w * rows[i + 1]; b += w * rows[i + 2];
+      }
+      const o = 4 * (y * width + x);
+      out[o] = linearToSrgb8(r); out[o + 1] = linearToSrgb8(g); out[o + 2] = linearToSrgb8(b); out[o + 3] = 255;
+    }
+  }
+  return out;
+}
+
 export function clampOrbit(position, target, limits) {
   const L = limits;
   const c = [clamp(target[0], L.lo[0], L.hi[0]), 0, clamp(target[2], L.lo[1], L.hi[1])];
@@ -1185,34 +1239,46 @@ class GrassEngine {
     this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
   }
 
+  // A picture of the current state at msg.width x msg.height, rendered msg.filter.factor
+  // times larger and filtered down (Python's export_filter; factor 1 when absent or when
+  // the larger picture would exceed the device's texture limit).
   async snapshot(msg) {
     const device = this.device;
     const w = msg.width, h = msg.height;
-    const color = device.createTexture({ size: [w, h], format: this.format,
+    let filter = msg.filter || { factor: 1, first: 0, weights: [1] };
+    if (Math.max(w, h) * filter.factor > device.limits.maxTextureDimension2D) filter = { factor: 1, first: 0, weights: [1] };
+    const sw = w * filter.factor, sh = h * filter.factor;
+    const color = device.createTexture({ size: [sw, sh], format: this.format,
       usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
-    const depth = this.depthFor(w, h);
-    const row = Math.ceil((w * 4) / 256) * 256;
-    const out = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
+    const depth = this.depthFor(sw, sh);
+    const row = Math.ceil((sw * 4) / 256) * 256;
+    const out = device.createBuffer({ size: row * sh, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
     const encoder = device.createCommandEncoder();
-    this.encodeFrame(encoder, color.createView(), depth, w, h);
-    encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [w, h]);
+    this.encodeFrame(encoder, color.createView(), depth, sw, sh);
+    encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [sw, sh]);
     device.queue.submit([encoder.finish()]);
     await out.mapAsync(GPUMapMode.READ);
     const src = new Uint8Array(out.getMappedRange());
-    const rgba = new Uint8Array(w * h * 4);
     const bgra = this.format.startsWith("bgra");
-    for (let y = 0; y < h; y++) {
-      const s = y * row, d = y * w * 4;
-      for (let x = 0; x < w; x++) {
-        const i = s + 4 * x, j = d + 4 * x;
-        rgba[j] = src[i + (bgra ? 2 : 0)];
-        rgba[j + 1] = src[i + 1];
-        rgba[j + 2] = src[i + (bgra ? 0 : 2)];
-        rgba[j + 3] = 255;
+    let rgba;
+    if (filter.factor === 1) {
+      rgba = new Uint8Array(w * h * 4);
+      for (let y = 0; y < h; y++) {
+        const s = y * row, d = y * w * 4;
+        for (let x = 0; x < w; x++) {
+          const i = s + 4 * x, j = d + 4 * x;
+          rgba[j] = src[i + (bgra ? 2 : 0)];
+          rgba[j + 1] = src[i + 1];
+          rgba[j + 2] = src[i + (bgra ? 0 : 2)];
+          rgba[j + 3] = 255;
+        }
       }
+    } else {
+      rgba = downsample(src, w, h, row, bgra, filter);
     }
     out.unmap(); out.destroy(); color.destroy(); depth.destroy();
-    this.model.send({ type: "snapshot", id: msg.id, width: w, height: h }, undefined, [rgba.buffer]);
+    this.model.send({ type: "snapshot", id: msg.id, width: w, height: h, supersample: filter.factor }, undefined,
+                    [rgba.buffer]);
   }
 
   async compileSimulate(msg) {

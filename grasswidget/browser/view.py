@@ -40,7 +40,7 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
-from ..core.frame_data import frame_rules
+from ..core.frame_data import export_filter, frame_rules
 from ..core.params import GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
@@ -230,6 +230,8 @@ class BrowserView(anywidget.AnyWidget):
             return
         with self.hold_sync():
             self._write_uniforms()
+            if change["name"] == "fog_density" and self.camera:  # the sky/ground's fog too
+                self._write_frame_rules()
 
     # ------------------------------------------------------------------ commands
 
@@ -361,10 +363,20 @@ class BrowserView(anywidget.AnyWidget):
         state["step_count"] = int(msg["step_count"])
         return state
 
-    def snapshot(self, size, timeout: float = ANSWER_TIMEOUT) -> np.ndarray:
-        """(h, w, 4) uint8 RGBA rendered by the browser at ``size`` (waits for the answer)."""
+    @staticmethod
+    def snapshot_request(size, supersample: int = 1) -> dict:
+        """The browser's snapshot message for ``size`` (w, h) pixels: rendered
+        ``supersample`` times larger (1..4) and filtered down with
+        :func:`grasswidget.core.frame_data.export_filter`, as the kernel engine's exports."""
         w, h = int(size[0]), int(size[1])
-        msg, buffers = self._request({"type": "snapshot", "width": w, "height": h}, timeout,
+        if w < 1 or h < 1:
+            raise GrassValueError(f"size must be (width, height) of at least 1 pixel; got {tuple(size)!r}")
+        return {"type": "snapshot", "width": w, "height": h, "filter": export_filter(supersample)}
+
+    def snapshot(self, size, timeout: float = ANSWER_TIMEOUT, *, supersample: int = 1) -> np.ndarray:
+        """(h, w, 4) uint8 RGBA rendered by the browser at ``size`` (waits for the answer);
+        ``supersample`` > 1: anti-aliased (see :meth:`snapshot_request`)."""
+        msg, buffers = self._request(self.snapshot_request(size, supersample), timeout,
                                      "a snapshot from the browser view")
         return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
 

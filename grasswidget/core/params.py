@@ -19,7 +19,7 @@ from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
 __all__ = [
-    "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "GrassParams", "LOOK_TRAITS", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
     "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
 ]
 
@@ -31,6 +31,9 @@ BLADE_SHAPES = BladeShape.labels()
 GRAVITY_MODES = GravityMode.labels()
 #: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.core.teaching``; ids: ``enums.ColorBy``).
 COLOR_BY = ColorBy.labels()
+
+#: The traits that change only how the meadow looks (blade colour, fog), not the physics.
+LOOK_TRAITS = ("color_variation", "patch_size", "dryness", "translucency", "fog_density")
 
 
 class RangedFloat(traitlets.Float):
@@ -208,6 +211,13 @@ class GrassParams(StrictTraits):
 
     # ---- drawing ----------------------------------------------------------------
     blade_shape = ChoiceTrait("triangle-tip", BLADE_SHAPES, help="Ribbon shape of the blades (paper section 6): quad, triangle, quadratic, triangle-tip or fold (3D).").tag(sync=True)
+
+    # ---- looks (drawing only; the physics ignores them) ------------------------------
+    color_variation = RangedFloat(0.35, 0.0, 1.0, help="How much the blades' colour (hue and brightness) varies, mostly in patches of patch_size: 0 every blade alike, 1 strong.").tag(sync=True)
+    patch_size = RangedFloat(3.0, 0.1, 100.0, "m", help="Size of the meadow's colour patches (clumps of lighter, darker, drier grass).").tag(sync=True)
+    dryness = RangedFloat(0.1, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
+    translucency = RangedFloat(0.6, 0.0, 1.0, help="How much the tips light up when the sun is behind them (light through the blade): 0 not at all, 1 strongly.").tag(sync=True)
+    fog_density = RangedFloat(0.005, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
 
     # ---- time -----------------------------------------------------------------
     dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)

@@ -118,9 +118,9 @@ def wgsl_float(x: float) -> str:
 def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
-    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
-                            OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH, RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES,
-                            RECOVERY_FLOOR)
+    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS, LOD_SEGMENTS,
+                            NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH, RASTER_MAX_ACROSS,
+                            RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -131,6 +131,7 @@ def template_vars() -> dict:
         "collision_max": wgsl_float(COLLISION_MAX),
         "collision_passes": int(COLLISION_PASSES),
         "noise_scale": wgsl_float(NOISE_SCALE),
+        "dry_color": ", ".join(wgsl_float(c) for c in DRY_COLOR),
         "workgroup_size": WORKGROUP_SIZE,
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),

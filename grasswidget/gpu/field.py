@@ -18,9 +18,9 @@ from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
-from ..core.params import GrassParams
+from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
-from ..core.frame_data import cull_uniform_values
+from ..core.frame_data import cull_uniform_values, look_values
 from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
@@ -176,6 +176,8 @@ class GrassField(gfx.WorldObject):
             self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
         else:
             self.material.blade_shape = self.params.blade_shape
+        for name, value in look_values(self.params).items():  # the params drive the material's looks
+            setattr(self.material, name, value)
         if self.params.wind_wgsl.strip():
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
@@ -296,6 +298,8 @@ class GrassField(gfx.WorldObject):
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
+        elif change["name"] in LOOK_TRAITS:  # the values the browser engine is sent too
+            setattr(self.material, change["name"], look_values(self.params)[change["name"]])
         elif change["name"] == "wind_wgsl":
             self.simulation.compile_wind(change["new"], change["old"])
 

@@ -616,7 +616,7 @@ class GrassWidget(ipw.VBox):
 
     def _show_stats(self, stats):
         if self.panel is not None:
-            self.panel.show_stats(stats)
+            self.panel.show_stats(dict(stats, playing=bool(self.playing)))  # the status says "paused"
 
     def _on_param_change(self, change):
         self._request_draw()
@@ -626,6 +626,7 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+            self._show_stats(self.view.current_stats())
 
     def _show_inspected(self, blades):
         if self.panel is not None:

@@ -255,7 +255,7 @@ def _snapshot(args):
     else:
         scene = GrassScene.preset(args.preset, blades=args.blades, size=args.size, params=params, seed=args.seed)
     scene.step(args.steps)
-    path = write_image(args.out, scene.render())
+    path = write_image(args.out, scene.render_at(args.size))  # anti-aliased (see GrassScene.render_at)
     print(f"wrote {path} ({args.size[0]}x{args.size[1]}, {args.blades} blades, {args.steps} steps, "
           f"{scene.visible_count()} drawn)")
     return 0

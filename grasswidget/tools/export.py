@@ -86,7 +86,7 @@ def _offscreen_renderer(size):
     from ..gpu.scene import make_renderer
 
     canvas = RenderCanvas(size=size, pixel_ratio=1)
-    return canvas, make_renderer(canvas)
+    return canvas, make_renderer(canvas, export=True)  # anti-aliased, like save_png
 
 
 def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *, restore=True) -> str:

@@ -12,7 +12,7 @@ and the kernel:
 * culling checkboxes in the page change the browser's visible count (all off:
   exactly every blade);
 * a mouse drag on the canvas moves ``w.camera_state``; assigning it moves the view;
-* Save PNG writes a picture of grass rendered by the browser;
+* Save PNG writes a picture of grass rendered by the browser, anti-aliased there;
 * a custom wind that does not compile comes back with its line, the old wind kept;
 * a lost WebGPU device is recovered with a message, and a request to a view
   that is not shown raises TimeoutError naming the browser view.
@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    panel_label,
     Browser,
     click_button,
     drag,
@@ -199,7 +200,9 @@ print('PHYSICS', err, err1, bent)
          page=page)
     assert shot_a.shape == first.shape
 
-    # 5. Save PNG: rendered by the browser at 2x, written next to the notebook by Python.
+    # 5. Save PNG: rendered by the browser at 2x, anti-aliased there (rendered 2x larger again and
+    # filtered down), written next to the notebook by Python. Paused, so the picture can be retaken.
+    kernel_execute(page, "w.pause()")
     old = set(root.glob("grass-*.png"))
     click_button(page, "Save PNG")
     new = poll(lambda: set(root.glob("grass-*.png")) - old, "Save PNG to write a file", 60, 0.3, page=page)
@@ -210,6 +213,19 @@ print('PHYSICS', err, err1, bent)
     frac = _grass_fraction(img[int(0.6 * img.shape[0]):])
     print(f"[browser engine] Save PNG wrote {next(iter(new)).name} {img.shape[1]}x{img.shape[0]}, grass {frac:.0%}")
     assert frac > 0.3
+    out = kernel_execute(page, f"""
+import imageio.v3 as iio, numpy as np
+png = iio.imread({str(next(iter(new)))!r})[..., :3].astype(int)
+size = (png.shape[1], png.shape[0])
+aa = w.view.browser_view.snapshot(size, supersample=2)[..., :3].astype(int)
+plain = w.view.browser_view.snapshot(size)[..., :3].astype(int)
+print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
+""", timeout=120)
+    to_aa, to_plain = map(float, out.stdout.split("DIFF")[1].split())
+    print(f"[browser engine] Save PNG vs a supersampled snapshot of the paused meadow: mean {to_aa:.3f}/255; "
+          f"vs a plain one: {to_plain:.2f}/255")
+    # the button's picture is the anti-aliased one (a few blades may draw in another order: not 0)
+    assert to_aa < 0.2 * to_plain and to_plain > 0.3
     art = os.environ.get("GW_ARTIFACTS_DIR")
     if art:
         os.makedirs(art, exist_ok=True)
@@ -264,7 +280,7 @@ def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
         assert "WebGPU is not available in this browser" in msg
         wait_for_view(page, 0, timeout=60)
         wait_for_frames(page, 3, timeout=60, index=0)
-        set_slider(page, "wind_strength", 21.5)
+        set_slider(page, panel_label("wind_strength"), 21.5)
         wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
         kernel_execute(page, "w.step(5)")
         assert kernel_eval(page, "w.scene.field.step_count") >= 5

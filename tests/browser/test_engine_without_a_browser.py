@@ -211,3 +211,73 @@ def test_kernel_widget_camera_state_both_ways():
             w.camera_state = {"position": (0.0, 1.0, 0.0)}
     finally:
         w.close()
+
+
+_DOWNSAMPLE_DRIVER = """
+import { readFileSync } from "node:fs";
+import { downsample } from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const out = downsample(Uint8Array.from(c.src), c.width, c.height, c.row, c.bgra, c.filter);
+console.log(JSON.stringify(Array.from(out)));
+"""
+
+
+def _cubic(t, b=1 / 3, c=1 / 3):
+    """pygfx's ssaa.wgsl cubicWeights (Mitchell with B = C = 1/3), written out here."""
+    t = abs(t)
+    if t < 1:
+        return ((12 - 9 * b - 6 * c) * t ** 3 + (-18 + 12 * b + 6 * c) * t ** 2 + (6 - 2 * b)) / 6
+    if t <= 2:
+        return ((-b - 6 * c) * t ** 3 + (6 * b + 30 * c) * t ** 2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)) / 6
+    return 0.0
+
+
+@pytest.mark.parametrize("bgra", [False, True])
+def test_browser_export_filter_is_pygfx_supersampling(bgra):
+    """engine.js's downsample (the browser's anti-aliased Save PNG and save_png), run with
+    Node.js on random pixels, gives what a direct 2D Mitchell filter in linear light over
+    the clamped picture gives (pygfx's SSAA of the kernel's exports), to 1/255."""
+    import json
+    import shutil
+    import subprocess
+
+    from grasswidget.browser.view import HERE as browser_dir
+    from grasswidget.core.frame_data import export_filter
+
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        pytest.skip("Node.js is not installed (runs engine.js's downsample outside a browser)")
+    f, (w, h) = 2, (9, 7)
+    rng = np.random.default_rng(4)
+    img = rng.integers(0, 256, (h * f, w * f, 3))
+    img[:, : w * f // 2] //= 8  # a dark half: a hard edge, as at blade borders
+    row = 4 * w * f + 8  # rows padded, as WebGPU's copies are
+    buf = np.zeros((h * f, row), np.uint8)
+    rgba = np.concatenate([img[..., ::-1] if bgra else img, np.full((h * f, w * f, 1), 255)], axis=2)
+    buf[:, : 4 * w * f] = rgba.reshape(h * f, -1)
+    url = (browser_dir / "engine.js").resolve().as_uri()
+    case = {"src": buf.ravel().tolist(), "width": w, "height": h, "row": row, "bgra": bgra,
+            "filter": export_filter(f)}
+    run = subprocess.run([node, "--input-type=module", "-e", _DOWNSAMPLE_DRIVER % json.dumps(url)],
+                         input=json.dumps(case), capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    got = np.array(json.loads(run.stdout)).reshape(h, w, 4)
+
+    lin = img / 255.0
+    lin = np.where(lin <= 0.04045, lin / 12.92, ((lin + 0.055) / 1.055) ** 2.4)
+    want = np.zeros((h, w, 3))
+    for y in range(h):
+        for x in range(w):
+            acc, total = np.zeros(3), 0.0
+            for sy in range(f * y - 4, f * y + 6):
+                for sx in range(f * x - 4, f * x + 6):
+                    wt = _cubic((sx + 0.5 - f * (x + 0.5)) / f) * _cubic((sy + 0.5 - f * (y + 0.5)) / f)
+                    acc += wt * lin[min(max(sy, 0), h * f - 1), min(max(sx, 0), w * f - 1)]
+                    total += wt
+            want[y, x] = acc / total
+    want = np.clip(want, 0, 1)
+    want = np.round(255 * np.where(want <= 0.0031308, 12.92 * want, 1.055 * want ** (1 / 2.4) - 0.055))
+    assert np.abs(got[..., :3] - want).max() <= 1
+    assert (got[..., 3] == 255).all()
+    # and it is a filter, not a copy: the hard edge is softened
+    assert np.abs(got[..., :3] - img[::f, ::f]).max() > 20
