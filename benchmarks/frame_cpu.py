@@ -57,7 +57,8 @@ class _Parts:
         self.calls = collections.Counter()
         self._undo = []
 
-    def wrap(self, owner, name, label):
+    def wrap(self, owner, name, label, after=None):
+        """Time ``owner.name``; ``after`` (e.g. a GPU sync) runs inside the timing."""
         original = getattr(owner, name)
 
         def timed(*args, **kwargs):
@@ -65,6 +66,8 @@ class _Parts:
             try:
                 return original(*args, **kwargs)
             finally:
+                if after is not None:
+                    after()
                 self.ms[label] += 1e3 * (time.perf_counter() - t)
                 self.calls[label] += 1
 
@@ -122,6 +125,24 @@ def cpu_breakdown(scene, renderer, frames, profile_top=25):
     text = io.StringIO()
     pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(profile_top)
     out["profile_tottime"] = text.getvalue().splitlines()
+    text = io.StringIO()
+    pstats.Stats(prof, stream=text).sort_stats("cumulative").print_stats("pygfx|grasswidget", 2 * profile_top)
+    out["profile_cumulative"] = text.getvalue().splitlines()
+    # The same parts, each followed by a GPU sync: CPU + GPU of each in turn (serialised).
+    synced = _Parts()
+    synced.wrap(renderer, "render", "renderer.render + sync", after=sync)
+    synced.wrap(renderer, "flush", "renderer.flush + sync", after=sync)
+    synced.wrap(occlusion.OcclusionCulling, "second_phase", "occlusion second phase + sync", after=sync)
+    synced.wrap(type(field), "step", "field.step + sync", after=sync)
+    try:
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            field.step(1)
+            scene.draw_into(renderer)
+        out["synced_frame_ms"] = 1e3 * (time.perf_counter() - t0) / frames
+    finally:
+        synced.restore()
+    out["synced_parts_ms"] = {k: v / frames for k, v in synced.ms.items()}
     return out
 
 
@@ -154,12 +175,16 @@ def look(scene, px_values, png_dir=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--blades", type=int, default=1 << 20)
+    ap.add_argument("--cpu-raster-max-px", type=float, default=None,
+                    help="compute_raster_max_px of the CPU part (default: the params' default)")
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--size", default=None, help="WxH (default: the meadow preset's 1920x1080)")
     ap.add_argument("--raster-max-px", type=float, nargs="*", default=[2.0, 3.0, 4.0, 6.0, 8.0])
     ap.add_argument("--steps", type=int, default=60, help="simulation steps before the pictures")
     ap.add_argument("--png-dir", default=None)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--profile", action="store_true", help="print the cProfile tables too (always in the JSON)")
+    ap.add_argument("--only-cpu", action="store_true", help="skip the look part")
     args = ap.parse_args(argv)
 
     import pygfx as gfx
@@ -176,13 +201,18 @@ def main(argv=None):
     report = dict(adapter=adapter_info(), blades=args.blades, size=f"{w}x{h}", frames=args.frames,
                   machine=dict(platform=platform.platform(), python=platform.python_version()),
                   date=time.strftime("%Y-%m-%d %H:%M:%S"), cpu={})
+    if args.cpu_raster_max_px is not None:
+        scene.params.compute_raster_max_px = args.cpu_raster_max_px
+    report["cpu_raster_max_px"] = scene.params.compute_raster_max_px
     for raster in (False, True):
         scene.params.compute_raster = raster
         report["cpu"]["on" if raster else "off"] = cpu_breakdown(scene, renderer, args.frames)
-    scene.step(args.steps)
-    if args.png_dir:
-        os.makedirs(args.png_dir, exist_ok=True)
-    report["look"] = look(scene, args.raster_max_px, args.png_dir)
+    report["look"] = []
+    if not args.only_cpu:
+        scene.step(args.steps)
+        if args.png_dir:
+            os.makedirs(args.png_dir, exist_ok=True)
+        report["look"] = look(scene, args.raster_max_px, args.png_dir)
 
     print(f"{report['adapter'].get('summary', '')}: meadow {args.blades} blades {w}x{h}")
     for key, row in report["cpu"].items():
@@ -190,7 +220,12 @@ def main(argv=None):
               f"process CPU {row['process_cpu_ms']:.2f} ms/frame")
         for part, ms in sorted(row["parts_ms"].items(), key=lambda kv: -kv[1]):
             print(f"    {part:36s} {ms:7.3f} ms  x{row['calls_per_frame'][part]:.1f}")
-        print("\n".join(row["profile_tottime"][:40]))
+        print(f"  each part + GPU sync: {row['synced_frame_ms']:.2f} ms/frame")
+        for part, ms in sorted(row["synced_parts_ms"].items(), key=lambda kv: -kv[1]):
+            print(f"    {part:36s} {ms:7.3f} ms")
+        if args.profile:
+            print("\n".join(row["profile_tottime"][:40]))
+            print("\n".join(row["profile_cumulative"][:70]))
     print(f"{'max px':>6} {'block diff':>10} {'grass on':>8} {'grass off':>9} {'hardware':>9} {'compute':>8}")
     for r in report["look"]:
         print(f"{r['compute_raster_max_px']:6g} {r['mean_block_difference']:10.3f} {r['grass_share_on']:8.4f} "

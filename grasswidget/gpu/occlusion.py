@@ -212,6 +212,12 @@ def _fields(scene):
     return out
 
 
+def _draws_something(ob) -> bool:
+    """True when ``ob`` or a visible descendant has a material (e.g. not GrassScene's
+    collider-ball group while there are no colliders): a late render of nothing is skipped."""
+    return any(o.material is not None for o in ob.iter(skip_invisible=True))
+
+
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
@@ -239,6 +245,7 @@ def render_frame(renderer, scene, camera, late=()):
     for ob in late:
         if ob.parent is not scene:
             raise GrassValueError("render_frame: the late objects must be direct children of the scene")
+    late = [ob for ob in late if _draws_something(ob)]
     try:
         for ob in late:
             ob.visible = False
