@@ -17,7 +17,9 @@ wind or a ball move between frames. :func:`render_frame` draws one frame as
    "passes every test now" for the next frame.
 3. ``renderer.render(field.occlusion.draws)`` (no clear): those blades, and with
    ``color_by = "cull"`` every culled blade in its test's colour (occlusion cyan).
-4. The translucent ``late`` objects (GrassScene's collider balls), with the lights.
+4. The translucent ``late`` objects (GrassScene's collider balls), with the lights (no
+   render call when none of them has anything to draw: on an H100's host a pygfx render
+   call costs about 1.5 ms of CPU).
 
 The pyramid holds only depths drawn in this frame with this camera; depth only
 gets nearer as more is drawn, so whatever it hides is hidden in the final picture:
