@@ -18,6 +18,7 @@ occlusion culling's second phase), ``sync()`` copies the field's world transform
 
 from __future__ import annotations
 
+import numpy as np
 import pygfx as gfx
 
 __all__ = ["ColliderBalls"]
@@ -40,6 +41,7 @@ class ColliderBalls(gfx.Group):
         self._geometry = gfx.sphere_geometry(1.0, 32, 16)
         self._ball_material = gfx.MeshPhongMaterial(color=color, opacity=opacity, alpha_mode="blend", shininess=60)
         self._meshes = []
+        self._followed = None  # the field's world matrix last copied (sync)
 
     @property
     def ball_material(self):
@@ -49,7 +51,12 @@ class ColliderBalls(gfx.Group):
     def sync(self):
         """Make the balls match ``field.colliders`` now (cheap; call before a render)."""
         if self.parent is not self._field:  # elsewhere in the scene: follow the field
-            self.local.matrix = self._field.world.matrix
+            matrix = self._field.world.matrix
+            if self._followed is None or not np.array_equal(self._followed, matrix):
+                self.local.matrix = matrix  # a decomposition: only when the field moved
+                self._followed = np.array(matrix)
+        else:
+            self._followed = None
         colliders = list(self._field.colliders)
         while len(self._meshes) < len(colliders):
             mesh = gfx.Mesh(self._geometry, self._ball_material)
