@@ -114,8 +114,9 @@ def wgsl_float(x: float) -> str:
 def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
-    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
-                            RECOVERY_FLOOR)
+    from .collider_grid import GRID_HEADER_WORDS
+    from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS,
+                            LOD_SEGMENTS, NOISE_SCALE, RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -125,6 +126,8 @@ def template_vars() -> dict:
         "recovery_floor": wgsl_float(RECOVERY_FLOOR),
         "collision_max": wgsl_float(COLLISION_MAX),
         "collision_passes": int(COLLISION_PASSES),
+        "collider_reach": wgsl_float(COLLIDER_REACH),
+        "grid_header_words": int(GRID_HEADER_WORDS),
         "noise_scale": wgsl_float(NOISE_SCALE),
         "workgroup_size": WORKGROUP_SIZE,
         "n_classes": len(LOD_SEGMENTS),

@@ -18,7 +18,8 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..core.colliders import collider_array
+from ..core.collider_grid import GRID_WORDS, build_collider_grid, root_bounds
+from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.enums import GravityMode, WindField
 from ..errors import WindShaderError
 from ..core.reference import wind_period
@@ -93,6 +94,8 @@ class SimulateShader(GrassComputeShader):
             0: Binding("u_sim", "buffer/uniform", wobject.simulation.uniform_buffer, "COMPUTE"),
             1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
             2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
+            3: Binding("s_colliders", "buffer/read_only_storage", wobject.simulation.colliders_buffer, "COMPUTE"),
+            4: Binding("s_collider_grid", "buffer/read_only_storage", wobject.simulation.grid_buffer, "COMPUTE"),
         }
         self.define_bindings(0, bindings)
         return {0: bindings}
@@ -108,7 +111,11 @@ class Simulation:
     """The physics of one :class:`~grasswidget.gpu.field.GrassField`.
 
     Attributes: ``uniform_buffer`` (the ``u_sim`` uniforms, written before every
-    dispatch), ``step_count`` (fixed steps since creation or the last reset; the
+    dispatch), ``colliders_buffer`` (the spheres, MAX_COLLIDERS vec4) and ``grid_buffer``
+    (the collider grid's u32 words, :mod:`grasswidget.core.collider_grid`; both written
+    when the colliders changed since the last write, shared with the inspector),
+    ``collider_grid`` (the last :class:`~grasswidget.core.collider_grid.ColliderGrid`
+    uploaded), ``step_count`` (fixed steps since creation or the last reset; the
     wind time is ``step_count * dt``), ``wind_body`` (the ``wind_wgsl`` snippet
     compiled into the current program, or None before the first compile).
     """
@@ -118,6 +125,14 @@ class Simulation:
         self.uniform_buffer = gfx.Buffer(
             array_from_shadertype(SIM_UNIFORM), force_contiguous=True, usage=wgpu.BufferUsage.UNIFORM
         )  # UNIFORM from the start: the inspector may write it before the first step
+        storage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST
+        self.colliders_buffer = gfx.Buffer(np.zeros((MAX_COLLIDERS, 4), np.float32), usage=storage)
+        self.grid_buffer = gfx.Buffer(np.zeros(GRID_WORDS, np.uint32), usage=storage)
+        self.collider_grid = None
+        self._grid_key = None
+        blades = field.blades
+        self._bounds = root_bounds(blades.v0)
+        self._max_height = float(np.max(blades.height)) if len(blades) else 0.0
         self.step_count = 0
         self.wind_body = None
         self._program = None
@@ -200,12 +215,27 @@ class Simulation:
         d["wind_direction_rad"] = rad
         d["collision_fade"] = p.collision_fade
         d["collision_gain"] = p.collision_gain
-        spheres = collider_array(field.colliders)
+        spheres = self.write_colliders()
         d["n_colliders"] = len(spheres)
-        d["colliders"][:] = 0.0
-        d["colliders"][: len(spheres)] = spheres
         device = ensure_device()
         device.queue.write_buffer(sync_buffer(self.uniform_buffer), 0, d.tobytes())
+
+    def write_colliders(self):
+        """Upload the spheres and their grid when the colliders changed since the last upload
+        (a new grid from :func:`~grasswidget.core.collider_grid.build_collider_grid`); return
+        the spheres (K, 4)."""
+        colliders = self.field.colliders
+        spheres = collider_array(colliders)
+        key = colliders.version if hasattr(colliders, "version") else spheres.tobytes()
+        if key == self._grid_key and self.collider_grid is not None:
+            return spheres
+        grid = build_collider_grid(spheres, self._bounds, self._max_height)
+        device = ensure_device()
+        if len(spheres):
+            device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.spheres.tobytes())
+        device.queue.write_buffer(sync_buffer(self.grid_buffer), 0, grid.words().tobytes())
+        self.collider_grid, self._grid_key = grid, key
+        return spheres
 
     # ------------------------------------------------------------------ time
 
@@ -240,5 +270,5 @@ class Simulation:
 
     def release(self):
         """Free the uniform buffer and drop the program."""
-        destroy_buffers([self.uniform_buffer])
+        destroy_buffers([self.uniform_buffer, self.colliders_buffer, self.grid_buffer])
         self._program = None
