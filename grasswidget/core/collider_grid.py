@@ -28,7 +28,7 @@ Both engines upload the same two arrays, built once whenever the colliders chang
   8 + 2 nx nz ...         the lists: sphere indices (u32), cell after cell
   ======================  ==============================================================
 
-The cell size follows the spheres (about the median reach diameter, 2 (R + reach)),
+The cell size follows the spheres (about the median reach radius, R + reach),
 so a blade typically tests the few spheres around it; the grid stays within
 :data:`MAX_GRID_CELLS` cells and :data:`MAX_GRID_ENTRIES` list entries (it is made
 coarser until it fits; one cell holding every sphere always fits), so the GPU
@@ -158,7 +158,8 @@ def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
     A sphere is listed in every cell whose xz square (the border cells reaching to
     infinity) comes within R + COLLIDER_REACH * max_height (plus a float32 margin) of its
     centre's xz, so every sphere in reach of a root is in the root's cell. Cells are square,
-    about the median of 2 (R + reach) wide, at least (bounds area / max_cells)^0.5, and at
+    about the median of R + reach wide (a blade then tests the spheres within about
+    1.5 (R + reach) of its cell: few, where a coarser grid lists more), at least (bounds area / max_cells)^0.5, and at
     most max_cells; while the lists exceed ``max_entries`` the cells double in size.
     Deterministic: the same inputs give the same words.
     """
@@ -172,8 +173,7 @@ def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
     if len(s) == 0:
         cell = max(width, depth, 1e-3)
     else:
-        diameter = float(np.median(2.0 * (s[:, 3] + reach)))
-        cell = max(diameter, np.sqrt(width * depth / max_cells), 1e-3 * scale)
+        cell = max(float(np.median(s[:, 3] + reach)), np.sqrt(width * depth / max_cells), 1e-3 * scale)
     while True:
         nx = max(1, int(np.ceil(width / cell)))
         nz = max(1, int(np.ceil(depth / cell)))
@@ -194,6 +194,15 @@ def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
     span_x = (ix1 - ix0 + 1)[k]
     cx = ix0[k] + local % span_x
     cz = iz0[k] + local // span_x
+    # drop the cells of a sphere's bounding square that its reach disc misses (the corners)
+    gx = np.clip(s[k, 0], b[0] + cx * cell, b[0] + (cx + 1) * cell)
+    gz = np.clip(s[k, 2], b[1] + cz * cell, b[1] + (cz + 1) * cell)
+    gx = np.where((cx == 0) & (s[k, 0] < b[0]), s[k, 0], gx)  # the border cells reach to infinity
+    gx = np.where((cx == nx - 1) & (s[k, 0] > b[0] + nx * cell), s[k, 0], gx)
+    gz = np.where((cz == 0) & (s[k, 2] < b[1]), s[k, 2], gz)
+    gz = np.where((cz == nz - 1) & (s[k, 2] > b[1] + nz * cell), s[k, 2], gz)
+    keep = (gx - s[k, 0]) ** 2 + (gz - s[k, 2]) ** 2 <= extent[k] ** 2
+    k, cx, cz = k[keep], cx[keep], cz[keep]
     cells = cz * nx + cx
     order = np.argsort(cells, kind="stable")
     items = k[order].astype(np.uint32)
