@@ -51,7 +51,7 @@ def test_sphere_collider_validates():
 def test_collider_list_limits(fresh):
     field = fresh
     balls = [gw.SphereCollider(center=(k, 5, 0), radius=0.1) for k in range(MAX_COLLIDERS + 1)]
-    field.colliders.extend(balls[:MAX_COLLIDERS])  # 16 is fine
+    field.colliders.extend(balls[:MAX_COLLIDERS])  # MAX_COLLIDERS is fine
     field.step(2)
     with pytest.raises(ValueError, match=f"colliders: at most {MAX_COLLIDERS}"):
         field.colliders.append(balls[-1])

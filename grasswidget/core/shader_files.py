@@ -28,14 +28,19 @@ The engine-neutral files and what they need:
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
     of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
 ``collisions.wgsl``
-    ``collide_spheres(v0, v1, v2)`` (the one loop over ``u_sim.n_colliders`` /
-    ``u_sim.colliders``, calling blade_math's ``collide_sphere``) and
+    ``collider_cell_range(v0)`` (the list of the root's cell of the collider grid),
+    ``collide_spheres(v0, v1, v2, height)`` (the one loop over the colliders: the
+    spheres of that list in reach, calling blade_math's ``collide_sphere``) and
     ``collision_passes(v0, v1, v2, up, height)`` (``collision_passes`` times: push,
-    then ``validate_pushed``); twins of the same names in ``reference.py``. Expects
-    ``u_sim``; included after ``blade_math.wgsl`` by the simulation and the inspector.
+    then ``validate_pushed``); twins of the same names in ``reference.py`` and
+    ``collider_grid.py``. Expects ``u_sim`` (``n_colliders``), ``s_colliders:
+    array<vec4<f32>>`` and ``s_collider_grid: array<u32>`` (read; the arrays of
+    :mod:`grasswidget.core.collider_grid`); included after ``blade_math.wgsl`` by the
+    simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
-    ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
+    ``s_blades`` (read_write), ``s_collision: array<f32>`` (read_write) and the
+    collider arrays of ``collisions.wgsl``.
 ``cull_body.wgsl``
     The culling entry point ``main``. Expects ``u_stdinfo`` (fields
     ``projection_transform``, ``cam_transform``, ``cam_transform_inv``,
@@ -54,7 +59,8 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
 :mod:`grasswidget.core.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
-``collision_passes``, ``noise_scale`` (from ``reference.py``),
+``collision_passes``, ``collider_reach``, ``noise_scale`` (from ``reference.py``),
+``grid_header_words`` (from ``collider_grid.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
 ``n_classes``, ``lod_segments``, ``lod_min_pixels`` (level-of-detail classes),
 ``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
