@@ -23,7 +23,7 @@ from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.enums import BladeShape, ColorBy, GravityMode, WindField
 from ..core.params import GrassParams
 from ..core.reference import wind_period
-from ..core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT  # one source for both engines
+from ..core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT, wgsl_struct  # one source for both engines
 
 __all__ = [
     "SIM_LAYOUT", "CULL_LAYOUT", "STDINFO_LAYOUT", "WOBJECT_LAYOUT", "MATERIAL_LAYOUT", "WIND_FIELD_IDS",
@@ -91,11 +91,6 @@ def struct_size(layout) -> int:
     for name, (off, dtype, count) in offsets(layout).items():
         end = max(end, off + 4 * count)
     return -(-end // 16) * 16
-
-
-def wgsl_struct(name, layout) -> str:
-    fields = "\n".join(f"    {f}: {t}," for f, t in layout)
-    return f"struct {name} {{\n{fields}\n}};"
 
 
 def layout_description(layout) -> dict:

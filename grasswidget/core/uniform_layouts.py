@@ -2,7 +2,8 @@
 
 A layout is a tuple of ``(field, wgsl_type)`` in the order the struct declares
 its fields. The kernel engine (pygfx) takes it as a shadertype dict through
-:func:`shadertype`; the browser engine packs bytes and writes the WGSL struct
+:func:`shadertype` (and binds ``u_cull`` as a read-only storage buffer declared
+with :func:`wgsl_struct`: see ``grasswidget.gpu.wgsl`` for why); the browser engine packs bytes and writes the WGSL struct
 from it (``grasswidget.browser.uniforms``). The order is the one pygfx lays a
 struct out in (16-byte-aligned fields first, then the 4-byte ones, each group in
 the order given), so both engines put every field at the same byte offset;
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 from ..errors import GrassValueError
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "shadertype", "wgsl_shadertype"]
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "shadertype", "wgsl_shadertype", "wgsl_struct"]
 
 #: ``u_sim``: the simulation's parameters (simulate.wgsl, inspect.wgsl). Vectors are
 #: vec4 (xyz used) so that the struct has no vec3 padding rules to get wrong.
@@ -85,3 +86,9 @@ def wgsl_shadertype(wgsl_type: str) -> str:
 def shadertype(layout) -> dict:
     """The pygfx shadertype dict of ``layout`` (for ``pygfx.utils.array_from_shadertype``)."""
     return {name: wgsl_shadertype(t) for name, t in layout}
+
+
+def wgsl_struct(name: str, layout) -> str:
+    """The WGSL ``struct name { ... };`` of ``layout``, fields in layout order."""
+    fields = "\n".join(f"    {f}: {t}," for f, t in layout)
+    return f"struct {name} {{\n{fields}\n}};"

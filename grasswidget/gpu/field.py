@@ -121,7 +121,9 @@ class GrassField(gfx.WorldObject):
             nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
             usage=usage.STORAGE,
         )
-        self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True)
+        # u_cull is bound as read-only storage, not as a uniform (see gpu/wgsl.py: lavapipe's leak).
+        self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True,
+                                              usage=usage.STORAGE)
         # The draw of the culled blades (color_by "cull"): args, and the list of
         # id | reason << 30, allocated (N u32) the first time "cull" is used.
         self._store.culled_args_buffer = gfx.Buffer(

@@ -29,12 +29,27 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_funct
 from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
 from ..core.shader_files import read_shader, ribbon_vars
+from ..core.uniform_layouts import CULL_LAYOUT
 from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
-from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, workgroups
+from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "grass_render_function",
-           "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE"]
+           "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE", "U_CULL_SLOT",
+           "U_CULL_CODE", "cull_binding"]
+
+#: Binding slot of ``u_cull`` in the culling and ribbon shaders. It is a read-only
+#: storage buffer, not a uniform: the shaders branch on its switches, and lavapipe
+#: leaks a recompiled shader per pass for branches on uniforms (see gpu/wgsl.py).
+U_CULL_SLOT = 2
+#: Its WGSL declaration (struct ``CullParams`` of ``uniform_layouts.CULL_LAYOUT``).
+U_CULL_CODE = storage_struct_code(0, U_CULL_SLOT, "u_cull", "CullParams", CULL_LAYOUT)
+
+
+def cull_binding(wobject, visibility):
+    """The ``u_cull`` binding: GrassField.cull_uniform_buffer as read-only storage
+    (declared by :data:`U_CULL_CODE`, not by pygfx)."""
+    return Binding("u_cull", "buffer/read_only_storage", wobject.cull_uniform_buffer, visibility)
 
 
 class ResetArgsShader(GrassComputeShader):
@@ -95,7 +110,7 @@ class CullShader(GrassComputeShader):
         bindings = {
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
-            2: Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "COMPUTE"),
+            U_CULL_SLOT: cull_binding(wobject, "COMPUTE"),
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
@@ -103,13 +118,14 @@ class CullShader(GrassComputeShader):
             14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
             15: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2, 10, 12, 13):
+        for slot in (0, 1, 10, 12, 13):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
         return (
             "{{ bindings_code }}\n"
+            + U_CULL_CODE +
             "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
             "@group(0) @binding(15) var<storage, read_write> s_bands: array<atomic<u32>>;\n"
@@ -149,18 +165,17 @@ class BladeRenderShader(BaseShader):
 
     def get_bindings(self, wobject, shared, scene):
         rbuffer = "buffer/read_only_storage"
-        bindings = [
-            Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
-            Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
-            Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
-            Binding("u_cull", "buffer/uniform", wobject.cull_uniform_buffer, "VERTEX"),
-            Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
-            Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
-        ]
+        bindings = {
+            0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
+            1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
+            U_CULL_SLOT: cull_binding(wobject, "VERTEX"),  # declared in get_code
+            3: Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
+            4: Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
+            5: Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
+        }
         if self["culled"]:
-            bindings.append(Binding("s_culled", rbuffer, wobject.culled_buffer, "VERTEX"))
-        bindings = dict(enumerate(bindings))
-        self.define_bindings(0, bindings)
+            bindings[6] = Binding("s_culled", rbuffer, wobject.culled_buffer, "VERTEX")
+        self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
         return {0: bindings}
 
     def get_pipeline_info(self, wobject, shared):
@@ -171,7 +186,7 @@ class BladeRenderShader(BaseShader):
         return {"indices": (2 * (self["segments"] + 1), 0)}
 
     def get_code(self):
-        return read_shader("blade_render.wgsl")
+        return U_CULL_CODE + read_shader("blade_render.wgsl")
 
 
 @register_wgpu_render_function(GrassField, GrassMaterial)
