@@ -8,7 +8,8 @@
 //            cull_uniform / material_uniform (packed structs), sim_layout
 //            (offsets of steps/time0), clock ({dt, wind_period}), playing,
 //            time_scale, camera ({position, target, fov_deg, near, far}),
-//            balls ([[x, y, z, r], ...]), scene_style, width, height.
+//            collider_spheres / collider_grid (the colliders and their grid, bytes;
+//            grasswidget.core.collider_grid), scene_style, width, height.
 //   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
 //            compile_simulate {id, shader}, lose_device (tests).
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
@@ -464,8 +465,10 @@ class GrassEngine {
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
       u_wobject: buffer(64, U.UNIFORM | U.COPY_DST, "u_wobject"),
       u_scene: buffer(96, U.UNIFORM | U.COPY_DST, "u_scene"),
-      s_balls: buffer(16 * 16, U.STORAGE | U.COPY_DST, "balls"),
+      s_colliders: buffer(this.model.get("collider_buffer_bytes")[0], U.STORAGE | U.COPY_DST, "colliders"),
+      s_collider_grid: buffer(this.model.get("collider_buffer_bytes")[1], U.STORAGE | U.COPY_DST, "collider grid"),
     };
+    this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
     this.argsRead = buffer(classes * 16, U.MAP_READ | U.COPY_DST, "args readback");
     device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]));
     this.uploadRestPose();
@@ -524,11 +527,16 @@ class GrassEngine {
     this.device.queue.writeBuffer(this.res.u_scene, 0, f);
   }
 
+  // The spheres and their grid, as Python built them (grasswidget.core.collider_grid).
   writeBalls() {
-    const balls = this.model.get("balls") || [];
-    const f = new Float32Array(64);
-    balls.slice(0, 16).forEach((b, i) => f.set(b, 4 * i));
-    this.device.queue.writeBuffer(this.res.s_balls, 0, f);
+    for (const [name, trait] of [["s_colliders", "collider_spheres"], ["s_collider_grid", "collider_grid"]]) {
+      const data = this.model.get(trait);
+      if (data && data.byteLength) {
+        this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+      }
+    }
+    const spheres = this.model.get("collider_spheres");
+    this.nBalls = spheres ? Math.floor(spheres.byteLength / 16) : 0;
   }
 
   // ---------------------------------------------------------------- simulation
@@ -625,7 +633,7 @@ class GrassEngine {
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
       else pass.drawIndirect(this.res.s_args, 16 * k);
     });
-    const balls = Math.min((this.model.get("balls") || []).length, 16);
+    const balls = this.nBalls || 0;
     if (balls > 0 && this.model.get("show_colliders")) {
       pass.setPipeline(sp.balls);
       pass.setBindGroup(0, sp.group);
@@ -816,7 +824,7 @@ class GrassEngine {
       switch (name) {
         case "cull_uniform": this.writeUniform("u_cull", "cull_uniform"); break;
         case "material_uniform": this.writeUniform("u_material", "material_uniform"); break;
-        case "balls": this.writeBalls(); break;
+        case "collider_spheres": case "collider_grid": this.writeBalls(); break;
         case "scene_style": this.writeSceneUniform(); break;
         case "blade_data": this.buildBuffers(); break;
         case "width": case "height": case "pixel_ratio": this.resize(); break;
@@ -844,7 +852,7 @@ export default {
     ENGINES.add(engine);
     const onMsg = (msg, buffers) => { engine.onMessage(msg, buffers); };
     model.on("msg:custom", onMsg);
-    const names = ["cull_uniform", "material_uniform", "balls", "scene_style", "blade_data", "width", "height",
+    const names = ["cull_uniform", "material_uniform", "collider_spheres", "collider_grid", "scene_style", "blade_data", "width", "height",
       "pixel_ratio"];
     const listeners = names.map((name) => {
       const fn = () => engine.onChange(name);

@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from ..errors import GrassValueError
+from ..core.collider_grid import GRID_WORDS, build_collider_grid, root_bounds
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.enums import BladeShape, ColorBy, GravityMode, WindField
 from ..core.params import GrassParams
@@ -122,15 +123,12 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
     rad = math.radians(p.wind_direction)
     g = np.asarray(p.gravity_direction, np.float64)
     g = g / max(np.linalg.norm(g), 1e-12)
-    spheres = collider_array(list(colliders))
-    padded = np.zeros((MAX_COLLIDERS, 4))
-    padded[: len(spheres)] = spheres
+    spheres = collider_array(colliders)
     return pack(SIM_LAYOUT, dict(
         gravity_dir=(*g, 0.0),
         wind_dir=(math.cos(rad), math.sin(rad), 0.0, 0.0),
         gravity_center=(*p.gravity_center, 0.0),
         wind_center=(*p.wind_center, 0.0),
-        colliders=padded,
         gravity=p.gravity,
         front_gravity=p.front_gravity,
         stiffness_scale=p.stiffness_scale,
@@ -147,6 +145,21 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
         collision_gain=p.collision_gain,
         n_colliders=len(spheres),
     ))
+
+
+#: Bytes of the browser's collider buffers: the spheres (MAX_COLLIDERS vec4) and the grid words.
+COLLIDER_BYTES = 16 * MAX_COLLIDERS
+GRID_BYTES = 4 * GRID_WORDS
+
+
+def collider_buffers(colliders, blades) -> tuple:
+    """(spheres, grid) bytes for ``s_colliders`` and ``s_collider_grid``: the same arrays the
+    kernel engine uploads (:func:`grasswidget.core.collider_grid.build_collider_grid` over the
+    blades' roots, for their tallest blade)."""
+    spheres = collider_array(colliders)
+    height = float(np.max(blades.height)) if len(blades) else 0.0
+    grid = build_collider_grid(spheres, root_bounds(blades.v0), height)
+    return grid.spheres.tobytes(), grid.words().tobytes()
 
 
 def cull_uniform(params: GrassParams, n_blades: int) -> bytes:
