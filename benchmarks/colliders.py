@@ -18,6 +18,8 @@ Usage (repository root)::
     python benchmarks/colliders.py --blades 65536 --out benchmarks/colliders_lavapipe.json
     python benchmarks/colliders.py --blades 1048576 --out benchmarks/colliders_h100.json
 
+``--no-grid`` also times each K with a one-cell grid (every blade tests every ball), interleaved.
+
 Prints a table and writes the JSON (machine, adapter, figures).
 """
 
@@ -38,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import grasswidget as gw  # noqa: E402
-from grasswidget.core.collider_grid import build_collider_grid, root_bounds  # noqa: E402
+from grasswidget.core.collider_grid import MAX_GRID_CELLS, build_collider_grid, root_bounds  # noqa: E402
 from grasswidget.core.reference import COLLIDER_REACH  # noqa: E402
 
 BALLS = (1, 16, 256, 1024)
@@ -60,6 +62,8 @@ def main(argv=None):
     ap.add_argument("--steps", type=int, default=4, help="steps per timed sample (one dispatch)")
     ap.add_argument("--rounds", type=int, default=12, help="interleaved rounds (samples per K)")
     ap.add_argument("--out", type=Path, default=None, help="JSON file to write")
+    ap.add_argument("--no-grid", action="store_true",
+                    help="also time every K with a one-cell grid (each blade tests every ball: the paper's loop)")
     args = ap.parse_args(argv)
 
     from grasswidget.gpu.adapter import ensure_device
@@ -74,7 +78,8 @@ def main(argv=None):
     def sync():
         device.queue.read_buffer(sync_buffer(small), 0, 4)
 
-    def run(k):
+    def run(k, cells=None):
+        field.simulation.max_grid_cells = cells or MAX_GRID_CELLS
         field.colliders.set_array(balls[:k])
         field.step(1)  # uploads the colliders and their grid (outside the timing)
         sync()
@@ -86,9 +91,12 @@ def main(argv=None):
     for k in args.balls:  # warm-up
         run(k)
     samples = {k: [] for k in args.balls}
+    looped = {k: [] for k in args.balls}
     for _ in range(args.rounds):
         for k in args.balls:
             samples[k].append(run(k))
+            if args.no_grid:
+                looped[k].append(run(k, cells=1))
 
     rows = []
     bounds, h_max = root_bounds(blades.v0), float(blades.height.max())
@@ -105,6 +113,9 @@ def main(argv=None):
                          step_ms_p90=float(np.percentile(samples[k], 90)), ratio_to_first=med / base,
                          grid_cells=[grid.nx, grid.nz], grid_entries=int(len(grid.items)),
                          spheres_tested_per_blade=float(tested), blades_touched=touched))
+        if args.no_grid:
+            rows[-1]["no_grid_step_ms_median"] = statistics.median(looped[k])
+            rows[-1]["no_grid_ratio_to_first"] = statistics.median(looped[k]) / base
     report = dict(
         benchmark="colliders", blades=args.blades, size_m=args.size, steps_per_sample=args.steps,
         rounds=args.rounds, collider_reach_heights=COLLIDER_REACH, blade_height_m=[0.5, 1.0],
@@ -119,7 +130,9 @@ def main(argv=None):
     for r in rows:
         print(f"{r['balls']:>6} {r['step_ms_median']:>9.3f} {r['step_ms_p10']:>7.3f} {r['step_ms_p90']:>7.3f} "
               f"{r['ratio_to_first']:>8.2f} {r['grid_cells'][0] * r['grid_cells'][1]:>7} {r['grid_entries']:>8} "
-              f"{r['spheres_tested_per_blade']:>7.2f} {r['blades_touched']:>8.1%}")
+              f"{r['spheres_tested_per_blade']:>7.2f} {r['blades_touched']:>8.1%}"
+              + (f"   no grid: {r['no_grid_step_ms_median']:.3f} ms, x{r['no_grid_ratio_to_first']:.2f}"
+                 if args.no_grid else ""))
     if args.out:
         args.out.write_text(json.dumps(report, indent=2) + "\n")
         print(f"wrote {args.out}")

@@ -18,7 +18,7 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..core.collider_grid import GRID_WORDS, build_collider_grid, root_bounds
+from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS, build_collider_grid, root_bounds
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.enums import GravityMode, WindField
 from ..errors import WindShaderError
@@ -129,6 +129,9 @@ class Simulation:
         self.colliders_buffer = gfx.Buffer(np.zeros((MAX_COLLIDERS, 4), np.float32), usage=storage)
         self.grid_buffer = gfx.Buffer(np.zeros(GRID_WORDS, np.uint32), usage=storage)
         self.collider_grid = None
+        #: Most cells of the collider grid (default MAX_GRID_CELLS); 1 makes every blade test
+        #: every sphere (the paper's loop: for comparisons in tests and benchmarks).
+        self.max_grid_cells = MAX_GRID_CELLS
         self._grid_key = None
         blades = field.blades
         self._bounds = root_bounds(blades.v0)
@@ -226,10 +229,10 @@ class Simulation:
         the spheres (K, 4)."""
         colliders = self.field.colliders
         spheres = collider_array(colliders)
-        key = colliders.version if hasattr(colliders, "version") else spheres.tobytes()
+        key = (colliders.version if hasattr(colliders, "version") else spheres.tobytes(), self.max_grid_cells)
         if key == self._grid_key and self.collider_grid is not None:
             return spheres
-        grid = build_collider_grid(spheres, self._bounds, self._max_height)
+        grid = build_collider_grid(spheres, self._bounds, self._max_height, max_cells=self.max_grid_cells)
         device = ensure_device()
         if len(spheres):
             device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.spheres.tobytes())
