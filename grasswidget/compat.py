@@ -1,4 +1,4 @@
-"""Every use of private or internal API of pygfx, wgpu, jupyter-rfb and rendercanvas.
+"""Every use of private or internal API of pygfx, wgpu, jupyter-rfb, rendercanvas, ipykernel and ipywidgets.
 
 Nothing else in grasswidget touches a name that starts with an underscore in
 another package, or an internal module of one. Each function below names what
@@ -39,10 +39,17 @@ __all__ = [
     "event_ratio",
     "with_ratio",
     "kernel_parent_ident",
+    "kernel_has_shell_socket",
+    "kernel_shell_socket",
+    "kernel_dispatch_comm",
+    "kernel_requeue_shell",
+    "timed_jupyter_canvas_class",
+    "widget_registry",
 ]
 
 #: The versions every use below was written and tested against.
-CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0"}
+CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0",
+           "ipywidgets": "8.1.9"}
 
 #: (package, what is used, why): the table ``tests/test_compat.py`` walks.
 PRIVATE_USES = (
@@ -68,11 +75,25 @@ PRIVATE_USES = (
     ("wgpu", "GPUDevice._poll", "process finished GPU work without blocking (statistics)"),
     ("wgpu", "GPUPromise._state", "whether a map_async promise has settled (statistics never block)"),
     ("wgpu", "backends.wgpu_native.extras.write_timestamp", "GPU timestamps inside pygfx's render pass"),
+    ("rendercanvas", "jupyter.RenderCanvas._rc_present_bitmap",
+     "the Jupyter canvas's hook that receives each rendered frame; timed (readback ms on the stats line)"),
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("ipywidgets", "widgets.widget._instances",
+     "the registry of open widgets (model id -> widget): not a holder when a re-run cell decides whether to close "
+     "its earlier widget (cell_rerun.holder_of)"),
     ("ipykernel", "Kernel._parent_ident",
      "the routing identity of the running cell's request, to hand deferred shell messages back (browser.kernel_pump)"),
+    ("ipykernel", "Kernel.shell_channel_thread.manager.get_shell_channel_to_subshell_pair(None).to_socket",
+     "the inproc socket the main shell's messages arrive on (ipykernel 7 subshells); read while a cell waits"),
+    ("ipykernel", "Kernel.shell_stream.socket", "the shell socket of a kernel without a shell channel thread"),
+    ("ipykernel", "Kernel.dispatch_shell(frames, concurrent=True)",
+     "handle a comm message now, inside a running cell (what ipykernel does for a cell awaiting a widget reply)"),
+    ("ipykernel", "Kernel.shell_main(subshell_id, frames)",
+     "the main shell's message handler: deferred messages are handed back to it, in order, after the cell"),
+    ("ipykernel", "Kernel.do_one_iteration",
+     "present in ipykernel 6 (jupyter-ui-poll pumps it); absent with the shell channel thread"),
 )
 
 
@@ -270,3 +291,73 @@ def kernel_parent_ident(kernel, channel: str = "shell") -> bytes:
     if idents is None:
         return b""
     return idents[channel]
+
+
+def kernel_has_shell_socket(kernel) -> bool:
+    """Whether ``kernel`` receives shell messages on a socket we can read while a cell
+    runs (ipykernel 7: a shell channel thread, or no ``do_one_iteration`` to pump);
+    False for ipykernel 6 (use jupyter-ui-poll there)."""
+    return getattr(kernel, "shell_channel_thread", None) is not None or not hasattr(kernel, "do_one_iteration")
+
+
+def kernel_shell_socket(kernel):
+    """The zmq socket the main shell's messages arrive on (ipykernel 7.4: the shell
+    channel thread's inproc pair to the main shell, ``manager.get_shell_channel_to_subshell_pair(None)
+    .to_socket``; without that thread the shell stream's socket)."""
+    thread = getattr(kernel, "shell_channel_thread", None)
+    if thread is not None:
+        return thread.manager.get_shell_channel_to_subshell_pair(None).to_socket
+    return kernel.shell_stream.socket
+
+
+def kernel_dispatch_comm(kernel, frames):
+    """The coroutine that handles one shell message (``frames``, as read from
+    :func:`kernel_shell_socket`) at once, alongside the running cell (ipykernel 7.4:
+    ``dispatch_shell(frames, concurrent=True)``, as it does for a cell awaiting a widget reply)."""
+    return kernel.dispatch_shell(frames, concurrent=True)
+
+
+def kernel_requeue_shell(kernel, frames):
+    """Hand a shell message back to the kernel's loop, to run after the current cell in
+    the order handed back (ipykernel 7.4: ``io_loop.add_callback(shell_main, None, frames)``;
+    ``None`` is the main shell's subshell id)."""
+    kernel.io_loop.add_callback(kernel.shell_main, None, frames)
+
+
+# ------------------------------------------------------------------ rendercanvas
+
+
+def timed_jupyter_canvas_class():
+    """A subclass of rendercanvas's Jupyter ``RenderCanvas`` that calls
+    ``self.on_present(perf_counter_seconds)`` (when set) as each rendered frame's
+    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook)."""
+    import time
+
+    from rendercanvas.jupyter import RenderCanvas
+
+    if not callable(getattr(RenderCanvas, "_rc_present_bitmap", None)):
+        raise UpstreamChangedError("rendercanvas internals changed: jupyter.RenderCanvas._rc_present_bitmap not found")
+
+    class TimedJupyterCanvas(RenderCanvas):
+        #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
+        on_present = None
+
+        def _rc_present_bitmap(self, *, data, format, **kwargs):
+            if self.on_present is not None:
+                self.on_present(time.perf_counter())
+            super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+    return TimedJupyterCanvas
+
+
+# ------------------------------------------------------------------ ipywidgets
+
+
+def widget_registry() -> dict:
+    """ipywidgets' registry of open widgets, {model_id: widget} (ipywidgets 8.1:
+    ``ipywidgets.widgets.widget._instances``; the public ``Widget.widgets`` that
+    returns it is deprecated). An empty dict when this ipywidgets has none."""
+    from ipywidgets.widgets import widget
+
+    registry = getattr(widget, "_instances", None)
+    return registry if isinstance(registry, dict) else {}

@@ -6,24 +6,26 @@ it has always been (``ValueError`` for a bad value, ``TypeError`` for a value of
 the wrong kind, ``RuntimeError`` for the environment, ...), so existing
 ``except ValueError`` code keeps working.
 
-=========================  ==================================  ===============================================
-error                      also a                              raised for
-=========================  ==================================  ===============================================
-``GrassValueError``        ``ValueError``                      a bad value (range, shape, choice, file suffix)
-``GrassTypeError``         ``TypeError``                       an argument of the wrong kind
-``ParameterError``         ``GrassValueError``, ``TraitError``  a trait value outside its range or choices
-``UnknownNameError``       ``AttributeError``                  an unknown trait/attribute name (with a hint)
-``MissingLimitError``      ``KeyError``                        device limits without the buffer-size keys
-``BladeCountError``        ``GrassValueError``                 more blades than memory holds
-``BladeLimitError``        ``BladeCountError``                 more blades than one GPU buffer binding holds
-``WindShaderError``        ``GrassValueError``                 a ``wind_wgsl`` snippet that does not compile
-``MissingFileError``       ``FileNotFoundError``               an output folder or shipped shader not there
-``MissingDependencyError`` ``ImportError``                     an optional package a feature needs
-``NoGPUAdapterError``      ``RuntimeError``                    no usable WebGPU adapter
-``WidgetClosedError``      ``RuntimeError``                    using a closed widget
-``UpstreamChangedError``   ``RuntimeError``                    a pygfx internal that compat.py relies on moved
-``BrowserTimeoutError``    ``TimeoutError``                    the browser view did not answer in time
-=========================  ==================================  ===============================================
+==============================  ==================================  ===============================================
+error                           also a                              raised for
+==============================  ==================================  ===============================================
+``GrassValueError``             ``ValueError``                      a bad value (range, shape, choice, file suffix)
+``GrassTypeError``              ``TypeError``                       an argument of the wrong kind
+``ParameterError``              ``GrassValueError``, ``TraitError``  a trait value outside its range or choices
+``UnknownNameError``            ``AttributeError``                  an unknown trait/attribute name (with a hint)
+``MissingLimitError``           ``KeyError``                        device limits without the buffer-size keys
+``BladeCountError``             ``GrassValueError``                 more blades than memory holds
+``BladeLimitError``             ``BladeCountError``                 more blades than one GPU buffer binding holds
+``WindShaderError``             ``GrassValueError``                 a ``wind_wgsl`` snippet that does not compile
+``MissingFileError``            ``FileNotFoundError``               an output folder or shipped shader not there
+``MissingDependencyError``      ``ImportError``                     an optional package a feature needs
+``NoGPUAdapterError``           ``RuntimeError``                    no usable WebGPU adapter
+``WidgetClosedError``           ``RuntimeError``                    using a closed widget
+``UpstreamChangedError``        ``RuntimeError``                    a pygfx internal that compat.py relies on moved
+``BrowserTimeoutError``         ``TimeoutError``                    the browser view did not answer in time
+``PageBuildError``              ``RuntimeError``                    a live page that could not be described (a bug)
+``FeatureNotAvailableError``    ``NotImplementedError``             a feature one engine does not have (yet)
+==============================  ==================================  ===============================================
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
+    "FeatureNotAvailableError", "PageBuildError",
 ]
 
 
@@ -127,3 +130,21 @@ class UpstreamChangedError(GrassError, RuntimeError):
 
 class BrowserTimeoutError(GrassError, TimeoutError):
     """The browser view did not answer a request in time."""
+
+
+class PageBuildError(GrassError, RuntimeError):
+    """The live page's controls could not be described as patches of the browser
+    engine's state (two controls touch the same state, or the ball's position does
+    not map affinely onto it): a bug in grasswidget, not bad input."""
+
+
+class FeatureNotAvailableError(GrassError, NotImplementedError):
+    """A view of one engine does not have this feature (yet), e.g. the blade inspector in
+    the browser engine. ``feature`` names it for people ("the blade inspector") and
+    ``backend`` is the engine ("browser"); the message says both. GrassWidget shows it on
+    its message line instead of raising."""
+
+    def __init__(self, feature: str, backend: str):
+        super().__init__(f"{feature} is not available in the {backend} engine yet")
+        self.feature = feature
+        self.backend = backend

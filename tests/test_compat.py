@@ -2,6 +2,8 @@
 exists and behaves as it did in the versions it was checked against. An upgrade
 that changes one fails here, by name."""
 
+import types
+
 import numpy as np
 import pytest
 
@@ -192,3 +194,71 @@ def test_ipykernel_parent_ident():
     assert compat.kernel_parent_ident(kernel, "shell") == b"cell-7"
     assert compat.kernel_parent_ident(kernel, "control") == b""
     assert compat.kernel_parent_ident(object()) == b""  # a kernel without it (ipykernel 6 path)
+
+
+def test_ipykernel_shell_socket_internals():
+    """browser.kernel_pump reads the main shell's socket while a cell waits, dispatches comm
+    messages at once and hands the rest back (compat.kernel_shell_socket, kernel_dispatch_comm,
+    kernel_requeue_shell): the ipykernel 7.4 names and signatures they call."""
+    import inspect
+
+    from ipykernel.kernelbase import Kernel
+    from ipykernel.socket_pair import SocketPair
+    from ipykernel.subshell_manager import SubshellManager
+
+    assert "concurrent" in inspect.signature(Kernel.dispatch_shell).parameters
+    assert inspect.iscoroutinefunction(Kernel.dispatch_shell)
+    assert list(inspect.signature(Kernel.shell_main).parameters)[1:3] == ["subshell_id", "msg"]
+    assert callable(getattr(SubshellManager, "get_shell_channel_to_subshell_pair", None))
+    assert "to_socket" in inspect.get_annotations(SocketPair)
+    assert "shell_channel_thread" in Kernel.class_traits() and "shell_stream" in Kernel.class_traits()
+    assert not hasattr(Kernel, "do_one_iteration")  # ipykernel 6 had it (the jupyter-ui-poll path)
+
+    class FakeThread:  # what compat reads of the shell channel thread, and nothing more
+        class manager:
+            @staticmethod
+            def get_shell_channel_to_subshell_pair(subshell_id):
+                assert subshell_id is None  # the main shell
+                return types.SimpleNamespace(to_socket="main-shell-socket")
+
+    calls = []
+    kernel = types.SimpleNamespace(
+        shell_channel_thread=FakeThread(), dispatch_shell=lambda frames, concurrent: calls.append((frames, concurrent)),
+        io_loop=types.SimpleNamespace(add_callback=lambda *a: calls.append(a)), shell_main="shell_main")
+    assert compat.kernel_has_shell_socket(kernel) and compat.kernel_shell_socket(kernel) == "main-shell-socket"
+    compat.kernel_dispatch_comm(kernel, ["f"])
+    compat.kernel_requeue_shell(kernel, ["g"])
+    assert calls == [(["f"], True), ("shell_main", None, ["g"])]
+    old_style = types.SimpleNamespace(shell_channel_thread=None, do_one_iteration=lambda: None)
+    assert not compat.kernel_has_shell_socket(old_style)
+
+
+def test_rendercanvas_present_hook_times_each_frame():
+    """rendercanvas 2.7's Jupyter canvas hands every rendered frame to _rc_present_bitmap,
+    which sends it; compat.timed_jupyter_canvas_class reports the arrival first."""
+    from rendercanvas.jupyter import RenderCanvas
+
+    cls = compat.timed_jupyter_canvas_class()
+    assert issubclass(cls, RenderCanvas) and callable(getattr(RenderCanvas, "_rc_present_bitmap", None))
+    canvas = cls(size=(8, 6))
+    seen = []
+    canvas.on_present = seen.append
+    sent = []
+    canvas.send_frame = sent.append  # jupyter-rfb's public method, called by the present hook
+    frame = np.zeros((6, 8, 4), np.uint8)
+    canvas._rc_present_bitmap(data=frame, format="rgba-u8")
+    assert len(seen) == 1 and isinstance(seen[0], float) and len(sent) == 1 and sent[0].shape == (6, 8, 4)
+    canvas.close()
+
+
+def test_ipywidgets_registry_holds_open_widgets():
+    """cell_rerun does not count ipywidgets' registry of open widgets as a holder
+    (ipywidgets 8.1: widgets.widget._instances, model id -> widget)."""
+    import ipywidgets as ipw
+
+    label = ipw.Label("x")
+    registry = compat.widget_registry()
+    model_id = label.model_id
+    assert registry[model_id] is label
+    label.close()
+    assert model_id not in compat.widget_registry()

@@ -1,4 +1,4 @@
-"""Issue 12 item 5: ``gw.GrassError`` is the root of every error grasswidget raises on purpose.
+"""``gw.GrassError`` is the root of every error grasswidget raises on purpose.
 
 Two checks: the package's source never raises a bare built-in exception class (or
 traitlets' TraitError) -- every ``raise`` names one of :mod:`grasswidget.errors`,
@@ -88,6 +88,7 @@ def test_each_error_is_also_its_builtin():
         "BladeLimitError": ValueError, "WindShaderError": ValueError, "MissingFileError": FileNotFoundError,
         "MissingDependencyError": ImportError, "NoGPUAdapterError": RuntimeError, "WidgetClosedError": RuntimeError,
         "UpstreamChangedError": RuntimeError, "BrowserTimeoutError": TimeoutError,
+        "FeatureNotAvailableError": NotImplementedError, "PageBuildError": RuntimeError,
     }
     assert set(expect) == set(errors.__all__) - {"GrassError"}
     for name, base in expect.items():

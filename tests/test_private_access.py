@@ -1,4 +1,4 @@
-"""Issue 12 items 6 and 8: no module of ours reads another's private attributes, and
+"""No module of ours reads another's private attributes, and
 no test reaches into a private name.
 
 An ast walk over grasswidget/ and tests/: ``x._name`` (and ``getattr(x, "_name")``,

@@ -2,28 +2,35 @@
 // ribbons, run in the notebook's browser with WebGPU (an anywidget ES module;
 // shipped inside the wheel, nothing is fetched at run time).
 //
-// Python (grasswidget/browser/view.py) sends:
-//   traits   blade_data (rest pose, N x 64 bytes), n_blades, shaders (WGSL text +
-//            binding maps, rendered from the project's files), sim_uniform /
-//            cull_uniform / material_uniform (packed structs), sim_layout
-//            (offsets of steps/time0), clock ({dt, wind_period}), playing,
+// The engine only executes what Python describes (grasswidget/browser/view.py):
+//   traits   engine_key (one engine per widget model), blade_data (rest pose,
+//            N x 64 bytes), n_blades, shaders (WGSL text + binding maps + the
+//            compute passes of a frame, in order), sim_uniform / cull_uniform /
+//            material_uniform / sky_ground_uniform / ball_uniform (packed structs,
+//            computed in Python: grasswidget.core.frame_data), sim_layout / stdinfo_layout
+//            (field offsets), frame_rules ({clock: {dt, wind_period,
+//            max_steps_per_frame}, orbit: OrbitLimits, style}), playing,
 //            time_scale, camera ({position, target, fov_deg, near, far}),
 //            collider_spheres / collider_grid (the colliders and their grid, bytes;
-//            grasswidget.core.collider_grid), scene_style, width, height.
+//            grasswidget.core.collider_grid; the balls are drawn from the spheres),
+//            show_colliders, report_steps, width, height, pixel_ratio.
 //   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
 //            compile_simulate {id, shader}, lose_device (tests).
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
 // compiled, error and device_lost messages. Fixed steps: step(n) runs exactly n
-// steps of dt; playing follows the wall clock in whole steps of dt.
+// steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
+// rules (SimClock below).
+//
+// One engine per widget model (GPU device, buffers, simulation, clock), however
+// many times the widget is displayed: anywidget's initialize() makes it, each
+// render() only adds a view (a canvas) of it, and every view draws the same
+// meadow from the same camera.
 
-const MAX_STEPS_PER_FRAME = 240;
-// Playing follows the wall clock down to 15 frames/s; a slower frame advances
-// 1/15 s of simulated time (slow motion) instead of taking ever more steps.
-const MAX_FRAME_TIME = 1 / 15;
 const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;
 const MAX_FRAMES_IN_FLIGHT = 2;
 const WORKGROUP = 256;
+
 
 // ------------------------------------------------------------------ small math (column-major 4x4)
 
@@ -93,35 +100,93 @@ function perspective(fovDeg, aspect, near, far) {
   return m;
 }
 
-// ------------------------------------------------------------------ the engine
 
-class GrassEngine {
-  constructor(model, el) {
-    this.model = model;
-    this.el = el;
-    this.queue = [];          // messages that arrived before the device was ready
-    this.ready = false;
-    this.closed = false;
-    this.device = null;
-    this.stepCount = 0;
-    this.accumulator = 0;
-    this.lastTime = null;
-    this.inFlight = 0;
-    this.frames = 0;          // frames whose GPU work completed
-    this.statsFrames = 0;
-    this.statsTime = performance.now();
-    this.visible = null;      // per LOD class, from the last args readback
-    this.argsReadPending = false;
-    this.lastFrameMs = null;
-    this.handlers = [];
-    this.expectLoss = false;
-    this.recoveries = 0;
-    // Start-up milestones (performance.now() ms), read by benchmarks.
-    this.timing = { created: performance.now() };
-    this.buildDom();
+// ------------------------------------------------------------------ rules from Python, executed here
+
+// grasswidget.notebook.clock.SimClock, line for line: wall seconds (times time_scale) spent in
+// whole fixed steps of dt; at most maxSteps a frame, the rest dropped (slow motion).
+export class SimClock {
+  constructor(maxSteps) {
+    this.maxSteps = maxSteps;
+    this.running = false;
+    this.last = null;
+    this.acc = 0;
+    this.lastSteps = 0;
+    this.capped = false;
   }
 
-  // ---------------------------------------------------------------- DOM and input
+  start(now) {
+    if (!this.running) { this.running = true; this.last = now; }
+  }
+
+  stop() {
+    this.running = false;
+    this.last = null;
+    this.acc = 0;
+  }
+
+  reset(now) {
+    this.acc = 0;
+    if (this.running) this.last = now;
+  }
+
+  // Steps owed for the wall time (seconds) since the last call; 0 while stopped.
+  frameSteps(now, dt, timeScale) {
+    if (!this.running) { this.lastSteps = 0; this.capped = false; return 0; }
+    const wall = Math.max(0, now - this.last) * Math.max(0, timeScale);
+    this.last = now;
+    this.acc += wall;
+    let n = Math.floor(this.acc / dt + 1e-9);
+    this.capped = n > this.maxSteps;
+    if (this.capped) { n = this.maxSteps; this.acc = 0; } else this.acc = Math.max(0, this.acc - n * dt);
+    this.lastSteps = n;
+    return n;
+  }
+}
+
+function clamp(x, lo, hi) { return Math.min(Math.max(x, lo), hi); }
+
+// grasswidget.core.orbit_limits.clamp_orbit, line for line: (position, target) moved the least way into
+// the limits (an OrbitLimits as a dict): target into its box (the camera follows), distance
+// into the zoom range, elevation into its range (keeping the azimuth).
+export function clampOrbit(position, target, limits) {
+  const L = limits;
+  const c = [clamp(target[0], L.lo[0], L.hi[0]), 0, clamp(target[2], L.lo[1], L.hi[1])];
+  const floor = L.ground_y === null || L.ground_y === undefined ? -Infinity : L.ground_y;
+  c[1] = Math.min(Math.max(target[1], floor), L.top_y);
+  const pos = add(position, sub(c, target));
+  let off = sub(pos, c);
+  let d = Math.hypot(...off);
+  if (d < 1e-9) { off = [0, 0, 1]; d = 1e-9; }
+  const dNew = clamp(d, L.min_distance, L.max_distance);
+  let dir = scale(off, 1 / d);
+  const el = Math.asin(clamp(dir[1] / Math.max(Math.hypot(...dir), 1e-12), -1, 1));
+  let loEl;
+  if (floor === -Infinity) loEl = -(L.max_elevation_deg * Math.PI) / 180;
+  else loEl = Math.asin(clamp((L.ground_y + L.clearance - c[1]) / Math.max(dNew, 1e-9), -1, 1));
+  const hiEl = (L.max_elevation_deg * Math.PI) / 180;
+  const elNew = Math.min(Math.max(el, loEl), hiEl);
+  if (elNew !== el) {
+    let horizontal = [dir[0], 0, dir[2]];
+    const h = Math.hypot(...horizontal);
+    horizontal = h > 1e-9 ? scale(horizontal, 1 / h) : [0, 0, 1];
+    dir = add(scale(horizontal, Math.cos(elNew)), [0, Math.sin(elNew), 0]);
+  }
+  return [add(c, scale(dir, dNew)), c];
+}
+
+// ------------------------------------------------------------------ a view: one display of the widget
+
+class GrassView {
+  constructor(engine, model, el) {
+    this.engine = engine;
+    this.model = model;       // this view's model handle (the same model as the engine's)
+    this.el = el;
+    this.handlers = [];
+    this.context = null;
+    this.depth = null;
+    this.buildDom();
+  }
 
   buildDom() {
     const w = this.model.get("width"), h = this.model.get("height");
@@ -135,7 +200,7 @@ class GrassEngine {
     this.note = document.createElement("div");
     this.note.className = "grasswidget-note";
     this.note.style.cssText = "position:absolute;left:8px;top:6px;font:12px sans-serif;color:#333;";
-    this.note.textContent = "starting WebGPU…";
+    this.note.textContent = this.engine.noteText;
     this.wrapper.append(this.canvas, this.note);
     this.el.append(this.wrapper);
     this.resize();
@@ -153,6 +218,14 @@ class GrassEngine {
     on(this.canvas, "keydown", (e) => this.onKey(e));
   }
 
+  // The engine's device is ready (again): draw into this canvas with it.
+  configure(device, format) {
+    this.context = this.canvas.getContext("webgpu");
+    this.context.configure({ device, format, alphaMode: "opaque" });
+    if (this.depth) this.depth.destroy();
+    this.depth = null;
+  }
+
   resize() {
     const w = this.model.get("width"), h = this.model.get("height");
     // Rendered pixels per CSS pixel: the widget's pixel_ratio, else the display's (at most 2).
@@ -164,18 +237,16 @@ class GrassEngine {
     this.canvas.style.height = `${h}px`;
     this.canvas.width = Math.max(1, Math.round(w * ratio));
     this.canvas.height = Math.max(1, Math.round(h * ratio));
-    this.depth = null;
   }
 
-  camera() { return this.model.get("camera"); }
-
-  setCamera(cam, sync) {
-    this.model.set("camera", cam);
-    const now = performance.now();
-    if (sync || !this.lastCamSync || now - this.lastCamSync > 100) {
-      this.model.save_changes();
-      this.lastCamSync = now;
+  // This view's colour and depth targets for a frame (the depth texture follows the canvas size).
+  targets() {
+    const w = this.canvas.width, h = this.canvas.height;
+    if (!this.depth || this.depth.width !== w || this.depth.height !== h) {
+      if (this.depth) this.depth.destroy();
+      this.depth = this.engine.depthFor(w, h);
     }
+    return { color: this.context.getCurrentTexture().createView(), depth: this.depth.createView(), w, h };
   }
 
   pointerNdc(e) {
@@ -186,14 +257,14 @@ class GrassEngine {
   // Where the view ray through the pointer meets the ground plane, or null (sky).
   groundPoint(e) {
     const [x, y] = this.pointerNdc(e);
-    const { view, proj } = this.matrices(this.canvas.width / this.canvas.height);
+    const { view, proj } = this.engine.matrices(this.canvas.width / this.canvas.height);
     const inv = invert4(mul4(proj, view));
     const unproject = (z) => {
       const p = [0, 1, 2, 3].map((r) => inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
       return [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
     };
     const a = unproject(0), b = unproject(1);
-    const gy = (this.model.get("scene_style").ground_center || [0, 0, 0])[1] || 0;
+    const gy = this.model.get("frame_rules").style.ground[1];
     const d = sub(b, a);
     if (Math.abs(d[1]) < 1e-12) return null;
     const s = (gy - a[1]) / d[1];
@@ -215,7 +286,7 @@ class GrassEngine {
     const dx = e.clientX - d.x, dy = e.clientY - d.y;
     d.x = e.clientX; d.y = e.clientY;
     if (d.ball) { this.sendBall(e, "move"); return; }
-    const cam = this.camera();
+    const cam = this.engine.camera();
     const target = cam.target, pos = cam.position;
     let off = sub(pos, target);
     if (d.button === 2 || e.ctrlKey) {  // pan: move target and camera in the view plane
@@ -224,16 +295,16 @@ class GrassEngine {
       const k = (2 * dist * Math.tan((cam.fov_deg * Math.PI) / 360)) / this.canvas.clientHeight;
       const right = [world[0], world[1], world[2]], up = [world[4], world[5], world[6]];
       const move = add(scale(right, -dx * k), scale(up, dy * k));
-      this.setCamera({ ...cam, position: add(pos, move), target: add(target, move) }, false);
+      this.engine.setCamera({ ...cam, position: add(pos, move), target: add(target, move) }, false);
       return;
     }
     const r = Math.hypot(...off);
     let az = Math.atan2(off[0], off[2]);
     let el = Math.asin(Math.max(-1, Math.min(1, off[1] / r)));
     az -= dx * 0.008;
-    el = Math.max(0.02, Math.min(1.45, el + dy * 0.008));  // stay above the ground, short of the pole
+    el = Math.max(-1.55, Math.min(1.55, el + dy * 0.008));  // the orbit limits below decide; never over a pole
     off = [r * Math.cos(el) * Math.sin(az), r * Math.sin(el), r * Math.cos(el) * Math.cos(az)];
-    this.setCamera({ ...cam, position: add(target, off) }, false);
+    this.engine.setCamera({ ...cam, position: add(target, off) }, false);
   }
 
   onPointerUp(e) {
@@ -241,17 +312,15 @@ class GrassEngine {
     this.drag = null;
     if (!d) return;
     if (d.ball) this.sendBall(e, "up");
-    else this.setCamera({ ...this.camera() }, true);
+    else this.engine.setCamera({ ...this.engine.camera() }, true);
   }
 
   onWheel(e) {
     e.preventDefault();
-    const cam = this.camera();
+    const cam = this.engine.camera();
     const off = sub(cam.position, cam.target);
-    const r = Math.hypot(...off);
     const k = Math.exp(Math.max(-0.5, Math.min(0.5, e.deltaY * 0.001)));
-    const rNew = Math.max(0.5, Math.min(0.8 * cam.far, r * k));  // zoom range: near the target .. inside the far plane
-    this.setCamera({ ...cam, position: add(cam.target, scale(off, rNew / r)) }, true);
+    this.engine.setCamera({ ...cam, position: add(cam.target, scale(off, k)) }, true);
   }
 
   onKey(e) {
@@ -260,16 +329,97 @@ class GrassEngine {
       e.preventDefault();
       this.model.set("playing", !this.model.get("playing"));
       this.model.save_changes();
-    } else if (e.key === "s") {
-      this.model.send({ type: "key", key: "s" });
-    } else if (e.key === "r") {
-      this.model.send({ type: "key", key: "r" });
+    } else if (e.key === "s" || e.key === "r") {
+      this.engine.report("key", "", { key: e.key });
     }
   }
 
   sendBall(e, phase) {
     const hit = this.groundPoint(e);
-    if (hit) this.model.send({ type: "ball", phase, x: hit[0], z: hit[1] });
+    if (hit) this.engine.report("ball", "", { phase, x: hit[0], z: hit[1] });
+  }
+
+  close() {
+    for (const off of this.handlers) off();
+    if (this.depth) this.depth.destroy();
+    if (this.context) { try { this.context.unconfigure(); } catch (e) { /* already gone */ } }
+    this.wrapper.remove();
+  }
+}
+
+// ------------------------------------------------------------------ the engine: one per widget model
+
+class GrassEngine {
+  constructor(model) {
+    this.model = model;       // the model handle of anywidget's initialize(): lives as long as the model
+    this.views = new Set();
+    this.queue = [];          // messages that arrived before the device was ready
+    this.ready = false;
+    this.starting = false;
+    this.closed = false;
+    this.device = null;
+    this.stepCount = 0;
+    // The clock's step cap is read from frame_rules every frame (Python sends it after the model opens).
+    this.clock = new SimClock(1);
+    this.inFlight = 0;
+    this.frames = 0;          // frames whose GPU work completed
+    this.statsFrames = 0;
+    this.statsTime = performance.now();
+    this.visible = null;      // per LOD class, from the last args readback
+    this.argsReadPending = false;
+    this.lastFrameMs = null;
+    this.expectLoss = false;
+    this.recoveries = 0;
+    this.noteText = "starting WebGPU…";
+    // Start-up milestones (performance.now() ms), read by benchmarks.
+    this.timing = { created: performance.now() };
+    this.listen();
+  }
+
+  rules() { return this.model.get("frame_rules"); }
+
+  listen() {
+    this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
+    this.model.on("msg:custom", this.onMsg);
+    const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "collider_spheres", "collider_grid",
+      "frame_rules", "blade_data", "width", "height", "pixel_ratio"];
+    this.listeners = names.map((name) => {
+      const fn = () => this.onChange(name);
+      this.model.on(`change:${name}`, fn);
+      return [name, fn];
+    });
+  }
+
+  // ---------------------------------------------------------------- views
+
+  addView(view) {
+    this.views.add(view);
+    if (this.ready) view.configure(this.device, this.format);
+    if (!this.device && !this.starting) this.start();  // the GPU starts with the first view
+    this.scheduleFrame();
+  }
+
+  removeView(view) {
+    this.views.delete(view);
+    view.close();
+  }
+
+  setNote(text) {
+    this.noteText = text;
+    for (const v of this.views) v.note.textContent = text;
+  }
+
+  camera() { return this.model.get("camera"); }
+
+  // Set the camera (held to the orbit limits from Python); sync to Python at most every 100 ms unless asked.
+  setCamera(cam, sync) {
+    const [position, target] = clampOrbit(cam.position, cam.target, this.rules().orbit);
+    this.model.set("camera", { ...cam, position, target });
+    const now = performance.now();
+    if (sync || !this.lastCamSync || now - this.lastCamSync > 100) {
+      this.model.save_changes();
+      this.lastCamSync = now;
+    }
   }
 
   // ---------------------------------------------------------------- start-up
@@ -280,15 +430,16 @@ class GrassEngine {
   }
 
   async start() {
+    this.starting = true;
     try {
       if (!navigator.gpu) {
-        this.note.textContent = "WebGPU is not available in this browser";
+        this.setNote("WebGPU is not available in this browser");
         this.status("unavailable", "navigator.gpu is missing");
         return;
       }
       const adapter = await navigator.gpu.requestAdapter();
       if (!adapter) {
-        this.note.textContent = "WebGPU is not available in this browser";
+        this.setNote("WebGPU is not available in this browser");
         this.status("unavailable", "requestAdapter() gave null");
         return;
       }
@@ -302,15 +453,14 @@ class GrassEngine {
       this.adapter = adapter;  // keep it referenced: Chromium rejects queue promises once the adapter is collected
       device.lost.then((lost) => this.onDeviceLost(device, lost));
       device.onuncapturederror = (ev) => this.report("error", `WebGPU error: ${ev.error.message}`);
-      this.context = this.canvas.getContext("webgpu");
       this.format = navigator.gpu.getPreferredCanvasFormat();
-      this.context.configure({ device, format: this.format, alphaMode: "opaque" });
+      for (const v of this.views) v.configure(device, this.format);
       this.timing.device = performance.now();
       await this.buildPipelines();
       this.timing.pipelines = performance.now();
       this.buildBuffers();
       this.timing.buffers = performance.now();
-      this.note.textContent = "";
+      this.setNote("");
       this.ready = true;
       this.status("ok", this.adapterText);
       const pending = this.queue;
@@ -318,8 +468,10 @@ class GrassEngine {
       for (const [msg, buffers] of pending) await this.onMessage(msg, buffers);
       this.scheduleFrame();
     } catch (err) {
-      this.note.textContent = `WebGPU start failed: ${err.message || err}`;
+      this.setNote(`WebGPU start failed: ${err.message || err}`);
       this.status("unavailable", `start failed: ${err.message || err}`);
+    } finally {
+      this.starting = false;
     }
   }
 
@@ -382,60 +534,54 @@ class GrassEngine {
     return { pipeline, layout, shader };
   }
 
+  // The pipelines of a frame, from the shaders Python sent: the compute passes in the
+  // order Python lists them (shaders.compute_passes: culling, LOD binning, draw order;
+  // a new pass is one more entry there), the ribbon draws, sky and ground
+  // (shaders/sky_ground.wgsl, as in the kernel engine) and the collider balls.
   async buildPipelines() {
     const device = this.device;
     const shaders = this.model.get("shaders");
     this.lodSegments = shaders.lod_segments;
     this.sim = await this.computePipeline(shaders.simulate, "simulate.wgsl");
-    this.resetArgs = await this.computePipeline(shaders.reset_args, "reset_args.wgsl");
-    this.cull = await this.computePipeline(shaders.cull, "cull.wgsl");
-    // Draw order by distance band (nearest first): count, prefix, then the cull above scatters.
-    this.cullCount = shaders.cull_count ? await this.computePipeline(shaders.cull_count, "cull.wgsl (count)") : null;
-    this.prefixBands = shaders.prefix_bands ? await this.computePipeline(shaders.prefix_bands, "prefix_bands.wgsl") : null;
+    this.computePasses = [];
+    for (const pass of shaders.compute_passes) {
+      const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
+      this.computePasses.push({ ...pipe, dispatch: pass.dispatch });
+    }
     const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
+    const renderPipeline = async (shader, label, { topology, depth, blend }) => {
+      const module = await this.compile(shader, label);
+      const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
+      const pipeline = await device.createRenderPipelineAsync({
+        layout: device.createPipelineLayout({ bindGroupLayouts: [layout] }),
+        vertex: { module, entryPoint: shader.vertex || "vs_main" },
+        fragment: { module, entryPoint: shader.fragment || "fs_main", targets: [{ format: this.format, blend }] },
+        primitive: { topology, cullMode: "none" },
+        depthStencil: depth,
+      });
+      return { pipeline, layout, shader };
+    };
     // Two sets of ribbon pipelines: the natural view's, and the colour-by views' (flat colours and
     // the culled blades' draw), which cost GPU draw time and are only used while color_by shows them.
     const ribbons = async (list, label) => {
       const pipes = [];
       for (let k = 0; k < list.length; k++) {
-        const shader = list[k];
-        const module = await this.compile(shader, `blade_render.wgsl (${label}class ${k})`);
-        const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
-        const pipeline = await device.createRenderPipelineAsync({
-          layout: device.createPipelineLayout({ bindGroupLayouts: [layout] }),
-          vertex: { module, entryPoint: "vs_main" },
-          fragment: { module, entryPoint: "fs_main", targets: [{ format: this.format }] },
-          primitive: { topology: "triangle-strip", cullMode: "none" },
-          depthStencil,
-        });
-        pipes.push({ pipeline, layout, shader });
+        pipes.push(await renderPipeline(list[k], `blade_render.wgsl (${label}class ${k})`,
+          { topology: "triangle-strip", depth: depthStencil }));
       }
       return pipes;
     };
     this.bladePipes = await ribbons(shaders.blades, "");
     this.flatBladePipes = shaders.blades_flat ? await ribbons(shaders.blades_flat, "colour by, ") : this.bladePipes;
-    const scene = shaders.scene;
-    const module = await this.compile(scene, "browser scene.wgsl");
-    const layout = this.layoutFor(scene, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
-    const pl = device.createPipelineLayout({ bindGroupLayouts: [layout] });
+    // After the opaque grass, at the far depth with "less": only uncovered pixels are shaded.
+    this.skyGround = await renderPipeline(shaders.sky_ground, "sky_ground.wgsl",
+      { topology: "triangle-strip", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" } });
     const blend = {
       color: { srcFactor: "src-alpha", dstFactor: "one-minus-src-alpha", operation: "add" },
       alpha: { srcFactor: "one", dstFactor: "one-minus-src-alpha", operation: "add" },
     };
-    const make = (vs, fs, topology, depth, withBlend) => device.createRenderPipeline({
-      layout: pl,
-      vertex: { module, entryPoint: vs },
-      fragment: { module, entryPoint: fs, targets: [{ format: this.format, blend: withBlend ? blend : undefined }] },
-      primitive: { topology, cullMode: "none" },
-      depthStencil: depth,
-    });
-    this.scenePipes = {
-      layout,
-      shader: scene,
-      sky: make("vs_sky", "fs_sky", "triangle-list", { format: "depth24plus", depthWriteEnabled: false, depthCompare: "always" }, false),
-      ground: make("vs_ground", "fs_ground", "triangle-strip", depthStencil, false),
-      balls: make("vs_ball", "fs_ball", "triangle-list", { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" }, true),
-    };
+    this.balls = await renderPipeline({ ...shaders.balls, vertex: "vs_ball", fragment: "fs_ball" }, "balls.wgsl",
+      { topology: "triangle-list", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" }, blend });
   }
 
   buildBuffers() {
@@ -448,6 +594,7 @@ class GrassEngine {
       this.ownBuffers.push(b);
       return b;
     };
+    const uniform = (trait, label) => buffer(this.model.get(trait).byteLength, U.UNIFORM | U.COPY_DST, label);
     const n = this.model.get("n_blades");
     const classes = this.lodSegments.length;
     this.n = n;
@@ -459,12 +606,13 @@ class GrassEngine {
       s_culled: buffer(n * 4, U.STORAGE, "culled"),
       s_culled_args: buffer(16, U.STORAGE | U.INDIRECT | U.COPY_DST, "culled draw args"),
       s_bands: buffer(2 * classes * Math.max(this.model.get("shaders").bands || 1, 1) * 4, U.STORAGE, "distance bands"),
-      u_sim: buffer(this.model.get("sim_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_sim"),
-      u_cull: buffer(this.model.get("cull_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_cull"),
-      u_material: buffer(this.model.get("material_uniform").byteLength, U.UNIFORM | U.COPY_DST, "u_material"),
+      u_sim: uniform("sim_uniform", "u_sim"),
+      u_cull: uniform("cull_uniform", "u_cull"),
+      u_material: uniform("material_uniform", "u_material"),
+      u_sky_ground: uniform("sky_ground_uniform", "u_sky_ground"),
+      u_balls: uniform("ball_uniform", "u_balls"),
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
       u_wobject: buffer(64, U.UNIFORM | U.COPY_DST, "u_wobject"),
-      u_scene: buffer(96, U.UNIFORM | U.COPY_DST, "u_scene"),
       s_colliders: buffer(this.model.get("collider_buffer_bytes")[0], U.STORAGE | U.COPY_DST, "colliders"),
       s_collider_grid: buffer(this.model.get("collider_buffer_bytes")[1], U.STORAGE | U.COPY_DST, "collider grid"),
     };
@@ -472,9 +620,7 @@ class GrassEngine {
     this.argsRead = buffer(classes * 16, U.MAP_READ | U.COPY_DST, "args readback");
     device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]));
     this.uploadRestPose();
-    this.writeUniform("u_cull", "cull_uniform");
-    this.writeUniform("u_material", "material_uniform");
-    this.writeSceneUniform();
+    for (const [name, trait] of UNIFORM_TRAITS) this.writeUniform(name, trait);
     this.writeBalls();
     this.makeBindGroups();
   }
@@ -483,18 +629,13 @@ class GrassEngine {
     const group = (p) => this.device.createBindGroup({
       layout: p.layout,
       entries: p.shader.bindings.map((b) => {
-        const buffer = this.res[b.name];
-        if (!buffer) throw new Error(`the browser engine has no resource named ${b.name}`);
+        const buffer = this.res[b.resource || b.name];
+        if (!buffer) throw new Error(`the browser engine has no resource named ${b.resource || b.name}`);
         return { binding: b.binding, resource: { buffer } };
       }),
     });
-    this.sim.group = group(this.sim);
-    this.resetArgs.group = group(this.resetArgs);
-    this.cull.group = group(this.cull);
-    if (this.cullCount) { this.cullCount.group = group(this.cullCount); this.prefixBands.group = group(this.prefixBands); }
-    for (const p of this.bladePipes) p.group = group(p);
-    for (const p of this.flatBladePipes) p.group = group(p);
-    this.scenePipes.group = group(this.scenePipes);
+    for (const p of [this.sim, ...this.computePasses, ...this.bladePipes, ...this.flatBladePipes, this.skyGround,
+      this.balls]) p.group = group(p);
   }
 
   uploadRestPose() {
@@ -503,7 +644,7 @@ class GrassEngine {
     this.device.queue.writeBuffer(this.res.s_blades, 0, bytes);
     this.device.queue.writeBuffer(this.res.s_collision, 0, new Float32Array(this.n));
     this.stepCount = 0;
-    this.accumulator = 0;
+    this.clock.reset(performance.now() / 1000);
   }
 
   // The ribbon pipelines for the current params.color_by (u_cull.color_by: 0 natural).
@@ -514,17 +655,10 @@ class GrassEngine {
     return colorBy === 0 ? this.bladePipes : this.flatBladePipes;
   }
 
+  // Python's packed bytes into a uniform buffer, as they are.
   writeUniform(name, trait) {
     const data = this.model.get(trait);
     this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
-  }
-
-  writeSceneUniform() {
-    const s = this.model.get("scene_style");
-    const f = new Float32Array(24);
-    f.set(s.sky_bottom, 0); f.set(s.sky_top, 4); f.set(s.ground_color, 8);
-    f.set([...s.ground_center, s.ground_half], 12); f.set(s.ball_color, 16); f.set([...s.light_direction, 0], 20);
-    this.device.queue.writeBuffer(this.res.u_scene, 0, f);
   }
 
   // The spheres and their grid, as Python built them (grasswidget.core.collider_grid).
@@ -551,7 +685,7 @@ class GrassEngine {
   simulate(n) {
     if (n <= 0) return;
     const device = this.device;
-    const clock = this.model.get("clock");
+    const clock = this.rules().clock;
     const layout = this.model.get("sim_layout");
     const base = this.model.get("sim_uniform");
     const bytes = new Uint8Array(base.byteLength);
@@ -589,54 +723,50 @@ class GrassEngine {
     return { world, view, proj };
   }
 
-  writeStdInfo(width, height, target) {
+  // The camera uniform (pygfx's StdInfo) at the offsets Python's layout gives.
+  writeStdInfo(width, height) {
     const { world, view, proj } = this.matrices(width / height);
+    const at = this.model.get("stdinfo_layout");
     const f = new Float32Array(this.model.get("stdinfo_size") / 4);
-    f.set(view, 0); f.set(world, 16); f.set(proj, 32); f.set(invert4(proj), 48);
-    f.set([width, height, width, height], 64);
-    this.device.queue.writeBuffer(target, 0, f);
+    const put = (name, values) => f.set(values, at[name][0] / 4);
+    put("cam_transform", view); put("cam_transform_inv", world);
+    put("projection_transform", proj); put("projection_transform_inv", invert4(proj));
+    put("physical_size", [width, height]); put("logical_size", [width, height]);
+    put("ndc_offset", [1, 1, 0, 0]);
+    this.device.queue.writeBuffer(this.res.u_stdinfo, 0, f);
   }
 
-  // Encode cull + draw of the current state into a colour view of (width, height).
+  // Encode one frame of the current state into a colour view of (width, height): Python's
+  // compute passes (culling) for this view's camera, then the draws. Submit before the next call
+  // (the camera uniform is written now, for this encoder).
   encodeFrame(encoder, colorView, depthView, width, height) {
-    this.writeStdInfo(width, height, this.res.u_stdinfo);
+    this.writeStdInfo(width, height);
+    const blades = this.workgroups(this.n);
     const cpass = encoder.beginComputePass();
-    cpass.setPipeline(this.resetArgs.pipeline);
-    cpass.setBindGroup(0, this.resetArgs.group);
-    cpass.dispatchWorkgroups(1);
-    const [gx, gy] = this.workgroups(this.n);
-    if (this.cullCount) {
-      cpass.setPipeline(this.cullCount.pipeline);
-      cpass.setBindGroup(0, this.cullCount.group);
-      cpass.dispatchWorkgroups(gx, gy);
-      cpass.setPipeline(this.prefixBands.pipeline);
-      cpass.setBindGroup(0, this.prefixBands.group);
-      cpass.dispatchWorkgroups(1);
+    for (const p of this.computePasses) {
+      cpass.setPipeline(p.pipeline);
+      cpass.setBindGroup(0, p.group);
+      if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
+      else cpass.dispatchWorkgroups(1);
     }
-    cpass.setPipeline(this.cull.pipeline);
-    cpass.setBindGroup(0, this.cull.group);
-    cpass.dispatchWorkgroups(gx, gy);
     cpass.end();
     const pass = encoder.beginRenderPass({
-      colorAttachments: [{ view: colorView, loadOp: "clear", storeOp: "store", clearValue: { r: 0.8, g: 0.87, b: 0.93, a: 1 } }],
+      colorAttachments: [{ view: colorView, loadOp: "clear", storeOp: "store", clearValue: { r: 0, g: 0, b: 0, a: 1 } }],
       depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1, depthStoreOp: "discard" },
     });
-    const sp = this.scenePipes;
-    pass.setBindGroup(0, sp.group);
-    pass.setPipeline(sp.sky);
-    pass.draw(3);
-    pass.setPipeline(sp.ground);
-    pass.draw(4);
     this.ribbonPipes().forEach((p, k) => {
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
       else pass.drawIndirect(this.res.s_args, 16 * k);
     });
+    pass.setPipeline(this.skyGround.pipeline);
+    pass.setBindGroup(0, this.skyGround.group);
+    pass.draw(4);
     const balls = this.nBalls || 0;
     if (balls > 0 && this.model.get("show_colliders")) {
-      pass.setPipeline(sp.balls);
-      pass.setBindGroup(0, sp.group);
+      pass.setPipeline(this.balls.pipeline);
+      pass.setBindGroup(0, this.balls.group);
       pass.draw(6 * 16 * 32, balls);
     }
     pass.end();
@@ -647,39 +777,41 @@ class GrassEngine {
   }
 
   scheduleFrame() {
-    if (this.closed || this.raf) return;
+    if (this.closed || this.raf || !this.views.size) return;
     this.raf = requestAnimationFrame((t) => { this.raf = null; this.frame(t); });
   }
 
+  // One animation frame: the clock's steps (once, whatever the number of views), then every view drawn.
   frame(now) {
     if (!this.ready || this.closed) return;
+    if (!this.views.size) { this.clock.stop(); return; }
     this.scheduleFrame();
-    const elapsed = this.lastTime === null ? 0 : (now - this.lastTime) / 1000;
-    this.lastTime = now;
     if (this.inFlight >= MAX_FRAMES_IN_FLIGHT) return;
     const t0 = performance.now();
     try {
+      const rules = this.rules().clock;
+      this.clock.maxSteps = rules.max_steps_per_frame;
       if (this.model.get("playing")) {
-        const dt = this.model.get("clock").dt;
-        this.accumulator += Math.min(elapsed, MAX_FRAME_TIME) * this.model.get("time_scale");
-        let n = Math.floor(this.accumulator / dt + 1e-9);
-        if (n > MAX_STEPS_PER_FRAME) { n = MAX_STEPS_PER_FRAME; this.accumulator = 0; }
-        else this.accumulator -= n * dt;
+        this.clock.start(now / 1000);
+        const n = this.clock.frameSteps(now / 1000, rules.dt, this.model.get("time_scale"));
         if (n > 0) { this.onSteps(n); this.simulate(n); }
       } else {
-        this.accumulator = 0;
+        this.clock.stop();
       }
       const device = this.device;
-      const w = this.canvas.width, h = this.canvas.height;
-      if (!this.depth || this.depth.width !== w || this.depth.height !== h) {
-        if (this.depth) this.depth.destroy();
-        this.depth = this.depthFor(w, h);
+      let first = true;
+      for (const view of this.views) {
+        if (!view.context) continue;
+        const { color, depth, w, h } = view.targets();
+        const encoder = device.createCommandEncoder();
+        this.encodeFrame(encoder, color, depth, w, h);
+        const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > STATS_INTERVAL_MS / 2;
+        if (readArgs) encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, this.argsRead.size);
+        device.queue.submit([encoder.finish()]);
+        if (readArgs) this.readArgs();
+        if (first) this.frameSize = [w, h];
+        first = false;
       }
-      const encoder = device.createCommandEncoder();
-      this.encodeFrame(encoder, this.context.getCurrentTexture().createView(), this.depth.createView(), w, h);
-      const readArgs = !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > STATS_INTERVAL_MS / 2;
-      if (readArgs) encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, this.argsRead.size);
-      device.queue.submit([encoder.finish()]);
       this.inFlight += 1;
       device.queue.onSubmittedWorkDone().then(() => {
         this.inFlight -= 1;
@@ -687,7 +819,6 @@ class GrassEngine {
         if (!this.timing.first_frame) this.timing.first_frame = performance.now();
         this.lastFrameMs = performance.now() - t0;
       }, () => { this.inFlight = 0; });
-      if (readArgs) this.readArgs();
     } catch (err) {
       this.report("error", `browser frame failed: ${err.message || err}`);
     }
@@ -731,7 +862,7 @@ class GrassEngine {
     this.pendingSteps = 0;
     this.report("stats", "", {
       fps, visible: this.visible, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
-      frame_size: [this.canvas.width, this.canvas.height], adapter: this.adapterText,
+      frame_size: this.frameSize || null, adapter: this.adapterText, views: this.views.size,
     });
   }
 
@@ -819,17 +950,16 @@ class GrassEngine {
   // ---------------------------------------------------------------- trait changes
 
   onChange(name) {
+    if (name === "width" || name === "height" || name === "pixel_ratio") {
+      for (const v of this.views) v.resize();
+      return;
+    }
     if (!this.ready) return;
     try {
-      switch (name) {
-        case "cull_uniform": this.writeUniform("u_cull", "cull_uniform"); break;
-        case "material_uniform": this.writeUniform("u_material", "material_uniform"); break;
-        case "collider_spheres": case "collider_grid": this.writeBalls(); break;
-        case "scene_style": this.writeSceneUniform(); break;
-        case "blade_data": this.buildBuffers(); break;
-        case "width": case "height": case "pixel_ratio": this.resize(); break;
-        default: break;
-      }
+      const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
+      if (uniform) this.writeUniform(uniform[0], uniform[1]);
+      else if (name === "collider_spheres" || name === "collider_grid") this.writeBalls();
+      else if (name === "blade_data") this.buildBuffers();
     } catch (err) {
       this.report("error", `browser engine: applying ${name} failed: ${err.message || err}`);
     }
@@ -838,33 +968,46 @@ class GrassEngine {
   close() {
     this.closed = true;
     if (this.raf) cancelAnimationFrame(this.raf);
-    for (const off of this.handlers) off();
+    this.model.off("msg:custom", this.onMsg);
+    for (const [name, fn] of this.listeners) this.model.off(`change:${name}`, fn);
+    for (const v of [...this.views]) this.removeView(v);
     if (this.device) { const d = this.device; this.device = null; d.destroy(); }
-    this.wrapper.remove();
   }
 }
 
-const ENGINES = (globalThis.__grasswidgetEngines = globalThis.__grasswidgetEngines || new Set());
+// Uniform buffers filled with Python's packed bytes: [buffer name, trait].
+const UNIFORM_TRAITS = [
+  ["u_cull", "cull_uniform"], ["u_material", "material_uniform"], ["u_sky_ground", "sky_ground_uniform"],
+  ["u_balls", "ball_uniform"],
+];
+
+// engine_key -> GrassEngine, for the whole page (the module is loaded once per page).
+const ENGINES = (globalThis.__grasswidgetEngines = globalThis.__grasswidgetEngines || new Map());
+
+function engineFor(model) {
+  const key = model.get("engine_key");
+  let engine = ENGINES.get(key);
+  if (!engine || engine.closed) {
+    engine = new GrassEngine(model);
+    ENGINES.set(key, engine);
+  }
+  return engine;
+}
 
 export default {
-  render({ model, el }) {
-    const engine = new GrassEngine(model, el);
-    ENGINES.add(engine);
-    const onMsg = (msg, buffers) => { engine.onMessage(msg, buffers); };
-    model.on("msg:custom", onMsg);
-    const names = ["cull_uniform", "material_uniform", "collider_spheres", "collider_grid", "scene_style", "blade_data", "width", "height",
-      "pixel_ratio"];
-    const listeners = names.map((name) => {
-      const fn = () => engine.onChange(name);
-      model.on(`change:${name}`, fn);
-      return [name, fn];
-    });
-    engine.start();
+  // Once per widget model: its one engine (the GPU starts when a view first shows it).
+  initialize({ model }) {
+    const engine = engineFor(model);
     return () => {
-      model.off("msg:custom", onMsg);
-      for (const [name, fn] of listeners) model.off(`change:${name}`, fn);
-      ENGINES.delete(engine);
       engine.close();
+      if (ENGINES.get(model.get("engine_key")) === engine) ENGINES.delete(model.get("engine_key"));
     };
+  },
+  // Once per display of the widget: one more view of the same engine.
+  render({ model, el }) {
+    const engine = engineFor(model);
+    const view = new GrassView(engine, model, el);
+    engine.addView(view);
+    return () => engine.removeView(view);
   },
 };

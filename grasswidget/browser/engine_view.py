@@ -1,18 +1,26 @@
-"""The browser engine's view for GrassWidget: the same interface as KernelView.
+"""The browser engine's view for GrassWidget: a :class:`~grasswidget.core.view_api.GrassView`.
 
 :class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.view.BrowserView`
 (the anywidget that simulates and draws in the browser) so that
-:class:`grasswidget.GrassWidget` can drive it with the same panel and calls as
-the kernel view: ``set_playing``, ``step``, ``reset_blades``, ``reset_camera``,
-``save_png``, ``stats``, ``camera_state``, the ball (shift + drag, Roll).
+:class:`grasswidget.GrassWidget` drives it through the same interface as the
+kernel view (:mod:`grasswidget.core.view_api`): ``set_playing``, ``step``,
+``reset_blades``, ``reset_camera``, ``save_png``, ``stats``, ``camera_state``,
+the keys, the ball (shift + drag, Roll).
+
+Not here yet: freeze culling and the blade inspector. :meth:`BrowserEngineView.inspect`
+and :meth:`BrowserEngineView.set_culling_frozen` raise
+:class:`~grasswidget.core.view_api.FeatureNotAvailableError` (the widget shows it on
+its message line); adding them to the browser engine means filling in those two
+methods (and ``inspected``).
 
 Differences, by design:
 
-* Time: the browser plays by the wall clock in whole fixed steps of
-  ``params.dt`` (``time_scale`` simulated seconds per real second; the rest of
-  a step carries over to the next frame), so the kernel's "steps per frame" is
-  an average here. Below 15 frames/s a frame advances at most 1/15 s of
-  simulated time: slow motion rather than ever more steps per frame.
+* Time: the browser plays by the wall clock with the kernel's clock rules
+  (:func:`grasswidget.core.frame_data.clock_rules`, executed by engine.js as
+  :class:`grasswidget.notebook.clock.SimClock` does): whole fixed steps of ``params.dt``,
+  at most ``MAX_STEPS_PER_FRAME`` a frame, the rest dropped (slow motion). The
+  kernel's "steps per frame" is an average of the browser's frames here.
+* One engine per widget: displayed twice, both views show the same meadow.
 * The rolling ball: the browser reports the steps it simulated about every
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
@@ -24,9 +32,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
+from ..core.view_api import FeatureNotAvailableError, GrassView
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -51,35 +59,28 @@ class _BallScene:
         return self._view.colliders
 
 
-class BrowserEngineView:
+class BrowserEngineView(GrassView):
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
     Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
-    preset, clock, actions, on_error, on_stats), plus ``on_unavailable(reason)``,
+    preset, clock, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
-    and ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2).
+    ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
+    and ``target_fps`` (kept and reported; the browser draws at its own rate).
+
+    Attributes: ``browser_view`` (the :class:`~grasswidget.browser.view.BrowserView`).
     """
 
     backend = "browser"
-    #: The colour-by views (params.color_by "lod" and "cull") work here; freeze culling and the inspector do not.
-    teaching_views = True
-    scene = None        # no kernel scene: the browser holds the state
-    canvas = None
-    controller = None
-    events = None
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
-                 on_unavailable, pixel_ratio=None):
+                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0):
         from ..core.framing import preset_field
 
-        self.size = tuple(size)
-        self.params = params
-        self._clock = clock
-        self._actions = actions
-        self._on_error = on_error
-        self._on_stats = on_stats
+        super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
+                         on_inspect=on_inspect)
         self._on_unavailable = on_unavailable
-        self._closed = False
+        self._target_fps = float(target_fps)
         self._unavailable_sent = False
         self.ball = None
         camera = None
@@ -89,52 +90,61 @@ class BrowserEngineView:
                       "fov_deg": float(view["fov_deg"]), "near": float(view["near"]), "far": float(view["far"])}
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.view = BrowserView(blades, params=params, size=self.size, camera=camera,
+        self.browser_view = BrowserView(blades, params=params, size=self.size, camera=camera,
                                 pixel_ratio=float(pixel_ratio or 0.0))
-        self.view.playing = bool(clock.playing)
-        self.view.time_scale = float(clock.time_scale)
-        self.widget = self.view
-        self.ball_scene = _BallScene(self.view)
+        self.browser_view.playing = bool(clock.playing)
+        self.browser_view.time_scale = float(clock.time_scale)
+        self._ball_scene = _BallScene(self.browser_view)
         self._stats = {"fps": None, "visible": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None}
-        self.view.on("stats", self._on_browser_stats)
-        self.view.on("error", self._on_error)
-        self.view.on("device_lost", lambda msg: self._on_error(msg.get("message", "WebGPU device lost")))
-        self.view.on("ball", self._on_ball_msg)
-        self.view.on("key", self._on_key_msg)
-        self.view.on("steps", self._on_steps_msg)
-        self.view.observe(self._on_gpu_status, names="gpu_status")
-        self.view.observe(self._on_browser_playing, names="playing")
+        self.browser_view.on("stats", self._on_browser_stats)
+        self.browser_view.on("error", self.report_error)
+        self.browser_view.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
+        self.browser_view.on("ball", self._on_ball_msg)
+        self.browser_view.on("key", self._on_key_msg)
+        self.browser_view.on("steps", self._on_steps_msg)
+        self.browser_view.observe(self._on_gpu_status, names="gpu_status")
+        self.browser_view.observe(self._on_browser_playing, names="playing")
+
+    @property
+    def widget(self):
+        """The :class:`~grasswidget.browser.view.BrowserView` anywidget (the ipywidget to show)."""
+        return self.browser_view
 
     # ------------------------------------------------------------------ status
 
     @property
     def gpu_status(self) -> dict:
-        return dict(self.view.gpu_status)
+        return dict(self.browser_view.gpu_status)
 
     def _on_gpu_status(self, change):
         state = (change["new"] or {}).get("state")
-        if state == "unavailable" and not self._unavailable_sent and not self._closed:
+        if state == "unavailable" and not self._unavailable_sent and not self.closed:
             self._unavailable_sent = True
             try:
                 self._on_unavailable((change["new"] or {}).get("detail", ""))
             except Exception as err:  # noqa: BLE001 - never raise into the comm handler
-                self._on_error(err)
+                self.report_error(err)
 
     def _on_browser_playing(self, change):
         # Space in the browser view toggles the view's playing: tell the widget.
-        if bool(change["new"]) != bool(self._clock.playing):
-            self._clock.playing = bool(change["new"])
+        if bool(change["new"]) != bool(self.clock_source.playing):
+            self.clock_source.playing = bool(change["new"])
 
     # ------------------------------------------------------------------ the ball
+
+    @property
+    def ball_scene(self):
+        """A stand-in scene for the ball: the field's blades and the browser view's colliders."""
+        return self._ball_scene
 
     def attach_ball(self, ball):
         self.ball = ball
         ball.collider.observe(self._on_ball_changed, names=["center", "radius"])
         ball.observe(self._on_ball_changed, names="enabled")
         ball.observe(self._on_rolling, names="rolling")
-        self.view.colliders_changed()
-        self.view.report_steps = bool(ball.rolling)
+        self.browser_view.colliders_changed()
+        self.browser_view.report_steps = bool(ball.rolling)
 
     def _detach_ball(self):
         ball, self.ball = self.ball, None
@@ -148,11 +158,11 @@ class BrowserEngineView:
                 pass
 
     def _on_ball_changed(self, _change):
-        if not self._closed:
-            self.view.colliders_changed()
+        if not self.closed:
+            self.browser_view.colliders_changed()
 
     def _on_rolling(self, change):
-        self.view.report_steps = bool(change["new"])
+        self.browser_view.report_steps = bool(change["new"])
 
     def _on_ball_msg(self, msg):
         if self.ball is None:
@@ -162,7 +172,7 @@ class BrowserEngineView:
                 self.ball.enabled = True
             self.ball.move_to(float(msg["x"]), float(msg["z"]))
         except Exception as err:  # noqa: BLE001
-            self._on_error(err)
+            self.report_error(err)
 
     def _on_steps_msg(self, msg):
         ball = self.ball
@@ -172,29 +182,32 @@ class BrowserEngineView:
             ball.advance(int(msg.get("steps", 0)) * self.params.dt)
         except Exception as err:  # noqa: BLE001 - a user path that raises stops the rolling
             ball.rolling = False
-            self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+            self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
 
     def _on_key_msg(self, msg):
-        key = msg.get("key")
+        """A key pressed in the focused browser view ({"key", "modifiers"}): see :meth:`on_key`."""
         try:
-            if key == "s":
-                self._actions.step()
-            elif key == "r":
-                self._actions.reset_camera()
-        except Exception as err:  # noqa: BLE001
-            self._on_error(err)
+            self.on_key({"key": msg.get("key", ""), "modifiers": tuple(msg.get("modifiers") or ())})
+        except Exception as err:  # noqa: BLE001 - never raise into the comm handler
+            self.report_error(err)
 
     # ------------------------------------------------------------------ blades and time
 
     @property
-    def blade_count(self) -> int:
-        return len(self.view.blades)
+    def blades(self) -> Blades:
+        """The field's rest pose (what the browser was sent)."""
+        return self.browser_view.blades
+
+    @property
+    def colliders(self) -> ColliderList:
+        """The sphere colliders sent to the browser."""
+        return self.browser_view.colliders
 
     def set_blades(self, blades):
         if not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.view.set_blades(blades)
-        self.ball_scene.field.blades = blades
+        self.browser_view.set_blades(blades)
+        self._ball_scene.field.blades = blades
         if self.ball is not None:
             self.ball.attach(self.ball_scene)
         self._stats["blades"] = len(blades)
@@ -205,52 +218,82 @@ class BrowserEngineView:
         return 60.0
 
     @property
-    def frame_interval(self) -> float:
-        return 1.0 / self.max_fps
-
-    @property
     def steps_per_frame(self) -> int:
-        """Average fixed steps per presented frame (the browser follows the wall clock)."""
+        """Average fixed steps per presented frame, as the browser last reported it (it follows
+        the wall clock); before any report, :meth:`nominal_steps`."""
         s = self._stats.get("steps_per_frame")
         if s is not None:
             return int(s)
-        return max(0, int(round(self._clock.time_scale * self.frame_interval / self.params.dt)))
+        return self.nominal_steps()
+
+    @property
+    def sim_time(self) -> float | None:
+        """Simulated seconds since the last reset as of the browser's last stats message (about
+        every 0.5 s): its step count times ``params.dt``; None before the first one."""
+        count = self._stats.get("step_count")
+        return None if count is None else int(count) * float(self.params.dt)
+
+    @property
+    def target_fps(self) -> float:
+        """Kept and reported only: the browser presents at its display's rate (no adaptive resolution)."""
+        return self._target_fps
+
+    @target_fps.setter
+    def target_fps(self, value):
+        self._target_fps = float(value)
+
+    @property
+    def render_scale(self) -> float:
+        """Always 1: the browser renders at full resolution."""
+        return 1.0
 
     def set_playing(self, playing: bool):
-        if not self._closed:
-            self.view.playing = bool(playing)
+        if not self.closed:
+            self.browser_view.playing = bool(playing)
 
     def set_time_scale(self, time_scale: float):
-        if not self._closed:
-            self.view.time_scale = float(time_scale)
+        if not self.closed:
+            self.browser_view.time_scale = float(time_scale)
 
     def step(self, n: int):
-        self.view.step(n)
+        self.browser_view.step(n)
 
     def reset_blades(self):
-        self.view.reset()
+        self.browser_view.reset()
 
     def reset_camera(self):
-        self.view.reset_camera()
+        self.browser_view.reset_camera()
 
     def request_draw(self):
         """The browser draws every animation frame; parameter changes arrive as traits."""
 
     # ------------------------------------------------------------------ camera
 
-    @property
-    def camera_state(self) -> dict:
-        cam = self.view.camera
+    def current_camera(self) -> dict:
+        cam = self.browser_view.camera
         return {"position": tuple(float(x) for x in cam["position"]),
                 "target": tuple(float(x) for x in cam["target"]),
                 "fov_deg": float(cam["fov_deg"])}
 
-    @camera_state.setter
-    def camera_state(self, state):
-        new = dict(self.view.camera, **_check_camera_state(state))
-        if np.allclose(new["position"], new["target"]):
-            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(new['position'])}")
-        self.view.camera = new
+    def look(self, position, target, fov_deg):
+        """Send the browser the new camera (near and far planes kept)."""
+        self.browser_view.camera = dict(self.browser_view.camera, position=[float(x) for x in position],
+                                        target=[float(x) for x in target], fov_deg=float(fov_deg))
+
+    # ------------------------------------------------------------------ teaching views (not here yet)
+
+    def set_culling_frozen(self, frozen: bool):
+        """Not in the browser engine yet: raises FeatureNotAvailableError."""
+        raise FeatureNotAvailableError("freeze culling", self.backend)
+
+    def inspect(self, ids):
+        """Not in the browser engine yet: raises FeatureNotAvailableError."""
+        raise FeatureNotAvailableError("the blade inspector", self.backend)
+
+    @property
+    def inspected(self) -> tuple:
+        """Always ``()`` until the browser engine has an inspector."""
+        return ()
 
     # ------------------------------------------------------------------ pictures and state
 
@@ -258,11 +301,11 @@ class BrowserEngineView:
         """Rendered by the browser at ``size``; written here (waits for the browser's answer)."""
         import imageio.v3 as iio
 
-        img = self.view.snapshot(size)
+        img = self.browser_view.snapshot(size)
         iio.imwrite(path, img, extension=".png")
         return path
 
-    def save_png_async(self, path, size, done):
+    def save_png_later(self, path, size, done):
         """Ask the browser for a picture; write it and call ``done(path)`` when it arrives
         (used by the Save PNG button, which runs inside a comm message and cannot wait)."""
         import imageio.v3 as iio
@@ -274,20 +317,20 @@ class BrowserEngineView:
                 iio.imwrite(path, img, extension=".png")
                 done(path)
             except Exception as err:  # noqa: BLE001
-                self._on_error(err)
+                self.report_error(err)
 
-        self.view.request_async({"type": "snapshot", "width": int(size[0]), "height": int(size[1])}, write)
+        self.browser_view.request_async({"type": "snapshot", "width": int(size[0]), "height": int(size[1])}, write)
+
+    def set_wind_wgsl(self, body, select=True):
+        """Compiled by the browser; waits for its answer (see BrowserView.set_wind_wgsl)."""
+        self.browser_view.set_wind_wgsl(body, select=select)
 
     def read_state(self, timeout=None) -> dict:
-        state = self.view.read_state() if timeout is None else self.view.read_state(timeout=timeout)
+        state = self.browser_view.read_state() if timeout is None else self.browser_view.read_state(timeout=timeout)
         state.pop("step_count", None)
         return state
 
     # ------------------------------------------------------------------ stats
-
-    @property
-    def stats(self) -> dict:
-        return dict(self._stats)
 
     def current_stats(self) -> dict:
         s = dict(self._stats)
@@ -295,7 +338,7 @@ class BrowserEngineView:
         return s
 
     def refresh_stats(self):
-        self._on_stats(self.current_stats())
+        self.report_stats(self.current_stats())
 
     def _on_browser_stats(self, msg):
         per_class = msg.get("visible")
@@ -308,43 +351,18 @@ class BrowserEngineView:
             visible_per_class=list(per_class) if per_class else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
-            steps_per_frame=int(round(steps / frames)) if self._clock.playing else 0,
+            steps_per_frame=int(round(steps / frames)) if self.clock_source.playing else 0,
             frame_size=tuple(msg.get("frame_size") or ()) or None,
             adapter=msg.get("adapter"),
             step_count=msg.get("step_count"),
         )
-        self._on_stats(self.current_stats())
+        self.report_stats(self.current_stats())
 
     # ------------------------------------------------------------------ keys, closing
 
-    def on_key(self, event):
-        """Keys are handled in the browser view itself (space, s, r)."""
-
     def close(self):
-        if self._closed:
+        if self.closed:
             return
-        self._closed = True
+        self.closed = True
         self._detach_ball()
-        self.view.close()
-
-
-def _check_camera_state(state) -> dict:
-    """Validate a camera_state dict: position, target (3 finite numbers each, apart), fov_deg in (1, 179)."""
-    if not isinstance(state, dict):
-        raise GrassTypeError(f"camera_state must be a dict with position, target and fov_deg; got {state!r}")
-    unknown = set(state) - {"position", "target", "fov_deg"}
-    if unknown:
-        raise GrassValueError(f"camera_state keys are position, target and fov_deg; got {sorted(unknown)}")
-    out = {}
-    for key in ("position", "target"):
-        if key in state:
-            v = np.asarray(state[key], np.float64).reshape(-1)
-            if v.size != 3 or not np.all(np.isfinite(v)):
-                raise GrassValueError(f"camera_state {key} must be 3 finite numbers (metres); got {state[key]!r}")
-            out[key] = [float(x) for x in v]
-    if "fov_deg" in state:
-        fov = state["fov_deg"]
-        if isinstance(fov, bool) or not isinstance(fov, (int, float, np.number)) or not (1.0 <= float(fov) <= 179.0):
-            raise GrassValueError(f"camera_state fov_deg must be a number in [1, 179] degrees; got {fov!r}")
-        out["fov_deg"] = float(fov)
-    return out
+        self.browser_view.close()

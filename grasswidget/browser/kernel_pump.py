@@ -6,10 +6,11 @@ too late. :func:`wait_for` keeps handling comm messages while it waits:
 
 * ipykernel 7 (subshell-capable kernels): shell messages reach the main thread
   through an inproc socket pair; we read that socket ourselves, dispatch comm
-  messages at once (``kernel.dispatch_shell(..., concurrent=True)``, as ipykernel
-  itself does for a cell awaiting a widget reply) and hand every other message
-  (another cell's execute request) back to the kernel's loop, in order, to run
-  after this cell.
+  messages at once (as ipykernel itself does for a cell awaiting a widget reply)
+  and hand every other message (another cell's execute request) back to the
+  kernel's loop, in order, to run after this cell. Every ipykernel internal this
+  needs is a function of :mod:`grasswidget.compat` (``kernel_shell_socket``,
+  ``kernel_dispatch_comm``, ``kernel_requeue_shell``, ``kernel_parent_ident``).
 * ipykernel 6: ``jupyter_ui_poll`` (which pumps ``kernel.do_one_iteration``).
 
 Outside a kernel nothing can answer: it raises at once.
@@ -56,7 +57,7 @@ def wait_for(check, timeout: float, what: str):
     if kernel is None:
         raise BrowserTimeoutError(f"{what}: no notebook kernel is running, so no browser view can answer")
     deadline = time.monotonic() + timeout
-    if getattr(kernel, "shell_channel_thread", None) is not None or not hasattr(kernel, "do_one_iteration"):
+    if compat.kernel_has_shell_socket(kernel):
         return _wait_ipykernel7(kernel, check, deadline, timeout, what)
     from jupyter_ui_poll import ui_events
 
@@ -74,13 +75,7 @@ def wait_for(check, timeout: float, what: str):
 def _wait_ipykernel7(kernel, check, deadline, timeout, what):
     import zmq
 
-    thread = getattr(kernel, "shell_channel_thread", None)
-    if thread is not None:
-        sock = thread.manager.get_shell_channel_to_subshell_pair(None).to_socket
-        on_recv = kernel.shell_main
-    else:
-        sock = kernel.shell_stream.socket
-        on_recv = kernel.shell_main
+    sock = compat.kernel_shell_socket(kernel)
     parent = kernel.get_parent("shell")
     ident = compat.kernel_parent_ident(kernel, "shell")
     deferred = []
@@ -93,7 +88,7 @@ def _wait_ipykernel7(kernel, check, deadline, timeout, what):
         except Exception:
             msg_type = None
         if msg_type in ("comm_msg", "comm_open", "comm_close"):
-            _run_now(kernel.dispatch_shell(frames, concurrent=True))
+            _run_now(compat.kernel_dispatch_comm(kernel, frames))
             kernel.set_parent(ident, parent, channel="shell")
         else:
             deferred.append(frames)
@@ -116,7 +111,7 @@ def _wait_ipykernel7(kernel, check, deadline, timeout, what):
             handle_one()
         kernel.set_parent(ident, parent, channel="shell")
         for frames in deferred:  # run after this cell, in the order they came
-            kernel.io_loop.add_callback(on_recv, None, frames)
+            compat.kernel_requeue_shell(kernel, frames)
 
 
 def _run_now(coro):

@@ -1,20 +1,12 @@
-// The browser engine's stand-in for pygfx.std.wgsl, included by blade_render.wgsl
-// in place of pygfx's std include: the varyings and fragment output of the
-// ribbon shader, and the colour helper it calls. The canvas stores sRGB values
-// directly, so srgb2physical is the identity here (pygfx converts to linear and
-// its output pass converts back: the same pixels for opaque blades).
+// The browser engine's stand-in for pygfx.std.wgsl, included by the project's
+// render shaders (blade_render.wgsl, sky_ground.wgsl) in place of pygfx's std
+// include: the varyings (generated from the shader's `varyings.x = T(...)` lines,
+// as pygfx does), the fragment output and the helpers those files call. The
+// canvas stores sRGB values directly, so srgb2physical is the identity here
+// (pygfx converts to linear and its output pass converts back: the same pixels
+// for opaque surfaces).
 
-struct Varyings {
-    @builtin(position) position: vec4<f32>,
-    @location(0) world_pos: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) along: f32,
-    @location(3) variation: f32,
-    @location(4) @interpolate(flat) pick_idx: u32,
-$$ if teaching_views
-    @location(5) flat_color: vec4<f32>,  // colour-by views: a = 1 draws the blade flat in rgb (sRGB)
-$$ endif
-};
+/*__GRASSWIDGET_VARYINGS__*/
 
 struct FragmentOutput {
     @location(0) color: vec4<f32>,
@@ -22,4 +14,10 @@ struct FragmentOutput {
 
 fn srgb2physical(color: vec3<f32>) -> vec3<f32> {
     return color;
+}
+
+// World position of a normalized device coordinate (pygfx's helper of the same name).
+fn ndc_to_world_pos(ndc_pos: vec4<f32>) -> vec3<f32> {
+    let world_pos = u_stdinfo.cam_transform_inv * u_stdinfo.projection_transform_inv * ndc_pos;
+    return world_pos.xyz / world_pos.w;
 }

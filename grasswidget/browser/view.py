@@ -24,15 +24,17 @@ answering they raise ``TimeoutError`` naming the browser view.
 from __future__ import annotations
 
 import itertools
+import uuid
 from pathlib import Path
 
 import anywidget
 import numpy as np
-from traitlets import Bool, Bytes, Dict, Float, Int, List
+from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
+from ..core.frame_data import frame_rules
 from ..core.params import GrassParams
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
@@ -43,19 +45,6 @@ __all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
 HERE = Path(__file__).resolve().parent
 #: Seconds a request waits for the browser's answer by default.
 ANSWER_TIMEOUT = 30.0
-
-#: The kernel engine's scene colours (GrassScene: pygfx Background gradient, Phong
-#: ground #3b2a1a under ambient 0.6 + a sun of intensity 2, ColliderBalls #dfe8ff
-#: at opacity 0.35), as sRGB in 0..1. The ground colour was measured in a kernel
-#: render (a flat Phong plane facing up is one colour).
-SCENE_STYLE = dict(
-    sky_bottom=(0x9C / 255, 0xC3 / 255, 0xE6 / 255, 1.0),
-    sky_top=(0xE8 / 255, 0xF1 / 255, 0xF8 / 255, 1.0),
-    ground_color=(51 / 255, 36 / 255, 22 / 255, 1.0),
-    ball_color=(0xDF / 255, 0xE8 / 255, 0xFF / 255, 0.35),
-    light_direction=(4.0, 10.0, 3.0),
-)
-
 
 def wind_error_from_messages(messages, wgsl, body, reason=""):
     """A :class:`~grasswidget.gpu.field.WindShaderError`-like ValueError from the
@@ -95,9 +84,14 @@ class BrowserView(anywidget.AnyWidget):
     "detail"}), ``camera`` (both ways), ``playing``, ``time_scale``.
     """
 
-    _esm = HERE / "engine.js"
+    # The module's text, not its path: anywidget 0.11 connects every instance of a
+    # widget whose _esm is a file path to that file's class-wide change signal with a
+    # strong closure, which keeps every BrowserView (and its GrassWidget) alive forever.
+    _esm = (HERE / "engine.js").read_text(encoding="utf-8")
 
     # ---- state sent to the browser
+    #: One engine per widget in the page, however many times it is displayed (engine.js keys it by this).
+    engine_key = Unicode("").tag(sync=True)
     blade_data = Bytes(b"").tag(sync=True)
     n_blades = Int(0).tag(sync=True)
     shaders = Dict().tag(sync=True)
@@ -105,12 +99,17 @@ class BrowserView(anywidget.AnyWidget):
     sim_layout = Dict().tag(sync=True)
     cull_uniform = Bytes(b"").tag(sync=True)
     material_uniform = Bytes(b"").tag(sync=True)
+    sky_ground_uniform = Bytes(b"").tag(sync=True)
+    ball_uniform = Bytes(b"").tag(sync=True)
     stdinfo_size = Int(0).tag(sync=True)
-    clock = Dict().tag(sync=True)
+    stdinfo_layout = Dict().tag(sync=True)
+    #: grasswidget.core.frame_data.frame_rules: the clock's rules, the orbit limits, the scene style.
+    frame_rules = Dict().tag(sync=True)
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)
     camera = Dict().tag(sync=True)
-    balls = List().tag(sync=True)
+    #: The colliders as [[x, y, z, r], ...] (Python side; the browser gets the two arrays below).
+    balls = List()
     #: The spheres (K x 4 float32) and their grid (u32 words; grasswidget.core.collider_grid).
     collider_spheres = Bytes(b"").tag(sync=True)
     collider_grid = Bytes(b"").tag(sync=True)
@@ -119,7 +118,6 @@ class BrowserView(anywidget.AnyWidget):
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
-    scene_style = Dict().tag(sync=True)
     #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
     pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
@@ -145,14 +143,17 @@ class BrowserView(anywidget.AnyWidget):
         self.last_stats = {}
         #: The last 20 errors the browser reported (text), newest last.
         self.errors = []
-        super().__init__(width=int(size[0]), height=int(size[1]), **kwargs)
+        super().__init__(width=int(size[0]), height=int(size[1]), engine_key=uuid.uuid4().hex, **kwargs)
         with self.hold_sync():
             self.stdinfo_size = uniforms.struct_size(uniforms.STDINFO_LAYOUT)
+            self.stdinfo_layout = uniforms.layout_description(uniforms.STDINFO_LAYOUT)
             self.sim_layout = uniforms.layout_description(uniforms.SIM_LAYOUT)
             self.shaders = BrowserShaders.all(self.params.wind_wgsl)
             self._set_blades(blades)
             self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
+            self._write_frame_rules()
         self.home_camera = dict(self.camera)
+        self.observe(self._on_camera_far, names="camera")
         self.params.observe(self._on_params)
         self.on_msg(self._on_browser_msg)
 
@@ -160,26 +161,36 @@ class BrowserView(anywidget.AnyWidget):
 
     def _set_blades(self, blades: Blades):
         self.blades = blades
-        lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
-        extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
-        center = 0.5 * (lo + hi)
         with self.hold_sync():
             self.n_blades = len(blades)
             self._write_uniforms()
-            self.scene_style = dict(SCENE_STYLE, ground_center=[float(center[0]), -0.01, float(center[2])],
-                                    ground_half=0.6 * extent)
+            if self.camera:
+                self._write_frame_rules()
             self.blade_data = np.ascontiguousarray(blades.packed(), np.float32).tobytes()
 
     def set_blades(self, blades: Blades):
         """Replace the field (the camera is kept); the browser restarts from this rest pose."""
         self._set_blades(blades)
 
+    def _write_frame_rules(self):
+        """The clock's rules, orbit limits and scene style for these blades, params and camera far plane."""
+        rules = frame_rules(self.params, self.blades, self.camera.get("far"))
+        self.frame_rules = rules
+        self.sky_ground_uniform = uniforms.sky_ground_uniform(rules["style"])
+        self.ball_uniform = uniforms.ball_uniform(rules["style"])
+
+    def _on_camera_far(self, change):
+        if (change["old"] or {}).get("far") != (change["new"] or {}).get("far"):
+            with self.hold_sync():
+                self._write_frame_rules()
+
     def _write_uniforms(self):
         p, n = self.params, len(self.blades)
         self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
         self.cull_uniform = uniforms.cull_uniform(p, n)
         self.material_uniform = uniforms.material_uniform(p)
-        self.clock = uniforms.clock(p)
+        if self.camera:
+            self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
         self._write_colliders()
 
     def _write_colliders(self):

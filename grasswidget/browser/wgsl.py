@@ -25,13 +25,16 @@ import jinja2
 from ..core.reference import LOD_SEGMENTS
 from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
                             wgsl_environment)
-from .uniforms import CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, STDINFO_LAYOUT, WOBJECT_LAYOUT, offsets, wgsl_struct
+from .uniforms import (BALL_LAYOUT, CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, STDINFO_LAYOUT,
+                       WOBJECT_LAYOUT, offsets, wgsl_struct)
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
 
 HERE = Path(__file__).resolve().parent
 USER_WIND_SIGNATURE = "fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32> {"
 _MARK = "/*__GRASSWIDGET_BROWSER_BINDINGS__*/"
+_VARYINGS_MARK = "/*__GRASSWIDGET_VARYINGS__*/"
+_VARYING_RE = re.compile(r"\bvaryings\.(\w+)\s*=\s*((?:vec[234]|mat[234]x[234])<\w+>|f32|i32|u32)\s*\(")
 
 #: Uniform structs: resource name -> (struct name, layout).
 _UNIFORMS = {
@@ -66,8 +69,23 @@ _DECL_RE = re.compile(r"@group\(\s*0\s*\)\s*@binding\(\s*(\d+)\s*\)\s*var\s*<\s*
 
 
 def _std_include() -> str:
-    """This engine's stand-in for ``pygfx.std.wgsl``: varyings, fragment output, colour helper."""
+    """This engine's stand-in for ``pygfx.std.wgsl``: varyings, fragment output, helpers."""
     return (HERE / "std.wgsl").read_text(encoding="utf-8")
+
+
+def varyings_struct(code: str) -> str:
+    """The ``Varyings`` struct of a shader, as pygfx generates it: one field per
+    ``varyings.<name> = <type>(...)`` assignment, in order of first assignment;
+    ``position`` is the clip position builtin, integer fields are flat."""
+    found = {}
+    for name, wgsl_type in _VARYING_RE.findall(code):
+        found.setdefault(name, wgsl_type)
+    lines = ["    @builtin(position) position: vec4<f32>,"] if "position" in found else []
+    others = [(name, t) for name, t in found.items() if name != "position"]
+    for location, (name, wgsl_type) in enumerate(others):
+        flat = " @interpolate(flat)" if wgsl_type in ("u32", "i32") or wgsl_type.endswith(("<u32>", "<i32>")) else ""
+        lines.append(f"    @location({location}){flat} {name}: {wgsl_type},")
+    return "struct Varyings {\n" + "\n".join(lines) + "\n};"
 
 
 @lru_cache(maxsize=1)
@@ -98,12 +116,16 @@ def _uses(code: str, name: str) -> bool:
     return re.search(rf"\b{name}\b", code) is not None
 
 
-def render_shader(filename: str, stage: str, **variables) -> dict:
+def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, **variables) -> dict:
     """Render one of the project's WGSL files for the browser.
 
     Args:
         filename: a file of the shader folder, e.g. "simulate.wgsl".
         stage: "compute" or "render" (which storage access the header declares).
+        uniforms: {resource name: (struct name, layout)} replacing the default struct
+            of a uniform (e.g. ``u_material`` of sky_ground.wgsl is not the grass material).
+        resources: {name in the WGSL: the engine's buffer name} where they differ;
+            each binding then carries ``"resource"`` (the engine binds that buffer).
         variables: the template's variables (as the pygfx shader class passes them).
 
     Returns ``{"code": str, "bindings": [...]}`` (see :func:`binding_map`).
@@ -113,6 +135,8 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
     # teaching_views: the colour-by views (the culled blades' list and draw, flat colours).
     values = {**template_vars(), "teaching_views": True, "bindings_code": _MARK, "write_pick": False, **variables}
     body = env.from_string(source).render(**values)
+    if _VARYINGS_MARK in body:
+        body = body.replace(_VARYINGS_MARK, varyings_struct(body), 1)
     declared = {b["name"] for b in binding_map(body)}
     used_numbers = {b["binding"] for b in binding_map(body)}
 
@@ -126,7 +150,7 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
         used_numbers.add(next_free)
         return next_free
 
-    for name, (struct, layout) in _UNIFORMS.items():
+    for name, (struct, layout) in {**_UNIFORMS, **(uniforms or {})}.items():
         if name in declared or not _uses(body.replace(_MARK, ""), name):
             continue
         structs.append(wgsl_struct(struct, layout))
@@ -142,7 +166,11 @@ def render_shader(filename: str, stage: str, **variables) -> dict:
         code = body.replace(_MARK, header, 1)
     else:
         code = header + body
-    return {"code": code, "bindings": binding_map(code)}
+    bindings = binding_map(code)
+    for b in bindings:
+        if resources and b["name"] in resources:
+            b["resource"] = resources[b["name"]]
+    return {"code": code, "bindings": bindings}
 
 
 def wind_body(wind_wgsl: str) -> str:
@@ -159,7 +187,8 @@ class BrowserShaders:
     """All shader texts the browser engine compiles, rendered from the project's files.
 
     ``simulate(wind_wgsl)`` depends on the custom wind; the others are fixed.
-    ``scene()`` is the browser's own sky, ground and collider-ball shader.
+    ``sky_ground()`` is the kernel engine's sky and ground file (its ``u_material``
+    bound to the engine's ``u_sky_ground`` buffer); ``balls()`` the collider balls.
     """
 
     @staticmethod
@@ -197,13 +226,30 @@ class BrowserShaders:
         return out
 
     @staticmethod
-    def scene() -> dict:
-        code = wgsl_struct("StdInfo", STDINFO_LAYOUT) + "\n" + (HERE / "scene.wgsl").read_text(encoding="utf-8")
+    def sky_ground() -> dict:
+        """``shaders/sky_ground.wgsl``: sky gradient and ground to the horizon, as in the kernel engine."""
+        return render_shader("sky_ground.wgsl", "render", uniforms={"u_material": ("SkyGround", SKY_GROUND_LAYOUT)},
+                             resources={"u_material": "u_sky_ground"})
+
+    @staticmethod
+    def balls() -> dict:
+        """The translucent collider balls (``balls.wgsl``, the browser's stand-in for pygfx's Phong spheres)."""
+        code = (wgsl_struct("StdInfo", STDINFO_LAYOUT) + "\n" + wgsl_struct("BallStyle", BALL_LAYOUT) + "\n"
+                + (HERE / "balls.wgsl").read_text(encoding="utf-8"))
         return {"code": code, "bindings": binding_map(code)}
 
     @classmethod
     def all(cls, wind_wgsl: str = "") -> dict:
         return {
+            # The compute passes of every frame, in order ("blades": one invocation per blade,
+            # "one": one workgroup): reset the draw arguments, count survivors per distance band,
+            # turn counts into slots, cull and scatter the lists nearest band first.
+            "compute_passes": [
+                {"shader": "reset_args", "dispatch": "one", "label": "reset_args.wgsl"},
+                {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
+                {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
+                {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
+            ],
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
             "cull_count": cls.cull("count"),
@@ -213,7 +259,8 @@ class BrowserShaders:
             "blades_flat": cls.blades(flat_colors=True),
             # byte offset of u_cull.color_by: the engine draws "blades_flat" while it is not natural (0)
             "color_by_offset": int(offsets(CULL_LAYOUT)["color_by"][0]),
-            "scene": cls.scene(),
+            "sky_ground": cls.sky_ground(),
+            "balls": cls.balls(),
             "lod_segments": list(LOD_SEGMENTS),
             "bands": DISTANCE_BANDS,
         }

@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 #: Peak host memory (bytes) per blade while blades are made and packed for upload.
-#: Measured with tracemalloc (tests/test_memory_limits.py checks it stays an upper
+#: Measured with tracemalloc (tests/core/test_memory_limits.py checks it stays an upper
 #: bound): on_plane 145, on_mesh 216, on_heightmap 256, on_plane + packed() 168.
 NUMPY_BYTES_PER_BLADE = 288
 #: GPU bytes per blade in the blade-state storage buffer (4 x vec4<f32>).

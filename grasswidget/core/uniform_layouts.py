@@ -7,18 +7,23 @@ with :func:`wgsl_struct`: see ``grasswidget.gpu.wgsl`` for why); the browser eng
 from it (``grasswidget.browser.uniforms``). The order is the one pygfx lays a
 struct out in (16-byte-aligned fields first, then the 4-byte ones, each group in
 the order given), so both engines put every field at the same byte offset;
-``tests/test_uniform_layouts.py`` checks that field for field.
+``tests/core/test_uniform_layouts.py`` checks that field for field.
 
-To add a uniform field: one line here, then write it in ``GrassField.update_cull``
-/ ``Simulation`` (kernel) and ``browser.uniforms.sim_uniform`` / ``cull_uniform``
-(browser), and read it in the WGSL as ``u_sim.<field>`` or ``u_cull.<field>``.
+The values are computed once too, for both engines, by
+:mod:`grasswidget.core.frame_data` (``sim_uniform_values``, ``cull_uniform_values``):
+the kernel copies them into its pygfx arrays, the browser gets them as bytes
+from :func:`pack`. To add a uniform field: one line here, its value in
+``frame_data``, and read it in the WGSL as ``u_sim.<field>`` or ``u_cull.<field>``.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import GrassValueError
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "shadertype", "wgsl_shadertype", "wgsl_struct"]
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
+           "struct_size", "pack", "layout_description", "write_values", "wgsl_struct"]
 
 #: ``u_sim``: the simulation's parameters (simulate.wgsl, inspect.wgsl). Vectors are
 #: vec4 (xyz used) so that the struct has no vec3 padding rules to get wrong.
@@ -64,6 +69,15 @@ CULL_LAYOUT = (
     ("frozen_viewport_height", "f32"),    # frozen camera viewport height (pixels)
 )
 
+#: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it).
+SKY_GROUND_LAYOUT = (
+    ("sky_bottom", "vec4<f32>"),          # sRGB 0..1, bottom of the view
+    ("sky_top", "vec4<f32>"),             # sRGB 0..1, top of the view
+    ("ground_color", "vec4<f32>"),        # sRGB 0..1
+    ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
+    ("show_ground", "i32"),               # 0/1
+)
+
 _SCALARS = {"f32": "f4", "i32": "i4", "u32": "u4"}
 
 
@@ -92,3 +106,73 @@ def wgsl_struct(name: str, layout) -> str:
     """The WGSL ``struct name { ... };`` of ``layout``, fields in layout order."""
     fields = "\n".join(f"    {f}: {t}," for f, t in layout)
     return f"struct {name} {{\n{fields}\n}};"
+
+
+# ---------------------------------------------------------------------- byte layout (WGSL uniform rules)
+
+_NUMPY = {"f32": "<f4", "i32": "<i4", "u32": "<u4"}
+
+
+def _size_align(wgsl_type):
+    """(size, align, numpy dtype of one element, element count) of a WGSL type."""
+    t = wgsl_type.replace(" ", "")
+    if t in _NUMPY:
+        return 4, 4, _NUMPY[t], 1
+    if t == "vec2<f32>":
+        return 8, 8, "<f4", 2
+    if t == "vec4<f32>":
+        return 16, 16, "<f4", 4
+    if t == "mat4x4<f32>":
+        return 64, 16, "<f4", 16
+    if t.startswith("array<vec4<f32>,"):
+        n = int(t.rsplit(",", 1)[1].rstrip(">"))
+        return 16 * n, 16, "<f4", 4 * n
+    raise GrassValueError(f"unsupported uniform type {wgsl_type!r}")
+
+
+def offsets(layout) -> dict:
+    """{field: (byte offset, numpy dtype, element count)} under WGSL's uniform rules
+    (scalars 4 bytes, vec2 8, vec4 16, mat4x4 64 aligned to 16, array<vec4<f32>, N> 16 N)."""
+    out, off = {}, 0
+    for name, t in layout:
+        size, align, dtype, count = _size_align(t)
+        off = -(-off // align) * align
+        out[name] = (off, dtype, count)
+        off += size
+    return out
+
+
+def struct_size(layout) -> int:
+    """Bytes of the struct (rounded up to 16)."""
+    end = max((off + 4 * count for off, _dtype, count in offsets(layout).values()), default=0)
+    return -(-end // 16) * 16
+
+
+def layout_description(layout) -> dict:
+    """JSON-able {field: [offset, kind, count]} (kind "f32", "i32" or "u32")."""
+    kinds = {"<f4": "f32", "<i4": "i32", "<u4": "u32"}
+    return {k: [o, kinds[d], c] for k, (o, d, c) in offsets(layout).items()}
+
+
+def pack(layout, values: dict) -> bytes:
+    """The struct's bytes from ``values`` ({field: number or array}, e.g.
+    ``frame_data.sim_uniform_values(...)``); fields missing from ``values`` are zero,
+    names not in the layout raise GrassValueError."""
+    unknown = set(values) - {name for name, _ in layout}
+    if unknown:
+        raise GrassValueError(f"values name fields the layout lacks: {sorted(unknown)}")
+    buf = bytearray(struct_size(layout))
+    for name, (off, dtype, count) in offsets(layout).items():
+        if name not in values:
+            continue
+        arr = np.zeros(count, dtype)
+        v = np.asarray(values[name], np.float64).reshape(-1).astype(dtype)
+        arr[: min(count, v.size)] = v[:count]
+        buf[off: off + 4 * count] = arr.tobytes()
+    return bytes(buf)
+
+
+def write_values(array, values: dict):
+    """Copy ``values`` into a pygfx uniform array (``buffer.data``) field by field."""
+    for name, value in values.items():
+        array[name] = value

@@ -16,12 +16,12 @@ from pygfx.utils import array_from_shadertype
 from .. import compat
 from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
-from ..core.enums import ColorBy
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..core.params import GrassParams
 from ..core.reference import LOD_SEGMENTS
-from ..core.uniform_layouts import CULL_LAYOUT, shadertype
+from ..core.frame_data import cull_uniform_values
+from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
@@ -262,28 +262,13 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_wind(change["new"], change["old"])
 
     def _write_cull_uniform(self):
+        """``u_cull`` from the params and the frozen camera (values: frame_data.cull_uniform_values)."""
         p = self.params
-        d = self.cull_uniform_buffer.data
-        d["orientation_threshold"] = p.cull_orientation_threshold
-        d["frustum_tolerance"] = p.cull_frustum_tolerance
-        d["distance_max"] = p.cull_distance_max
-        d["buckets"] = p.cull_buckets
-        d["cull_orientation"] = int(p.cull_orientation)
-        d["cull_frustum"] = int(p.cull_frustum)
-        d["cull_distance"] = int(p.cull_distance)
-        d["lod"] = int(p.lod)
-        d["n_blades"] = self.count
-        d["color_by"] = ColorBy.from_label(p.color_by)
         if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
             self._store.culled_buffer = gfx.Buffer(
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
             )
-        frozen = self._frozen_camera
-        d["frozen"] = int(frozen is not None)
-        if frozen is not None:
-            d["frozen_view_proj"] = frozen.view_proj.T  # WGSL matrices are column-major
-            d["frozen_cam_pos"] = (*frozen.position, 1.0)
-            d["frozen_viewport_height"] = frozen.viewport_size[1]
+        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
         self.cull_uniform_buffer.update_full()
 
     # ------------------------------------------------------------------ frozen culling

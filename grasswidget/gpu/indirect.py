@@ -5,7 +5,8 @@ This module subclasses it: when the shader carries ``indirect_args`` (a pygfx
 Buffer with usage INDIRECT) and ``indirect_offset`` (bytes), the draw becomes
 ``render_pass.draw_indirect(buffer, offset)``; other shaders draw as before. The
 subclass is installed as the module global that pygfx's pipeline module
-instantiates. tests/test_indirect_patch.py fails loudly if an upgrade breaks it.
+instantiates. tests/test_compat.py (the engine internals) and tests/gpu/test_culling.py (the live patch)
+fail loudly if an upgrade breaks it.
 """
 
 from __future__ import annotations

@@ -18,6 +18,7 @@ from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
+from ..core.frame_data import ground_square
 from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams
@@ -82,11 +83,9 @@ class GrassScene:
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         center = 0.5 * (lo + hi)
         # Sky and a flat ground square in one full-screen pass (sized by _fit_ground).
-        self._ground_center = (float(center[0]), -0.01, float(center[2]))
-        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=self._ground_center,
-                                                      ground_half_size=0.6 * extent))
+        centre, half = ground_square(blades, None)
+        self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
         self.ground = GroundSwitch(self.sky_ground.material)
-        self._field_extent = extent
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         self.collider_balls = ColliderBalls(self.field)
@@ -153,9 +152,8 @@ class GrassScene:
     def _fit_ground(self):
         """Size the ground plane to reach the far plane from anywhere over the field,
         so that a low camera sees ground, not sky, below the horizon."""
-        far = float(self.camera.depth_range[1]) if self.camera.depth_range else 100.0
-        side = 1.2 * self._field_extent + 2.0 * far
-        self.sky_ground.material.set_ground(self._ground_center, 0.5 * side)
+        far = float(self.camera.depth_range[1]) if self.camera.depth_range else None
+        self.sky_ground.material.set_ground(*ground_square(self.field.blades, far))
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a

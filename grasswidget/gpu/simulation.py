@@ -18,13 +18,13 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS, build_collider_grid, root_bounds
+from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
-from ..core.enums import GravityMode, WindField
+from ..core.frame_data import collider_grid, sim_uniform_values
 from ..errors import WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
-from ..core.uniform_layouts import SIM_LAYOUT, shadertype
+from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .wgsl import GrassComputeShader, workgroups
@@ -133,9 +133,6 @@ class Simulation:
         #: every sphere (the paper's loop: for comparisons in tests and benchmarks).
         self.max_grid_cells = MAX_GRID_CELLS
         self._grid_key = None
-        blades = field.blades
-        self._bounds = root_bounds(blades.v0)
-        self._max_height = float(np.max(blades.height)) if len(blades) else 0.0
         self.step_count = 0
         self.wind_body = None
         self._program = None
@@ -174,71 +171,35 @@ class Simulation:
 
     # ------------------------------------------------------------------ uniforms
 
-    def local_gravity_direction(self):
-        """params.gravity_direction (world space) in the field's local space, unit length."""
-        world = np.asarray(self.field.params.gravity_direction, np.float64)
-        m = np.asarray(self.field.world.matrix, np.float64)[:3, :3]
-        try:
-            local = np.linalg.solve(m, world)
-        except np.linalg.LinAlgError:
-            local = world
-        return local / max(np.linalg.norm(local), 1e-12)
-
-    def local_gravity_center(self):
-        """params.gravity_center (world space) in the field's local space."""
-        world = np.array([*self.field.params.gravity_center, 1.0])
-        try:
-            return np.linalg.solve(np.asarray(self.field.world.matrix, np.float64), world)[:3]
-        except np.linalg.LinAlgError:
-            return world[:3]
+    def uniform_values(self, steps=0, time0=0.0) -> dict:
+        """The ``u_sim`` values for a dispatch of ``steps`` steps from ``time0`` s
+        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix)."""
+        field = self.field
+        return sim_uniform_values(field.params, field.count, field.colliders, world_matrix=field.world.matrix,
+                                  steps=steps, time0=time0)
 
     def write_uniform(self, steps, time0):
         """Fill ``u_sim`` from the params and colliders for a dispatch of ``steps`` steps from ``time0`` s."""
-        field = self.field
-        p = field.params
         d = self.uniform_buffer.data
-        d["gravity_dir"] = (*self.local_gravity_direction(), 0.0)
-        rad = math.radians(p.wind_direction)
-        d["wind_dir"] = (math.cos(rad), math.sin(rad), 0.0, 0.0)
-        d["gravity"] = p.gravity
-        d["front_gravity"] = p.front_gravity
-        d["stiffness_scale"] = p.stiffness_scale
-        d["dt"] = p.dt
-        d["time0"] = time0
-        d["wind_strength"] = p.wind_strength
-        d["wind_speed"] = p.wind_speed
-        d["wind_wavelength"] = p.wind_wavelength
-        d["wind_field"] = WindField.from_label(p.wind_field)
-        d["steps"] = steps
-        d["n_blades"] = field.count
-        d["gravity_mode"] = GravityMode.from_label(p.gravity_mode)
-        d["gravity_center"] = (*self.local_gravity_center(), 0.0)
-        d["wind_center"] = (*p.wind_center, 0.0)
-        d["wind_radius"] = p.wind_radius
-        d["wind_direction_rad"] = rad
-        d["collision_fade"] = p.collision_fade
-        d["collision_gain"] = p.collision_gain
-        spheres = self.write_colliders()
-        d["n_colliders"] = len(spheres)
+        write_values(d, self.uniform_values(steps, time0))
+        self.write_colliders()
         device = ensure_device()
         device.queue.write_buffer(sync_buffer(self.uniform_buffer), 0, d.tobytes())
 
     def write_colliders(self):
-        """Upload the spheres and their grid when the colliders changed since the last upload
-        (a new grid from :func:`~grasswidget.core.collider_grid.build_collider_grid`); return
-        the spheres (K, 4)."""
+        """Upload the spheres and their grid (:func:`grasswidget.core.frame_data.collider_grid`) when
+        the colliders changed since the last upload."""
         colliders = self.field.colliders
-        spheres = collider_array(colliders)
-        key = (colliders.version if hasattr(colliders, "version") else spheres.tobytes(), self.max_grid_cells)
+        key = (colliders.version if hasattr(colliders, "version") else collider_array(colliders).tobytes(),
+               self.max_grid_cells)
         if key == self._grid_key and self.collider_grid is not None:
-            return spheres
-        grid = build_collider_grid(spheres, self._bounds, self._max_height, max_cells=self.max_grid_cells)
+            return
+        grid = collider_grid(colliders, self.field.blades, max_cells=self.max_grid_cells)
         device = ensure_device()
-        if len(spheres):
+        if len(grid.spheres):
             device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.spheres.tobytes())
         device.queue.write_buffer(sync_buffer(self.grid_buffer), 0, grid.words().tobytes())
         self.collider_grid, self._grid_key = grid, key
-        return spheres
 
     # ------------------------------------------------------------------ time
 

@@ -1,5 +1,9 @@
 """Sky and ground in one full-screen pass: the cheap backdrop of GrassScene.
 
+``shaders/sky_ground.wgsl`` is drawn by both engines (the browser engine renders
+it for its own bindings); the colours and the ground square come from
+:func:`grasswidget.core.frame_data.scene_style`.
+
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
 lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
@@ -18,7 +22,9 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
+from ..core.frame_data import GROUND_COLOR, SKY_BOTTOM, SKY_TOP
 from ..core.shader_files import read_shader
+from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype
 from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
@@ -34,16 +40,10 @@ class SkyGroundMaterial(gfx.Material):
         ground_half_size: half the side of the ground square (m, > 0).
     """
 
-    uniform_type = dict(
-        gfx.Material.uniform_type,
-        sky_bottom="4xf4",
-        sky_top="4xf4",
-        ground_color="4xf4",
-        ground="4xf4",
-        show_ground="i4",
-    )
+    #: pygfx's material uniforms plus ``uniform_layouts.SKY_GROUND_LAYOUT`` (the browser engine's struct).
+    uniform_type = dict(gfx.Material.uniform_type, **shadertype(SKY_GROUND_LAYOUT))
 
-    def __init__(self, sky_bottom="#9cc3e6", sky_top="#e8f1f8", ground_color="#332416",
+    def __init__(self, sky_bottom=SKY_BOTTOM, sky_top=SKY_TOP, ground_color=GROUND_COLOR,
                  ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
         self.uniform_buffer.data["sky_bottom"] = gfx.Color(sky_bottom).rgba

@@ -20,16 +20,17 @@ from __future__ import annotations
 import math
 import time
 
+from ..core.frame_data import MAX_STEPS_PER_FRAME  # the rule both engines' clocks follow
 from ..errors import GrassValueError
 
-__all__ = ["SimClock"]
+__all__ = ["SimClock", "MAX_STEPS_PER_FRAME"]
 
 
 class SimClock:
     """Fixed steps for the wall time that went by.
 
     Args:
-        max_steps: the most steps one frame may take (>= 1).
+        max_steps: the most steps one frame may take (>= 1, default :data:`MAX_STEPS_PER_FRAME`).
         now: a function returning wall-clock seconds (default ``time.perf_counter``).
 
     Attributes:
@@ -44,7 +45,7 @@ class SimClock:
     #: Seconds over which :attr:`speed` is averaged.
     SPEED_WINDOW = 1.0
 
-    def __init__(self, max_steps: int = 64, now=None):
+    def __init__(self, max_steps: int = MAX_STEPS_PER_FRAME, now=None):
         if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
             raise GrassValueError(f"max_steps must be an integer >= 1; got {max_steps!r}")
         self.max_steps = max_steps

@@ -52,14 +52,12 @@ import numpy as np
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.blades import Blades
-from .clock import SimClock
-from ..errors import GrassValueError
+from ..core.view_api import GrassView
+from .clock import MAX_STEPS_PER_FRAME, SimClock
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
 
-#: At most this many fixed steps are simulated per drawn frame.
-MAX_STEPS_PER_FRAME = 64
 #: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
 CPU_MAX_BLADES = 1 << 18
 #: Largest blade count the slider offers on a GPU.
@@ -88,16 +86,13 @@ def streaming_defaults(cpu: bool) -> dict:
 
 def _canvas_class():
     """A jupyter RenderCanvas with a capped, scalable pixel ratio and timed presents."""
-    from rendercanvas.jupyter import RenderCanvas
-
-    class GrassCanvas(RenderCanvas):
+    class GrassCanvas(compat.timed_jupyter_canvas_class()):
         """rendercanvas.jupyter.RenderCanvas that renders at ``render_scale`` times the
         browser's devicePixelRatio capped to ``max_pixel_ratio``, and reports when a
         frame's pixels arrived (``on_present``) and when it was sent (``on_sent``)."""
 
         max_pixel_ratio = 2.0
         render_scale = 1.0
-        on_present = None
         on_sent = None
         _browser_resize = None
 
@@ -121,11 +116,6 @@ def _canvas_class():
             self.render_scale = float(scale)
             if self._browser_resize is not None:
                 super().handle_event(self._scaled(self._browser_resize))
-
-        def _rc_present_bitmap(self, *, data, format, **kwargs):
-            if self.on_present is not None:
-                self.on_present(time.perf_counter())
-            super()._rc_present_bitmap(data=data, format=format, **kwargs)
 
         def send_frame(self, array):
             super().send_frame(array)
@@ -182,8 +172,9 @@ def orbit_target(scene):
     return pos + forward * d
 
 
-class KernelView:
-    """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock.
+class KernelView(GrassView):
+    """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock
+    (the kernel engine's :class:`~grasswidget.core.view_api.GrassView`).
 
     Args:
         blades: a blade count or a :class:`Blades` for the first scene.
@@ -204,27 +195,22 @@ class KernelView:
     """
 
     backend = "kernel"
-    #: This view draws the teaching views (colour by, frozen culling, inspector).
-    teaching_views = True
+    scene = None
+    controller = None
+    canvas = None
 
     def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
                  on_inspect=None):
-        self.size = tuple(size)
-        self.params = params
+        super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
+                         on_inspect=on_inspect)
         self._preset = preset
         self._streaming = dict(streaming)
-        self._clock = clock
-        self._actions = actions
-        self._on_error = on_error
-        self._on_stats = on_stats
-        self._on_inspect = on_inspect
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
         self.scene = None
         self.controller = None
         self.ball = None
-        self._closed = False
 
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
@@ -235,7 +221,6 @@ class KernelView:
         self.canvas.resizable = False
         self.canvas.on_present = self._on_present
         self.canvas.on_sent = self._on_sent
-        self.widget = self.canvas
         self.events = EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
                                            intercept=self._on_pointer)
         self.canvas.add_event_handler(self.events, *EventsWithoutPicking.TYPES)
@@ -305,13 +290,41 @@ class KernelView:
             scene.camera.set_state(cam_state)
         self.canvas.request_draw(self.draw)
 
+    @property
+    def widget(self):
+        """The jupyter-rfb canvas (the ipywidget to show)."""
+        return self.canvas
+
     def attach_ball(self, ball):
         """The :class:`~grasswidget.notebook.ball.BallControl` to move with shift + drag and roll."""
         self.ball = ball
 
     @property
+    def ball_scene(self):
+        """The GrassScene (the ball lives in its colliders)."""
+        return self.scene
+
+    @property
+    def blades(self):
+        """The field's :class:`Blades` (rest pose)."""
+        return self.scene.field.blades
+
+    @property
     def blade_count(self) -> int:
         return self.scene.field.count
+
+    @property
+    def colliders(self):
+        """The scene's sphere colliders."""
+        return self.scene.colliders
+
+    def read_state(self, timeout=None) -> dict:
+        """The field's state (a GPU readback; ``timeout`` is not needed here)."""
+        return self.scene.field.read_state()
+
+    def set_wind_wgsl(self, body, select=True):
+        """Compile ``body`` as the custom wind in the kernel (see GrassField.set_wind_wgsl)."""
+        self.scene.field.set_wind_wgsl(body, select=select)
 
     # ------------------------------------------------------------------ time
 
@@ -319,20 +332,6 @@ class KernelView:
     def max_fps(self) -> float:
         """The stream cap: frames per second asked of the canvas scheduler."""
         return float(self._streaming["max_fps"])
-
-    @property
-    def frame_interval(self) -> float:
-        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
-        return 1.0 / self.max_fps
-
-    @property
-    def steps_per_frame(self) -> int:
-        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped:
-        what :meth:`GrassWidget.step` does by default (while playing, the clock decides)."""
-        return max(0, min(self._wanted_steps(), MAX_STEPS_PER_FRAME))
-
-    def _wanted_steps(self):
-        return int(round(self._clock.time_scale * self.frame_interval / self.params.dt))
 
     @property
     def sim_time(self) -> float:
@@ -361,9 +360,12 @@ class KernelView:
             self.clock.stop()
             self.governor.restart()
             self.canvas.set_render_scale(1.0)
-        if not self._closed:
+        if not self.closed:
             self.canvas.set_update_mode("continuous" if playing else "ondemand")
             self.canvas.request_draw()
+
+    def set_time_scale(self, time_scale: float):
+        """Nothing to do: each frame reads ``time_scale`` from the clock."""
 
     def step(self, n: int):
         """Advance exactly ``n`` fixed steps and redraw."""
@@ -379,7 +381,7 @@ class KernelView:
                     self.ball.advance(chunk * dt)
                 except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
                     self.ball.rolling = False
-                    self._on_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+                    self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
             self.scene.step(chunk)
             self.clock.count(chunk, dt)
 
@@ -398,8 +400,7 @@ class KernelView:
             self.scene.camera.set_state(self._home_state)
         self.request_draw()
 
-    @property
-    def camera_state(self) -> dict:
+    def current_camera(self) -> dict:
         """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
         cam = self.scene.camera
         target = self.controller.target if self.controller is not None else orbit_target(self.scene)
@@ -407,23 +408,14 @@ class KernelView:
                 "target": tuple(float(x) for x in target),
                 "fov_deg": self.scene.vertical_fov()}
 
-    @camera_state.setter
-    def camera_state(self, state):
-        from ..browser.engine_view import _check_camera_state
-
-        state = _check_camera_state(state)
-        current = self.camera_state
-        position = state.get("position", current["position"])
-        target = state.get("target", current["target"])
-        if np.allclose(position, target):
-            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
-        self.scene.look(position, target, state.get("fov_deg"))
+    def look(self, position, target, fov_deg):
+        """Aim the scene's camera; the controller orbits around ``target`` from now on."""
+        self.scene.look(position, target, fov_deg)
         if self.controller is not None:
             self.controller.target = np.asarray(target, np.float64)
-        self.request_draw()
 
     def request_draw(self):
-        if not self._closed:
+        if not self.closed:
             self.canvas.request_draw()
 
     # ------------------------------------------------------------------ teaching views
@@ -442,8 +434,8 @@ class KernelView:
         """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
         self.scene.inspect(ids)
         self._inspected = tuple(self.scene.inspected)
-        if self._on_inspect is not None and not self._inspected:
-            self._on_inspect([])
+        if not self._inspected:
+            self.report_inspected([])
         self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
         self.request_draw()
 
@@ -460,8 +452,7 @@ class KernelView:
         return None
 
     def _report_inspected(self):
-        if self._on_inspect is not None:
-            self._on_inspect(self.scene.read_inspected() if self._inspected else [])
+        self.report_inspected(self.scene.read_inspected() if self._inspected else [])
 
     # ------------------------------------------------------------------ pictures
 
@@ -475,17 +466,21 @@ class KernelView:
             iio.imwrite(path, self.scene.render_at(size), extension=".png")
         return path
 
+    def save_png_later(self, path, size, done):
+        """The kernel renders at once: write the PNG now and call ``done(path)``."""
+        done(self.save_png(path, size))
+
     def draw(self):
         """The canvas draw function: advance time (when playing), render, maybe refresh stats."""
         scene = self.scene
         if scene is None or scene.renderer is None:
             return
         t0 = time.perf_counter()
-        playing = bool(self._clock.playing)
+        playing = bool(self.clock_source.playing)
         if playing:
             if not self.clock.running:
                 self.clock.start()
-            self._simulate(self.clock.frame_steps(self.params.dt, self._clock.time_scale))
+            self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
         scene.draw_frame()
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
@@ -508,18 +503,13 @@ class KernelView:
 
     # ------------------------------------------------------------------ stats
 
-    @property
-    def stats(self) -> dict:
-        """The last stats (see GrassWidget.stats)."""
-        return self.current_stats()
-
     def current_stats(self) -> dict:
         """The stats dict for the stats line, with what is known now (no readback)."""
         s = dict(self._stats)
         s["blades"] = self.blade_count
         s["scale"] = self.render_scale
         s["target_fps"] = self.target_fps
-        playing = bool(self._clock.playing)
+        playing = bool(self.clock_source.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
@@ -564,7 +554,7 @@ class KernelView:
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
             **self.timing.averages(),
         )
-        self._on_stats(self.current_stats())
+        self.report_stats(self.current_stats())
         if self._inspected:
             self._report_inspected()
 
@@ -573,15 +563,15 @@ class KernelView:
     def _on_pointer(self, event):
         """Ctrl + click inspects a blade; shift + drag moves the ball; other events go
         on to the camera controller."""
-        if self._closed:
+        if self.closed:
             return False
         if self._is_inspect_click(event):
             try:
                 blade = self.pick_blade(event["x"], event["y"])
                 if blade is not None:
-                    self._actions.inspect([int(blade)])
+                    self.actions.inspect([int(blade)])
             except Exception as err:  # never let a pointer event break the canvas
-                self._on_error(err)
+                self.report_error(err)
             return True
         if self.ball is None:
             return False
@@ -590,7 +580,7 @@ class KernelView:
             view = (w, h) if w > 1 and h > 1 else self.size  # no browser view yet: the asked size
             return self.ball.handle_event(event, view)
         except Exception as err:  # never let a pointer event break the canvas
-            self._on_error(err)
+            self.report_error(err)
             return False
 
     @staticmethod
@@ -599,25 +589,13 @@ class KernelView:
         return (compat.event_type(event) == "pointer_down" and event.get("button", 1) == 1
                 and ("Control" in mods or "Meta" in mods) and "x" in event and "y" in event)
 
-    def on_key(self, event):
-        """Keys (canvas focused): space = play/pause, s = step one frame, r = reset the camera."""
-        key = str(event.get("key", "")).lower()
-        if event.get("modifiers"):
-            return
-        if key in (" ", "space", "spacebar"):
-            self._actions.toggle_play()
-        elif key == "s":
-            self._actions.step()
-        elif key == "r":
-            self._actions.reset_camera()
-
     # ------------------------------------------------------------------ closing
 
     def close(self):
         """Close the canvas and release the scene's GPU resources."""
-        if self._closed:
+        if self.closed:
             return
-        self._closed = True
+        self.closed = True
         canvas = self.canvas
         try:
             canvas.remove_event_handler(self.events, *EventsWithoutPicking.TYPES)

@@ -3,9 +3,11 @@
 ``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
 own module:
 
-* a view (:class:`grasswidget.notebook.kernel_view.KernelView`): the jupyter-rfb canvas
-  streaming a :class:`~grasswidget.gpu.scene.GrassScene` rendered in the kernel,
-  its mouse and key events and its clock;
+* a view (a :class:`grasswidget.core.view_api.GrassView`; the widget talks to it
+  through that interface only): :class:`grasswidget.notebook.kernel_view.KernelView`,
+  the jupyter-rfb canvas streaming a :class:`~grasswidget.gpu.scene.GrassScene`
+  rendered in the kernel, or :class:`grasswidget.browser.engine_view.BrowserEngineView`,
+  the same simulation run in the browser;
 * a control panel (:class:`grasswidget.notebook.panel.ControlPanel`): sliders, culling
   checkboxes, the ball row (:mod:`grasswidget.notebook.ball`), play/pause/step/
   reset buttons, a live stats line, a "Save PNG" button and the teaching row
@@ -45,16 +47,17 @@ from __future__ import annotations
 
 import datetime
 import os
-import weakref
 
 import ipywidgets as ipw
 import numpy as np
 from traitlets import All, Bool
 
+from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
+from ..core.view_api import MAX_STEPS_PER_FRAME, FeatureNotAvailableError, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
-from .kernel_view import MAX_STEPS_PER_FRAME, STATS_INTERVAL, KernelView, streaming_defaults
+from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
 from ..core.params import GrassParams, RangedFloat
 
@@ -62,95 +65,6 @@ __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_IN
 
 #: The engines a GrassWidget can run on (``backend=``).
 BACKENDS = ("kernel", "browser", "auto")
-
-
-def _current_cell_id():
-    """The JupyterLab cell id of the running execute request, or None."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-        kernel = getattr(ip, "kernel", None)
-        parent = kernel.get_parent() if kernel is not None else None
-        return (parent or {}).get("metadata", {}).get("cellId")
-    except Exception:
-        return None
-
-
-#: cell id -> weak references to the GrassWidgets that cell created (never strong:
-#: the registry itself keeps no widget alive).
-_BY_CELL: dict = {}
-
-#: Names of IPython's own bookkeeping in the user namespace (output history etc.).
-_IPYTHON_NAMES = {"In", "Out", "exit", "quit", "get_ipython"}
-
-
-def _user_namespace():
-    """The IPython user namespace, or None outside IPython."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-        return ip.user_ns if ip is not None else None
-    except Exception:
-        return None
-
-
-def _after_cell(callback):
-    """Run ``callback`` once after the running IPython cell finishes (its assignments
-    done), or now outside IPython."""
-    try:
-        from IPython import get_ipython
-
-        ip = get_ipython()
-    except Exception:
-        ip = None
-    if ip is None or not hasattr(ip, "events"):
-        callback()
-        return
-
-    def once(*_args):
-        try:
-            ip.events.unregister("post_run_cell", once)
-        finally:
-            callback()
-
-    ip.events.register("post_run_cell", once)
-
-
-def held_by_user(widget, namespace) -> bool:
-    """Whether a user variable refers to ``widget`` (directly, or in a list, tuple,
-    set or dict it holds). IPython's history names (``_``, ``Out``, ...) do not count."""
-    for name, value in list(namespace.items()):
-        if name.startswith("_") or name in _IPYTHON_NAMES:
-            continue
-        if value is widget:
-            return True
-        items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple, set)) else ()
-        if any(item is widget for item in items):
-            return True
-    return False
-
-
-def _adopt_for_cell(cell, widget):
-    """Remember ``widget`` as made by ``cell``; close the widgets an earlier run of that
-    cell made, once this run is over, unless the user still holds them in a variable."""
-    earlier = [ref for ref in _BY_CELL.get(cell, []) if ref() is not None and ref() is not widget]
-    _BY_CELL[cell] = [weakref.ref(widget)]
-
-    def close_unheld():
-        namespace = _user_namespace()
-        for ref in earlier:
-            old = ref()
-            if old is None or old.closed:
-                continue
-            if namespace is not None and held_by_user(old, namespace):
-                _BY_CELL.setdefault(cell, []).append(ref)  # still the cell's, still the user's
-                continue
-            old.close()
-
-    if earlier:
-        _after_cell(close_unheld)
 
 
 def _check_number(name, value, lo, hi, integer=False):
@@ -164,10 +78,6 @@ def _check_number(name, value, lo, hi, integer=False):
 def _panel_property(name):
     return property(lambda self: getattr(self.panel, name) if self.panel is not None else None,
                     doc=f"The control panel's ``{name}`` (see :class:`grasswidget.notebook.panel.ControlPanel`).")
-
-
-def _view_property(name, doc):
-    return property(lambda self: getattr(self.view, name) if self.view is not None else None, doc=doc)
 
 
 class GrassWidget(ipw.VBox):
@@ -195,7 +105,7 @@ class GrassWidget(ipw.VBox):
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
             with; link or observe its traits, set them from code).
-        view: the :class:`~grasswidget.notebook.kernel_view.KernelView` (None after close).
+        view: the :class:`~grasswidget.core.view_api.GrassView` of the live engine (None after close).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
@@ -225,13 +135,16 @@ class GrassWidget(ipw.VBox):
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
     _closed = False
-    view = None
+    view: GrassView | None = None
     panel = None
     ball = None
 
-    scene = _view_property("scene", "The :class:`GrassScene` drawn by the view (None after close).")
-    canvas = _view_property("canvas", "The jupyter-rfb canvas widget.")
-    controller = _view_property("controller", "The pygfx ``OrbitController`` of the camera.")
+    scene = property(lambda self: self.view.scene if self.view is not None else None,
+                     doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
+    canvas = property(lambda self: self.view.canvas if self.view is not None else None,
+                      doc="The kernel engine's jupyter-rfb canvas widget (None in the browser engine).")
+    controller = property(lambda self: self.view.controller if self.view is not None else None,
+                          doc="The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine).")
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
     blade_slider = _panel_property("blade_slider")
@@ -304,8 +217,9 @@ class GrassWidget(ipw.VBox):
 
                 self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                                              on_inspect=self._show_inspected,
                                               on_unavailable=self._on_browser_unavailable,
-                                              pixel_ratio=pixel_ratio)
+                                              pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"])
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
@@ -321,15 +235,15 @@ class GrassWidget(ipw.VBox):
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
         self.observe(self._on_culling_frozen, names="culling_frozen")
-        self.params.observe(self._on_color_by, names="color_by")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
         # sends the cell id with each execution), so its GPU buffers are freed; one
-        # the user still holds in a variable stays open.
-        cell = _current_cell_id()
+        # that something still holds (a variable, a list, an attribute, a closure,
+        # another widget) stays open (see grasswidget.notebook.cell_rerun).
+        cell = cell_rerun.current_cell_id()
         if cell:
-            _adopt_for_cell(cell, self)
+            cell_rerun.adopt_for_cell(cell, self)
 
     # ------------------------------------------------------------------ building
 
@@ -363,7 +277,7 @@ class GrassWidget(ipw.VBox):
     def _make_ball(self):
         from .ball import BallControl
 
-        self.ball = BallControl(getattr(self.view, "ball_scene", None) or self.view.scene, on_error=self._show_error)
+        self.ball = BallControl(self.view.ball_scene, on_error=self._show_error)
         self.ball.observe(self._on_ball_rolling, names="rolling")
         self.ball.collider.observe(lambda _c: self._request_draw(), names=["center", "radius"])
         self.ball.observe(lambda _c: self._request_draw(), names="enabled")
@@ -421,9 +335,7 @@ class GrassWidget(ipw.VBox):
         widget messages meanwhile, so it works inside a running cell); no answer
         within ``timeout`` seconds raises TimeoutError naming the browser view."""
         self._check_open()
-        if self.backend == "browser":
-            return self.view.read_state(timeout=timeout)
-        return self.scene.field.read_state()
+        return self.view.read_state(timeout=timeout)
 
     @property
     def max_fps(self) -> float:
@@ -446,8 +358,9 @@ class GrassWidget(ipw.VBox):
     def sim_time(self) -> float:
         """Simulated seconds since the last :meth:`reset_blades` (read-only): every
         fixed step taken while playing or by :meth:`step` adds ``params.dt``. None
-        in the browser engine (its clock runs in the browser)."""
-        return getattr(self.view, "sim_time", None)
+        before the browser engine's first stats message; there it is as of the last one
+        (about every 0.5 s; its clock runs in the browser)."""
+        return self.view.sim_time if self.view is not None else None
 
     @property
     def target_fps(self) -> float:
@@ -455,12 +368,14 @@ class GrassWidget(ipw.VBox):
         default 24 on a CPU adapter, 60 on a GPU). A bad value raises ValueError
         naming ``target_fps`` and the range, and the old value stays. The kernel
         engine's setting (the browser engine draws at the browser's own rate)."""
-        return float(getattr(self.view, "target_fps", self._streaming["target_fps"]))
+        if self.view is None:
+            return float(self._streaming["target_fps"])
+        return float(self.view.target_fps)
 
     @target_fps.setter
     def target_fps(self, value):
         value = check_target_fps(value)
-        if hasattr(self.view, "target_fps"):
+        if self.view is not None:
             self.view.target_fps = value
         self._streaming["target_fps"] = value
         self._streaming_overrides["target_fps"] = value
@@ -469,7 +384,7 @@ class GrassWidget(ipw.VBox):
     def render_scale(self) -> float:
         """Fraction of the full pixel ratio live frames render at now (0.5..1;
         1 while paused). Save PNG and exports always render at full resolution."""
-        return float(getattr(self.view, "render_scale", 1.0))
+        return float(self.view.render_scale) if self.view is not None else 1.0
 
     @property
     def stats(self) -> dict:
@@ -522,15 +437,15 @@ class GrassWidget(ipw.VBox):
         ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
         else raises ValueError naming the limit (nothing changes then)."""
         self._check_open()
-        if not hasattr(self.view, "inspect"):
-            self.panel.show_unsupported("the blade inspector", self.view.backend)
-            return
-        self.view.inspect(ids)
+        try:
+            self.view.inspect(ids)
+        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
+            self.panel.show_unsupported(missing.feature, missing.backend)
 
     @property
     def inspected(self) -> tuple:
         """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
-        return tuple(getattr(self.view, "inspected", ()))
+        return tuple(self.view.inspected) if self.view is not None else ()
 
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
@@ -553,6 +468,47 @@ class GrassWidget(ipw.VBox):
         self.view.save_png(path, size)
         return path
 
+    def save_html(self, path, still: bool = True, title: str = "grasswidget meadow") -> str:
+        """Write a live page: one self-contained HTML file that runs this meadow in any
+        browser with WebGPU, with no Python and no kernel. Returns the path.
+
+        The page carries the browser engine, the WGSL and the blades, and starts from
+        the current parameters, camera, ball and play state; it offers orbit, play /
+        pause, wind and culling controls, colour by and the ball (shift + drag). In a
+        browser without WebGPU it shows a still picture of the same view (rendered
+        now in the kernel engine; ``still=False`` leaves it out) and one line saying
+        WebGPU is needed. See :mod:`grasswidget.tools.html_export`.
+
+        Args:
+            path: file name ending in .html, in an existing folder.
+            still: render the still picture (about a second on a CPU adapter).
+            title: the page's title.
+
+        Raises GrassValueError for a name not ending in .html or more than
+        ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades, MissingFileError for a
+        missing folder.
+        """
+        from ..browser.page import check_page_blades, check_page_path
+        from ..tools.html_export import save_html
+
+        self._check_open()
+        check_page_path(path)
+        check_page_blades(self.blade_count)
+        if self.scene is not None:
+            blades = self.scene.field.blades
+            near, far = (float(x) for x in self.scene.camera.depth_range)
+        else:
+            blades = self.view.view.blades
+            near, far = float(self.view.view.camera.get("near", 0.1)), float(self.view.view.camera.get("far", 100.0))
+        cam = self.camera_state
+        camera = {"position": list(cam["position"]), "target": list(cam["target"]), "fov_deg": float(cam["fov_deg"]),
+                  "near": near, "far": far}
+        ball = self.ball
+        colliders = [ball.collider] if ball is not None and ball.enabled else []
+        return save_html(path, blades, self.params, size=self.size, camera=camera, colliders=colliders,
+                         ball_radius=float(ball.collider.radius) if ball is not None else None,
+                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title)
+
     def set_wind_wgsl(self, body: str, select: bool = True):
         """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
         in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
@@ -561,20 +517,15 @@ class GrassWidget(ipw.VBox):
         ``select``, ``params.wind_field`` becomes "custom". Assigning
         ``params.wind_wgsl`` does the same, reporting an error on the message line."""
         self._check_open()
-        if self.backend == "browser":
-            self.view.view.set_wind_wgsl(body, select=select)
-        else:
-            self.scene.field.set_wind_wgsl(body, select=select)
+        self.view.set_wind_wgsl(body, select=select)
 
     def save_png_later(self, size, done) -> bool:
-        """The Save PNG button in browser mode: ask the browser for the picture and
-        call ``done(path)`` once written (a file next to the notebook). Returns False
-        (nothing done) with the kernel engine, which saves at once."""
-        if self.backend != "browser":
-            return False
+        """The Save PNG button: write a PNG of ``size`` (w, h) next to the notebook and call
+        ``done(path)`` once written, without blocking the kernel (the browser engine answers
+        later; the kernel engine writes it at once). Returns True (it is under way)."""
         self._check_open()
         path = _unique_name(os.getcwd(), "grass", ".png")
-        self.view.save_png_async(path, size, done)
+        self.view.save_png_later(path, size, done)
         return True
 
     def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True, on_frame=None) -> str:
@@ -603,11 +554,10 @@ class GrassWidget(ipw.VBox):
         from ..gpu.scene import GrassScene
 
         state = self.view.read_state()
-        blades = self.view.view.blades
-        scene = GrassScene(blades, size=self.size, params=self.params.copy())
+        scene = GrassScene(self.view.blades, size=self.size, params=self.params.copy())
         try:
             scene.field.write_state(state)
-            live = self.view.view.colliders
+            live = self.view.colliders
             scene.colliders = list(live)
             scene.colliders.set_array(getattr(live, "bulk", ()))
             cam = self.camera_state
@@ -616,6 +566,16 @@ class GrassWidget(ipw.VBox):
                                   on_frame=on_frame)
         finally:
             scene.release()
+
+    def parts(self) -> tuple:
+        """The objects this widget is made of and owns: its view, the view's widget,
+        scene and camera controller, the control panel and the ball (those that exist).
+        Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
+        view = self.view
+        found = (view, self.panel, self.ball)
+        if view is not None:
+            found += (view.widget, view.scene, view.controller, view.canvas)
+        return tuple(p for p in found if p is not None)
 
     @property
     def closed(self) -> bool:
@@ -629,11 +589,10 @@ class GrassWidget(ipw.VBox):
         self._closed = True
         params = getattr(self, "params", None)
         if params is not None:
-            for handler, names in ((self._on_param_change, All), (self._on_color_by, "color_by")):
-                try:
-                    params.unobserve(handler, names=names)
-                except ValueError:
-                    pass
+            try:
+                params.unobserve(self._on_param_change, names=All)
+            except ValueError:
+                pass
         if self.panel is not None:
             self.panel.close()
         if self.view is not None:
@@ -643,20 +602,6 @@ class GrassWidget(ipw.VBox):
         super().close()
 
     # ------------------------------------------------------------------ internals
-
-    # What the view's canvas calls; kept as the widget's own names for tests and callers.
-    def _draw(self):
-        self.view.draw()
-
-    def _refresh_stats(self):
-        self.view.refresh_stats()
-
-    @property
-    def _events(self):
-        return self.view.events
-
-    def _on_key(self, event):
-        self.view.on_key(event)
 
     def _check_open(self):
         if self._closed:
@@ -687,17 +632,13 @@ class GrassWidget(ipw.VBox):
         if self.panel is not None:
             self.panel.show_inspected(blades)
 
-    def _on_color_by(self, change):
-        if not self._closed and change["new"] != "natural" and not getattr(self.view, "teaching_views", False):
-            self.panel.show_unsupported(f"colour by {change['new']}", self.view.backend)
-
     def _on_culling_frozen(self, change):
         if self._closed:
             return
-        if not hasattr(self.view, "set_culling_frozen"):
-            self.panel.show_unsupported("freeze culling", self.view.backend)
-            return
-        self.view.set_culling_frozen(bool(change["new"]))
+        try:
+            self.view.set_culling_frozen(bool(change["new"]))
+        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
+            self.panel.show_unsupported(missing.feature, missing.backend)
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
@@ -713,7 +654,7 @@ class GrassWidget(ipw.VBox):
             return
         self.view = new
         new.attach_ball(self.ball)
-        self.ball.attach(new.scene)
+        self.ball.attach(new.ball_scene)
         try:
             new.camera_state = camera
         except Exception:
@@ -726,9 +667,7 @@ class GrassWidget(ipw.VBox):
 
     def _on_time_scale(self, change):
         if not self._closed:
-            setter = getattr(self.view, "set_time_scale", None)
-            if setter is not None:
-                setter(change["new"])
+            self.view.set_time_scale(change["new"])
             self._show_stats(self.view.current_stats())
 
     def _on_ball_rolling(self, change):

@@ -7,7 +7,7 @@
 //
 // Engine-neutral: pure functions, no bindings. Ids and constants come from the
 // template variables of grasswidget.core.shader_files.template_vars() (the enums of
-// grasswidget/core/enums.py and the constants of reference.py); tests/test_wgsl_contract.py
+// grasswidget/core/enums.py and the constants of reference.py); tests/gpu/test_wgsl_contract.py
 // runs every function here against its NumPy twin.
 
 const PI_F = 3.141592653589793;

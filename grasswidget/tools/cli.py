@@ -1,4 +1,4 @@
-"""Command line: ``grasswidget snapshot ...`` and ``grasswidget bench ...``.
+"""Command line: ``grasswidget snapshot ...``, ``grasswidget html ...`` and ``grasswidget bench ...``.
 
 Every bad argument is an argument error: exit status 2 and one line on stderr,
 ``grasswidget snapshot: error: argument --wind: ...``, never a traceback. That
@@ -101,6 +101,33 @@ def _image_path(text):
     return text
 
 
+def _page_max_blades():
+    from ..browser.page import PAGE_MAX_BLADES
+
+    return PAGE_MAX_BLADES
+
+
+def _page_blades(text):
+    """A blade count a live page may carry (1 .. PAGE_MAX_BLADES)."""
+    from ..browser.page import check_page_blades
+
+    try:
+        return check_page_blades(int(text))
+    except ValueError as err:
+        msg = str(err) if text.strip().lstrip("-").isdigit() else f"must be an integer; got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+
+
+def _html_path(text):
+    from ..browser.page import check_page_path
+
+    try:
+        check_page_path(text)
+    except (ValueError, OSError) as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return text
+
+
 def build_parser():
     p = _Parser(prog="grasswidget", description="Physically animated grass on the GPU.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -116,6 +143,21 @@ def build_parser():
                    help="wind strength in m/s^2, 0..200 (default: GrassParams default)")
     s.add_argument("--seed", type=_non_negative, default=0, help="random seed, an integer >= 0")
 
+    h = sub.add_parser("html", help="write a live page: one self-contained HTML file that runs the meadow "
+                                    "in any browser with WebGPU (a still picture and a line without it)")
+    h.add_argument("out", type=_html_path, help="output page, ending in .html, in an existing folder")
+    h.add_argument("--blades", type=_page_blades, default=16384,
+                   help=f"number of blades, 1..{_page_max_blades()} (default 16384)")
+    h.add_argument("--size", type=_size, default=None, help="view size WxH in CSS pixels (default: the preset's, "
+                   "else 960x540)")
+    h.add_argument("--preset", choices=["default", "cis565", "meadow"], default="default", help="scene preset")
+    h.add_argument("--wind", type=_param("wind_strength"), default=None,
+                   help="wind strength in m/s^2, 0..200 (default: GrassParams default)")
+    h.add_argument("--seed", type=_non_negative, default=0, help="random seed, an integer >= 0")
+    h.add_argument("--paused", action="store_true", help="start paused")
+    h.add_argument("--no-still", action="store_true",
+                   help="leave out the still picture shown without WebGPU (no kernel render at save time)")
+
     b = sub.add_parser("bench", help="benchmark frame, simulation and culling times")
     b.add_argument("--preset", choices=["cis565", "meadow"], default="cis565")
     b.add_argument("--blades", type=_blade_count, nargs="+", default=None,
@@ -125,7 +167,7 @@ def build_parser():
     b.add_argument("--cull", choices=["on", "off", "both", "each"], default="on")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
-    p.subcommands = {"snapshot": s, "bench": b}
+    p.subcommands = {"snapshot": s, "bench": b, "html": h}
     return p
 
 
@@ -155,7 +197,7 @@ def main(argv=None):
     sub = _subparser(parser, args.command)
     if args.command == "snapshot":
         _make_folder(sub, args.out, "out")
-    else:
+    elif args.command == "bench":
         _make_folder(sub, args.json, "--json")
 
     from ..errors import BladeCountError, NoGPUAdapterError
@@ -163,6 +205,8 @@ def main(argv=None):
     try:
         from ..gpu.field import check_blade_count_fits
 
+        if args.command == "html":
+            return _html(args)
         for count in ([args.blades] if args.command == "snapshot" else args.blades or ()):
             check_blade_count_fits(count)  # the GPU's buffer limit, before any blade is made
         if args.command == "snapshot":
@@ -218,6 +262,32 @@ def _default_scene(args, params):
     from ..gpu.scene import GrassScene
 
     return GrassScene(Blades.on_plane(args.blades, seed=args.seed), size=args.size, params=params)
+
+
+def _html(args):
+    from ..core.blades import Blades
+    from ..core.params import GrassParams
+    from .html_export import save_html
+
+    params = GrassParams()
+    if args.wind is not None:
+        params.wind_strength = args.wind
+    camera = None
+    if args.preset == "default":
+        blades, size = Blades.on_plane(args.blades, seed=args.seed), args.size or (960, 540)
+    else:
+        from ..core.framing import preset_field
+
+        blades, preset_size, view = preset_field(args.preset, args.blades, seed=args.seed)
+        size = args.size or preset_size
+        camera = {k: (list(map(float, view[k])) if k in ("position", "target") else float(view[k]))
+                  for k in ("position", "target", "fov_deg", "near", "far")}
+    path = save_html(args.out, blades, params, size=size, camera=camera, playing=not args.paused,
+                     still=not args.no_still, title=f"grasswidget meadow ({len(blades)} blades)")
+    kb = os.path.getsize(path) / 1024
+    print(f"wrote {path} ({kb:.0f} KiB: {size[0]}x{size[1]}, {len(blades)} blades; open it in a browser with "
+          "WebGPU, served over http(s) or from a file)")
+    return 0
 
 
 def _bench(args):

@@ -10,7 +10,7 @@ Fixtures:
   kernels are shut down and, on failure, a screenshot, the browser console
   and the server log are saved (path printed in the report).
 
-Tests in this folder are marked ``browser`` automatically and are skipped
+Tests in this folder that use one of these fixtures are marked ``browser`` automatically and are skipped
 with a reason when Chromium or a needed package is missing. Deselect them
 with ``-m "not browser"``.
 """
@@ -32,10 +32,15 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "browser: real-browser test (JupyterLab + Chromium via Playwright)")
 
 
+#: Fixtures that start JupyterLab or Chromium: a test of this folder using one is a real-browser test.
+#: The others here (test_engine_without_a_browser.py) check the engine's Python side and run everywhere.
+CHROMIUM_FIXTURES = {"browser", "webgpu_browser", "page", "lab_server", "browser_root"}
+
+
 def pytest_collection_modifyitems(config, items):
     reason = prerequisites_missing()
     for item in items:
-        if _HERE in Path(item.path).resolve().parents:
+        if _HERE in Path(item.path).resolve().parents and CHROMIUM_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.browser)
             if reason:
                 item.add_marker(pytest.mark.skip(reason=f"browser test prerequisites missing: {reason}"))

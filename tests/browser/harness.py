@@ -66,6 +66,8 @@ __all__ = [
     "poll",
     "write_notebook",
     "JupyterLabServer",
+    "SERVER_APPS",
+    "StaticServer",
     "Browser",
     "open_notebook",
     "run_all_cells",
@@ -284,6 +286,10 @@ def _pid_alive(pid: int) -> bool:
         return False
 
 
+#: The Jupyter front ends :class:`JupyterLabServer` starts: JupyterLab, Jupyter
+#: Notebook 7 (``/notebooks/<path>``) and Voila (``/voila/render/<path>``).
+SERVER_APPS = ("lab", "notebook", "voila")
+
 #: JupyterLab user settings written into the private config dir.
 #: windowingMode "none" keeps every cell (and its widget views) in the DOM
 #: even when scrolled out of view; the default "full" virtualizes cells.
@@ -316,6 +322,13 @@ class JupyterLabServer:
     :meth:`stop` terminates the server by PID (SIGTERM, then SIGKILL after
     ``stop_timeout``), then does the same to any kernel process it had
     started that is still alive.
+
+    ``app`` picks the front end (:data:`SERVER_APPS`): ``"lab"`` (JupyterLab),
+    ``"notebook"`` (Jupyter Notebook 7, app exposed as ``window.jupyterapp`` too,
+    so :func:`open_notebook`, :func:`run_all_cells` and :func:`kernel_execute`
+    work unchanged) or ``"voila"`` (a Voila server on ``root_dir``;
+    :meth:`url_for` renders a notebook: every cell runs, only outputs show, and
+    there is no REST API nor ``window.jupyterapp``).
     """
 
     def __init__(
@@ -329,7 +342,11 @@ class JupyterLabServer:
         env: Optional[dict] = None,
         lab_settings: Optional[dict] = None,
         disabled_plugins: Iterable[str] = DEFAULT_DISABLED_PLUGINS,
+        app: str = "lab",
     ):
+        if app not in SERVER_APPS:
+            raise HarnessError(f"app must be one of {', '.join(SERVER_APPS)}; got {app!r}")
+        self.app = app
         self.root_dir = Path(root_dir).resolve()
         self.python = python or sys.executable
         self.startup_timeout = startup_timeout
@@ -363,6 +380,12 @@ class JupyterLabServer:
         """URL that opens ``notebook_relpath`` (relative to root_dir) in Lab,
         token included. An empty path gives the Lab main page."""
         rel = str(notebook_relpath).lstrip("/")
+        if self.app == "notebook":  # Jupyter Notebook 7: one notebook per page
+            path = "notebooks/" + urllib.parse.quote(rel) if rel else "tree"
+            return f"{self.base_url}{path}?token={self.token}"
+        if self.app == "voila":  # Voila runs every cell, then shows the outputs alone
+            path = "voila/render/" + urllib.parse.quote(rel) if rel else "voila/tree"
+            return f"{self.base_url}{path}?token={self.token}"
         path = "lab/tree/" + urllib.parse.quote(rel) if rel else "lab"
         # ``reset`` drops the saved workspace, so notebooks opened by an
         # earlier test are not reopened (each would start its own kernel).
@@ -509,6 +532,32 @@ class JupyterLabServer:
         return env
 
     def _command(self) -> list:
+        if self.app == "voila":
+            return [
+                self.python, "-m", "voila",
+                f"--Voila.root_dir={self.root_dir}",
+                "--Voila.ip=127.0.0.1",
+                f"--Voila.port={self.port}",
+                "--Voila.port_retries=0",
+                f"--Voila.token={self.token}",
+                "--Voila.open_browser=False",
+                "--VoilaConfiguration.show_tracebacks=True",
+                *self.extra_args,
+            ]
+        if self.app == "notebook":
+            return [
+                self.python, "-m", "notebook",
+                f"--ServerApp.root_dir={self.root_dir}",
+                "--ServerApp.ip=127.0.0.1",
+                f"--ServerApp.port={self.port}",
+                "--ServerApp.port_retries=0",
+                f"--IdentityProvider.token={self.token}",
+                "--ServerApp.open_browser=False",
+                "--ServerApp.allow_root=True",
+                "--ServerApp.terminals_enabled=False",
+                "--JupyterNotebookApp.expose_app_in_browser=True",
+                *self.extra_args,
+            ]
         return [
             self.python, "-m", "jupyterlab",
             f"--ServerApp.root_dir={self.root_dir}",
@@ -526,7 +575,9 @@ class JupyterLabServer:
         ]
 
     def _wait_until_up(self) -> None:
-        url = f"{self.base_url}api/status?token={self.token}"
+        # Voila answers no REST API; its notebook tree page shows it is up.
+        status = "voila/tree" if self.app == "voila" else "api/status"
+        url = f"{self.base_url}{status}?token={self.token}"
 
         def check():
             if self.proc.poll() is not None:
@@ -541,9 +592,63 @@ class JupyterLabServer:
                 return False, f"{type(exc).__name__}: {exc}"
 
         try:
-            _poll_raising(check, f"JupyterLab to answer {self.base_url}api/status", self.startup_timeout, 0.2)
+            _poll_raising(check, f"the {self.app} server to answer {url.split('?')[0]}", self.startup_timeout, 0.2)
         except HarnessTimeout as exc:
             raise HarnessTimeout(f"{exc}\n--- server log (tail) ---\n{self.log_text(3000)}") from None
+
+
+class StaticServer:
+    """Serve the files of ``root_dir`` over http://127.0.0.1 (a free port), in a thread
+    of this process, for pages that need a secure origin (WebGPU) but no Jupyter::
+
+        with StaticServer(tmp_path) as static:
+            page.goto(static.url_for("meadow.html"))
+
+    ``requests`` lists the paths asked for, in order (to check a page fetches nothing).
+    """
+
+    def __init__(self, root_dir):
+        self.root_dir = Path(root_dir).resolve()
+        self.requests: list = []
+        self._server = None
+        self._thread = None
+
+    def start(self) -> "StaticServer":
+        import functools
+        import http.server
+        import threading
+
+        seen = self.requests
+
+        class Handler(http.server.SimpleHTTPRequestHandler):
+            def log_message(self, *_args):
+                seen.append(self.path)
+
+        handler = functools.partial(Handler, directory=str(self.root_dir))
+        self._server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+        self._thread = threading.Thread(target=self._server.serve_forever, daemon=True)
+        self._thread.start()
+        return self
+
+    @property
+    def base_url(self) -> str:
+        return f"http://127.0.0.1:{self._server.server_address[1]}/"
+
+    def url_for(self, relpath: str) -> str:
+        return self.base_url + urllib.parse.quote(str(relpath).lstrip("/"))
+
+    def stop(self) -> None:
+        if self._server is not None:
+            self._server.shutdown()
+            self._server.server_close()
+            self._thread.join(5)
+            self._server = None
+
+    def __enter__(self) -> "StaticServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
 
 
 def _poll_raising(check, what, timeout, interval):

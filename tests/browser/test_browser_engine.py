@@ -137,13 +137,13 @@ w.step(100)
 mine = w.read_state()
 kernel_params = w.params.copy()
 kernel_params.wind_field = 'wave'
-field = GrassField(w.view.view.blades, params=kernel_params)
+field = GrassField(w.view.browser_view.blades, params=kernel_params)
 field.step(200)
 kernel_params.wind_field = 'vortex'
 field.step(100)
 theirs = field.read_state()
 field.release()
-b = w.view.view.blades
+b = w.view.browser_view.blades
 err = float((np.abs(mine['v2'] - theirs['v2']).max(axis=1) / b.height).max())
 err1 = float((np.abs(mine['v1'] - theirs['v1']).max(axis=1) / b.height).max())
 bent = float((np.linalg.norm(theirs['v2'] - b.v0 - b.up * b.height[:, None], axis=1) / b.height).mean())
@@ -163,7 +163,7 @@ w.reset_blades()
 rng = np.random.default_rng(4)
 r = rng.uniform(0.3, 0.8, 60)
 crowd = np.column_stack([rng.uniform(-8, 8, 60), r + 0.05, rng.uniform(-8, 8, 60), r])  # resting on the grass
-view = w.view.view
+view = w.view.browser_view
 view.colliders.set_array(crowd)
 view.colliders_changed()
 w.step(100)
@@ -265,7 +265,7 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
     assert "RAISED 1" in out.stdout and "WIND custom return vec3<f32>(4.0" in out.stdout, out.stdout
 
     # 7. A lost device is recovered with a message; a view that is not shown times out.
-    kernel_execute(page, "w.play(); w.view.view.lose_device()")
+    kernel_execute(page, "w.play(); w.view.browser_view.lose_device()")
     wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")
     wait_for_kernel(page, "w.stats['step_count']", predicate=lambda s: s != steps, timeout=60)

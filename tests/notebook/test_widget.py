@@ -383,27 +383,6 @@ def test_preset():
         w.close()
 
 
-def test_rerunning_a_cell_closes_the_previous_widget(monkeypatch):
-    """JupyterLab sends the cell id with each execution: a new widget from the
-    same cell closes the one before, so its GPU buffers are freed."""
-    import grasswidget.notebook.widget as gwmod
-
-    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-xyz")
-    a = gw.GrassWidget(blades=64, size=SIZE)
-    b = gw.GrassWidget(blades=64, size=SIZE)
-    try:
-        assert a.closed and a.scene is None
-        assert not b.closed and b.scene is not None
-    finally:
-        b.close()
-    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: None)
-    c = gw.GrassWidget(blades=64, size=SIZE)
-    d = gw.GrassWidget(blades=64, size=SIZE)
-    assert not c.closed and not d.closed  # no cell id (plain Python): nothing is closed
-    c.close()
-    d.close()
-
-
 def test_close_with_pending_uploads_leaves_other_scenes_working():
     """Closing destroys buffers that may still have an upload queued in pygfx's
     global registry (reset() queues one); the next render elsewhere must not touch them."""
@@ -418,37 +397,3 @@ def test_close_with_pending_uploads_leaves_other_scenes_working():
         assert grass_mask(b.scene.render_at(SIZE)).mean() > 0.05
     finally:
         b.close()
-
-
-def test_rerun_keeps_a_widget_the_user_still_holds(monkeypatch):
-    """Re-running a cell closes the widget it made only if no user variable holds it
-    (decided after the cell ran, when its assignments are done); the registry is weak."""
-    import gc
-    import weakref
-
-    import grasswidget.notebook.widget as gwmod
-
-    namespace, after = {}, []
-    monkeypatch.setattr(gwmod, "_current_cell_id", lambda: "cell-held")
-    monkeypatch.setattr(gwmod, "_user_namespace", lambda: namespace)
-    monkeypatch.setattr(gwmod, "_after_cell", after.append)
-    namespace["a"] = gw.GrassWidget(blades=64, size=SIZE)          # run 1: a = GrassWidget()
-    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 2, edited: b = GrassWidget()
-    after.pop()()                                                   # ... cell done
-    assert not namespace["a"].closed, "a is still held in a variable: it must stay open"
-    old_b = namespace["b"]
-    namespace["b"] = gw.GrassWidget(blades=64, size=SIZE)          # run 3: b = GrassWidget() again
-    after.pop()()
-    assert old_b.closed and not namespace["b"].closed and not namespace["a"].closed
-    namespace["keep"] = [namespace.pop("b")]                       # held inside a list counts too
-    namespace["c"] = gw.GrassWidget(blades=64, size=SIZE)
-    after.pop()()
-    assert not namespace["keep"][0].closed
-    for w in (namespace["a"], namespace["keep"][0], namespace["c"], old_b):
-        w.close()
-    # the registry keeps nobody alive
-    ref = weakref.ref(namespace.pop("c"))
-    namespace.clear()
-    del w, old_b
-    gc.collect()
-    assert ref() is None

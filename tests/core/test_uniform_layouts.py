@@ -1,4 +1,4 @@
-"""Issue 12 item 2: each uniform struct is written once (grasswidget/core/uniform_layouts.py)
+"""Each uniform struct is written once (grasswidget/core/uniform_layouts.py)
 and both engines lay it out the same: pygfx's struct (the kernel engine) and the
 browser engine's packing put every field at the same byte offset, with the same
 type and the same size, and the WGSL reads no field the layout lacks."""

@@ -1,8 +1,10 @@
-"""The house rules: the layout of the GPU layer, the error root, the pure core.
+"""The package's architecture: the layers and what each may import, the public names.
 
-These are structural contracts (issue 12): the render function is registered by
-pygfx's decorator at import time, modules import without cycles, every error
-raised on purpose derives from GrassError.
+Structural contracts: the pure core loads no GPU code; each subpackage imports
+only the layers below it (core < gpu, browser < notebook, tools); the render
+function is registered by pygfx's decorator whenever a GPU module is imported;
+the top level keeps the public entry points and the import paths of before the
+subpackages; every error raised on purpose derives from GrassError.
 """
 
 import ast

@@ -1,4 +1,4 @@
-"""The live view's real-time clock, adaptive resolution and stats line (issue 9).
+"""The live view's real-time clock, adaptive resolution and stats line.
 
 Wall time is simulated (conftest.TickingWall) so the checks are exact; the
 browser test checks real time against a real clock.

@@ -1,7 +1,8 @@
 """The browser engine's Python side, without a browser: the WGSL it sends, the
 uniforms it packs, errors, and the GrassWidget backend choice.
 
-The browser itself is tested in tests/browser/test_browser_engine.py.
+Runs without Chromium (not marked ``browser``); the engine in a real page is
+tested in tests/browser/test_browser_engine.py.
 """
 
 from __future__ import annotations
@@ -30,13 +31,14 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     resources its text uses, each once, with the access the engine provides."""
     shaders = BrowserShaders.all()
     device = _device()
-    texts = [shaders[k] for k in ("simulate", "reset_args", "cull", "scene")] + shaders["blades"] + shaders["blades_flat"]
+    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls")]
+             + shaders["blades"] + shaders["blades_flat"])
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
         numbers = [b["binding"] for b in sh["bindings"]]
         assert len(set(names)) == len(names) and len(set(numbers)) == len(numbers)
-        assert sh["bindings"] == binding_map(sh["code"])
+        assert [{k: v for k, v in b.items() if k != "resource"} for b in sh["bindings"]] == binding_map(sh["code"])
     kinds = {b["name"]: b["kind"] for b in shaders["simulate"]["bindings"]}
     assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage",
                      "s_colliders": "read-only-storage", "s_collider_grid": "read-only-storage"}
@@ -57,6 +59,14 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     from grasswidget.browser.uniforms import CULL_LAYOUT, offsets
     assert offset == offsets(CULL_LAYOUT)["color_by"][0]
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
+    # Every compute pass of a frame names a shader that is sent.
+    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull"]
+    # Sky and ground: the kernel engine's own file, its u_material bound to the engine's u_sky_ground buffer.
+    sky = shaders["sky_ground"]
+    body = (shader_dir() / "sky_ground.wgsl").read_text()
+    assert re.search(r"let s = \(g\.y - near\.y\) / dir\.y;", body) and "let s = (g.y - near.y) / dir.y;" in sky["code"]
+    bound = {b["name"]: b.get("resource", b["name"]) for b in sky["bindings"]}
+    assert bound == {"u_stdinfo": "u_stdinfo", "u_material": "u_sky_ground"}
 
 
 def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():
@@ -76,7 +86,7 @@ def test_uniform_layouts_match_wgsl_offsets():
     """Offsets follow WGSL's uniform rules, and the packed bytes hold each parameter at its offset."""
     assert uniforms.offsets(uniforms.SIM_LAYOUT)["wind_center"][0] == 48
     assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64  # no collider array: the count is free
-    assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16
+    assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16 + 16  # + ndc_offset
     p = gw.GrassParams(wind_strength=7.5, wind_direction=90.0, wind_field="vortex", dt=0.01)
     raw = uniforms.sim_uniform(p, 1234, [gw.SphereCollider(center=(1, 2, 3), radius=0.5)])
     off = uniforms.offsets(uniforms.SIM_LAYOUT)
@@ -88,7 +98,8 @@ def test_uniform_layouts_match_wgsl_offsets():
     assert read("wind_field", "<i4")[0] == 2 and read("n_blades", "<u4")[0] == 1234
     assert np.allclose(read("wind_dir", count=4), [0, 1, 0, 0], atol=1e-7)
     assert read("n_colliders", "<i4")[0] == 1
-    assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed}
+    assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed,
+                                 "max_steps_per_frame": 64}
 
 
 def test_the_browser_gets_the_kernels_collider_arrays():
@@ -140,9 +151,9 @@ def test_backend_argument_and_browser_widget_api():
         # Parameters reach the browser as packed uniforms.
         w.params.wind_strength = 33.0
         off = uniforms.offsets(uniforms.SIM_LAYOUT)["wind_strength"][0]
-        assert np.frombuffer(w.view.view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
+        assert np.frombuffer(w.view.browser_view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
-        assert w.view.view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        assert w.view.browser_view.balls == [list(map(float, w.ball.collider.as_vec4()))]
         with pytest.raises(ValueError, match="number of steps"):
             w.step(-1)
     finally:
@@ -153,7 +164,7 @@ def test_browser_messages_move_the_ball_and_never_raise():
     """What the page sends (shift + drag, the steps simulated while rolling, junk) reaches
     the ball, and a malformed message shows on the message line instead of raising."""
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
-    view = w.view.view
+    view = w.view.browser_view
     try:
         view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
         assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5

@@ -141,24 +141,24 @@ def test_inspect_from_code_and_bad_input(widget):
     assert teaching.MAX_INSPECTED == 64
 
 
-def test_a_view_without_teaching_views_says_so_instead_of_failing(widget):
-    """The browser engine (or any view lacking them) gets a message, not an exception."""
+def test_a_view_without_teaching_views_says_so_instead_of_failing():
+    """The browser engine has no inspector or freeze culling yet: its GrassView raises
+    FeatureNotAvailableError and the widget shows it on the message line instead of
+    failing; colour-by works there."""
+    from grasswidget.core.view_api import FeatureNotAvailableError
 
-    class PlainView:
-        backend = "browser"
-
-        def request_draw(self):
-            pass
-
-    real = widget.view
-    widget.view = PlainView()
+    w = gw.GrassWidget(256, backend="browser", size=SIZE)
     try:
-        widget.inspect([1])
-        assert "blade inspector is not available in the browser engine" in widget.panel.message_line.value
-        widget.culling_frozen = True
-        assert "freeze culling is not available in the browser engine" in widget.panel.message_line.value
-        widget.params.color_by = "cull"
-        assert "colour by cull is not available in the browser engine" in widget.panel.message_line.value
+        with pytest.raises(FeatureNotAvailableError, match="blade inspector is not available in the browser"):
+            w.view.inspect([1])
+        w.inspect([1])
+        assert "the blade inspector is not available in the browser engine" in w.panel.message_line.value
+        assert w.inspected == ()
+        w.panel.message_line.value = ""
+        w.culling_frozen = True
+        assert "freeze culling is not available in the browser engine" in w.panel.message_line.value
+        w.panel.message_line.value = ""
+        w.params.color_by = "cull"
+        assert w.panel.message_line.value == ""  # colour by works in both engines
     finally:
-        widget.view = real
-        widget.params.color_by = "natural"
+        w.close()

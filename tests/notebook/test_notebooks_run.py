@@ -20,7 +20,7 @@ nbclient = pytest.importorskip("nbclient")
 pytest.importorskip("ipykernel")
 pytest.importorskip("matplotlib")
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 PROBE = "import sys as _sys; print('PREFIX=' + _sys.prefix)"
 
@@ -62,8 +62,9 @@ def test_notebook_outputs_are_ignored_by_git():
 
 
 def test_readmes_name_no_machine_specific_paths():
-    """READMEs give paths relative to the checkout, not folders of one machine."""
-    readmes = [ROOT / "README.md", *sorted((ROOT / "tests").rglob("README.md"))]
+    """READMEs and docs give paths relative to the checkout, not folders of one machine."""
+    readmes = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", *sorted((ROOT / "docs").glob("*.md")),
+               *sorted((ROOT / "tests").rglob("README.md"))]
     for readme in readmes:
         text = readme.read_text()
         bad = re.findall(r"(?:/work/|/home/\w+|/root/|/Users/\w+|/tmp/\w+)[^\s`)]*", text)

@@ -1,0 +1,358 @@
+"""The one interface between :class:`~grasswidget.GrassWidget` and its view.
+
+A GrassWidget composes a control panel with a *view*: the part that simulates,
+draws and shows the meadow. There are two, one per engine:
+
+* :class:`grasswidget.notebook.kernel_view.KernelView` ("kernel"): a GrassScene rendered
+  in the kernel and streamed by jupyter-rfb;
+* :class:`grasswidget.browser.engine_view.BrowserEngineView` ("browser"): the
+  same WGSL run in the notebook's browser through WebGPU.
+
+Both subclass :class:`GrassView` and implement every abstract member; the widget
+talks to a view through this interface only (no attribute probing, no reaching
+into a view's parts). What the two views share is written here once:
+
+* the keys (:meth:`GrassView.on_key`): space = play/pause, ``s`` = step one
+  frame, ``r`` = reset the camera, nothing with a modifier held;
+* the camera setter (:attr:`GrassView.camera_state`): validation by
+  :func:`check_camera_state`, merging with the current camera, position and
+  target apart; the view only aims its camera (:meth:`GrassView.look`);
+* the nominal steps per frame (:meth:`GrassView.nominal_steps`):
+  ``round(time_scale * frame_interval / dt)``, capped to
+  :data:`MAX_STEPS_PER_FRAME`.
+
+A feature one engine does not have yet raises :class:`FeatureNotAvailableError`
+from its method (the widget shows that on the message line instead of failing);
+adding the feature to that engine means filling in that method, nothing else.
+
+The view is told what to do by the widget and reports back through callbacks
+given at construction: ``clock`` (:class:`ViewClock`), ``actions``
+(:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and
+``on_inspect(blades)``.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Callable, Protocol
+
+import numpy as np
+
+from ..errors import FeatureNotAvailableError, GrassTypeError, GrassValueError
+from .frame_data import MAX_STEPS_PER_FRAME
+
+__all__ = ["GrassView", "ViewClock", "ViewActions", "FeatureNotAvailableError", "check_camera_state",
+           "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
+
+#: The keys of a camera state dict.
+CAMERA_KEYS = ("position", "target", "fov_deg")
+#: The vertical field of view a camera may have, degrees (inclusive).
+FOV_RANGE_DEG = (1.0, 179.0)
+
+
+class ViewClock(Protocol):
+    """What a view reads (and, for ``playing``, may set) on its clock: the widget's traits."""
+
+    #: Animate (True) or stand still (False).
+    playing: bool
+    #: Simulated seconds per wall-clock second while playing (0..10).
+    time_scale: float
+
+
+class ViewActions(Protocol):
+    """What a view's keys and pointer gestures ask of the widget."""
+
+    def toggle_play(self) -> None: ...
+
+    def step(self, n: int | None = None) -> None: ...
+
+    def reset_camera(self) -> None: ...
+
+    def inspect(self, ids) -> None: ...
+
+
+def check_camera_state(state) -> dict:
+    """Validate a (partial) camera state and return it with plain floats.
+
+    ``state`` is a dict with any of ``position`` and ``target`` (3 finite numbers
+    each, metres, world space) and ``fov_deg`` (vertical field of view, degrees,
+    in :data:`FOV_RANGE_DEG`). Raises GrassTypeError for a non-dict and
+    GrassValueError naming the key and its range for anything else.
+    """
+    if not isinstance(state, dict):
+        raise GrassTypeError(f"camera_state must be a dict with position, target and fov_deg; got {state!r}")
+    unknown = set(state) - set(CAMERA_KEYS)
+    if unknown:
+        raise GrassValueError(f"camera_state keys are position, target and fov_deg; got {sorted(unknown)}")
+    out = {}
+    for key in ("position", "target"):
+        if key in state:
+            v = np.asarray(state[key], np.float64).reshape(-1)
+            if v.size != 3 or not np.all(np.isfinite(v)):
+                raise GrassValueError(f"camera_state {key} must be 3 finite numbers (metres); got {state[key]!r}")
+            out[key] = [float(x) for x in v]
+    if "fov_deg" in state:
+        fov = state["fov_deg"]
+        lo, hi = FOV_RANGE_DEG
+        if isinstance(fov, bool) or not isinstance(fov, (int, float, np.number)) or not (lo <= float(fov) <= hi):
+            raise GrassValueError(f"camera_state fov_deg must be a number in [{lo:g}, {hi:g}] degrees; got {fov!r}")
+        out["fov_deg"] = float(fov)
+    return out
+
+
+class GrassView(abc.ABC):
+    """A GrassWidget's view (see the module docstring); both engines implement all of it.
+
+    Every abstract member below is implemented by both views; concrete members
+    are the shared behaviour. Sizes are CSS pixels, distances metres (world
+    space), times seconds, angles degrees.
+
+    Constructor arguments every view takes (stored by :meth:`__init__`):
+    ``size`` ((w, h) CSS pixels), ``params`` (the shared GrassParams),
+    ``clock`` (:class:`ViewClock`), ``actions`` (:class:`ViewActions`),
+    ``on_error(err)`` (an exception or a text to show), ``on_stats(dict)``
+    (called whenever the stats are refreshed) and ``on_inspect(blades)`` (the
+    inspected blades' numbers, a list of dicts; ``[]`` when none).
+    """
+
+    #: The engine: "kernel" or "browser".
+    backend: str = ""
+
+    def __init__(self, size, params, *, clock: ViewClock, actions: ViewActions, on_error: Callable,
+                 on_stats: Callable, on_inspect: Callable | None = None):
+        self.size = (int(size[0]), int(size[1]))
+        self.params = params
+        self.clock_source = clock
+        self.actions = actions
+        self.report_error = on_error
+        self.report_stats = on_stats
+        self.report_inspected = on_inspect if on_inspect is not None else (lambda blades: None)
+        self.closed = False
+
+    # ------------------------------------------------------------------ what the widget shows
+
+    @property
+    @abc.abstractmethod
+    def widget(self):
+        """The ipywidget to show for this view (the streaming canvas, or the browser engine's anywidget)."""
+
+    @property
+    def scene(self):
+        """The kernel's :class:`~grasswidget.gpu.scene.GrassScene`, or None (the browser engine keeps its state in
+        the browser; None after close)."""
+        return None
+
+    @property
+    def canvas(self):
+        """The jupyter-rfb canvas of the kernel engine, or None."""
+        return None
+
+    @property
+    def controller(self):
+        """The kernel engine's pygfx ``OrbitController``, or None (the browser orbits in the page)."""
+        return None
+
+    # ------------------------------------------------------------------ the field
+
+    @property
+    @abc.abstractmethod
+    def blades(self):
+        """The :class:`~grasswidget.core.blades.Blades` of the field (its rest pose)."""
+
+    @property
+    def blade_count(self) -> int:
+        """Number of blades in the field."""
+        return len(self.blades)
+
+    @property
+    @abc.abstractmethod
+    def colliders(self):
+        """The live :class:`~grasswidget.core.colliders.ColliderList` (sphere colliders acting on the grass)."""
+
+    @property
+    @abc.abstractmethod
+    def ball_scene(self):
+        """What :class:`~grasswidget.notebook.ball.BallControl` attaches to: an object with ``field.blades``
+        and ``colliders`` (the kernel's GrassScene; a stand-in in the browser engine)."""
+
+    @abc.abstractmethod
+    def attach_ball(self, ball) -> None:
+        """Move ``ball`` (a BallControl) with shift + drag and roll it with simulated time from now on."""
+
+    @abc.abstractmethod
+    def set_blades(self, blades) -> None:
+        """Replace the field by ``blades`` (a count or a Blades); the camera, the ball and the
+        teaching views are kept."""
+
+    @abc.abstractmethod
+    def read_state(self, timeout: float | None = None) -> dict:
+        """The blade state as ``GrassField.read_state()`` returns it. The browser engine waits up to
+        ``timeout`` seconds (None: its default, 30) for the browser's answer (BrowserTimeoutError)."""
+
+    @abc.abstractmethod
+    def set_wind_wgsl(self, body: str, select: bool = True) -> None:
+        """Compile ``body`` as the custom wind (WindShaderError with the line on failure; the old wind
+        stays); with ``select``, ``params.wind_field`` becomes "custom"."""
+
+    # ------------------------------------------------------------------ time
+
+    @property
+    @abc.abstractmethod
+    def max_fps(self) -> float:
+        """Nominal frames per second (the kernel's stream cap; the browser's nominal display rate, 60)."""
+
+    @property
+    def frame_interval(self) -> float:
+        """Nominal seconds between frames, 1 / max_fps."""
+        return 1.0 / self.max_fps
+
+    def nominal_steps(self) -> int:
+        """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
+        [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
+        wanted = int(round(float(self.clock_source.time_scale) * self.frame_interval / float(self.params.dt)))
+        return max(0, min(wanted, MAX_STEPS_PER_FRAME))
+
+    @property
+    def steps_per_frame(self) -> int:
+        """Fixed steps per frame: what ``GrassWidget.step()`` advances by default
+        (default :meth:`nominal_steps`; a view may report what it measured instead)."""
+        return self.nominal_steps()
+
+    @property
+    @abc.abstractmethod
+    def sim_time(self) -> float | None:
+        """Simulated seconds since the last reset (None when not known yet)."""
+
+    @property
+    @abc.abstractmethod
+    def target_fps(self) -> float:
+        """Frames per second adaptive resolution aims for while playing (1..240; set through the widget,
+        which validates it)."""
+
+    @target_fps.setter
+    @abc.abstractmethod
+    def target_fps(self, value: float) -> None: ...
+
+    @property
+    @abc.abstractmethod
+    def render_scale(self) -> float:
+        """Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused)."""
+
+    @abc.abstractmethod
+    def set_playing(self, playing: bool) -> None:
+        """Animate (True) or stand still (False); pausing stops simulated time at once."""
+
+    @abc.abstractmethod
+    def set_time_scale(self, time_scale: float) -> None:
+        """Simulated seconds per wall-clock second from now on (already validated: 0..10)."""
+
+    @abc.abstractmethod
+    def step(self, n: int) -> None:
+        """Advance exactly ``n`` (>= 0, validated by the widget) fixed steps of ``params.dt`` and redraw."""
+
+    @abc.abstractmethod
+    def reset_blades(self) -> None:
+        """Every blade back to its rest pose; the simulation clock back to 0."""
+
+    @abc.abstractmethod
+    def request_draw(self) -> None:
+        """Draw a new frame soon (something changed); a view that draws every frame does nothing."""
+
+    # ------------------------------------------------------------------ camera
+
+    @property
+    def camera_state(self) -> dict:
+        """The camera: ``position`` and ``target`` (3-tuples of metres, world space; the target is the
+        orbit centre) and ``fov_deg`` (vertical field of view, degrees). Assigning a dict with any of the
+        three keys moves the camera (validated by :func:`check_camera_state`; the keys left out keep
+        their values; position and target must differ)."""
+        return self.current_camera()
+
+    @camera_state.setter
+    def camera_state(self, state):
+        state = check_camera_state(state)
+        current = self.current_camera()
+        position = state.get("position", current["position"])
+        target = state.get("target", current["target"])
+        if np.allclose(position, target):
+            raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
+        self.look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
+        self.request_draw()
+
+    @abc.abstractmethod
+    def current_camera(self) -> dict:
+        """The camera now, as :attr:`camera_state` gives it (tuples of floats, fov_deg a float)."""
+
+    @abc.abstractmethod
+    def look(self, position, target, fov_deg) -> None:
+        """Aim the camera from ``position`` at ``target`` (metres; apart, checked) with a vertical field of
+        view of ``fov_deg`` degrees (checked); ``target`` becomes the orbit centre."""
+
+    @abc.abstractmethod
+    def reset_camera(self) -> None:
+        """Back to the starting view (position, target, field of view)."""
+
+    # ------------------------------------------------------------------ teaching views
+
+    @abc.abstractmethod
+    def set_culling_frozen(self, frozen: bool) -> None:
+        """Freeze culling at the current camera (True) or cull against the live camera again (False).
+        FeatureNotAvailableError in an engine that does not have it."""
+
+    @abc.abstractmethod
+    def inspect(self, ids) -> None:
+        """Show these blade ids in the inspector (at most 64 ids in [0, blade_count - 1]; ``[]`` clears;
+        GrassValueError names the limit, nothing changes then). FeatureNotAvailableError in an engine
+        that does not have it."""
+
+    @property
+    @abc.abstractmethod
+    def inspected(self) -> tuple:
+        """Ids of the inspected blades (``()`` when none)."""
+
+    # ------------------------------------------------------------------ pictures and stats
+
+    @abc.abstractmethod
+    def save_png(self, path: str, size) -> str:
+        """Write a PNG of the current view at ``size`` (w, h) pixels to ``path``; return ``path``
+        (waits for the browser's picture in the browser engine)."""
+
+    @abc.abstractmethod
+    def save_png_later(self, path: str, size, done: Callable[[str], None]) -> None:
+        """Write a PNG like :meth:`save_png` without blocking the kernel, then call ``done(path)``
+        (the Save PNG button, which runs inside a comm message and cannot wait). The kernel engine
+        writes it at once."""
+
+    @property
+    def stats(self) -> dict:
+        """The last stats (see ``GrassWidget.stats`` for the keys)."""
+        return self.current_stats()
+
+    @abc.abstractmethod
+    def current_stats(self) -> dict:
+        """The stats dict with what is known now (no GPU readback, no browser round trip)."""
+
+    @abc.abstractmethod
+    def refresh_stats(self) -> None:
+        """Measure what can be measured now and pass the stats to ``on_stats``."""
+
+    # ------------------------------------------------------------------ keys, closing
+
+    def on_key(self, event) -> None:
+        """A key pressed while the view has focus: ``event`` is a dict with ``key`` (the DOM key name)
+        and ``modifiers`` (held modifier names). Space = play/pause, ``s`` = step one frame,
+        ``r`` = reset the camera; a key with a modifier held is not ours (the notebook's)."""
+        if event.get("modifiers"):
+            return
+        key = str(event.get("key", "")).lower()
+        if key in (" ", "space", "spacebar"):
+            self.actions.toggle_play()
+        elif key == "s":
+            self.actions.step()
+        elif key == "r":
+            self.actions.reset_camera()
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Release the view's resources (GPU buffers, the canvas or the browser model); idempotent.
+        :attr:`closed` is True afterwards."""

@@ -1,0 +1,168 @@
+"""Issue 16 items 2 and 4 in a real JupyterLab + Chromium (WebGPU on SwiftShader).
+
+* The two engines on equal terms: the same blades, parameters, steps and camera give
+  the same picture, saved with ``save_png`` from a browser widget and rendered by the
+  kernel engine (a GrassScene on lavapipe). The mean absolute difference is printed
+  and bounded; both pictures are written side by side (kernel left, browser right)
+  to ``engines_side_by_side.png`` in ``$GW_ARTIFACTS_DIR`` (else the Lab root's
+  ``artifacts`` folder).
+* One simulation per widget: a widget displayed twice has one engine in the page
+  with two views; while it plays and after it pauses, both canvases show the same
+  meadow, and ``step`` / ``read_state`` have one answer.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from .harness import Browser, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
+    write_notebook
+
+pytestmark = pytest.mark.browser
+
+N_BLADES = 2048
+SIZE = (320, 240)
+
+
+@pytest.fixture(scope="module")
+def webgpu_browser():
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+def _artifacts(root):
+    out = os.environ.get("GW_ARTIFACTS_DIR") or str(root / "artifacts")
+    os.makedirs(out, exist_ok=True)
+    return out
+
+
+def _canvases(page):
+    import imageio.v3 as iio
+
+    shots = []
+    for k in range(page.locator("canvas.grasswidget-canvas").count()):
+        loc = page.locator("canvas.grasswidget-canvas").nth(k)
+        loc.scroll_into_view_if_needed()
+        shots.append(iio.imread(loc.screenshot(), extension=".png")[..., :3].astype(int))
+    return shots
+
+
+def _run(page, server, root, name, cells, check, browser):
+    write_notebook(root / name, cells)
+    try:
+        open_notebook(page, server, name)
+        run_all_cells(page, timeout=120)
+        check()
+    except BaseException:
+        from .harness import save_debug_artifacts
+
+        out = save_debug_artifacts(page, _artifacts(root), name, browser, server)
+        print(f"\n[{name}] debug artifacts in {out}\n" + "\n".join(browser.console[-30:]))
+        raise
+    finally:
+        try:
+            page.goto("about:blank")
+            server.shutdown_kernels()
+        except Exception:
+            pass
+
+
+def _save_both_engines(page, out_dir):
+    """From the same blades, parameters, steps and camera: the browser widget's save_png and
+    the kernel engine's (a GrassScene on lavapipe) into ``out_dir``."""
+    out = kernel_execute(page, f"""
+from grasswidget.gpu.scene import GrassScene
+w.pause()
+w.params.wind_strength = 10.0
+w.reset_blades()
+w.step(90)
+cam = {{'position': (5.0, 4.5, 15.0), 'target': (0.0, 0.0, 0.0), 'fov_deg': 50.0}}
+w.camera_state = cam
+w.save_png({os.path.join(out_dir, 'engine_browser.png')!r}, size={SIZE})
+scene = GrassScene(w.view.browser_view.blades, size={SIZE}, params=w.params.copy())
+scene.step(90)
+scene.look(cam['position'], cam['target'], cam['fov_deg'])
+scene.save_png({os.path.join(out_dir, 'engine_kernel.png')!r})
+scene.release()
+print('SAVED')
+""", timeout=180)
+    assert "SAVED" in out.stdout, out
+
+
+def _compare_engines(out_dir):
+    import imageio.v3 as iio
+
+    browser = iio.imread(os.path.join(out_dir, "engine_browser.png"))[..., :3].astype(int)
+    kernel = iio.imread(os.path.join(out_dir, "engine_kernel.png"))[..., :3].astype(int)
+    assert browser.shape == kernel.shape == (SIZE[1], SIZE[0], 3)
+    iio.imwrite(os.path.join(out_dir, "engines_side_by_side.png"),
+                np.concatenate([kernel, np.full((SIZE[1], 4, 3), 255), browser], axis=1).astype(np.uint8))
+    diff = np.abs(browser - kernel)
+    mean = float(diff.mean())
+    per_pixel = diff.max(axis=2)
+    top = float(diff[: SIZE[1] // 10].mean())  # the top rows are sky in both (the gradient of one shader)
+    print(f"[engines alike] mean |browser - kernel| = {mean:.2f}/255 over the picture, {top:.2f}/255 in the "
+          f"top rows (sky); pixels differing by > 40: {(per_pixel > 40).mean():.1%}; "
+          f"side by side: {os.path.join(out_dir, 'engines_side_by_side.png')}")
+    # Both pictures show grass, sky and the ground beyond the field (to the horizon), so the
+    # comparison compares pictures of all three.
+    ground = np.array([51, 36, 22])
+    for img in (browser, kernel):
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        assert ((g > r + 8) & (g > b + 8)).mean() > 0.2
+        assert ((b > r + 10) & (b >= g)).mean() > 0.05
+        assert (np.abs(img - ground).max(axis=2) <= 3).mean() > 0.05
+    assert top < 2.0
+    assert mean < 6.0
+
+
+def test_one_simulation_per_widget_and_the_engines_draw_alike(webgpu_browser, lab_server, browser_root):
+    """A widget displayed twice is one simulation; then the two engines' pictures of one state."""
+    page = webgpu_browser.page
+    out_dir = _artifacts(browser_root)
+
+    def engines():
+        return page.evaluate("() => [...(globalThis.__grasswidgetEngines || new Map()).values()]"
+                             ".filter((e) => !e.closed).map((e) => ({views: e.views.size, steps: e.stepCount}))")
+
+    def check():
+        status = wait_for_kernel(page, "w.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
+        assert status["state"] == "ok", status
+        poll(lambda: (page.locator("canvas.grasswidget-canvas").count() == 2, page.locator(
+            "canvas.grasswidget-canvas").count()), "two canvases of the widget", 30, 0.3, page=page)
+        # one engine with two views
+        found = poll(lambda: (lambda e: (len(e) == 1 and e[0]["views"] == 2, e))(engines()),
+                     "one engine with two views in the page", 30, 0.3, page=page)
+        print(f"\n[displayed twice] engines in the page: {found}")
+        # while playing, both views show the same meadow moving
+        steps0 = kernel_eval(page, "w.stats['step_count'] or 0")
+        wait_for_kernel(page, "w.stats['step_count'] or 0", predicate=lambda s: s > steps0 + 60, timeout=60)
+        kernel_execute(page, "w.pause()")
+        a0, b0 = poll(lambda: (lambda s: (bool(np.abs(s[0] - s[1]).max() == 0), s))(_canvases(page)),
+                      "both views to show the same picture once paused", 30, 0.5, page=page)
+        print(f"[displayed twice] paused: the two canvases are identical ({a0.shape[1]}x{a0.shape[0]})")
+        # step and read_state: one simulation answers
+        out = kernel_execute(page, """
+s0 = w.view.browser_view.read_state()['step_count']
+w.step(37)
+s1 = w.view.browser_view.read_state()['step_count']
+print('STEPS', s0, s1)
+""", timeout=60)
+        s0, s1 = map(int, out.stdout.split("STEPS")[1].split())
+        assert s1 == s0 + 37
+        assert [e["steps"] for e in engines()] == [s1]
+        a1, b1 = poll(lambda: (lambda s: (bool(np.abs(s[0] - s[1]).max() == 0 and np.abs(s[0] - a0).max() > 40), s))(
+            _canvases(page)), "both views to show the stepped meadow", 30, 0.5, page=page)
+        moved = float((np.abs(a1 - a0).max(axis=2) > 40).mean())
+        print(f"[displayed twice] step(37): {s0} -> {s1} steps, {moved:.1%} of the pixels changed, in both views")
+        assert moved > 0.002
+        _save_both_engines(page, out_dir)
+
+    _run(page, lab_server, browser_root, "displayed_twice.ipynb", [
+        f"import grasswidget as gw\nw = gw.GrassWidget({N_BLADES}, backend='browser', size={SIZE})\nw",
+        "w",
+    ], check, webgpu_browser)
+    _compare_engines(out_dir)

@@ -1,0 +1,167 @@
+"""Issue 16 item 2: what a frame needs besides GPU execution is decided once, in Python.
+
+* The uniform values: the kernel engine's ``u_sim`` / ``u_cull`` buffers (written by
+  GrassField / Simulation) hold byte for byte what the browser engine is sent
+  (``browser.uniforms``), both from ``frame_data``.
+* The clock's rules and the orbit limits: engine.js's ``SimClock`` and ``clampOrbit``
+  (run here with Node.js, the ES module as shipped) give what ``grasswidget.notebook.clock.SimClock``
+  and ``grasswidget.core.orbit_limits.clamp_orbit`` give, frame by frame and pose by pose.
+* The scene style: GrassScene's sky and ground are the ones the browser is sent.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import grasswidget as gw
+from grasswidget.core import frame_data
+from grasswidget.browser import uniforms
+from grasswidget.browser.view import HERE as BROWSER_DIR
+from grasswidget.notebook.clock import MAX_STEPS_PER_FRAME, SimClock
+from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
+from grasswidget.core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT, pack
+
+
+def _params():
+    return gw.GrassParams(wind_strength=7.5, wind_direction=33.0, wind_field="vortex", dt=0.01, gravity_mode="point",
+                          gravity_center=(1.0, -3.0, 2.0), cull_distance_max=37.0, color_by="lod", lod=False)
+
+
+def test_kernel_buffers_hold_the_bytes_the_browser_is_sent():
+    from grasswidget.gpu.field import GrassField
+
+    params = _params()
+    field = GrassField(gw.Blades.on_plane(300, seed=3), params=params)
+    try:
+        field.colliders.append(gw.SphereCollider(center=(0.5, 0.2, -1.0), radius=0.4))
+        field.simulation.write_uniform(7, 0.25)
+        kernel_sim = field.simulation.uniform_buffer.data.tobytes()
+        browser_sim = bytearray(uniforms.sim_uniform(params, field.count, field.colliders))
+        # the browser writes steps and time0 itself, per dispatch, at these offsets
+        off = uniforms.offsets(SIM_LAYOUT)
+        browser_sim[off["steps"][0]: off["steps"][0] + 4] = np.int32(7).tobytes()
+        browser_sim[off["time0"][0]: off["time0"][0] + 4] = np.float32(0.25).tobytes()
+        assert kernel_sim == bytes(browser_sim)
+        assert field.cull_uniform_buffer.data.tobytes() == uniforms.cull_uniform(params, field.count)
+        # a change of params reaches both the same way
+        params.cull_frustum = False
+        params.color_by = "natural"
+        assert field.cull_uniform_buffer.data.tobytes() == uniforms.cull_uniform(params, field.count)
+        # a frozen culling camera, and a transformed field (gravity into its local space)
+        import pygfx as gfx
+
+        cam = gfx.PerspectiveCamera(50, 4 / 3)
+        cam.local.position = (0, 2, 9)
+        cam.look_at((0, 0, 0))
+        field.freeze_culling(cam, (640, 480))
+        frozen = field.cull_uniform_buffer.data.tobytes()
+        assert frozen == uniforms.cull_uniform(params, field.count, field.frozen_camera)
+        assert frozen != uniforms.cull_uniform(params, field.count)
+        field.local.rotation = (0.0, 0.0, math.sin(0.3), math.cos(0.3))
+        field.local.position = (2.0, 0.0, 1.0)
+        field.simulation.write_uniform(1, 0.0)
+        values = frame_data.sim_uniform_values(params, field.count, field.colliders, world_matrix=field.world.matrix,
+                                               steps=1)
+        assert field.simulation.uniform_buffer.data.tobytes() == pack(SIM_LAYOUT, values)
+        assert not np.allclose(values["gravity_dir"][:3], frame_data.sim_uniform_values(params, 1)["gravity_dir"][:3])
+    finally:
+        field.release()
+
+
+def test_pack_refuses_a_field_the_layout_lacks():
+    with pytest.raises(gw.GrassValueError, match="wind_speeed"):
+        pack(CULL_LAYOUT, {"wind_speeed": 1.0})
+
+
+def test_clock_rules_are_the_kernel_clocks():
+    rules = frame_data.clock_rules(_params())
+    assert rules["max_steps_per_frame"] == MAX_STEPS_PER_FRAME == SimClock().max_steps
+    assert rules["dt"] == 0.01 and rules["wind_period"] > 0
+
+
+def test_scene_style_is_the_kernel_scenes_sky_and_ground():
+    from grasswidget.gpu.scene import GrassScene
+
+    blades = gw.Blades.on_plane(256, size=6.0)
+    scene = GrassScene(blades, size=(64, 48))
+    try:
+        style = frame_data.scene_style(blades, scene.camera.depth_range[1])
+        mat = scene.sky_ground.material.uniform_buffer.data
+        for key in ("sky_bottom", "sky_top", "ground_color", "ground"):
+            assert np.allclose(mat[key], style[key], atol=1e-6), key
+        # ground to the horizon: the square reaches past the far plane from the field's far edge
+        assert style["ground"][3] >= 0.5 * 6.0 + scene.camera.depth_range[1]
+        layout = uniforms.SKY_GROUND_LAYOUT
+        assert uniforms.sky_ground_uniform(style) == pack(layout, {k: mat[k] for k, _ in layout})
+    finally:
+        scene.release()
+
+
+# ---------------------------------------------------------------------- engine.js under Node.js
+
+_NODE_DRIVER = """
+import { readFileSync } from "node:fs";
+import { SimClock, clampOrbit } from %s;
+const cases = JSON.parse(readFileSync(0, "utf8"));
+const clock = new SimClock(cases.max_steps);
+const steps = [];
+for (const [now, playing, dt, scale] of cases.frames) {
+  if (playing) { clock.start(now); steps.push(clock.frameSteps(now, dt, scale)); }
+  else { clock.stop(); steps.push(clock.frameSteps(now, dt, scale)); }
+}
+const poses = cases.poses.map(([p, t]) => clampOrbit(p, t, cases.limits));
+console.log(JSON.stringify({ steps, poses }));
+"""
+
+
+def _run_engine_js(cases):
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        pytest.skip("Node.js is not installed (runs engine.js's clock and orbit rules outside a browser)")
+    url = (BROWSER_DIR / "engine.js").resolve().as_uri()
+    out = subprocess.run([node, "--input-type=module", "-e", _NODE_DRIVER % json.dumps(url)],
+                         input=json.dumps(cases), capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_engine_js_executes_the_python_clock_and_orbit_rules():
+    rng = np.random.default_rng(7)
+    # Frames: irregular wall times (a hiccup of 2 s: capped, slow motion), a pause, time_scale changes.
+    t, frames = 10.0, []
+    for k in range(300):
+        t += float(rng.choice([0.004, 0.016, 0.017, 0.05, 0.3])) if k != 120 else 2.0
+        playing = not (200 <= k < 220)
+        frames.append([t, playing, 1.0 / 120.0, float(rng.choice([1.0, 0.25, 3.0]))])
+    clock = SimClock(MAX_STEPS_PER_FRAME, now=lambda: now)
+    expected = []
+    for now, playing, dt, scale in frames:
+        if playing:
+            clock.start()
+        else:
+            clock.stop()
+        expected.append(clock.frame_steps(dt, scale))
+
+    blades = gw.Blades.on_plane(500, size=8.0)
+    limits = frame_data.orbit_rules(blades, 100.0)
+    assert OrbitLimits(**{k: tuple(v) if isinstance(v, list) else v for k, v in limits.items()}) == \
+        OrbitLimits.for_field(blades.v0, blades.up, blades.height, 100.0)
+    poses = [[list(rng.uniform(-40, 40, 3)), list(rng.uniform(-12, 12, 3))] for _ in range(200)]
+    poses += [[[0.0, -5.0, 3.0], [0.0, 0.5, 0.0]], [[0.0, 50.0, 0.01], [0.0, 0.5, 0.0]], [[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]]
+    got = _run_engine_js({"max_steps": MAX_STEPS_PER_FRAME, "frames": frames, "limits": limits, "poses": poses})
+
+    assert got["steps"] == expected
+    assert max(expected) == MAX_STEPS_PER_FRAME and sum(expected) > 1000  # the cap and real play were exercised
+    lim = OrbitLimits.for_field(blades.v0, blades.up, blades.height, 100.0)
+    moved = 0
+    for (p, t), (jp, jt) in zip(poses, got["poses"]):
+        pp, pt = clamp_orbit(p, t, lim)
+        assert np.allclose(jp, pp, atol=1e-9) and np.allclose(jt, pt, atol=1e-9), (p, t)
+        moved += not np.allclose(pp, p)
+    assert moved > 100  # most random poses were outside the limits

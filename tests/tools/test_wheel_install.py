@@ -1,0 +1,100 @@
+"""The built wheel alone, installed into a fresh virtual environment, is a working grasswidget.
+
+As a user would: build the wheel (hatchling, no editable install), make a new venv
+(no system site-packages), ``pip install`` the wheel file (its dependencies come from
+the package index as for anyone), then, outside the checkout, render a snapshot with
+the command line, make a widget of each engine and write a live page. Also checks
+the metadata a package index shows (license, classifiers, URLs, readme).
+"""
+
+from __future__ import annotations
+
+import email
+import os
+import subprocess
+import sys
+import tarfile
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory):
+    out = tmp_path_factory.mktemp("wheel")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(out),
+                    str(ROOT)], check=True, timeout=300)
+    return next(out.glob("grasswidget-*.whl"))
+
+
+def _metadata(text):
+    return email.message_from_string(text)
+
+
+def test_wheel_metadata(wheel):
+    with zipfile.ZipFile(wheel) as z:
+        meta = _metadata(z.read(next(n for n in z.namelist() if n.endswith(".dist-info/METADATA"))).decode())
+        names = z.namelist()
+    assert meta["License-Expression"] == "MIT"
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    classifiers = meta.get_all("Classifier")
+    assert "Framework :: Jupyter" in classifiers and "Programming Language :: Python :: 3.11" in classifiers
+    assert any(u.startswith("Paper, https://") for u in meta.get_all("Project-URL"))
+    assert meta["Description-Content-Type"] == "text/markdown"
+    assert "grasswidget" in meta.get_payload() and len(meta.get_payload()) > 1000  # the README is the long description
+    import re
+
+    core = {re.split(r"[<>=!~ ;\[]", r)[0] for r in meta.get_all("Requires-Dist") if "extra ==" not in r}
+    assert {"pygfx", "wgpu", "jupyter-rfb", "anywidget", "ipywidgets", "numpy"} <= core, core  # no extra needed
+    # the live page's parts ship inside the package
+    for f in ("engine.js", "page.js", "page.html", "page.py"):
+        assert f"grasswidget/browser/{f}" in names
+
+
+def test_sdist_metadata_and_files(tmp_path):
+    subprocess.run([sys.executable, "-m", "hatchling", "build", "-t", "sdist", "-d", str(tmp_path)], check=True,
+                   cwd=ROOT, capture_output=True, timeout=300)
+    sdist = next(tmp_path.glob("grasswidget-*.tar.gz"))
+    with tarfile.open(sdist) as tar:
+        names = {n.split("/", 1)[1] for n in tar.getnames() if "/" in n}
+        pkg_info = tar.extractfile(next(m for m in tar.getmembers() if m.name.endswith("/PKG-INFO"))).read().decode()
+    assert {"LICENSE", "README.md", "pyproject.toml", "grasswidget/browser/page.js"} <= names
+    assert _metadata(pkg_info)["License-Expression"] == "MIT"
+
+
+def test_wheel_alone_in_a_fresh_venv(wheel, tmp_path):
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    python = venv / "bin" / "python"
+    # pip of the test interpreter installs into the new venv (pip >= 22.3: --python)
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "-q", str(wheel)], check=True,
+                   timeout=600)
+    work = tmp_path / "work"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    run = lambda *args: subprocess.run([str(python), *args], cwd=work, env=env, capture_output=True, text=True,  # noqa: E731
+                                       timeout=300)
+    probe = run("-c", "import grasswidget, sys; print(grasswidget.__file__); print(sys.prefix)")
+    assert probe.returncode == 0, probe.stderr
+    assert str(venv) in probe.stdout and str(ROOT) not in probe.stdout  # the installed copy, not the checkout
+    snap = run("-m", "grasswidget", "snapshot", "snap.png", "--blades", "1024", "--size", "160x120", "--steps", "10")
+    assert snap.returncode == 0, snap.stderr
+    import imageio.v3 as iio
+
+    img = iio.imread(work / "snap.png")
+    rgb = img[60:, :, :3].astype(int)
+    assert img.shape[:2] == (120, 160) and ((rgb[..., 1] > rgb[..., 0] + 8) & (rgb[..., 1] > rgb[..., 2] + 8)).mean() > 0.3
+    widget = run("-c", "import grasswidget as gw\n"
+                       "k = gw.GrassWidget(256, size=(160, 120)); b = gw.GrassWidget(256, backend='browser', size=(160, 120))\n"
+                       "k.step(3); print('ENGINES', k.backend, b.backend, k.scene.field.step_count)\n"
+                       "k.close(); b.close()")
+    assert widget.returncode == 0, widget.stderr
+    assert "ENGINES kernel browser 3" in widget.stdout
+    page = run("-m", "grasswidget", "html", "page.html", "--blades", "256", "--size", "160x120", "--no-still")
+    assert page.returncode == 0, page.stderr
+    assert "export default" in (work / "page.html").read_text()
