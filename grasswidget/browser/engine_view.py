@@ -275,6 +275,11 @@ class BrowserEngineView(GrassView):
                 "target": tuple(float(x) for x in cam["target"]),
                 "fov_deg": float(cam["fov_deg"])}
 
+    @property
+    def depth_range(self) -> tuple:
+        cam = self.browser_view.camera
+        return float(cam.get("near", 0.1)), float(cam.get("far", 100.0))
+
     def look(self, position, target, fov_deg):
         """Send the browser the new camera (near and far planes kept)."""
         self.browser_view.camera = dict(self.browser_view.camera, position=[float(x) for x in position],

@@ -283,6 +283,11 @@ class GrassView(abc.ABC):
     def current_camera(self) -> dict:
         """The camera now, as :attr:`camera_state` gives it (tuples of floats, fov_deg a float)."""
 
+    @property
+    @abc.abstractmethod
+    def depth_range(self) -> tuple:
+        """(near, far): the camera's clip planes in metres (near > 0, far > near)."""
+
     @abc.abstractmethod
     def look(self, position, target, fov_deg) -> None:
         """Aim the camera from ``position`` at ``target`` (metres; apart, checked) with a vertical field of

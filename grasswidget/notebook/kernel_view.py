@@ -408,6 +408,10 @@ class KernelView(GrassView):
                 "target": tuple(float(x) for x in target),
                 "fov_deg": self.scene.vertical_fov()}
 
+    @property
+    def depth_range(self) -> tuple:
+        return tuple(float(x) for x in self.scene.camera.depth_range)
+
     def look(self, position, target, fov_deg):
         """Aim the scene's camera; the controller orbits around ``target`` from now on."""
         self.scene.look(position, target, fov_deg)

@@ -494,12 +494,8 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         check_page_path(path)
         check_page_blades(self.blade_count)
-        if self.scene is not None:
-            blades = self.scene.field.blades
-            near, far = (float(x) for x in self.scene.camera.depth_range)
-        else:
-            blades = self.view.view.blades
-            near, far = float(self.view.view.camera.get("near", 0.1)), float(self.view.view.camera.get("far", 100.0))
+        blades = self.view.blades
+        near, far = self.view.depth_range
         cam = self.camera_state
         camera = {"position": list(cam["position"]), "target": list(cam["target"]), "fov_deg": float(cam["fov_deg"]),
                   "near": near, "far": far}
