@@ -669,8 +669,8 @@ class GrassEngine {
         this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
       }
     }
-    const spheres = this.model.get("collider_spheres");
-    this.nBalls = spheres ? Math.floor(spheres.byteLength / 16) : 0;
+    const grid = this.model.get("collider_grid");  // word 2: the number of spheres
+    this.nBalls = grid && grid.byteLength >= 12 ? new DataView(grid.buffer, grid.byteOffset, grid.byteLength).getUint32(8, true) : 0;
   }
 
   // ---------------------------------------------------------------- simulation

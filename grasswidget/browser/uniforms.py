@@ -83,7 +83,7 @@ def collider_buffers(colliders, blades) -> tuple:
     """(spheres, grid) bytes for ``s_colliders`` and ``s_collider_grid``: the arrays the kernel
     engine uploads too (:func:`grasswidget.core.frame_data.collider_grid`)."""
     grid = collider_grid(colliders, blades)
-    return grid.spheres.tobytes(), grid.words().tobytes()
+    return grid.sphere_data().tobytes(), grid.words().tobytes()
 
 
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:

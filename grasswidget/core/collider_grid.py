@@ -46,7 +46,7 @@ from .colliders import MAX_COLLIDERS, check_sphere_array
 from .reference import COLLIDER_REACH, grid_cell
 
 __all__ = ["ColliderGrid", "build_collider_grid", "root_bounds", "MAX_GRID_CELLS", "MAX_GRID_ENTRIES",
-           "GRID_HEADER_WORDS", "GRID_WORDS", "collider_cell_range"]
+           "GRID_HEADER_WORDS", "GRID_WORDS", "ONE_CELL_MAX", "collider_cell_range"]
 
 #: Most cells of a collider grid (64 x 64).
 MAX_GRID_CELLS = 4096
@@ -54,6 +54,11 @@ MAX_GRID_CELLS = 4096
 MAX_GRID_ENTRIES = 65536
 #: u32 words before the cell table (see the module docstring).
 GRID_HEADER_WORDS = 8
+#: Up to this many spheres the grid is one cell listing them all: for a handful a grid buys
+#: nothing, and the arrays then have one size and do not depend on where the spheres are
+#: (:meth:`ColliderGrid.words` and :meth:`ColliderGrid.sphere_data` are padded to it), so the
+#: live page (:mod:`grasswidget.browser.page`) can move its ball by patching the spheres alone.
+ONE_CELL_MAX = 4
 #: Words of the GPU buffer of a grid: header, the largest cell table and list.
 GRID_WORDS = GRID_HEADER_WORDS + 2 * MAX_GRID_CELLS + MAX_GRID_ENTRIES
 
@@ -90,7 +95,14 @@ class ColliderGrid:
         header = np.concatenate([np.array([self.nx, self.nz, len(self.spheres), len(self.items)], np.uint32),
                                  floats.view(np.uint32)])
         table = np.stack([self.cell_start, self.cell_count], axis=1).astype(np.uint32).reshape(-1)
-        return np.concatenate([header, table, self.items.astype(np.uint32)])
+        pad = np.zeros(max(0, ONE_CELL_MAX - len(self.items)), np.uint32)  # never read: one size for a few spheres
+        return np.concatenate([header, table, self.items.astype(np.uint32), pad])
+
+    def sphere_data(self) -> np.ndarray:
+        """The spheres as float32 (max(K, ONE_CELL_MAX), 4) rows for ``s_colliders`` (zero rows past K)."""
+        out = np.zeros((max(len(self.spheres), ONE_CELL_MAX), 4), np.float32)
+        out[: len(self.spheres)] = self.spheres
+        return out
 
     def cell_of(self, p) -> np.ndarray:
         """Cell index of the points p (N, 3) (their x, z), as the GPU computes it."""
@@ -150,7 +162,7 @@ def _ranges(lo, hi, origin, cell, n):
 
 
 def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
-                        max_entries=MAX_GRID_ENTRIES) -> ColliderGrid:
+                        max_entries=MAX_GRID_ENTRIES, one_cell_max=ONE_CELL_MAX) -> ColliderGrid:
     """Bin ``spheres`` ((K, 4) rows (cx, cy, cz, R), metres; K up to MAX_COLLIDERS) into a
     grid over ``bounds`` ((x_min, z_min, x_max, z_max) of the blade roots, :func:`root_bounds`)
     for blades at most ``max_height`` m tall.
@@ -160,7 +172,8 @@ def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
     centre's xz, so every sphere in reach of a root is in the root's cell. Cells are square,
     about the median of R + reach wide (a blade then tests the spheres within about
     1.5 (R + reach) of its cell: few, where a coarser grid lists more), at least (bounds area / max_cells)^0.5, and at
-    most max_cells; while the lists exceed ``max_entries`` the cells double in size.
+    most max_cells; while the lists exceed ``max_entries`` the cells double in size. Up to
+    ``one_cell_max`` spheres (default :data:`ONE_CELL_MAX`) the grid is one cell over the bounds.
     Deterministic: the same inputs give the same words.
     """
     s64 = check_sphere_array(spheres, "spheres")
@@ -170,13 +183,15 @@ def build_collider_grid(spheres, bounds, max_height, max_cells=MAX_GRID_CELLS,
     reach = COLLIDER_REACH * h
     width, depth = b[2] - b[0], b[3] - b[1]
     scale = max(1.0, float(np.abs(b).max()), width, depth)
-    if len(s) == 0:
+    if len(s) <= one_cell_max:
         cell = max(width, depth, 1e-3)
     else:
         cell = max(float(np.median(s[:, 3] + reach)), np.sqrt(width * depth / max_cells), 1e-3 * scale)
     while True:
         nx = max(1, int(np.ceil(width / cell)))
         nz = max(1, int(np.ceil(depth / cell)))
+        if len(s) <= one_cell_max:
+            nx = nz = 1
         if nx * nz > max_cells:
             cell *= 1.25
             continue

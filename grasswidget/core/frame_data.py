@@ -141,7 +141,7 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
 def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
     """The spheres of ``colliders`` and their grid over ``blades`` (a :class:`~grasswidget.core.blades.Blades`:
     the roots' xz bounds, the tallest blade), as both engines upload them into ``s_colliders`` and
-    ``s_collider_grid``: a :class:`~grasswidget.core.collider_grid.ColliderGrid` (``.spheres``,
+    ``s_collider_grid``: a :class:`~grasswidget.core.collider_grid.ColliderGrid` (``.sphere_data()``,
     ``.words()``). ``max_cells`` (default MAX_GRID_CELLS; 1 = every blade tests every sphere)."""
     spheres = collider_array(colliders)
     height = float(np.max(blades.height)) if len(blades) else 0.0

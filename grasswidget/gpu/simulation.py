@@ -196,8 +196,7 @@ class Simulation:
             return
         grid = collider_grid(colliders, self.field.blades, max_cells=self.max_grid_cells)
         device = ensure_device()
-        if len(grid.spheres):
-            device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.spheres.tobytes())
+        device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.sphere_data().tobytes())
         device.queue.write_buffer(sync_buffer(self.grid_buffer), 0, grid.words().tobytes())
         self.collider_grid, self._grid_key = grid, key
 

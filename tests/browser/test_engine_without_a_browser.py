@@ -115,7 +115,7 @@ def test_the_browser_gets_the_kernels_collider_arrays():
     view.colliders_changed()
     spheres = np.concatenate([[ball.as_vec4()], rows])
     grid = build_collider_grid(spheres, root_bounds(blades.v0), blades.height.max())
-    assert view.collider_spheres == spheres.astype(np.float32).tobytes()
+    assert view.collider_spheres == spheres.astype(np.float32).tobytes() == grid.sphere_data().tobytes()
     assert view.collider_grid == grid.words().tobytes() and grid.nx * grid.nz > 1
     assert len(view.collider_spheres) <= view.collider_buffer_bytes[0]
     assert len(view.collider_grid) <= view.collider_buffer_bytes[1]
