@@ -17,7 +17,7 @@ ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from compla
 from .core.blades import Blades  # noqa: E402
 from .core.colliders import SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
-    BladeCountError, BladeLimitError, BrowserTimeoutError, FeatureNotAvailableError, PageBuildError, GrassError, GrassTypeError,
+    BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
     WidgetClosedError, WindShaderError,
 )
@@ -83,7 +83,7 @@ __all__ = [
     "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
-    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "FeatureNotAvailableError", "PageBuildError",
+    "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
     *_LAZY,
 ]
 

@@ -32,6 +32,7 @@ __all__ = [
     "write_timestamp",
     "render_pipeline_container_class",
     "set_render_pipeline_container_class",
+    "renderer_depth_texture",
     "pygfx_event_class",
     "held_orbit_controller_class",
     "pygfx_event_fields",
@@ -62,6 +63,8 @@ PRIVATE_USES = (
      "whether pygfx has created its device yet (the adapter choice must come first)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
+    ("pygfx", "WgpuRenderer._blender.get_texture('depth')",
+     "the renderer's depth32float texture (usage COPY_SRC), copied into the occlusion culling's depth pyramid"),
     ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
      "_last_cam_state",
      "the controller's per-step hooks, to hold every orbit, zoom and pan step to OrbitLimits"),
@@ -195,6 +198,16 @@ def set_render_pipeline_container_class(cls):
     if not hasattr(pipeline, "RenderPipelineContainer"):
         raise UpstreamChangedError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
+
+
+def renderer_depth_texture(renderer):
+    """The wgpu depth texture a pygfx ``WgpuRenderer`` renders into (depth32float, usage
+    RENDER_ATTACHMENT | COPY_SRC | TEXTURE_BINDING; the physical size), or None before its
+    first render (pygfx 0.17: ``renderer._blender.get_texture("depth")``)."""
+    blender = getattr(renderer, "_blender", None)
+    if blender is None or not hasattr(blender, "get_texture"):
+        raise UpstreamChangedError("pygfx internals changed: WgpuRenderer._blender.get_texture not found")
+    return blender.get_texture("depth")
 
 
 def held_orbit_controller_class(hold):

@@ -24,7 +24,6 @@ error                           also a                              raised for
 ``UpstreamChangedError``        ``RuntimeError``                    a pygfx internal that compat.py relies on moved
 ``BrowserTimeoutError``         ``TimeoutError``                    the browser view did not answer in time
 ``PageBuildError``              ``RuntimeError``                    a live page that could not be described (a bug)
-``FeatureNotAvailableError``    ``NotImplementedError``             a feature one engine does not have (yet)
 ==============================  ==================================  ===============================================
 """
 
@@ -36,7 +35,7 @@ __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
-    "FeatureNotAvailableError", "PageBuildError",
+    "PageBuildError",
 ]
 
 
@@ -136,15 +135,3 @@ class PageBuildError(GrassError, RuntimeError):
     """The live page's controls could not be described as patches of the browser
     engine's state (two controls touch the same state, or the ball's position does
     not map affinely onto it): a bug in grasswidget, not bad input."""
-
-
-class FeatureNotAvailableError(GrassError, NotImplementedError):
-    """A view of one engine does not have this feature (yet), e.g. the blade inspector in
-    the browser engine. ``feature`` names it for people ("the blade inspector") and
-    ``backend`` is the engine ("browser"); the message says both. GrassWidget shows it on
-    its message line instead of raising."""
-
-    def __init__(self, feature: str, backend: str):
-        super().__init__(f"{feature} is not available in the {backend} engine yet")
-        self.feature = feature
-        self.backend = backend

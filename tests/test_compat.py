@@ -262,3 +262,34 @@ def test_ipywidgets_registry_holds_open_widgets():
     assert registry[model_id] is label
     label.close()
     assert model_id not in compat.widget_registry()
+
+
+def test_renderer_depth_texture():
+    """The occlusion culling copies pygfx's depth buffer: a depth32float texture of the
+    render's physical size that can be copied from, 1.0 (far) where nothing is drawn."""
+    import numpy as np
+    import pygfx as gfx
+    import wgpu
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    target = gfx.Texture(dim=2, size=(40, 30, 1), format="rgba8unorm")
+    renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none", enable_events=False)
+    assert compat.renderer_depth_texture(renderer) is None  # nothing rendered yet
+    scene = gfx.Scene()
+    square = gfx.Mesh(gfx.plane_geometry(1, 1), gfx.MeshBasicMaterial())
+    square.local.position = (0, 0, -5)  # a small square in the middle of the view
+    scene.add(square)
+    renderer.render(scene, gfx.PerspectiveCamera(45))
+    depth = compat.renderer_depth_texture(renderer)
+    assert depth.format == wgpu.TextureFormat.depth32float and tuple(depth.size[:2]) == (40, 30)
+    assert depth.usage & wgpu.TextureUsage.COPY_SRC
+    buf = device.create_buffer(size=256 * 30, usage=wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.COPY_SRC)
+    enc = device.create_command_encoder()
+    enc.copy_texture_to_buffer({"texture": depth, "aspect": "depth-only"},
+                               {"buffer": buf, "bytes_per_row": 256, "rows_per_image": 30}, (40, 30, 1))
+    device.queue.submit([enc.finish()])
+    values = np.frombuffer(device.queue.read_buffer(buf), np.float32).reshape(30, 64)[:, :40]
+    assert values[0, 0] == 1.0 and values[-1, -1] == 1.0  # cleared to far where nothing is
+    assert 0.0 < values[15, 20] < 1.0  # the square's depth in the middle

@@ -4,8 +4,23 @@ notebook's browser through WebGPU (an anywidget; see :mod:`grasswidget.browser.v
 :mod:`grasswidget.browser.wgsl` renders the shader files for the browser's
 bindings and :mod:`grasswidget.browser.uniforms` packs the uniforms; neither
 imports GPU code.
+
+The widget (:class:`BrowserView`, which needs anywidget) loads on first use, so the pure
+parts (``wgsl``, ``uniforms``, ``page``'s limits) import without the notebook packages.
 """
 
-from .view import BrowserTimeoutError, BrowserView
-
 __all__ = ["BrowserView", "BrowserTimeoutError"]
+
+
+def __getattr__(name):
+    if name == "BrowserView":
+        from .view import BrowserView
+
+        return BrowserView
+    if name == "BrowserTimeoutError":
+        from ..errors import BrowserTimeoutError
+
+        return BrowserTimeoutError
+    from ..errors import UnknownNameError
+
+    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")

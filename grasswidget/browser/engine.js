@@ -13,11 +13,22 @@
 //            time_scale, camera ({position, target, fov_deg, near, far}),
 //            collider_spheres / collider_grid (the colliders and their grid, bytes;
 //            grasswidget.core.collider_grid; the balls are drawn from the spheres),
-//            show_colliders, report_steps, width, height, pixel_ratio.
+//            show_colliders, report_steps, width, height, pixel_ratio,
+//            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
+//            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
+//            (the inspected blade ids).
 //   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
-//            compile_simulate {id, shader}, lose_device (tests).
+//            read_inspected {id}, sync {id} (answered at once: "synced"),
+//            compile_simulate {id, shader, passes}, lose_device (tests).
+// Occlusion culling (shaders.occlusion, grasswidget.browser.wgsl.BrowserShaders.occlusion): while
+// u_cull.occlusion_phase (Python's bytes) is 1, each frame is drawn in two phases around a
+// max-depth pyramid, as the kernel engine's grasswidget.gpu.occlusion.render_frame does; the
+// functions of this engine that do it are grouped under "occlusion culling" below.
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
-// compiled, error and device_lost messages. Fixed steps: step(n) runs exactly n
+// inspected, compiled, pick, error and device_lost messages. A compute pass or
+// an overlay with "only_if" runs while its condition holds ("frozen",
+// "inspecting"); a pass with sim_uniform "now" gets u_sim for the time of the
+// next step (no steps) first, as the kernel's inspector does. Fixed steps: step(n) runs exactly n
 // steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
 // rules (SimClock below).
 //
@@ -175,6 +186,24 @@ export function clampOrbit(position, target, limits) {
   return [add(c, scale(dir, dNew)), c];
 }
 
+// grasswidget.core.reference.hzb_layout, line for line: where each level of the max-depth pyramid
+// lives in one float32 buffer, [offset, width, height, pitch] in texels, level 0 first. Level 0 is
+// the depth buffer (rows every rowAlign-aligned pitch: Python's HZB_ROW_ALIGN, sent in
+// shaders.occlusion.row_align); level k + 1 halves level k rounding up, down to 1 x 1, rows packed.
+export function hzbLayout(width, height, rowAlign) {
+  if (!(width >= 1 && height >= 1)) throw new Error(`hzbLayout needs a viewport of at least 1 x 1 pixels; got ${width} x ${height}`);
+  let w = Math.floor(width), h = Math.floor(height);
+  const pitch = Math.ceil(w / rowAlign) * rowAlign;
+  const levels = [[0, w, h, pitch]];
+  let offset = pitch * h;
+  while (w > 1 || h > 1) {
+    w = Math.ceil(w / 2); h = Math.ceil(h / 2);
+    levels.push([offset, w, h, w]);
+    offset += w * h;
+  }
+  return levels;
+}
+
 // ------------------------------------------------------------------ a view: one display of the widget
 
 class GrassView {
@@ -246,7 +275,7 @@ class GrassView {
       if (this.depth) this.depth.destroy();
       this.depth = this.engine.depthFor(w, h);
     }
-    return { color: this.context.getCurrentTexture().createView(), depth: this.depth.createView(), w, h };
+    return { color: this.context.getCurrentTexture().createView(), depth: this.depth, w, h };
   }
 
   pointerNdc(e) {
@@ -254,8 +283,8 @@ class GrassView {
     return [((e.clientX - r.left) / r.width) * 2 - 1, 1 - ((e.clientY - r.top) / r.height) * 2];
   }
 
-  // Where the view ray through the pointer meets the ground plane, or null (sky).
-  groundPoint(e) {
+  // The view ray through the pointer: its points on the near (a) and far (b) planes.
+  pointerRay(e) {
     const [x, y] = this.pointerNdc(e);
     const { view, proj } = this.engine.matrices(this.canvas.width / this.canvas.height);
     const inv = invert4(mul4(proj, view));
@@ -263,7 +292,12 @@ class GrassView {
       const p = [0, 1, 2, 3].map((r) => inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
       return [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
     };
-    const a = unproject(0), b = unproject(1);
+    return [unproject(0), unproject(1)];
+  }
+
+  // Where the view ray through the pointer meets the ground plane, or null (sky).
+  groundPoint(e) {
+    const [a, b] = this.pointerRay(e);
     const gy = this.model.get("frame_rules").style.ground[1];
     const d = sub(b, a);
     if (Math.abs(d[1]) < 1e-12) return null;
@@ -276,7 +310,8 @@ class GrassView {
   onPointerDown(e) {
     this.canvas.focus();
     this.canvas.setPointerCapture(e.pointerId);
-    this.drag = { x: e.clientX, y: e.clientY, button: e.button, ball: e.shiftKey && e.button === 0 };
+    this.drag = { x: e.clientX, y: e.clientY, x0: e.clientX, y0: e.clientY, button: e.button,
+      ball: e.shiftKey && e.button === 0, pick: (e.ctrlKey || e.metaKey) && e.button === 0 };
     if (this.drag.ball) this.sendBall(e, "down");
   }
 
@@ -312,6 +347,7 @@ class GrassView {
     this.drag = null;
     if (!d) return;
     if (d.ball) this.sendBall(e, "up");
+    else if (d.pick && Math.hypot(e.clientX - d.x0, e.clientY - d.y0) < 4) this.sendPick(e);
     else this.engine.setCamera({ ...this.engine.camera() }, true);
   }
 
@@ -324,14 +360,16 @@ class GrassView {
   }
 
   onKey(e) {
+    // Python decides what a key does (view_api.GrassView.on_key, shared with the kernel engine).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
-    if (e.key === " ") {
-      e.preventDefault();
-      this.model.set("playing", !this.model.get("playing"));
-      this.model.save_changes();
-    } else if (e.key === "s" || e.key === "r") {
-      this.engine.report("key", "", { key: e.key });
-    }
+    if (e.key === " ") e.preventDefault();  // not the page's scroll
+    this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
+  }
+
+  // Ctrl + click: Python picks the blade on this ray and inspects it.
+  sendPick(e) {
+    const [a, b] = this.pointerRay(e);
+    this.engine.report("pick", "", { origin: a, direction: sub(b, a) });
   }
 
   sendBall(e, phase) {
@@ -382,7 +420,7 @@ class GrassEngine {
     this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
     const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "collider_spheres", "collider_grid",
-      "frame_rules", "blade_data", "width", "height", "pixel_ratio"];
+      "frame_rules", "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
     this.listeners = names.map((name) => {
       const fn = () => this.onChange(name);
       this.model.on(`change:${name}`, fn);
@@ -546,10 +584,12 @@ class GrassEngine {
     this.computePasses = [];
     for (const pass of shaders.compute_passes) {
       const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
-      this.computePasses.push({ ...pipe, dispatch: pass.dispatch });
+      this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
+        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now" });
     }
-    const depthStencil = { format: "depth24plus", depthWriteEnabled: true, depthCompare: "less" };
-    const renderPipeline = async (shader, label, { topology, depth, blend }) => {
+    this.depthFormat = (shaders.occlusion && shaders.occlusion.depth_format) || "depth24plus";
+    const depthStencil = { format: this.depthFormat, depthWriteEnabled: true, depthCompare: "less" };
+    const renderPipeline = this.renderPipeline = async (shader, label, { topology, depth, blend }) => {
       const module = await this.compile(shader, label);
       const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
       const pipeline = await device.createRenderPipelineAsync({
@@ -575,13 +615,29 @@ class GrassEngine {
     this.flatBladePipes = shaders.blades_flat ? await ribbons(shaders.blades_flat, "colour by, ") : this.bladePipes;
     // After the opaque grass, at the far depth with "less": only uncovered pixels are shaded.
     this.skyGround = await renderPipeline(shaders.sky_ground, "sky_ground.wgsl",
-      { topology: "triangle-strip", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" } });
+      { topology: "triangle-strip", depth: { format: this.depthFormat, depthWriteEnabled: false, depthCompare: "less" } });
     const blend = {
       color: { srcFactor: "src-alpha", dstFactor: "one-minus-src-alpha", operation: "add" },
       alpha: { srcFactor: "one", dstFactor: "one-minus-src-alpha", operation: "add" },
     };
     this.balls = await renderPipeline({ ...shaders.balls, vertex: "vs_ball", fragment: "fs_ball" }, "balls.wgsl",
-      { topology: "triangle-list", depth: { format: "depth24plus", depthWriteEnabled: false, depthCompare: "less" }, blend });
+      { topology: "triangle-list", depth: { format: this.depthFormat, depthWriteEnabled: false, depthCompare: "less" }, blend });
+    this.occlusion = shaders.occlusion ? await this.buildOcclusionPipelines(shaders.occlusion, ribbons) : null;
+    // Lines and points over the meadow (overlay.wgsl): a quad per item, `instances` items.
+    this.overlays = [];
+    for (const o of shaders.overlays || []) {
+      const depth = { format: this.depthFormat, depthWriteEnabled: false, depthCompare: o.depth_test ? "less" : "always" };
+      const pipe = await renderPipeline(o, `overlay.wgsl (${o.name})`, { topology: "triangle-list", depth });
+      this.overlays.push({ ...pipe, instances: o.instances, onlyIf: o.only_if });
+    }
+  }
+
+  // Whether a pass or overlay with this "only_if" runs now (no condition: always).
+  active(condition) {
+    if (!condition) return true;
+    if (condition === "frozen") return this.model.get("frustum_lines").byteLength > 0;
+    if (condition === "inspecting") return (this.model.get("inspected") || []).length > 0;
+    return false;
   }
 
   buildBuffers() {
@@ -597,6 +653,7 @@ class GrassEngine {
     const uniform = (trait, label) => buffer(this.model.get(trait).byteLength, U.UNIFORM | U.COPY_DST, label);
     const n = this.model.get("n_blades");
     const classes = this.lodSegments.length;
+    const sizes = this.model.get("shaders").inspector_sizes;
     this.n = n;
     this.res = {
       s_blades: buffer(n * 64, U.STORAGE | U.COPY_SRC | U.COPY_DST, "blades"),
@@ -612,15 +669,25 @@ class GrassEngine {
       u_sky_ground: uniform("sky_ground_uniform", "u_sky_ground"),
       u_balls: uniform("ball_uniform", "u_balls"),
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
-      u_wobject: buffer(64, U.UNIFORM | U.COPY_DST, "u_wobject"),
+      u_wobject: buffer(128, U.UNIFORM | U.COPY_DST, "u_wobject"),
       s_colliders: buffer(this.model.get("collider_buffer_bytes")[0], U.STORAGE | U.COPY_DST, "colliders"),
       s_collider_grid: buffer(this.model.get("collider_buffer_bytes")[1], U.STORAGE | U.COPY_DST, "collider grid"),
+      u_inspect: uniform("inspect_uniform", "u_inspect"),
+      s_frustum: buffer(sizes.frustum, U.STORAGE | U.COPY_DST, "frustum lines"),
+      s_segments: buffer(sizes.segments, U.STORAGE, "inspector lines"),
+      s_points: buffer(sizes.points, U.STORAGE | U.COPY_SRC, "inspector points"),
+      s_forces: buffer(sizes.forces, U.STORAGE | U.COPY_SRC, "inspector forces"),
     };
     this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
-    this.argsRead = buffer(classes * 16, U.MAP_READ | U.COPY_DST, "args readback");
-    device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]));
+    if (this.occlusion) this.buildOcclusionBuffers(buffer);
+    // The args of the first phase, then (with occlusion culling) the second's and the occluded count.
+    this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0),
+      U.MAP_READ | U.COPY_DST, "args readback");
+    const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];  // world_transform and its inverse
+    device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([...identity, ...identity]));
     this.uploadRestPose();
     for (const [name, trait] of UNIFORM_TRAITS) this.writeUniform(name, trait);
+    this.writeFrustum();
     this.writeBalls();
     this.makeBindGroups();
   }
@@ -635,7 +702,8 @@ class GrassEngine {
       }),
     });
     for (const p of [this.sim, ...this.computePasses, ...this.bladePipes, ...this.flatBladePipes, this.skyGround,
-      this.balls]) p.group = group(p);
+      this.balls, ...this.overlays]) p.group = group(p);
+    if (this.occlusion) this.makeOcclusionBindGroups(group);
   }
 
   uploadRestPose() {
@@ -661,6 +729,12 @@ class GrassEngine {
     this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
   }
 
+  // The frozen camera's frustum edges (Python's core.teaching.frustum_segments), when frozen.
+  writeFrustum() {
+    const data = this.model.get("frustum_lines");
+    if (data.byteLength) this.device.queue.writeBuffer(this.res.s_frustum, 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+  }
+
   // The spheres and their grid, as Python built them (grasswidget.core.collider_grid).
   writeBalls() {
     for (const [name, trait] of [["s_colliders", "collider_spheres"], ["s_collider_grid", "collider_grid"]]) {
@@ -682,25 +756,40 @@ class GrassEngine {
   }
 
   // Exactly n fixed steps of dt, like GrassField.step (wind time (k dt) mod period).
-  simulate(n) {
-    if (n <= 0) return;
-    const device = this.device;
-    const clock = this.rules().clock;
+  // Python's u_sim bytes with this dispatch's time0 (s) and steps.
+  simUniformBytes(time0, steps) {
     const layout = this.model.get("sim_layout");
     const base = this.model.get("sim_uniform");
     const bytes = new Uint8Array(base.byteLength);
     bytes.set(new Uint8Array(base.buffer, base.byteOffset, base.byteLength));
     const view = new DataView(bytes.buffer);
+    view.setFloat32(layout.time0[0], time0, true);
+    view.setInt32(layout.steps[0], steps, true);
+    return bytes;
+  }
+
+  // The wind time of step k: (k dt) mod wind_period (the clock's rules from Python).
+  windTime(k) {
+    const clock = this.rules().clock;
+    const t = k * clock.dt;
+    return clock.wind_period > 0 ? t % clock.wind_period : t;
+  }
+
+  // u_sim for "now": the current parameters at the time of the next step, no steps
+  // (what the kernel's inspector writes before its pass: gpu.inspector.refresh_uniforms).
+  writeSimNow() {
+    this.device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), 0));
+  }
+
+  simulate(n) {
+    if (n <= 0) return;
+    const device = this.device;
     const perDispatch = Math.max(1, Math.floor(BLADE_STEPS_PER_DISPATCH / Math.max(this.n, 1)));
     const [gx, gy] = this.workgroups(this.n);
     let done = 0;
     while (done < n) {
       const chunk = Math.min(perDispatch, n - done);
-      let t0 = this.stepCount * clock.dt;
-      if (clock.wind_period > 0) t0 = t0 % clock.wind_period;
-      view.setFloat32(layout.time0[0], t0, true);
-      view.setInt32(layout.steps[0], chunk, true);
-      device.queue.writeBuffer(this.res.u_sim, 0, bytes);
+      device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), chunk));
       const encoder = device.createCommandEncoder();
       const pass = encoder.beginComputePass();
       pass.setPipeline(this.sim.pipeline);
@@ -739,11 +828,15 @@ class GrassEngine {
   // Encode one frame of the current state into a colour view of (width, height): Python's
   // compute passes (culling) for this view's camera, then the draws. Submit before the next call
   // (the camera uniform is written now, for this encoder).
-  encodeFrame(encoder, colorView, depthView, width, height) {
+  encodeFrame(encoder, colorView, depthTexture, width, height) {
     this.writeStdInfo(width, height);
+    const twoPhases = this.occlusionOn();
+    const depthView = depthTexture.createView();
     const blades = this.workgroups(this.n);
     const cpass = encoder.beginComputePass();
     for (const p of this.computePasses) {
+      if (!this.active(p.onlyIf)) continue;
+      if (p.simNow) this.writeSimNow();
       cpass.setPipeline(p.pipeline);
       cpass.setBindGroup(0, p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
@@ -752,9 +845,11 @@ class GrassEngine {
     cpass.end();
     const pass = encoder.beginRenderPass({
       colorAttachments: [{ view: colorView, loadOp: "clear", storeOp: "store", clearValue: { r: 0, g: 0, b: 0, a: 1 } }],
-      depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1, depthStoreOp: "discard" },
+      depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1,
+        depthStoreOp: twoPhases ? "store" : "discard" },
     });
     this.ribbonPipes().forEach((p, k) => {
+      if (p.shader.culled && twoPhases) return;  // the culled blades are listed by the second phase
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
@@ -763,17 +858,36 @@ class GrassEngine {
     pass.setPipeline(this.skyGround.pipeline);
     pass.setBindGroup(0, this.skyGround.group);
     pass.draw(4);
+    if (twoPhases) {
+      pass.end();
+      this.encodeOcclusionSecondPhase(encoder, depthTexture, width, height);
+      this.encodeBalls(this.beginOcclusionDrawPass(encoder, colorView, depthView));
+      return;
+    }
+    this.encodeBalls(pass);
+  }
+
+  // The translucent collider balls (after every blade), then the pass ends.
+  encodeBalls(pass) {
     const balls = this.nBalls || 0;
     if (balls > 0 && this.model.get("show_colliders")) {
       pass.setPipeline(this.balls.pipeline);
       pass.setBindGroup(0, this.balls.group);
       pass.draw(6 * 16 * 32, balls);
     }
+    for (const o of this.overlays) {
+      if (!this.active(o.onlyIf)) continue;
+      pass.setPipeline(o.pipeline);
+      pass.setBindGroup(0, o.group);
+      pass.draw(6, o.instances);
+    }
     pass.end();
   }
 
   depthFor(width, height) {
-    return this.device.createTexture({ size: [width, height], format: "depth24plus", usage: GPUTextureUsage.RENDER_ATTACHMENT });
+    // COPY_SRC: occlusion culling copies the depth into its pyramid.
+    return this.device.createTexture({ size: [width, height], format: this.depthFormat,
+      usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
   }
 
   scheduleFrame() {
@@ -806,7 +920,7 @@ class GrassEngine {
         const encoder = device.createCommandEncoder();
         this.encodeFrame(encoder, color, depth, w, h);
         const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > STATS_INTERVAL_MS / 2;
-        if (readArgs) encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, this.argsRead.size);
+        if (readArgs) this.encodeArgsRead(encoder);
         device.queue.submit([encoder.finish()]);
         if (readArgs) this.readArgs();
         if (first) this.frameSize = [w, h];
@@ -846,7 +960,11 @@ class GrassEngine {
     buf.mapAsync(GPUMapMode.READ).then(() => {
       const a = new Uint32Array(buf.getMappedRange().slice(0));
       buf.unmap();
-      this.visible = this.lodSegments.map((_, k) => a[4 * k + 1]);
+      const classes = this.lodSegments.length;
+      const second = this.occlusion ? a.subarray(4 * classes) : null;
+      // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
+      this.visible = this.lodSegments.map((_, k) => a[4 * k + 1] + (second ? second[4 * k + 1] : 0));
+      this.occluded = second && this.occlusionOn() ? second[4 * classes] : null;
       this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });
@@ -861,9 +979,145 @@ class GrassEngine {
     const steps = this.pendingSteps || 0;
     this.pendingSteps = 0;
     this.report("stats", "", {
-      fps, visible: this.visible, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
+      fps, visible: this.visible, occluded: this.occluded === undefined ? null : this.occluded, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
       frame_size: this.frameSize || null, adapter: this.adapterText, views: this.views.size,
     });
+  }
+
+  // ---------------------------------------------------------------- occlusion culling
+  // Python's shaders.occlusion (grasswidget.browser.wgsl.BrowserShaders.occlusion) executed: the
+  // pyramid's levels, the second culling phase and its draws. Kept apart from the rest of the
+  // engine (buildPipelines, buildBuffers, makeBindGroups and encodeFrame each call in here once).
+
+  // The pipelines: one hzb_build.wgsl per pyramid level, the second phase's cull.wgsl, the
+  // second phase's ribbons (lists from the end; natural and colour-by sets).
+  async buildOcclusionPipelines(spec, ribbons) {
+    const levels = await Promise.all(spec.hzb_levels.map((sh, k) => this.computePipeline(sh, `hzb_build.wgsl (level ${k + 1})`)));
+    const cull = await this.computePipeline(spec.cull, "cull.wgsl (occlusion, second phase)");
+    const blades = await ribbons(spec.blades, "occlusion second phase, ");
+    const flatBlades = await ribbons(spec.blades_flat, "occlusion second phase, colour by, ");
+    return { spec, levels, cull, blades, flatBlades, targets: new Map() };
+  }
+
+  // u_cull.occlusion_phase of Python's bytes (frame_data.cull_uniform_values): 1 = two phases.
+  occlusionOn() {
+    if (!this.occlusion) return false;
+    const cu = this.model.get("cull_uniform");
+    const at = this.occlusion.spec.phase_offset;
+    if (!cu || cu.byteLength < at + 4) return false;
+    return new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(at, true) === 1;
+  }
+
+  // s_occlusion_flags (one bit per blade, whole workgroups of words, all ones: every blade seen)
+  // and s_occlusion_args (the second phase's draw args, then the occluded count).
+  buildOcclusionBuffers(buffer) {
+    const U = GPUBufferUsage;
+    const spec = this.occlusion.spec;
+    const [gx, gy] = this.workgroups(this.n);
+    const words = gx * gy * spec.flag_words_per_workgroup;
+    this.res.s_occlusion_flags = buffer(words * 4, U.STORAGE | U.COPY_DST, "occlusion flags");
+    this.device.queue.writeBuffer(this.res.s_occlusion_flags, 0, new Uint32Array(words).fill(0xFFFFFFFF));
+    this.res.s_occlusion_args = buffer(spec.args_words * 4, U.STORAGE | U.INDIRECT | U.COPY_SRC | U.COPY_DST,
+      "occlusion draw args");
+  }
+
+  // Bind groups of the second phase's draws; the per-size ones (pyramid) are made again on demand.
+  makeOcclusionBindGroups(group) {
+    const o = this.occlusion;
+    for (const p of [...o.blades, ...o.flatBlades]) p.group = group(p);
+    this.dropOcclusionTargets();
+  }
+
+  dropOcclusionTargets() {
+    for (const t of this.occlusion.targets.values()) { t.hzb.destroy(); t.table.destroy(); }
+    this.occlusion.targets.clear();
+  }
+
+  // The pyramid of a (width, height) view: its buffer (reference.hzb_layout's layout), its level
+  // table, the bind groups that use them. A few sizes are kept (views, snapshots).
+  occlusionTarget(width, height) {
+    const o = this.occlusion;
+    const key = `${width}x${height}`;
+    let t = o.targets.get(key);
+    if (t) { o.targets.delete(key); o.targets.set(key, t); return t; }
+    const spec = o.spec;
+    const layout = hzbLayout(width, height, spec.row_align);
+    if (layout.length > spec.max_levels) {
+      throw new Error(`occlusion culling supports views up to ${2 ** (spec.max_levels - 1)} pixels wide and high; got ${width} x ${height}`);
+    }
+    const U = GPUBufferUsage;
+    const last = layout[layout.length - 1];
+    const hzb = this.device.createBuffer({ size: 4 * (last[0] + last[1] * last[2]), usage: U.STORAGE | U.COPY_DST, label: "hzb" });
+    const words = new Uint32Array(4 * (spec.max_levels + 1));
+    words.set([layout.length, width, height, 0]);
+    layout.forEach((level, k) => words.set(level, 4 * (k + 1)));
+    const table = this.device.createBuffer({ size: words.byteLength, usage: U.STORAGE | U.COPY_DST, label: "hzb levels" });
+    this.device.queue.writeBuffer(table, 0, words);
+    const res = { ...this.res, s_hzb: hzb, s_hzb_levels: table };
+    const group = (p) => this.device.createBindGroup({
+      layout: p.layout,
+      entries: p.shader.bindings.map((b) => ({ binding: b.binding, resource: { buffer: res[b.resource || b.name] } })),
+    });
+    t = { layout, hzb, table, levelGroups: o.levels.slice(0, layout.length - 1).map(group), cullGroup: group(o.cull) };
+    o.targets.set(key, t);
+    while (o.targets.size > 3) {
+      const [oldKey, old] = o.targets.entries().next().value;
+      old.hzb.destroy(); old.table.destroy();
+      o.targets.delete(oldKey);
+    }
+    return t;
+  }
+
+  // Between the phases: the depth into the pyramid's level 0, the further levels, the second cull.
+  encodeOcclusionSecondPhase(encoder, depthTexture, width, height) {
+    const o = this.occlusion;
+    const t = this.occlusionTarget(width, height);
+    encoder.copyTextureToBuffer({ texture: depthTexture, aspect: "depth-only" },
+      { buffer: t.hzb, bytesPerRow: 4 * t.layout[0][3], rowsPerImage: height }, [width, height]);
+    const cpass = encoder.beginComputePass();
+    t.levelGroups.forEach((g, k) => {
+      const [, w, h] = t.layout[k + 1];
+      cpass.setPipeline(o.levels[k].pipeline);
+      cpass.setBindGroup(0, g);
+      cpass.dispatchWorkgroups(Math.ceil(w / 8), Math.ceil(h / 8));
+    });
+    const blades = this.workgroups(this.n);
+    cpass.setPipeline(o.cull.pipeline);
+    cpass.setBindGroup(0, t.cullGroup);
+    cpass.dispatchWorkgroups(blades[0], blades[1]);
+    cpass.end();
+  }
+
+  // The second phase's draws over the first's picture (colour and depth loaded), then the culled
+  // blades (colour by cull: every test's, occlusion included); returns the pass (balls follow).
+  beginOcclusionDrawPass(encoder, colorView, depthView) {
+    const o = this.occlusion;
+    const pass = encoder.beginRenderPass({
+      colorAttachments: [{ view: colorView, loadOp: "load", storeOp: "store" }],
+      depthStencilAttachment: { view: depthView, depthLoadOp: "load", depthStoreOp: "discard" },
+    });
+    const flat = this.ribbonPipes() !== this.bladePipes;
+    (flat ? o.flatBlades : o.blades).forEach((p, k) => {
+      pass.setPipeline(p.pipeline);
+      pass.setBindGroup(0, p.group);
+      pass.drawIndirect(this.res.s_occlusion_args, 16 * k);
+    });
+    const culled = flat ? this.flatBladePipes.find((p) => p.shader.culled) : null;
+    if (culled) {
+      pass.setPipeline(culled.pipeline);
+      pass.setBindGroup(0, culled.group);
+      pass.drawIndirect(this.res.s_culled_args, 0);
+    }
+    return pass;
+  }
+
+  // The stats' readback: the first phase's args, then the second's with the occluded count.
+  encodeArgsRead(encoder) {
+    const first = 16 * this.lodSegments.length;
+    encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, first);
+    if (this.occlusion) {
+      encoder.copyBufferToBuffer(this.res.s_occlusion_args, 0, this.argsRead, first, 4 * this.occlusion.spec.args_words);
+    }
   }
 
   // ---------------------------------------------------------------- requests from Python
@@ -878,6 +1132,8 @@ class GrassEngine {
         case "step": this.simulate(msg.n); break;
         case "reset": this.uploadRestPose(); break;
         case "read_state": await this.readState(msg.id); break;
+        case "read_inspected": await this.readInspected(msg); break;
+        case "sync": this.report("synced", "", { id: msg.id }); break;
         case "snapshot": await this.snapshot(msg); break;
         case "compile_simulate": await this.compileSimulate(msg); break;
         case "lose_device": this.expectLoss = true; this.device.destroy(); break;
@@ -905,6 +1161,38 @@ class GrassEngine {
     this.model.send({ type: "state", id, step_count: steps, n: this.n }, undefined, [blades, collision]);
   }
 
+  // The inspected blades' forces (vec4 each) and control points (3 floats each), computed now
+  // by the inspector's passes for the current state and parameters (as gpu.inspector.BladeInspector.read).
+  async readInspected(msg) {
+    const device = this.device;
+    const id = msg.id;
+    const n = (this.model.get("inspected") || []).length;
+    const passes = this.computePasses.filter((p) => p.onlyIf === "inspecting");
+    const forcesBytes = this.res.s_forces.size / 64 * n, pointsBytes = 36 * n;
+    const U = GPUBufferUsage;
+    const a = device.createBuffer({ size: Math.max(16, forcesBytes), usage: U.MAP_READ | U.COPY_DST });
+    const b = device.createBuffer({ size: Math.max(16, Math.ceil(pointsBytes / 4) * 4 + 4), usage: U.MAP_READ | U.COPY_DST });
+    const encoder = device.createCommandEncoder();
+    if (n > 0) {
+      const cpass = encoder.beginComputePass();
+      for (const p of passes) {
+        if (p.simNow) this.writeSimNow();
+        cpass.setPipeline(p.pipeline);
+        cpass.setBindGroup(0, p.group);
+        cpass.dispatchWorkgroups(1);
+      }
+      cpass.end();
+      encoder.copyBufferToBuffer(this.res.s_forces, 0, a, 0, forcesBytes);
+      encoder.copyBufferToBuffer(this.res.s_points, 0, b, 0, Math.ceil(pointsBytes / 4) * 4);
+    }
+    device.queue.submit([encoder.finish()]);
+    await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
+    const forces = a.getMappedRange().slice(0, forcesBytes);
+    const points = b.getMappedRange().slice(0, pointsBytes);
+    a.destroy(); b.destroy();
+    this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
+  }
+
   async snapshot(msg) {
     const device = this.device;
     const w = msg.width, h = msg.height;
@@ -914,7 +1202,7 @@ class GrassEngine {
     const row = Math.ceil((w * 4) / 256) * 256;
     const out = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
     const encoder = device.createCommandEncoder();
-    this.encodeFrame(encoder, color.createView(), depth.createView(), w, h);
+    this.encodeFrame(encoder, color.createView(), depth, w, h);
     encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [w, h]);
     device.queue.submit([encoder.finish()]);
     await out.mapAsync(GPUMapMode.READ);
@@ -938,7 +1226,15 @@ class GrassEngine {
   async compileSimulate(msg) {
     try {
       const sim = await this.computePipeline(msg.shader, "simulate.wgsl");
+      // Compute passes that compile the same wind (the inspector): all compiled before any is swapped in.
+      const passes = [];
+      for (const [name, shader] of Object.entries(msg.passes || {})) {
+        for (const p of this.computePasses.filter((q) => q.name === name)) {
+          passes.push([p, await this.computePipeline(shader, p.label)]);
+        }
+      }
       this.sim = sim;
+      for (const [p, pipe] of passes) Object.assign(p, pipe);
       this.makeBindGroups();
       this.report("compiled", "", { id: msg.id, ok: true });
     } catch (err) {
@@ -959,6 +1255,7 @@ class GrassEngine {
       const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
       if (uniform) this.writeUniform(uniform[0], uniform[1]);
       else if (name === "collider_spheres" || name === "collider_grid") this.writeBalls();
+      else if (name === "frustum_lines") this.writeFrustum();
       else if (name === "blade_data") this.buildBuffers();
     } catch (err) {
       this.report("error", `browser engine: applying ${name} failed: ${err.message || err}`);
@@ -978,7 +1275,7 @@ class GrassEngine {
 // Uniform buffers filled with Python's packed bytes: [buffer name, trait].
 const UNIFORM_TRAITS = [
   ["u_cull", "cull_uniform"], ["u_material", "material_uniform"], ["u_sky_ground", "sky_ground_uniform"],
-  ["u_balls", "ball_uniform"],
+  ["u_balls", "ball_uniform"], ["u_inspect", "inspect_uniform"],
 ];
 
 // engine_key -> GrassEngine, for the whole page (the module is loaded once per page).

@@ -5,13 +5,8 @@
 :class:`grasswidget.GrassWidget` drives it through the same interface as the
 kernel view (:mod:`grasswidget.core.view_api`): ``set_playing``, ``step``,
 ``reset_blades``, ``reset_camera``, ``save_png``, ``stats``, ``camera_state``,
-the keys, the ball (shift + drag, Roll).
-
-Not here yet: freeze culling and the blade inspector. :meth:`BrowserEngineView.inspect`
-and :meth:`BrowserEngineView.set_culling_frozen` raise
-:class:`~grasswidget.core.view_api.FeatureNotAvailableError` (the widget shows it on
-its message line); adding them to the browser engine means filling in those two
-methods (and ``inspected``).
+the keys, the ball (shift + drag, Roll), and the teaching views (colour by, freeze
+culling, the blade inspector and ``read_inspected``).
 
 Differences, by design:
 
@@ -25,7 +20,14 @@ Differences, by design:
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
 * ``fps`` is frames presented per second in the browser and ``visible`` the
-  browser's indirect-draw instance counts, read back asynchronously.
+  browser's indirect-draw instance counts (both occlusion phases), ``occluded`` the
+  blades culled by occlusion (None while ``params.cull_occlusion`` is off), read back
+  asynchronously.
+* Teaching views: freeze culling copies the browser's camera (its matrices
+  computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
+  browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
+  message (one small request while blades are inspected); ctrl + click inspects
+  the blade whose rest pose is nearest the pointer's ray.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
-from ..core.view_api import FeatureNotAvailableError, GrassView
+from ..core.view_api import GrassView
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -67,6 +69,7 @@ class BrowserEngineView(GrassView):
     called once when the browser has no WebGPU adapter (the widget falls back),
     ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
     and ``target_fps`` (kept and reported; the browser draws at its own rate).
+    ``on_inspect(blades)`` gets the inspected blades' numbers at each stats message.
 
     Attributes: ``browser_view`` (the :class:`~grasswidget.browser.view.BrowserView`).
     """
@@ -81,6 +84,7 @@ class BrowserEngineView(GrassView):
                          on_inspect=on_inspect)
         self._on_unavailable = on_unavailable
         self._target_fps = float(target_fps)
+        self._inspect_request_pending = False
         self._unavailable_sent = False
         self.ball = None
         camera = None
@@ -95,7 +99,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.playing = bool(clock.playing)
         self.browser_view.time_scale = float(clock.time_scale)
         self._ball_scene = _BallScene(self.browser_view)
-        self._stats = {"fps": None, "visible": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
+        self._stats = {"fps": None, "visible": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None}
         self.browser_view.on("stats", self._on_browser_stats)
         self.browser_view.on("error", self.report_error)
@@ -103,6 +107,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.on("ball", self._on_ball_msg)
         self.browser_view.on("key", self._on_key_msg)
         self.browser_view.on("steps", self._on_steps_msg)
+        self.browser_view.on("pick", self._on_pick_msg)
         self.browser_view.observe(self._on_gpu_status, names="gpu_status")
         self.browser_view.observe(self._on_browser_playing, names="playing")
 
@@ -183,6 +188,18 @@ class BrowserEngineView(GrassView):
         except Exception as err:  # noqa: BLE001 - a user path that raises stops the rolling
             ball.rolling = False
             self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+
+    def _on_pick_msg(self, msg):
+        """Ctrl + click in the browser: inspect the blade on the pointer's ray (none: nothing)."""
+        from ..core.teaching import pick_blade_on_ray
+
+        b = self.browser_view.blades
+        try:
+            blade = pick_blade_on_ray(b.v0, b.up, b.height, b.width, msg["origin"], msg["direction"])
+            if blade is not None:
+                self.actions.inspect([blade])
+        except Exception as err:  # noqa: BLE001 - never raise into the comm handler
+            self.report_error(err)
 
     def _on_key_msg(self, msg):
         """A key pressed in the focused browser view ({"key", "modifiers"}): see :meth:`on_key`."""
@@ -285,21 +302,6 @@ class BrowserEngineView(GrassView):
         self.browser_view.camera = dict(self.browser_view.camera, position=[float(x) for x in position],
                                         target=[float(x) for x in target], fov_deg=float(fov_deg))
 
-    # ------------------------------------------------------------------ teaching views (not here yet)
-
-    def set_culling_frozen(self, frozen: bool):
-        """Not in the browser engine yet: raises FeatureNotAvailableError."""
-        raise FeatureNotAvailableError("freeze culling", self.backend)
-
-    def inspect(self, ids):
-        """Not in the browser engine yet: raises FeatureNotAvailableError."""
-        raise FeatureNotAvailableError("the blade inspector", self.backend)
-
-    @property
-    def inspected(self) -> tuple:
-        """Always ``()`` until the browser engine has an inspector."""
-        return ()
-
     # ------------------------------------------------------------------ pictures and state
 
     def save_png(self, path, size):
@@ -335,6 +337,57 @@ class BrowserEngineView(GrassView):
         state.pop("step_count", None)
         return state
 
+    # ------------------------------------------------------------------ teaching views
+
+    def set_culling_frozen(self, frozen: bool):
+        """Freeze culling at the browser's current camera (True) or cull against it again (False)."""
+        if frozen:
+            self.browser_view.freeze_culling()
+        else:
+            self.browser_view.unfreeze_culling()
+
+    @property
+    def frozen_camera(self):
+        """The :class:`~grasswidget.core.teaching.FrozenView` culled against, or None."""
+        return self.browser_view.frozen_camera
+
+    def inspect(self, ids):
+        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        self.browser_view.inspect(ids)
+        if not self.browser_view.inspected:
+            self._report_inspected([])
+        else:
+            self._request_inspected()
+
+    @property
+    def inspected(self) -> tuple:
+        return tuple(self.browser_view.inspected)
+
+    def read_inspected(self, timeout=None) -> list:
+        """The inspected blades' numbers (GrassScene.read_inspected's format), from the browser."""
+        return self.browser_view.read_inspected() if timeout is None else self.browser_view.read_inspected(timeout=timeout)
+
+    def _report_inspected(self, rows):
+        self.report_inspected(rows)
+
+    def _request_inspected(self):
+        """Ask the browser for the inspected numbers; the panel shows them when they come."""
+        if self._inspect_request_pending or self.closed:
+            return
+        ids = list(self.browser_view.inspected)
+
+        def done(msg, buffers):
+            self._inspect_request_pending = False
+            try:
+                if msg.get("type") != "inspected":
+                    return
+                self._report_inspected(self.browser_view.inspected_from_answer(msg, buffers, ids))
+            except Exception as err:  # noqa: BLE001
+                self.report_error(err)
+
+        self._inspect_request_pending = True
+        self.browser_view.request_async({"type": "read_inspected"}, done)
+
     # ------------------------------------------------------------------ stats
 
     def current_stats(self) -> dict:
@@ -354,6 +407,8 @@ class BrowserEngineView(GrassView):
             fps=fps,
             visible=int(sum(per_class)) if per_class else None,
             visible_per_class=list(per_class) if per_class else None,
+            # blades culled by occlusion (both phases' draws are in visible); None while it is off
+            occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
             steps_per_frame=int(round(steps / frames)) if self.clock_source.playing else 0,
@@ -362,6 +417,8 @@ class BrowserEngineView(GrassView):
             step_count=msg.get("step_count"),
         )
         self.report_stats(self.current_stats())
+        if self.browser_view.inspected:
+            self._request_inspected()
 
     # ------------------------------------------------------------------ keys, closing
 

@@ -44,7 +44,9 @@ STDINFO_LAYOUT = (
     ("ndc_offset", "vec4<f32>"),      # xy scale, zw offset of a sub-viewport (the browser: 1, 1, 0, 0)
 )
 
-WOBJECT_LAYOUT = (("world_transform", "mat4x4<f32>"),)
+#: pygfx's world-object uniform, the fields the project's WGSL reads (the browser's field is
+#: untransformed: both are the identity).
+WOBJECT_LAYOUT = (("world_transform", "mat4x4<f32>"), ("world_transform_inv", "mat4x4<f32>"))
 
 MATERIAL_LAYOUT = (
     ("root_color", "vec4<f32>"),
@@ -87,8 +89,10 @@ def collider_buffers(colliders, blades) -> tuple:
 
 
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
-    """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values`."""
-    return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen))
+    """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values` (the
+    browser draws every frame in occlusion culling's two phases while
+    ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then)."""
+    return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True))
 
 
 def sky_ground_uniform(style: dict) -> bytes:

@@ -15,8 +15,14 @@ control panel. Alone it is usable too::
     v                              # show it
     v.step(120); v.read_state()    # exact fixed steps; the state read back from the browser
 
+Teaching views, as in the kernel engine: :meth:`BrowserView.freeze_culling`
+(the frozen camera's values go to the browser in ``u_cull``, its view volume as
+line data computed here), :meth:`BrowserView.inspect` (the browser runs the
+project's ``inspect.wgsl`` and draws its lines and points) and
+:meth:`BrowserView.read_inspected` (the numbers GrassScene.read_inspected gives).
+
 Requests that need the browser's answer (:meth:`read_state`, :meth:`snapshot`,
-:meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
+:meth:`read_inspected`, :meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
 messages (``jupyter-ui-poll``), so they work inside a running cell; with no view
 answering they raise ``TimeoutError`` naming the browser view.
 """
@@ -36,6 +42,9 @@ from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core.frame_data import frame_rules
 from ..core.params import GrassParams
+from ..core.reference import FORCE_NAMES
+from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
+from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body
@@ -122,6 +131,11 @@ class BrowserView(anywidget.AnyWidget):
     pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(480).tag(sync=True)
+    #: The frozen culling camera's view volume: 12 edges, 24 x 3 float32 (world space); empty: not frozen.
+    frustum_lines = Bytes(b"").tag(sync=True)
+    #: ``u_inspect`` packed (core.uniform_layouts.INSPECT_LAYOUT) and the inspected blade ids.
+    inspect_uniform = Bytes(b"").tag(sync=True)
+    inspected = List().tag(sync=True)
     # ---- set by the browser
     gpu_status = Dict({"state": "", "detail": ""}).tag(sync=True)
 
@@ -136,7 +150,9 @@ class BrowserView(anywidget.AnyWidget):
         self._colliders = ColliderList()
         self._answers = {}
         self._ids = itertools.count(1)
-        self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": []}
+        self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": [],
+                           "pick": []}
+        self._frozen = None
         self._wind_body = self.params.wind_wgsl
         self._reverting_wind = False
         self.step_count_hint = 0
@@ -149,6 +165,7 @@ class BrowserView(anywidget.AnyWidget):
             self.stdinfo_layout = uniforms.layout_description(uniforms.STDINFO_LAYOUT)
             self.sim_layout = uniforms.layout_description(uniforms.SIM_LAYOUT)
             self.shaders = BrowserShaders.all(self.params.wind_wgsl)
+            self.inspect_uniform = pack(INSPECT_LAYOUT, {"n_ids": 0})
             self._set_blades(blades)
             self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
             self._write_frame_rules()
@@ -162,6 +179,9 @@ class BrowserView(anywidget.AnyWidget):
     def _set_blades(self, blades: Blades):
         self.blades = blades
         with self.hold_sync():
+            kept = [i for i in self.inspected if i < len(blades)]
+            if kept != list(self.inspected):
+                self._set_inspected(kept)
             self.n_blades = len(blades)
             self._write_uniforms()
             if self.camera:
@@ -187,7 +207,7 @@ class BrowserView(anywidget.AnyWidget):
     def _write_uniforms(self):
         p, n = self.params, len(self.blades)
         self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
-        self.cull_uniform = uniforms.cull_uniform(p, n)
+        self.cull_uniform = uniforms.cull_uniform(p, n, self._frozen)
         self.material_uniform = uniforms.material_uniform(p)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
@@ -241,6 +261,89 @@ class BrowserView(anywidget.AnyWidget):
         """Make the browser destroy its WebGPU device, as a driver reset would (for tests)."""
         self.send({"type": "lose_device"})
 
+    # ------------------------------------------------------------------ teaching views
+
+    def viewport_size(self) -> tuple:
+        """(w, h) physical pixels of the view as the browser last drew it (its stats),
+        else the CSS size times ``pixel_ratio`` (1 when it is the display's)."""
+        size = (self.last_stats or {}).get("frame_size")
+        if size and size[0] > 0 and size[1] > 0:
+            return (int(size[0]), int(size[1]))
+        ratio = self.pixel_ratio if self.pixel_ratio > 0 else 1.0
+        return (max(1, round(self.width * ratio)), max(1, round(self.height * ratio)))
+
+    def freeze_culling(self, viewport_size=None, frozen: FrozenView | None = None):
+        """Cull and pick LOD classes against a copy of the current camera from now on
+        (as ``GrassScene.freeze_culling``): the browser culls with the copy's values
+        (``u_cull``) whatever the camera does, and draws its view volume as white lines.
+
+        Args:
+            viewport_size: (w, h) physical pixels the copy is taken at (its aspect and the
+                LOD classes' pixel scale); default :meth:`viewport_size`.
+            frozen: a :class:`~grasswidget.core.teaching.FrozenView` to use instead of the camera
+                (e.g. a kernel field's ``frozen_camera``).
+        Freezing again takes a new copy. Returns the frozen view."""
+        if frozen is None:
+            frozen = frozen_view(self.camera, viewport_size or self.viewport_size())
+        elif not isinstance(frozen, FrozenView):
+            raise GrassTypeError(f"frozen must be a FrozenView or None, not {type(frozen).__name__}")
+        self._frozen = frozen
+        with self.hold_sync():
+            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), frozen)
+            self.frustum_lines = np.ascontiguousarray(frozen.segments(), np.float32).tobytes()
+        return frozen
+
+    def unfreeze_culling(self):
+        """Cull against the camera of each frame again (and remove the frustum lines)."""
+        self._frozen = None
+        with self.hold_sync():
+            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades))
+            self.frustum_lines = b""
+
+    @property
+    def culling_frozen(self) -> bool:
+        """True between :meth:`freeze_culling` and :meth:`unfreeze_culling`."""
+        return self._frozen is not None
+
+    @property
+    def frozen_camera(self):
+        """The :class:`~grasswidget.core.teaching.FrozenView` culled against, or None."""
+        return self._frozen
+
+    def _set_inspected(self, ids):
+        ids = [int(i) for i in ids]
+        with self.hold_sync():
+            self.inspect_uniform = pack(INSPECT_LAYOUT, {"ids": ids, "n_ids": len(ids)})
+            self.inspected = ids
+
+    def inspect(self, ids):
+        """Show these blades in the inspector (v0, v1, v2, control polygon, force arrows), every
+        frame, computed in the browser by the project's inspect.wgsl; ``[]`` clears. At most 64
+        integer ids in [0, N - 1]; anything else raises ValueError naming the limit (nothing changes)."""
+        self._set_inspected(check_inspect_ids(ids, len(self.blades)))
+
+    def read_inspected(self, timeout: float = ANSWER_TIMEOUT) -> list:
+        """The inspected blades' numbers as ``GrassScene.read_inspected()`` gives them (one dict
+        per blade: id, height, stiffness, v0, v1, v2 and the forces of ``reference.FORCE_NAMES``),
+        computed by the browser for its current state and parameters. Waits for the answer."""
+        ids = list(self.inspected)
+        if not ids:
+            return []
+        # One round trip first: the browser answers in order, and the kernel handles what the browser
+        # sent meanwhile (without it, a ball moved just before came out of the first answer wrong).
+        self._request({"type": "sync"}, timeout, "read_inspected() from the browser view")
+        msg, buffers = self._request({"type": "read_inspected"}, timeout, "read_inspected() from the browser view")
+        return self.inspected_from_answer(msg, buffers, ids)
+
+    def inspected_from_answer(self, msg, buffers, ids) -> list:
+        """:meth:`read_inspected`'s rows from the browser's "inspected" answer (forces as vec4,
+        control points as 3 floats, ``msg["n"]`` blades) for the ids asked about."""
+        n = int(msg["n"])
+        forces = np.frombuffer(bytes(buffers[0]), np.float32).reshape(n, len(FORCE_NAMES), 4)
+        points = np.frombuffer(bytes(buffers[1]), np.float32).reshape(n, 3, 3)
+        return inspected_rows(list(ids)[:n], self.blades.height, self.blades.stiffness, self.params.stiffness_scale,
+                              points, forces)
+
     # ------------------------------------------------------------------ requests answered by the browser
 
     def _request(self, content, timeout, what):
@@ -277,12 +380,13 @@ class BrowserView(anywidget.AnyWidget):
 
     def _request_wind(self, body, old, wait, timeout=ANSWER_TIMEOUT):
         shader = BrowserShaders.simulate(body)
-        content = {"type": "compile_simulate", "shader": shader}
+        inspect = BrowserShaders.inspect(body)  # the inspector compiles the same wind
+        content = {"type": "compile_simulate", "shader": shader, "passes": {"inspect": inspect}}
 
         def done(msg, _buffers):
             if msg.get("ok"):
                 self._wind_body = body
-                self.shaders = dict(self.shaders, simulate=shader)
+                self.shaders = dict(self.shaders, simulate=shader, inspect=inspect)
                 return None
             err = wind_error_from_messages(msg.get("messages") or [], shader["code"], wind_body(body),
                                            msg.get("message", ""))
@@ -323,7 +427,8 @@ class BrowserView(anywidget.AnyWidget):
     # ------------------------------------------------------------------ answers
 
     def on(self, kind, callback):
-        """Register ``callback(msg)`` for browser messages of ``kind``: stats, ball, key, error, device_lost."""
+        """Register ``callback(msg)`` for browser messages of ``kind``: stats, ball, key, error, device_lost,
+        steps, pick (ctrl + click: ``origin`` and ``direction`` of the view ray, world space)."""
         self._listeners[kind].append(callback)
 
     def _emit_error(self, err):

@@ -22,9 +22,12 @@ from pathlib import Path
 
 import jinja2
 
-from ..core.reference import LOD_SEGMENTS
-from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, ribbon_vars, shader_dir, template_vars,
-                            wgsl_environment)
+from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, WORKGROUP_SIZE, ribbon_vars, shader_dir,
+                                 template_vars, wgsl_environment, wgsl_float)
+from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
+                             MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
+from ..core.uniform_layouts import INSPECT_LAYOUT
 from .uniforms import (BALL_LAYOUT, CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, STDINFO_LAYOUT,
                        WOBJECT_LAYOUT, offsets, wgsl_struct)
 
@@ -43,6 +46,7 @@ _UNIFORMS = {
     "u_stdinfo": ("StdInfo", STDINFO_LAYOUT),
     "u_wobject": ("WorldObject", WOBJECT_LAYOUT),
     "u_material": ("GrassMaterialUniforms", MATERIAL_LAYOUT),
+    "u_inspect": ("InspectUniforms", INSPECT_LAYOUT),
 }
 
 #: Storage resources each kind of pass may use: name -> WGSL declaration tail.
@@ -57,6 +61,15 @@ _STORAGE = {
         "s_bands": "var<storage, read_write> s_bands: array<atomic<u32>>",
         "s_colliders": "var<storage, read> s_colliders: array<vec4<f32>>",
         "s_collider_grid": "var<storage, read> s_collider_grid: array<u32>",
+        # the blade inspector (inspect.wgsl): line vertices and points, 3 floats each; forces
+        "s_segments": "var<storage, read_write> s_segments: array<f32>",
+        "s_points": "var<storage, read_write> s_points: array<f32>",
+        "s_forces": "var<storage, read_write> s_forces: array<vec4<f32>>",
+        # Occlusion culling (cull.wgsl occlusion 1 and 2, hzb_build.wgsl): read_write only
+        # where the file writes them (_WRITTEN_WHERE_STORED), else read.
+        "s_occlusion_flags": "var<storage, read_write> s_occlusion_flags: array<u32>",
+        "s_hzb": "var<storage, read_write> s_hzb: array<f32>",
+        "s_hzb_levels": "var<storage, read> s_hzb_levels: array<vec4<u32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
@@ -64,6 +77,9 @@ _STORAGE = {
         "s_culled": "var<storage, read> s_culled: array<u32>",
     },
 }
+
+#: Storage declared read_write only when the file stores into it (``name[...] = ...``).
+_WRITTEN_WHERE_STORED = ("s_occlusion_flags", "s_hzb")
 
 _DECL_RE = re.compile(r"@group\(\s*0\s*\)\s*@binding\(\s*(\d+)\s*\)\s*var\s*<\s*([a-z_, ]+?)\s*>\s*(\w+)")
 
@@ -113,7 +129,8 @@ def binding_map(code: str) -> list:
 
 
 def _uses(code: str, name: str) -> bool:
-    return re.search(rf"\b{name}\b", code) is not None
+    """``name`` occurs in the code outside ``//`` comments."""
+    return re.search(rf"\b{name}\b", re.sub(r"//[^\n]*", "", code)) is not None
 
 
 def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, **variables) -> dict:
@@ -160,6 +177,8 @@ def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, *
             continue
         if "atomic" in decl and f"atomicAdd(&{name}" not in body:
             decl = decl.replace("array<atomic<u32>>", "array<u32>")
+        if name in _WRITTEN_WHERE_STORED and not re.search(rf"\b{name}\[[^\]]*\]\s*=(?!=)", body):
+            decl = decl.replace("read_write", "read")
         lines.append(f"@group(0) @binding({take()}) {decl};")
     header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
     if _MARK in body:
@@ -198,32 +217,89 @@ class BrowserShaders:
 
     @staticmethod
     def reset_args() -> dict:
-        return render_shader("reset_args.wgsl", "compute", bands=DISTANCE_BANDS)
+        """Reset every draw's args, the second occlusion phase's included (``s_occlusion_args``)."""
+        return render_shader("reset_args.wgsl", "compute", bands=DISTANCE_BANDS, occlusion=1)
 
     @staticmethod
     def cull(phase: str = "scatter") -> dict:
         """The culling pass, drawing order by distance band as in the kernel: phase "count"
         counts survivors per (class, band), :meth:`prefix_bands` turns counts into slots,
-        phase "scatter" writes the lists nearest band first."""
-        return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase,
+        phase "scatter" writes the lists nearest band first. Rendered as occlusion
+        culling's first phase (``occlusion = 1``): while ``u_cull.occlusion_phase`` is 1
+        it keeps only the blades seen last frame (``s_occlusion_flags``), else all."""
+        return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase, occlusion=1,
                              band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+
+    @staticmethod
+    def cull_occlusion() -> dict:
+        """Occlusion culling's second phase (``cull.wgsl``, ``occlusion = 2``, one pass without
+        distance bands, as in the kernel engine): every blade that passes the other tests is
+        tested against the max-depth pyramid; the newly visible ones are listed from the end
+        of their class's list, counted in ``s_occlusion_args`` (bound as its ``s_args``)."""
+        return render_shader(_body_file("cull"), "compute", bands=0, phase="scatter", occlusion=2,
+                             resources={"s_args": "s_occlusion_args"})
+
+    @staticmethod
+    def hzb_level(level: int) -> dict:
+        """One level (1 .. HZB_MAX_LEVELS - 1) of the max-depth pyramid (``hzb_build.wgsl``)."""
+        return render_shader("hzb_build.wgsl", "compute", level=int(level))
 
     @staticmethod
     def prefix_bands() -> dict:
         return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def blades(flat_colors: bool = True) -> list:
+    def blades(flat_colors: bool = True, from_end: bool = False) -> list:
         """One ribbon shader per level-of-detail class (segments along the blade); with
         ``flat_colors`` (the colour-by views) also one for the culled blades drawn flat
         when ``color_by`` is "cull" (``culled``: True). The natural view uses the set
-        without the flat-colour path, as the kernel engine does (it costs GPU draw time)."""
+        without the flat-colour path, as the kernel engine does (it costs GPU draw time).
+        ``from_end``: the second occlusion phase's draws (lists read from the end; no
+        culled draw: the first set's draws it)."""
         out = []
-        for k in range(len(LOD_SEGMENTS) + (1 if flat_colors else 0)):
+        for k in range(len(LOD_SEGMENTS) + (1 if flat_colors and not from_end else 0)):
             values = ribbon_vars(k)
-            out.append(dict(render_shader("blade_render.wgsl", "render", **values, teaching_views=flat_colors),
+            out.append(dict(render_shader("blade_render.wgsl", "render", **values, teaching_views=flat_colors,
+                                          from_end=from_end and not values["culled"]),
                             culled=bool(values["culled"])))
         return out
+
+    @classmethod
+    def occlusion(cls) -> dict:
+        """Occlusion culling's second phase, as the browser engine runs it every frame while
+        ``u_cull.occlusion_phase`` (its bytes at ``phase_offset``) is 1:
+
+        1. the first render pass draws the first phase's lists (blades seen last frame),
+           sky and ground, and stores the depth (``depth_format``, copyable);
+        2. the depth is copied into ``s_hzb`` as the pyramid's level 0, rows every
+           ``pitch`` texels (``bytesPerRow = 4 * pitch``), and ``hzb_levels[k - 1]``
+           (``hzb_build.wgsl``, level k) runs once per further level at
+           ceil(width / 8) x ceil(height / 8) workgroups of that level;
+        3. ``cull`` (the second phase) runs over the blades;
+        4. a second render pass (colour and depth loaded) draws ``blades`` /
+           ``blades_flat`` (lists from the end, args from ``s_occlusion_args``), then the
+           culled blades' draw (colour by cull) and the collider balls.
+
+        The pyramid's layout follows :func:`grasswidget.core.reference.hzb_layout` (the
+        engine's ``hzbLayout``, same rule, held to it by tests/core/test_frame_data.py):
+        ``row_align`` is its HZB_ROW_ALIGN; ``s_hzb_levels`` holds (levels, width, height, 0),
+        then (offset, width, height, pitch) per level, ``max_levels`` + 1 entries in all.
+        ``flag_words_per_workgroup``: ``s_occlusion_flags`` holds that many u32 per culling
+        workgroup, all ones at start (every blade seen). ``args_words``: ``s_occlusion_args``
+        holds (vertex_count, instance_count, 0, 0) per class, then (occluded, 0, 0, 0).
+        """
+        return {
+            "phase_offset": int(offsets(CULL_LAYOUT)["occlusion_phase"][0]),
+            "depth_format": "depth32float",
+            "row_align": int(HZB_ROW_ALIGN),
+            "max_levels": int(HZB_MAX_LEVELS),
+            "flag_words_per_workgroup": int(WORKGROUP_SIZE) // 32,
+            "args_words": 4 * (len(LOD_SEGMENTS) + 1),
+            "hzb_levels": [cls.hzb_level(k) for k in range(1, HZB_MAX_LEVELS)],
+            "cull": cls.cull_occlusion(),
+            "blades": cls.blades(flat_colors=False, from_end=True),
+            "blades_flat": cls.blades(flat_colors=True, from_end=True),
+        }
 
     @staticmethod
     def sky_ground() -> dict:
@@ -238,6 +314,48 @@ class BrowserShaders:
                 + (HERE / "balls.wgsl").read_text(encoding="utf-8"))
         return {"code": code, "bindings": binding_map(code)}
 
+    @staticmethod
+    def inspect(wind_wgsl: str = "") -> dict:
+        """``shaders/inspect.wgsl``, the blade inspector's compute pass (one workgroup of 64),
+        with the same template values as the kernel's ``gpu.inspector.InspectShader``."""
+        return render_shader("inspect.wgsl", "compute", user_wind_body=wind_body(wind_wgsl),
+                             segment_vertices=SEGMENT_VERTICES, n_forces=len(FORCE_NAMES),
+                             arrow_accel_per_height=wgsl_float(ARROW_ACCEL_PER_HEIGHT),
+                             collision_arrow_scale=wgsl_float(COLLISION_ARROW_SCALE))
+
+    @staticmethod
+    def overlay(primitive: str, size_px: float, colors, positions: str) -> dict:
+        """``overlay.wgsl`` for one overlay: "segments" (vertex pairs) or "points", each
+        ``size_px`` physical pixels across, vertex k coloured ``colors[k % len(colors)]``
+        (sRGB hex), positions read from the engine's buffer ``positions``."""
+        from .uniforms import srgb_color
+
+        env = _environment()
+        rgba = ", ".join("vec4<f32>({:.6f}, {:.6f}, {:.6f}, 1.0)".format(*srgb_color(c)[:3]) for c in colors)
+        body = env.from_string((HERE / "overlay.wgsl").read_text(encoding="utf-8")).render(
+            primitive=primitive, size_px=wgsl_float(size_px), period=len(colors), colors=rgba)
+        code = wgsl_struct("StdInfo", STDINFO_LAYOUT) + "\n" + body
+        bindings = binding_map(code)
+        for b in bindings:
+            if b["name"] == "s_overlay":
+                b["resource"] = positions
+        return {"code": code, "bindings": bindings}
+
+    @classmethod
+    def overlays(cls) -> list:
+        """The overlays drawn after the meadow, each while its condition holds (``only_if``):
+        the frozen camera's frustum (12 white segments from ``s_frustum``, depth-tested like
+        the kernel's Line), the inspector's polygon and arrows (``s_segments``) and its control
+        points (``s_points``), over everything (no depth test, as in the kernel)."""
+        return [
+            dict(cls.overlay("segments", 2.0, [FROZEN_FRUSTUM_COLOR], "s_frustum"), name="frustum",
+                 instances=12, depth_test=True, only_if="frozen"),
+            dict(cls.overlay("segments", 3.0, inspector_segment_colors(), "s_segments"), name="inspector lines",
+                 instances=MAX_INSPECTED * SEGMENT_VERTICES // 2, depth_test=False, only_if="inspecting"),
+            dict(cls.overlay("points", 9.0, [INSPECTOR_COLORS["points"]], "s_points"), name="inspector points",
+                 instances=MAX_INSPECTED * 3, depth_test=False, only_if="inspecting"),
+        ]
+
     @classmethod
     def all(cls, wind_wgsl: str = "") -> dict:
         return {
@@ -249,7 +367,16 @@ class BrowserShaders:
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
+                # the blade inspector's forces, polygon and points, while blades are inspected
+                # (u_sim for "now": the current parameters and colliders at the time of the next step)
+                {"shader": "inspect", "dispatch": "one", "label": "inspect.wgsl", "only_if": "inspecting",
+                 "sim_uniform": "now"},
             ],
+            "inspect": cls.inspect(wind_wgsl),
+            "overlays": cls.overlays(),
+            # bytes of the inspector's buffers (engine.js allocates them): vertices of 3 floats, forces vec4
+            "inspector_sizes": {"segments": MAX_INSPECTED * SEGMENT_VERTICES * 12, "points": MAX_INSPECTED * 3 * 12,
+                                "forces": MAX_INSPECTED * len(FORCE_NAMES) * 16, "frustum": 24 * 12},
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
             "cull_count": cls.cull("count"),
@@ -263,4 +390,5 @@ class BrowserShaders:
             "balls": cls.balls(),
             "lod_segments": list(LOD_SEGMENTS),
             "bands": DISTANCE_BANDS,
+            "occlusion": cls.occlusion(),
         }

@@ -148,8 +148,16 @@ def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
     return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
-def cull_uniform_values(params, n_blades: int, frozen=None) -> dict:
+def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False) -> dict:
     """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
+
+    ``every_frame_two_phases``: the engine draws every frame in occlusion culling's two
+    phases while ``params.cull_occlusion`` is on (the browser engine: its culling
+    passes are always the first phase's, then it builds the pyramid and runs the
+    second), so ``occlusion_phase`` is written: 1 while ``cull_occlusion`` is on, else
+    0 (the browser engine then draws in one phase). False (the kernel engine, default):
+    ``occlusion_phase`` is left out, the engine arms it per render
+    (:func:`grasswidget.gpu.occlusion.render_frame`).
 
     ``frozen`` is the frozen culling camera or None (cull against each render's
     camera): anything with ``view_proj`` (4x4, world to WebGPU clip space, row-major
@@ -172,7 +180,10 @@ def cull_uniform_values(params, n_blades: int, frozen=None) -> dict:
         frozen_view_proj=np.zeros((4, 4), np.float32),
         frozen_cam_pos=(0.0, 0.0, 0.0, 0.0),
         frozen_viewport_height=0.0,
+        raster_max_px=p.compute_raster_max_px,
     )
+    if every_frame_two_phases:
+        values["occlusion_phase"] = int(bool(p.cull_occlusion))
     if frozen is not None:
         values.update(
             frozen_view_proj=np.asarray(frozen.view_proj, np.float64).T,  # WGSL matrices are column-major

@@ -220,10 +220,13 @@ class GrassParams(StrictTraits):
     cull_distance = Bool(True, help="Thin the field with distance on the ground.").tag(sync=True)
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
+    cull_occlusion = Bool(True, help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
     lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
+    compute_raster = Bool(False, help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve, 32-bit atomic depth test, then a full-screen resolve that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Kernel engine, through grasswidget.gpu.render_frame (GrassScene and the widget use it). Off by default: slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time); GrassScene turns it on for its own params on a GPU adapter.").tag(sync=True)
+    compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none.").tag(sync=True)
 
     # ---- teaching views -----------------------------------------------------------
-    color_by = ChoiceTrait("natural", COLOR_BY, help='How blades are coloured: "natural" (lit grass), "lod" (every drawn blade flat in its level-of-detail class colour, grasswidget.LOD_COLORS) or "cull" (every blade drawn; culled ones flat in the colour of the first test that culled them, grasswidget.CULL_COLORS). Applies at the next render.').tag(sync=True)
+    color_by = ChoiceTrait("natural", COLOR_BY, help='How blades are coloured: "natural" (lit grass), "lod" (every drawn blade flat in its level-of-detail class colour, grasswidget.LOD_COLORS) or "cull" (every blade drawn; culled ones flat in the colour of the first test that culled them, grasswidget.CULL_COLORS: orientation, frustum, distance, occlusion). Applies at the next render.').tag(sync=True)
 
     def copy(self) -> "GrassParams":
         """A new GrassParams with the same values."""

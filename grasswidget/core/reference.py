@@ -86,6 +86,27 @@ __all__ = [
     "FORCE_NAMES",
     "blade_shape_t",
     "hash01",
+    "occlusion_bounds",
+    "hzb_level",
+    "hzb_layout",
+    "build_hzb",
+    "hzb_max",
+    "occlusion_cull",
+    "curve_pieces",
+    "OCCLUSION_PIECES",
+    "OCCLUSION_RADIUS_PER_WIDTH",
+    "HZB_ROW_ALIGN",
+    "blade_shade",
+    "clip_to_pixel",
+    "raster_step",
+    "raster_span",
+    "raster_cover",
+    "raster_payload",
+    "raster_walk",
+    "raster_blades",
+    "RASTER_MAX_SAMPLES",
+    "RASTER_MAX_ACROSS",
+    "RASTER_EMPTY",
 ]
 
 # --------------------------------------------------------------------------- geometry
@@ -805,7 +826,7 @@ def lod_class(v0, v2, height, view_proj, viewport_height):
 
 #: What :func:`cull_reason` returns, by index: 0 kept, then the culling tests in
 #: the order they are applied (the first one that culls a blade is its reason).
-CULL_REASONS = ("kept", "orientation", "frustum", "distance")
+CULL_REASONS = ("kept", "orientation", "frustum", "distance", "occlusion")
 
 
 def cull_reason(state, params, view_proj, cam_pos, ids=None):
@@ -814,6 +835,8 @@ def cull_reason(state, params, view_proj, cam_pos, ids=None):
     0 means the blade survives every enabled test; otherwise the value names the
     first enabled test that culls it, in the order orientation (1), frustum (2),
     distance (3). A blade culled by frustum and distance is a frustum blade.
+    Occlusion (4) needs a depth buffer: see :func:`occlusion_cull`, applied to the
+    blades this function keeps.
     ``view_proj`` (4x4, world to clip) and ``cam_pos`` describe the culling camera;
     ``ids`` (default 0..N-1) feed the distance buckets.
     """
@@ -907,3 +930,310 @@ def hash01(x):
     h = (((h >> ((h >> np.uint64(28)) + np.uint64(4))) ^ h) * np.uint64(277803737)) & _M32
     h = (h >> np.uint64(22)) ^ h
     return h.astype(np.float64) / 4294967296.0
+
+
+# --------------------------------------------------------------------------- occlusion culling
+
+#: A ribbon point lies within this many blade widths of the curve (blade_render.wgsl:
+#: c -+ width * t1, and the "fold" shape adds width / 2 along the normal: sqrt(1.25) < 1.5).
+OCCLUSION_RADIUS_PER_WIDTH = 1.5
+#: The occlusion test splits the curve into this many pieces (t in [k/P, (k+1)/P]), each
+#: boxed by its own control points: a bent blade's one box would cover much empty screen.
+OCCLUSION_PIECES = 4
+#: Rows of the pyramid's level 0 start every HZB_ROW_ALIGN texels (a depth texture is
+#: copied into a buffer in rows of a multiple of 256 bytes = 64 float32).
+HZB_ROW_ALIGN = 64
+#: Levels of the depth pyramid the level table (``s_hzb_levels``) holds: views up to
+#: 2^15 pixels wide and high (both engines).
+HZB_MAX_LEVELS = 16
+
+
+def occlusion_bounds(v0, v1, v2, radius, view_proj, viewport_size):
+    """Screen bounds of a blade for the occlusion test: ``(rect, depth)``.
+
+    The blade lies in the box around its control points v0, v1, v2 (the curve stays
+    in their triangle) grown by ``radius`` (metres); its 8 corners are projected by
+    ``view_proj`` (world to clip). ``rect`` (x0, y0, x1, y1) is their extent in
+    pixels of a ``viewport_size`` (width, height) view, clamped to [0, width] x
+    [0, height], y down (row 0 at the top); ``depth`` the nearest corner's depth
+    (0 near .. 1 far). A box that reaches behind the near plane gets the whole view
+    and depth 0 (it cannot be hidden). Per blade: arrays of shape (N, 3) / (N,) /
+    (4, 4) / (2,) give (N, 4) and (N,).
+    """
+    v0, v1, v2 = (np.asarray(x, np.float64) for x in (v0, v1, v2))
+    r = np.asarray(radius, np.float64)[..., None]
+    lo = np.minimum(np.minimum(v0, v1), v2) - r
+    hi = np.maximum(np.maximum(v0, v1), v2) + r
+    corners = np.stack([np.stack([(hi if k & 1 else lo)[..., 0], (hi if k & 2 else lo)[..., 1],
+                                  (hi if k & 4 else lo)[..., 2]], axis=-1) for k in range(8)], axis=-2)
+    clip = _clip(corners, view_proj)  # (..., 8, 4)
+    w = clip[..., 3]
+    behind = np.any((w <= 1e-6) | (clip[..., 2] < 0.0), axis=-1)
+    safe_w = np.where(w <= 1e-6, 1.0, w)
+    ndc = clip[..., :3] / safe_w[..., None]
+    size = np.asarray(viewport_size, np.float64)
+    width, height = size[..., 0:1], size[..., 1:2]
+    x0 = np.clip((ndc[..., 0].min(axis=-1, keepdims=True) * 0.5 + 0.5) * width, 0.0, width)
+    x1 = np.clip((ndc[..., 0].max(axis=-1, keepdims=True) * 0.5 + 0.5) * width, 0.0, width)
+    y0 = np.clip((0.5 - 0.5 * ndc[..., 1].max(axis=-1, keepdims=True)) * height, 0.0, height)
+    y1 = np.clip((0.5 - 0.5 * ndc[..., 1].min(axis=-1, keepdims=True)) * height, 0.0, height)
+    rect = np.concatenate([x0, y0, x1, y1], axis=-1)
+    depth = np.maximum(ndc[..., 2].min(axis=-1), 0.0)
+    full = np.concatenate([np.zeros_like(width), np.zeros_like(height), width, height], axis=-1)
+    rect = np.where(behind[..., None], np.broadcast_to(full, rect.shape), rect)
+    depth = np.where(behind, 0.0, depth)
+    return rect, depth
+
+
+def hzb_level(rect):
+    """The pyramid level at which a pixel rect (x0, y0, x1, y1) spans at most 2 x 2
+    texels: the smallest L with 2^L >= ceil(max(x1 - x0, y1 - y0)) (0 for a rect
+    under a pixel). Level L's texel (x, y) holds the farthest depth of the pixels
+    [x 2^L, (x + 1) 2^L) x [y 2^L, (y + 1) 2^L)."""
+    rect = np.asarray(rect, np.float64)
+    span = np.ceil(np.maximum(rect[..., 2] - rect[..., 0], rect[..., 3] - rect[..., 1]))
+    span = np.maximum(span, 1.0).astype(np.int64)
+    level = np.zeros(span.shape, np.int64)
+    while np.any((1 << level) < span):
+        level = np.where((1 << level) < span, level + 1, level)
+    return level.astype(np.uint32)
+
+
+def hzb_layout(width, height):
+    """Where each pyramid level lives in one float32 buffer: a list of
+    ``(offset, width, height, pitch)`` in texels, level 0 first. Level 0 is the
+    depth buffer (width x height, rows every HZB_ROW_ALIGN-aligned pitch); level
+    k + 1 halves level k rounding up, down to 1 x 1, rows packed."""
+    width, height = int(width), int(height)
+    if width < 1 or height < 1:
+        raise GrassValueError(f"hzb_layout needs a viewport of at least 1 x 1 pixels; got {width} x {height}")
+    pitch = -(-width // HZB_ROW_ALIGN) * HZB_ROW_ALIGN
+    levels = [(0, width, height, pitch)]
+    offset = pitch * height
+    while width > 1 or height > 1:
+        width, height = -(-width // 2), -(-height // 2)
+        levels.append((offset, width, height, width))
+        offset += width * height
+    return levels
+
+
+def build_hzb(depth):
+    """The max-depth pyramid of a depth image (height, width): a list of arrays,
+    level 0 = ``depth``; each texel of level k + 1 the farthest of its (up to) 2 x 2
+    texels of level k (the layout of :func:`hzb_layout`)."""
+    levels = [np.asarray(depth, np.float32)]
+    while levels[-1].shape != (1, 1):
+        d = levels[-1]
+        h, w = d.shape
+        padded = np.full((h + h % 2, w + w % 2), -np.inf, np.float32)
+        padded[:h, :w] = d
+        levels.append(padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2).max(axis=(1, 3)))
+    return levels
+
+
+def hzb_max(levels, rect, level):
+    """Farthest depth of the pyramid ``levels`` (:func:`build_hzb`) over the pixel
+    rect (x0, y0, x1, y1) at ``level`` (the texels holding pixels floor(x0)..floor(x1),
+    floor(y0)..floor(y1), clamped to the view); one rect per row."""
+    rect = np.atleast_2d(np.asarray(rect, np.float64))
+    level = np.broadcast_to(np.asarray(level, np.int64), rect.shape[:1])
+    h0, w0 = levels[0].shape
+    out = np.empty(len(rect), np.float32)
+    for k, (r, lv) in enumerate(zip(rect, level)):
+        lv = min(int(lv), len(levels) - 1)
+        px0 = min(int(np.floor(r[0])), w0 - 1)
+        px1 = min(int(np.floor(r[2])), w0 - 1)
+        py0 = min(int(np.floor(r[1])), h0 - 1)
+        py1 = min(int(np.floor(r[3])), h0 - 1)
+        out[k] = levels[lv][py0 >> lv: (py1 >> lv) + 1, px0 >> lv: (px1 >> lv) + 1].max()
+    return out
+
+
+def occlusion_cull(state, view_proj, depth, world_scale=1.0):
+    """True where a blade is hidden: for each piece of its curve (:func:`curve_pieces`),
+    the piece's nearest depth (:func:`occlusion_bounds`, radius
+    OCCLUSION_RADIUS_PER_WIDTH x width x ``world_scale``) is farther than the farthest
+    depth of ``depth`` (an (H, W) float32 depth buffer of the same camera, 0 near ..
+    1 far) over the piece's screen rect, read at :func:`hzb_level` of the rect from
+    the pyramid :func:`build_hzb`. Conservative: every pixel the blade could cover
+    already holds something nearer.
+    """
+    depth = np.asarray(depth, np.float32)
+    h, w = depth.shape
+    levels = build_hzb(depth)
+    radius = OCCLUSION_RADIUS_PER_WIDTH * np.asarray(state["width"], np.float64) * world_scale
+    hidden = np.ones(len(radius), bool)
+    for p0, p1, p2 in curve_pieces(state["v0"], state["v1"], state["v2"]):
+        rect, near = occlusion_bounds(p0, p1, p2, radius, view_proj, (w, h))
+        hidden &= near.astype(np.float32) > hzb_max(levels, rect, hzb_level(rect))
+    return hidden
+
+
+def curve_pieces(v0, v1, v2, pieces=None):
+    """The control points (p0, p1, p2) of the quadratic Bezier v0, v1, v2 on each of
+    ``pieces`` (default OCCLUSION_PIECES) equal spans of t: on [a, b], p0 = B(a),
+    p2 = B(b), p1 = (1-a)(1-b) v0 + (a(1-b) + b(1-a)) v1 + a b v2."""
+    v0, v1, v2 = (np.asarray(x, np.float64) for x in (v0, v1, v2))
+    n = OCCLUSION_PIECES if pieces is None else int(pieces)
+
+    def point(t):
+        return (1 - t) ** 2 * v0 + 2 * t * (1 - t) * v1 + t * t * v2
+
+    out = []
+    for k in range(n):
+        a, b = k / n, (k + 1) / n
+        out.append((point(a), (1 - a) * (1 - b) * v0 + (a * (1 - b) + b * (1 - a)) * v1 + a * b * v2, point(b)))
+    return out
+
+
+# --------------------------------------------------------------------------- shading
+
+
+def blade_shade(normal, to_eye, along, variation, root, tip, color_variation, light_direction, ambient):
+    """Lit colour of a blade's surface point (sRGB, 0..1; blade_math.wgsl ``blade_shade``,
+    the ribbons' and the compute rasterizer's shading). Rows of vectors (N, 3), scalars (N,).
+
+    Two-sided (the normal is flipped to face ``to_eye``); base colour ``mix(root, tip,
+    along^0.8)`` varied per blade by ``color_variation * (variation - 0.5)`` (brightness
+    and a hue nudge); diffuse + 0.35 translucency of the light, ``ambient`` floor, and
+    an ambient occlusion 0.55 (root) .. 1 (tip)."""
+    n = safe_normalize(np.asarray(normal, np.float64))
+    to_eye = np.asarray(to_eye, np.float64)
+    n = np.where((_dot(n, to_eye) < 0.0)[..., None], -n, n)
+    var_s = np.asarray(variation, np.float64)[..., None] - 0.5
+    a = np.clip(np.asarray(along, np.float64), 0.0, 1.0)[..., None]
+    cv = np.asarray(color_variation, np.float64)[..., None]
+    root, tip = np.asarray(root, np.float64), np.asarray(tip, np.float64)
+    base = root + (tip - root) * a ** 0.8
+    base = base * (1.0 + cv * var_s)
+    base = base + cv * np.concatenate([0.35 * var_s, 0.0 * var_s, -0.25 * var_s], axis=-1) * tip
+    light = safe_normalize(np.asarray(light_direction, np.float64))
+    diffuse = np.maximum(_dot(n, light), 0.0)[..., None]
+    translucency = 0.35 * np.maximum(-_dot(n, light), 0.0)[..., None]
+    ao = 0.55 + 0.45 * a
+    amb = np.asarray(ambient, np.float64)[..., None]
+    shade = (amb + (1.0 - amb) * (diffuse + translucency)) * ao
+    return np.clip(base * shade, 0.0, 1.0)
+
+
+# --------------------------------------------------------------------------- compute rasterization
+
+#: Most samples the compute walk takes along one blade (raster_step: at least 1 / this).
+RASTER_MAX_SAMPLES = 256.0
+#: Most pixels the walk writes across one cross-section (a blade sent to the compute
+#: rasterizer is under GrassParams.compute_raster_max_px wide; this bounds a blade seen
+#: at a grazing angle).
+RASTER_MAX_ACROSS = 16
+#: The depth word of a pixel no compute-rasterized blade covers (raster.wgsl).
+RASTER_EMPTY = 0xFFFFFFFF
+
+
+def clip_to_pixel(clip, viewport_size):
+    """Clip-space points (..., 4) to (x, y, depth): pixels, x right and y down from the
+    view's top-left corner, depth 0 near .. 1 far (blade_math.wgsl ``clip_to_pixel``)."""
+    clip = np.asarray(clip, np.float64)
+    size = np.asarray(viewport_size, np.float64)
+    ndc = clip[..., :3] / clip[..., 3:4]
+    return np.stack([(ndc[..., 0] * 0.5 + 0.5) * size[..., 0], (0.5 - 0.5 * ndc[..., 1]) * size[..., 1],
+                     ndc[..., 2]], axis=-1)
+
+
+def raster_step(s0, s1, s2, v):
+    """The compute walk's step in v at v: 0.9 / (the curve's screen speed there,
+    ``|2 (1 - v) (s1 - s0) + 2 v (s2 - s1)|`` pixels per unit v), clamped to
+    [1 / RASTER_MAX_SAMPLES, 1]: samples about 0.9 pixels apart along the curve."""
+    s0, s1, s2 = (np.asarray(x, np.float64) for x in (s0, s1, s2))
+    v = np.asarray(v, np.float64)[..., None]
+    speed = np.linalg.norm(2.0 * (1.0 - v) * (s1 - s0) + 2.0 * v * (s2 - s1), axis=-1)
+    return np.clip(0.9 / np.maximum(speed, 1e-6), 1.0 / RASTER_MAX_SAMPLES, 1.0)
+
+
+def raster_span(c0, c1, c2, across, v, shape, tau, viewport_size):
+    """The ribbon's cross-section at v on screen: its two ends (x, y, depth), each (..., 3).
+
+    ``c0, c1, c2`` are the control points in clip space, ``across`` the half-width
+    vector in clip space (``view_proj @ (width * t1, 0)``); the ends are the curve point
+    plus (2 t - 1) across for t = blade_shape_t(0, v) and blade_shape_t(1, v).
+    """
+    c0, c1, c2, across = (np.asarray(x, np.float64) for x in (c0, c1, c2, across))
+    v = np.asarray(v, np.float64)[..., None]
+    a = c0 + v * (c1 - c0)
+    b = c1 + v * (c2 - c1)
+    c = a + v * (b - a)
+    vs = v[..., 0]
+    shape = np.broadcast_to(np.asarray(shape), vs.shape)
+    tau = np.broadcast_to(np.asarray(tau, np.float64), vs.shape)
+    t_left = np.array([blade_shape_t(0.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+    t_right = np.array([blade_shape_t(1.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+    t_left, t_right = t_left.reshape(vs.shape)[..., None], t_right.reshape(vs.shape)[..., None]
+    return (clip_to_pixel(c + (2.0 * t_left - 1.0) * across, viewport_size),
+            clip_to_pixel(c + (2.0 * t_right - 1.0) * across, viewport_size))
+
+
+def raster_cover(blade, sample, span_px):
+    """Points the compute walk writes across a cross-section ``span_px`` pixels wide:
+    ``floor(span_px + hash01(blade * 2654435761 + sample * 40503))`` (u32 arithmetic),
+    clamped to [0, RASTER_MAX_ACROSS]: on average span_px, the same every frame."""
+    blade = np.asarray(blade, np.int64).astype(np.uint64)
+    sample = np.asarray(sample, np.int64).astype(np.uint64)
+    key = (blade * np.uint64(2654435761) + sample * np.uint64(40503)) & _M32
+    h = hash01(key).astype(np.float32)
+    total = (np.asarray(span_px, np.float32) + h).astype(np.float64)
+    return np.clip(np.floor(total), 0, RASTER_MAX_ACROSS).astype(np.int64)
+
+
+def raster_payload(blade, v):
+    """The shading payload of a rasterized pixel: ``blade << 8 | round(v * 255)`` (u32; blade < 2^24)."""
+    blade = np.asarray(blade, np.int64)
+    q = np.round(np.clip(np.asarray(v, np.float64), 0.0, 1.0) * 255.0).astype(np.int64)
+    return ((blade << 8) | q) & 0xFFFFFFFF
+
+
+def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
+    """The compute rasterizer's walk of one blade (raster.wgsl), in float32 like the GPU.
+
+    Samples s = 0, 1, ... at v = 0, then v += raster_step(projected control points, v)
+    (the last sample at v = 1, at most RASTER_MAX_SAMPLES + 1 samples); at each, the cross-section (raster_span) of length L pixels is covered by
+    m = raster_cover(blade, s, L) points at (j + 0.5) / m along it. A point writes pixel floor(x, y) when it is inside the view
+    and 0 < depth <= 1. Returns (x, y, depth, v) arrays, one entry per written pixel
+    (a pixel may repeat)."""
+    f32 = np.float32
+    size = np.asarray(viewport_size, f32)
+    c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
+    s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
+    xs, ys, ds, vs = [], [], [], []
+    v = f32(0.0)
+    for s in range(int(RASTER_MAX_SAMPLES) + 1):
+        a, b = raster_span(c0, c1, c2, across, v, shape, tau, size)
+        a, b = a.astype(f32), b.astype(f32)
+        span_px = np.float32(np.linalg.norm(b[:2] - a[:2]))
+        m = int(raster_cover(blade, s, span_px))
+        for j in range(m):
+            p = a + (b - a) * f32((j + 0.5) / m)
+            x, y = int(np.floor(p[0])), int(np.floor(p[1]))
+            if 0 <= x < size[0] and 0 <= y < size[1] and 0.0 < p[2] <= 1.0:
+                xs.append(x), ys.append(y), ds.append(float(p[2])), vs.append(float(v))
+        if v >= 1.0:
+            break
+        v = f32(min(f32(v + f32(raster_step(s0, s1, s2, v))), f32(1.0)))
+    return np.array(xs, np.int64), np.array(ys, np.int64), np.array(ds), np.array(vs)
+
+
+def raster_blades(blades, viewport_size):
+    """Depth and payload images of the compute rasterizer for a few blades: each item
+    of ``blades`` is (c0, c1, c2, across, blade id, shape, tau) as for :func:`raster_walk`.
+    The nearest depth wins per pixel; among equal depths the largest payload
+    (raster.wgsl: atomicMin of the depth's float bits, then atomicMax of the payload).
+    Returns (depth (H, W) float64, inf where empty; payload (H, W) uint32, 0 where empty)."""
+    w, h = int(viewport_size[0]), int(viewport_size[1])
+    depth = np.full((h, w), np.inf)
+    payload = np.zeros((h, w), np.uint64)
+    for c0, c1, c2, across, blade, shape, tau in blades:
+        xs, ys, ds, vs = raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size)
+        for x, y, d, v in zip(xs, ys, ds, vs):
+            p = int(raster_payload(blade, v))
+            if d < depth[y, x]:
+                depth[y, x], payload[y, x] = d, p
+            elif d == depth[y, x]:
+                payload[y, x] = max(int(payload[y, x]), p)
+    return depth, payload.astype(np.uint32)

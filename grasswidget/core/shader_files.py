@@ -20,6 +20,10 @@ The engine-neutral files and what they need:
     ``store_blade_guides(i, b)`` (the twin of ``blades.pack_state``). Reads and
     writes ``s_blades: array<vec4<f32>>``, which the engine declares; the store
     functions exist only when ``blades_writable`` is true.
+``occlusion.wgsl``, ``hzb_build.wgsl``
+    Occlusion culling: the test of the culling's second phase (
+    ``blade_occluded(...)``, reads ``s_hzb`` and ``s_hzb_levels``) and one level of the max-depth pyramid
+    (entry point ``main``, template variable ``level``); see ``cull.wgsl``.
 ``blade_math.wgsl``
     The blade math, one function per NumPy twin of ``reference.py`` (same names).
     Pure functions: no bindings.
@@ -122,7 +126,8 @@ def template_vars() -> dict:
     from .enums import BladeShape, ColorBy, GravityMode, WindField
     from .collider_grid import GRID_HEADER_WORDS
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS,
-                            LOD_SEGMENTS, NOISE_SCALE, RECOVERY_FLOOR)
+                            LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
+                            RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -143,6 +148,13 @@ def template_vars() -> dict:
         "blades_writable": False,
         "teaching_views": False,
         "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
+        "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
+        "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),
+        "occlusion_pieces": int(OCCLUSION_PIECES),
+        "raster_max_samples": wgsl_float(RASTER_MAX_SAMPLES),
+        "raster_max_across": wgsl_float(RASTER_MAX_ACROSS),
+        "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
+        "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "user_wind_body": NO_WIND_BODY,
     }
 
@@ -165,6 +177,14 @@ def ribbon_vars(lod_class: int) -> dict:
         "lod_color": rgb(LOD_COLORS[0 if culled else lod_class]),
         "cull_colors": [rgb(c) for c in CULL_COLORS.values()],
     }
+
+
+def raster_resolve_vars() -> dict:
+    """The template variables of ``raster_resolve.wgsl``: ``raster_color``, the
+    "drawn in compute" teaching colour (teaching.COMPUTE_RASTER_COLOR) as WGSL floats."""
+    from .teaching import COMPUTE_RASTER_COLOR, hex_to_rgb
+
+    return {"raster_color": ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(COMPUTE_RASTER_COLOR))}
 
 
 def wgsl_environment(includes=None, **options):

@@ -4,7 +4,8 @@ No GPU import. The GPU side lives in :mod:`grasswidget.gpu.frozen_camera` and
 :mod:`grasswidget.gpu.inspector`; ``params.color_by`` picks the colouring.
 
 - ``CULL_COLORS``: for ``color_by = "cull"``, the flat colour of a blade culled by
-  each test (keys in the order the tests run: orientation, frustum, distance).
+  each test (keys in the order the tests run: orientation, frustum, distance,
+  occlusion: hidden behind nearer grass, the ground or anything opaque).
   None of them is green, so they stand out against the kept (natural) grass.
 - ``LOD_COLORS``: for ``color_by = "lod"``, one flat colour per level-of-detail
   class, nearest (most segments, ``reference.LOD_SEGMENTS[0]``) first.
@@ -18,12 +19,13 @@ import numpy as np
 
 from ..errors import GrassValueError
 from .params import COLOR_BY
-from .reference import CULL_REASONS, LOD_MIN_PIXELS, LOD_SEGMENTS
+from .reference import CULL_REASONS, FORCE_NAMES, LOD_MIN_PIXELS, LOD_SEGMENTS
 
 __all__ = [
     "COLOR_BY",
     "CULL_COLORS",
     "LOD_COLORS",
+    "COMPUTE_RASTER_COLOR",
     "FROZEN_FRUSTUM_COLOR",
     "INSPECTOR_COLORS",
     "MAX_INSPECTED",
@@ -34,13 +36,23 @@ __all__ = [
     "frustum_corners",
     "frustum_segments",
     "check_inspect_ids",
+    "FrozenView",
+    "camera_view_proj",
+    "frozen_view",
+    "inspected_rows",
+    "inspector_segment_colors",
+    "SEGMENT_VERTICES",
+    "pick_blade_on_ray",
 ]
 
-#: sRGB colour of a blade culled by each test (color_by "cull"): magenta, amber, blue.
-CULL_COLORS = {"orientation": "#e6007e", "frustum": "#ff9900", "distance": "#2f4bff"}
+#: sRGB colour of a blade culled by each test (color_by "cull"): magenta, amber, blue, cyan.
+CULL_COLORS = {"orientation": "#e6007e", "frustum": "#ff9900", "distance": "#2f4bff", "occlusion": "#00e5ff"}
 #: sRGB colour of each level-of-detail class (color_by "lod"), nearest first:
 #: yellow (8 segments), orange (4), red-pink (2), purple (1).
 LOD_COLORS = ["#ffe119", "#f58231", "#d6336c", "#7b00b4"]
+#: sRGB colour of the blades drawn by the compute rasterizer (color_by "lod";
+#: GrassParams.compute_raster): white, "drawn in compute", beside the LOD colours.
+COMPUTE_RASTER_COLOR = "#ffffff"
 #: Colour of the frozen camera's frustum lines.
 FROZEN_FRUSTUM_COLOR = "#ffffff"
 #: Colours of the inspector: control points and polygon, then one arrow per force
@@ -81,6 +93,7 @@ def legend(color_by: str) -> list:
         for k, (segments, pixels) in enumerate(zip(LOD_SEGMENTS, LOD_MIN_PIXELS)):
             what = f">= {pixels:g} px tall" if pixels > 0 else "smaller"
             rows.append((f"LOD {k}: {segments} segment{'s' if segments > 1 else ''} ({what})", LOD_COLORS[k]))
+        rows.append(("drawn in compute (thinner than compute_raster_max_px)", COMPUTE_RASTER_COLOR))
         return rows
     if color_by == "cull":
         return [("kept (drawn as usual)", None)] + [
@@ -134,3 +147,136 @@ def check_inspect_ids(ids, count: int) -> np.ndarray:
     if bad:
         raise GrassValueError(f"inspect: blade ids must be in [0, {count - 1}] ({count} blades); got {bad[0]}")
     return np.array(out, np.int64)
+
+
+# ---------------------------------------------------------------------- the frozen culling camera (pure)
+
+
+class FrozenView:
+    """A frozen culling camera as the culling pass sees it (no GPU): ``view_proj``
+    (4x4 float64, world to WebGPU clip space, depth 0..1), ``position`` (3,) world
+    position (m) and ``viewport_size`` ((w, h) pixels: the aspect it was taken at and
+    the pixel scale of the LOD classes). :func:`grasswidget.core.frame_data.cull_uniform_values`
+    writes it into ``u_cull`` for both engines; :meth:`segments` is its view volume as lines.
+    """
+
+    def __init__(self, view_proj, position, viewport_size):
+        w, h = viewport_size
+        if not (w > 0 and h > 0):
+            raise GrassValueError(f"viewport_size must be (width, height) > 0 pixels; got {viewport_size!r}")
+        self.view_proj = np.array(view_proj, np.float64).reshape(4, 4)
+        self.position = np.array(position, np.float64).reshape(3)
+        self.viewport_size = (float(w), float(h))
+        #: A renderer's camera of the same view (the kernel engine's pygfx copy), or None.
+        self.camera = None
+
+    def segments(self, to_local=None) -> np.ndarray:
+        """(24, 3) float32 end points of the 12 frustum edges; in world space, or
+        mapped by the 4x4 ``to_local`` (e.g. the inverse of a parent's world matrix)."""
+        seg = frustum_segments(self.view_proj).astype(np.float64)
+        if to_local is not None:
+            p = np.concatenate([seg, np.ones((len(seg), 1))], axis=1) @ np.asarray(to_local, np.float64).T
+            seg = p[:, :3] / p[:, 3:4]
+        return seg.astype(np.float32)
+
+    def __repr__(self):
+        return f"<FrozenView at {tuple(np.round(self.position, 3))}, {self.viewport_size[0]:g}x{self.viewport_size[1]:g} px>"
+
+
+def camera_view_proj(position, target, fov_deg, near, far, aspect) -> np.ndarray:
+    """World to WebGPU clip space (4x4 float64, row-major) of a camera at ``position``
+    looking at ``target`` (metres; world up +y), vertical field of view ``fov_deg``,
+    depth 0 at ``near`` and 1 at ``far`` (m), ``aspect`` = width / height.
+
+    The browser engine's camera (``cameraWorld`` and ``perspective`` in engine.js)
+    written in NumPy; the browser's frozen culling camera is computed with it.
+    """
+    eye, at = np.asarray(position, np.float64), np.asarray(target, np.float64)
+    back = eye - at
+    back = back / max(float(np.linalg.norm(back)), 1e-300)
+    right = np.cross([0.0, 1.0, 0.0], back)
+    right = np.array([1.0, 0.0, 0.0]) if np.linalg.norm(right) < 1e-9 else right / np.linalg.norm(right)
+    up = np.cross(back, right)
+    world = np.eye(4)
+    world[:3, 0], world[:3, 1], world[:3, 2], world[:3, 3] = right, up, back, eye
+    f = 1.0 / np.tan(np.radians(float(fov_deg)) / 2.0)
+    proj = np.zeros((4, 4))
+    proj[0, 0], proj[1, 1] = f / float(aspect), f
+    proj[2, 2] = far / (near - far)
+    proj[2, 3] = near * far / (near - far)
+    proj[3, 2] = -1.0
+    return proj @ np.linalg.inv(world)
+
+
+def frozen_view(camera: dict, viewport_size) -> FrozenView:
+    """The :class:`FrozenView` of a camera dict (``position``, ``target``, ``fov_deg``,
+    ``near``, ``far``, as the browser engine's ``camera`` trait holds it) rendering a view
+    of ``viewport_size`` (w, h) physical pixels."""
+    w, h = viewport_size
+    if not (w > 0 and h > 0):
+        raise GrassValueError(f"viewport_size must be (width, height) > 0 pixels; got {viewport_size!r}")
+    vp = camera_view_proj(camera["position"], camera["target"], camera["fov_deg"], camera["near"],
+                          camera["far"], float(w) / float(h))
+    return FrozenView(vp, camera["position"], (w, h))
+
+
+# ---------------------------------------------------------------------- the blade inspector's data (pure)
+
+#: Line vertices per inspected blade: 2 polygon segments + 3 segments per force arrow, 2 vertices each.
+SEGMENT_VERTICES = 2 * (2 + 3 * len(FORCE_NAMES))
+
+
+def inspector_segment_colors() -> list:
+    """The sRGB hex colour of each of the ``SEGMENT_VERTICES`` line vertices of one blade:
+    the control polygon (4), then 6 per arrow in ``reference.FORCE_NAMES`` order."""
+    out = [INSPECTOR_COLORS["polygon"]] * 4
+    for name in FORCE_NAMES:
+        out += [INSPECTOR_COLORS[name]] * 6
+    return out
+
+
+def inspected_rows(ids, heights, stiffnesses, stiffness_scale, points, forces) -> list:
+    """The inspector's numbers as both engines return them (``read_inspected``): one dict
+    per id with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times ``stiffness_scale``),
+    ``v0``, ``v1``, ``v2`` (float32 (3,), from ``points`` (n, 3, 3)) and one float32 (3,)
+    vector per name of ``reference.FORCE_NAMES`` (from ``forces`` (n, n_forces, 3 or 4)).
+    ``heights`` and ``stiffnesses`` are the whole field's (indexed by id)."""
+    points = np.asarray(points, np.float32)
+    forces = np.asarray(forces, np.float32)[..., :3]
+    out = []
+    for k, i in enumerate(ids):
+        i = int(i)
+        row = {"id": i, "height": float(heights[i]), "stiffness": float(stiffnesses[i] * stiffness_scale),
+               "v0": points[k, 0].copy(), "v1": points[k, 1].copy(), "v2": points[k, 2].copy()}
+        for j, name in enumerate(FORCE_NAMES):
+            row[name] = forces[k, j].copy()
+        out.append(row)
+    return out
+
+
+def pick_blade_on_ray(v0, up, height, width, origin, direction, pixel_angle=0.004):
+    """The blade a click along a view ray means, or None: of the blades whose rest pose
+    (the segment from ``v0`` along ``up`` for ``height`` m) passes within their ``width``
+    plus ``pixel_angle`` radians of the ray (``origin`` + s ``direction``, s >= 0, world
+    space), the nearest to the eye. The browser engine's ctrl + click (the kernel engine
+    reads the id of the drawn pixel instead); it ignores how the blades bend."""
+    v0 = np.asarray(v0, np.float64)
+    u = np.asarray(up, np.float64) * np.asarray(height, np.float64)[:, None]
+    o = np.asarray(origin, np.float64).reshape(3)
+    d = np.asarray(direction, np.float64).reshape(3)
+    d = d / max(float(np.linalg.norm(d)), 1e-300)
+    w = v0 - o
+    # Closest points of the line o + s d and the segments v0 + t u, t in [0, 1].
+    uu = np.einsum("ij,ij->i", u, u)
+    ud = u @ d
+    uw = np.einsum("ij,ij->i", u, w)
+    dw = w @ d
+    denom = np.maximum(uu - ud * ud, 1e-12)
+    t = np.clip((ud * dw - uw) / denom, 0.0, 1.0)
+    s = np.maximum(ud * t + dw, 0.0)
+    gap = np.linalg.norm(w + u * t[:, None] - s[:, None] * d, axis=1)
+    hit = gap <= np.asarray(width, np.float64) + pixel_angle * s
+    if not hit.any():
+        return None
+    ids = np.flatnonzero(hit)
+    return int(ids[np.argmin(s[ids])])

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import GrassValueError
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "INSPECT_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
            "struct_size", "pack", "layout_description", "write_values", "wgsl_struct"]
 
 #: ``u_sim``: the simulation's parameters (simulate.wgsl, inspect.wgsl). Vectors are
@@ -67,6 +67,13 @@ CULL_LAYOUT = (
     ("color_by", "i32"),                  # enums.ColorBy
     ("frozen", "i32"),                    # 0/1
     ("frozen_viewport_height", "f32"),    # frozen camera viewport height (pixels)
+    ("occlusion_phase", "i32"),           # 1: this render is occlusion culling's first phase (cull.wgsl), else 0
+    ("compute_raster", "i32"),            # 1: list thin blades for the compute rasterizer (raster.wgsl), else 0
+    ("raster_max_px", "f32"),             # GrassParams.compute_raster_max_px (pixels)
+    ("raster_width", "f32"),              # the compute rasterizer's buffers: width and height (pixels); it
+    ("raster_height", "f32"),             #   runs only in renders of exactly that size
+    ("raster_blade_shape", "i32"),        # GrassMaterial.blade_shape (enums.BladeShape id)
+    ("raster_tip_threshold", "f32"),      # GrassMaterial.tip_threshold
 )
 
 #: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it).
@@ -76,6 +83,13 @@ SKY_GROUND_LAYOUT = (
     ("ground_color", "vec4<f32>"),        # sRGB 0..1
     ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
     ("show_ground", "i32"),               # 0/1
+)
+
+#: ``u_inspect``: the blade inspector's ids (inspect.wgsl): up to ``teaching.MAX_INSPECTED`` (64)
+#: blade ids, four per vec4, and how many are used.
+INSPECT_LAYOUT = (
+    ("ids", "array<vec4<u32>, 16>"),      # blade ids, ids[k / 4][k % 4]
+    ("n_ids", "u32"),                     # 0..64
 )
 
 _SCALARS = {"f32": "f4", "i32": "i4", "u32": "u4"}
@@ -94,7 +108,7 @@ def wgsl_shadertype(wgsl_type: str) -> str:
         if t.startswith(prefix) and t.endswith(">") and t[len(prefix):-1] in _SCALARS:
             return dims + _SCALARS[t[len(prefix):-1]]
     raise GrassValueError(f"unsupported uniform type {wgsl_type!r}; supported: f32, i32, u32, vec2/vec4/mat4x4 "
-                          "of them, array<vec4<f32>, N>")
+                          "of them, array<vec4<f32|i32|u32>, N>")
 
 
 def shadertype(layout) -> dict:
@@ -124,9 +138,10 @@ def _size_align(wgsl_type):
         return 16, 16, "<f4", 4
     if t == "mat4x4<f32>":
         return 64, 16, "<f4", 16
-    if t.startswith("array<vec4<f32>,"):
-        n = int(t.rsplit(",", 1)[1].rstrip(">"))
-        return 16 * n, 16, "<f4", 4 * n
+    for scalar in ("f32", "i32", "u32"):
+        if t.startswith(f"array<vec4<{scalar}>,"):
+            n = int(t.rsplit(",", 1)[1].rstrip(">"))
+            return 16 * n, 16, _NUMPY[scalar], 4 * n
     raise GrassValueError(f"unsupported uniform type {wgsl_type!r}")
 
 

@@ -21,9 +21,7 @@ into a view's parts). What the two views share is written here once:
   ``round(time_scale * frame_interval / dt)``, capped to
   :data:`MAX_STEPS_PER_FRAME`.
 
-A feature one engine does not have yet raises :class:`FeatureNotAvailableError`
-from its method (the widget shows that on the message line instead of failing);
-adding the feature to that engine means filling in that method, nothing else.
+Both engines have every feature of the interface (the teaching views included).
 
 The view is told what to do by the widget and reports back through callbacks
 given at construction: ``clock`` (:class:`ViewClock`), ``actions``
@@ -38,10 +36,10 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import FeatureNotAvailableError, GrassTypeError, GrassValueError
+from ..errors import GrassTypeError, GrassValueError
 from .frame_data import MAX_STEPS_PER_FRAME
 
-__all__ = ["GrassView", "ViewClock", "ViewActions", "FeatureNotAvailableError", "check_camera_state",
+__all__ = ["GrassView", "ViewClock", "ViewActions", "check_camera_state",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -301,19 +299,23 @@ class GrassView(abc.ABC):
 
     @abc.abstractmethod
     def set_culling_frozen(self, frozen: bool) -> None:
-        """Freeze culling at the current camera (True) or cull against the live camera again (False).
-        FeatureNotAvailableError in an engine that does not have it."""
+        """Freeze culling at the current camera (True) or cull against the live camera again (False)."""
 
     @abc.abstractmethod
     def inspect(self, ids) -> None:
         """Show these blade ids in the inspector (at most 64 ids in [0, blade_count - 1]; ``[]`` clears;
-        GrassValueError names the limit, nothing changes then). FeatureNotAvailableError in an engine
-        that does not have it."""
+        GrassValueError names the limit, nothing changes then)."""
 
     @property
     @abc.abstractmethod
     def inspected(self) -> tuple:
         """Ids of the inspected blades (``()`` when none)."""
+
+    @abc.abstractmethod
+    def read_inspected(self, timeout: float | None = None) -> list:
+        """The inspected blades' numbers for the current state and parameters, as
+        ``GrassScene.read_inspected()`` returns them (``[]`` when none). The browser engine
+        waits up to ``timeout`` seconds (None: its default, 30) for the browser's answer."""
 
     # ------------------------------------------------------------------ pictures and stats
 

@@ -5,18 +5,19 @@ Laid out like pygfx: :mod:`.field` (the GrassField WorldObject and its buffers),
 compute program, uniform writer and fixed steps), :mod:`.shaders` (the shader
 classes registered for (GrassField, GrassMaterial) when imported here),
 :mod:`.wgsl` (templating helpers), :mod:`.compute`, :mod:`.indirect`,
-:mod:`.stats`, :mod:`.adapter`, :mod:`.collider_view`, :mod:`.scene` (GrassScene)
+:mod:`.stats`, :mod:`.adapter`, :mod:`.collider_view`, :mod:`.scene` (GrassScene),
+:mod:`.occlusion` (occlusion culling and ``render_frame``, which draws a frame with it)
 and :mod:`.runtime_dir`.
 
 Importing this package loads no pygfx/wgpu (``import grasswidget`` uses
 :mod:`.runtime_dir` before any Vulkan instance exists); ``GrassField``,
-``GrassMaterial`` and ``GrassScene`` load on first use. Importing :mod:`.field`
+``GrassMaterial``, ``GrassScene`` and ``render_frame`` load on first use. Importing :mod:`.field`
 registers the render function (its last line imports :mod:`.shaders`).
 """
 
 from ..errors import UnknownNameError
 
-_LAZY = {"GrassField": ".field", "GrassMaterial": ".material", "GrassScene": ".scene"}
+_LAZY = {"GrassField": ".field", "GrassMaterial": ".material", "GrassScene": ".scene", "render_frame": ".occlusion"}
 
 __all__ = list(_LAZY)
 

@@ -12,7 +12,9 @@ in the field's local space)::
     ...
     balls.sync()      # before each render (GrassScene does this for you)
 
-It knows nothing of widgets and works in any pygfx scene.
+It knows nothing of widgets and works in any pygfx scene. Anywhere else than under
+the field (GrassScene puts it at the top of the scene, to draw it after the
+occlusion culling's second phase), ``sync()`` copies the field's world transform.
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ class ColliderBalls(gfx.Group):
 
     def sync(self):
         """Make the balls match ``field.colliders`` now (cheap; call before a render)."""
+        if self.parent is not self._field:  # elsewhere in the scene: follow the field
+            self.local.matrix = self._field.world.matrix
         colliders = list(self._field.colliders)
         while len(self._meshes) < len(colliders):
             mesh = gfx.Mesh(self._geometry, self._ball_material)

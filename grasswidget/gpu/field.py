@@ -25,9 +25,12 @@ from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
-from .frozen_camera import FrozenCamera
+from ..core.teaching import FrozenView
+from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
+from .occlusion import OcclusionCulling
 from .simulation import Simulation
+from .wgsl import WORKGROUP, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
@@ -38,6 +41,9 @@ from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)
+
+#: Most blades a field may have for the compute rasterizer (24 bits of blade id in its payload).
+MAX_RASTER_BLADES = 1 << 24
 
 #: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.CULL_LAYOUT``).
 CULL_UNIFORM = shadertype(CULL_LAYOUT)
@@ -130,7 +136,29 @@ class GrassField(gfx.WorldObject):
             nbytes=16, nitems=4, format="u4", usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC
         )
         self._store.culled_buffer = gfx.Buffer(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        # Occlusion culling: one bit per blade "seen last frame" (whole workgroups of
+        # words), and the second phase's draw args + occluded count (see cull.wgsl).
+        # All seen at first: the first frame draws everything the other tests keep in
+        # its first phase, and culling frozen before any frame hides nothing.
+        words = workgroups(n)[0] * workgroups(n)[1] * (WORKGROUP // 32)
+        self._store.occlusion_flags_buffer = gfx.Buffer(
+            np.full(words, 0xFFFFFFFF, np.uint32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+        )
+        self._store.occlusion_args_buffer = gfx.Buffer(
+            nbytes=16 * (N_CLASSES + 1), nitems=4 * (N_CLASSES + 1), format="u4",
+            usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC,
+        )
         self._store.flat_colors = self.params.color_by != "natural"
+        # The compute rasterizer of thin blades (raster.wgsl): its list and counters
+        # (listed, first occlusion phase's part), and per-pixel depth and payload words,
+        # allocated by prepare_compute_raster (one item each until then).
+        one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
+        self._store.raster_list_buffer = gfx.Buffer(**one)
+        self._store.raster_args_buffer = gfx.Buffer(nbytes=16, nitems=4, format="u4",
+                                                    usage=usage.STORAGE | usage.COPY_SRC)
+        self._store.raster_depth_buffer = gfx.Buffer(**one)
+        self._store.raster_payload_buffer = gfx.Buffer(**one)
+        self._store.raster_size = (0, 0)
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
         self.frustum_lines = None
@@ -152,6 +180,8 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
         self.stats = None
+        #: Occlusion culling's pyramid, second phase and draws (see :mod:`grasswidget.gpu.occlusion`).
+        self.occlusion = OcclusionCulling(self)
         self._write_cull_uniform()
         self.params.observe(self._on_params_change)
 
@@ -187,6 +217,18 @@ class GrassField(gfx.WorldObject):
         """pygfx Buffer of (vertex_count, instance_count, 0, 0) u32: the draw of the
         culled blades (instances only with ``params.color_by == "cull"``)."""
         return self._store.culled_args_buffer
+
+    @property
+    def occlusion_flags_buffer(self):
+        """pygfx Buffer of u32: bit i of word i // 32 is 1 when blade i passed every
+        culling test, occlusion included, in the last frame with occlusion culling."""
+        return self._store.occlusion_flags_buffer
+
+    @property
+    def occlusion_args_buffer(self):
+        """pygfx Buffer of u32: the second occlusion phase's (vertex_count,
+        instance_count, 0, 0) per LOD class, then (occluded blades, 0, 0, 0)."""
+        return self._store.occlusion_args_buffer
 
     @property
     def flat_colors(self) -> bool:
@@ -253,7 +295,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
-        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by"):
+        if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by", "compute_raster_max_px"):
             self._write_cull_uniform()
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
@@ -271,6 +313,79 @@ class GrassField(gfx.WorldObject):
         write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
         self.cull_uniform_buffer.update_full()
 
+    # ------------------------------------------------------------------ compute rasterizer
+
+    @property
+    def raster_list_buffer(self):
+        """pygfx Buffer of u32: ids of the blades the compute rasterizer draws (raster.wgsl)."""
+        return self._store.raster_list_buffer
+
+    @property
+    def raster_args_buffer(self):
+        """pygfx Buffer of 4 u32: blades listed for the compute rasterizer, where the first
+        occlusion phase's part ends, 0, 0."""
+        return self._store.raster_args_buffer
+
+    @property
+    def raster_depth_buffer(self):
+        """pygfx Buffer of u32 per pixel: the compute rasterizer's depth words (float bits)."""
+        return self._store.raster_depth_buffer
+
+    @property
+    def raster_payload_buffer(self):
+        """pygfx Buffer of u32 per pixel: the compute rasterizer's payload (blade << 8 | v)."""
+        return self._store.raster_payload_buffer
+
+    @property
+    def raster_size(self) -> tuple:
+        """(width, height) pixels of the renders the compute rasterizer runs in; (0, 0) while off."""
+        return self._store.raster_size
+
+    @property
+    def compute_raster_active(self) -> bool:
+        """True while the compute rasterizer draws this field's thin blades (see
+        :meth:`prepare_compute_raster`)."""
+        return self._store.raster_size != (0, 0)
+
+    def prepare_compute_raster(self, size):
+        """Set up the compute rasterizer for renders of ``size`` = (width, height) physical
+        pixels (``renderer.physical_size``), or switch it off when ``params.compute_raster``
+        is off (or ``compute_raster_max_px`` is 0). :func:`grasswidget.gpu.render_frame`
+        calls it before every frame; a plain ``renderer.render()`` of another size draws
+        every blade with the hardware rasterizer. Fields of more than 2^24 blades draw
+        every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
+        """
+        p = self.params
+        width, height = (int(size[0]), int(size[1])) if p.compute_raster else (0, 0)
+        if p.compute_raster_max_px <= 0 or self.count > MAX_RASTER_BLADES or width <= 0 or height <= 0:
+            width = height = 0
+        usage = wgpu.BufferUsage
+        if width and self.raster_list_buffer.nitems < self.count:
+            self._store.raster_list_buffer = gfx.Buffer(nbytes=4 * self.count, nitems=self.count, format="u4",
+                                                        usage=usage.STORAGE | usage.COPY_SRC)
+        if (width, height) != self._store.raster_size:
+            pixels = max(width * height, 1)
+            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer]
+            self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+                                                         usage=usage.STORAGE | usage.COPY_SRC)
+            self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+                                                           usage=usage.STORAGE | usage.COPY_SRC)
+            self._store.raster_size = (width, height)
+            destroy_buffers(old)
+        data = self.cull_uniform_buffer.data
+        shape = int(self.material.uniform_buffer.data["blade_shape"])
+        tau = float(self.material.uniform_buffer.data["tip_threshold"])
+        values = dict(compute_raster=int(width > 0), raster_width=float(width), raster_height=float(height),
+                      raster_blade_shape=shape, raster_tip_threshold=tau)
+        if any(data[k] != v for k, v in values.items()):
+            write_values(data, values)
+            self.cull_uniform_buffer.update_full()
+
+    def read_raster_count(self) -> int:
+        """Blades the compute rasterizer drew in the last render (both occlusion phases; synchronous)."""
+        raw = ensure_device().queue.read_buffer(sync_buffer(self.raster_args_buffer))
+        return int(np.frombuffer(raw, np.uint32)[0])
+
     # ------------------------------------------------------------------ frozen culling
 
     def freeze_culling(self, camera, viewport_size=None):
@@ -281,11 +396,16 @@ class GrassField(gfx.WorldObject):
         renders; also the pixel scale of the LOD classes). Any camera may then
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
-        Freezing again replaces the copy. ``camera`` may also be a
-        :class:`~grasswidget.gpu.frozen_camera.FrozenCamera` (e.g. another field's
-        :attr:`frozen_camera`; no viewport_size then). See :meth:`unfreeze_culling`.
+        Freezing again replaces the copy. Occlusion culling freezes too: the next
+        :func:`~grasswidget.gpu.occlusion.render_frame` first renders the frozen view
+        once (same target) to find the blades it hides; those stay culled (and the
+        ones it sees stay kept) until unfrozen (a frozen view without a pygfx camera,
+        e.g. the browser engine's, freezes no occlusion). ``camera`` may also be a
+        :class:`~grasswidget.core.teaching.FrozenView` (e.g. another field's
+        :attr:`frozen_camera`, or the browser engine's frozen camera; no viewport_size
+        then). See :meth:`unfreeze_culling`.
         """
-        if isinstance(camera, FrozenCamera):
+        if isinstance(camera, FrozenView):
             frozen = camera
         elif viewport_size is None:
             raise GrassValueError("viewport_size must be (width, height) > 0 pixels of the camera's view; got None")
@@ -295,9 +415,11 @@ class GrassField(gfx.WorldObject):
         if self.frustum_lines is not None:
             self.remove(self.frustum_lines)
         self._frozen_camera = frozen
-        self.frustum_lines = frozen.make_lines(to_local)
+        self.frustum_lines = frustum_line(frozen, to_local)
         self.add(self.frustum_lines)
         self._write_cull_uniform()
+        # Occlusion freezes too: the next render_frame first captures what the frozen view hides.
+        self.occlusion.capture_camera = frozen.camera
 
     def unfreeze_culling(self):
         """Cull against the camera of each render again (and remove the frustum lines)."""
@@ -305,6 +427,7 @@ class GrassField(gfx.WorldObject):
             self.remove(self.frustum_lines)
         self.frustum_lines = None
         self._frozen_camera = None
+        self.occlusion.capture_camera = None
         self._write_cull_uniform()
 
     # ------------------------------------------------------------------ inspector
@@ -398,8 +521,11 @@ class GrassField(gfx.WorldObject):
         if self.inspector is not None:
             self.inspector.release()
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
-                 "culled_args_buffer", "culled_buffer", "band_buffer")
+                 "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
+                 "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
+                 "raster_payload_buffer")
         destroy_buffers([self._store[name] for name in names])
+        self.occlusion.release()
         self.simulation.release()
 
     def enable_stats(self):
@@ -445,23 +571,55 @@ class GrassField(gfx.WorldObject):
             sync_buffer(self.collision_buffer)
 
     def read_draw_args(self) -> np.ndarray:
-        """(LOD classes, 4) u32 draw arguments of the last render (synchronous)."""
+        """(LOD classes, 4) u32 draw arguments of the last render (synchronous); with
+        occlusion culling the instance counts of both phases added."""
+        first, second, _ = self._read_phase_args()
+        first[:, 1] += second[:, 1]
+        return first
+
+    def _read_phase_args(self):
         device = ensure_device()
-        raw = device.queue.read_buffer(sync_buffer(self.args_buffer))
-        return np.frombuffer(raw, np.uint32).reshape(N_CLASSES, 4).copy()
+        first = np.frombuffer(device.queue.read_buffer(sync_buffer(self.args_buffer)), np.uint32)
+        raw = np.frombuffer(device.queue.read_buffer(sync_buffer(self.occlusion_args_buffer)), np.uint32)
+        second = raw.reshape(N_CLASSES + 1, 4)
+        return first.reshape(N_CLASSES, 4).copy(), second[:N_CLASSES].copy(), int(second[N_CLASSES, 0])
+
+    def read_occluded_count(self) -> int:
+        """Blades culled by occlusion in the last render (0 without occlusion culling; synchronous)."""
+        return self._read_phase_args()[2]
 
     def read_visible(self, draw_order: bool = False):
         """Ids of the blades drawn by the last render (synchronous): sorted, or with
-        ``draw_order=True`` a list per LOD class in the order they were drawn."""
+        ``draw_order=True`` a list per LOD class in the order they were drawn (with
+        occlusion culling: the first phase's, then the second's)."""
         device = ensure_device()
-        args = self.read_draw_args()
+        first, second, _ = self._read_phase_args()
         visible = compat.gpu_buffer(self.visible_buffer)
         if visible is None:
             return [np.zeros(0, np.uint32)] * N_CLASSES if draw_order else np.zeros(0, np.uint32)
         raw = device.queue.read_buffer(visible)
         ids = np.frombuffer(raw, np.uint32).reshape(N_CLASSES, self.count)
-        lists = [ids[k, : args[k, 1]].copy() for k in range(N_CLASSES)]
-        return lists if draw_order else np.sort(np.concatenate(lists))
+        n = self.count
+        lists = [np.concatenate([ids[k, : first[k, 1]], ids[k, n - second[k, 1]:][::-1]]) for k in range(N_CLASSES)]
+        if draw_order:
+            return lists
+        return np.sort(np.concatenate(lists + [self.read_rastered()]))
+
+    def read_rastered(self) -> np.ndarray:
+        """Ids of the blades the compute rasterizer drew in the last render, in list order
+        (synchronous; empty while it is off)."""
+        count = self.read_raster_count() if self.compute_raster_active else 0
+        if count == 0:
+            return np.zeros(0, np.uint32)
+        raw = ensure_device().queue.read_buffer(sync_buffer(self.raster_list_buffer), 0, 4 * count)
+        return np.frombuffer(raw, np.uint32).copy()
+
+    def read_seen(self) -> np.ndarray:
+        """bool (N,): the blades that passed every culling test, occlusion included, in
+        the last frame with occlusion culling (what the next first phase draws; synchronous)."""
+        raw = np.frombuffer(ensure_device().queue.read_buffer(sync_buffer(self.occlusion_flags_buffer)), np.uint32)
+        bits = np.unpackbits(raw.view(np.uint8), bitorder="little").astype(bool)
+        return bits[: self.count]
 
 
 from . import shaders  # noqa: E402,F401  (registers the render function of (GrassField, GrassMaterial))

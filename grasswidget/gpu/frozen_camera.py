@@ -12,12 +12,20 @@ import numpy as np
 import pygfx as gfx
 
 from ..errors import GrassValueError
-from ..core.teaching import FROZEN_FRUSTUM_COLOR, frustum_segments
+from ..core.teaching import FROZEN_FRUSTUM_COLOR, FrozenView
 
-__all__ = ["FrozenCamera"]
+__all__ = ["FrozenCamera", "frustum_line"]
 
 
-class FrozenCamera:
+def frustum_line(frozen: FrozenView, to_local=None, thickness=2.0) -> gfx.Line:
+    """A pygfx Line (segments) tracing the view volume of any frozen view."""
+    return gfx.Line(
+        gfx.Geometry(positions=frozen.segments(to_local)),
+        gfx.LineSegmentMaterial(color=FROZEN_FRUSTUM_COLOR, thickness=thickness),
+    )
+
+
+class FrozenCamera(FrozenView):
     """An immutable copy of a pygfx camera as a culling pass sees it.
 
     Args:
@@ -37,22 +45,18 @@ class FrozenCamera:
         camera.set_view_size(float(w), float(h))  # what a render of that size does first
         # The same product the render shaders use: projection_transform * cam_transform.
         proj = np.asarray(camera.projection_matrix, np.float64)
-        self.view_proj = proj @ np.asarray(camera.world.inverse_matrix, np.float64)
-        self.position = np.array(camera.world.position, np.float64)
-        self.viewport_size = (float(w), float(h))
-
-    def segments(self, to_local=None) -> np.ndarray:
-        """(24, 3) float32 end points of the 12 frustum edges; in world space, or
-        mapped by the 4x4 ``to_local`` (e.g. the inverse of a parent's world matrix)."""
-        seg = frustum_segments(self.view_proj).astype(np.float64)
-        if to_local is not None:
-            p = np.concatenate([seg, np.ones((len(seg), 1))], axis=1) @ np.asarray(to_local, np.float64).T
-            seg = p[:, :3] / p[:, 3:4]
-        return seg.astype(np.float32)
+        super().__init__(proj @ np.asarray(camera.world.inverse_matrix, np.float64), camera.world.position, (w, h))
+        #: A pygfx camera with the same pose and projection (renders the frozen view,
+        #: e.g. to capture what it hides for occlusion culling); None if it cannot be copied.
+        self.camera = None
+        try:
+            clone = type(camera)()
+            clone.set_state(camera.get_state())
+            clone.local.matrix = camera.world.matrix
+            self.camera = clone
+        except Exception:
+            pass
 
     def make_lines(self, to_local=None, thickness=2.0) -> gfx.Line:
         """A pygfx Line (segments) tracing the frozen view volume."""
-        return gfx.Line(
-            gfx.Geometry(positions=self.segments(to_local)),
-            gfx.LineSegmentMaterial(color=FROZEN_FRUSTUM_COLOR, thickness=thickness),
-        )
+        return frustum_line(self, to_local, thickness)

@@ -30,7 +30,10 @@ from pygfx.utils import array_from_shadertype
 
 from ..core.reference import FORCE_NAMES, wind_period
 from ..core.shader_files import NO_WIND_BODY
-from ..core.teaching import ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED, check_inspect_ids
+from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED,
+                             SEGMENT_VERTICES,
+                             check_inspect_ids, inspected_rows, inspector_segment_colors)
+from ..core.uniform_layouts import INSPECT_LAYOUT, shadertype
 from .compute import sync_buffer
 from .adapter import ensure_device
 from .wgsl import GrassComputeShader
@@ -39,10 +42,9 @@ from ..core.shader_files import wgsl_float
 __all__ = ["BladeInspector", "BladeInspectorMaterial", "InspectShader", "SEGMENT_VERTICES"]
 
 N_FORCES = len(FORCE_NAMES)
-#: Line vertices per blade: 2 polygon segments + 3 segments per arrow, 2 vertices each.
-SEGMENT_VERTICES = 2 * (2 + 3 * N_FORCES)
 
-INSPECT_UNIFORM = dict(ids=f"{MAX_INSPECTED // 4}*4xu4", n_ids="u4")
+#: ``u_inspect`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.INSPECT_LAYOUT``).
+INSPECT_UNIFORM = shadertype(INSPECT_LAYOUT)
 
 
 class BladeInspectorMaterial(gfx.Material):
@@ -70,9 +72,7 @@ class BladeInspector(gfx.WorldObject):
         self._store.forces_buffer = gfx.Buffer(np.zeros((n * N_FORCES, 4), np.float32),
                                                usage=usage.STORAGE | usage.COPY_SRC)
         rgba = {k: gfx.Color(c).rgba for k, c in INSPECTOR_COLORS.items()}
-        per_blade = [rgba["polygon"]] * 4
-        for name in FORCE_NAMES:
-            per_blade += [rgba[name]] * 6
+        per_blade = [gfx.Color(c).rgba for c in inspector_segment_colors()]
         line_colors = np.tile(np.array(per_blade, np.float32), (n, 1))
         self.lines = gfx.Line(
             gfx.Geometry(positions=self.segments_buffer, colors=line_colors),
@@ -161,15 +161,8 @@ class BladeInspector(gfx.WorldObject):
         raw = device.queue.read_buffer(sync_buffer(self.points_buffer), 0, n * 3 * 12)
         points = np.frombuffer(raw, np.float32).reshape(n, 3, 3)
         blades = self.field.blades
-        out = []
-        for k, i in enumerate(self.ids):
-            row = {"id": i, "height": float(blades.height[i]),
-                   "stiffness": float(blades.stiffness[i] * self.field.params.stiffness_scale),
-                   "v0": points[k, 0].copy(), "v1": points[k, 1].copy(), "v2": points[k, 2].copy()}
-            for j, name in enumerate(FORCE_NAMES):
-                row[name] = forces[k, j].copy()
-            out.append(row)
-        return out
+        return inspected_rows(self.ids, blades.height, blades.stiffness, self.field.params.stiffness_scale,
+                              points, forces)
 
     def read_segments(self) -> np.ndarray:
         """(64 x SEGMENT_VERTICES, 3) float32 vertices of the Line, as drawn (readback)."""

@@ -18,6 +18,7 @@ from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
+from .occlusion import render_frame
 from ..core.frame_data import ground_square
 from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
@@ -75,6 +76,8 @@ class GrassScene:
             raise GrassTypeError(f"blades must be a Blades or a blade count, not {type(blades).__name__}")
         self.size = parse_size(size)
         ensure_device()
+        if params is None:  # the compute rasterizer where it is faster: a GPU adapter (see GrassParams.compute_raster)
+            params = GrassParams(compute_raster=not is_cpu_adapter())
         self.field = GrassField(blades, params=params, material=GrassMaterial())
         self.params = self.field.params
 
@@ -88,8 +91,11 @@ class GrassScene:
         self.ground = GroundSwitch(self.sky_ground.material)
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
+        # Colliders live in the field's local space: the balls follow the field's transform
+        # (ColliderBalls.sync). A direct child of the scene, drawn after the occlusion
+        # culling's second phase (render_frame's late objects: translucent, no depth).
         self.collider_balls = ColliderBalls(self.field)
-        self.field.add(self.collider_balls)  # colliders live in the field's local space
+        self.scene.add(self.collider_balls)
         self.scene.add(gfx.AmbientLight(intensity=0.6))
         sun = gfx.DirectionalLight(intensity=2.0)
         sun.local.position = (4, 10, 3)
@@ -134,7 +140,7 @@ class GrassScene:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if name == "cis565" and params is None:
-            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX)
+            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX, compute_raster=not is_cpu_adapter())
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
@@ -266,9 +272,15 @@ class GrassScene:
         """Render one frame into the scene's canvas (its draw function); feeds ``stats``.
         Never advances time."""
         t0 = time.perf_counter()
-        self.collider_balls.sync()
-        self.renderer.render(self.scene, self.camera)
+        self.draw_into(self.renderer)
         self.stats.after_render((time.perf_counter() - t0) * 1000.0)
+
+    def draw_into(self, renderer):
+        """Render the scene with its camera through ``renderer`` (any pygfx WgpuRenderer:
+        the scene's own, an offscreen one), occlusion culling included
+        (:func:`grasswidget.gpu.occlusion.render_frame`). Never advances time."""
+        self.collider_balls.sync()
+        render_frame(renderer, self.scene, self.camera, late=[self.collider_balls])
 
     def render(self) -> np.ndarray:
         """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""
@@ -283,8 +295,7 @@ class GrassScene:
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
         renderer = make_renderer(canvas)
         aspect = self.camera.aspect
-        self.collider_balls.sync()
-        canvas.request_draw(lambda: renderer.render(self.scene, self.camera))
+        canvas.request_draw(lambda: self.draw_into(renderer))
         try:
             return np.asarray(canvas.draw())
         finally:
@@ -314,5 +325,12 @@ class GrassScene:
     # ------------------------------------------------------------------ stats
 
     def visible_count(self) -> int:
-        """Blades drawn by the last render (synchronous GPU readback)."""
-        return int(self.field.read_draw_args()[:, 1].sum())
+        """Blades drawn by the last render, as ribbons or by the compute rasterizer
+        (synchronous GPU readback; see :meth:`drawn_counts`)."""
+        return sum(self.drawn_counts().values())
+
+    def drawn_counts(self) -> dict:
+        """Blades the last render drew by each path (synchronous GPU readback):
+        {"hardware": ribbons, "compute": the compute rasterizer's (GrassParams.compute_raster)}."""
+        return {"hardware": int(self.field.read_draw_args()[:, 1].sum()),
+                "compute": self.field.read_raster_count()}

@@ -16,6 +16,19 @@ every ``renderer.render()``:
 5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
+The compute rasterizer (``params.compute_raster``, set up for the render size by
+``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
+the culling lists thin blades for it, ``RasterShader("depth")`` and
+``RasterShader("payload")`` walk them after step 4, and ``RasterResolveShader``
+(render, after the ribbons) writes their colour and depth.
+
+Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.occlusion.render_frame`)
+arms steps 2-4 as its first phase (only blades seen last frame), then runs the
+pyramid (``HzbLevelShader``) and the second phase (``CullShader("scatter", occlusion=2)``,
+one pass without distance bands)
+outside render(), and draws with ``occlusion_render_function`` (the field's
+:class:`~grasswidget.gpu.occlusion.OcclusionDraws` child) in a second render().
+
 The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
 dispatched by ``GrassField.step()``, never by ``render()``.
 """
@@ -28,13 +41,15 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_funct
 
 from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
-from ..core.shader_files import read_shader, ribbon_vars
+from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
 from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
 from .material import GrassMaterial
+from .occlusion import OcclusionDraws
 from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
-__all__ = ["ResetArgsShader", "CullShader", "PrefixBandsShader", "BladeRenderShader", "grass_render_function",
+__all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
+           "grass_render_function", "occlusion_render_function",
            "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE", "U_CULL_SLOT",
            "U_CULL_CODE", "cull_binding"]
 
@@ -53,17 +68,18 @@ def cull_binding(wobject, visibility):
 
 
 class ResetArgsShader(GrassComputeShader):
-    """Reset the indirect draw arguments at the start of each frame (the LOD classes'
-    and the culled blades')."""
+    """Reset the indirect draw arguments at the start of each frame (the LOD classes',
+    the culled blades' and the second occlusion phase's)."""
 
     def __init__(self, wobject):
-        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS)
+        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, occlusion=1)
 
     def get_bindings(self, wobject, shared, scene):
         return {0: {
             0: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
             1: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
             2: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+            3: Binding("s_occlusion_args", "buffer/storage", wobject.occlusion_args_buffer, "COMPUTE"),
         }}
 
     def get_code(self):
@@ -74,7 +90,7 @@ class ResetArgsShader(GrassComputeShader):
 
 
 class PrefixBandsShader(GrassComputeShader):
-    """Between the culling phases: each distance band's first slot, the instance counts."""
+    """Between the culling passes: each distance band's first slot, the instance counts."""
 
     def __init__(self, wobject):
         super().__init__(wobject, bands=DISTANCE_BANDS)
@@ -100,26 +116,42 @@ class CullShader(GrassComputeShader):
     rendered with ``teaching_views`` (frozen culling camera, colour by cull test).
     """
 
-    def __init__(self, wobject, phase="scatter"):
+    def __init__(self, wobject, phase="scatter", occlusion=1):
         if phase not in ("count", "scatter"):
             raise GrassValueError(f"phase must be 'count' or 'scatter'; got {phase!r}")
-        super().__init__(wobject, teaching_views=True, bands=DISTANCE_BANDS, phase=phase,
-                         band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+        if occlusion not in (1, 2):
+            raise GrassValueError(f"occlusion must be 1 (first phase) or 2 (second phase); got {occlusion!r}")
+        # The second occlusion phase runs once, without distance bands: it lists the few
+        # blades that became visible (the occlusion test is its cost, not the draw order).
+        bands = DISTANCE_BANDS if occlusion == 1 else 0
+        super().__init__(wobject, teaching_views=True, bands=bands, phase=phase, occlusion=occlusion,
+                         compute_raster=True, band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     def get_bindings(self, wobject, shared, scene):
+        second = self["occlusion"] == 2
         bindings = {
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
             U_CULL_SLOT: cull_binding(wobject, "COMPUTE"),
             10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
-            11: Binding("s_args", "buffer/storage", wobject.args_buffer, "COMPUTE"),
+            11: Binding("s_args", "buffer/storage", wobject.occlusion_args_buffer if second else wobject.args_buffer,
+                        "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
             13: Binding("s_culled", "buffer/storage", wobject.culled_buffer, "COMPUTE"),
             14: Binding("s_culled_args", "buffer/storage", wobject.culled_args_buffer, "COMPUTE"),
             15: Binding("s_bands", "buffer/storage", wobject.band_buffer, "COMPUTE"),
+            16: Binding("s_occlusion_flags", "buffer/storage" if second else "buffer/read_only_storage",
+                        wobject.occlusion_flags_buffer, "COMPUTE"),
+            19: Binding("s_raster", "buffer/storage", wobject.raster_list_buffer, "COMPUTE"),
+            20: Binding("s_raster_args", "buffer/storage", wobject.raster_args_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 10, 12, 13):
-            self.define_binding(0, slot, bindings[slot])
+        if second:
+            occlusion = wobject.occlusion
+            bindings[17] = Binding("s_hzb", "buffer/read_only_storage", occlusion.hzb_buffer, "COMPUTE")
+            bindings[18] = Binding("s_hzb_levels", "buffer/read_only_storage", occlusion.levels_buffer, "COMPUTE")
+        for slot in (0, 1, 10, 12, 13, 16, 17, 18, 19):
+            if slot in bindings:
+                self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
@@ -129,6 +161,7 @@ class CullShader(GrassComputeShader):
             "@group(0) @binding(11) var<storage, read_write> s_args: array<atomic<u32>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_culled_args: array<atomic<u32>>;\n"
             "@group(0) @binding(15) var<storage, read_write> s_bands: array<atomic<u32>>;\n"
+            "@group(0) @binding(20) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
             "{$ include 'grasswidget.cull.wgsl' $}\n"
         )
 
@@ -141,19 +174,27 @@ class BladeRenderShader(BaseShader):
 
     ``lod_class = len(LOD_SEGMENTS)`` is the draw of the culled blades
     (``color_by = "cull"``): CULLED_SEGMENTS segments, flat in CULL_COLORS.
+    ``wobject`` is the GrassField, or its :class:`~grasswidget.gpu.occlusion.OcclusionDraws`
+    (the second occlusion phase: lists read from the end, its own args).
     """
 
     type = "render"
 
     def __init__(self, wobject, lod_class):
         culled = lod_class == len(LOD_SEGMENTS)
+        field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
+        second = field is not wobject
         # The flat teaching colours only while they are shown (GrassField.flat_colors is
         # tracked by pygfx: a change rebuilds these pipelines).
-        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=wobject.flat_colors))
-        self.indirect_args = wobject.culled_args_buffer if culled else wobject.args_buffer
+        super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=field.flat_colors,
+                                                from_end=second and not culled))
+        if culled:
+            self.indirect_args = field.culled_args_buffer
+        else:
+            self.indirect_args = field.occlusion_args_buffer if second else field.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
-        self._field = weakref.ref(wobject)
-        self._when = ("before",) if lod_class == 0 else ()
+        self._field = weakref.ref(field)
+        self._when = ("before",) if lod_class == 0 and not second else ()
         self._when += ("after",) if culled else ()
 
     def draw_hook(self, render_pass, when):
@@ -165,16 +206,17 @@ class BladeRenderShader(BaseShader):
 
     def get_bindings(self, wobject, shared, scene):
         rbuffer = "buffer/read_only_storage"
+        field = self._field()
         bindings = {
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
-            U_CULL_SLOT: cull_binding(wobject, "VERTEX"),  # declared in get_code
+            U_CULL_SLOT: cull_binding(field, "VERTEX"),  # declared in get_code
             3: Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
-            4: Binding("s_blades", rbuffer, wobject.blade_buffer, "VERTEX"),
-            5: Binding("s_visible", rbuffer, wobject.visible_buffer, "VERTEX"),
+            4: Binding("s_blades", rbuffer, field.blade_buffer, "VERTEX"),
+            5: Binding("s_visible", rbuffer, field.visible_buffer, "VERTEX"),
         }
         if self["culled"]:
-            bindings[6] = Binding("s_culled", rbuffer, wobject.culled_buffer, "VERTEX")
+            bindings[6] = Binding("s_culled", rbuffer, field.culled_buffer, "VERTEX")
         self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
         return {0: bindings}
 
@@ -189,14 +231,128 @@ class BladeRenderShader(BaseShader):
         return U_CULL_CODE + read_shader("blade_render.wgsl")
 
 
+class RasterShader(GrassComputeShader):
+    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
+    words and counters, before the culling), "depth" or "payload" (the walks, after it);
+    ``second``: the walks of occlusion culling's second phase (run by
+    :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
+
+    def __init__(self, wobject, step, second=False):
+        if step not in ("clear", "depth", "payload"):
+            raise GrassValueError(f"step must be 'clear', 'depth' or 'payload'; got {step!r}")
+        super().__init__(wobject, step=step, second=bool(second))
+
+    def get_bindings(self, wobject, shared, scene):
+        bindings = {
+            0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
+            1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
+            U_CULL_SLOT: cull_binding(wobject, "COMPUTE"),
+            10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
+            11: Binding("s_raster", "buffer/read_only_storage", wobject.raster_list_buffer, "COMPUTE"),
+            12: Binding("s_raster_args", "buffer/storage", wobject.raster_args_buffer, "COMPUTE"),
+            13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
+            14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
+        }
+        for slot in (0, 1, 10, 11):
+            self.define_binding(0, slot, bindings[slot])
+        return {0: bindings}
+
+    def get_code(self):
+        return (
+            "{{ bindings_code }}\n"
+            + U_CULL_CODE +
+            "@group(0) @binding(12) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
+            "@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<u32>>;\n"
+            "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
+            "{$ include 'grasswidget.raster.wgsl' $}\n"
+        )
+
+    def get_render_info(self, wobject, shared):
+        width, height = wobject.raster_size
+        if not width:
+            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters
+        return {"indices": workgroups(width * height if self["step"] == "clear" else wobject.count)}
+
+
+class RasterResolveShader(BaseShader):
+    """The compute rasterizer's resolve (raster_resolve.wgsl): one full-screen draw that
+    shades the compute-rasterized pixels and writes their depth; no instance while the
+    compute rasterizer is off. ``wobject``: the GrassField or its OcclusionDraws."""
+
+    type = "render"
+
+    def __init__(self, wobject):
+        field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
+        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors))
+        self._field = weakref.ref(field)
+
+    def get_bindings(self, wobject, shared, scene):
+        rbuffer = "buffer/read_only_storage"
+        field = self._field()
+        bindings = {
+            0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
+            1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
+            U_CULL_SLOT: cull_binding(field, "FRAGMENT"),
+            3: Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
+            4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
+            5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
+            6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
+        }
+        self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
+        return {0: bindings}
+
+    def get_pipeline_info(self, wobject, shared):
+        return {"primitive_topology": "triangle-strip", "cull_mode": "none"}
+
+    def get_render_info(self, wobject, shared):
+        return {"indices": (4, 1 if self._field().compute_raster_active else 0)}
+
+    def get_code(self):
+        return U_CULL_CODE + read_shader("raster_resolve.wgsl")
+
+
+class HzbLevelShader(GrassComputeShader):
+    """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl);
+    run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
+
+    def __init__(self, wobject, level):
+        super().__init__(wobject, level=int(level))
+
+    def get_bindings(self, wobject, shared, scene):
+        occlusion = wobject.occlusion
+        bindings = {
+            0: Binding("s_hzb", "buffer/storage", occlusion.hzb_buffer, "COMPUTE"),
+            1: Binding("s_hzb_levels", "buffer/read_only_storage", occlusion.levels_buffer, "COMPUTE"),
+        }
+        self.define_bindings(0, bindings)
+        return {0: bindings}
+
+    def get_code(self):
+        return "{{ bindings_code }}\n{$ include 'grasswidget.hzb_build.wgsl' $}\n"
+
+    def get_render_info(self, wobject, shared):
+        return {"indices": (1, 1, 1)}  # dispatched by OcclusionCulling at each level's size
+
+
+@register_wgpu_render_function(OcclusionDraws, GrassMaterial)
+def occlusion_render_function(wobject):
+    """The second occlusion phase's draws (one per LOD class, lists from the end), then
+    the culled blades (``color_by = "cull"``: every test's, occlusion included)."""
+    return [*(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)), RasterResolveShader(wobject)]
+
+
 @register_wgpu_render_function(GrassField, GrassMaterial)
 def grass_render_function(wobject):
     """The passes of one GrassField: reset, cull (count, prefix, scatter), then one
     draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
+        RasterShader(wobject, "clear"),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
+        RasterShader(wobject, "depth"),
+        RasterShader(wobject, "payload"),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
+        RasterResolveShader(wobject),
     ]

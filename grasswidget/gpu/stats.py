@@ -30,8 +30,12 @@ class FrameStats:
     """Live statistics of one GrassField: visible blades and GPU milliseconds.
 
     Attributes (None until known):
-        visible_per_class: list of visible blades per LOD class (nearest first).
-        visible: total visible blades.
+        visible_per_class: list of visible blades per LOD class (nearest first), both
+            occlusion phases.
+        visible: total visible blades (drawn by the hardware rasterizer or in compute).
+        rastered: of those, the blades the compute rasterizer drew (0 while it is off;
+            GrassParams.compute_raster); ``visible - rastered`` were drawn as ribbons.
+        occluded: blades culled by occlusion (0 without occlusion culling).
         gpu_ms: dict with "simulation" and "draw" GPU milliseconds (timestamp queries).
         render_ms: CPU milliseconds of the last render call.
         fps: frames per second over the last second of renders.
@@ -45,13 +49,18 @@ class FrameStats:
         self.inside_passes = "timestamp-query-inside-passes" in device.features
         self.visible_per_class = None
         self.visible = None
+        self.rastered = None
+        self.occluded = None
         self.gpu_ms = {}
         self.render_ms = None
         self.fps = None
         self._times = deque(maxlen=120)
         self._free = deque()
         self._pending = deque()
-        size = 16 * self.n_classes + (8 * N_QUERIES if self.timestamps else 0)
+        # Staging layout: first-phase args, second-phase args (+ occluded count), and
+        # the compute rasterizer's counters (16 bytes) in self._second bytes; timestamps.
+        self._second = 16 * (self.n_classes + 1) + 16
+        size = 16 * self.n_classes + self._second + (8 * N_QUERIES if self.timestamps else 0)
         for _ in range(RING):
             self._free.append(device.create_buffer(size=size, usage=wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.MAP_READ))
         if self.timestamps:
@@ -109,9 +118,13 @@ class FrameStats:
         enc = self.device.create_command_encoder()
         nargs = 16 * self.n_classes
         enc.copy_buffer_to_buffer(args, 0, staging, 0, nargs)
+        enc.copy_buffer_to_buffer(compat.sync_buffer(self.field.occlusion_args_buffer), 0, staging, nargs,
+                                  self._second - 16)
+        enc.copy_buffer_to_buffer(compat.sync_buffer(self.field.raster_args_buffer), 0, staging,
+                                  nargs + self._second - 16, 16)
         if self.timestamps:
             enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
-            enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs, 8 * N_QUERIES)
+            enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs + self._second, 8 * N_QUERIES)
         self.device.queue.submit([enc.finish()])
         self._pending.append((staging, staging.map_async("READ")))
 
@@ -132,10 +145,13 @@ class FrameStats:
     def _apply(self, raw):
         nargs = 16 * self.n_classes
         args = raw[:nargs].view(np.uint32).reshape(self.n_classes, 4)
-        self.visible_per_class = [int(x) for x in args[:, 1]]
-        self.visible = int(sum(self.visible_per_class))
+        second = raw[nargs: nargs + self._second].view(np.uint32).reshape(self.n_classes + 2, 4)
+        self.visible_per_class = [int(x) + int(y) for x, y in zip(args[:, 1], second[:-2, 1])]
+        self.rastered = int(second[-1, 0])
+        self.visible = int(sum(self.visible_per_class)) + self.rastered
+        self.occluded = int(second[-2, 0])
         if self.timestamps:
-            ts = raw[nargs:].view(np.uint64).astype(np.float64)
+            ts = raw[nargs + self._second:].view(np.uint64).astype(np.float64)
             for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):
                 if name in self._written and ts[q + 1] > ts[q] > 0:
                     self.gpu_ms[name] = float((ts[q + 1] - ts[q]) * self._period_ns / 1e6)
@@ -163,7 +179,9 @@ class FrameStats:
     def as_dict(self) -> dict:
         return dict(
             visible=self.visible,
+            rastered=self.rastered,
             visible_per_class=self.visible_per_class,
+            occluded=self.occluded,
             gpu_ms=dict(self.gpu_ms),
             render_ms=self.render_ms,
             fps=self.fps,

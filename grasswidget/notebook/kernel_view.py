@@ -41,10 +41,25 @@ Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
 shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
 refresh (one small readback, only while blades are inspected).
+
+Threads: JupyterLab 4.4+ sends widget comm messages to a kernel subshell when
+ipykernel 7 offers them (the ``commsOverSubshells`` setting, "perCommTarget" by
+default), so the controls (the blades slider's :meth:`KernelView.set_blades`,
+steps, resets, the inspector ...) run on the subshell's thread while the draw
+loop runs on the kernel's main event loop, and jupyter-rfb asks for frames on
+either thread. A blade-count change released the old field's GPU buffers in the
+middle of a frame that was still recording and submitting work with them:
+wgpu-native aborts the kernel ("Buffer with '' label has been destroyed", in
+``wgpuQueueSubmit``, ``wgpuBufferGetMappedRange`` or ``wgpuCommandEncoderBeginComputePass``).
+Every frame (jupyter-rfb's ``get_frame``: draw, then the start of the pixel
+download) and every operation on the scene hold :attr:`KernelView.lock`, so the
+old scene is released only between frames, and two frames never overlap.
 """
 
 from __future__ import annotations
 
+import functools
+import threading
 import time
 
 import numpy as np
@@ -68,6 +83,15 @@ STATS_INTERVAL = 0.5
 MAX_BUFFERED_FRAMES = 3
 #: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
 SLOW_MOTION_BELOW = 0.97
+
+
+def _exclusive(method):
+    """Run a :class:`KernelView` method holding the view's :attr:`~KernelView.lock`."""
+    @functools.wraps(method)
+    def holding_lock(self, *args, **kwargs):
+        with self.lock:
+            return method(self, *args, **kwargs)
+    return holding_lock
 
 
 def streaming_defaults(cpu: bool) -> dict:
@@ -94,7 +118,17 @@ def _canvas_class():
         max_pixel_ratio = 2.0
         render_scale = 1.0
         on_sent = None
+        #: A lock held for each frame (draw + start of the download), or None.
+        frame_lock = None
         _browser_resize = None
+
+        def get_frame(self):
+            """jupyter-rfb asks for a frame (on the thread of whichever message scheduled
+            it): rendercanvas draws and starts the download, holding ``frame_lock``."""
+            if self.frame_lock is None:
+                return super().get_frame()
+            with self.frame_lock:
+                return super().get_frame()
 
         def handle_event(self, event):
             if compat.event_type(event) == "resize" and compat.event_ratio(event) is not None:
@@ -198,16 +232,21 @@ class KernelView(GrassView):
     scene = None
     controller = None
     canvas = None
+    _inspect_stale = True  # read_inspected renders first when something changed since the last frame
 
     def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
                  on_inspect=None):
         super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)
+        #: Re-entrant lock held by every frame and every operation on the scene (see
+        #: the module docstring, "Threads": controls may run on a comm subshell's thread).
+        self.lock = threading.RLock()
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
+        self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
         self.scene = None
         self.controller = None
         self.ball = None
@@ -215,6 +254,7 @@ class KernelView(GrassView):
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
         self.canvas = _canvas_class()(size=self.size, update_mode="continuous", max_fps=self.max_fps)
+        self.canvas.frame_lock = self.lock
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
         self.canvas.max_buffered_frames = MAX_BUFFERED_FRAMES
@@ -231,7 +271,7 @@ class KernelView(GrassView):
         from ..gpu.adapter import cpu_notice
 
         self.timing = FrameTiming()
-        self._stats = {"fps": None, "visible": None, "blades": None, "draw_ms": None, "gpu_ms": None,
+        self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
                        "target_fps": self.target_fps,
@@ -252,6 +292,7 @@ class KernelView(GrassView):
                                      canvas=self.canvas)
         return GrassScene(blades, size=self.size, params=self.params, canvas=self.canvas)
 
+    @_exclusive
     def set_blades(self, blades):
         """Build the scene for ``blades`` on this canvas, replacing and releasing
         the previous one (the camera view, the orbit target and the ball are kept)."""
@@ -318,10 +359,12 @@ class KernelView(GrassView):
         """The scene's sphere colliders."""
         return self.scene.colliders
 
+    @_exclusive
     def read_state(self, timeout=None) -> dict:
         """The field's state (a GPU readback; ``timeout`` is not needed here)."""
         return self.scene.field.read_state()
 
+    @_exclusive
     def set_wind_wgsl(self, body, select=True):
         """Compile ``body`` as the custom wind in the kernel (see GrassField.set_wind_wgsl)."""
         self.scene.field.set_wind_wgsl(body, select=select)
@@ -353,6 +396,7 @@ class KernelView(GrassView):
         """Fraction of the full pixel ratio the live frames render at (1 when paused)."""
         return float(self.canvas.render_scale)
 
+    @_exclusive
     def set_playing(self, playing: bool):
         """Draw continuously (playing) or on demand (paused). Pausing stops the clock
         at once and puts the render scale back to 1, so the still frame is sharp."""
@@ -367,6 +411,7 @@ class KernelView(GrassView):
     def set_time_scale(self, time_scale: float):
         """Nothing to do: each frame reads ``time_scale`` from the clock."""
 
+    @_exclusive
     def step(self, n: int):
         """Advance exactly ``n`` fixed steps and redraw."""
         self._simulate(n)
@@ -385,12 +430,14 @@ class KernelView(GrassView):
             self.scene.step(chunk)
             self.clock.count(chunk, dt)
 
+    @_exclusive
     def reset_blades(self):
         """Every blade back to its rest pose; the step counter and sim_time back to 0."""
         self.scene.field.reset()
         self.clock.reset()
         self.request_draw()
 
+    @_exclusive
     def reset_camera(self):
         """Back to the scene's starting view (position, rotation, fov, orbit target)."""
         self.scene.reset_camera()
@@ -412,6 +459,7 @@ class KernelView(GrassView):
     def depth_range(self) -> tuple:
         return tuple(float(x) for x in self.scene.camera.depth_range)
 
+    @_exclusive
     def look(self, position, target, fov_deg):
         """Aim the scene's camera; the controller orbits around ``target`` from now on."""
         self.scene.look(position, target, fov_deg)
@@ -419,11 +467,13 @@ class KernelView(GrassView):
             self.controller.target = np.asarray(target, np.float64)
 
     def request_draw(self):
+        self._inspect_stale = True  # something changed: the inspector's numbers are of the next frame
         if not self.closed:
             self.canvas.request_draw()
 
     # ------------------------------------------------------------------ teaching views
 
+    @_exclusive
     def set_culling_frozen(self, frozen: bool):
         """Freeze culling at the current camera (True) or cull against it again (False)."""
         if frozen:
@@ -434,6 +484,7 @@ class KernelView(GrassView):
             self._frozen_camera = None
         self.request_draw()
 
+    @_exclusive
     def inspect(self, ids):
         """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
         self.scene.inspect(ids)
@@ -447,11 +498,26 @@ class KernelView(GrassView):
     def inspected(self) -> tuple:
         return self._inspected
 
+    @_exclusive
+    def read_inspected(self, timeout=None) -> list:
+        """The inspected blades' numbers (GrassScene.read_inspected) for the current state:
+        when the state, the ids or the parameters changed since the last drawn frame, a
+        frame of the view's size is rendered offscreen first (the inspector runs in renders).
+        ``timeout`` is unused (the kernel answers at once)."""
+        if not self._inspected:
+            return []
+        if self._inspect_stale:
+            self.scene.render_at(self.scene.size)
+            self._inspect_stale = False
+        return self.scene.read_inspected()
+
+    @_exclusive
     def pick_blade(self, x, y):
         """The id of the blade drawn at logical pixel (x, y) in the last frame, or None
         (one GPU pick readback)."""
         info = self.scene.renderer.get_pick_info((x, y))
-        if info.get("world_object") is self.scene.field:
+        field = self.scene.field
+        if info.get("world_object") in (field, field.occlusion.draws):  # either occlusion phase's draws
             return info.get("blade_index")
         return None
 
@@ -460,6 +526,7 @@ class KernelView(GrassView):
 
     # ------------------------------------------------------------------ pictures
 
+    @_exclusive
     def save_png(self, path, size):
         """Write a PNG of the current view at ``size`` (w, h) pixels."""
         if tuple(size) != tuple(self.scene.size) or hasattr(self.scene.canvas, "draw"):
@@ -474,6 +541,7 @@ class KernelView(GrassView):
         """The kernel renders at once: write the PNG now and call ``done(path)``."""
         done(self.save_png(path, size))
 
+    @_exclusive
     def draw(self):
         """The canvas draw function: advance time (when playing), render, maybe refresh stats."""
         scene = self.scene
@@ -486,6 +554,7 @@ class KernelView(GrassView):
                 self.clock.start()
             self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
         scene.draw_frame()
+        self._inspect_stale = False
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)
@@ -519,6 +588,7 @@ class KernelView(GrassView):
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
 
+    @_exclusive
     def refresh_stats(self):
         """Measure frames/s delivered (confirmed by the browser) and the time of each
         stage of a frame, read the visible count and GPU times, and pass the stats to
@@ -539,22 +609,24 @@ class KernelView(GrassView):
         self._stats_frames = self._frames
         self._stats_t = now
         scene = self.scene
-        visible, gpu_ms = None, None
+        visible, gpu_ms, occluded, rastered = None, None, None, None
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
+                occluded = d.get("occluded") if scene.params.cull_occlusion else None
+                rastered = d.get("rastered")
             except Exception:
-                visible = gpu_ms = None
+                visible = gpu_ms = occluded = rastered = None
         if visible is None:
             try:
                 visible = scene.visible_count()
             except Exception:
                 visible = None
         self._stats.update(
-            fps=fps, visible=visible, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
+            fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
             **self.timing.averages(),
         )
@@ -595,6 +667,7 @@ class KernelView(GrassView):
 
     # ------------------------------------------------------------------ closing
 
+    @_exclusive
     def close(self):
         """Close the canvas and release the scene's GPU resources."""
         if self.closed:

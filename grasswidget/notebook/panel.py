@@ -46,6 +46,7 @@ CULL_CHECKBOXES = (
     ("orientation culling", "cull_orientation"),
     ("frustum culling", "cull_frustum"),
     ("distance culling", "cull_distance"),
+    ("occlusion culling", "cull_occlusion"),
     ("LOD", "lod"),
 )
 
@@ -68,7 +69,7 @@ def format_stats(stats: dict) -> str:
     """The stats line's text (plain, " · " separated) from a view's stats dict.
 
     Known keys (each optional, None = unknown): ``fps`` (frames/s delivered) and
-    ``target_fps``; ``visible`` and ``blades``; the stages of a frame in ms:
+    ``target_fps``; ``visible`` and ``blades``; ``rastered`` (of the visible, drawn by the compute rasterizer); ``occluded`` (blades culled by occlusion); the stages of a frame in ms:
     ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
     ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when
     the stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render
@@ -85,6 +86,10 @@ def format_stats(stats: dict) -> str:
     blades = s.get("blades")
     if s.get("visible") is not None and blades is not None:
         parts.append(f"{s['visible']:,} / {blades:,} blades visible")
+        if s.get("rastered"):
+            parts.append(f"{s['visible'] - s['rastered']:,} as ribbons, {s['rastered']:,} in compute")
+        if s.get("occluded") is not None:
+            parts.append(f"{s['occluded']:,} occluded")
     elif blades is not None:
         parts.append(f"{blades:,} blades")
     stages = [(name, s.get(key)) for name, key in (("render", "render_ms"), ("readback", "readback_ms"),

@@ -55,7 +55,7 @@ from traitlets import All, Bool
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
-from ..core.view_api import MAX_STEPS_PER_FRAME, FeatureNotAvailableError, GrassView
+from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
@@ -437,15 +437,24 @@ class GrassWidget(ipw.VBox):
         ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
         else raises ValueError naming the limit (nothing changes then)."""
         self._check_open()
-        try:
-            self.view.inspect(ids)
-        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
-            self.panel.show_unsupported(missing.feature, missing.backend)
+        self.view.inspect(ids)
 
     @property
     def inspected(self) -> tuple:
         """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
         return tuple(self.view.inspected) if self.view is not None else ()
+
+    def read_inspected(self, timeout: float = 30.0) -> list:
+        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them:
+        one dict per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times
+        ``params.stiffness_scale``), ``v0``, ``v1``, ``v2`` and the forces on v2 of the
+        next step (gravity, recovery, wind in m/s^2; collision: the push of one step in m),
+        for the current state and parameters; ``[]`` when none is inspected.
+
+        In browser mode the browser computes them (the same inspect.wgsl) and this waits for
+        its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
+        self._check_open()
+        return self.view.read_inspected(timeout=timeout)
 
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
@@ -631,10 +640,7 @@ class GrassWidget(ipw.VBox):
     def _on_culling_frozen(self, change):
         if self._closed:
             return
-        try:
-            self.view.set_culling_frozen(bool(change["new"]))
-        except FeatureNotAvailableError as missing:  # an engine without it (yet) says so
-            self.panel.show_unsupported(missing.feature, missing.backend)
+        self.view.set_culling_frozen(bool(change["new"]))
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""

@@ -313,6 +313,51 @@ fn projected_pixels(v0: vec3<f32>, v2: vec3<f32>, height: f32, view_proj: mat4x4
     return height * focal * viewport_height * 0.5 / w;
 }
 
+// ---------------------------------------------------------------- occlusion
+
+// A blade's screen bounds for the occlusion test: rect (x0, y0, x1, y1) in pixels
+// (y down, clamped to the view) and the nearest depth (0 near .. 1 far).
+struct ScreenBounds { rect: vec4<f32>, depth: f32 };
+
+// The box around v0, v1, v2 grown by radius, its 8 corners projected; a box that
+// reaches behind the near plane gets the whole view and depth 0 (never hidden).
+fn occlusion_bounds(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, radius: f32, view_proj: mat4x4<f32>, viewport_size: vec2<f32>) -> ScreenBounds {
+    let lo = min(min(v0, v1), v2) - vec3<f32>(radius);
+    let hi = max(max(v0, v1), v2) + vec3<f32>(radius);
+    var nmin = vec3<f32>(1e30);
+    var nmax = vec3<f32>(-1e30);
+    var behind = false;
+    for (var k = 0u; k < 8u; k += 1u) {
+        let corner = select(lo, hi, vec3<bool>((k & 1u) != 0u, (k & 2u) != 0u, (k & 4u) != 0u));
+        let clip = view_proj * vec4<f32>(corner, 1.0);
+        behind = behind || clip.w <= 1e-6 || clip.z < 0.0;
+        let ndc = clip.xyz / select(clip.w, 1.0, clip.w <= 1e-6);
+        nmin = min(nmin, ndc);
+        nmax = max(nmax, ndc);
+    }
+    var b: ScreenBounds;
+    if (behind) {
+        b.rect = vec4<f32>(0.0, 0.0, viewport_size.x, viewport_size.y);
+        b.depth = 0.0;
+        return b;
+    }
+    let x0 = clamp((nmin.x * 0.5 + 0.5) * viewport_size.x, 0.0, viewport_size.x);
+    let x1 = clamp((nmax.x * 0.5 + 0.5) * viewport_size.x, 0.0, viewport_size.x);
+    let y0 = clamp((0.5 - 0.5 * nmax.y) * viewport_size.y, 0.0, viewport_size.y);
+    let y1 = clamp((0.5 - 0.5 * nmin.y) * viewport_size.y, 0.0, viewport_size.y);
+    b.rect = vec4<f32>(x0, y0, x1, y1);
+    b.depth = max(nmin.z, 0.0);
+    return b;
+}
+
+// The max-depth pyramid level at which a pixel rect spans at most 2 x 2 texels.
+fn hzb_level(rect: vec4<f32>) -> u32 {
+    let span = u32(max(ceil(max(rect.z - rect.x, rect.w - rect.y)), 1.0));
+    var level = 0u;
+    while ((1u << level) < span) { level += 1u; }
+    return level;
+}
+
 // ---------------------------------------------------------------- drawing
 
 // Across-blade parameter t for the blade shapes of the paper, u, v in [0, 1].
@@ -332,4 +377,78 @@ fn hash01(x: u32) -> f32 {
     h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
     h = (h >> 22u) ^ h;
     return f32(h) / 4294967296.0;
+}
+
+// Lit colour of a blade's surface point (sRGB, 0..1): the ribbons' fragment shading,
+// also the compute rasterizer's resolve. normal: the surface normal (either side:
+// two-sided, the side facing the eye is lit), to_eye: unit vector towards the camera,
+// along: 0 root .. 1 tip, variation: the blade's hash01 in [0, 1); the material's
+// root/tip colours (sRGB), colour variation (0..1), light direction (towards the
+// light) and ambient (0..1).
+fn blade_shade(normal: vec3<f32>, to_eye: vec3<f32>, along: f32, variation: f32, root: vec3<f32>, tip: vec3<f32>, color_variation: f32, light_direction: vec3<f32>, ambient: f32) -> vec3<f32> {
+    var n = normalize(normal);
+    if (dot(n, to_eye) < 0.0) { n = -n; }
+    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
+    let var_s = variation - 0.5;
+    let a = clamp(along, 0.0, 1.0);
+    var base = mix(root, tip, pow(a, 0.8));
+    base = base * (1.0 + color_variation * var_s);
+    base = base + color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
+    let l = normalize(light_direction);
+    let diffuse = max(dot(n, l), 0.0);
+    let translucency = 0.35 * max(dot(-n, l), 0.0);
+    let ao = 0.55 + 0.45 * a;
+    let shade = (ambient + (1.0 - ambient) * (diffuse + translucency)) * ao;
+    return clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+// ---------------------------------------------------------------- compute rasterization
+
+// A clip-space point in pixels (x right, y down from the view's top-left corner) and
+// its depth (z: 0 near .. 1 far); viewport_size in pixels.
+fn clip_to_pixel(clip: vec4<f32>, viewport_size: vec2<f32>) -> vec3<f32> {
+    let ndc = clip.xyz / clip.w;
+    return vec3<f32>((ndc.x * 0.5 + 0.5) * viewport_size.x, (0.5 - 0.5 * ndc.y) * viewport_size.y, ndc.z);
+}
+
+// The compute walk's step along a blade's curve at v: the screen speed of the curve
+// there is |2 (1 - v) (s1 - s0) + 2 v (s2 - s1)| pixels per unit v (s0, s1, s2: the
+// control points in pixels), and the step is 0.9 / speed, so consecutive samples are
+// about 0.9 pixels apart wherever the curve goes (no gaps, no pile-up of samples where
+// it slows down); at least 1 / RASTER_MAX_SAMPLES, at most 1.
+fn raster_step(s0: vec2<f32>, s1: vec2<f32>, s2: vec2<f32>, v: f32) -> f32 {
+    let speed = length(2.0 * (1.0 - v) * (s1 - s0) + 2.0 * v * (s2 - s1));
+    return clamp(0.9 / max(speed, 1e-6), 1.0 / {{ raster_max_samples }}, 1.0);
+}
+
+// The two ends of a blade's cross-section on screen: pixels x, y and depth.
+struct RasterSpan { a: vec3<f32>, b: vec3<f32> };
+
+// The cross-section of the ribbon at v (0 root .. 1 tip), tapered like the ribbons
+// (blade_shape_t at u = 0 and u = 1), on screen. c0, c1, c2: the control points in
+// clip space; across: the half-width vector in clip space (view_proj * (width t1, 0)).
+// The curve is the quadratic Bezier in clip space (exact: projection is linear there).
+fn raster_span(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, across: vec4<f32>, v: f32, shape: i32, tau: f32, viewport_size: vec2<f32>) -> RasterSpan {
+    let a = c0 + v * (c1 - c0);
+    let b = c1 + v * (c2 - c1);
+    let c = a + v * (b - a);
+    let t_left = blade_shape_t(0.0, v, shape, tau);
+    let t_right = blade_shape_t(1.0, v, shape, tau);
+    return RasterSpan(clip_to_pixel(c + (2.0 * t_left - 1.0) * across, viewport_size),
+                      clip_to_pixel(c + (2.0 * t_right - 1.0) * across, viewport_size));
+}
+
+// Coverage of a cross-section span_px pixels wide: how many points the walk writes
+// across it, floor(span_px + h) with h = hash01 of the blade and the sample (a
+// stochastic rounding: on average span_px pixels, like the hardware rasterizer's
+// pixel-centre rule, narrower than a pixel included; the same pixels from frame to
+// frame, so no shimmer), at most RASTER_MAX_ACROSS.
+fn raster_cover(blade: u32, sample: u32, span_px: f32) -> u32 {
+    let h = hash01(blade * 2654435761u + sample * 40503u);
+    return u32(clamp(floor(span_px + h), 0.0, {{ raster_max_across }}));
+}
+
+// The shading payload of a rasterized pixel: blade id (< 2^24) << 8 | v in 1/255 steps.
+fn raster_payload(blade: u32, v: f32) -> u32 {
+    return (blade << 8u) | u32(round(clamp(v, 0.0, 1.0) * 255.0));
 }

@@ -1,6 +1,6 @@
 // Draw every visible blade of one level-of-detail class as a ribbon, by vertex
 // pulling: no vertex buffers. Instance i is the i-th entry of the class's
-// compacted list; vertex k of its triangle strip is row k/2 (v = row / segments)
+// compacted list (with from_end, the second occlusion phase's, counted from the end); vertex k of its triangle strip is row k/2 (v = row / segments)
 // and side k%2 (u). Ribbon formulas: paper section 6 / reference ribbons.
 //
 // Colouring, with teaching_views (the pygfx engine): u_cull.color_by 0 natural (lit), 1 "lod" (flat, the class's
@@ -17,12 +17,13 @@ const LOD_CLASS: u32 = {{ lod_class }}u;
 $$ if teaching_views
 const LOD_COLOR = vec3<f32>({{ lod_color }});
 
-// sRGB colour of a blade culled by test `reason` (1 orientation, 2 frustum, 3 distance).
+// sRGB colour of a blade culled by test `reason` (1 orientation, 2 frustum, 3 distance, 4 occlusion).
 fn cull_color(reason: u32) -> vec3<f32> {
     switch reason {
         case 1u: { return vec3<f32>({{ cull_colors[0] }}); }
         case 2u: { return vec3<f32>({{ cull_colors[1] }}); }
-        default: { return vec3<f32>({{ cull_colors[2] }}); }
+        case 3u: { return vec3<f32>({{ cull_colors[2] }}); }
+        default: { return vec3<f32>({{ cull_colors[3] }}); }
     }
 }
 $$ endif
@@ -36,10 +37,15 @@ struct VertexInput {
 fn vs_main(in: VertexInput) -> Varyings {
     $$ if teaching_views and culled
     let entry = s_culled[in.instance_index];
-    let blade = entry & 0x3fffffffu;
-    let flat_color = vec4<f32>(cull_color(entry >> 30u), 1.0);
+    let blade = entry & 0x1fffffffu;
+    let flat_color = vec4<f32>(cull_color(entry >> 29u), 1.0);
+    $$ else
+    $$ if from_end
+    // The second phase of occlusion culling lists its blades from the end (cull.wgsl).
+    let blade = s_visible[LOD_CLASS * u_cull.n_blades + u_cull.n_blades - 1u - in.instance_index];
     $$ else
     let blade = s_visible[LOD_CLASS * u_cull.n_blades + in.instance_index];
+    $$ endif
     $$ endif
     $$ if teaching_views and not culled
     var flat_color = vec4<f32>(0.0);  // a = 1: draw flat in rgb (sRGB)
@@ -93,24 +99,10 @@ fn vs_main(in: VertexInput) -> Varyings {
 fn fs_main(varyings: Varyings) -> FragmentOutput {
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
-    // Two-sided: light the side that faces the camera.
-    var n = normalize(varyings.normal);
-    if (dot(n, to_eye) < 0.0) { n = -n; }
-
-    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
-    let var_s = varyings.variation - 0.5;
-    let root = u_material.root_color.rgb;
-    let tip = u_material.tip_color.rgb;
-    var base = mix(root, tip, pow(clamp(varyings.along, 0.0, 1.0), 0.8));
-    base = base * (1.0 + u_material.color_variation * var_s);
-    base = base + u_material.color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
-
-    let l = normalize(u_material.light_direction.xyz);
-    let diffuse = max(dot(n, l), 0.0);
-    let translucency = 0.35 * max(dot(-n, l), 0.0);
-    let ao = 0.55 + 0.45 * clamp(varyings.along, 0.0, 1.0);
-    let shade = (u_material.ambient + (1.0 - u_material.ambient) * (diffuse + translucency)) * ao;
-    var rgb = clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    // Two-sided, root-to-tip gradient, per-blade variation (blade_math.blade_shade).
+    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.variation,
+                          u_material.root_color.rgb, u_material.tip_color.rgb, u_material.color_variation,
+                          u_material.light_direction.xyz, u_material.ambient);
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif

@@ -17,29 +17,69 @@
 // Teaching views (template variable teaching_views, on in the kernel engine):
 // the culling camera is the rendering camera (u_stdinfo), or a frozen copy of
 // one (u_cull.frozen != 0: GrassField.freeze_culling). With color_by "cull",
-// culled blades are appended too, to s_culled as id | reason << 30 (reason 1
-// orientation, 2 frustum, 3 distance: the first test that culled the blade),
+// culled blades are appended too, to s_culled as id | reason << 29 (reason 1
+// orientation, 2 frustum, 3 distance, 4 occlusion: the first test that culled the blade),
 // counted in s_culled_args: one more indirect draw, flat coloured.
+//
+// Occlusion culling (template variable occlusion; reference.occlusion_cull), in two
+// phases so that a blade that shows is never culled, however the camera, the wind or
+// a ball move: occlusion == 1 is the first phase's cull, which while
+// u_cull.occlusion_phase == 1 keeps only the blades seen last frame (bit i of
+// s_occlusion_flags); the engine draws them, copies the depth buffer into the
+// max-depth pyramid (hzb_build.wgsl), and runs occlusion == 2: every blade that
+// passes the other tests is tested against that pyramid (occlusion.wgsl); the ones
+// not hidden and not drawn in the first phase are listed from the end of their
+// class's list (slot n - 1 - k; s_args is then the second phase's args, with the
+// occluded count at s_args[4 * N_CLASSES]), and bit i of s_occlusion_flags becomes
+// "passes every test now". Hidden ones are culled with reason 4. The pyramid holds
+// depths drawn in this frame with this camera, so whatever it hides stays hidden.
+// With the culling frozen the second phase tests nothing: the blades not seen when
+// it froze are the occluded ones (the flags stop changing).
+//
+// Compute rasterization (template variable compute_raster; raster.wgsl): while
+// u_cull.compute_raster != 0 and the render is u_cull.raster_width x raster_height
+// pixels, a visible blade narrower on screen than u_cull.raster_max_px (full width at
+// its middle, the render camera's pixels) is appended to s_raster instead of its LOD
+// class's list (counted in s_raster_args[0]); the engine then declares s_raster
+// (array<u32>) and s_raster_args (array<atomic<u32>>).
 //
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, cam_transform_inv, physical_size),
 // u_wobject (world_transform), u_cull (fields of grasswidget.gpu.field.CULL_UNIFORM),
 // s_blades (array<vec4<f32>>, read), s_args (array<atomic<u32>>), s_visible
 // (array<u32>); with teaching_views also u_cull's color_by and frozen_* fields,
-// s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); see
+// s_culled (array<u32>) and s_culled_args (array<atomic<u32>>); with occlusion also
+// u_cull.occlusion_phase and s_occlusion_flags (array<u32>; read_write in phase 2),
+// and in phase 2 s_hzb and s_hzb_levels (see occlusion.wgsl); see
 // grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+$$ if occlusion == 2
+{$ include 'grasswidget.occlusion.wgsl' $}
+$$ endif
 
 const N_CLASSES: u32 = {{ n_classes }}u;
 $$ set n_bands = bands if bands else 1
 const BANDS: u32 = {{ n_bands }}u;
 const KEYS: u32 = N_CLASSES * BANDS;
-// One counter per key (LOD class, distance band), then one for the culled blades (color_by "cull").
+// One counter per key (LOD class, distance band), then one for the culled blades (color_by "cull"),
+// then one for the compute rasterizer's blades.
 const CULLED: u32 = KEYS;
-var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * n_bands + 1 }}>;
-var<workgroup> wg_base: array<u32, {{ n_classes * n_bands + 1 }}>;
+const RASTER: u32 = KEYS + 1u;
+var<workgroup> wg_count: array<atomic<u32>, {{ n_classes * n_bands + 2 }}>;
+var<workgroup> wg_base: array<u32, {{ n_classes * n_bands + 2 }}>;
+$$ if occlusion
+// Blade i was seen (passed every test) in the last frame with occlusion culling.
+fn seen_last_frame(i: u32) -> bool {
+    return ((s_occlusion_flags[i >> 5u] >> (i & 31u)) & 1u) != 0u;
+}
+$$ endif
+$$ if occlusion == 2 and phase != "count"
+const FLAG_WORDS: u32 = {{ workgroup_size // 32 }}u;
+var<workgroup> wg_seen: array<atomic<u32>, {{ workgroup_size // 32 }}>;
+var<workgroup> wg_occluded: atomic<u32>;
+$$ endif
 
 $$ if bands
 // Distance band, 0 = nearest: log-spaced between band_near and band_far metres.
@@ -63,7 +103,11 @@ fn main(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    for (var k = lid; k <= KEYS; k += {{ workgroup_size }}u) { atomicStore(&wg_count[k], 0u); }
+    for (var k = lid; k <= RASTER; k += {{ workgroup_size }}u) { atomicStore(&wg_count[k], 0u); }
+    $$ if occlusion == 2 and phase != "count"
+    if (lid < FLAG_WORDS) { atomicStore(&wg_seen[lid], 0u); }
+    if (lid == 0u) { atomicStore(&wg_occluded, 0u); }
+    $$ endif
     workgroupBarrier();
 
     let n = u_cull.n_blades;
@@ -75,6 +119,9 @@ fn main(
     var key = 0u;
     var reason = 0u;
     var slot = 0u;
+    var frozen = false;
+    var seen = false;  // passes every test, occlusion included (phase 2)
+    var rastered = false;  // visible, drawn by the compute rasterizer
     if (valid) {
         let blade = load_blade(i);
         // To world space (blades live in the object's local space).
@@ -89,6 +136,7 @@ fn main(
         var viewport_height = u_stdinfo.physical_size.y;
         $$ if teaching_views
         if (u_cull.frozen != 0) {
+            frozen = true;
             view_proj = u_cull.frozen_view_proj;
             cam_pos = u_cull.frozen_cam_pos.xyz;
             viewport_height = u_cull.frozen_viewport_height;
@@ -106,6 +154,38 @@ fn main(
             reason = 3u;
         }
         visible = reason == 0u;
+        $$ if occlusion == 1
+        if (visible && u_cull.occlusion_phase == 1 && !seen_last_frame(i)) {
+            visible = false;  // deferred to the second phase (not culled)
+        }
+        $$ elif occlusion == 2
+        if (visible) {
+            let drawn_first = seen_last_frame(i);
+            var hidden = !drawn_first;  // frozen: the blades not seen when it froze
+            if (!frozen) {
+                let stretch = max(length(m[0].xyz), max(length(m[1].xyz), length(m[2].xyz)));
+                let radius = {{ occlusion_radius_per_width }} * blade.width * stretch;
+                hidden = blade_occluded(v0, v1, v2, radius, view_proj, u_stdinfo.physical_size);
+            }
+            seen = !hidden;
+            if (drawn_first) {
+                visible = false;  // drawn in the first phase already (hidden now: not drawn first next frame)
+            } else if (hidden) {
+                reason = 4u;
+                visible = false;
+            }
+        }
+        $$ endif
+        $$ if compute_raster
+        let size = u_stdinfo.physical_size;
+        if (visible && u_cull.compute_raster != 0 && size.x == u_cull.raster_width && size.y == u_cull.raster_height) {
+            let render_view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
+            let across_px = projected_pixels(v0, v2, 2.0 * blade.width * scale, render_view_proj, size.y);
+            let in_front = min(min((render_view_proj * vec4<f32>(v0, 1.0)).w, (render_view_proj * vec4<f32>(v1, 1.0)).w),
+                               (render_view_proj * vec4<f32>(v2, 1.0)).w) > 1e-6;
+            rastered = in_front && across_px < u_cull.raster_max_px;
+        }
+        $$ endif
         if (u_cull.lod != 0) {
             cls = lod_class_of(projected_pixels(v0, v2, h, view_proj, viewport_height));
         }
@@ -119,15 +199,42 @@ fn main(
             cls = CULLED;
             key = CULLED;
         }
+        if (rastered) {
+            key = RASTER;
+        }
         listed = visible;
         $$ if teaching_views
-        listed = visible || u_cull.color_by == {{ color_by_cull }};
+        listed = visible || (u_cull.color_by == {{ color_by_cull }} && reason != 0u);
+        $$ if occlusion == 1
+        // While armed, the second phase lists the culled blades (with the occluded ones).
+        listed = listed && (visible || u_cull.occlusion_phase != 1);
+        $$ endif
         $$ endif
         if (listed) {
             slot = atomicAdd(&wg_count[key], 1u);
         }
+        $$ if occlusion == 2 and phase != "count"
+        if (seen) {
+            atomicOr(&wg_seen[lid >> 5u], 1u << (lid & 31u));
+        }
+        if (reason == 4u) {
+            atomicAdd(&wg_occluded, 1u);
+        }
+        $$ endif
     }
     workgroupBarrier();
+    $$ if occlusion == 2 and phase != "count"
+    let wg_index = wid.y * nwg.x + wid.x;
+    if (lid < FLAG_WORDS && u_cull.frozen == 0) {
+        s_occlusion_flags[wg_index * FLAG_WORDS + lid] = atomicLoad(&wg_seen[lid]);
+    }
+    if (lid == 0u) {
+        let c = atomicLoad(&wg_occluded);
+        if (c > 0u) {
+            atomicAdd(&s_args[N_CLASSES * 4u], c);
+        }
+    }
+    $$ endif
     for (var k = lid; k < KEYS; k += {{ workgroup_size }}u) {
         let c = atomicLoad(&wg_count[k]);
         if (c > 0u) {
@@ -148,15 +255,32 @@ fn main(
         }
     }
     $$ endif
+    $$ if compute_raster and not (bands and phase == "count")
+    if (lid == 0u) {  // one thread reserves the compute rasterizer's range
+        let c = atomicLoad(&wg_count[RASTER]);
+        if (c > 0u) {
+            wg_base[RASTER] = atomicAdd(&s_raster_args[0], c);
+        }
+    }
+    $$ endif
     $$ if not (bands and phase == "count")
     workgroupBarrier();
-    if (visible) {
+    $$ if compute_raster
+    if (rastered) {
+        s_raster[wg_base[RASTER] + slot] = i;
+    }
+    $$ endif
+    if (visible && !rastered) {
+        $$ if occlusion == 2
+        s_visible[cls * n + n - 1u - (wg_base[key] + slot)] = i;  // from the end: the second phase's list
+        $$ else
         s_visible[cls * n + wg_base[key] + slot] = i;
+        $$ endif
     }
     $$ endif
     $$ if teaching_views and not (bands and phase == "count")
     if (listed && !visible) {
-        s_culled[wg_base[CULLED] + slot] = i | (reason << 30u);
+        s_culled[wg_base[CULLED] + slot] = i | (reason << 29u);
     }
     $$ endif
 }

@@ -26,8 +26,10 @@ const ARROW_ACCEL_PER_HEIGHT: f32 = {{ arrow_accel_per_height }};
 // The collision arrow is the push (m) this many times longer.
 const COLLISION_ARROW_SCALE: f32 = {{ collision_arrow_scale }};
 
+// NaN (not drawn). Through a variable: a constant expression may not be NaN (Tint refuses it).
 fn not_drawn() -> vec3<f32> {
-    return vec3<f32>(bitcast<f32>(0x7fc00000u));
+    var nan_bits = 0x7fc00000u;
+    return vec3<f32>(bitcast<f32>(nan_bits));
 }
 
 fn set_vertex(k: u32, p: vec3<f32>) {

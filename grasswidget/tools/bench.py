@@ -1,6 +1,8 @@
 """Benchmark: frame time, simulation and culling+draw time, visible blades.
 
 ``python -m grasswidget bench --preset cis565 --blades 1024 65536 --cull each --json out.json``
+``python -m grasswidget bench --preset meadow --blades 1048576 --occlusion both --json out.json``
+``python -m grasswidget bench --preset meadow --blades 1048576 --compute-raster both --json out.json``
 
 Per blade count and culling mode it measures, after warm-up:
 - frame ms (median, p10, p90): one simulation step + one render, GPU-synchronised
@@ -13,7 +15,10 @@ Per blade count and culling mode it measures, after warm-up:
 - GPU ms from timestamp queries where the adapter has them: the simulation pass
   (1 step), the culling pass (reset + cull run in a pass of their own) and the
   blade draws (inside the render pass);
-- visible blades (the GPU's indirect draw counts);
+- visible blades (the GPU's indirect draw counts, both occlusion phases) and
+  occluded blades (culled by occlusion; ``--occlusion both`` runs off, then on) and
+  the blades the compute rasterizer drew (``rastered``; ``--compute-raster both`` runs
+  off, then on);
 - pipelined frames/s: the same frames submitted back to back with one sync at the end.
 Frames render into an offscreen texture (no image readback in the timing).
 """
@@ -31,11 +36,13 @@ import numpy as np
 from ..errors import GrassValueError
 from .. import compat
 
-__all__ = ["run_bench", "format_table", "CULL_MODES"]
+__all__ = ["run_bench", "format_table", "CULL_MODES", "OCCLUSION_MODES"]
 
 #: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "both" (off, then on, in
 #: one run: their ratio is what culling buys), "each" (on, off, and each test alone).
 CULL_MODES = ("on", "off", "both", "each")
+#: Occlusion culling with the culling modes that cull: "on", "off", or "both" (off, then on, in one run).
+OCCLUSION_MODES = ("on", "off", "both")
 
 
 def _modes(cull):
@@ -50,7 +57,15 @@ def _modes(cull):
     raise GrassValueError(f"cull must be one of {', '.join(CULL_MODES)}; got {cull!r}")
 
 
-def _apply_mode(params, mode):
+def _occlusion_modes(occlusion):
+    if occlusion not in OCCLUSION_MODES:
+        raise GrassValueError(f"occlusion must be one of {', '.join(OCCLUSION_MODES)}; got {occlusion!r}")
+    return {"on": [True], "off": [False], "both": [False, True]}[occlusion]
+
+
+def _apply_mode(params, mode, occlusion=False, compute_raster=False):
+    params.compute_raster = bool(compute_raster)
+    params.cull_occlusion = bool(occlusion) and mode != "off"
     on = mode == "on"
     params.cull_orientation = on or mode == "orientation"
     params.cull_frustum = on or mode == "frustum"
@@ -112,27 +127,25 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         return np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(args_gpu)), np.uint32).reshape(-1, 4)
 
     def render():
-        renderer.render(scene.scene, scene.camera)
+        scene.draw_into(renderer)
 
     for _ in range(3):  # warm-up: compile, allocate
         field.step(steps_per_frame)
         render()
         sync()
     frame, frame_cpu, sim, cull_draw, gpu_sim, gpu_draw = [], [], [], [], [], []
-    visible = None
     for _ in range(frames):
         t0, c0 = time.perf_counter(), time.process_time()
         field.step(steps_per_frame)
         sync()
         t1 = time.perf_counter()
         render()
-        args = sync()
+        sync()
         t2 = time.perf_counter()
         frame_cpu.append((time.process_time() - c0) * 1e3)
         frame.append((t2 - t0) * 1e3)
         sim.append((t1 - t0) * 1e3)
         cull_draw.append((t2 - t1) * 1e3)
-        visible = int(args[:, 1].sum())
         stats.after_render()
         stats.poll()
         if "simulation" in stats.gpu_ms:
@@ -146,6 +159,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         render()
     sync()
     pipelined_fps = frames / (time.perf_counter() - t0)
+    visible = int(field.read_draw_args()[:, 1].sum()) + field.read_raster_count()  # both phases, both paths
     out = dict(
         pipelined_fps=pipelined_fps,
         frame_ms=dict(median=_pct(frame, 50), p10=_pct(frame, 10), p90=_pct(frame, 90)),
@@ -154,6 +168,8 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
         simulation_ms=_pct(sim, 50),
         cull_draw_ms=_pct(cull_draw, 50),
         visible=visible,
+        occluded=field.read_occluded_count(),
+        rastered=field.read_raster_count(),
     )
     if gpu_sim:
         out["gpu_simulation_ms"] = statistics.median(gpu_sim)
@@ -163,15 +179,22 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
 
 
 def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, size=None, cull="on",
-              steps_per_frame=1, progress=True, seed=0) -> dict:
-    """Run the sweep; returns a JSON-ready dict (see module docstring)."""
+              steps_per_frame=1, progress=True, seed=0, occlusion="on", compute_raster="on") -> dict:
+    """Run the sweep; returns a JSON-ready dict (see module docstring). ``occlusion``
+    ("on", "off", "both": off then on, same scene and renderer) applies to the culling
+    modes that cull; each row says ``occlusion`` True/False. ``compute_raster`` ("on",
+    "off", "both") likewise for ``GrassParams.compute_raster`` (row key ``compute_raster``)."""
     import pygfx as gfx
     import tqdm
 
     from ..gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
     from ..gpu.scene import GrassScene
 
-    modes = _modes(cull)
+    if compute_raster not in OCCLUSION_MODES:
+        raise GrassValueError(f"compute_raster must be one of {', '.join(OCCLUSION_MODES)}; got {compute_raster!r}")
+    rasters = {"on": [True], "off": [False], "both": [False, True]}[compute_raster]
+    modes = [(m, o, r) for m in _modes(cull) for o in ([False] if m == "off" else _occlusion_modes(occlusion))
+             for r in rasters]
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise GrassValueError(f"frames must be an integer >= 1; got {frames!r}")
     counts = [int(n) for n in blades]
@@ -188,9 +211,9 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
         cpu = is_cpu_adapter()
         renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if cpu else "default", enable_events=False)
         timer = _Timer(scene)
-        for mode in modes:
-            _apply_mode(scene.params, mode)
-            row = dict(blades=n, cull=mode, size=f"{w}x{h}")
+        for mode, occl, raster in modes:
+            _apply_mode(scene.params, mode, occl, raster)
+            row = dict(blades=n, cull=mode, occlusion=occl, compute_raster=raster, size=f"{w}x{h}")
             row.update(_bench_one(scene, renderer, frames, steps_per_frame))
             if timer.ok:
                 row["gpu_cull_ms"] = statistics.median(timer.cull_ms() for _ in range(5))
@@ -215,7 +238,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 def format_table(report: dict) -> str:
     """A plain-text table of a run_bench report."""
-    head = f"{'blades':>9} {'cull':>11} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
+    head = f"{'blades':>9} {'cull':>11} {'occl':>5} {'cr':>3} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 
     def g(row, key):
@@ -225,7 +248,8 @@ def format_table(report: dict) -> str:
     for r in report["results"]:
         f = r["frame_ms"]
         lines.append(
-            f"{r['blades']:>9} {r['cull']:>11} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
+            f"{r['blades']:>9} {r['cull']:>11} {'on' if r.get('occlusion') else 'off':>5} "
+            f"{'on' if r.get('compute_raster') else 'off':>3} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
             f"{r.get('frame_cpu_ms', float('nan')):7.1f} {r['fps']:7.1f} "
             f"{r['simulation_ms']:7.2f} {r['cull_draw_ms']:9.2f} {g(r, 'gpu_simulation_ms')} {g(r, 'gpu_cull_ms')} "
             f"{g(r, 'gpu_draw_ms')} {r['visible']:>9} {r['pipelined_fps']:8.1f}"

@@ -165,6 +165,10 @@ def build_parser():
     b.add_argument("--frames", type=_positive, default=30)
     b.add_argument("--size", type=_size, default=None, help="WxH (default: the preset's)")
     b.add_argument("--cull", choices=["on", "off", "both", "each"], default="on")
+    b.add_argument("--occlusion", choices=["on", "off", "both"], default="on",
+                   help="occlusion culling in the modes that cull: on, off, or both (off, then on, in one run)")
+    b.add_argument("--compute-raster", choices=["on", "off", "both"], default="on",
+                   help="the compute rasterizer of thin blades: on, off, or both (off, then on, in one run)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
     p.subcommands = {"snapshot": s, "bench": b, "html": h}
@@ -297,7 +301,7 @@ def _bench(args):
     if blades is None:
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
     report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
-                       progress=not args.no_progress)
+                       progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster)
     print(format_table(report))
     if args.json:
         save_json(report, args.json)

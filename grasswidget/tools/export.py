@@ -134,7 +134,7 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
     saved = field.read_state() if restore else None
     saved_steps = field.step_count
     canvas, renderer = _offscreen_renderer(size)
-    canvas.request_draw(lambda: renderer.render(scene.scene, scene.camera))
+    canvas.request_draw(lambda: scene.draw_into(renderer))
     aspect = scene.camera.aspect
     writer = None
     frames = []

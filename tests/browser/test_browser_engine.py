@@ -189,13 +189,15 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
     # balls amplify it (the kernel's grid equals its loop over every ball bit for bit: tests/test_colliders.py)
     assert p99 < 1e-4 and off <= 0.002 * 4096
 
-    # 3. Culling checkboxes change the browser's visible count; all off: every blade.
+    # 3. Culling checkboxes change the browser's visible count; all off: every blade (none occluded).
     kernel_execute(page, "w.play()")
     visible_on = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v is not None, timeout=20)
-    for label in ("orientation culling", "frustum culling", "distance culling"):
+    culling = ("orientation culling", "frustum culling", "distance culling", "occlusion culling")
+    for label in culling:
         toggle_checkbox(page, label, False)
     wait_for_kernel(page, "w.stats['visible']", N_BLADES, timeout=30)
-    for label in ("orientation culling", "frustum culling", "distance culling"):
+    assert kernel_eval(page, "w.stats['occluded']") is None  # occlusion culling off: no count
+    for label in culling:
         toggle_checkbox(page, label, True)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")

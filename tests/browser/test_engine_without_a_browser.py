@@ -31,8 +31,11 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     resources its text uses, each once, with the access the engine provides."""
     shaders = BrowserShaders.all()
     device = _device()
-    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls")]
-             + shaders["blades"] + shaders["blades_flat"])
+    texts = ([shaders[k] for k in ("simulate", "reset_args", "cull_count", "prefix_bands", "cull", "sky_ground", "balls",
+                                   "inspect")]
+             + shaders["blades"] + shaders["blades_flat"] + shaders["overlays"])
+    occlusion = shaders["occlusion"]
+    texts += [occlusion["cull"], *occlusion["hzb_levels"], *occlusion["blades"], *occlusion["blades_flat"]]
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -60,7 +63,35 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert offset == offsets(CULL_LAYOUT)["color_by"][0]
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
-    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull"]
+    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull",
+                                                                "inspect"]
+    # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
+    # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
+    assert shaders["compute_passes"][-1]["only_if"] == "inspecting"
+    assert shaders["compute_passes"][-1]["sim_uniform"] == "now"
+    assert "let moved = tip_step(" in shaders["inspect"]["code"]
+    kinds = {b["name"]: b["kind"] for b in shaders["inspect"]["bindings"]}
+    assert kinds["u_inspect"] == "uniform" and kinds["s_forces"] == "storage" and kinds["s_segments"] == "storage"
+    assert [(o["name"], o["only_if"], o["bindings"][1]["resource"]) for o in shaders["overlays"]] == [
+        ("frustum", "frozen", "s_frustum"), ("inspector lines", "inspecting", "s_segments"),
+        ("inspector points", "inspecting", "s_points")]
+    # Occlusion culling: the first phase's passes read the seen flags; the second phase writes them and
+    # fills s_occlusion_args (bound as its s_args); each pyramid level writes s_hzb; the second phase's
+    # ribbons read their lists from the end; comments naming a resource bind nothing.
+    kinds = {b["name"]: b["kind"] for b in shaders["cull"]["bindings"]}
+    assert kinds["s_occlusion_flags"] == "read-only-storage" and "s_hzb" not in kinds
+    assert {b["name"] for b in shaders["reset_args"]["bindings"]} >= {"s_occlusion_args"}
+    second = {b["name"]: (b["kind"], b.get("resource")) for b in occlusion["cull"]["bindings"]}
+    assert second["s_occlusion_flags"][0] == "storage" and second["s_args"] == ("storage", "s_occlusion_args")
+    assert second["s_hzb"][0] == second["s_hzb_levels"][0] == "read-only-storage"
+    assert len(occlusion["hzb_levels"]) == occlusion["max_levels"] - 1
+    for k, level in enumerate(occlusion["hzb_levels"], start=1):
+        assert {b["name"]: b["kind"] for b in level["bindings"]} == {"s_hzb": "storage",
+                                                                      "s_hzb_levels": "read-only-storage"}
+        assert f"s_hzb_levels[{k}u]" in level["code"]
+    assert len(occlusion["blades"]) == len(occlusion["blades_flat"]) == 4
+    assert all("n_blades - 1u - in.instance_index" in b["code"] for b in occlusion["blades"] + occlusion["blades_flat"])
+    assert occlusion["phase_offset"] == offsets(CULL_LAYOUT)["occlusion_phase"][0]
     # Sky and ground: the kernel engine's own file, its u_material bound to the engine's u_sky_ground buffer.
     sky = shaders["sky_ground"]
     body = (shader_dir() / "sky_ground.wgsl").read_text()

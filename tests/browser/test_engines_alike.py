@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -166,3 +167,104 @@ print('STEPS', s0, s1)
         "w",
     ], check, webgpu_browser)
     _compare_engines(out_dir)
+
+
+# ---------------------------------------------------------------------- occlusion culling (issue 17)
+
+OCCLUSION_SIZE = (320, 240)
+
+
+def _occlusion_counts_and_pictures(page, out_dir):
+    """The cis565 widget at rest, paused: the browser's stats with occlusion culling on, its
+    picture on and off (save_png), and the kernel engine's counts for the same blades,
+    parameters and camera at the browser's frame size."""
+    kernel_execute(page, "o.pause()\no.reset_blades()\no.params.cull_occlusion = True", timeout=60)
+
+    def settled():
+        s = kernel_eval(page, "{k: o.stats.get(k) for k in ('visible', 'occluded', 'visible_per_class', 'frame_size', "
+                              "'step_count')}")
+        return s
+
+    # Stats come every 0.5 s from the frames the browser draws; at rest with a still camera the
+    # counts settle after two frames (the first frame draws every blade in its first phase).
+    seen = []
+
+    def steady():
+        s = settled()
+        seen.append(s)
+        ok = (s["occluded"] is not None and s["step_count"] == 0 and len(seen) >= 3
+              and all(x == s for x in seen[-3:]))
+        return ok, s
+
+    stats = poll(steady, "steady browser stats with occlusion culling on", 120, 1.0, page=page)
+    w, h = stats["frame_size"]
+    out = kernel_execute(page, f"""
+import json
+from grasswidget.gpu.scene import GrassScene
+o.save_png({os.path.join(out_dir, 'occlusion_on.png')!r}, size={OCCLUSION_SIZE})
+o.params.cull_occlusion = False
+o.save_png({os.path.join(out_dir, 'occlusion_off.png')!r}, size={OCCLUSION_SIZE})
+o.params.cull_occlusion = True
+scene = GrassScene.preset('cis565', blades=o.view.browser_view.blades, size=({w}, {h}), params=o.params.copy())
+cam = o.camera_state
+scene.look(cam['position'], cam['target'], cam['fov_deg'])
+scene.render(); scene.render()
+kernel = dict(drawn=int(scene.field.read_draw_args()[:, 1].sum()), occluded=int(scene.field.read_occluded_count()))
+scene.params.cull_occlusion = False
+scene.render()
+kernel['drawn_without_occlusion'] = int(scene.field.read_draw_args()[:, 1].sum())
+scene.release()
+print('KERNEL' + json.dumps(kernel))
+""", timeout=240)
+    kernel = json.loads(out.stdout.split("KERNEL")[1].strip())
+    return stats, kernel
+
+
+def _check_occlusion(stats, kernel, out_dir):
+    import imageio.v3 as iio
+
+    on = iio.imread(os.path.join(out_dir, "occlusion_on.png"))[..., :3].astype(int)
+    off = iio.imread(os.path.join(out_dir, "occlusion_off.png"))[..., :3].astype(int)
+    assert on.shape == off.shape == (OCCLUSION_SIZE[1], OCCLUSION_SIZE[0], 3)
+    iio.imwrite(os.path.join(out_dir, "occlusion_browser_on_off.png"),
+                np.concatenate([on, np.full((on.shape[0], 4, 3), 255), off], axis=1).astype(np.uint8))
+    diff = np.abs(on - off)
+    differ = float((diff.max(axis=2) > 40).mean())
+    drawn = stats["visible"]
+    print(f"\n[occlusion, browser] cis565 at {stats['frame_size']}: drawn {drawn} + occluded {stats['occluded']} "
+          f"= {drawn + stats['occluded']}; kernel: drawn {kernel['drawn']} + occluded {kernel['occluded']} = "
+          f"{kernel['drawn'] + kernel['occluded']} (without occlusion {kernel['drawn_without_occlusion']}); "
+          f"picture on vs off: mean |diff| {diff.mean():.3f}/255, {differ:.3%} of the pixels differ by > 40")
+    # Near grass fills the cis565 view: most blades that pass the other tests are hidden.
+    assert stats["occluded"] > 0.3 * (drawn + stats["occluded"])
+    # Same blades, camera and frame size: the blades passing the orientation, frustum and
+    # distance tests are the same in both engines (up to float rounding at the test edges) ...
+    total_b, total_k = drawn + stats["occluded"], kernel["drawn"] + kernel["occluded"]
+    assert total_k == kernel["drawn_without_occlusion"]
+    assert abs(total_b - total_k) <= max(3, 0.002 * total_k)
+    # ... and the occlusion test against each engine's own depth buffer hides about as many.
+    assert abs(stats["occluded"] - kernel["occluded"]) <= 0.05 * kernel["occluded"] + 10
+    # The picture is the picture without occlusion culling (rasterization noise only).
+    assert diff.mean() < 0.5
+    assert differ < 0.005
+    green = (on[..., 1] > on[..., 0] + 8) & (on[..., 1] > on[..., 2] + 8)
+    assert green.mean() > 0.3  # the near grass fills the view
+
+
+def test_browser_occlusion_culling_draws_the_same_picture(webgpu_browser, lab_server, browser_root):
+    """The browser engine with occlusion culling on: the picture without it, blades occluded in
+    the cis565 view, and drawn + occluded as the kernel engine counts for the same camera."""
+    page = webgpu_browser.page
+    out_dir = _artifacts(browser_root)
+    found = {}
+
+    def check():
+        status = wait_for_kernel(page, "o.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
+        assert status["state"] == "ok", status
+        found["stats"], found["kernel"] = _occlusion_counts_and_pictures(page, out_dir)
+
+    _run(page, lab_server, browser_root, "occlusion_browser.ipynb", [
+        "import grasswidget as gw\n"
+        f"o = gw.GrassWidget(preset='cis565', backend='browser', size={OCCLUSION_SIZE})\no",
+    ], check, webgpu_browser)
+    _check_occlusion(found["stats"], found["kernel"], out_dir)

@@ -134,7 +134,7 @@ def test_browser_engine_in_front_end(server, webgpu_browser):
             assert kernel_eval(page, "w.backend") == "browser"
             assert kernel_eval(page, "w.view.gpu_status['state']") == "ok"
         # culling off in the panel: every blade is drawn
-        for label in ("orientation culling", "frustum culling", "distance culling"):
+        for label in ("orientation culling", "frustum culling", "distance culling", "occlusion culling"):
             toggle_checkbox(page, label, False)
         poll(lambda: (_visible(page) or (0,))[0] == N_BLADES, "every blade visible with culling off", 30, 0.3,
              page=page)

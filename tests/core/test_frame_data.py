@@ -48,7 +48,15 @@ def test_kernel_buffers_hold_the_bytes_the_browser_is_sent():
         browser_sim[off["steps"][0]: off["steps"][0] + 4] = np.int32(7).tobytes()
         browser_sim[off["time0"][0]: off["time0"][0] + 4] = np.float32(0.25).tobytes()
         assert kernel_sim == bytes(browser_sim)
+        # The browser draws every frame in occlusion culling's two phases (occlusion_phase 1 while
+        # cull_occlusion is on); the kernel arms its first phase per render (render_frame).
+        assert field.cull_uniform_buffer.data.tobytes() != uniforms.cull_uniform(params, field.count)
+        field.occlusion.arm(1)
         assert field.cull_uniform_buffer.data.tobytes() == uniforms.cull_uniform(params, field.count)
+        off = uniforms.offsets(CULL_LAYOUT)["occlusion_phase"][0]
+        params.cull_occlusion = False
+        assert uniforms.cull_uniform(params, field.count)[off: off + 4] == bytes(4)
+        params.cull_occlusion = True
         # a change of params reaches both the same way
         params.cull_frustum = False
         params.color_by = "natural"
@@ -165,3 +173,38 @@ def test_engine_js_executes_the_python_clock_and_orbit_rules():
         assert np.allclose(jp, pp, atol=1e-9) and np.allclose(jt, pt, atol=1e-9), (p, t)
         moved += not np.allclose(pp, p)
     assert moved > 100  # most random poses were outside the limits
+
+
+_NODE_HZB_DRIVER = """
+import { readFileSync } from "node:fs";
+import { hzbLayout } from %s;
+const cases = JSON.parse(readFileSync(0, "utf8"));
+console.log(JSON.stringify(cases.sizes.map(([w, h]) => hzbLayout(w, h, cases.row_align))));
+"""
+
+
+def test_engine_js_lays_out_the_depth_pyramid_as_reference_hzb_layout():
+    """The browser engine sizes its occlusion pyramid per canvas with engine.js's hzbLayout
+    (the canvas size is only known there): the same layout as reference.hzb_layout for the
+    row alignment Python sends (BrowserShaders.occlusion's row_align)."""
+    from grasswidget.browser.wgsl import BrowserShaders
+    from grasswidget.core.reference import HZB_MAX_LEVELS, hzb_layout
+
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        pytest.skip("Node.js is not installed (runs engine.js's hzbLayout outside a browser)")
+    rng = np.random.default_rng(3)
+    sizes = [[1, 1], [1, 7], [2, 1], [63, 64], [64, 64], [65, 33], [320, 240], [640, 480], [1920, 1080],
+             [16384, 16384], [16384, 1]] + rng.integers(1, 5000, (60, 2)).tolist()
+    spec = BrowserShaders.occlusion()
+    url = (BROWSER_DIR / "engine.js").resolve().as_uri()
+    out = subprocess.run([node, "--input-type=module", "-e", _NODE_HZB_DRIVER % json.dumps(url)],
+                         input=json.dumps({"sizes": sizes, "row_align": spec["row_align"]}), capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    for (w, h), layout in zip(sizes, got):
+        assert [tuple(level) for level in layout] == hzb_layout(w, h), (w, h)
+    # the largest canvas Chromium allows still fits the level table Python sizes
+    assert max(len(layout) for layout in got) <= spec["max_levels"] == HZB_MAX_LEVELS
+    assert (4 * spec["row_align"]) % 256 == 0  # WebGPU copies depth into rows of a multiple of 256 bytes

@@ -122,14 +122,15 @@ def test_frustum_corners_invert_the_projection():
 
 def test_colours():
     all_colors = list(gw.CULL_COLORS.values())
-    assert list(gw.CULL_COLORS) == ["orientation", "frustum", "distance"]
-    assert len(set(all_colors)) == 3
+    assert list(gw.CULL_COLORS) == ["orientation", "frustum", "distance", "occlusion"]
+    assert len(set(all_colors)) == 4
     for c in all_colors:
         r, g, b = teaching.hex_to_rgb(c)
         assert not (g > r + 8 and g > b + 8), f"{c} looks green"  # the conftest grass test
     assert len(gw.LOD_COLORS) == len(ref.LOD_SEGMENTS) == len(set(gw.LOD_COLORS))
     rows = teaching.legend("lod")
-    assert [c for _, c in rows] == gw.LOD_COLORS and "8 segments" in rows[0][0]
+    assert [c for _, c in rows] == gw.LOD_COLORS + [teaching.COMPUTE_RASTER_COLOR] and "8 segments" in rows[0][0]
+    assert "compute" in rows[-1][0]  # the compute rasterizer's blades (GrassParams.compute_raster)
     assert [c for _, c in teaching.legend("cull")][1:] == all_colors
     assert teaching.legend("natural") == []
 

@@ -21,6 +21,9 @@ def _camera_matrices(scene):
 
 
 def _set(params, **kw):
+    """Set culling params; occlusion culling off unless asked (these tests compare the
+    other tests with reference.cull; tests/test_occlusion.py covers occlusion)."""
+    kw.setdefault("cull_occlusion", False)
     for k, v in kw.items():
         setattr(params, k, v)
 

@@ -15,7 +15,8 @@ SIZE = (400, 300)
 # Fixtures blades and scene (conftest): 1500 tall blades on 15 x 15 m (quad ribbons:
 # full width at their middle).
 BLADES = dict(count=1500, size=15.0, seed=7, height=(1.3, 2.5), width=(0.1, 0.14))
-SCENE = dict(size=SIZE, params=dict(blade_shape="quad", cull_distance_max=25.0, cull_buckets=10))
+# Occlusion off: these tests compare with reference.cull_reason (three tests); test_occlusion.py covers it.
+SCENE = dict(size=SIZE, params=dict(blade_shape="quad", cull_distance_max=25.0, cull_buckets=10, cull_occlusion=False))
 
 
 @pytest.fixture(autouse=True)

@@ -360,7 +360,34 @@ TWINS = {
     "blade_shape_t": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99)],
                       lambda u, v, shape, tau: _rows(ref.blade_shape_t, u, v, shape, tau), 1),
     "hash01": (lambda r: [r.integers(0, 2**32, N)], ref.hash01, 1),
+    "occlusion_bounds": (
+        lambda r: (lambda b: [b[0], b[1], b[2], _u(r, 0.0, 0.3), _view_proj(r),
+                              np.stack([_u(r, 100, 2000), _u(r, 100, 1200)], axis=1)])(_blade_state(r)),
+        lambda v0, v1, v2, rad, vp, size: _rows(lambda *a: ref.occlusion_bounds(*a), v0, v1, v2, rad, vp, size), 100),
+    "hzb_level": (lambda r: (lambda x, y: [np.stack([x, y, x + r.exponential(40.0, N), y + r.exponential(20.0, N)],
+                                                    axis=1)])(_u(r, 0, 800), _u(r, 0, 600)),
+                  ref.hzb_level, 0),
+    "blade_shade": (lambda r: [_unit(r), _unit(r), _u(r, 0, 1), _u(r, 0, 1), r.uniform(0, 1, (N, 3)),
+                               r.uniform(0, 1, (N, 3)), _u(r, 0, 1), _unit(r), _u(r, 0, 1)], ref.blade_shade, 1),
+    "clip_to_pixel": (lambda r: [_clip_points(r), _viewports(r)], ref.clip_to_pixel, 2000),
+    "raster_step": (lambda r: [r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)),
+                               _u(r, 0, 1)], ref.raster_step, 1),
+    "raster_span": (lambda r: [_clip_points(r), _clip_points(r), _clip_points(r), 0.01 * _clip_points(r) * [1, 1, 1, 0],
+                               _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99), _viewports(r)],
+                    ref.raster_span, 2000),
+    "raster_cover": (lambda r: [r.integers(0, 2**24, N), r.integers(0, 256, N), _u(r, 0, 20)], ref.raster_cover, 0),
+    "raster_payload": (lambda r: [r.integers(0, 2**24, N), _u(r, 0, 1)], ref.raster_payload, 0),
 }
+
+
+def _clip_points(rng):
+    """Clip-space points in front of the camera (w in [0.5, 5])."""
+    w = rng.uniform(0.5, 5.0, N)
+    return np.stack([rng.uniform(-1, 1, N) * w, rng.uniform(-1, 1, N) * w, rng.uniform(0, 1, N) * w, w], axis=1)
+
+
+def _viewports(rng):
+    return np.stack([rng.uniform(100, 2000, N), rng.uniform(100, 1200, N)], axis=1)
 
 
 def _to_wgsl_inputs(params, inputs):

@@ -129,7 +129,12 @@ def test_inspect_from_code_and_bad_input(widget):
     _show(widget)
     widget.inspect([3, 9])
     assert widget.inspected == (3, 9)
+    rows = widget.read_inspected()  # renders first: nothing was drawn since inspect
+    assert [r["id"] for r in rows] == [3, 9] and np.all(np.isfinite(rows[0]["v2"]))
     widget.view.draw()
+    for mine, theirs in zip(rows, widget.scene.read_inspected()):
+        assert mine.keys() == theirs.keys()
+        assert all(np.allclose(mine[k], theirs[k]) for k in mine)
     assert "blade 3:" in widget.panel.inspect_line.value and "blade 9:" in widget.panel.inspect_line.value
     for bad, match in [(list(range(65)), "at most 64"), ([1024], r"\[0, 1023\]"), ([0.5], "integers")]:
         with pytest.raises(ValueError, match=match):
@@ -141,24 +146,71 @@ def test_inspect_from_code_and_bad_input(widget):
     assert teaching.MAX_INSPECTED == 64
 
 
-def test_a_view_without_teaching_views_says_so_instead_of_failing():
-    """The browser engine has no inspector or freeze culling yet: its GrassView raises
-    FeatureNotAvailableError and the widget shows it on the message line instead of
-    failing; colour-by works there."""
-    from grasswidget.core.view_api import FeatureNotAvailableError
+def test_browser_widget_teaching_views_without_a_browser():
+    """The browser engine's teaching views, the Python side (the page: tests/browser/
+    test_browser_teaching.py): freezing sends the frozen camera in u_cull and its frustum
+    as line data; inspect sends the ids; bad ids change nothing; read_inspected with no
+    browser answering names the browser view; ctrl + click picks the blade on the ray."""
+    import struct
 
-    w = gw.GrassWidget(256, backend="browser", size=SIZE)
+    from grasswidget.browser.uniforms import CULL_LAYOUT
+    from grasswidget.core.uniform_layouts import INSPECT_LAYOUT, offsets
+    from grasswidget.errors import BrowserTimeoutError
+
+    w = gw.GrassWidget(256, backend="browser", size=SIZE, pixel_ratio=1)
     try:
-        with pytest.raises(FeatureNotAvailableError, match="blade inspector is not available in the browser"):
-            w.view.inspect([1])
-        w.inspect([1])
-        assert "the blade inspector is not available in the browser engine" in w.panel.message_line.value
-        assert w.inspected == ()
-        w.panel.message_line.value = ""
+        bv = w.view.browser_view
         w.culling_frozen = True
-        assert "freeze culling is not available in the browser engine" in w.panel.message_line.value
-        w.panel.message_line.value = ""
+        frozen = w.view.frozen_camera
+        assert frozen.viewport_size == (float(SIZE[0]), float(SIZE[1]))
+        cam = bv.camera
+        want = teaching.camera_view_proj(cam["position"], cam["target"], cam["fov_deg"], cam["near"], cam["far"],
+                                         SIZE[0] / SIZE[1])
+        assert np.allclose(frozen.view_proj, want)
+        at = offsets(CULL_LAYOUT)
+        assert struct.unpack_from("<i", bv.cull_uniform, at["frozen"][0])[0] == 1
+        sent = np.frombuffer(bv.cull_uniform, np.float32, 16, at["frozen_view_proj"][0]).reshape(4, 4)
+        assert np.allclose(sent.T, want, rtol=1e-6, atol=1e-6)  # column-major in WGSL
+        lines = np.frombuffer(bv.frustum_lines, np.float32).reshape(24, 3)
+        assert np.allclose(lines, teaching.frustum_segments(want), atol=1e-5)
+        assert "not available" not in w.panel.message_line.value
+        w.culling_frozen = False
+        assert bv.frustum_lines == b"" and struct.unpack_from("<i", bv.cull_uniform, at["frozen"][0])[0] == 0
+
+        w.inspect([5, 9])
+        assert w.inspected == (5, 9) and bv.inspected == [5, 9]
+        ids = np.frombuffer(bv.inspect_uniform, np.uint32, 3, offsets(INSPECT_LAYOUT)["ids"][0])
+        assert ids.tolist() == [5, 9, 0]
+        with pytest.raises(ValueError, match="at most 64"):
+            w.inspect(list(range(65)))
+        assert w.inspected == (5, 9)
+        with pytest.raises(BrowserTimeoutError, match="browser view"):
+            w.read_inspected(timeout=0.5)
+        w.inspect([])
+        assert w.read_inspected() == []
+
+        # ctrl + click: the browser sends the pointer's ray; the blade it passes through is inspected
+        b = bv.blades
+        k = 17
+        mid = b.v0[k] + 0.5 * b.height[k] * b.up[k]
+        eye = mid + np.array([0.0, 1.0, 6.0])
+        bv.handle_message({"type": "pick", "origin": eye.tolist(), "direction": (mid - eye).tolist()})
+        assert w.inspected == (k,)
+        bv.handle_message({"type": "pick", "origin": [0, 50, 0], "direction": [0, 1, 0]})  # the sky: nothing
+        assert w.inspected == (k,)
         w.params.color_by = "cull"
-        assert w.panel.message_line.value == ""  # colour by works in both engines
+        assert "not available" not in w.panel.message_line.value
     finally:
         w.close()
+
+
+def test_pick_blade_on_ray_is_the_nearest_blade_the_ray_passes():
+    v0 = np.array([[0.0, 0, 0], [0.0, 0, -2.0], [3.0, 0, 0]])
+    up = np.tile([0.0, 1, 0], (3, 1))
+    h = np.array([1.0, 1.0, 1.0])
+    width = np.full(3, 0.05)
+    # along -z at half height: passes blades 0 and 1, the nearest (0) is picked
+    assert teaching.pick_blade_on_ray(v0, up, h, width, (0, 0.5, 5), (0, 0, -1)) == 0
+    assert teaching.pick_blade_on_ray(v0, up, h, width, (0, 0.5, -5), (0, 0, 1)) == 1
+    assert teaching.pick_blade_on_ray(v0, up, h, width, (0, 1.5, 5), (0, 0, -1)) is None  # above the tips
+    assert teaching.pick_blade_on_ray(v0, up, h, width, (3.03, 0.2, 5), (0, 0, -1)) == 2  # within its width

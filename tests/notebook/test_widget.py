@@ -35,7 +35,7 @@ def test_layout_and_labels(widget):
     assert labels == {"blades", "wind_strength", "wind_direction", "wind_speed", "gravity", "stiffness_scale",
                       "time_scale"}
     assert [c.description for c in widget.checkboxes.values()] == [
-        "orientation culling", "frustum culling", "distance culling", "LOD"]
+        "orientation culling", "frustum culling", "distance culling", "occlusion culling", "LOD"]
     assert widget.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)
     texts = {b.description for b in (widget.play_button, widget.step_button, widget.reset_blades_button,
                                       widget.reset_camera_button, widget.save_button)}

@@ -1,0 +1,270 @@
+"""Occlusion culling in the kernel engine: two phases around a max-depth pyramid.
+
+The guarantee: a blade that would show is never culled, however the camera, the
+wind or a ball move between frames. :func:`render_frame` draws one frame as
+
+1. ``renderer.render(scene)`` with every armed field's culling in its *first phase*
+   (``u_cull.occlusion_phase = 1``): of the blades that pass the orientation,
+   frustum and distance tests, only those seen last frame are drawn (with the sky,
+   the ground and every other opaque object; translucent ``late`` objects wait).
+2. Outside render(), in one command buffer per field
+   (:meth:`OcclusionCulling.second_phase`): the depth buffer of step 1 is copied
+   into a max-depth pyramid (``hzb_build.wgsl``), and the culling runs again
+   (``cull.wgsl`` with ``occlusion = 2``): each blade that passes the other tests
+   is hidden when its nearest depth is farther than the pyramid over its screen
+   rect (``occlusion.wgsl``; the NumPy twin is ``reference.occlusion_cull``). The
+   ones not hidden and not drawn in step 1 are listed for step 3; "seen" becomes
+   "passes every test now" for the next frame.
+3. ``renderer.render(field.occlusion.draws)`` (no clear): those blades, and with
+   ``color_by = "cull"`` every culled blade in its test's colour (occlusion cyan).
+4. The translucent ``late`` objects (GrassScene's collider balls), with the lights.
+
+The pyramid holds only depths drawn in this frame with this camera; depth only
+gets nearer as more is drawn, so whatever it hides is hidden in the final picture:
+the picture is the one without occlusion culling (pixel for pixel, up to the order
+of equal-depth fragments). Motion only costs time: blades that became visible are
+found in step 2 and drawn in step 3.
+
+A plain ``renderer.render(scene)`` never arms the first phase, so it draws every
+blade that passes the other tests (occlusion culling off), as before.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+import pygfx as gfx
+import wgpu
+
+from .. import compat
+from ..errors import GrassValueError
+from ..core.reference import HZB_MAX_LEVELS, hzb_layout
+from .adapter import ensure_device
+from .compute import ComputeProgram, destroy_buffers, sync_buffer
+
+__all__ = ["OcclusionDraws", "OcclusionCulling", "render_frame", "MAX_HZB_LEVELS"]
+
+#: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
+MAX_HZB_LEVELS = HZB_MAX_LEVELS
+
+
+class OcclusionDraws(gfx.WorldObject):
+    """The second occlusion phase's draws of a GrassField: a child of the field (same
+    transform, same material), hidden except while :func:`render_frame` renders it."""
+
+    def __init__(self, field):
+        super().__init__(field.geometry, field.material)
+        self._field_ref = weakref.ref(field)
+        self.visible = False
+
+    @property
+    def field(self):
+        """The GrassField whose blades these draws show."""
+        return self._field_ref()
+
+
+class OcclusionCulling:
+    """The occlusion culling state of one GrassField: the depth pyramid, its level
+    table, the second phase's compute programs and draws (:attr:`draws`)."""
+
+    def __init__(self, field):
+        self._field_ref = weakref.ref(field)
+        #: The field's second-phase draws (an :class:`OcclusionDraws` child of the field).
+        self.draws = OcclusionDraws(field)
+        field.add(self.draws)
+        usage = wgpu.BufferUsage
+        #: The max-depth pyramid, all levels in one float32 buffer (reference.hzb_layout).
+        self.hzb_buffer = gfx.Buffer(nbytes=4, nitems=1, format="f4", usage=usage.STORAGE | usage.COPY_DST)
+        #: [levels, width, height, 0], then (offset, width, height, pitch) per level (u32).
+        self.levels_buffer = gfx.Buffer(np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32), usage=usage.STORAGE)
+        #: Set by GrassField.freeze_culling: a copy of the frozen camera whose view the
+        #: next render_frame renders once to find the blades it hides (then None).
+        self.capture_camera = None
+        self.size = None
+        self.layout = None
+        self._level_programs = None
+        self._cull_programs = None
+        self._cull_key = None
+
+    @property
+    def field(self):
+        return self._field_ref()
+
+    # ------------------------------------------------------------------ first phase
+
+    def arm(self, phase: int):
+        """Set ``u_cull.occlusion_phase`` for the next render (1: first phase, 0: off)."""
+        self._set_uniform("occlusion_phase", phase)
+
+    def _set_uniform(self, name, value):
+        data = self.field.cull_uniform_buffer.data
+        if int(data[name]) != value:
+            data[name] = value
+            self.field.cull_uniform_buffer.update_full()
+
+    def capture(self, renderer, scene):
+        """Render ``scene`` once with :attr:`capture_camera` (the frozen view), culling
+        against that camera, so that the seen flags are the frozen view's (no flush:
+        the frame that follows clears the target)."""
+        camera, self.capture_camera = self.capture_camera, None
+        if camera is None:
+            return
+        try:
+            self._set_uniform("frozen", 0)  # cull against the render camera: the frozen view itself
+            self.arm(1)
+            renderer.render(scene, camera, flush=False)
+            self.second_phase(renderer)
+        finally:
+            self.arm(0)
+            self._set_uniform("frozen", 1)
+
+    # ------------------------------------------------------------------ second phase
+
+    def _ensure_size(self, width, height):
+        if self.size == (width, height):
+            return
+        layout = hzb_layout(width, height)
+        if len(layout) > MAX_HZB_LEVELS:
+            raise GrassValueError(f"occlusion culling supports views up to {2 ** (MAX_HZB_LEVELS - 1)} pixels wide "
+                                  f"and high; got {width} x {height}")
+        last = layout[-1]
+        total = last[0] + last[1] * last[2]
+        old = self.hzb_buffer
+        usage = wgpu.BufferUsage
+        self.hzb_buffer = gfx.Buffer(nbytes=4 * total, nitems=total, format="f4",
+                                     usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC)
+        destroy_buffers([old])
+        table = np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32)
+        table[0] = (len(layout), width, height, 0)
+        table[1: len(layout) + 1] = layout
+        self.levels_buffer.data[:] = table
+        self.levels_buffer.update_full()
+        self.size, self.layout = (width, height), layout
+        self._level_programs = self._cull_programs = None
+
+    def _programs(self):
+        from .shaders import CullShader, HzbLevelShader, RasterShader
+
+        field = self.field
+        if self._level_programs is None:
+            self._level_programs = [ComputeProgram(HzbLevelShader(field, k), field) for k in range(1, len(self.layout))]
+        key = (id(self.hzb_buffer), id(field.culled_buffer), id(field.raster_list_buffer),
+               id(field.raster_depth_buffer))
+        if self._cull_programs is None or key != self._cull_key:
+            self._cull_programs = [ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
+                                   ComputeProgram(RasterShader(field, "depth", second=True), field),
+                                   ComputeProgram(RasterShader(field, "payload", second=True), field)]
+            self._cull_key = key
+        return self._level_programs, self._cull_programs
+
+    def second_phase(self, renderer) -> bool:
+        """Build the pyramid from ``renderer``'s depth buffer and run the second
+        culling phase (one submission). False when the renderer has no depth yet."""
+        from .wgsl import workgroups
+
+        depth = compat.renderer_depth_texture(renderer)
+        if depth is None:
+            return False
+        width, height = int(depth.size[0]), int(depth.size[1])
+        self._ensure_size(width, height)
+        levels, (cull, raster_depth, raster_payload) = self._programs()
+        device = ensure_device()
+        hzb = sync_buffer(self.hzb_buffer)
+        sync_buffer(self.levels_buffer)
+        enc = device.create_command_encoder()
+        enc.copy_texture_to_buffer(
+            {"texture": depth, "mip_level": 0, "origin": (0, 0, 0), "aspect": "depth-only"},
+            {"buffer": hzb, "offset": 0, "bytes_per_row": 4 * self.layout[0][3], "rows_per_image": height},
+            (width, height, 1),
+        )
+        cp = enc.begin_compute_pass()
+        for program, (_, w, h, _) in zip(levels, self.layout[1:]):
+            program.dispatch(cp, (-(-w // 8), -(-h // 8), 1))
+        cull.dispatch(cp, workgroups(self.field.count))
+        if self.field.compute_raster_active:  # the thin blades this phase found (cull.wgsl, raster.wgsl)
+            raster_depth.dispatch(cp, workgroups(self.field.count))
+            raster_payload.dispatch(cp, workgroups(self.field.count))
+        cp.end()
+        device.queue.submit([enc.finish()])
+        return True
+
+    def read_hzb(self) -> list:
+        """The pyramid of the last frame as a list of (height, width) float32 arrays,
+        level 0 (the depth buffer) first (synchronous; for tests and teaching)."""
+        if self.layout is None:
+            return []
+        raw = np.frombuffer(ensure_device().queue.read_buffer(sync_buffer(self.hzb_buffer)), np.float32)
+        out = []
+        for offset, w, h, pitch in self.layout:
+            out.append(raw[offset: offset + pitch * h].reshape(h, pitch)[:, :w].copy())
+        return out
+
+    def release(self):
+        destroy_buffers([self.hzb_buffer, self.levels_buffer])
+        self._level_programs = self._cull_programs = None
+
+
+def _fields(scene):
+    out = []
+    scene.traverse(lambda ob: out.append(ob) if isinstance(getattr(ob, "occlusion", None), OcclusionCulling) else None,
+                   skip_invisible=True)
+    return out
+
+
+def render_frame(renderer, scene, camera, late=()):
+    """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
+    occlusion culling for every visible GrassField of the scene whose
+    ``params.cull_occlusion`` is on (see the module docstring for the phases).
+
+    ``late``: direct children of ``scene`` drawn after the second phase (translucent
+    objects that write no depth, e.g. collider balls), with the scene's lights. With
+    no armed field this is one plain ``renderer.render(scene, camera)``.
+
+    Every visible GrassField is first set up for the renderer's size
+    (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
+    when ``params.compute_raster`` is on).
+    """
+    all_fields = _fields(scene)
+    for field in all_fields:
+        field.prepare_compute_raster(renderer.physical_size)
+    fields = [f for f in all_fields if f.params.cull_occlusion]
+    if not fields:
+        renderer.render(scene, camera)
+        return
+    capturing = [f for f in fields if f.occlusion.capture_camera is not None]
+    for field in capturing:
+        field.occlusion.capture(renderer, scene)
+    late = [ob for ob in late if ob.visible]
+    for ob in late:
+        if ob.parent is not scene:
+            raise GrassValueError("render_frame: the late objects must be direct children of the scene")
+    try:
+        for ob in late:
+            ob.visible = False
+        for field in fields:
+            field.occlusion.arm(1)
+        renderer.render(scene, camera, clear=True, flush=False)
+    finally:
+        for ob in late:
+            ob.visible = True
+        for field in fields:
+            field.occlusion.arm(0)
+    for field in fields:
+        if field.occlusion.second_phase(renderer):
+            draws = field.occlusion.draws
+            draws.visible = True
+            try:
+                renderer.render(draws, camera, clear=False, flush=False)
+            finally:
+                draws.visible = False
+    if late:
+        hidden = [ob for ob in scene.children if ob not in late and not isinstance(ob, gfx.Light) and ob.visible]
+        try:
+            for ob in hidden:
+                ob.visible = False
+            renderer.render(scene, camera, clear=False, flush=False)
+        finally:
+            for ob in hidden:
+                ob.visible = True
+    renderer.flush()

@@ -1,0 +1,108 @@
+// The compute rasterizer of thin blades (GrassParams.compute_raster): one thread per
+// blade of the list cull.wgsl wrote (s_raster, count s_raster_args[0]) walks its curve
+// on screen with its tapered width and depth-tests each pixel with 32-bit atomics into
+// two per-pixel buffers of u_cull.raster_width x raster_height:
+//
+// step "clear": every pixel's depth word to RASTER_EMPTY, its payload to 0, and the
+//   list counters to 0 (before the culling pass of the frame).
+// step "depth": atomicMin of the depth's float bits (0 < depth <= 1: the bits of a
+//   positive float order like the float, so the full 32-bit depth is kept).
+// step "payload": the same walk again; where the pixel's depth word is this blade's
+//   depth, atomicMax of raster_payload(blade, v) (the nearest blade wins; equal depths:
+//   the larger payload, so the result never depends on thread order).
+// A resolve pass (raster_resolve.wgsl) then shades each covered pixel with the
+// ribbons' shading (blade_shade) and writes its depth, so everything else in the
+// scene composites with the ordinary depth test.
+//
+// Occlusion culling's second phase (template variable second) appends its blades to
+// the same list: the first phase's payload step records where its part ends
+// (s_raster_args[1]) and the second phase's steps walk only the rest.
+//
+// The per-blade walk is reference.raster_walk (its NumPy twin), built from the
+// blade_math functions raster_step, raster_span, raster_cover, raster_payload.
+//
+// Engine-neutral body: the engine declares (before this file) u_stdinfo
+// (projection_transform, cam_transform, physical_size), u_wobject (world_transform),
+// u_cull (CULL_LAYOUT: raster_width, raster_height, raster_blade_shape,
+// raster_tip_threshold), s_blades (array<vec4<f32>>, read), s_raster (array<u32>, read),
+// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>).
+
+{$ include 'grasswidget.blade.wgsl' $}
+{$ include 'grasswidget.blade_math.wgsl' $}
+
+const RASTER_EMPTY: u32 = 0xffffffffu;
+
+$$ if step != "clear"
+fn raster_blade(blade_id: u32) {
+    let rec = load_blade(blade_id);
+    let mvp = u_stdinfo.projection_transform * u_stdinfo.cam_transform * u_wobject.world_transform;
+    let c0 = mvp * vec4<f32>(rec.v0, 1.0);
+    let c1 = mvp * vec4<f32>(rec.v1, 1.0);
+    let c2 = mvp * vec4<f32>(rec.v2, 1.0);
+    let across = mvp * vec4<f32>(rec.width * width_direction(rec.up, rec.orientation), 0.0);
+    let size = vec2<f32>(u_cull.raster_width, u_cull.raster_height);
+    let width = u32(size.x);
+    let s0 = clip_to_pixel(c0, size).xy;
+    let s1 = clip_to_pixel(c1, size).xy;
+    let s2 = clip_to_pixel(c2, size).xy;
+    var v = 0.0;
+    for (var s = 0u; s <= u32({{ raster_max_samples }}); s += 1u) {
+        let span = raster_span(c0, c1, c2, across, v, u_cull.raster_blade_shape, u_cull.raster_tip_threshold, size);
+        let m = raster_cover(blade_id, s, length(span.b.xy - span.a.xy));
+        for (var j = 0u; j < m; j += 1u) {
+            let p = span.a + (span.b - span.a) * ((f32(j) + 0.5) / f32(m));
+            let px = floor(p.xy);
+            if (px.x < 0.0 || px.y < 0.0 || px.x >= size.x || px.y >= size.y || !(p.z > 0.0 && p.z <= 1.0)) {
+                continue;
+            }
+            let index = u32(px.y) * width + u32(px.x);
+            let depth = bitcast<u32>(p.z);
+            $$ if step == "depth"
+            atomicMin(&s_raster_depth[index], depth);
+            $$ else
+            if (atomicLoad(&s_raster_depth[index]) == depth) {
+                atomicMax(&s_raster_payload[index], raster_payload(blade_id, v));
+            }
+            $$ endif
+        }
+        if (v >= 1.0) {
+            break;
+        }
+        v = min(v + raster_step(s0, s1, s2, v), 1.0);
+    }
+}
+$$ endif
+
+@compute @workgroup_size({{ workgroup_size }})
+fn main(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
+    $$ if step == "clear"
+    if (i == 0u) {
+        atomicStore(&s_raster_args[0], 0u);
+        atomicStore(&s_raster_args[1], 0u);
+    }
+    if (i < u32(u_cull.raster_width) * u32(u_cull.raster_height)) {
+        atomicStore(&s_raster_depth[i], RASTER_EMPTY);
+        atomicStore(&s_raster_payload[i], 0u);
+    }
+    $$ else
+    let end = atomicLoad(&s_raster_args[0]);
+    $$ if second
+    let first = atomicLoad(&s_raster_args[1]);
+    $$ else
+    let first = 0u;
+    $$ if step == "payload"
+    if (i == 0u) {
+        atomicStore(&s_raster_args[1], end);  // where the second occlusion phase's blades start
+    }
+    $$ endif
+    $$ endif
+    if (first + i < end) {
+        raster_blade(s_raster[first + i]);
+    }
+    $$ endif
+}

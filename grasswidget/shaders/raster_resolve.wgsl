@@ -1,0 +1,82 @@
+// The compute rasterizer's resolve (raster.wgsl): one full-screen draw. Each pixel
+// a compute-rasterized blade covers is shaded like the ribbons shade it
+// (blade_math.blade_shade at the blade's curve point v, with the ribbon's normal and
+// per-blade variation) and written with that blade's depth (frag_depth), so the
+// ordinary depth test composites it with the hardware-drawn blades, the ground and
+// sky, the balls and any other object. Pixels no such blade covers are discarded.
+//
+// With teaching_views and u_cull.color_by "lod", these blades are flat in
+// RASTER_COLOR (teaching.COMPUTE_RASTER_COLOR: "drawn in compute").
+//
+// Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material,
+// s_blades, s_raster_depth and s_raster_payload (array<u32>, read).
+
+{$ include 'pygfx.std.wgsl' $}
+{$ include 'grasswidget.blade.wgsl' $}
+{$ include 'grasswidget.blade_math.wgsl' $}
+
+$$ if teaching_views
+const RASTER_COLOR = vec3<f32>({{ raster_color }});
+$$ endif
+
+struct VertexInput {
+    @builtin(vertex_index) index : u32,
+};
+
+@vertex
+fn vs_main(in: VertexInput) -> Varyings {
+    var positions = array<vec2<f32>, 4>(
+        vec2<f32>(-1.0, -1.0),
+        vec2<f32>( 1.0, -1.0),
+        vec2<f32>(-1.0,  1.0),
+        vec2<f32>( 1.0,  1.0),
+    );
+    var varyings: Varyings;
+    varyings.position = vec4<f32>(positions[i32(in.index)], 0.5, 1.0);
+    return varyings;
+}
+
+@fragment
+fn fs_main(varyings: Varyings) -> FragmentOutput {
+    let pixel = vec2<u32>(floor(varyings.position.xy));
+    if (pixel.x >= u32(u_cull.raster_width) || pixel.y >= u32(u_cull.raster_height)) {
+        discard;
+    }
+    let index = pixel.y * u32(u_cull.raster_width) + pixel.x;
+    let depth = s_raster_depth[index];
+    if (depth == 0xffffffffu) {
+        discard;
+    }
+    let payload = s_raster_payload[index];
+    let blade = payload >> 8u;
+    let v = f32(payload & 255u) / 255.0;
+    let rec = load_blade(blade);
+    // The ribbon's curve point, tangent and normal at v (blade_render.wgsl).
+    let a = rec.v0 + v * (rec.v1 - rec.v0);
+    let b = rec.v1 + v * (rec.v2 - rec.v1);
+    let c = a + v * (b - a);
+    let t1 = width_direction(rec.up, rec.orientation);
+    var t0 = b - a;
+    if (dot(t0, t0) < 1e-12) { t0 = rec.up; }
+    let n = cross(normalize(t0), t1);
+    let world_pos = (u_wobject.world_transform * vec4<f32>(c, 1.0)).xyz;
+    let world_normal = (u_wobject.world_transform * vec4<f32>(n, 0.0)).xyz;
+    let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+    var rgb = blade_shade(world_normal, normalize(cam_pos - world_pos), v, hash01(blade),
+                          u_material.root_color.rgb, u_material.tip_color.rgb, u_material.color_variation,
+                          u_material.light_direction.xyz, u_material.ambient);
+    $$ if teaching_views
+    if (u_cull.color_by == {{ color_by_lod }}) { rgb = RASTER_COLOR; }
+    $$ endif
+
+    var out: FragmentOutput;
+    out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);
+    out.depth = bitcast<f32>(depth);
+    $$ if write_pick
+    out.pick = (
+        pick_pack(u32(u_wobject.global_id), 20) +
+        pick_pack(blade, 26)
+    );
+    $$ endif
+    return out;
+}

@@ -1,0 +1,261 @@
+"""The compute rasterizer of thin blades (GrassParams.compute_raster): the GPU's walk
+against its NumPy reference blade for blade, and the picture with it against the
+picture without it (at rest, while the camera moves, against a ball and a pygfx mesh)."""
+
+import numpy as np
+import pygfx as gfx
+import pytest
+
+import grasswidget as gw
+from grasswidget import reference as ref
+from grasswidget import teaching
+from grasswidget.core.enums import BladeShape
+from grasswidget.gpu.adapter import ensure_device
+from grasswidget.gpu.compute import sync_buffer
+from conftest import grass_mask
+
+SIZE = (192, 108)
+
+
+@pytest.fixture(scope="module")
+def meadow():
+    sc = gw.GrassScene.preset("meadow", blades=1 << 14, size=SIZE, seed=2)
+    sc.params.compute_raster = True  # GrassScene's default is off on a CPU adapter (lavapipe here)
+    yield sc
+    sc.release()
+
+
+def _on_off(scene):
+    """(picture with the compute rasterizer, picture without, blades it drew): same state and camera."""
+    p = scene.params
+    p.compute_raster = True
+    on = scene.render()
+    rastered = scene.drawn_counts()["compute"]
+    p.compute_raster = False
+    off = scene.render()
+    assert scene.drawn_counts()["compute"] == 0
+    p.compute_raster = True
+    return on, off, rastered
+
+
+def _mean_difference(a, b, block=4):
+    """Mean |a - b| (0..255) of the pictures' 4 x 4-pixel block means: the look. Pixel by
+    pixel, two renders of sub-pixel grass differ in which blade wins each pixel (the
+    ribbons' own LOD classes differ from full detail by 5.6 per pixel, 2.0 per block)."""
+    h, w = a.shape[0] // block * block, a.shape[1] // block * block
+
+    def blocks(x):
+        return x[:h, :w, :3].astype(float).reshape(h // block, block, w // block, block, 3).mean(axis=(1, 3))
+
+    return float(np.abs(blocks(a) - blocks(b)).mean())
+
+
+def _read_u32(buffer):
+    return np.frombuffer(ensure_device().queue.read_buffer(sync_buffer(buffer)), np.uint32)
+
+
+def test_gpu_walk_matches_the_numpy_reference(meadow):
+    """The depth and payload words the GPU wrote for the listed blades are
+    reference.raster_blades of those blades (same clip-space control points)."""
+    p = meadow.params
+    p.compute_raster = True
+    p.compute_raster_max_px = 3.0
+    p.cull_occlusion = False  # one phase: the list is the whole frame's
+    try:
+        meadow.render()
+        field = meadow.field
+        ids = field.read_rastered()
+        assert len(ids) > 1000
+        w, h = field.raster_size
+        assert (w, h) == SIZE
+        depth = _read_u32(field.raster_depth_buffer).reshape(h, w)
+        payload = _read_u32(field.raster_payload_buffer).reshape(h, w)
+        state = field.read_state()
+        cam = meadow.camera
+        mvp = (np.asarray(cam.projection_matrix, np.float64) @ np.asarray(cam.view_matrix, np.float64)
+               @ np.asarray(field.world.matrix, np.float64))
+        shape = int(BladeShape.from_label(field.material.blade_shape))
+        tau = field.material.tip_threshold
+        # A few blades alone, each against the GPU's words where it won the pixel. A listed
+        # blade may write no pixel at all (a sub-pixel span whose coverage draw gives 0
+        # points, or a blade whose only points fall outside the view): those are skipped
+        # here and checked with the rest in the whole-frame comparison below.
+        wins = []
+        sampled = ids[:: max(1, len(ids) // 60)][:60]
+        for blade in sampled:
+            if len(wins) == 12:
+                break
+            b = int(blade)
+            c = [mvp @ np.append(state[k][b], 1.0) for k in ("v0", "v1", "v2")]
+            across = mvp @ np.append(state["width"][b] * ref.width_direction(state["up"][b], state["orientation"][b]), 0.0)
+            alone_depth, alone_payload = ref.raster_blades([(*c, across, b, shape, tau)], (w, h))
+            ys, xs = np.nonzero(np.isfinite(alone_depth))
+            if len(xs) == 0:
+                continue
+            won = (payload[ys, xs] >> 8) == b
+            wins.append(won.mean())
+            ds = alone_depth[ys, xs]
+            assert np.allclose(depth[ys, xs].view(np.float32)[won], ds[won], atol=2e-6)
+            assert np.all(np.abs((payload[ys, xs][won] & 255).astype(int) - (alone_payload[ys, xs][won] & 255)) <= 1)
+            # where another blade won, it is nearer
+            assert np.all(depth[ys, xs][~won].view(np.float32) <= ds[~won] + 2e-6)
+        assert len(wins) == 12  # most listed blades write pixels
+        assert sum(w > 0 for w in wins) >= 4  # blades that show somewhere (the rest: behind nearer ones)
+        # All listed blades together: the covered pixels are the reference's.
+        blades = []
+        for b in map(int, ids):
+            c = [mvp @ np.append(state[k][b], 1.0) for k in ("v0", "v1", "v2")]
+            across = mvp @ np.append(state["width"][b] * ref.width_direction(state["up"][b], state["orientation"][b]), 0.0)
+            blades.append((*c, across, b, shape, tau))
+        ref_depth, ref_payload = ref.raster_blades(blades, (w, h))
+        gpu_covered = depth != ref.RASTER_EMPTY
+        ref_covered = np.isfinite(ref_depth)
+        assert gpu_covered.sum() > 2000
+        # float32 rounding may move a point across a pixel border: a few pixels differ
+        assert (gpu_covered ^ ref_covered).sum() <= 0.01 * ref_covered.sum()
+        both = gpu_covered & ref_covered
+        assert np.mean(np.abs(depth[both].view(np.float32) - ref_depth[both]) < 1e-5) > 0.98
+        assert np.mean(payload[both] >> 8 == ref_payload[both] >> 8) > 0.95
+    finally:
+        p.compute_raster_max_px = gw.GrassParams().compute_raster_max_px
+        p.cull_occlusion = True
+
+
+def test_walk_reference_covers_a_curve_without_gaps():
+    """Bent blades seen face on: every pixel row between root and tip is written (no
+    gaps where the curve is fast or slow on screen), and the pixels written are about
+    the blade's area (sub-pixel widths included: coverage, not a 1-pixel line)."""
+    size = (200, 200)
+    c0 = np.array([0.0, -0.6, 0.5, 1.0])
+    c1 = np.array([0.0, 0.3, 0.5, 1.0])  # v1 high above the root: fast at the root, slow at the tip
+    c2 = np.array([0.25, 0.4, 0.5, 1.0])
+    length = 116.0  # pixels along the curve (about)
+    for width_px in (0.4, 0.8, 1.0, 2.0, 3.0):
+        across = np.array([width_px / size[0], 0.0, 0.0, 0.0])  # full width width_px pixels
+        written = []
+        for blade in range(40):
+            xs, ys, ds, vs = ref.raster_walk(c0, c1, c2, across, blade, int(BladeShape.QUAD), 0.5, size)
+            written.append(len(set(zip(xs, ys))))
+            if width_px >= 1.0:
+                assert set(range(ys.min(), ys.max() + 1)) == set(ys)  # no row missing
+            assert np.allclose(ds, 0.5)
+        assert np.mean(written) == pytest.approx(width_px * length, rel=0.2), width_px
+
+
+def test_picture_at_rest_is_the_hardware_one(meadow):
+    meadow.reset_camera()
+    on, off, rastered = _on_off(meadow)
+    assert rastered > 0.3 * meadow.visible_count()
+    assert _mean_difference(on, off) < 3.5
+    # no holes: where the ribbons draw grass, so does the compute path (per row: the far
+    # rows are the compute-drawn ones; sub-pixel coverage differs pixel by pixel)
+    rows_on, rows_off = grass_mask(on).mean(axis=1), grass_mask(off).mean(axis=1)
+    assert np.all(rows_on >= rows_off - 0.15)
+    # never less grass; a little more (the LOD ribbons' 1-segment blades are narrower at the top)
+    assert -0.01 < grass_mask(on).mean() - grass_mask(off).mean() < 0.08
+
+
+def test_picture_while_the_camera_moves(meadow):
+    """The camera moves each frame with occlusion culling on (compute-drawn blades go
+    through both phases and into the depth pyramid) and the wind blows."""
+    meadow.reset_camera()
+    meadow.params.wind_strength = 12.0
+    home = np.array(meadow.camera.local.position)
+    try:
+        for k in range(4):
+            meadow.camera.local.position = tuple(home + (1.5 * k, 0.4 * k, -2.0 * k))
+            meadow.camera.look_at(tuple(home + (1.5 * k + 0.5, -2.0, -20.0)))
+            meadow.step(4)
+            on, off, rastered = _on_off(meadow)
+            assert rastered > 0
+            assert _mean_difference(on, off) < 3.5
+            # no holes: never less grass; a little more (the LOD ribbons' 1-segment blades are narrower at the top)
+            assert -0.01 < grass_mask(on).mean() - grass_mask(off).mean() < 0.08
+    finally:
+        meadow.params.wind_strength = gw.GrassParams().wind_strength
+        meadow.reset_camera()
+
+
+def _red_mask(img):
+    rgb = img[..., :3].astype(int)
+    return (rgb[..., 0] > 120) & (rgb[..., 1] < 60) & (rgb[..., 2] < 60)
+
+
+def test_depth_against_a_pygfx_mesh(meadow):
+    """An opaque red box standing in the far grass: its lower part is hidden by the
+    compute-drawn blades in front of it, and it hides the blades behind it, as with ribbons."""
+    meadow.reset_camera()
+    cam = np.array(meadow.camera.local.position)
+    forward = -np.asarray(meadow.camera.world.matrix, np.float64)[:3, 2]
+    forward[1] = 0.0
+    forward /= np.linalg.norm(forward)
+    box = gfx.Mesh(gfx.box_geometry(3.0, 1.2, 0.3), gfx.MeshBasicMaterial(color="#ff0000"))
+    centre = cam + 30.0 * forward
+    box.local.position = (centre[0], 0.6, centre[2])
+    meadow.scene.add(box)
+    try:
+        on, off, rastered = _on_off(meadow)
+        red_on, red_off = _red_mask(on), _red_mask(off)
+        assert red_off.sum() > 20
+        # the box's pixels are the same: grass in front of its foot covers it in both
+        assert (red_on ^ red_off).sum() <= 0.15 * red_off.sum()
+        rows = np.flatnonzero(red_off.any(axis=1))
+        foot = rows[-3:]  # the box's lowest rows: grass in front hides part of them
+        assert red_on[foot].mean() < 0.9 and red_off[foot].mean() < 0.9
+        # and no blade behind the box shows through it: its upper rows are solid red
+        top = rows[: max(len(rows) // 3, 1)]
+        cols = np.flatnonzero(red_off[top].all(axis=0))
+        assert len(cols) > 3 and red_on[np.ix_(top, cols)].all()
+    finally:
+        meadow.scene.remove(box)
+
+
+def test_depth_against_a_ball(meadow):
+    """A collider ball sunk into the far grass is drawn over what is behind it and
+    under the compute-drawn blades in front of it, as with ribbons."""
+    meadow.reset_camera()
+    cam = np.array(meadow.camera.local.position)
+    forward = -np.asarray(meadow.camera.world.matrix, np.float64)[:3, 2]
+    forward[1] = 0.0
+    forward /= np.linalg.norm(forward)
+    centre = cam + 25.0 * forward
+    meadow.colliders = [gw.SphereCollider((centre[0], 0.3, centre[2]), 1.0)]
+    try:
+        on, off, _ = _on_off(meadow)
+        meadow.show_colliders = False
+        no_ball = meadow.render()
+        meadow.show_colliders = True
+        ball_on = np.abs(on[..., :3].astype(int) - no_ball[..., :3].astype(int)).max(axis=2) > 24
+        meadow.params.compute_raster = False
+        meadow.show_colliders = False
+        no_ball_off = meadow.render()
+        meadow.show_colliders = True
+        meadow.params.compute_raster = True
+        ball_off = np.abs(off[..., :3].astype(int) - no_ball_off[..., :3].astype(int)).max(axis=2) > 24
+        assert ball_off.sum() > 30
+        assert (ball_on ^ ball_off).sum() <= 0.2 * ball_off.sum()
+    finally:
+        meadow.colliders = []
+
+
+def test_teaching_colour_and_counts(meadow):
+    """color_by "lod": the compute-drawn blades are flat in COMPUTE_RASTER_COLOR; the
+    counts of both paths add up to the blades drawn without it."""
+    meadow.reset_camera()
+    p = meadow.params
+    p.cull_occlusion = False
+    try:
+        p.color_by = "lod"
+        img = meadow.render()
+        white = (img[..., :3] >= 250).all(axis=2)
+        counts = meadow.drawn_counts()
+        assert counts["compute"] > 0 and white.mean() > 0.01
+        p.compute_raster = False
+        img_off = meadow.render()
+        assert (img_off[..., :3] >= 250).all(axis=2).mean() < 0.2 * white.mean()
+        assert meadow.drawn_counts()["hardware"] == counts["hardware"] + counts["compute"]
+        assert teaching.legend("lod")[-1][1] == teaching.COMPUTE_RASTER_COLOR
+    finally:
+        p.color_by = "natural"
+        p.compute_raster = True
+        p.cull_occlusion = True

@@ -1,0 +1,131 @@
+"""Blade-count changes from a comm subshell's thread while frames stream (the soak's crash).
+
+JupyterLab 4.4+ sends widget comm messages to an ipykernel 7 subshell (setting
+``commsOverSubshells``, "perCommTarget" by default): the blades slider's
+``set_blades`` runs on the subshell's thread while the canvas draws on the
+kernel's main event loop. Before the fix, the swap released the old field's GPU
+buffers in the middle of a frame that still used them, and wgpu-native aborted the
+process ("Buffer with '' label has been destroyed" in ``wgpuQueueSubmit``).
+
+The sequence runs in a subprocess (an abort kills the process): the main thread's
+event loop draws and sends frames the way jupyter-rfb asks for them; another
+thread waits until a frame is being drawn and changes the blade count then, for
+every change. The process must exit 0, log no draw error, and send a frame of
+grass after every change.
+"""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("jupyter_rfb")
+
+ROOT = Path(__file__).resolve().parents[2]
+#: Blade-count changes made mid-frame (before the fix the first one or two aborted).
+SWAPS = 6
+COUNTS = (2048, 3072)
+
+SCRIPT = r"""
+import asyncio, json, logging, sys, threading, time
+import numpy as np
+import pygfx, rendercanvas, wgpu  # noqa: F401  (their loggers exist before ours are attached)
+import grasswidget as gw
+
+SWAPS, COUNTS = int(sys.argv[1]), (int(sys.argv[2]), int(sys.argv[3]))
+errors = []
+
+class Record(logging.Handler):
+    def emit(self, record):
+        errors.append(record.getMessage()[:300])
+
+for name in ("rendercanvas", "wgpu", "pygfx"):
+    logging.getLogger(name).addHandler(Record(level=logging.ERROR))
+
+
+async def main():
+    w = gw.GrassWidget(blades=COUNTS[0], size=(160, 120))
+    canvas = w.canvas
+    canvas.handle_event({"event_type": "resize", "width": 160, "height": 120, "pixel_ratio": 1.0})
+    w.ball.enabled = True
+    w.ball.rolling = True
+    w.playing = True
+    sent = []
+    send = canvas.send_frame
+    def counting_send(array):
+        sent.append(np.asarray(array).copy())
+        send(array)
+    canvas.send_frame = counting_send
+    in_frame = threading.Event()
+    get_frame = canvas.get_frame
+    def watched_get_frame():  # what jupyter-rfb calls when the browser is ready for a frame
+        in_frame.set()
+        try:
+            return get_frame()
+        finally:
+            in_frame.clear()
+    canvas.get_frame = watched_get_frame
+    done, swaps, thread_errors = threading.Event(), [], []
+
+    def subshell():  # the comm subshell: the blades slider moves while a frame is drawn
+        try:
+            for k in range(SWAPS):
+                count = COUNTS[(k + 1) % 2]
+                before = len(sent)
+                in_frame.wait(60)
+                time.sleep(0.02)  # well inside the frame's step + render
+                w.set_blades(count)
+                swaps.append(count)
+                t_end = time.monotonic() + 60
+                while len(sent) < before + 2 and time.monotonic() < t_end:
+                    time.sleep(0.01)  # a frame of the new field reaches the browser
+        except BaseException as exc:
+            thread_errors.append(repr(exc))
+        finally:
+            done.set()
+
+    worker = threading.Thread(target=subshell, name="comm-subshell")
+    worker.start()
+    while not done.is_set():
+        count = len(sent)
+        canvas.get_frame()
+        for _ in range(2000):  # the pixels arrive through the GPU download's promise
+            if len(sent) > count or done.is_set():
+                break
+            await asyncio.sleep(0.001)
+    worker.join()
+    count = len(sent)
+    canvas.get_frame()
+    while len(sent) == count:
+        await asyncio.sleep(0.001)
+    last = sent[-1][..., :3].astype(np.int32)
+    grass = (last[..., 1] > last[..., 0] + 8) & (last[..., 1] > last[..., 2] + 8)
+    print("RESULT " + json.dumps({
+        "frames": len(sent), "swaps": swaps, "blade_count": w.blade_count, "errors": errors,
+        "thread_errors": thread_errors, "grass_fraction": float(grass.mean()),
+        "last_shape": list(sent[-1].shape)}), flush=True)
+    w.close()
+
+asyncio.run(main())
+"""
+
+
+@pytest.mark.slow
+def test_blade_count_changes_from_a_comm_thread_while_frames_stream():
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.run([sys.executable, "-c", SCRIPT, str(SWAPS), *map(str, COUNTS)], capture_output=True,
+                          text=True, cwd=ROOT, env=env, timeout=600)
+    tail = (proc.stdout + proc.stderr)[-3000:]
+    assert proc.returncode == 0, f"the process died (exit {proc.returncode}):\n{tail}"
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
+    assert lines, f"no result:\n{tail}"
+    result = json.loads(lines[-1][len("RESULT "):])
+    assert result["thread_errors"] == [] and result["errors"] == [], result
+    assert result["swaps"] == [COUNTS[(k + 1) % 2] for k in range(SWAPS)]
+    assert result["blade_count"] == result["swaps"][-1]
+    assert result["frames"] >= 2 * SWAPS + 1  # two frames of each new field, and one more
+    assert result["last_shape"][:2] == [120, 160] and result["last_shape"][2] == 4
+    assert result["grass_fraction"] > 0.2, result  # a drawn meadow, not a blank frame
