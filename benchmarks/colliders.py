@@ -16,7 +16,11 @@ strength > 0), so that the cost can be read against the work.
 Usage (repository root)::
 
     python benchmarks/colliders.py --blades 65536 --out benchmarks/colliders_lavapipe.json
-    python benchmarks/colliders.py --blades 1048576 --out benchmarks/colliders_h100.json
+    python benchmarks/colliders.py --blades 1048576 --steps 128 --rounds 20 --no-grid --out benchmarks/colliders_h100.json
+
+(On the GPU machine a step of 2^20 blades should take well under a millisecond, so a sample of 128
+steps in one dispatch keeps the readback that ends each sample to a few percent of it.
+The benchmark imports only the core and GPU layers: no anywidget, no notebook.)
 
 ``--no-grid`` also times each K with a one-cell grid (every blade tests every ball), interleaved.
 
