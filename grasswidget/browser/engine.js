@@ -10,7 +10,9 @@
 //            computed in Python: grasswidget.core.frame_data), sim_layout / stdinfo_layout
 //            (field offsets), frame_rules ({clock: {dt, wind_period,
 //            max_steps_per_frame}, orbit: OrbitLimits, style}), playing,
-//            time_scale, camera ({position, target, fov_deg, near, far}), balls,
+//            time_scale, camera ({position, target, fov_deg, near, far}),
+//            collider_spheres / collider_grid (the colliders and their grid, bytes;
+//            grasswidget.core.collider_grid; the balls are drawn from the spheres),
 //            show_colliders, report_steps, width, height, pixel_ratio,
 //            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
 //            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
@@ -40,7 +42,6 @@ const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;
 const MAX_FRAMES_IN_FLIGHT = 2;
 const WORKGROUP = 256;
-const MAX_BALLS = 16;
 
 
 // ------------------------------------------------------------------ small math (column-major 4x4)
@@ -472,8 +473,8 @@ class GrassEngine {
   listen() {
     this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
-    const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "balls", "frame_rules",
-      "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
+    const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "collider_spheres", "collider_grid",
+      "frame_rules", "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
     this.listeners = names.map((name) => {
       const fn = () => this.onChange(name);
       this.model.on(`change:${name}`, fn);
@@ -723,13 +724,15 @@ class GrassEngine {
       u_balls: uniform("ball_uniform", "u_balls"),
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
       u_wobject: buffer(128, U.UNIFORM | U.COPY_DST, "u_wobject"),
-      s_balls: buffer(16 * MAX_BALLS, U.STORAGE | U.COPY_DST, "balls"),
+      s_colliders: buffer(this.model.get("collider_buffer_bytes")[0], U.STORAGE | U.COPY_DST, "colliders"),
+      s_collider_grid: buffer(this.model.get("collider_buffer_bytes")[1], U.STORAGE | U.COPY_DST, "collider grid"),
       u_inspect: uniform("inspect_uniform", "u_inspect"),
       s_frustum: buffer(sizes.frustum, U.STORAGE | U.COPY_DST, "frustum lines"),
       s_segments: buffer(sizes.segments, U.STORAGE, "inspector lines"),
       s_points: buffer(sizes.points, U.STORAGE | U.COPY_SRC, "inspector points"),
       s_forces: buffer(sizes.forces, U.STORAGE | U.COPY_SRC, "inspector forces"),
     };
+    this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
     if (this.occlusion) this.buildOcclusionBuffers(buffer);
     // The args of the first phase, then (with occlusion culling) the second's and the occluded count.
     this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0),
@@ -786,11 +789,16 @@ class GrassEngine {
     if (data.byteLength) this.device.queue.writeBuffer(this.res.s_frustum, 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
   }
 
+  // The spheres and their grid, as Python built them (grasswidget.core.collider_grid).
   writeBalls() {
-    const balls = this.model.get("balls") || [];
-    const f = new Float32Array(4 * MAX_BALLS);
-    balls.slice(0, MAX_BALLS).forEach((b, i) => f.set(b, 4 * i));
-    this.device.queue.writeBuffer(this.res.s_balls, 0, f);
+    for (const [name, trait] of [["s_colliders", "collider_spheres"], ["s_collider_grid", "collider_grid"]]) {
+      const data = this.model.get(trait);
+      if (data && data.byteLength) {
+        this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+      }
+    }
+    const grid = this.model.get("collider_grid");  // word 2: the number of spheres
+    this.nBalls = grid && grid.byteLength >= 12 ? new DataView(grid.buffer, grid.byteOffset, grid.byteLength).getUint32(8, true) : 0;
   }
 
   // ---------------------------------------------------------------- simulation
@@ -915,7 +923,7 @@ class GrassEngine {
 
   // The translucent collider balls (after every blade), then the pass ends.
   encodeBalls(pass) {
-    const balls = Math.min((this.model.get("balls") || []).length, MAX_BALLS);
+    const balls = this.nBalls || 0;
     if (balls > 0 && this.model.get("show_colliders")) {
       pass.setPipeline(this.balls.pipeline);
       pass.setBindGroup(0, this.balls.group);
@@ -1312,7 +1320,7 @@ class GrassEngine {
     try {
       const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
       if (uniform) this.writeUniform(uniform[0], uniform[1]);
-      else if (name === "balls") this.writeBalls();
+      else if (name === "collider_spheres" || name === "collider_grid") this.writeBalls();
       else if (name === "frustum_lines") this.writeFrustum();
       else if (name === "blade_data") this.buildBuffers();
     } catch (err) {

@@ -16,8 +16,10 @@ The field names are those the project's WGSL reads (``u_sim.wind_dir``,
 
 from __future__ import annotations
 
+from ..core.collider_grid import GRID_WORDS
+from ..core.colliders import MAX_COLLIDERS
 from ..core.enums import WindField
-from ..core.frame_data import clock_rules, cull_uniform_values, material_values, sim_uniform_values, srgb
+from ..core.frame_data import clock_rules, collider_grid, cull_uniform_values, material_values, sim_uniform_values, srgb
 from ..core.params import GrassParams
 from ..core.uniform_layouts import (CULL_LAYOUT, GRASS_MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT,
                                    layout_description, offsets, pack, struct_size, wgsl_struct)
@@ -25,7 +27,7 @@ from ..core.uniform_layouts import (CULL_LAYOUT, GRASS_MATERIAL_LAYOUT, SIM_LAYO
 __all__ = [
     "SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "STDINFO_LAYOUT", "WOBJECT_LAYOUT", "MATERIAL_LAYOUT",
     "WIND_FIELD_IDS", "offsets", "struct_size", "wgsl_struct", "pack", "sim_uniform", "cull_uniform",
-    "material_uniform", "sky_ground_uniform", "ball_uniform", "BALL_LAYOUT", "layout_description", "srgb_color",
+    "material_uniform", "sky_ground_uniform", "collider_buffers", "COLLIDER_BYTES", "GRID_BYTES", "ball_uniform", "BALL_LAYOUT", "layout_description", "srgb_color",
 ]
 
 #: Wind field ids of simulate.wgsl's wind_field() (grasswidget.core.enums.WindField).
@@ -63,6 +65,18 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
     :func:`grasswidget.core.frame_data.sim_uniform_values`, as the kernel engine writes it.
     ``steps`` and ``time0`` are 0: the browser writes them for each dispatch."""
     return pack(SIM_LAYOUT, sim_uniform_values(params, n_blades, colliders))
+
+
+#: Bytes of the browser's collider buffers: the spheres (MAX_COLLIDERS vec4) and the grid words.
+COLLIDER_BYTES = 16 * MAX_COLLIDERS
+GRID_BYTES = 4 * GRID_WORDS
+
+
+def collider_buffers(colliders, blades) -> tuple:
+    """(spheres, grid) bytes for ``s_colliders`` and ``s_collider_grid``: the arrays the kernel
+    engine uploads too (:func:`grasswidget.core.frame_data.collider_grid`)."""
+    grid = collider_grid(colliders, blades)
+    return grid.sphere_data().tobytes(), grid.words().tobytes()
 
 
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:

@@ -117,7 +117,13 @@ class BrowserView(anywidget.AnyWidget):
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)
     camera = Dict().tag(sync=True)
-    balls = List().tag(sync=True)
+    #: The colliders as [[x, y, z, r], ...] (Python side; the browser gets the two arrays below).
+    balls = List()
+    #: The spheres (K x 4 float32) and their grid (u32 words; grasswidget.core.collider_grid).
+    collider_spheres = Bytes(b"").tag(sync=True)
+    collider_grid = Bytes(b"").tag(sync=True)
+    #: Bytes of the browser's two collider buffers (their fixed sizes).
+    collider_buffer_bytes = List([uniforms.COLLIDER_BYTES, uniforms.GRID_BYTES]).tag(sync=True)
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
@@ -205,7 +211,11 @@ class BrowserView(anywidget.AnyWidget):
         self.material_uniform = uniforms.material_uniform(p)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
+        self._write_colliders()
+
+    def _write_colliders(self):
         self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+        self.collider_spheres, self.collider_grid = uniforms.collider_buffers(self._colliders, self.blades)
 
     @property
     def colliders(self) -> ColliderList:
@@ -221,7 +231,7 @@ class BrowserView(anywidget.AnyWidget):
         """Send the colliders' current positions and radii to the browser."""
         with self.hold_sync():
             self.sim_uniform = uniforms.sim_uniform(self.params, len(self.blades), self._colliders)
-            self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+            self._write_colliders()
 
     def _on_params(self, change):
         if change["name"] == "wind_wgsl":

@@ -5,6 +5,9 @@ The kernel engine (pygfx, :mod:`grasswidget.gpu`) and the browser engine
 depends on is computed here, from the parameters, colliders, blades and camera,
 and each engine only writes it into its own buffers:
 
+* :func:`collider_grid`: the colliders' spheres and their grid
+  (:mod:`grasswidget.core.collider_grid`), the two arrays both engines upload
+  when the colliders change.
 * :func:`sim_uniform_values` / :func:`cull_uniform_values`: the *values* of the
   ``u_sim`` and ``u_cull`` structs (field name -> number or array; the layouts
   are :mod:`grasswidget.core.uniform_layouts`). The kernel copies them into its
@@ -40,7 +43,8 @@ from dataclasses import asdict
 import numpy as np
 
 from ..errors import GrassValueError
-from .colliders import MAX_COLLIDERS, collider_array
+from .collider_grid import MAX_GRID_CELLS, build_collider_grid, root_bounds
+from .colliders import collider_array
 from .enums import ColorBy, GravityMode, WindField
 from .enums import BladeShape
 from .orbit_limits import OrbitLimits
@@ -48,7 +52,7 @@ from .params import LOOK_TRAITS, GrassParams
 from .reference import ground_cover, wind_period
 
 __all__ = [
-    "sim_uniform_values", "cull_uniform_values", "clock_rules", "orbit_rules", "scene_style", "ground_square",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
@@ -144,13 +148,15 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     Args:
         params: a :class:`~grasswidget.params.GrassParams`.
         n_blades: blade count N.
-        colliders: sphere colliders (at most ``MAX_COLLIDERS`` = 16), in the field's local space.
+        colliders: sphere colliders (a ColliderList, SphereColliders or a (K, 4) array; at most
+            ``MAX_COLLIDERS`` = 1024), in the field's local space. Only their count goes into
+            ``u_sim``; the spheres and their grid are :func:`collider_grid` (storage buffers).
         world_matrix: the field's 4x4 world matrix (default identity): gravity's
             direction and centre are given in world space and turned into local space.
         steps: fixed steps in this dispatch (the browser writes its own per dispatch).
         time0: simulation time of the dispatch's first step (s; same).
 
-    Returns {field: value}; vectors are 4 floats, ``colliders`` a (16, 4) array.
+    Returns {field: value}; vectors are 4 floats.
     """
     p = params
     m = _local(world_matrix)
@@ -166,15 +172,12 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     except np.linalg.LinAlgError:
         pass
     rad = math.radians(p.wind_direction)
-    spheres = collider_array(list(colliders))
-    padded = np.zeros((MAX_COLLIDERS, 4), np.float32)
-    padded[: len(spheres)] = spheres
+    spheres = collider_array(colliders)
     return dict(
         gravity_dir=(*g, 0.0),
         wind_dir=(math.cos(rad), math.sin(rad), 0.0, 0.0),
         gravity_center=(*centre[:3], 0.0),
         wind_center=(*p.wind_center, 0.0),
-        colliders=padded,
         gravity=p.gravity,
         front_gravity=p.front_gravity,
         stiffness_scale=p.stiffness_scale,
@@ -193,6 +196,16 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
         collision_gain=p.collision_gain,
         n_colliders=len(spheres),
     )
+
+
+def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
+    """The spheres of ``colliders`` and their grid over ``blades`` (a :class:`~grasswidget.core.blades.Blades`:
+    the roots' xz bounds, the tallest blade), as both engines upload them into ``s_colliders`` and
+    ``s_collider_grid``: a :class:`~grasswidget.core.collider_grid.ColliderGrid` (``.sphere_data()``,
+    ``.words()``). ``max_cells`` (default MAX_GRID_CELLS; 1 = every blade tests every sphere)."""
+    spheres = collider_array(colliders)
+    height = float(np.max(blades.height)) if len(blades) else 0.0
+    return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
 def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False) -> dict:

@@ -54,6 +54,9 @@ __all__ = [
     "sphere_push",
     "collide_sphere",
     "collide_spheres",
+    "sphere_in_reach",
+    "grid_cell",
+    "COLLIDER_REACH",
     "fade_collision",
     "gain_collision",
     "effective_stiffness",
@@ -513,20 +516,63 @@ def collide_sphere(v0, v1, v2, sphere):
     return v2, add, add > 0
 
 
-def collide_spheres(v0, v1, v2, spheres):
-    """One push of each blade out of every sphere in turn (:func:`collide_sphere`);
-    returns (v2, eta_add, hit) with ``eta_add`` summed over the spheres and ``hit``
-    True where any push happened (those blades are validated again).
+#: A sphere acts on a blade only when it comes within this many blade heights of the
+#: root (:func:`sphere_in_reach`). A validated blade's tip and midpoint lie within one
+#: height of the root, so only a tip already pushed in the same pass could reach farther.
+#: The collider grid (:mod:`grasswidget.core.collider_grid`) lists, per cell, every
+#: sphere in reach of a root in that cell, so the GPU's per-cell loop and the loop over
+#: all spheres here give the same result.
+COLLIDER_REACH = 1.0
 
-    The twin of ``collide_spheres(v0, v1, v2)`` of ``shaders/collisions.wgsl``,
-    which loops over the colliders of ``u_sim``; ``spheres`` is (K, 4) here."""
+
+def sphere_in_reach(v0, height, sphere):
+    """True where a sphere (cx, cy, cz, R) comes near enough to act on a blade rooted at v0
+    (N, 3) of ``height`` (N,) m: ``|c - v0| < R + COLLIDER_REACH * height``."""
+    c = np.asarray(sphere, np.float64)
+    dist = np.linalg.norm(c[..., :3] - np.asarray(v0, np.float64), axis=-1)
+    return dist < c[..., 3] + COLLIDER_REACH * np.asarray(height, np.float64)
+
+
+def grid_cell(p, origin, inv_cell_size, nx, nz):
+    """Cell index ``cz * nx + cx`` of the collider grid holding the points p (N, 3) (their x, z):
+    ``cx = clamp(floor((p.x - origin.x) * inv_cell_size), 0, nx - 1)``, likewise cz with z;
+    the border cells reach to infinity. Computed in float32 like the GPU, so both pick the
+    same cell (see :mod:`grasswidget.core.collider_grid`)."""
+    p = np.asarray(p, np.float32)
+    origin = np.asarray(origin, np.float32)
+    inv = np.asarray(inv_cell_size, np.float32)
+    nx = np.asarray(nx, np.int64)
+    nz = np.asarray(nz, np.int64)
+    qx = (p[..., 0] - origin[..., 0]) * inv
+    qz = (p[..., 2] - origin[..., 1]) * inv
+    cx = np.clip(np.floor(qx), 0, nx - 1).astype(np.int64)
+    cz = np.clip(np.floor(qz), 0, nz - 1).astype(np.int64)
+    return (cz * nx + cx).astype(np.uint32)
+
+
+def collide_spheres(v0, v1, v2, height, spheres):
+    """One push of each blade out of every sphere in reach (:func:`sphere_in_reach`), in
+    the spheres' order (:func:`collide_sphere`); returns (v2, eta_add, hit) with
+    ``eta_add`` summed over the spheres and ``hit`` True where any push happened (those
+    blades are validated again). ``spheres`` is (K, 4), any K.
+
+    The twin of ``collide_spheres(v0, v1, v2, height)`` of ``shaders/collisions.wgsl``,
+    which loops over the spheres listed in the blade's cell of the collider grid (every
+    sphere in reach, in the same order), not over all of them."""
+    v0 = np.asarray(v0, np.float64)
+    v1 = np.asarray(v1, np.float64)
+    height = np.asarray(height, np.float64)
     v2 = np.array(v2, np.float64, copy=True)
     add = np.zeros(len(v2))
     hit = np.zeros(len(v2), bool)
     for c in np.asarray(spheres, np.float64).reshape(-1, 4):
-        v2, add_c, hit_c = collide_sphere(v0, v1, v2, c)
-        add += add_c
-        hit |= hit_c
+        near = sphere_in_reach(v0, height, c)
+        if not near.any():
+            continue
+        pushed, add_c, hit_c = collide_sphere(v0, v1, v2, c)
+        v2 = np.where(near[:, None], pushed, v2)
+        add += np.where(near, add_c, 0.0)
+        hit |= near & hit_c
     return v2, add, hit
 
 
@@ -583,7 +629,7 @@ def collision_passes(v0, v1, v2, up, height, spheres):
     if len(np.asarray(spheres).reshape(-1, 4)) == 0:
         return v1, v2, add_total
     for _ in range(COLLISION_PASSES):
-        pushed = collide_spheres(v0, v1, v2, spheres)
+        pushed = collide_spheres(v0, v1, v2, height, spheres)
         add_total = add_total + pushed[1]
         v1, v2 = validate_pushed(v0, v1, v2, up, height, pushed)
     return v1, v2, add_total

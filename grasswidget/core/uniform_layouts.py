@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .colliders import MAX_COLLIDERS
 from ..errors import GrassValueError
 
 __all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
@@ -34,7 +33,6 @@ SIM_LAYOUT = (
     ("wind_dir", "vec4<f32>"),            # from GrassParams.wind_direction
     ("gravity_center", "vec4<f32>"),      # GrassParams.gravity_center (m)
     ("wind_center", "vec4<f32>"),         # GrassParams.wind_center (m)
-    ("colliders", f"array<vec4<f32>, {MAX_COLLIDERS}>"),  # xyz centre, w radius (m)
     ("gravity", "f32"),                   # m/s^2
     ("front_gravity", "f32"),             # GrassParams.front_gravity
     ("stiffness_scale", "f32"),           # GrassParams.stiffness_scale
@@ -51,7 +49,7 @@ SIM_LAYOUT = (
     ("wind_direction_rad", "f32"),        # GrassParams.wind_direction in radians
     ("collision_fade", "f32"),            # GrassParams.collision_fade
     ("collision_gain", "f32"),            # GrassParams.collision_gain
-    ("n_colliders", "i32"),
+    ("n_colliders", "i32"),               # spheres in s_colliders (the grid: core.collider_grid)
 )
 
 #: ``u_cull``: the culling pass's parameters and the frozen camera (cull.wgsl).

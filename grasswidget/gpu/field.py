@@ -262,8 +262,12 @@ class GrassField(gfx.WorldObject):
         Append, remove or move them (``ball.center = ...``) at any time; every
         ``step()`` reads the list and the spheres' current values. Coordinates are
         the field's local space (world space for an untransformed field). At most
-        ``MAX_COLLIDERS`` (16): adding more raises ValueError naming ``colliders``;
-        assigning any iterable (``field.colliders = [a, b]``) validates it the same way.
+        ``MAX_COLLIDERS`` (1024), counting the rows of ``colliders.set_array(a)`` (a (K, 4)
+        array of centres and radii: the cheap way to move a crowd every frame): adding
+        more raises ValueError naming ``colliders``; assigning any iterable
+        (``field.colliders = [a, b]``) validates it the same way. The spheres and their
+        grid (:mod:`grasswidget.core.collider_grid`) are uploaded at the next step when
+        they changed; each blade tests only the spheres near it.
         """
         return self._colliders
 

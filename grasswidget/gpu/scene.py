@@ -239,7 +239,7 @@ class GrassScene:
     colliders = property(
         lambda self: self.field.colliders,
         lambda self, value: setattr(self.field, "colliders", value),
-        doc="Sphere colliders acting on the grass: GrassField.colliders (gw.SphereCollider, at most 16).",
+        doc="Sphere colliders acting on the grass: GrassField.colliders (gw.SphereCollider items plus colliders.set_array rows, at most 1024).",
     )
 
     # ------------------------------------------------------------------ views

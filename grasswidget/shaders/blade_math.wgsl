@@ -216,6 +216,22 @@ fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, sphere: vec4<f32>
     return Collision(tip, add, add > 0.0);
 }
 
+// Whether a sphere (c.xyz, radius c.w) comes near enough to act on a blade rooted at v0 of
+// this height: |c - v0| < radius + COLLIDER_REACH * height; see reference.sphere_in_reach.
+fn sphere_in_reach(v0: vec3<f32>, height: f32, sphere: vec4<f32>) -> bool {
+    return length(sphere.xyz - v0) < sphere.w + {{ collider_reach }} * height;
+}
+
+// Cell (cz * nx + cx) of the collider grid holding p's (x, z): cells of 1 / inv_cell_size
+// metres from origin, indices clamped to the grid (border cells reach to infinity);
+// see reference.grid_cell.
+fn grid_cell(p: vec3<f32>, origin: vec2<f32>, inv_cell_size: f32, nx: u32, nz: u32) -> u32 {
+    let q = (p.xz - origin) * inv_cell_size;
+    let cx = u32(clamp(floor(q.x), 0.0, f32(nx - 1u)));
+    let cz = u32(clamp(floor(q.y), 0.0, f32(nz - 1u)));
+    return cz * nx + cx;
+}
+
 // eta' = max(eta - fade dt, 0); see reference.fade_collision.
 fn fade_collision(eta: f32, fade: f32, dt: f32) -> f32 {
     return max(eta - fade * dt, 0.0);

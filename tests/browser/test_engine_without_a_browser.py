@@ -43,7 +43,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert len(set(names)) == len(names) and len(set(numbers)) == len(numbers)
         assert [{k: v for k, v in b.items() if k != "resource"} for b in sh["bindings"]] == binding_map(sh["code"])
     kinds = {b["name"]: b["kind"] for b in shaders["simulate"]["bindings"]}
-    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage"}
+    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage",
+                     "s_colliders": "read-only-storage", "s_collider_grid": "read-only-storage"}
     kinds = {b["name"]: b["kind"] for b in shaders["blades"][0]["bindings"]}
     assert kinds["s_blades"] == "read-only-storage" and kinds["u_material"] == "uniform"
     # The same files: the blade math of the package is in the text, not a copy.
@@ -114,8 +115,8 @@ def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():
 
 def test_uniform_layouts_match_wgsl_offsets():
     """Offsets follow WGSL's uniform rules, and the packed bytes hold each parameter at its offset."""
-    assert uniforms.offsets(uniforms.SIM_LAYOUT)["colliders"][0] == 64
-    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64 + 16 * 16
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["wind_center"][0] == 48
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64  # no collider array: the count is free
     assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16 + 16  # + ndc_offset
     p = gw.GrassParams(wind_strength=7.5, wind_direction=90.0, wind_field="vortex", dt=0.01)
     raw = uniforms.sim_uniform(p, 1234, [gw.SphereCollider(center=(1, 2, 3), radius=0.5)])
@@ -127,9 +128,30 @@ def test_uniform_layouts_match_wgsl_offsets():
     assert read("wind_strength")[0] == np.float32(7.5)
     assert read("wind_field", "<i4")[0] == 2 and read("n_blades", "<u4")[0] == 1234
     assert np.allclose(read("wind_dir", count=4), [0, 1, 0, 0], atol=1e-7)
-    assert np.allclose(read("colliders", count=4), [1, 2, 3, 0.5]) and read("n_colliders", "<i4")[0] == 1
+    assert read("n_colliders", "<i4")[0] == 1
     assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed,
                                  "max_steps_per_frame": 64}
+
+
+def test_the_browser_gets_the_kernels_collider_arrays():
+    """The browser view sends the same sphere and grid arrays the kernel engine uploads."""
+    from grasswidget.core.collider_grid import build_collider_grid, root_bounds
+
+    blades = gw.Blades.on_plane(512, size=10.0, seed=2)
+    view = BrowserView(blades)
+    ball = gw.SphereCollider(center=(1, 0.5, 2), radius=0.5)
+    view.colliders.append(ball)
+    rows = np.random.default_rng(0).uniform(0.1, 4.0, (300, 4))
+    view.colliders.set_array(rows)
+    view.colliders_changed()
+    spheres = np.concatenate([[ball.as_vec4()], rows])
+    grid = build_collider_grid(spheres, root_bounds(blades.v0), blades.height.max())
+    assert view.collider_spheres == spheres.astype(np.float32).tobytes() == grid.sphere_data().tobytes()
+    assert view.collider_grid == grid.words().tobytes() and grid.nx * grid.nz > 1
+    assert len(view.collider_spheres) <= view.collider_buffer_bytes[0]
+    assert len(view.collider_grid) <= view.collider_buffer_bytes[1]
+    assert np.frombuffer(view.sim_uniform, "<i4", 1, uniforms.offsets(uniforms.SIM_LAYOUT)["n_colliders"][0])[0] == 301
+    view.close()
 
 
 def test_requests_outside_a_notebook_raise_timeout_naming_the_browser_view():
