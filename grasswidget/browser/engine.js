@@ -10,12 +10,15 @@
 //            computed in Python: grasswidget.core.frame_data), sim_layout / stdinfo_layout
 //            (field offsets), frame_rules ({clock: {dt, wind_period,
 //            max_steps_per_frame}, orbit: OrbitLimits, style}), playing,
-//            time_scale, camera ({position, target, fov_deg, near, far}), balls,
+//            time_scale, camera ({position, target, fov_deg, near, far}),
+//            collider_spheres / collider_grid (the colliders and their grid, bytes;
+//            grasswidget.core.collider_grid; the balls are drawn from the spheres),
 //            show_colliders, report_steps, width, height, pixel_ratio,
 //            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
 //            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
 //            (the inspected blade ids).
-//   messages step {n}, reset, read_state {id}, snapshot {id, width, height},
+//   messages step {n}, reset, read_state {id}, snapshot {id, width, height, filter}
+//            (filter: grasswidget.core.frame_data.export_filter, the supersampling),
 //            read_inspected {id}, sync {id} (answered at once: "synced"),
 //            compile_simulate {id, shader, passes}, lose_device (tests).
 // Occlusion culling (shaders.occlusion, grasswidget.browser.wgsl.BrowserShaders.occlusion): while
@@ -43,7 +46,6 @@ const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;
 const MAX_FRAMES_IN_FLIGHT = 2;
 const WORKGROUP = 256;
-const MAX_BALLS = 16;
 
 
 // ------------------------------------------------------------------ small math (column-major 4x4)
@@ -163,6 +165,59 @@ function clamp(x, lo, hi) { return Math.min(Math.max(x, lo), hi); }
 // grasswidget.core.orbit_limits.clamp_orbit, line for line: (position, target) moved the least way into
 // the limits (an OrbitLimits as a dict): target into its box (the camera follows), distance
 // into the zoom range, elevation into its range (keeping the azimuth).
+// ------------------------------------------------------------------ exports: supersampling
+
+const SRGB_TO_LINEAR = Float32Array.from({ length: 256 }, (_, i) => {
+  const c = i / 255;
+  return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4);
+});
+
+function linearToSrgb8(x) {
+  const c = Math.min(Math.max(x, 0), 1);
+  const s = c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055;
+  return Math.round(s * 255);
+}
+
+// Filter an 8-bit picture of (width * f) x (height * f) pixels, rows `rowBytes` apart
+// (sRGB as the canvas stores it; `bgra`: blue first), down to width x height RGBA with
+// Python's separable filter {factor: f, first, weights} (frame_data.export_filter), in
+// linear light with indices clamped to the picture: what pygfx's renderer does for the
+// kernel engine's exports. Returns a Uint8Array of width * height * 4 (alpha 255).
+export function downsample(src, width, height, rowBytes, bgra, filter) {
+  const f = filter.factor, first = filter.first, wts = filter.weights, taps = wts.length;
+  const sw = width * f, sh = height * f;
+  const rx = bgra ? 2 : 0, bx = bgra ? 0 : 2;
+  const clampTo = (i, n) => (i < 0 ? 0 : i >= n ? n - 1 : i);
+  const rows = new Float32Array(width * sh * 3);  // filtered along x, all source rows
+  for (let y = 0; y < sh; y++) {
+    const line = y * rowBytes;
+    for (let x = 0; x < width; x++) {
+      let r = 0, g = 0, b = 0;
+      for (let k = 0; k < taps; k++) {
+        const i = line + 4 * clampTo(f * x + first + k, sw), w = wts[k];
+        r += w * SRGB_TO_LINEAR[src[i + rx]];
+        g += w * SRGB_TO_LINEAR[src[i + 1]];
+        b += w * SRGB_TO_LINEAR[src[i + bx]];
+      }
+      const o = 3 * (y * width + x);
+      rows[o] = r; rows[o + 1] = g; rows[o + 2] = b;
+    }
+  }
+  const out = new Uint8Array(width * height * 4);
+  for (let y = 0; y < height; y++) {
+    for (let x = 0; x < width; x++) {
+      let r = 0, g = 0, b = 0;
+      for (let k = 0; k < taps; k++) {
+        const i = 3 * (clampTo(f * y + first + k, sh) * width + x), w = wts[k];
+        r += w * rows[i]; g += w * rows[i + 1]; b += w * rows[i + 2];
+      }
+      const o = 4 * (y * width + x);
+      out[o] = linearToSrgb8(r); out[o + 1] = linearToSrgb8(g); out[o + 2] = linearToSrgb8(b); out[o + 3] = 255;
+    }
+  }
+  return out;
+}
+
 export function clampOrbit(position, target, limits) {
   const L = limits;
   const c = [clamp(target[0], L.lo[0], L.hi[0]), 0, clamp(target[2], L.lo[1], L.hi[1])];
@@ -422,8 +477,8 @@ class GrassEngine {
   listen() {
     this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
-    const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "balls", "frame_rules",
-      "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
+    const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "collider_spheres", "collider_grid",
+      "frame_rules", "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
     this.listeners = names.map((name) => {
       const fn = () => this.onChange(name);
       this.model.on(`change:${name}`, fn);
@@ -679,13 +734,15 @@ class GrassEngine {
       u_balls: uniform("ball_uniform", "u_balls"),
       u_stdinfo: buffer(this.model.get("stdinfo_size"), U.UNIFORM | U.COPY_DST, "u_stdinfo"),
       u_wobject: buffer(128, U.UNIFORM | U.COPY_DST, "u_wobject"),
-      s_balls: buffer(16 * MAX_BALLS, U.STORAGE | U.COPY_DST, "balls"),
+      s_colliders: buffer(this.model.get("collider_buffer_bytes")[0], U.STORAGE | U.COPY_DST, "colliders"),
+      s_collider_grid: buffer(this.model.get("collider_buffer_bytes")[1], U.STORAGE | U.COPY_DST, "collider grid"),
       u_inspect: uniform("inspect_uniform", "u_inspect"),
       s_frustum: buffer(sizes.frustum, U.STORAGE | U.COPY_DST, "frustum lines"),
       s_segments: buffer(sizes.segments, U.STORAGE, "inspector lines"),
       s_points: buffer(sizes.points, U.STORAGE | U.COPY_SRC, "inspector points"),
       s_forces: buffer(sizes.forces, U.STORAGE | U.COPY_SRC, "inspector forces"),
     };
+    this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
     if (this.occlusion) this.buildOcclusionBuffers(buffer);
     if (this.raster) this.buildRasterBuffers(buffer);
     // The args of the first phase, then (with occlusion culling) the second's and the occluded
@@ -746,11 +803,16 @@ class GrassEngine {
     if (data.byteLength) this.device.queue.writeBuffer(this.res.s_frustum, 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
   }
 
+  // The spheres and their grid, as Python built them (grasswidget.core.collider_grid).
   writeBalls() {
-    const balls = this.model.get("balls") || [];
-    const f = new Float32Array(4 * MAX_BALLS);
-    balls.slice(0, MAX_BALLS).forEach((b, i) => f.set(b, 4 * i));
-    this.device.queue.writeBuffer(this.res.s_balls, 0, f);
+    for (const [name, trait] of [["s_colliders", "collider_spheres"], ["s_collider_grid", "collider_grid"]]) {
+      const data = this.model.get(trait);
+      if (data && data.byteLength) {
+        this.device.queue.writeBuffer(this.res[name], 0, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
+      }
+    }
+    const grid = this.model.get("collider_grid");  // word 2: the number of spheres
+    this.nBalls = grid && grid.byteLength >= 12 ? new DataView(grid.buffer, grid.byteOffset, grid.byteLength).getUint32(8, true) : 0;
   }
 
   // ---------------------------------------------------------------- simulation
@@ -881,7 +943,7 @@ class GrassEngine {
 
   // The translucent collider balls (after every blade), then the pass ends.
   encodeBalls(pass) {
-    const balls = Math.min((this.model.get("balls") || []).length, MAX_BALLS);
+    const balls = this.nBalls || 0;
     if (balls > 0 && this.model.get("show_colliders")) {
       pass.setPipeline(this.balls.pipeline);
       pass.setBindGroup(0, this.balls.group);
@@ -1301,34 +1363,46 @@ class GrassEngine {
     this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
   }
 
+  // A picture of the current state at msg.width x msg.height, rendered msg.filter.factor
+  // times larger and filtered down (Python's export_filter; factor 1 when absent or when
+  // the larger picture would exceed the device's texture limit).
   async snapshot(msg) {
     const device = this.device;
     const w = msg.width, h = msg.height;
-    const color = device.createTexture({ size: [w, h], format: this.format,
+    let filter = msg.filter || { factor: 1, first: 0, weights: [1] };
+    if (Math.max(w, h) * filter.factor > device.limits.maxTextureDimension2D) filter = { factor: 1, first: 0, weights: [1] };
+    const sw = w * filter.factor, sh = h * filter.factor;
+    const color = device.createTexture({ size: [sw, sh], format: this.format,
       usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
-    const depth = this.depthFor(w, h);
-    const row = Math.ceil((w * 4) / 256) * 256;
-    const out = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
+    const depth = this.depthFor(sw, sh);
+    const row = Math.ceil((sw * 4) / 256) * 256;
+    const out = device.createBuffer({ size: row * sh, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
     const encoder = device.createCommandEncoder();
-    this.encodeFrame(encoder, color.createView(), depth, w, h);
-    encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [w, h]);
+    this.encodeFrame(encoder, color.createView(), depth, sw, sh);
+    encoder.copyTextureToBuffer({ texture: color }, { buffer: out, bytesPerRow: row }, [sw, sh]);
     device.queue.submit([encoder.finish()]);
     await out.mapAsync(GPUMapMode.READ);
     const src = new Uint8Array(out.getMappedRange());
-    const rgba = new Uint8Array(w * h * 4);
     const bgra = this.format.startsWith("bgra");
-    for (let y = 0; y < h; y++) {
-      const s = y * row, d = y * w * 4;
-      for (let x = 0; x < w; x++) {
-        const i = s + 4 * x, j = d + 4 * x;
-        rgba[j] = src[i + (bgra ? 2 : 0)];
-        rgba[j + 1] = src[i + 1];
-        rgba[j + 2] = src[i + (bgra ? 0 : 2)];
-        rgba[j + 3] = 255;
+    let rgba;
+    if (filter.factor === 1) {
+      rgba = new Uint8Array(w * h * 4);
+      for (let y = 0; y < h; y++) {
+        const s = y * row, d = y * w * 4;
+        for (let x = 0; x < w; x++) {
+          const i = s + 4 * x, j = d + 4 * x;
+          rgba[j] = src[i + (bgra ? 2 : 0)];
+          rgba[j + 1] = src[i + 1];
+          rgba[j + 2] = src[i + (bgra ? 0 : 2)];
+          rgba[j + 3] = 255;
+        }
       }
+    } else {
+      rgba = downsample(src, w, h, row, bgra, filter);
     }
     out.unmap(); out.destroy(); color.destroy(); depth.destroy();
-    this.model.send({ type: "snapshot", id: msg.id, width: w, height: h }, undefined, [rgba.buffer]);
+    this.model.send({ type: "snapshot", id: msg.id, width: w, height: h, supersample: filter.factor }, undefined,
+                    [rgba.buffer]);
   }
 
   async compileSimulate(msg) {
@@ -1362,7 +1436,7 @@ class GrassEngine {
     try {
       const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
       if (uniform) this.writeUniform(uniform[0], uniform[1]);
-      else if (name === "balls") this.writeBalls();
+      else if (name === "collider_spheres" || name === "collider_grid") this.writeBalls();
       else if (name === "frustum_lines") this.writeFrustum();
       else if (name === "blade_data") this.buildBuffers();
     } catch (err) {

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
+from ..core.frame_data import EXPORT_SUPERSAMPLE
 from ..core.view_api import GrassView
 from .view import BrowserView
 
@@ -306,10 +307,12 @@ class BrowserEngineView(GrassView):
     # ------------------------------------------------------------------ pictures and state
 
     def save_png(self, path, size):
-        """Rendered by the browser at ``size``; written here (waits for the browser's answer)."""
+        """Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
+        (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
+        browser's answer)."""
         import imageio.v3 as iio
 
-        img = self.browser_view.snapshot(size)
+        img = self.browser_view.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
         iio.imwrite(path, img, extension=".png")
         return path
 
@@ -327,7 +330,7 @@ class BrowserEngineView(GrassView):
             except Exception as err:  # noqa: BLE001
                 self.report_error(err)
 
-        self.browser_view.request_async({"type": "snapshot", "width": int(size[0]), "height": int(size[1])}, write)
+        self.browser_view.request_async(self.browser_view.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
 
     def set_wind_wgsl(self, body, select=True):
         """Compiled by the browser; waits for its answer (see BrowserView.set_wind_wgsl)."""

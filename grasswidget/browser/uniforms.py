@@ -7,7 +7,8 @@ only packed into bytes for the browser, which writes them into its buffers as
 they are. The browser patches only the per-dispatch fields of ``u_sim``
 (``steps``, ``time0``) and writes the camera uniform (``StdInfo``) itself, at
 the offsets :func:`offsets` gives. ``MATERIAL_LAYOUT`` (the blade material) is
-the browser's copy of pygfx's ``GrassMaterial.uniform_type``.
+``GRASS_MATERIAL_LAYOUT``, the layout of the kernel's ``GrassMaterial`` too, and its
+values come from ``frame_data.material_values``.
 
 The field names are those the project's WGSL reads (``u_sim.wind_dir``,
 ``u_cull.n_blades``, ``u_stdinfo.cam_transform``, ``u_material.tip_color``...).
@@ -15,18 +16,19 @@ The field names are those the project's WGSL reads (``u_sim.wind_dir``,
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..core.enums import BladeShape, WindField
-from ..core.frame_data import clock_rules, compute_raster_values, cull_uniform_values, sim_uniform_values, srgb
+from ..core.collider_grid import GRID_WORDS
+from ..core.colliders import MAX_COLLIDERS
+from ..core.enums import WindField
+from ..core.frame_data import (clock_rules, collider_grid, compute_raster_values, cull_uniform_values, material_values,
+                               sim_uniform_values, srgb)
 from ..core.params import GrassParams
-from ..core.uniform_layouts import (CULL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, layout_description, offsets, pack,
-                               struct_size, wgsl_struct)
+from ..core.uniform_layouts import (CULL_LAYOUT, GRASS_MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT,
+                                   layout_description, offsets, pack, struct_size, wgsl_struct)
 
 __all__ = [
     "SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "STDINFO_LAYOUT", "WOBJECT_LAYOUT", "MATERIAL_LAYOUT",
     "WIND_FIELD_IDS", "offsets", "struct_size", "wgsl_struct", "pack", "sim_uniform", "cull_uniform",
-    "material_uniform", "sky_ground_uniform", "ball_uniform", "BALL_LAYOUT", "layout_description", "srgb_color",
+    "material_uniform", "sky_ground_uniform", "collider_buffers", "COLLIDER_BYTES", "GRID_BYTES", "ball_uniform", "BALL_LAYOUT", "layout_description", "srgb_color",
 ]
 
 #: Wind field ids of simulate.wgsl's wind_field() (grasswidget.core.enums.WindField).
@@ -46,16 +48,8 @@ STDINFO_LAYOUT = (
 #: untransformed: both are the identity).
 WOBJECT_LAYOUT = (("world_transform", "mat4x4<f32>"), ("world_transform_inv", "mat4x4<f32>"))
 
-MATERIAL_LAYOUT = (
-    ("root_color", "vec4<f32>"),
-    ("tip_color", "vec4<f32>"),
-    ("light_direction", "vec4<f32>"),
-    ("color_variation", "f32"),
-    ("ambient", "f32"),
-    ("tip_threshold", "f32"),
-    ("blade_shape", "i32"),
-    ("opacity", "f32"),
-)
+#: The blade material (blade_render.wgsl's ``u_material``): the layout both engines use.
+MATERIAL_LAYOUT = GRASS_MATERIAL_LAYOUT
 
 
 #: The collider balls' style (balls.wgsl; from frame_data.scene_style).
@@ -74,6 +68,18 @@ def sim_uniform(params: GrassParams, n_blades: int, colliders=()) -> bytes:
     return pack(SIM_LAYOUT, sim_uniform_values(params, n_blades, colliders))
 
 
+#: Bytes of the browser's collider buffers: the spheres (MAX_COLLIDERS vec4) and the grid words.
+COLLIDER_BYTES = 16 * MAX_COLLIDERS
+GRID_BYTES = 4 * GRID_WORDS
+
+
+def collider_buffers(colliders, blades) -> tuple:
+    """(spheres, grid) bytes for ``s_colliders`` and ``s_collider_grid``: the arrays the kernel
+    engine uploads too (:func:`grasswidget.core.frame_data.collider_grid`)."""
+    grid = collider_grid(colliders, blades)
+    return grid.sphere_data().tobytes(), grid.words().tobytes()
+
+
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
     """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values` (the
     browser draws every frame in occlusion culling's two phases while
@@ -81,8 +87,8 @@ def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
     rasterizer's switch and material values (:func:`grasswidget.core.frame_data.compute_raster_values`;
     the browser writes the render size, ``raster_width`` and ``raster_height``, for each view)."""
     values = cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True)
-    values.update(compute_raster_values(params, n_blades, int(BladeShape.from_label(params.blade_shape)),
-                                        MATERIAL_DEFAULTS["tip_threshold"]))
+    material = material_values(params)  # the material the ribbons get (material_uniform)
+    values.update(compute_raster_values(params, n_blades, material["blade_shape"], material["tip_threshold"]))
     return pack(CULL_LAYOUT, values)
 
 
@@ -101,25 +107,11 @@ def srgb_color(hex_color: str) -> tuple:
     return srgb(hex_color)
 
 
-#: The kernel engine's GrassMaterial defaults (grasswidget.gpu.field.GrassMaterial).
-MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", color_variation=0.35, ambient=0.4,
-                         light_direction=(0.4, 1.0, 0.3), tip_threshold=0.5)
-
-
-def material_uniform(params: GrassParams, **overrides) -> bytes:
-    m = dict(MATERIAL_DEFAULTS, **overrides)
-    light = np.asarray(m["light_direction"], np.float64)
-    light = light / np.linalg.norm(light)
-    return pack(MATERIAL_LAYOUT, dict(
-        root_color=srgb_color(m["root_color"]),
-        tip_color=srgb_color(m["tip_color"]),
-        light_direction=(*light, 0.0),
-        color_variation=m["color_variation"],
-        ambient=m["ambient"],
-        tip_threshold=m["tip_threshold"],
-        blade_shape=int(BladeShape.from_label(params.blade_shape)),
-        opacity=1.0,
-    ))
+def material_uniform(params: GrassParams, **material) -> bytes:
+    """``u_material`` of blade_render.wgsl packed: :func:`grasswidget.core.frame_data.material_values`
+    (the material's defaults, or ``material``'s overrides of them, and the params' looks),
+    the values the kernel engine's GrassField writes into its GrassMaterial."""
+    return pack(MATERIAL_LAYOUT, material_values(params, **material))
 
 
 def clock(params: GrassParams) -> dict:

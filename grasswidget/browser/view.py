@@ -40,7 +40,7 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
-from ..core.frame_data import frame_rules
+from ..core.frame_data import export_filter, frame_rules
 from ..core.params import GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
@@ -117,7 +117,13 @@ class BrowserView(anywidget.AnyWidget):
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)
     camera = Dict().tag(sync=True)
-    balls = List().tag(sync=True)
+    #: The colliders as [[x, y, z, r], ...] (Python side; the browser gets the two arrays below).
+    balls = List()
+    #: The spheres (K x 4 float32) and their grid (u32 words; grasswidget.core.collider_grid).
+    collider_spheres = Bytes(b"").tag(sync=True)
+    collider_grid = Bytes(b"").tag(sync=True)
+    #: Bytes of the browser's two collider buffers (their fixed sizes).
+    collider_buffer_bytes = List([uniforms.COLLIDER_BYTES, uniforms.GRID_BYTES]).tag(sync=True)
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
@@ -205,7 +211,11 @@ class BrowserView(anywidget.AnyWidget):
         self.material_uniform = uniforms.material_uniform(p)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
+        self._write_colliders()
+
+    def _write_colliders(self):
         self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+        self.collider_spheres, self.collider_grid = uniforms.collider_buffers(self._colliders, self.blades)
 
     @property
     def colliders(self) -> ColliderList:
@@ -221,7 +231,7 @@ class BrowserView(anywidget.AnyWidget):
         """Send the colliders' current positions and radii to the browser."""
         with self.hold_sync():
             self.sim_uniform = uniforms.sim_uniform(self.params, len(self.blades), self._colliders)
-            self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
+            self._write_colliders()
 
     def _on_params(self, change):
         if change["name"] == "wind_wgsl":
@@ -230,6 +240,8 @@ class BrowserView(anywidget.AnyWidget):
             return
         with self.hold_sync():
             self._write_uniforms()
+            if change["name"] == "fog_density" and self.camera:  # the sky/ground's fog too
+                self._write_frame_rules()
 
     # ------------------------------------------------------------------ commands
 
@@ -361,10 +373,20 @@ class BrowserView(anywidget.AnyWidget):
         state["step_count"] = int(msg["step_count"])
         return state
 
-    def snapshot(self, size, timeout: float = ANSWER_TIMEOUT) -> np.ndarray:
-        """(h, w, 4) uint8 RGBA rendered by the browser at ``size`` (waits for the answer)."""
+    @staticmethod
+    def snapshot_request(size, supersample: int = 1) -> dict:
+        """The browser's snapshot message for ``size`` (w, h) pixels: rendered
+        ``supersample`` times larger (1..4) and filtered down with
+        :func:`grasswidget.core.frame_data.export_filter`, as the kernel engine's exports."""
         w, h = int(size[0]), int(size[1])
-        msg, buffers = self._request({"type": "snapshot", "width": w, "height": h}, timeout,
+        if w < 1 or h < 1:
+            raise GrassValueError(f"size must be (width, height) of at least 1 pixel; got {tuple(size)!r}")
+        return {"type": "snapshot", "width": w, "height": h, "filter": export_filter(supersample)}
+
+    def snapshot(self, size, timeout: float = ANSWER_TIMEOUT, *, supersample: int = 1) -> np.ndarray:
+        """(h, w, 4) uint8 RGBA rendered by the browser at ``size`` (waits for the answer);
+        ``supersample`` > 1: anti-aliased (see :meth:`snapshot_request`)."""
+        msg, buffers = self._request(self.snapshot_request(size, supersample), timeout,
                                      "a snapshot from the browser view")
         return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
 

@@ -59,6 +59,8 @@ _STORAGE = {
         "s_culled": "var<storage, read_write> s_culled: array<u32>",
         "s_culled_args": "var<storage, read_write> s_culled_args: array<atomic<u32>>",
         "s_bands": "var<storage, read_write> s_bands: array<atomic<u32>>",
+        "s_colliders": "var<storage, read> s_colliders: array<vec4<f32>>",
+        "s_collider_grid": "var<storage, read> s_collider_grid: array<u32>",
         # the blade inspector (inspect.wgsl): line vertices and points, 3 floats each; forces
         "s_segments": "var<storage, read_write> s_segments: array<f32>",
         "s_points": "var<storage, read_write> s_points: array<f32>",

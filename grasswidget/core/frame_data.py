@@ -5,6 +5,9 @@ The kernel engine (pygfx, :mod:`grasswidget.gpu`) and the browser engine
 depends on is computed here, from the parameters, colliders, blades and camera,
 and each engine only writes it into its own buffers:
 
+* :func:`collider_grid`: the colliders' spheres and their grid
+  (:mod:`grasswidget.core.collider_grid`), the two arrays both engines upload
+  when the colliders change.
 * :func:`sim_uniform_values` / :func:`cull_uniform_values`: the *values* of the
   ``u_sim`` and ``u_cull`` structs (field name -> number or array; the layouts
   are :mod:`grasswidget.core.uniform_layouts`). The kernel copies them into its
@@ -16,10 +19,18 @@ and each engine only writes it into its own buffers:
   the browser's clock executes the same rules from this dict.
 * :func:`orbit_rules`: the orbit limits (:class:`grasswidget.core.orbit_limits.OrbitLimits`)
   as a dict; pygfx's held controller and the browser's drag both clamp with them.
-* :func:`scene_style`: sky and ground colours and the ground square (one
-  ``shaders/sky_ground.wgsl`` draws them in both engines), collider-ball colour.
+* :func:`sky_ground_values`: the values of ``u_material`` of
+  ``shaders/sky_ground.wgsl`` (``uniform_layouts.SKY_GROUND_LAYOUT``: sky, soil,
+  ground beyond the field, horizon, fog), which both engines draw.
+* :func:`material_values` / :func:`look_values`: the blade material's values
+  (``uniform_layouts.GRASS_MATERIAL_LAYOUT``): the browser packs all of them, the
+  kernel's GrassField writes the params' looks into its GrassMaterial.
+* :func:`scene_style`: :func:`sky_ground_values` plus the collider balls' colour.
 * :func:`frame_rules`: the three above in one JSON-able dict (the browser's
   ``frame_rules`` trait).
+* :data:`EXPORT_SUPERSAMPLE` and :func:`export_filter`: how both engines anti-alias
+  exported pictures (render that many times larger, filter down with pygfx's
+  Mitchell filter in linear light; the browser engine runs the weights given here).
 
 Nothing here imports a GPU module.
 """
@@ -32,27 +43,42 @@ from dataclasses import asdict
 import numpy as np
 
 from ..errors import GrassValueError
-from .colliders import MAX_COLLIDERS, collider_array
+from .collider_grid import MAX_GRID_CELLS, build_collider_grid, root_bounds
+from .colliders import collider_array
 from .enums import ColorBy, GravityMode, WindField
+from .enums import BladeShape
 from .orbit_limits import OrbitLimits
-from .reference import wind_period
+from .params import LOOK_TRAITS, GrassParams
+from .reference import ground_cover, wind_period
 
 __all__ = [
-    "sim_uniform_values", "cull_uniform_values", "compute_raster_on", "compute_raster_values", "MAX_RASTER_BLADES",
-    "clock_rules", "orbit_rules", "scene_style", "ground_square",
-    "frame_rules", "srgb", "SKY_BOTTOM", "SKY_TOP", "GROUND_COLOR", "BALL_COLOR", "BALL_OPACITY",
-    "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
+    "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
+    "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
+    "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
+    "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+    "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
 ]
 
 #: The most fixed steps one drawn frame may take while playing, in both engines (a frame
 #: owed more gets this many and the rest is dropped: slow motion).
 MAX_STEPS_PER_FRAME = 64
 
-#: Sky gradient, bottom and top of the view (sRGB hex).
-SKY_BOTTOM = "#9cc3e6"
-SKY_TOP = "#e8f1f8"
-#: The ground's flat colour (sRGB hex): a lit Phong plane facing up measured (51, 36, 22).
-GROUND_COLOR = "#332416"
+#: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
+#: distance fog's colour and the far ground's), the sky straight up, the bare soil
+#: under the field (already lit; the grass' cover darkens it) and the ground beyond it
+#: (a khaki that the grass detectors of the tests do not take for grass).
+HORIZON_COLOR = "#e4edf5"
+ZENITH_COLOR = "#8db8e3"
+SOIL_COLOR = "#3b2a1a"
+BEYOND_COLOR = "#787a4e"
+#: Width (m) of the soft edge between the soil under the field and the ground beyond.
+FIELD_EDGE = 0.5
+#: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
+#: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
+#: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=(0.4, 1.0, 0.3),
+                         tip_threshold=0.5, fog_color=HORIZON_COLOR)
 #: Collider balls: colour (sRGB hex) and opacity (0..1).
 BALL_COLOR = "#dfe8ff"
 BALL_OPACITY = 0.35
@@ -60,6 +86,44 @@ BALL_OPACITY = 0.35
 LIGHT_DIRECTION = (4.0, 10.0, 3.0)
 #: The ground plane lies this far (m) below the lowest blade root (no z-fight with the roots).
 GROUND_DROP = 0.01
+
+
+#: Supersampling of exported pictures, both engines (save_png, the CLI snapshot,
+#: save_animation, the Save PNG button): each output pixel is rendered as
+#: EXPORT_SUPERSAMPLE x EXPORT_SUPERSAMPLE pixels and filtered down (:func:`export_filter`).
+#: On lavapipe at 640 x 360 this halves the mean difference to a 4 x 4 supersample
+#: (benchmarks/looks_cost.py measures it and the time).
+EXPORT_SUPERSAMPLE = 2
+
+
+def mitchell(t):
+    """The Mitchell-Netravali cubic (B = C = 1/3) at ``t`` (array; zero for |t| >= 2):
+    pygfx's reconstruction filter (its ``ssaa.wgsl``), here for the browser's exports."""
+    t = np.abs(np.asarray(t, np.float64))
+    b = c = 1.0 / 3.0
+    near = (12 - 9 * b - 6 * c) * t ** 3 + (-18 + 12 * b + 6 * c) * t ** 2 + (6 - 2 * b)
+    far = (-b - 6 * c) * t ** 3 + (6 * b + 30 * c) * t ** 2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)
+    return np.where(t < 1, near, np.where(t < 2, far, 0.0)) / 6.0
+
+
+def export_filter(factor: int = EXPORT_SUPERSAMPLE) -> dict:
+    """The separable filter that takes a picture rendered ``factor`` times larger (an
+    integer 1..4) down to its size, as pygfx's renderer does with ``pixel_ratio =
+    factor``: output pixel i (each axis) is ``sum_k weights[k] * src[factor i + first + k]``
+    (indices clamped to the picture), in linear light (sRGB decoded before, encoded
+    after). The weights are :func:`mitchell` at the source pixels' distance from the
+    output pixel's centre over ``factor``, normalized to sum 1. Returns
+    ``{"factor", "first", "weights"}`` (JSON-able; factor 1: one tap of weight 1)."""
+    if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or not 1 <= factor <= 4:
+        raise GrassValueError(f"factor (supersampling) must be an integer in [1, 4]; got {factor!r}")
+    f = int(factor)
+    if f == 1:
+        return {"factor": 1, "first": 0, "weights": [1.0]}
+    k = np.arange(-3 * f, 3 * f)
+    w = mitchell((k + 0.5 - 0.5 * f) / f)
+    keep = np.flatnonzero(w != 0)
+    k, w = k[keep[0]: keep[-1] + 1], w[keep[0]: keep[-1] + 1]
+    return {"factor": f, "first": int(k[0]), "weights": [float(x) for x in w / w.sum()]}
 
 
 def srgb(hex_color: str, alpha: float = 1.0) -> tuple:
@@ -85,13 +149,15 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     Args:
         params: a :class:`~grasswidget.params.GrassParams`.
         n_blades: blade count N.
-        colliders: sphere colliders (at most ``MAX_COLLIDERS`` = 16), in the field's local space.
+        colliders: sphere colliders (a ColliderList, SphereColliders or a (K, 4) array; at most
+            ``MAX_COLLIDERS`` = 1024), in the field's local space. Only their count goes into
+            ``u_sim``; the spheres and their grid are :func:`collider_grid` (storage buffers).
         world_matrix: the field's 4x4 world matrix (default identity): gravity's
             direction and centre are given in world space and turned into local space.
         steps: fixed steps in this dispatch (the browser writes its own per dispatch).
         time0: simulation time of the dispatch's first step (s; same).
 
-    Returns {field: value}; vectors are 4 floats, ``colliders`` a (16, 4) array.
+    Returns {field: value}; vectors are 4 floats.
     """
     p = params
     m = _local(world_matrix)
@@ -107,15 +173,12 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     except np.linalg.LinAlgError:
         pass
     rad = math.radians(p.wind_direction)
-    spheres = collider_array(list(colliders))
-    padded = np.zeros((MAX_COLLIDERS, 4), np.float32)
-    padded[: len(spheres)] = spheres
+    spheres = collider_array(colliders)
     return dict(
         gravity_dir=(*g, 0.0),
         wind_dir=(math.cos(rad), math.sin(rad), 0.0, 0.0),
         gravity_center=(*centre[:3], 0.0),
         wind_center=(*p.wind_center, 0.0),
-        colliders=padded,
         gravity=p.gravity,
         front_gravity=p.front_gravity,
         stiffness_scale=p.stiffness_scale,
@@ -134,6 +197,16 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
         collision_gain=p.collision_gain,
         n_colliders=len(spheres),
     )
+
+
+def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
+    """The spheres of ``colliders`` and their grid over ``blades`` (a :class:`~grasswidget.core.blades.Blades`:
+    the roots' xz bounds, the tallest blade), as both engines upload them into ``s_colliders`` and
+    ``s_collider_grid``: a :class:`~grasswidget.core.collider_grid.ColliderGrid` (``.sphere_data()``,
+    ``.words()``). ``max_cells`` (default MAX_GRID_CELLS; 1 = every blade tests every sphere)."""
+    spheres = collider_array(colliders)
+    height = float(np.max(blades.height)) if len(blades) else 0.0
+    return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
 def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False) -> dict:
@@ -233,23 +306,98 @@ def ground_square(blades, far) -> tuple:
     return centre, 0.5 * (1.2 * extent + 2.0 * far)
 
 
-def scene_style(blades, far) -> dict:
-    """Sky, ground and collider-ball style: ``sky_bottom``, ``sky_top``, ``ground_color``
-    (r, g, b, a sRGB 0..1), ``ground`` (x, y, z, half size in m: :func:`ground_square`),
-    ``show_ground`` (1), ``ball_color`` (r, g, b, opacity), ``light_direction`` (x, y, z)."""
+def field_rectangle(blades) -> tuple:
+    """``((x, z), (half_x, half_z))``: the rectangle of the blades' roots on the ground (m)."""
+    v0 = np.asarray(blades.v0, np.float64)
+    lo, hi = v0.min(axis=0), v0.max(axis=0)
+    return (float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[2] + hi[2]))), \
+        (float(0.5 * (hi[0] - lo[0])), float(0.5 * (hi[2] - lo[2])))
+
+
+def field_cover(blades) -> float:
+    """How much the blades shade the soil of their rectangle, 0..1
+    (:func:`grasswidget.core.reference.ground_cover`; sides of at least 0.1 m)."""
+    _centre, (hx, hz) = field_rectangle(blades)
+    return ground_cover(blades.height, blades.width, max(2 * hx, 0.1) * max(2 * hz, 0.1))
+
+
+def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
+    """The ``u_material`` values of ``shaders/sky_ground.wgsl``
+    (``uniform_layouts.SKY_GROUND_LAYOUT``), the same for both engines.
+
+    Args:
+        blades: the field's :class:`~grasswidget.core.blades.Blades` (its rectangle
+            and cover decide where the soil is and how dark).
+        far: the camera's far plane in metres (None: 100): the ground square reaches
+            it (:func:`ground_square`) and fades into the horizon colour from 0.6 of it.
+        params: the :class:`~grasswidget.core.params.GrassParams` (its ``fog_density``,
+            1/m); None: the defaults.
+        show_ground: draw the ground (else sky everywhere).
+
+    Colours are (r, g, b, 1) sRGB 0..1, ``ground`` (x, y, z, half size) and
+    ``field`` (x, z, half_x, half_z) in metres.
+    """
     centre, half = ground_square(blades, far)
+    (cx, cz), (hx, hz) = field_rectangle(blades)
+    fog = (params if params is not None else GrassParams()).fog_density
     return {
-        "sky_bottom": list(srgb(SKY_BOTTOM)),
-        "sky_top": list(srgb(SKY_TOP)),
-        "ground_color": list(srgb(GROUND_COLOR)),
-        "ground": [*centre, float(half)],
-        "show_ground": 1,
-        "ball_color": list(srgb(BALL_COLOR, BALL_OPACITY)),
-        "light_direction": list(LIGHT_DIRECTION),
+        "horizon_color": srgb(HORIZON_COLOR),
+        "zenith_color": srgb(ZENITH_COLOR),
+        "soil_color": srgb(SOIL_COLOR),
+        "beyond_color": srgb(BEYOND_COLOR),
+        "ground": (*centre, float(half)),
+        "field": (cx, cz, hx, hz),
+        "show_ground": int(bool(show_ground)),
+        "far_distance": 100.0 if far is None else float(far),
+        "fog_density": float(fog),
+        "cover": field_cover(blades),
+        "field_edge": FIELD_EDGE,
     }
+
+
+def look_values(params) -> dict:
+    """The blade material's looks from the params (``params.LOOK_TRAITS``): colour
+    variety (0..1), patch size (m), dryness (0..1), translucency (0..1), fog density (1/m)."""
+    return {name: float(getattr(params, name)) for name in LOOK_TRAITS}
+
+
+def material_values(params, **material) -> dict:
+    """The blade material's ``u_material`` values (``uniform_layouts.GRASS_MATERIAL_LAYOUT``):
+    :data:`MATERIAL_DEFAULTS` with ``material``'s overrides (same keys), the looks from
+    :func:`look_values`, the ribbon shape from ``params.blade_shape``, opacity 1."""
+    unknown = set(material) - set(MATERIAL_DEFAULTS)
+    if unknown:
+        raise GrassValueError(f"material_values takes {', '.join(MATERIAL_DEFAULTS)}; got {sorted(unknown)}")
+    m = dict(MATERIAL_DEFAULTS, **material)
+    light = np.asarray(m["light_direction"], np.float64).reshape(3)
+    norm = float(np.linalg.norm(light))
+    if not (np.all(np.isfinite(light)) and norm > 0):
+        raise GrassValueError(f"light_direction must be a finite non-zero 3-vector; got {m['light_direction']!r}")
+    return {
+        "root_color": srgb(m["root_color"]),
+        "tip_color": srgb(m["tip_color"]),
+        "light_direction": (*(light / norm), 0.0),
+        "fog_color": srgb(m["fog_color"]),
+        "opacity": 1.0,
+        "alpha_test": 0.0,
+        **look_values(params),
+        "ambient": float(m["ambient"]),
+        "tip_threshold": float(m["tip_threshold"]),
+        "blade_shape": int(BladeShape.from_label(params.blade_shape)),
+    }
+
+
+def scene_style(blades, far, params=None) -> dict:
+    """Sky, ground and collider-ball style: :func:`sky_ground_values` (lists) plus
+    ``ball_color`` (r, g, b, opacity) and ``light_direction`` (x, y, z, towards the sun)."""
+    style = {k: (list(v) if isinstance(v, tuple) else v) for k, v in sky_ground_values(blades, far, params).items()}
+    style["ball_color"] = list(srgb(BALL_COLOR, BALL_OPACITY))
+    style["light_direction"] = list(LIGHT_DIRECTION)
+    return style
 
 
 def frame_rules(params, blades, far) -> dict:
     """``{"clock": clock_rules, "orbit": orbit_rules, "style": scene_style}`` for a field
     of ``blades`` seen by a camera whose far plane is ``far`` metres."""
-    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far), "style": scene_style(blades, far)}
+    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far),
+            "style": scene_style(blades, far, params)}

@@ -19,7 +19,7 @@ from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
 __all__ = [
-    "GrassParams", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "GrassParams", "LOOK_TRAITS", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
     "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
 ]
 
@@ -31,6 +31,9 @@ BLADE_SHAPES = BladeShape.labels()
 GRAVITY_MODES = GravityMode.labels()
 #: How blades are coloured (see ``GrassParams.color_by`` and ``grasswidget.core.teaching``; ids: ``enums.ColorBy``).
 COLOR_BY = ColorBy.labels()
+
+#: The traits that change only how the meadow looks (blade colour, fog), not the physics.
+LOOK_TRAITS = ("color_variation", "patch_size", "dryness", "translucency", "fog_density")
 
 
 class RangedFloat(traitlets.Float):
@@ -209,6 +212,13 @@ class GrassParams(StrictTraits):
     # ---- drawing ----------------------------------------------------------------
     blade_shape = ChoiceTrait("triangle-tip", BLADE_SHAPES, help="Ribbon shape of the blades (paper section 6): quad, triangle, quadratic, triangle-tip or fold (3D).").tag(sync=True)
 
+    # ---- looks (drawing only; the physics ignores them) ------------------------------
+    color_variation = RangedFloat(0.35, 0.0, 1.0, help="How much the blades' colour (hue and brightness) varies, mostly in patches of patch_size: 0 every blade alike, 1 strong.").tag(sync=True)
+    patch_size = RangedFloat(3.0, 0.1, 100.0, "m", help="Size of the meadow's colour patches (clumps of lighter, darker, drier grass).").tag(sync=True)
+    dryness = RangedFloat(0.1, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
+    translucency = RangedFloat(0.6, 0.0, 1.0, help="How much the tips light up when the sun is behind them (light through the blade): 0 not at all, 1 strongly.").tag(sync=True)
+    fog_density = RangedFloat(0.005, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
+
     # ---- time -----------------------------------------------------------------
     dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)
 
@@ -223,7 +233,7 @@ class GrassParams(StrictTraits):
     cull_occlusion = Bool(True, help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
     lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
     compute_raster = Bool(False, help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve, 32-bit atomic depth test, then a full-screen resolve that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. Off by default: slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md); GrassScene turns it on for its own params on a GPU adapter.").tag(sync=True)
-    compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none.").tag(sync=True)
+    compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none. GrassScene's own params on a GPU adapter use 4 (measured on an H100: more frames, the same look).").tag(sync=True)
 
     # ---- teaching views -----------------------------------------------------------
     color_by = ChoiceTrait("natural", COLOR_BY, help='How blades are coloured: "natural" (lit grass), "lod" (every drawn blade flat in its level-of-detail class colour, grasswidget.LOD_COLORS) or "cull" (every blade drawn; culled ones flat in the colour of the first test that culled them, grasswidget.CULL_COLORS: orientation, frustum, distance, occlusion). Applies at the next render.').tag(sync=True)

@@ -54,6 +54,9 @@ __all__ = [
     "sphere_push",
     "collide_sphere",
     "collide_spheres",
+    "sphere_in_reach",
+    "grid_cell",
+    "COLLIDER_REACH",
     "fade_collision",
     "gain_collision",
     "effective_stiffness",
@@ -83,6 +86,15 @@ __all__ = [
     "FORCE_NAMES",
     "blade_shape_t",
     "hash01",
+    "DRY_COLOR",
+    "clump_noise",
+    "blade_base_color",
+    "backlight",
+    "fog_amount",
+    "sky_color",
+    "field_inside",
+    "ground_color",
+    "ground_cover",
     "occlusion_bounds",
     "hzb_level",
     "hzb_layout",
@@ -504,20 +516,63 @@ def collide_sphere(v0, v1, v2, sphere):
     return v2, add, add > 0
 
 
-def collide_spheres(v0, v1, v2, spheres):
-    """One push of each blade out of every sphere in turn (:func:`collide_sphere`);
-    returns (v2, eta_add, hit) with ``eta_add`` summed over the spheres and ``hit``
-    True where any push happened (those blades are validated again).
+#: A sphere acts on a blade only when it comes within this many blade heights of the
+#: root (:func:`sphere_in_reach`). A validated blade's tip and midpoint lie within one
+#: height of the root, so only a tip already pushed in the same pass could reach farther.
+#: The collider grid (:mod:`grasswidget.core.collider_grid`) lists, per cell, every
+#: sphere in reach of a root in that cell, so the GPU's per-cell loop and the loop over
+#: all spheres here give the same result.
+COLLIDER_REACH = 1.0
 
-    The twin of ``collide_spheres(v0, v1, v2)`` of ``shaders/collisions.wgsl``,
-    which loops over the colliders of ``u_sim``; ``spheres`` is (K, 4) here."""
+
+def sphere_in_reach(v0, height, sphere):
+    """True where a sphere (cx, cy, cz, R) comes near enough to act on a blade rooted at v0
+    (N, 3) of ``height`` (N,) m: ``|c - v0| < R + COLLIDER_REACH * height``."""
+    c = np.asarray(sphere, np.float64)
+    dist = np.linalg.norm(c[..., :3] - np.asarray(v0, np.float64), axis=-1)
+    return dist < c[..., 3] + COLLIDER_REACH * np.asarray(height, np.float64)
+
+
+def grid_cell(p, origin, inv_cell_size, nx, nz):
+    """Cell index ``cz * nx + cx`` of the collider grid holding the points p (N, 3) (their x, z):
+    ``cx = clamp(floor((p.x - origin.x) * inv_cell_size), 0, nx - 1)``, likewise cz with z;
+    the border cells reach to infinity. Computed in float32 like the GPU, so both pick the
+    same cell (see :mod:`grasswidget.core.collider_grid`)."""
+    p = np.asarray(p, np.float32)
+    origin = np.asarray(origin, np.float32)
+    inv = np.asarray(inv_cell_size, np.float32)
+    nx = np.asarray(nx, np.int64)
+    nz = np.asarray(nz, np.int64)
+    qx = (p[..., 0] - origin[..., 0]) * inv
+    qz = (p[..., 2] - origin[..., 1]) * inv
+    cx = np.clip(np.floor(qx), 0, nx - 1).astype(np.int64)
+    cz = np.clip(np.floor(qz), 0, nz - 1).astype(np.int64)
+    return (cz * nx + cx).astype(np.uint32)
+
+
+def collide_spheres(v0, v1, v2, height, spheres):
+    """One push of each blade out of every sphere in reach (:func:`sphere_in_reach`), in
+    the spheres' order (:func:`collide_sphere`); returns (v2, eta_add, hit) with
+    ``eta_add`` summed over the spheres and ``hit`` True where any push happened (those
+    blades are validated again). ``spheres`` is (K, 4), any K.
+
+    The twin of ``collide_spheres(v0, v1, v2, height)`` of ``shaders/collisions.wgsl``,
+    which loops over the spheres listed in the blade's cell of the collider grid (every
+    sphere in reach, in the same order), not over all of them."""
+    v0 = np.asarray(v0, np.float64)
+    v1 = np.asarray(v1, np.float64)
+    height = np.asarray(height, np.float64)
     v2 = np.array(v2, np.float64, copy=True)
     add = np.zeros(len(v2))
     hit = np.zeros(len(v2), bool)
     for c in np.asarray(spheres, np.float64).reshape(-1, 4):
-        v2, add_c, hit_c = collide_sphere(v0, v1, v2, c)
-        add += add_c
-        hit |= hit_c
+        near = sphere_in_reach(v0, height, c)
+        if not near.any():
+            continue
+        pushed, add_c, hit_c = collide_sphere(v0, v1, v2, c)
+        v2 = np.where(near[:, None], pushed, v2)
+        add += np.where(near, add_c, 0.0)
+        hit |= near & hit_c
     return v2, add, hit
 
 
@@ -574,7 +629,7 @@ def collision_passes(v0, v1, v2, up, height, spheres):
     if len(np.asarray(spheres).reshape(-1, 4)) == 0:
         return v1, v2, add_total
     for _ in range(COLLISION_PASSES):
-        pushed = collide_spheres(v0, v1, v2, spheres)
+        pushed = collide_spheres(v0, v1, v2, height, spheres)
         add_total = add_total + pushed[1]
         v1, v2 = validate_pushed(v0, v1, v2, up, height, pushed)
     return v1, v2, add_total
@@ -886,6 +941,104 @@ def hash01(x):
     return h.astype(np.float64) / 4294967296.0
 
 
+# --------------------------------------------------------------------------- looks
+
+#: sRGB colour of dry (straw) grass at the tip; the root of a dry blade is 0.45 of it.
+DRY_COLOR = (0.80, 0.72, 0.40)
+
+
+def _mix(a, b, t):
+    t = np.asarray(t, np.float64)
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if t.ndim and a.ndim > t.ndim:
+        t = t[..., None]
+    return a + (b - a) * t
+
+
+def clump_noise(x, z, size):
+    """The meadow's low-frequency patches (clumps) at ground point (x, z) metres: two
+    independent :func:`simplex_noise2` of feature size ``size`` metres, each clamped to
+    [-1, 1], stacked on the last axis: [..., 0] drives a patch's hue and brightness,
+    [..., 1] its dryness. Derived from the blade's root, so no per-blade buffer."""
+    qx = np.asarray(x, np.float64) / size
+    qz = np.asarray(z, np.float64) / size
+    a = simplex_noise2(qx, qz)
+    b = simplex_noise2(qx + 19.1, qz - 7.3)
+    return np.clip(np.stack([a, b], axis=-1), -1.0, 1.0)
+
+
+def blade_base_color(root, tip, along, variation, clump, color_variation, dryness):
+    """Unlit sRGB colour (..., 3) of a blade at height fraction ``along`` (0 root .. 1 tip).
+
+    The root-to-tip ramp ``mix(root, tip, along^0.8)``; the blade's shift
+    ``s = 0.7 clump[0] + 0.6 (variation - 0.5)`` (its patch, then its own hash in [0, 1))
+    scales brightness by ``1 + color_variation s / 2`` and adds ``color_variation s
+    (0.22, 0.05, -0.15) tip`` (yellower when brighter); then a share
+    ``clamp(dryness (1 + 1.5 clump[1]), 0, 1) (0.4 + 0.6 along)`` of straw
+    (:data:`DRY_COLOR` times ``0.45 + 0.55 along^0.8``). color_variation and dryness 0..1.
+    """
+    root, tip = np.asarray(root, np.float64), np.asarray(tip, np.float64)
+    clump = np.asarray(clump, np.float64)
+    v = np.clip(np.asarray(along, np.float64), 0.0, 1.0)
+    ramp = v ** 0.8
+    base = _mix(root, tip, ramp)
+    s = 0.7 * clump[..., 0] + 0.6 * (np.asarray(variation, np.float64) - 0.5)
+    cv = np.asarray(color_variation, np.float64)
+    base = base * (1.0 + 0.5 * cv * s)[..., None]
+    base = base + (cv * s)[..., None] * np.array([0.22, 0.05, -0.15]) * tip
+    dry = np.clip(np.asarray(dryness, np.float64) * (1.0 + 1.5 * clump[..., 1]), 0.0, 1.0) * (0.4 + 0.6 * v)
+    straw = np.asarray(DRY_COLOR) * (0.45 + 0.55 * ramp)[..., None]
+    return np.clip(_mix(base, straw, dry), 0.0, 1.0)
+
+
+def backlight(to_eye, light, along, translucency):
+    """Light through a blade seen against the sun: ``translucency * max(dot(-to_eye,
+    light), 0)^4 * along^2`` (tips glow most; to_eye and light unit vectors)."""
+    facing = np.maximum(-np.sum(np.asarray(to_eye, np.float64) * light, axis=-1), 0.0)
+    a = np.clip(np.asarray(along, np.float64), 0.0, 1.0)
+    return np.asarray(translucency, np.float64) * facing ** 4 * a * a
+
+
+def fog_amount(distance, density):
+    """Share of the fog colour at ``distance`` metres: ``1 - exp(-density distance)``
+    (density in 1/m; 0 = no fog)."""
+    return 1.0 - np.exp(-np.maximum(np.asarray(density, np.float64), 0.0) * np.maximum(distance, 0.0))
+
+
+def sky_color(elevation, horizon, zenith):
+    """Sky colour for a view ray whose elevation has sine ``elevation``: ``horizon`` at and
+    below the horizon, ``mix(horizon, zenith, sqrt(elevation))`` above."""
+    return _mix(horizon, zenith, np.sqrt(np.clip(np.asarray(elevation, np.float64), 0.0, 1.0)))
+
+
+def field_inside(x, z, c, half, edge):
+    """How far ground point (x, z) lies inside the rectangle of centre ``c`` (x, z) and
+    half sizes ``half`` (metres): 0 beyond ``edge / 2`` outside, 1 beyond ``edge / 2``
+    inside, linear between."""
+    c, half = np.asarray(c, np.float64), np.asarray(half, np.float64)
+    d = np.maximum(np.abs(x - c[..., 0]) - half[..., 0], np.abs(z - c[..., 1]) - half[..., 1])
+    return np.clip(0.5 - d / edge, 0.0, 1.0)
+
+
+def ground_color(soil, beyond, inside, cover):
+    """Ground colour (sRGB): ``soil`` darkened by the grass' ``cover`` (0..1; see
+    :func:`ground_cover`) to ``1 - 0.6 cover`` under the field, the ground ``beyond``
+    outside, blended by ``inside`` (0..1, :func:`field_inside`)."""
+    under = np.asarray(soil, np.float64) * (1.0 - 0.6 * np.clip(cover, 0.0, 1.0))[..., None]
+    return _mix(beyond, under, np.clip(inside, 0.0, 1.0))
+
+
+def ground_cover(heights, widths, area):
+    """How much a field's grass covers (shades) its soil, 0..1: ``1 - exp(-L / 4)`` with
+    L the leaf area index, the blades' one-sided area ``sum(2 w h)`` (w the half width,
+    metres) per ``area`` square metres of ground. A lawn of 1000 blades/m^2 of 2 x 3 cm x
+    75 cm has L = 45 (cover 1); 36 blades/m^2 of 24 cm x 1.9 m, L = 16 (cover 0.98)."""
+    if not area > 0:
+        raise GrassValueError(f"area must be > 0 square metres; got {area!r}")
+    leaf = float(np.sum(2.0 * np.asarray(widths, np.float64) * np.asarray(heights, np.float64))) / float(area)
+    return float(1.0 - math.exp(-leaf / 4.0))
+
+
 # --------------------------------------------------------------------------- occlusion culling
 
 #: A ribbon point lies within this many blade widths of the curve (blade_render.wgsl:
@@ -1043,31 +1196,30 @@ def curve_pieces(v0, v1, v2, pieces=None):
 # --------------------------------------------------------------------------- shading
 
 
-def blade_shade(normal, to_eye, along, variation, root, tip, color_variation, light_direction, ambient):
+def blade_shade(normal, to_eye, along, base, glow, fog, fog_color, light_direction, ambient):
     """Lit colour of a blade's surface point (sRGB, 0..1; blade_math.wgsl ``blade_shade``,
     the ribbons' and the compute rasterizer's shading). Rows of vectors (N, 3), scalars (N,).
 
-    Two-sided (the normal is flipped to face ``to_eye``); base colour ``mix(root, tip,
-    along^0.8)`` varied per blade by ``color_variation * (variation - 0.5)`` (brightness
-    and a hue nudge); diffuse + 0.35 translucency of the light, ``ambient`` floor, and
-    an ambient occlusion 0.55 (root) .. 1 (tip)."""
+    Two-sided (the normal is flipped to face ``to_eye``); the unlit ``base`` colour
+    (:func:`blade_base_color`) lit by diffuse + 0.35 translucency of the light, an
+    ``ambient`` floor and an ambient occlusion 0.55 (root) .. 1 (tip); plus the tips'
+    ``glow`` against the sun (:func:`backlight`) times ``1.2 base + (0.16, 0.14, 0.02)``,
+    clamped to 0..1; then a share ``fog`` (:func:`fog_amount`) of ``fog_color``."""
     n = safe_normalize(np.asarray(normal, np.float64))
     to_eye = np.asarray(to_eye, np.float64)
     n = np.where((_dot(n, to_eye) < 0.0)[..., None], -n, n)
-    var_s = np.asarray(variation, np.float64)[..., None] - 0.5
     a = np.clip(np.asarray(along, np.float64), 0.0, 1.0)[..., None]
-    cv = np.asarray(color_variation, np.float64)[..., None]
-    root, tip = np.asarray(root, np.float64), np.asarray(tip, np.float64)
-    base = root + (tip - root) * a ** 0.8
-    base = base * (1.0 + cv * var_s)
-    base = base + cv * np.concatenate([0.35 * var_s, 0.0 * var_s, -0.25 * var_s], axis=-1) * tip
+    base = np.asarray(base, np.float64)
     light = safe_normalize(np.asarray(light_direction, np.float64))
     diffuse = np.maximum(_dot(n, light), 0.0)[..., None]
     translucency = 0.35 * np.maximum(-_dot(n, light), 0.0)[..., None]
     ao = 0.55 + 0.45 * a
     amb = np.asarray(ambient, np.float64)[..., None]
     shade = (amb + (1.0 - amb) * (diffuse + translucency)) * ao
-    return np.clip(base * shade, 0.0, 1.0)
+    glow = np.asarray(glow, np.float64)[..., None]
+    rgb = np.clip(base * shade + glow * (1.2 * base + np.array([0.16, 0.14, 0.02])), 0.0, 1.0)
+    fog = np.asarray(fog, np.float64)[..., None]
+    return rgb + (np.asarray(fog_color, np.float64) - rgb) * fog
 
 
 # --------------------------------------------------------------------------- compute rasterization

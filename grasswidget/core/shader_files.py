@@ -32,14 +32,19 @@ The engine-neutral files and what they need:
     ``{{ user_wind_body }}``). Expects ``u_sim`` (a uniform whose fields are those
     of ``uniform_layouts.SIM_LAYOUT``). Included by the simulation and the inspector.
 ``collisions.wgsl``
-    ``collide_spheres(v0, v1, v2)`` (the one loop over ``u_sim.n_colliders`` /
-    ``u_sim.colliders``, calling blade_math's ``collide_sphere``) and
+    ``collider_cell_range(v0)`` (the list of the root's cell of the collider grid),
+    ``collide_spheres(v0, v1, v2, height)`` (the one loop over the colliders: the
+    spheres of that list in reach, calling blade_math's ``collide_sphere``) and
     ``collision_passes(v0, v1, v2, up, height)`` (``collision_passes`` times: push,
-    then ``validate_pushed``); twins of the same names in ``reference.py``. Expects
-    ``u_sim``; included after ``blade_math.wgsl`` by the simulation and the inspector.
+    then ``validate_pushed``); twins of the same names in ``reference.py`` and
+    ``collider_grid.py``. Expects ``u_sim`` (``n_colliders``), ``s_colliders:
+    array<vec4<f32>>`` and ``s_collider_grid: array<u32>`` (read; the arrays of
+    :mod:`grasswidget.core.collider_grid`); included after ``blade_math.wgsl`` by the
+    simulation and the inspector.
 ``simulate_body.wgsl``
     The compute entry point ``main``. Expects, declared by the engine: ``u_sim``,
-    ``s_blades`` (read_write) and ``s_collision: array<f32>`` (read_write).
+    ``s_blades`` (read_write), ``s_collision: array<f32>`` (read_write) and the
+    collider arrays of ``collisions.wgsl``.
 ``cull_body.wgsl``
     The culling entry point ``main``. Expects ``u_stdinfo`` (fields
     ``projection_transform``, ``cam_transform``, ``cam_transform_inv``,
@@ -58,7 +63,8 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
 :mod:`grasswidget.core.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
-``collision_passes``, ``noise_scale`` (from ``reference.py``),
+``collision_passes``, ``collider_reach``, ``noise_scale`` (from ``reference.py``),
+``grid_header_words`` (from ``collider_grid.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
 ``n_classes``, ``lod_segments``, ``lod_min_pixels`` (level-of-detail classes),
 ``blades_writable`` (False; True in the simulation), ``teaching_views`` (False;
@@ -118,9 +124,10 @@ def wgsl_float(x: float) -> str:
 def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
-    from .reference import (COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, LOD_MIN_PIXELS, LOD_SEGMENTS, NOISE_SCALE,
-                            OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH, RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES,
-                            RECOVERY_FLOOR)
+    from .collider_grid import GRID_HEADER_WORDS
+    from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
+                            LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
+                            RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
 
     return {
         **WindField.template_vars("wind_field"),
@@ -130,7 +137,10 @@ def template_vars() -> dict:
         "recovery_floor": wgsl_float(RECOVERY_FLOOR),
         "collision_max": wgsl_float(COLLISION_MAX),
         "collision_passes": int(COLLISION_PASSES),
+        "collider_reach": wgsl_float(COLLIDER_REACH),
+        "grid_header_words": int(GRID_HEADER_WORDS),
         "noise_scale": wgsl_float(NOISE_SCALE),
+        "dry_color": ", ".join(wgsl_float(c) for c in DRY_COLOR),
         "workgroup_size": WORKGROUP_SIZE,
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),

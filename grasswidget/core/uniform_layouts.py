@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .colliders import MAX_COLLIDERS
 from ..errors import GrassValueError
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "INSPECT_LAYOUT", "shadertype", "wgsl_shadertype", "offsets",
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
+           "wgsl_shadertype", "offsets",
            "struct_size", "pack", "layout_description", "write_values", "wgsl_struct"]
 
 #: ``u_sim``: the simulation's parameters (simulate.wgsl, inspect.wgsl). Vectors are
@@ -33,7 +33,6 @@ SIM_LAYOUT = (
     ("wind_dir", "vec4<f32>"),            # from GrassParams.wind_direction
     ("gravity_center", "vec4<f32>"),      # GrassParams.gravity_center (m)
     ("wind_center", "vec4<f32>"),         # GrassParams.wind_center (m)
-    ("colliders", f"array<vec4<f32>, {MAX_COLLIDERS}>"),  # xyz centre, w radius (m)
     ("gravity", "f32"),                   # m/s^2
     ("front_gravity", "f32"),             # GrassParams.front_gravity
     ("stiffness_scale", "f32"),           # GrassParams.stiffness_scale
@@ -50,7 +49,7 @@ SIM_LAYOUT = (
     ("wind_direction_rad", "f32"),        # GrassParams.wind_direction in radians
     ("collision_fade", "f32"),            # GrassParams.collision_fade
     ("collision_gain", "f32"),            # GrassParams.collision_gain
-    ("n_colliders", "i32"),
+    ("n_colliders", "i32"),               # spheres in s_colliders (the grid: core.collider_grid)
 )
 
 #: ``u_cull``: the culling pass's parameters and the frozen camera (cull.wgsl).
@@ -78,13 +77,40 @@ CULL_LAYOUT = (
     ("raster_tip_threshold", "f32"),      # GrassMaterial.tip_threshold
 )
 
-#: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it).
+#: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it;
+#: values: ``frame_data.sky_ground_values``).
 SKY_GROUND_LAYOUT = (
-    ("sky_bottom", "vec4<f32>"),          # sRGB 0..1, bottom of the view
-    ("sky_top", "vec4<f32>"),             # sRGB 0..1, top of the view
-    ("ground_color", "vec4<f32>"),        # sRGB 0..1
+    ("horizon_color", "vec4<f32>"),       # sRGB 0..1: the sky at the horizon, also the fog's colour
+    ("zenith_color", "vec4<f32>"),        # sRGB 0..1: the sky straight up
+    ("soil_color", "vec4<f32>"),          # sRGB 0..1: bare soil under the field (lit), before the grass' cover
+    ("beyond_color", "vec4<f32>"),        # sRGB 0..1: the ground beyond the field
     ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
+    ("field", "vec4<f32>"),               # the field's rectangle: xy centre (x, z), zw half sizes (m)
     ("show_ground", "i32"),               # 0/1
+    ("far_distance", "f32"),              # the camera's far plane (m): the ground fades into the horizon from 0.6 of it
+    ("fog_density", "f32"),               # GrassParams.fog_density (1/m, 0 = no fog)
+    ("cover", "f32"),                     # how much the grass shades its soil, 0..1 (reference.ground_cover)
+    ("field_edge", "f32"),                # width of the soft edge between soil and ground beyond (m)
+)
+
+#: ``u_material`` of ``shaders/blade_render.wgsl``: the grass material (kernel:
+#: ``grasswidget.gpu.material.GrassMaterial``, whose pygfx base adds ``opacity`` and
+#: ``alpha_test`` at these places; values: ``frame_data.material_values``).
+GRASS_MATERIAL_LAYOUT = (
+    ("root_color", "vec4<f32>"),          # sRGB 0..1, blade root
+    ("tip_color", "vec4<f32>"),           # sRGB 0..1, blade tip
+    ("light_direction", "vec4<f32>"),     # unit vector towards the light (xyz)
+    ("fog_color", "vec4<f32>"),           # sRGB 0..1: far blades fade to it (the sky's horizon colour)
+    ("opacity", "f32"),                   # pygfx Material.opacity (1)
+    ("alpha_test", "f32"),                # pygfx Material.alpha_test (0, unused)
+    ("color_variation", "f32"),           # GrassParams.color_variation (0..1)
+    ("patch_size", "f32"),                # GrassParams.patch_size (m)
+    ("dryness", "f32"),                   # GrassParams.dryness (0..1)
+    ("translucency", "f32"),              # GrassParams.translucency (0..1)
+    ("fog_density", "f32"),               # GrassParams.fog_density (1/m)
+    ("ambient", "f32"),                   # ambient light share (0..1)
+    ("tip_threshold", "f32"),             # tau of the triangle-tip shape (0..0.99)
+    ("blade_shape", "i32"),               # enums.BladeShape
 )
 
 #: ``u_inspect``: the blade inspector's ids (inspect.wgsl): up to ``teaching.MAX_INSPECTED`` (64)

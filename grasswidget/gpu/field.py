@@ -18,9 +18,9 @@ from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
-from ..core.params import GrassParams
+from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
-from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
+from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
 from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
@@ -174,6 +174,8 @@ class GrassField(gfx.WorldObject):
             self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
         else:
             self.material.blade_shape = self.params.blade_shape
+        for name, value in look_values(self.params).items():  # the params drive the material's looks
+            setattr(self.material, name, value)
         if self.params.wind_wgsl.strip():
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
@@ -258,8 +260,12 @@ class GrassField(gfx.WorldObject):
         Append, remove or move them (``ball.center = ...``) at any time; every
         ``step()`` reads the list and the spheres' current values. Coordinates are
         the field's local space (world space for an untransformed field). At most
-        ``MAX_COLLIDERS`` (16): adding more raises ValueError naming ``colliders``;
-        assigning any iterable (``field.colliders = [a, b]``) validates it the same way.
+        ``MAX_COLLIDERS`` (1024), counting the rows of ``colliders.set_array(a)`` (a (K, 4)
+        array of centres and radii: the cheap way to move a crowd every frame): adding
+        more raises ValueError naming ``colliders``; assigning any iterable
+        (``field.colliders = [a, b]``) validates it the same way. The spheres and their
+        grid (:mod:`grasswidget.core.collider_grid`) are uploaded at the next step when
+        they changed; each blade tests only the spheres near it.
         """
         return self._colliders
 
@@ -294,6 +300,8 @@ class GrassField(gfx.WorldObject):
             self._store.flat_colors = self.params.color_by != "natural"
         elif change["name"] == "blade_shape":
             self.material.blade_shape = change["new"]
+        elif change["name"] in LOOK_TRAITS:  # the values the browser engine is sent too
+            setattr(self.material, change["name"], look_values(self.params)[change["name"]])
         elif change["name"] == "wind_wgsl":
             self.simulation.compile_wind(change["new"], change["old"])
 

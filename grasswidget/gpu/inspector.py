@@ -197,8 +197,10 @@ class InspectShader(GrassComputeShader):
             12: Binding("s_segments", "buffer/storage", wobject.segments_buffer, "COMPUTE"),
             13: Binding("s_points", "buffer/storage", wobject.points_buffer, "COMPUTE"),
             14: Binding("s_forces", "buffer/storage", wobject.forces_buffer, "COMPUTE"),
+            15: Binding("s_colliders", "buffer/read_only_storage", field.simulation.colliders_buffer, "COMPUTE"),
+            16: Binding("s_collider_grid", "buffer/read_only_storage", field.simulation.grid_buffer, "COMPUTE"),
         }
-        for slot in (0, 1, 2, 3, 10, 11, 14):
+        for slot in (0, 1, 2, 3, 10, 11, 14, 15, 16):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 

@@ -13,6 +13,8 @@ import pygfx as gfx
 
 from ..core.enums import BladeShape
 from ..errors import GrassValueError
+from ..core.frame_data import MATERIAL_DEFAULTS
+from ..core.uniform_layouts import GRASS_MATERIAL_LAYOUT, shadertype
 
 __all__ = ["GrassMaterial"]
 
@@ -24,39 +26,44 @@ class GrassMaterial(gfx.Material):
     """Colours, lighting and ribbon shape of grass blades.
 
     Uniforms (all documented as properties): ``root_color``, ``tip_color`` (sRGB),
-    ``color_variation`` (0..1, per-blade brightness/hue spread), ``ambient``
+    ``color_variation`` (0..1, per-blade brightness/hue spread, in patches of
+    ``patch_size`` metres), ``dryness`` (0..1), ``translucency`` (0..1, tips lit
+    from behind), ``fog_density`` (1/m) and ``fog_color`` (sRGB), ``ambient``
     (0..1), ``light_direction`` (towards the light, world space),
     ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
     ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
     """
 
-    uniform_type = dict(
-        gfx.Material.uniform_type,
-        root_color="4xf4",
-        tip_color="4xf4",
-        light_direction="4xf4",
-        color_variation="f4",
-        ambient="f4",
-        tip_threshold="f4",
-        blade_shape="i4",
-    )
+    #: pygfx's material uniforms plus ``uniform_layouts.GRASS_MATERIAL_LAYOUT`` (the browser
+    #: engine's struct; ``opacity`` and ``alpha_test`` are pygfx's own, at the same places).
+    uniform_type = dict(gfx.Material.uniform_type, **shadertype(GRASS_MATERIAL_LAYOUT))
 
     def __init__(
         self,
         *,
-        root_color="#1d4a12",
-        tip_color="#8fc246",
+        root_color=MATERIAL_DEFAULTS["root_color"],
+        tip_color=MATERIAL_DEFAULTS["tip_color"],
         color_variation=0.35,
-        ambient=0.4,
-        light_direction=(0.4, 1.0, 0.3),
+        patch_size=3.0,
+        dryness=0.1,
+        translucency=0.6,
+        fog_density=0.0,
+        fog_color=MATERIAL_DEFAULTS["fog_color"],
+        ambient=MATERIAL_DEFAULTS["ambient"],
+        light_direction=MATERIAL_DEFAULTS["light_direction"],
         blade_shape="triangle-tip",
-        tip_threshold=0.5,
+        tip_threshold=MATERIAL_DEFAULTS["tip_threshold"],
         **kwargs,
     ):
         super().__init__(**kwargs)
         self.root_color = root_color
         self.tip_color = tip_color
         self.color_variation = color_variation
+        self.patch_size = patch_size
+        self.dryness = dryness
+        self.translucency = translucency
+        self.fog_density = fog_density
+        self.fog_color = fog_color
         self.ambient = ambient
         self.light_direction = light_direction
         self.blade_shape = blade_shape
@@ -97,6 +104,54 @@ class GrassMaterial(gfx.Material):
     @color_variation.setter
     def color_variation(self, value):
         self._set("color_variation", _check_unit("color_variation", value))
+
+    @property
+    def patch_size(self):
+        """Size of the colour patches (clumps) in metres, 0.1..100."""
+        return float(self.uniform_buffer.data["patch_size"])
+
+    @patch_size.setter
+    def patch_size(self, value):
+        v = float(value)
+        if not (math.isfinite(v) and 0.1 <= v <= 100.0):
+            raise GrassValueError(f"patch_size must be in [0.1, 100] m; got {value!r}")
+        self._set("patch_size", v)
+
+    @property
+    def dryness(self):
+        """Share of dry, straw-coloured grass in patches, 0..1."""
+        return float(self.uniform_buffer.data["dryness"])
+
+    @dryness.setter
+    def dryness(self, value):
+        self._set("dryness", _check_unit("dryness", value))
+
+    @property
+    def translucency(self):
+        """How much the tips glow with the sun behind them, 0..1."""
+        return float(self.uniform_buffer.data["translucency"])
+
+    @translucency.setter
+    def translucency(self, value):
+        self._set("translucency", _check_unit("translucency", value))
+
+    @property
+    def fog_density(self):
+        """Distance fog density in 1/m (0 = no fog), 0..1."""
+        return float(self.uniform_buffer.data["fog_density"])
+
+    @fog_density.setter
+    def fog_density(self, value):
+        self._set("fog_density", _check_unit("fog_density", value))
+
+    @property
+    def fog_color(self):
+        """Colour far blades fade to (sRGB): the sky's at the horizon."""
+        return gfx.Color(self.uniform_buffer.data["fog_color"])
+
+    @fog_color.setter
+    def fog_color(self, color):
+        self._set("fog_color", gfx.Color(color))
 
     @property
     def ambient(self):

@@ -19,15 +19,36 @@ from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .occlusion import render_frame
-from ..core.frame_data import ground_square
+from ..core import frame_data
+from ..core.frame_data import ground_square, sky_ground_values
 from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams
 
-__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer"]
+__all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
+           "EXPORT_SUPERSAMPLE", "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
 
 #: The cis565 preset's distance-culling reach (m) when it makes its own params.
 CIS565_DISTANCE_MAX = 40.0
+
+#: ``compute_raster_max_px`` of the params a GrassScene makes on a GPU adapter (pixels;
+#: GrassParams' own default is 2). Measured on an H100 (meadow 1920x1080, culled,
+#: benchmarks/README.md): 4 px sends ~60 % of the visible blades at 2^20 to the compute
+#: rasterizer (2 px: 9 %) and the frame rate rises from 116 to 139 frames/s at 2^20 and from 69
+#: to 84 at 2^24; the picture with it stays within 0.62 (0..255, 4 x 4-pixel block means)
+#: of the hardware-only one (2 px: 0.09; 6 px: 1.12 and visibly grainier far grass for few
+#: more frames).
+GPU_COMPUTE_RASTER_MAX_PX = 4.0
+
+
+def adapter_params(**values) -> GrassParams:
+    """GrassParams with this adapter's defaults for what GrassScene makes itself: the
+    compute rasterizer of thin blades on a GPU adapter (``compute_raster`` True,
+    ``compute_raster_max_px`` :data:`GPU_COMPUTE_RASTER_MAX_PX`), off on a CPU adapter
+    (lavapipe, where it is slower); ``values`` set any params besides."""
+    gpu = not is_cpu_adapter()
+    defaults = dict(compute_raster=True, compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
+    return GrassParams(**{**defaults, **values})
 
 
 def set_vertical_fov(camera, fov_deg, aspect):
@@ -41,13 +62,25 @@ def set_vertical_fov(camera, fov_deg, aspect):
     camera.aspect = aspect
 
 
-def make_renderer(canvas):
-    """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings:
-    pixel ratio 1, no post-process anti-aliasing on a CPU adapter, no picking events."""
-    if is_cpu_adapter():
+#: Supersampling of exported pictures (both engines; see ``core.frame_data``):
+#: pygfx renders at this pixel ratio and filters down with its Mitchell filter.
+EXPORT_SUPERSAMPLE = frame_data.EXPORT_SUPERSAMPLE
+
+
+def make_renderer(canvas, *, export=False):
+    """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings.
+
+    Live view (``export=False``): pixel ratio 1, no post-process anti-aliasing on a
+    CPU adapter (pygfx's default one on a GPU), no picking events. Export
+    (``export=True``): anti-aliased on every adapter: rendered at
+    :data:`EXPORT_SUPERSAMPLE` times the size in each direction and filtered down
+    (supersampling), plus pygfx's default post-process anti-aliasing on a GPU.
+    """
+    cpu = is_cpu_adapter()
+    if cpu:
         announce_cpu_defaults()
-        return gfx.WgpuRenderer(canvas, pixel_ratio=1, ppaa="none", enable_events=False)
-    return gfx.WgpuRenderer(canvas, pixel_ratio=1, enable_events=False)
+    ratio = EXPORT_SUPERSAMPLE if export else 1
+    return gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
 
 
 class GrassScene:
@@ -77,7 +110,7 @@ class GrassScene:
         self.size = parse_size(size)
         ensure_device()
         if params is None:  # the compute rasterizer where it is faster: a GPU adapter (see GrassParams.compute_raster)
-            params = GrassParams(compute_raster=not is_cpu_adapter())
+            params = adapter_params()
         self.field = GrassField(blades, params=params, material=GrassMaterial())
         self.params = self.field.params
 
@@ -89,6 +122,8 @@ class GrassScene:
         centre, half = ground_square(blades, None)
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
         self.ground = GroundSwitch(self.sky_ground.material)
+        self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
+        self.params.observe(self._write_sky_ground, names=["fog_density"])
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         # Colliders live in the field's local space: the balls follow the field's transform
@@ -140,7 +175,7 @@ class GrassScene:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if name == "cis565" and params is None:
-            params = GrassParams(cull_distance_max=CIS565_DISTANCE_MAX, compute_raster=not is_cpu_adapter())
+            params = adapter_params(cull_distance_max=CIS565_DISTANCE_MAX)
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
@@ -157,9 +192,17 @@ class GrassScene:
 
     def _fit_ground(self):
         """Size the ground plane to reach the far plane from anywhere over the field,
-        so that a low camera sees ground, not sky, below the horizon."""
+        so that a low camera sees ground, not sky, below the horizon; the ground fades
+        into the horizon towards the far plane."""
+        self._write_sky_ground()
+
+    def _write_sky_ground(self, change=None):
+        """Write the sky/ground values both engines use
+        (:func:`grasswidget.core.frame_data.sky_ground_values`: the ground square to the
+        far plane, the soil under this field, the params' fog), keeping ``ground.visible``."""
         far = float(self.camera.depth_range[1]) if self.camera.depth_range else None
-        self.sky_ground.material.set_ground(*ground_square(self.field.blades, far))
+        self.sky_ground.material.set_values(sky_ground_values(self.field.blades, far, self.params,
+                                                              show_ground=self.ground.visible))
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a
@@ -196,7 +239,7 @@ class GrassScene:
     colliders = property(
         lambda self: self.field.colliders,
         lambda self, value: setattr(self.field, "colliders", value),
-        doc="Sphere colliders acting on the grass: GrassField.colliders (gw.SphereCollider, at most 16).",
+        doc="Sphere colliders acting on the grass: GrassField.colliders (gw.SphereCollider items plus colliders.set_array rows, at most 1024).",
     )
 
     # ------------------------------------------------------------------ views
@@ -287,13 +330,16 @@ class GrassScene:
         img = self.canvas.draw()
         return np.asarray(img)
 
-    def render_at(self, size) -> np.ndarray:
-        """Render at another size (offscreen), same camera and state; (h, w, 4) uint8."""
+    def render_at(self, size=None, *, antialias=True) -> np.ndarray:
+        """Render at ``size`` (w, h) pixels (default the scene's) offscreen, same camera
+        and state; (h, w, 4) uint8. Never advances time. ``antialias=True`` (default,
+        what exports use): supersampled, see :func:`make_renderer`; False: like the
+        live view."""
         from rendercanvas.offscreen import RenderCanvas
 
-        w, h = parse_size(size)
+        w, h = self.size if size is None else parse_size(size)
         canvas = RenderCanvas(size=(w, h), pixel_ratio=1)
-        renderer = make_renderer(canvas)
+        renderer = make_renderer(canvas, export=bool(antialias))
         aspect = self.camera.aspect
         canvas.request_draw(lambda: self.draw_into(renderer))
         try:
@@ -303,10 +349,11 @@ class GrassScene:
             canvas.close()
 
     def save_png(self, path, size=None) -> str:
-        """Write a PNG of the current state (default: the scene's size); returns the path."""
+        """Write an anti-aliased PNG of the current state (default: the scene's size;
+        see :meth:`render_at`); returns the path."""
         import imageio.v3 as iio
 
-        img = self.render() if size is None or parse_size(size) == self.size else self.render_at(size)
+        img = self.render_at(size)
         path = os.fspath(path)
         iio.imwrite(path, img, extension=".png")
         return path
@@ -314,6 +361,10 @@ class GrassScene:
     def release(self):
         """Free the field's GPU memory now and drop the renderer and canvas; the
         scene cannot be drawn or stepped afterwards."""
+        try:  # the params may outlive the scene (a widget's next scene shares them)
+            self.params.unobserve(self._write_sky_ground, names=["fog_density"])
+        except ValueError:  # released before
+            pass
         self.field.release()
         try:
             self.scene.remove(self.field)

@@ -18,8 +18,9 @@ import wgpu
 from pygfx.renderers.wgpu import Binding
 from pygfx.utils import array_from_shadertype
 
-from ..core.colliders import collider_array
-from ..core.frame_data import sim_uniform_values
+from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
+from ..core.colliders import MAX_COLLIDERS, collider_array
+from ..core.frame_data import collider_grid, sim_uniform_values
 from ..errors import WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
@@ -93,6 +94,8 @@ class SimulateShader(GrassComputeShader):
             0: Binding("u_sim", "buffer/uniform", wobject.simulation.uniform_buffer, "COMPUTE"),
             1: Binding("s_blades", "buffer/storage", wobject.blade_buffer, "COMPUTE"),
             2: Binding("s_collision", "buffer/storage", wobject.collision_buffer, "COMPUTE"),
+            3: Binding("s_colliders", "buffer/read_only_storage", wobject.simulation.colliders_buffer, "COMPUTE"),
+            4: Binding("s_collider_grid", "buffer/read_only_storage", wobject.simulation.grid_buffer, "COMPUTE"),
         }
         self.define_bindings(0, bindings)
         return {0: bindings}
@@ -108,7 +111,11 @@ class Simulation:
     """The physics of one :class:`~grasswidget.gpu.field.GrassField`.
 
     Attributes: ``uniform_buffer`` (the ``u_sim`` uniforms, written before every
-    dispatch), ``step_count`` (fixed steps since creation or the last reset; the
+    dispatch), ``colliders_buffer`` (the spheres, MAX_COLLIDERS vec4) and ``grid_buffer``
+    (the collider grid's u32 words, :mod:`grasswidget.core.collider_grid`; both written
+    when the colliders changed since the last write, shared with the inspector),
+    ``collider_grid`` (the last :class:`~grasswidget.core.collider_grid.ColliderGrid`
+    uploaded), ``step_count`` (fixed steps since creation or the last reset; the
     wind time is ``step_count * dt``), ``wind_body`` (the ``wind_wgsl`` snippet
     compiled into the current program, or None before the first compile).
     """
@@ -118,6 +125,14 @@ class Simulation:
         self.uniform_buffer = gfx.Buffer(
             array_from_shadertype(SIM_UNIFORM), force_contiguous=True, usage=wgpu.BufferUsage.UNIFORM
         )  # UNIFORM from the start: the inspector may write it before the first step
+        storage = wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST
+        self.colliders_buffer = gfx.Buffer(np.zeros((MAX_COLLIDERS, 4), np.float32), usage=storage)
+        self.grid_buffer = gfx.Buffer(np.zeros(GRID_WORDS, np.uint32), usage=storage)
+        self.collider_grid = None
+        #: Most cells of the collider grid (default MAX_GRID_CELLS); 1 makes every blade test
+        #: every sphere (the paper's loop: for comparisons in tests and benchmarks).
+        self.max_grid_cells = MAX_GRID_CELLS
+        self._grid_key = None
         self.step_count = 0
         self.wind_body = None
         self._program = None
@@ -167,8 +182,23 @@ class Simulation:
         """Fill ``u_sim`` from the params and colliders for a dispatch of ``steps`` steps from ``time0`` s."""
         d = self.uniform_buffer.data
         write_values(d, self.uniform_values(steps, time0))
+        self.write_colliders()
         device = ensure_device()
         device.queue.write_buffer(sync_buffer(self.uniform_buffer), 0, d.tobytes())
+
+    def write_colliders(self):
+        """Upload the spheres and their grid (:func:`grasswidget.core.frame_data.collider_grid`) when
+        the colliders changed since the last upload."""
+        colliders = self.field.colliders
+        key = (colliders.version if hasattr(colliders, "version") else collider_array(colliders).tobytes(),
+               self.max_grid_cells)
+        if key == self._grid_key and self.collider_grid is not None:
+            return
+        grid = collider_grid(colliders, self.field.blades, max_cells=self.max_grid_cells)
+        device = ensure_device()
+        device.queue.write_buffer(sync_buffer(self.colliders_buffer), 0, grid.sphere_data().tobytes())
+        device.queue.write_buffer(sync_buffer(self.grid_buffer), 0, grid.words().tobytes())
+        self.collider_grid, self._grid_key = grid, key
 
     # ------------------------------------------------------------------ time
 
@@ -203,5 +233,5 @@ class Simulation:
 
     def release(self):
         """Free the uniform buffer and drop the program."""
-        destroy_buffers([self.uniform_buffer])
+        destroy_buffers([self.uniform_buffer, self.colliders_buffer, self.grid_buffer])
         self._program = None

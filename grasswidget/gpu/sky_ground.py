@@ -1,17 +1,18 @@
 """Sky and ground in one full-screen pass: the cheap backdrop of GrassScene.
 
 ``shaders/sky_ground.wgsl`` is drawn by both engines (the browser engine renders
-it for its own bindings); the colours and the ground square come from
-:func:`grasswidget.core.frame_data.scene_style`.
+it for its own bindings); GrassScene writes the values both engines use,
+:func:`grasswidget.core.frame_data.sky_ground_values` (colours, ground square,
+field rectangle, cover, far plane, fog), with :meth:`SkyGroundMaterial.set_values`.
 
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
 lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
 at the far depth with the "<" depth test, so the pixels the grass covers are
-never shaded. The ground is a flat square of colour: the lit plane it replaces
-had one normal and one directional light, so it was one colour too (checked:
-sRGB (51, 36, 22) +- 1 over the whole plane), and that lit colour is the
-default ``ground_color``.
+never shaded. The ground is already lit (one normal, one sun): soil under the
+field, darker the more the grass covers it, a muted olive ground beyond it
+(flat: a noise texture there cost a third of a lavapipe frame); it fades into the sky's horizon colour
+towards the far plane and with the distance fog, so that the horizon is soft.
 """
 
 from __future__ import annotations
@@ -22,44 +23,104 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..core.frame_data import GROUND_COLOR, SKY_BOTTOM, SKY_TOP
+from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
 from ..core.shader_files import read_shader
-from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype
-from . import wgsl as _wgsl  # noqa: F401  (registers the 'grasswidget' WGSL loader)
+from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
+from .wgsl import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
 
 
 class SkyGroundMaterial(gfx.Material):
-    """Colours and ground square of a :class:`SkyGround`.
+    """Colours, ground square, field rectangle and fog of a :class:`SkyGround`.
 
     Args:
-        sky_bottom, sky_top: sRGB colours of the sky gradient (bottom and top of the view).
-        ground_color: sRGB colour of the ground (already lit).
+        horizon_color, zenith_color: sRGB colours of the sky at the horizon (also the
+            fog's colour) and straight up; between them by the ray's elevation.
+        soil_color: sRGB colour of the bare soil under the field (already lit; the
+            grass' cover darkens it down to 0.4 of this).
+        beyond_color: sRGB colour of the ground beyond the field.
         ground_center: (x, y, z) metres: the ground plane is y = ground_center[1].
         ground_half_size: half the side of the ground square (m, > 0).
+        far_distance: the camera's far plane (m, > 0): the ground fades into the
+            horizon colour from 0.6 of it.
+
+    The field rectangle and the grass' cover come from
+    :meth:`set_field`; the fog density from ``fog_density`` (1/m, 0 = none).
     """
 
     #: pygfx's material uniforms plus ``uniform_layouts.SKY_GROUND_LAYOUT`` (the browser engine's struct).
     uniform_type = dict(gfx.Material.uniform_type, **shadertype(SKY_GROUND_LAYOUT))
 
-    def __init__(self, sky_bottom=SKY_BOTTOM, sky_top=SKY_TOP, ground_color=GROUND_COLOR,
-                 ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0, **kwargs):
+    def __init__(self, horizon_color=HORIZON_COLOR, zenith_color=ZENITH_COLOR, soil_color=SOIL_COLOR,
+                 beyond_color=BEYOND_COLOR, ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
+                 far_distance=100.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
-        self.uniform_buffer.data["sky_bottom"] = gfx.Color(sky_bottom).rgba
-        self.uniform_buffer.data["sky_top"] = gfx.Color(sky_top).rgba
-        self.uniform_buffer.data["ground_color"] = gfx.Color(ground_color).rgba
-        self.set_ground(ground_center, ground_half_size)
+        data = self.uniform_buffer.data
+        for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
+                            ("soil_color", soil_color), ("beyond_color", beyond_color)):
+            data[name] = gfx.Color(color).rgba
+        data["fog_density"] = 0.0
+        self.set_field((ground_center[0], ground_center[2]), (ground_half_size, ground_half_size), 0.0, FIELD_EDGE)
+        self.set_ground(ground_center, ground_half_size, far_distance)
         self.show_ground = True
 
-    def set_ground(self, center, half_size):
-        """Move the ground square: ``center`` (x, y, z) metres, ``half_size`` metres (> 0)."""
+    def set_ground(self, center, half_size, far_distance=None):
+        """Move the ground square: ``center`` (x, y, z) metres, ``half_size`` metres (> 0);
+        ``far_distance`` (m, > 0): the camera's far plane (None keeps it)."""
         half_size = float(half_size)
         if not half_size > 0:
             raise GrassValueError(f"ground_half_size must be > 0 (metres); got {half_size!r}")
+        if far_distance is not None:
+            far_distance = float(far_distance)
+            if not (np.isfinite(far_distance) and far_distance > 0):
+                raise GrassValueError(f"far_distance must be > 0 (metres); got {far_distance!r}")
+            self.uniform_buffer.data["far_distance"] = far_distance
         c = np.asarray(center, np.float32).reshape(3)
         self.uniform_buffer.data["ground"] = (c[0], c[1], c[2], half_size)
         self.uniform_buffer.update_full()
+
+    def set_values(self, values: dict):
+        """Write values of ``uniform_layouts.SKY_GROUND_LAYOUT`` fields as they are, e.g.
+        :func:`grasswidget.core.frame_data.sky_ground_values` (what the browser engine
+        is sent too)."""
+        unknown = set(values) - {name for name, _ in SKY_GROUND_LAYOUT}
+        if unknown:
+            raise GrassValueError(f"values name fields the sky/ground lacks: {sorted(unknown)}")
+        write_values(self.uniform_buffer.data, values)
+        self.uniform_buffer.update_full()
+
+    def set_field(self, center_xz, half_xz, cover, edge=FIELD_EDGE):
+        """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
+        soil under it darkened by ``cover`` (0..1, see ``reference.ground_cover``), its
+        edge soft over ``edge`` metres (> 0, default 0.5)."""
+        cover, edge = float(cover), float(edge)
+        if not 0.0 <= cover <= 1.0:
+            raise GrassValueError(f"cover must be in [0, 1]; got {cover!r}")
+        if not edge > 0:
+            raise GrassValueError(f"edge must be > 0 metres; got {edge!r}")
+        d = self.uniform_buffer.data
+        d["field"] = (float(center_xz[0]), float(center_xz[1]), float(half_xz[0]), float(half_xz[1]))
+        d["cover"], d["field_edge"] = cover, edge
+        self.uniform_buffer.update_full()
+
+    @property
+    def fog_density(self) -> float:
+        """Distance fog density in 1/m (0 = no fog), towards ``horizon_color``."""
+        return float(self.uniform_buffer.data["fog_density"])
+
+    @fog_density.setter
+    def fog_density(self, value):
+        v = float(value)
+        if not (np.isfinite(v) and 0.0 <= v <= 1.0):
+            raise GrassValueError(f"fog_density must be in [0, 1] 1/m; got {value!r}")
+        self.uniform_buffer.data["fog_density"] = v
+        self.uniform_buffer.update_full()
+
+    @property
+    def horizon_color(self):
+        """The sky's colour at the horizon (sRGB), also the fog's."""
+        return gfx.Color(self.uniform_buffer.data["horizon_color"])
 
     @property
     def show_ground(self) -> bool:
@@ -122,6 +183,9 @@ def _register():
 
         def get_render_info(self, wobject, shared):
             return {"indices": (4, 1)}
+
+        def __init__(self, wobject, **kwargs):
+            super().__init__(wobject, **shader_vars(**kwargs))  # blade_math.wgsl's ids and constants
 
         def get_code(self):
             return read_shader("sky_ground.wgsl")

@@ -529,13 +529,7 @@ class KernelView(GrassView):
     @_exclusive
     def save_png(self, path, size):
         """Write a PNG of the current view at ``size`` (w, h) pixels."""
-        if tuple(size) != tuple(self.scene.size) or hasattr(self.scene.canvas, "draw"):
-            self.scene.save_png(path, size=size)
-        else:  # scene.render() needs a canvas that draws synchronously; ours streams
-            import imageio.v3 as iio
-
-            iio.imwrite(path, self.scene.render_at(size), extension=".png")
-        return path
+        return self.scene.save_png(path, size=size)  # offscreen and anti-aliased, whatever the canvas
 
     def save_png_later(self, path, size, done):
         """The kernel renders at once: write the PNG now and call ``done(path)``."""

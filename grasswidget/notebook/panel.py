@@ -12,6 +12,12 @@ another engine) can sit above the same panel.
 A control given a value its trait refuses snaps back and the message line says
 why (see :class:`~grasswidget.notebook.control_link.ControlLink`).
 
+Labels are words with units (:data:`LABELS`, :func:`control_label`), tooltips
+the traits' help and range. The "looks" row: colour variety, patch size, dry
+grass, sunlit tips and fog (:data:`LOOK_SLIDERS`). Under the view, a one-line
+status (frames/s, blades drawn, real time or slow motion) and a "details" toggle
+for the frame's timings.
+
 The teaching row: a "colour by" dropdown (``params.color_by``), a "freeze
 culling" checkbox (the widget's ``culling_frozen`` trait), the legend of the
 active colouring, and the inspected blade's numbers with a "Clear" button
@@ -30,7 +36,8 @@ from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import legend
 
-__all__ = ["ControlPanel", "PARAM_SLIDERS", "CULL_CHECKBOXES", "format_stats", "legend_html", "inspected_html"]
+__all__ = ["ControlPanel", "PARAM_SLIDERS", "LOOK_SLIDERS", "LABELS", "CULL_CHECKBOXES", "control_label",
+           "control_tooltip", "format_status", "format_details", "legend_html", "inspected_html"]
 
 #: Sliders of the panel: (GrassParams trait, slider step, readout format).
 PARAM_SLIDERS = (
@@ -41,6 +48,56 @@ PARAM_SLIDERS = (
     ("stiffness_scale", 0.01, ".2f"),
 )
 
+#: The "looks" row: (GrassParams trait, slider step, readout format).
+LOOK_SLIDERS = (
+    ("color_variation", 0.05, ".2f"),
+    ("patch_size", 0.1, ".1f"),
+    ("dryness", 0.05, ".2f"),
+    ("translucency", 0.05, ".2f"),
+    ("fog_density", 0.001, ".3f"),
+)
+
+#: What the panel calls each control, in words a student reads; the unit (from the
+#: trait's ``unit``, see :func:`control_label`) is added in brackets. The one table
+#: of the panel's labels.
+LABELS = {
+    "blades": "blades",
+    "wind_strength": "wind strength",
+    "wind_direction": "wind direction",
+    "wind_speed": "gust speed",
+    "gravity": "gravity",
+    "stiffness_scale": "stiffness ×",
+    "time_scale": "time",
+    "wind_field": "wind pattern",
+    "color_variation": "colour variety",
+    "patch_size": "patch size",
+    "dryness": "dry grass",
+    "translucency": "sunlit tips",
+    "fog_density": "fog",
+    "color_by": "colour by",
+}
+
+#: How the panel writes the traits' units.
+UNIT_TEXT = {"m/s^2": "m/s²", "degrees": "°", "simulated s per s": "× real time", "1/m^2": "1/m²"}
+
+
+def control_label(name, trait=None) -> str:
+    """The label of the control of trait ``name``: :data:`LABELS`' words plus the
+    trait's unit in brackets, e.g. ``"wind strength (m/s²)"``."""
+    words = LABELS.get(name, name.replace("_", " "))
+    unit = getattr(trait, "unit", "") or ""
+    return f"{words} ({UNIT_TEXT.get(unit, unit)})" if unit else words
+
+
+def control_tooltip(name, trait) -> str:
+    """The tooltip of a control: the trait's help and, for a ranged trait, its range."""
+    text = (getattr(trait, "help", "") or control_label(name, trait)).strip()
+    lo, hi = getattr(trait, "lo", None), getattr(trait, "hi", None)
+    if lo is not None and hi is not None:
+        unit = getattr(trait, "unit", "") or ""
+        text += f" Range {lo:g} to {hi:g}{' ' + UNIT_TEXT.get(unit, unit) if unit else ''}."
+    return text
+
 #: Checkboxes of the panel: (label, GrassParams trait).
 CULL_CHECKBOXES = (
     ("orientation culling", "cull_orientation"),
@@ -50,7 +107,7 @@ CULL_CHECKBOXES = (
     ("LOD", "lod"),
 )
 
-_DESC = {"description_width": "110px"}
+_DESC = {"description_width": "140px"}
 #: Width (CSS px) of one column of controls: two columns (and their margins) fill a 640 px view.
 COLUMN_WIDTH = 314
 
@@ -65,33 +122,49 @@ def _wrapping_row(children, **layout):
     return ipw.HBox(children, layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center", **layout))
 
 
-def format_stats(stats: dict) -> str:
-    """The stats line's text (plain, " · " separated) from a view's stats dict.
+def format_status(stats: dict) -> str:
+    """The one-line status under the view, in words (plain, " · " separated): frames
+    per second, blades drawn, and whether time runs in real time or slow motion.
+    Keys of a view's stats dict (each optional, None = unknown): ``fps``,
+    ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
+    seconds), ``playing`` (False: "paused" instead of the speed of time). The rest is
+    in :func:`format_details`."""
+    s = stats
+    parts = [f"{s['fps']:.1f} frames/s" if s.get("fps") is not None else "– frames/s"]
+    blades = s.get("blades")
+    if s.get("visible") is not None and blades is not None:
+        parts.append(f"{s['visible']:,} of {blades:,} blades drawn")
+    elif blades is not None:
+        parts.append(f"{blades:,} blades")
+    if s.get("playing") is False:
+        parts.append("paused")
+    elif s.get("slow_motion") and s.get("sim_speed") is not None:
+        parts.append(f"slow motion {s['sim_speed']:.1f}x")
+    elif s.get("fps") is not None:
+        parts.append("real time")
+    return " · ".join(parts)
+
+
+def format_details(stats: dict) -> str:
+    """The detailed timings behind the "details" toggle (plain, " · " separated).
 
     Known keys (each optional, None = unknown): ``fps`` (frames/s delivered) and
-    ``target_fps``; ``visible`` and ``blades``; ``rastered`` (of the visible, drawn by the compute rasterizer); ``occluded`` (blades culled by occlusion); the stages of a frame in ms:
-    ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
-    ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when
-    the stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render
-    scale of the pixel ratio) and ``frame_size`` ((w, h) rendered pixels);
-    ``steps_per_frame``; ``slow_motion`` and ``sim_speed`` (simulated / wall);
+    ``target_fps``; ``visible``, ``rastered`` (of the visible, drawn by the compute
+    rasterizer) and ``occluded`` (blades culled by occlusion); the stages of a frame in
+    ms: ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
+    ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when the
+    stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render scale of the
+    pixel ratio) and ``frame_size`` ((w, h) rendered pixels); ``steps_per_frame``;
     ``adapter`` (a notice about the adapter, e.g. the CPU adapter's cheap defaults).
     """
     s = stats
     fps = f"{s['fps']:.1f}" if s.get("fps") is not None else "–"
     target = f" (target {s['target_fps']:g})" if s.get("target_fps") else ""
     parts = [f"{fps} frames/s delivered{target}"]
-    if s.get("slow_motion") and s.get("sim_speed") is not None:
-        parts.append(f"slow motion {s['sim_speed']:.1f}x")
-    blades = s.get("blades")
-    if s.get("visible") is not None and blades is not None:
-        parts.append(f"{s['visible']:,} / {blades:,} blades visible")
-        if s.get("rastered"):
-            parts.append(f"{s['visible'] - s['rastered']:,} as ribbons, {s['rastered']:,} in compute")
-        if s.get("occluded") is not None:
-            parts.append(f"{s['occluded']:,} occluded")
-    elif blades is not None:
-        parts.append(f"{blades:,} blades")
+    if s.get("visible") is not None and s.get("rastered"):
+        parts.append(f"{s['visible'] - s['rastered']:,} as ribbons, {s['rastered']:,} in compute")
+    if s.get("occluded") is not None:
+        parts.append(f"{s['occluded']:,} occluded")
     stages = [(name, s.get(key)) for name, key in (("render", "render_ms"), ("readback", "readback_ms"),
                                                    ("encode+send", "encode_send_ms"), ("ack", "ack_ms"))]
     if any(v is not None for _n, v in stages):
@@ -146,9 +219,9 @@ def inspected_html(blades: list) -> str:
 def _slider(name, owner, step, fmt, width):
     """A FloatSlider for a RangedFloat trait (its range and help text)."""
     trait = owner.traits()[name]
-    return ipw.FloatSlider(value=getattr(owner, name), min=trait.lo, max=trait.hi, step=step, description=name,
-                           continuous_update=True, style=_DESC, layout=ipw.Layout(width=width),
-                           tooltip=(trait.help or name), readout_format=fmt)
+    return ipw.FloatSlider(value=getattr(owner, name), min=trait.lo, max=trait.hi, step=step,
+                           description=control_label(name, trait), continuous_update=True, style=_DESC,
+                           layout=ipw.Layout(width=width), tooltip=control_tooltip(name, trait), readout_format=fmt)
 
 
 class ControlPanel:
@@ -170,7 +243,9 @@ class ControlPanel:
     (dict trait -> checkbox), ``color_by_dropdown``, ``freeze_checkbox``,
     ``legend_line``, ``inspect_line``, ``clear_inspect_button``, ``play_button``, ``step_button``,
     ``reset_blades_button``, ``reset_camera_button``, ``save_button``,
-    ``png_scale``, ``file_line``, ``stats_line``, ``message_line``, ``rows``
+    ``png_scale``, ``file_line``, ``stats_line`` (the one-line status),
+    ``details_button`` and ``details_line`` (the timings, shown while the button
+    is down), ``look_sliders`` and ``looks_row``, ``message_line``, ``rows``
     (the list of ipywidgets to put under the view).
     """
 
@@ -184,7 +259,7 @@ class ControlPanel:
 
         # blade count: rebuilds the field, so only on release
         self.blade_slider = ipw.IntSlider(
-            value=blade_count, min=1, max=max_blades, step=1, description="blades",
+            value=blade_count, min=1, max=max_blades, step=1, description=control_label("blades"),
             continuous_update=False, style=_DESC, layout=ipw.Layout(width=column),
             tooltip="Number of blades (rebuilds the field; applied on release)",
         )
@@ -195,10 +270,18 @@ class ControlPanel:
             self._links.append(ControlLink(s, params, name, err))
         self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f", column)
         self._links.append(ControlLink(ts, clock, "time_scale", err))
+        #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog.
+        self.look_sliders = {}
+        for name, step, fmt in LOOK_SLIDERS:
+            if params.has_trait(name):
+                self.look_sliders[name] = s = _slider(name, params, step, fmt, column)
+                self._links.append(ControlLink(s, params, name, err))
 
         choices = tuple(getattr(params.traits()["wind_field"], "choices", None) or WIND_FIELDS)
-        self.wind_field_dropdown = ipw.Dropdown(options=choices, value=params.wind_field, description="wind_field",
-                                                style=_DESC, layout=ipw.Layout(width=column))
+        wf = params.traits()["wind_field"]
+        self.wind_field_dropdown = ipw.Dropdown(options=choices, value=params.wind_field,
+                                                description=control_label("wind_field"), style=_DESC,
+                                                layout=ipw.Layout(width=column), tooltip=control_tooltip("wind_field", wf))
         self._links.append(ControlLink(self.wind_field_dropdown, params, "wind_field", err))
 
         self.checkboxes = {}
@@ -209,7 +292,7 @@ class ControlPanel:
             self.checkboxes[name] = cb
 
         # teaching views
-        self.color_by_dropdown = ipw.Dropdown(options=COLOR_BY, value=params.color_by, description="colour by",
+        self.color_by_dropdown = ipw.Dropdown(options=COLOR_BY, value=params.color_by, description=control_label("color_by"),
                                               style=_DESC, layout=ipw.Layout(width="240px"),
                                               tooltip=params.traits()["color_by"].help)
         self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
@@ -247,11 +330,20 @@ class ControlPanel:
                                       tooltip="Write a PNG next to the notebook")
         self.save_button.on_click(lambda _b: self._on_save_click())
         self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px", max_width="100%"))
-        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # wraps within the view
+        self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # the one-line status
+        self.details_button = ipw.ToggleButton(value=False, description="details", icon="info",
+                                               layout=ipw.Layout(width="90px"),
+                                               tooltip="Show the frame's timings, GPU passes and adapter notes")
+        self.details_line = ipw.HTML(value="", layout=ipw.Layout(display="none", max_width="100%"))
+        self.details_button.observe(self._on_details, names="value")
         self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
 
         # Rows that fit the view (two columns of controls in 640 px); each wraps when the view is narrower.
         sliders = _wrapping_row(list(self.sliders.values()) + [self.wind_field_dropdown])
+        #: The "looks" row: a heading and the look sliders.
+        self.looks_row = _wrapping_row([ipw.HTML("<b>looks</b>", layout=ipw.Layout(width="100%"))]
+                                       + list(self.look_sliders.values()))
+        status = _wrapping_row([self.stats_line, self.details_button], justify_content="space-between")
         checkboxes = _wrapping_row(list(self.checkboxes.values()))
         buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,
                                  self.reset_camera_button])
@@ -261,7 +353,7 @@ class ControlPanel:
             _wrapping_row([self.color_by_dropdown, self.freeze_checkbox, self.legend_line]),
             _wrapping_row([self.clear_inspect_button, self.inspect_line]),
         ], layout=ipw.Layout(width="100%"))
-        self.rows = [self.stats_line, sliders, checkboxes]
+        self.rows = [status, self.details_line, sliders, self.looks_row, checkboxes]
         if ball_row is not None:
             self.rows.append(ball_row)
         self.rows.append(teach)
@@ -284,8 +376,13 @@ class ControlPanel:
                 self.blade_slider.observe(self._on_blade_slider, names="value")
 
     def show_stats(self, stats: dict):
-        """Show a view's stats dict (see :func:`format_stats`) on the stats line."""
-        self.stats_line.value = "<code>" + html.escape(format_stats(stats)) + "</code>"
+        """Show a view's stats dict: the one-line status (:func:`format_status`) and,
+        behind the "details" toggle, the timings (:func:`format_details`)."""
+        self.stats_line.value = "<small>" + html.escape(format_status(stats)) + "</small>"
+        self.details_line.value = "<small><code>" + html.escape(format_details(stats)) + "</code></small>"
+
+    def _on_details(self, change):
+        self.details_line.layout.display = "" if change["new"] else "none"
 
     def show_inspected(self, blades: list):
         """Show the inspected blades' numbers (see :func:`inspected_html`)."""

@@ -533,10 +533,12 @@ class GrassWidget(ipw.VBox):
         self.view.save_png_later(path, size, done)
         return True
 
-    def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True) -> str:
+    def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True, on_frame=None) -> str:
         """Export an animation (GIF, or MP4 with imageio-ffmpeg); see
         :func:`grasswidget.tools.export.save_animation`. It starts from the current
         state and puts the live state back afterwards. Returns the path.
+        ``on_frame(k, t)`` runs before each frame (see there; with the kernel engine it
+        may move ``w.scene.colliders``, which the film's scene is).
 
         It always renders with the kernel engine: in browser mode the browser's
         current blade state is read back and a kernel scene (which needs a WebGPU
@@ -546,12 +548,13 @@ class GrassWidget(ipw.VBox):
 
         self._check_open()
         if self.backend == "browser":
-            return self._save_animation_from_browser(path, seconds, fps, size, progress)
-        out = save_animation(self.scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
+            return self._save_animation_from_browser(path, seconds, fps, size, progress, on_frame)
+        out = save_animation(self.scene, path, seconds=seconds, fps=fps, size=size, progress=progress,
+                             on_frame=on_frame)
         self._request_draw()
         return out
 
-    def _save_animation_from_browser(self, path, seconds, fps, size, progress):
+    def _save_animation_from_browser(self, path, seconds, fps, size, progress, on_frame):
         from ..tools.export import save_animation
         from ..gpu.scene import GrassScene
 
@@ -559,10 +562,13 @@ class GrassWidget(ipw.VBox):
         scene = GrassScene(self.view.blades, size=self.size, params=self.params.copy())
         try:
             scene.field.write_state(state)
-            scene.colliders = list(self.view.colliders)
+            live = self.view.colliders
+            scene.colliders = list(live)
+            scene.colliders.set_array(getattr(live, "bulk", ()))
             cam = self.camera_state
             scene.look(cam["position"], cam["target"], cam["fov_deg"])
-            return save_animation(scene, path, seconds=seconds, fps=fps, size=size, progress=progress)
+            return save_animation(scene, path, seconds=seconds, fps=fps, size=size, progress=progress,
+                                  on_frame=on_frame)
         finally:
             scene.release()
 
@@ -616,7 +622,7 @@ class GrassWidget(ipw.VBox):
 
     def _show_stats(self, stats):
         if self.panel is not None:
-            self.panel.show_stats(stats)
+            self.panel.show_stats(dict(stats, playing=bool(self.playing)))  # the status says "paused"
 
     def _on_param_change(self, change):
         self._request_draw()
@@ -626,6 +632,7 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+            self._show_stats(self.view.current_stats())
 
     def _show_inspected(self, blades):
         if self.panel is not None:

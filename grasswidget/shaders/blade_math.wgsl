@@ -216,6 +216,22 @@ fn collide_sphere(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, sphere: vec4<f32>
     return Collision(tip, add, add > 0.0);
 }
 
+// Whether a sphere (c.xyz, radius c.w) comes near enough to act on a blade rooted at v0 of
+// this height: |c - v0| < radius + COLLIDER_REACH * height; see reference.sphere_in_reach.
+fn sphere_in_reach(v0: vec3<f32>, height: f32, sphere: vec4<f32>) -> bool {
+    return length(sphere.xyz - v0) < sphere.w + {{ collider_reach }} * height;
+}
+
+// Cell (cz * nx + cx) of the collider grid holding p's (x, z): cells of 1 / inv_cell_size
+// metres from origin, indices clamped to the grid (border cells reach to infinity);
+// see reference.grid_cell.
+fn grid_cell(p: vec3<f32>, origin: vec2<f32>, inv_cell_size: f32, nx: u32, nz: u32) -> u32 {
+    let q = (p.xz - origin) * inv_cell_size;
+    let cx = u32(clamp(floor(q.x), 0.0, f32(nx - 1u)));
+    let cz = u32(clamp(floor(q.y), 0.0, f32(nz - 1u)));
+    return cz * nx + cx;
+}
+
 // eta' = max(eta - fade dt, 0); see reference.fade_collision.
 fn fade_collision(eta: f32, fade: f32, dt: f32) -> f32 {
     return max(eta - fade * dt, 0.0);
@@ -363,27 +379,87 @@ fn hash01(x: u32) -> f32 {
     return f32(h) / 4294967296.0;
 }
 
+// ---------------------------------------------------------------- looks (colour, soil, sky, fog)
+
+// The meadow's low-frequency patches (clumps) at ground point (x, z): two independent
+// simplex noises of feature size `size` metres, each clamped to [-1, 1]; x drives a
+// patch's hue and brightness, y its dryness. See reference.clump_noise.
+fn clump_noise(x: f32, z: f32, size: f32) -> vec2<f32> {
+    let qx = x / size;
+    let qz = z / size;
+    let a = simplex_noise2(qx, qz);
+    let b = simplex_noise2(qx + 19.1, qz - 7.3);
+    return clamp(vec2<f32>(a, b), vec2<f32>(-1.0), vec2<f32>(1.0));
+}
+
+// Unlit sRGB colour of a blade at height fraction `along` (0 root .. 1 tip): the
+// root-to-tip gradient, brightness and hue shifted by the blade's patch (clump.x) and
+// its own hash (`variation`, 0..1) times color_variation, then towards straw in dry
+// patches (clump.y, dryness 0..1; tips dry first). See reference.blade_base_color.
+fn blade_base_color(root: vec3<f32>, tip: vec3<f32>, along: f32, variation: f32, clump: vec2<f32>, color_variation: f32, dryness: f32) -> vec3<f32> {
+    let v = clamp(along, 0.0, 1.0);
+    let ramp = pow(v, 0.8);
+    var base = mix(root, tip, ramp);
+    let s = 0.7 * clump.x + 0.6 * (variation - 0.5);
+    base = base * (1.0 + 0.5 * color_variation * s);
+    base = base + color_variation * s * vec3<f32>(0.22, 0.05, -0.15) * tip;
+    let dry = clamp(dryness * (1.0 + 1.5 * clump.y), 0.0, 1.0) * (0.4 + 0.6 * v);
+    let straw = vec3<f32>({{ dry_color }}) * (0.45 + 0.55 * ramp);
+    return clamp(mix(base, straw, dry), vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+// Light through a blade seen against the sun: translucency * max(dot(-to_eye, light), 0)^4
+// * along^2 (tips glow most). to_eye, light: unit vectors. See reference.backlight.
+fn backlight(to_eye: vec3<f32>, light: vec3<f32>, along: f32, translucency: f32) -> f32 {
+    let facing = max(dot(-to_eye, light), 0.0);
+    let f2 = facing * facing;
+    let a = clamp(along, 0.0, 1.0);
+    return translucency * f2 * f2 * a * a;
+}
+
+// Share of the fog colour at `distance` metres: 1 - exp(-density * distance) (0 = no fog).
+fn fog_amount(distance: f32, density: f32) -> f32 {
+    return 1.0 - exp(-max(density, 0.0) * max(distance, 0.0));
+}
+
+// Sky colour for a view ray of elevation sin `elevation` (-1..1): the horizon colour at
+// and below the horizon, towards the zenith colour as the ray rises (square root ramp).
+fn sky_color(elevation: f32, horizon: vec3<f32>, zenith: vec3<f32>) -> vec3<f32> {
+    return mix(horizon, zenith, sqrt(clamp(elevation, 0.0, 1.0)));
+}
+
+// How far ground point (x, z) lies inside the field's rectangle (centre c, half sizes
+// half, metres): 0 outside beyond edge / 2, 1 inside beyond edge / 2, linear between.
+fn field_inside(x: f32, z: f32, c: vec2<f32>, half: vec2<f32>, edge: f32) -> f32 {
+    let d = max(abs(x - c.x) - half.x, abs(z - c.y) - half.y);
+    return clamp(0.5 - d / edge, 0.0, 1.0);
+}
+
+// Ground colour (sRGB): the soil under the field, darkened by the grass' cover (0..1,
+// GrassScene: 1 - exp(-leaf area / 4)), blended by `inside` (field_inside) with the ground
+// beyond. See reference.ground_color.
+fn ground_color(soil: vec3<f32>, beyond: vec3<f32>, inside: f32, cover: f32) -> vec3<f32> {
+    let under = soil * (1.0 - 0.6 * clamp(cover, 0.0, 1.0));
+    return mix(beyond, under, clamp(inside, 0.0, 1.0));
+}
+
 // Lit colour of a blade's surface point (sRGB, 0..1): the ribbons' fragment shading,
 // also the compute rasterizer's resolve. normal: the surface normal (either side:
 // two-sided, the side facing the eye is lit), to_eye: unit vector towards the camera,
-// along: 0 root .. 1 tip, variation: the blade's hash01 in [0, 1); the material's
-// root/tip colours (sRGB), colour variation (0..1), light direction (towards the
-// light) and ambient (0..1).
-fn blade_shade(normal: vec3<f32>, to_eye: vec3<f32>, along: f32, variation: f32, root: vec3<f32>, tip: vec3<f32>, color_variation: f32, light_direction: vec3<f32>, ambient: f32) -> vec3<f32> {
+// along: 0 root .. 1 tip, base: the blade's unlit colour there (blade_base_color),
+// glow: its backlight (backlight), fog: its fog share (fog_amount) towards fog_color;
+// the material's light direction (towards the light) and ambient (0..1). Tips seen
+// against the sun glow (light through the blade), warmer than the blade.
+fn blade_shade(normal: vec3<f32>, to_eye: vec3<f32>, along: f32, base: vec3<f32>, glow: f32, fog: f32, fog_color: vec3<f32>, light_direction: vec3<f32>, ambient: f32) -> vec3<f32> {
     var n = normalize(normal);
     if (dot(n, to_eye) < 0.0) { n = -n; }
-    // Root-to-tip gradient with per-blade variation (brightness and a hue nudge).
-    let var_s = variation - 0.5;
-    let a = clamp(along, 0.0, 1.0);
-    var base = mix(root, tip, pow(a, 0.8));
-    base = base * (1.0 + color_variation * var_s);
-    base = base + color_variation * vec3<f32>(0.35 * var_s, 0.0, -0.25 * var_s) * tip;
     let l = normalize(light_direction);
     let diffuse = max(dot(n, l), 0.0);
     let translucency = 0.35 * max(dot(-n, l), 0.0);
-    let ao = 0.55 + 0.45 * a;
+    let ao = 0.55 + 0.45 * clamp(along, 0.0, 1.0);
     let shade = (ambient + (1.0 - ambient) * (diffuse + translucency)) * ao;
-    return clamp(base * shade, vec3<f32>(0.0), vec3<f32>(1.0));
+    let rgb = clamp(base * shade + glow * (1.2 * base + vec3<f32>(0.16, 0.14, 0.02)), vec3<f32>(0.0), vec3<f32>(1.0));
+    return mix(rgb, fog_color, fog);
 }
 
 // ---------------------------------------------------------------- compute rasterization

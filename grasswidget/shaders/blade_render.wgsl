@@ -72,9 +72,13 @@ fn vs_main(in: VertexInput) -> Varyings {
     let n = normalize(cross(t0, t1));
     let c0 = c - width * t1;
     let c1 = c + width * t1;
-    let t = blade_shape_t(u, v, u_material.blade_shape, u_material.tip_threshold);
+    // The shape through a select on per-blade data (a width is never negative), so that no
+    // branch reads a uniform alone: Mesa 22.3 lavapipe compiles, and never frees, a copy of
+    // such a shader on every draw (1.4 MB a frame here; benchmarks/lavapipe_inline_uniform_leak.py).
+    let shape = select(u_material.blade_shape, -7, width < -1.0);
+    let t = blade_shape_t(u, v, shape, u_material.tip_threshold);
     var pos = (1.0 - t) * c0 + t * c1;
-    if (u_material.blade_shape == {{ blade_shape_fold }}) {
+    if (shape == {{ blade_shape_fold }}) {
         pos = pos + n * (width * (0.5 - abs(u - 0.5) * (1.0 - v)));
     }
 
@@ -87,7 +91,16 @@ fn vs_main(in: VertexInput) -> Varyings {
     varyings.world_pos = vec3<f32>(world_pos.xyz / world_pos.w);
     varyings.normal = vec3<f32>(world_normal);
     varyings.along = f32(v);
-    varyings.variation = f32(hash01(blade));
+    // The blade's unlit colour, per vertex: its patch (clump noise of the root) and its own hash.
+    let clump = clump_noise(v0.x, v0.z, u_material.patch_size);
+    let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
+                                u_material.color_variation, u_material.dryness);
+    varyings.base_color = vec3<f32>(base);
+    // The distance fog per vertex (an exp per fragment is dear on a CPU adapter). The
+    // tips' glow is per fragment: one more varying (17 floats a vertex with the position
+    // and the pick id, over 16) made the H100's meadow draw 25 % slower.
+    let eye = u_stdinfo.cam_transform_inv[3].xyz - world_pos.xyz / world_pos.w;
+    varyings.fog = f32(fog_amount(length(eye), u_material.fog_density));
     varyings.pick_idx = u32(blade);
     $$ if teaching_views
     varyings.flat_color = vec4<f32>(flat_color);
@@ -99,10 +112,12 @@ fn vs_main(in: VertexInput) -> Varyings {
 fn fs_main(varyings: Varyings) -> FragmentOutput {
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
-    // Two-sided, root-to-tip gradient, per-blade variation (blade_math.blade_shade).
-    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.variation,
-                          u_material.root_color.rgb, u_material.tip_color.rgb, u_material.color_variation,
-                          u_material.light_direction.xyz, u_material.ambient);
+    let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), varyings.along, u_material.translucency);
+    // Two-sided diffuse and translucency, the tips' glow against the sun and the fog
+    // (blade_math.blade_shade; base colour and fog from the vertices).
+    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.base_color, glow,
+                          varyings.fog, u_material.fog_color.rgb, u_material.light_direction.xyz,
+                          u_material.ambient);
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif

@@ -9,7 +9,8 @@
 //
 // The engine declares (see gpu.inspector.InspectShader) u_stdinfo, u_wobject
 // (the inspector's world_transform_inv), u_sim (the simulation's uniforms),
-// u_inspect (ids, n_ids), s_blades and s_collision (read), s_segments and
+// u_inspect (ids, n_ids), s_blades, s_collision, s_colliders and s_collider_grid
+// (read; the last two as in collisions.wgsl), s_segments and
 // s_points (array<f32>, 3 per vertex) and s_forces (array<vec4<f32>>).
 
 {$ include 'grasswidget.blade.wgsl' $}

@@ -1,7 +1,7 @@
 // The compute rasterizer's resolve (raster.wgsl): one full-screen draw. Each pixel
 // a compute-rasterized blade covers is shaded like the ribbons shade it
 // (blade_math.blade_shade at the blade's curve point v, with the ribbon's normal and
-// per-blade variation) and written with that blade's depth (frag_depth), so the
+// the looks' base colour, glow and fog) and written with that blade's depth (frag_depth), so the
 // ordinary depth test composites it with the hardware-drawn blades, the ground and
 // sky, the balls and any other object. Pixels no such blade covers are discarded.
 //
@@ -67,8 +67,15 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let world_pos = (u_wobject.world_transform * vec4<f32>(c, 1.0)).xyz;
     let world_normal = (u_wobject.world_transform * vec4<f32>(n, 0.0)).xyz;
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
-    var rgb = blade_shade(world_normal, normalize(cam_pos - world_pos), v, hash01(blade),
-                          u_material.root_color.rgb, u_material.tip_color.rgb, u_material.color_variation,
+    // The blade's colour like the ribbons' vertices give it (blade_render.wgsl): its
+    // patch (clump noise of the root), its hash, the glow against the sun and the fog.
+    let eye = cam_pos - world_pos;
+    let clump = clump_noise(rec.v0.x, rec.v0.z, u_material.patch_size);
+    let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
+                                u_material.color_variation, u_material.dryness);
+    let glow = backlight(normalize(eye), normalize(u_material.light_direction.xyz), v, u_material.translucency);
+    let fog = fog_amount(length(eye), u_material.fog_density);
+    var rgb = blade_shade(world_normal, normalize(eye), v, base, glow, fog, u_material.fog_color.rgb,
                           u_material.light_direction.xyz, u_material.ambient);
     $$ if teaching_views
     if (u_cull.color_by == {{ color_by_lod }}) { rgb = RASTER_COLOR; }

@@ -7,8 +7,10 @@
 //
 // Engine-neutral body: the engine declares (before this file) the uniform u_sim
 // (fields of grasswidget.gpu.simulation.SIM_UNIFORM), s_blades (array<vec4<f32>>,
-// read_write) and s_collision (array<f32>, read_write: the per-blade collision
-// strength eta, 0..1, persistent across steps); see grasswidget.core.shader_files.
+// read_write), s_collision (array<f32>, read_write: the per-blade collision
+// strength eta, 0..1, persistent across steps), and s_colliders / s_collider_grid
+// (read: the spheres and their grid, see collisions.wgsl and core.collider_grid);
+// see grasswidget.core.shader_files.
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
@@ -16,7 +18,7 @@
 {$ include 'grasswidget.collisions.wgsl' $}
 
 // wind_field(p, t) and the user's user_wind(p, t): see wind_field.wgsl;
-// collision_passes(v0, v1, v2, up, height) over u_sim's colliders: see collisions.wgsl.
+// collision_passes(v0, v1, v2, up, height) over the spheres near the blade: see collisions.wgsl.
 
 @compute @workgroup_size({{ workgroup_size }})
 fn main(

@@ -2,10 +2,14 @@
 // Drawn after the opaque objects at the far depth with the "<" depth test, so only
 // the pixels nothing else covered are shaded. Per pixel: the view ray meets the
 // ground plane y = ground.y inside the square of half-size ground.w around
-// ground.xz, nearer than the far plane -> the flat ground colour; else the sky gradient (bottom -> top of
-// the view, like pygfx's two-colour Background).
+// ground.xz, nearer than the far plane -> the ground: soil under the field (the
+// rectangle `field`, darker the more the grass covers it), the ground beyond it
+// (flat colours: a noise here cost a third of a lavapipe frame), fading towards the horizon colour near
+// the far plane and with distance fog; else the sky, from the horizon colour up
+// to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks).
 
 {$ include 'pygfx.std.wgsl' $}
+{$ include 'grasswidget.blade_math.wgsl' $}
 
 struct VertexInput {
     @builtin(vertex_index) index : u32,
@@ -33,16 +37,25 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let near = ndc_to_world_pos(vec4<f32>(varyings.ndc, 0.0, 1.0));
     let far = ndc_to_world_pos(vec4<f32>(varyings.ndc, 1.0, 1.0));
     let dir = far - near;
-    let g = u_material.ground;
-    var rgb = mix(u_material.sky_bottom.rgb, u_material.sky_top.rgb, varyings.texcoord.y);
-    if (u_material.show_ground != 0 && abs(dir.y) > 1e-12) {
+    let m = u_material;
+    let g = m.ground;
+    let elevation = dir.y / max(length(dir), 1e-20);
+    var rgb = sky_color(elevation, m.horizon_color.rgb, m.zenith_color.rgb);
+    if (m.show_ground != 0 && abs(dir.y) > 1e-12) {
         let s = (g.y - near.y) / dir.y;
         if (s > 0.0) {
             let hit = near + s * dir;
             // inside the square, and nearer than the far plane (where a mesh would be clipped)
             let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * vec4<f32>(hit, 1.0);
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
-                rgb = u_material.ground_color.rgb;
+                let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
+                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover);
+                let cam = u_stdinfo.cam_transform_inv[3].xyz;
+                let dist = length(hit - cam);
+                // the ground fades into the horizon over the last 40 % before the far plane
+                // (view depth clip.w; m.far_distance), and into the fog
+                let fade = max(smoothstep(0.6, 1.0, clip.w / m.far_distance), fog_amount(dist, m.fog_density));
+                rgb = mix(ground, m.horizon_color.rgb, fade);
             }
         }
     }

@@ -3,6 +3,7 @@
 ``python -m grasswidget bench --preset cis565 --blades 1024 65536 --cull each --json out.json``
 ``python -m grasswidget bench --preset meadow --blades 1048576 --occlusion both --json out.json``
 ``python -m grasswidget bench --preset meadow --blades 1048576 --compute-raster both --json out.json``
+``python -m grasswidget bench --preset meadow --blades 1048576 --compute-raster on --raster-max-px 2 4 8``
 
 Per blade count and culling mode it measures, after warm-up:
 - frame ms (median, p10, p90): one simulation step + one render, GPU-synchronised
@@ -18,7 +19,8 @@ Per blade count and culling mode it measures, after warm-up:
 - visible blades (the GPU's indirect draw counts, both occlusion phases) and
   occluded blades (culled by occlusion; ``--occlusion both`` runs off, then on) and
   the blades the compute rasterizer drew (``rastered``; ``--compute-raster both`` runs
-  off, then on);
+  off, then on; ``--raster-max-px`` runs the rows with it on once per
+  ``GrassParams.compute_raster_max_px`` value, row key ``compute_raster_max_px``);
 - pipelined frames/s: the same frames submitted back to back with one sync at the end.
 Frames render into an offscreen texture (no image readback in the timing).
 """
@@ -63,8 +65,10 @@ def _occlusion_modes(occlusion):
     return {"on": [True], "off": [False], "both": [False, True]}[occlusion]
 
 
-def _apply_mode(params, mode, occlusion=False, compute_raster=False):
+def _apply_mode(params, mode, occlusion=False, compute_raster=False, raster_max_px=None):
     params.compute_raster = bool(compute_raster)
+    if raster_max_px is not None:
+        params.compute_raster_max_px = raster_max_px
     params.cull_occlusion = bool(occlusion) and mode != "off"
     on = mode == "on"
     params.cull_orientation = on or mode == "orientation"
@@ -179,11 +183,15 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
 
 
 def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, size=None, cull="on",
-              steps_per_frame=1, progress=True, seed=0, occlusion="on", compute_raster="on") -> dict:
+              steps_per_frame=1, progress=True, seed=0, occlusion="on", compute_raster="on",
+              raster_max_px=None) -> dict:
     """Run the sweep; returns a JSON-ready dict (see module docstring). ``occlusion``
     ("on", "off", "both": off then on, same scene and renderer) applies to the culling
     modes that cull; each row says ``occlusion`` True/False. ``compute_raster`` ("on",
-    "off", "both") likewise for ``GrassParams.compute_raster`` (row key ``compute_raster``)."""
+    "off", "both") likewise for ``GrassParams.compute_raster`` (row key ``compute_raster``);
+    ``raster_max_px``: None (the params' default) or a sequence of
+    ``GrassParams.compute_raster_max_px`` values (pixels, 0..16), each run in turn on the
+    rows with the compute rasterizer on (row key ``compute_raster_max_px``)."""
     import pygfx as gfx
     import tqdm
 
@@ -193,8 +201,20 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     if compute_raster not in OCCLUSION_MODES:
         raise GrassValueError(f"compute_raster must be one of {', '.join(OCCLUSION_MODES)}; got {compute_raster!r}")
     rasters = {"on": [True], "off": [False], "both": [False, True]}[compute_raster]
-    modes = [(m, o, r) for m in _modes(cull) for o in ([False] if m == "off" else _occlusion_modes(occlusion))
-             for r in rasters]
+    if raster_max_px is None:
+        widths = [None]
+    else:
+        from ..core.params import GrassParams
+
+        widths = []
+        for px in raster_max_px:
+            probe = GrassParams()
+            probe.compute_raster_max_px = px  # GrassValueError naming the parameter and its range
+            widths.append(float(probe.compute_raster_max_px))
+        if not widths:
+            raise GrassValueError("raster_max_px must be None or one or more widths in pixels; got an empty list")
+    modes = [(m, o, r, px) for m in _modes(cull) for o in ([False] if m == "off" else _occlusion_modes(occlusion))
+             for r in rasters for px in (widths if r else [None])]
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise GrassValueError(f"frames must be an integer >= 1; got {frames!r}")
     counts = [int(n) for n in blades]
@@ -211,9 +231,10 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
         cpu = is_cpu_adapter()
         renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if cpu else "default", enable_events=False)
         timer = _Timer(scene)
-        for mode, occl, raster in modes:
-            _apply_mode(scene.params, mode, occl, raster)
-            row = dict(blades=n, cull=mode, occlusion=occl, compute_raster=raster, size=f"{w}x{h}")
+        for mode, occl, raster, px in modes:
+            _apply_mode(scene.params, mode, occl, raster, px)
+            row = dict(blades=n, cull=mode, occlusion=occl, compute_raster=raster,
+                       compute_raster_max_px=scene.params.compute_raster_max_px if raster else None, size=f"{w}x{h}")
             row.update(_bench_one(scene, renderer, frames, steps_per_frame))
             if timer.ok:
                 row["gpu_cull_ms"] = statistics.median(timer.cull_ms() for _ in range(5))
@@ -238,18 +259,22 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 def format_table(report: dict) -> str:
     """A plain-text table of a run_bench report."""
-    head = f"{'blades':>9} {'cull':>11} {'occl':>5} {'cr':>3} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
+    head = f"{'blades':>9} {'cull':>11} {'occl':>5} {'cr':>3} {'px':>4} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 
     def g(row, key):
         v = row.get(key)
         return f"{v:8.3f}" if isinstance(v, float) else f"{'-':>8}"
 
+    def px_text(row):
+        px = row.get("compute_raster_max_px")
+        return f"{px:g}" if isinstance(px, (int, float)) else "-"
+
     for r in report["results"]:
         f = r["frame_ms"]
         lines.append(
             f"{r['blades']:>9} {r['cull']:>11} {'on' if r.get('occlusion') else 'off':>5} "
-            f"{'on' if r.get('compute_raster') else 'off':>3} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
+            f"{'on' if r.get('compute_raster') else 'off':>3} {px_text(r):>4} {f['median']:9.2f} {f['p10']:7.2f} {f['p90']:7.2f} "
             f"{r.get('frame_cpu_ms', float('nan')):7.1f} {r['fps']:7.1f} "
             f"{r['simulation_ms']:7.2f} {r['cull_draw_ms']:9.2f} {g(r, 'gpu_simulation_ms')} {g(r, 'gpu_cull_ms')} "
             f"{g(r, 'gpu_draw_ms')} {r['visible']:>9} {r['pipelined_fps']:8.1f}"

@@ -169,6 +169,9 @@ def build_parser():
                    help="occlusion culling in the modes that cull: on, off, or both (off, then on, in one run)")
     b.add_argument("--compute-raster", choices=["on", "off", "both"], default="on",
                    help="the compute rasterizer of thin blades: on, off, or both (off, then on, in one run)")
+    b.add_argument("--raster-max-px", type=float, nargs="+", default=None, metavar="PX",
+                   help="run the compute-rasterizer rows once per compute_raster_max_px value (pixels, 0..16; "
+                        "default: the params' default)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
     p.subcommands = {"snapshot": s, "bench": b, "html": h}
@@ -255,7 +258,7 @@ def _snapshot(args):
     else:
         scene = GrassScene.preset(args.preset, blades=args.blades, size=args.size, params=params, seed=args.seed)
     scene.step(args.steps)
-    path = write_image(args.out, scene.render())
+    path = write_image(args.out, scene.render_at(args.size))  # anti-aliased (see GrassScene.render_at)
     print(f"wrote {path} ({args.size[0]}x{args.size[1]}, {args.blades} blades, {args.steps} steps, "
           f"{scene.visible_count()} drawn)")
     return 0
@@ -301,7 +304,8 @@ def _bench(args):
     if blades is None:
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
     report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
-                       progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster)
+                       progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster,
+                       raster_max_px=args.raster_max_px)
     print(format_table(report))
     if args.json:
         save_json(report, args.json)

@@ -86,10 +86,11 @@ def _offscreen_renderer(size):
     from ..gpu.scene import make_renderer
 
     canvas = RenderCanvas(size=size, pixel_ratio=1)
-    return canvas, make_renderer(canvas)
+    return canvas, make_renderer(canvas, export=True)  # anti-aliased, like save_png
 
 
-def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *, restore=True) -> str:
+def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *, restore=True,
+                   on_frame=None) -> str:
     """Render ``seconds * fps`` frames of ``scene`` and write them to ``path``.
 
     Args:
@@ -101,6 +102,10 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
             MP4 needs even width and height.
         progress: show a tqdm progress bar.
         restore: put the scene's state and step counter back afterwards (default).
+        on_frame: optional callable ``on_frame(k, t)`` run before frame k is simulated and
+            drawn (t: seconds of simulated time since the first frame), e.g. to move
+            colliders (``scene.colliders.set_array(...)``); its changes apply to the
+            steps that lead to frame k and are drawn in it.
 
     Returns the path written. Raises ValueError/TypeError for bad arguments
     before rendering anything.
@@ -120,6 +125,8 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
             raise MissingDependencyError("writing MP4 needs imageio-ffmpeg: pip install imageio-ffmpeg") from None
     if not isinstance(progress, bool):
         raise GrassTypeError(f"progress must be True or False; got {progress!r}")
+    if on_frame is not None and not callable(on_frame):
+        raise GrassTypeError(f"on_frame must be a callable on_frame(k, t) or None; got {on_frame!r}")
 
     from tqdm.auto import tqdm
 
@@ -139,9 +146,14 @@ def save_animation(scene, path, seconds=4.0, fps=20, size=None, progress=True, *
                                      pixelformat="yuv420p", quality=8, macro_block_size=1)
         bar = tqdm(total=plan["frames"], disable=not progress, desc=os.path.basename(path), unit="frame")
         try:
+            balls = getattr(scene, "collider_balls", None)
             for k in range(plan["frames"]):
+                if on_frame is not None:
+                    on_frame(k, k * plan["steps_per_frame"] * params.dt)
                 if k:
                     field.step(plan["steps_per_frame"])
+                if balls is not None:
+                    balls.sync()
                 rgb = np.ascontiguousarray(np.asarray(canvas.draw())[..., :3])
                 if writer is not None:
                     writer.append_data(rgb)

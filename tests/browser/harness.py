@@ -11,7 +11,7 @@ A typical test::
         open_notebook(page, server, "nb.ipynb")
         run_all_cells(page)
         wait_for_frames(page, 5, timeout=30)
-        set_slider(page, "gravity", 25)
+        set_slider(page, panel_label("gravity"), 25)
         wait_for_kernel(page, "s.value", 25.0)
 
 Design rules:
@@ -1316,6 +1316,16 @@ def _one(locator, what: str, candidates_js: Optional[str] = None, page=None, tim
 
 _JS_SLIDER_LABELS = """() => Array.from(document.querySelectorAll('.widget-slider')).map(
   (s) => { const l = s.querySelector('.widget-label:not(.widget-readout)'); return l ? l.textContent : ''; })"""
+
+
+def panel_label(trait: str) -> str:
+    """The label the widget's panel shows for a GrassParams (or widget) trait, e.g.
+    ``panel_label("gravity") == "gravity (m/s²)"`` (grasswidget.panel.control_label)."""
+    import grasswidget as gw
+    from grasswidget.panel import control_label
+
+    traits = {**gw.GrassWidget.class_traits(), **gw.GrassParams.class_traits()}
+    return control_label(trait, traits.get(trait))
 
 
 def _slider(page, description: str, timeout: float):

@@ -8,11 +8,12 @@ and the kernel:
   the meadow moves while playing;
 * physics: from the same blades, parameters and steps, the browser's state
   (``w.read_state()``, waited for inside a running cell) equals the kernel
-  engine's (a GrassField on lavapipe) within 1e-4 of the blade height;
+  engine's (a GrassField on lavapipe) within 1e-4 of the blade height, also with
+  a crowd of 60 balls (the collider grid built in Python, looked up in both);
 * culling checkboxes in the page change the browser's visible count (all off:
   exactly every blade);
 * a mouse drag on the canvas moves ``w.camera_state``; assigning it moves the view;
-* Save PNG writes a picture of grass rendered by the browser;
+* Save PNG writes a picture of grass rendered by the browser, anti-aliased there;
 * a custom wind that does not compile comes back with its line, the old wind kept;
 * a lost WebGPU device is recovered with a message, and a request to a view
   that is not shown raises TimeoutError naming the browser view.
@@ -30,6 +31,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    panel_label,
     Browser,
     click_button,
     drag,
@@ -154,6 +156,40 @@ print('PHYSICS', err, err1, bent)
     assert bent > 0.05, "the wind did not bend the grass: the comparison would prove nothing"
     assert err < 1e-4 and err1 < 1e-4
 
+    # 2b. A crowd of 60 balls (set_array): the browser's grid lookup gives the kernel's physics.
+    out = kernel_execute(page, """
+w.pause()
+w.params.wind_field = 'wave'
+w.reset_blades()
+rng = np.random.default_rng(4)
+r = rng.uniform(0.3, 0.8, 60)
+crowd = np.column_stack([rng.uniform(-8, 8, 60), r + 0.05, rng.uniform(-8, 8, 60), r])  # resting on the grass
+view = w.view.browser_view
+view.colliders.set_array(crowd)
+view.colliders_changed()
+w.step(100)
+mine = w.read_state()
+field = GrassField(view.blades, params=w.params.copy())
+field.colliders.set_array(crowd)
+field.step(100)
+theirs = field.read_state()
+field.release()
+view.colliders.set_array([])
+view.colliders_changed()
+b = view.blades
+e = np.maximum(np.abs(mine['v2'] - theirs['v2']).max(axis=1), np.abs(mine['v1'] - theirs['v1']).max(axis=1)) / b.height
+print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()), float((theirs['collision'] > 0).mean()),
+      float(np.abs(mine['collision'] - theirs['collision']).max()))
+""", timeout=180)
+    p99, worst, off, touched, eta = map(float, out.stdout.split("CROWD")[1].split())
+    print(f"[browser engine] 60 balls, 100 steps: |browser - kernel| / h 99th percentile {p99:.2e}, max {worst:.2e} "
+          f"({off:.0f} blades > 1e-3); "
+          f"{touched:.0%} of the blades touched; eta differs by <= {eta:.2e}")
+    assert touched > 0.1, "the balls hit too few blades: the comparison would prove little"
+    # float32 rounding differs between SwiftShader and lavapipe; a few blades wedged between touching
+    # balls amplify it (the kernel's grid equals its loop over every ball bit for bit: tests/test_colliders.py)
+    assert p99 < 1e-4 and off <= 0.002 * 4096
+
     # 3. Culling checkboxes change the browser's visible count; all off: every blade (none occluded).
     kernel_execute(page, "w.play()")
     visible_on = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v is not None, timeout=20)
@@ -199,7 +235,9 @@ print('PHYSICS', err, err1, bent)
          page=page)
     assert shot_a.shape == first.shape
 
-    # 5. Save PNG: rendered by the browser at 2x, written next to the notebook by Python.
+    # 5. Save PNG: rendered by the browser at 2x, anti-aliased there (rendered 2x larger again and
+    # filtered down), written next to the notebook by Python. Paused, so the picture can be retaken.
+    kernel_execute(page, "w.pause()")
     old = set(root.glob("grass-*.png"))
     click_button(page, "Save PNG")
     new = poll(lambda: set(root.glob("grass-*.png")) - old, "Save PNG to write a file", 60, 0.3, page=page)
@@ -210,6 +248,19 @@ print('PHYSICS', err, err1, bent)
     frac = _grass_fraction(img[int(0.6 * img.shape[0]):])
     print(f"[browser engine] Save PNG wrote {next(iter(new)).name} {img.shape[1]}x{img.shape[0]}, grass {frac:.0%}")
     assert frac > 0.3
+    out = kernel_execute(page, f"""
+import imageio.v3 as iio, numpy as np
+png = iio.imread({str(next(iter(new)))!r})[..., :3].astype(int)
+size = (png.shape[1], png.shape[0])
+aa = w.view.browser_view.snapshot(size, supersample=2)[..., :3].astype(int)
+plain = w.view.browser_view.snapshot(size)[..., :3].astype(int)
+print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
+""", timeout=120)
+    to_aa, to_plain = map(float, out.stdout.split("DIFF")[1].split())
+    print(f"[browser engine] Save PNG vs a supersampled snapshot of the paused meadow: mean {to_aa:.3f}/255; "
+          f"vs a plain one: {to_plain:.2f}/255")
+    # the button's picture is the anti-aliased one (a few blades may draw in another order: not 0)
+    assert to_aa < 0.2 * to_plain and to_plain > 0.3
     art = os.environ.get("GW_ARTIFACTS_DIR")
     if art:
         os.makedirs(art, exist_ok=True)
@@ -264,7 +315,7 @@ def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
         assert "WebGPU is not available in this browser" in msg
         wait_for_view(page, 0, timeout=60)
         wait_for_frames(page, 3, timeout=60, index=0)
-        set_slider(page, "wind_strength", 21.5)
+        set_slider(page, panel_label("wind_strength"), 21.5)
         wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
         kernel_execute(page, "w.step(5)")
         assert kernel_eval(page, "w.scene.field.step_count") >= 5

@@ -183,6 +183,15 @@ w.step(41)
 w.ball.enabled = True
 w.ball.set_radius(0.8)
 w.ball.move_to(float(b.v0[ids[0], 0]) + 0.2, float(b.v0[ids[0], 2]))
+# A crowd (set_array) beside the ball, two of its spheres over inspected blades: more spheres than
+# fit one cell, so the browser's inspector looks the collisions up in a grid of many cells.
+rng = np.random.default_rng(7)
+crowd = np.column_stack([rng.uniform(-9, 9, 30), np.full(30, 0.45), rng.uniform(-9, 9, 30), np.full(30, 0.5)])
+crowd[:2, 0], crowd[:2, 2] = b.v0[ids[2:4], 0] + 0.1, b.v0[ids[2:4], 2]
+view = w.view.browser_view
+view.colliders.set_array(crowd)
+view.colliders_changed()
+grid_cells = int(np.prod(np.frombuffer(view.collider_grid, np.uint32)[:2]))
 w.inspect(ids)
 mine = w.read_inspected()
 raw = w.view.browser_view.read_state()
@@ -190,6 +199,7 @@ scene = GrassScene(b, size={SIZE}, params=w.params.copy())
 scene.field.write_state(raw)
 scene.field.step_count = raw['step_count']
 scene.colliders = list(w.view.browser_view.colliders)
+scene.colliders.set_array(crowd)
 scene.inspect(ids)
 scene.render()
 theirs = scene.read_inspected()
@@ -203,19 +213,22 @@ for m, t in zip(mine, theirs):
         if e > worst:
             worst, worst_key = e, (m['id'], k, a.tolist(), c.tolist())
 pushed = sum(float(np.linalg.norm(m['collision']) > 0) for m in mine)
-print('INSPECT', len(mine), len(theirs), worst, pushed, raw['step_count'])
+view.colliders.set_array([])
+view.colliders_changed()
+print('INSPECT', len(mine), len(theirs), worst, pushed, raw['step_count'], grid_cells)
 print('WORST', worst_key)
 print('EXAMPLE', {{k: np.round(v, 4).tolist() if hasattr(v, 'tolist') else v for k, v in mine[0].items()}})
 """, timeout=180)
-    n_mine, n_theirs, worst, pushed, steps = out.stdout.split("INSPECT")[1].split("\n")[0].split()
+    n_mine, n_theirs, worst, pushed, steps, grid_cells = out.stdout.split("INSPECT")[1].split("\n")[0].split()
     print(f"\n[browser teaching] inspector: {n_mine} blades after {steps} steps; worst |browser - kernel| = "
           f"{float(worst):.2f} x (1e-5 + 5e-4 |value|) at {out.stdout.split('WORST')[1].splitlines()[0].strip()}; "
-          f"{pushed} pushed by the ball\n"
+          f"{pushed} pushed by the ball and a crowd of 30 (grid of {grid_cells} cells)\n"
           f"[browser teaching] {out.stdout.split('EXAMPLE')[1].strip()}")
     assert int(n_mine) == int(n_theirs) == 6
     # Within float32 (SwiftShader's sin/cos of the wave wind differ from lavapipe's by ~1e-4 relative).
     assert float(worst) <= 1.0
-    assert float(pushed) >= 1  # the collision arrow is compared with a real push, not two zeros
+    assert float(pushed) >= 3  # the collision arrows are compared with real pushes (ball, crowd), not zeros
+    assert int(grid_cells) > 1  # the crowd's grid, not the one cell of a few spheres
 
     # The arrows in the screenshot: gravity, recovery and wind in their colours, gone after inspect([]).
     from grasswidget.core.teaching import INSPECTOR_COLORS, hex_to_rgb

@@ -46,7 +46,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert len(set(names)) == len(names) and len(set(numbers)) == len(numbers)
         assert [{k: v for k, v in b.items() if k != "resource"} for b in sh["bindings"]] == binding_map(sh["code"])
     kinds = {b["name"]: b["kind"] for b in shaders["simulate"]["bindings"]}
-    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage"}
+    assert kinds == {"u_sim": "uniform", "s_blades": "storage", "s_collision": "storage",
+                     "s_colliders": "read-only-storage", "s_collider_grid": "read-only-storage"}
     kinds = {b["name"]: b["kind"] for b in shaders["blades"][0]["bindings"]}
     assert kinds["s_blades"] == "read-only-storage" and kinds["u_material"] == "uniform"
     # The same files: the blade math of the package is in the text, not a copy.
@@ -150,8 +151,8 @@ def test_custom_wind_is_inserted_and_errors_map_to_snippet_lines():
 
 def test_uniform_layouts_match_wgsl_offsets():
     """Offsets follow WGSL's uniform rules, and the packed bytes hold each parameter at its offset."""
-    assert uniforms.offsets(uniforms.SIM_LAYOUT)["colliders"][0] == 64
-    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64 + 16 * 16
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["wind_center"][0] == 48
+    assert uniforms.offsets(uniforms.SIM_LAYOUT)["gravity"][0] == 64  # no collider array: the count is free
     assert uniforms.struct_size(uniforms.STDINFO_LAYOUT) == 4 * 64 + 16 + 16  # + ndc_offset
     p = gw.GrassParams(wind_strength=7.5, wind_direction=90.0, wind_field="vortex", dt=0.01)
     raw = uniforms.sim_uniform(p, 1234, [gw.SphereCollider(center=(1, 2, 3), radius=0.5)])
@@ -163,9 +164,30 @@ def test_uniform_layouts_match_wgsl_offsets():
     assert read("wind_strength")[0] == np.float32(7.5)
     assert read("wind_field", "<i4")[0] == 2 and read("n_blades", "<u4")[0] == 1234
     assert np.allclose(read("wind_dir", count=4), [0, 1, 0, 0], atol=1e-7)
-    assert np.allclose(read("colliders", count=4), [1, 2, 3, 0.5]) and read("n_colliders", "<i4")[0] == 1
+    assert read("n_colliders", "<i4")[0] == 1
     assert uniforms.clock(p) == {"dt": 0.01, "wind_period": p.wind_wavelength / p.wind_speed,
                                  "max_steps_per_frame": 64}
+
+
+def test_the_browser_gets_the_kernels_collider_arrays():
+    """The browser view sends the same sphere and grid arrays the kernel engine uploads."""
+    from grasswidget.core.collider_grid import build_collider_grid, root_bounds
+
+    blades = gw.Blades.on_plane(512, size=10.0, seed=2)
+    view = BrowserView(blades)
+    ball = gw.SphereCollider(center=(1, 0.5, 2), radius=0.5)
+    view.colliders.append(ball)
+    rows = np.random.default_rng(0).uniform(0.1, 4.0, (300, 4))
+    view.colliders.set_array(rows)
+    view.colliders_changed()
+    spheres = np.concatenate([[ball.as_vec4()], rows])
+    grid = build_collider_grid(spheres, root_bounds(blades.v0), blades.height.max())
+    assert view.collider_spheres == spheres.astype(np.float32).tobytes() == grid.sphere_data().tobytes()
+    assert view.collider_grid == grid.words().tobytes() and grid.nx * grid.nz > 1
+    assert len(view.collider_spheres) <= view.collider_buffer_bytes[0]
+    assert len(view.collider_grid) <= view.collider_buffer_bytes[1]
+    assert np.frombuffer(view.sim_uniform, "<i4", 1, uniforms.offsets(uniforms.SIM_LAYOUT)["n_colliders"][0])[0] == 301
+    view.close()
 
 
 def test_requests_outside_a_notebook_raise_timeout_naming_the_browser_view():
@@ -247,3 +269,73 @@ def test_kernel_widget_camera_state_both_ways():
             w.camera_state = {"position": (0.0, 1.0, 0.0)}
     finally:
         w.close()
+
+
+_DOWNSAMPLE_DRIVER = """
+import { readFileSync } from "node:fs";
+import { downsample } from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const out = downsample(Uint8Array.from(c.src), c.width, c.height, c.row, c.bgra, c.filter);
+console.log(JSON.stringify(Array.from(out)));
+"""
+
+
+def _cubic(t, b=1 / 3, c=1 / 3):
+    """pygfx's ssaa.wgsl cubicWeights (Mitchell with B = C = 1/3), written out here."""
+    t = abs(t)
+    if t < 1:
+        return ((12 - 9 * b - 6 * c) * t ** 3 + (-18 + 12 * b + 6 * c) * t ** 2 + (6 - 2 * b)) / 6
+    if t <= 2:
+        return ((-b - 6 * c) * t ** 3 + (6 * b + 30 * c) * t ** 2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)) / 6
+    return 0.0
+
+
+@pytest.mark.parametrize("bgra", [False, True])
+def test_browser_export_filter_is_pygfx_supersampling(bgra):
+    """engine.js's downsample (the browser's anti-aliased Save PNG and save_png), run with
+    Node.js on random pixels, gives what a direct 2D Mitchell filter in linear light over
+    the clamped picture gives (pygfx's SSAA of the kernel's exports), to 1/255."""
+    import json
+    import shutil
+    import subprocess
+
+    from grasswidget.browser.view import HERE as browser_dir
+    from grasswidget.core.frame_data import export_filter
+
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        pytest.skip("Node.js is not installed (runs engine.js's downsample outside a browser)")
+    f, (w, h) = 2, (9, 7)
+    rng = np.random.default_rng(4)
+    img = rng.integers(0, 256, (h * f, w * f, 3))
+    img[:, : w * f // 2] //= 8  # a dark half: a hard edge, as at blade borders
+    row = 4 * w * f + 8  # rows padded, as WebGPU's copies are
+    buf = np.zeros((h * f, row), np.uint8)
+    rgba = np.concatenate([img[..., ::-1] if bgra else img, np.full((h * f, w * f, 1), 255)], axis=2)
+    buf[:, : 4 * w * f] = rgba.reshape(h * f, -1)
+    url = (browser_dir / "engine.js").resolve().as_uri()
+    case = {"src": buf.ravel().tolist(), "width": w, "height": h, "row": row, "bgra": bgra,
+            "filter": export_filter(f)}
+    run = subprocess.run([node, "--input-type=module", "-e", _DOWNSAMPLE_DRIVER % json.dumps(url)],
+                         input=json.dumps(case), capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    got = np.array(json.loads(run.stdout)).reshape(h, w, 4)
+
+    lin = img / 255.0
+    lin = np.where(lin <= 0.04045, lin / 12.92, ((lin + 0.055) / 1.055) ** 2.4)
+    want = np.zeros((h, w, 3))
+    for y in range(h):
+        for x in range(w):
+            acc, total = np.zeros(3), 0.0
+            for sy in range(f * y - 4, f * y + 6):
+                for sx in range(f * x - 4, f * x + 6):
+                    wt = _cubic((sx + 0.5 - f * (x + 0.5)) / f) * _cubic((sy + 0.5 - f * (y + 0.5)) / f)
+                    acc += wt * lin[min(max(sy, 0), h * f - 1), min(max(sx, 0), w * f - 1)]
+                    total += wt
+            want[y, x] = acc / total
+    want = np.clip(want, 0, 1)
+    want = np.round(255 * np.where(want <= 0.0031308, 12.92 * want, 1.055 * want ** (1 / 2.4) - 0.055))
+    assert np.abs(got[..., :3] - want).max() <= 1
+    assert (got[..., 3] == 255).all()
+    # and it is a filter, not a copy: the hard edge is softened
+    assert np.abs(got[..., :3] - img[::f, ::f]).max() > 20

@@ -29,6 +29,7 @@ from .harness import (
     drag,
     kernel_eval,
     open_notebook,
+    panel_label,
     poll,
     run_all_cells,
     set_slider,
@@ -46,7 +47,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 N_BLADES = 2048
 BROWSER_CELL = f"import grasswidget as gw\nw = gw.GrassWidget({N_BLADES}, backend='browser', size=(320, 240))\nw"
 FALLBACK_CELL = "import grasswidget as gw\nw = gw.GrassWidget(1024, backend='auto', size=(320, 240))\nw"
-VISIBLE = re.compile(r"([\d,]+) / ([\d,]+) blades visible")
+VISIBLE = re.compile(r"([\d,]+) of ([\d,]+) blades drawn")
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +128,7 @@ def test_browser_engine_in_front_end(server, webgpu_browser):
         h = first.shape[0]
         lower, top = _grass_fraction(first[int(0.6 * h):]), _sky_fraction(first[: int(0.1 * h)])
         print(f"\n[{server.app}] browser engine: grass {lower:.0%} in the lower part, sky {top:.0%} on top; "
-              f"{visible[0]} / {visible[1]} blades visible")
+              f"{visible[0]} of {visible[1]} blades drawn")
         assert lower > 0.3 and top > 0.9
         assert visible[1] == N_BLADES and visible[0] < N_BLADES
         if kernel:
@@ -178,7 +179,7 @@ def test_fallback_in_front_end(server, browser):
         wait_for_frames(page, 3, timeout=60, index=0)
         if kernel:
             wait_for_kernel(page, "w.backend", "kernel", timeout=30)
-        set_slider(page, "wind_strength", 21.5)
+        set_slider(page, panel_label("wind_strength"), 21.5)
         if kernel:
             wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
         # Pause reaches the kernel: its stream stops (in Voila the only way to see the kernel act)

@@ -41,7 +41,8 @@ MEASURE = """
   for (const el of root.querySelectorAll(sel)) {
     const box = el.getBoundingClientRect();
     const style = getComputedStyle(el);
-    if (style.display === "none" || style.visibility === "hidden") continue;
+    // hidden (display: none here or above it, e.g. the status details while folded): not on screen
+    if (style.display === "none" || style.visibility === "hidden" || el.getClientRects().length === 0) continue;
     const text = (el.tagName === "SELECT" ? el.options[el.selectedIndex]?.text : el.innerText || "").trim();
     if (!text) continue;
     texts.push(text);
@@ -89,6 +90,7 @@ STATES = {
                "w.panel.show_error('blades: count=1,000,000,000,000 blades would take 268.2 GiB of memory')\n"
                "w.params.color_by = 'cull'; w.culling_frozen = True\n"
                "w.inspect([0, 1, 2, 3, 4]); w.view.refresh_stats()\n"
+               "w.params.patch_size = 100; w.params.fog_density = 1; w.panel.details_button.value = True\n"
                "w.pause()"),
 }
 

@@ -36,6 +36,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    panel_label,
     JupyterLabServer,
     click_button,
     drag,
@@ -190,15 +191,15 @@ def _run_checks(page, server, folder):
     print(f"[tour] {n_default} blades (the default) at 640x480: {fps_default:.1f} frames/s reach Chromium")
 
     # 2. A slider moved in the page reaches Python.
-    set_slider(page, "wind_strength", 37.5)
+    set_slider(page, panel_label("wind_strength"), 37.5)
     wait_for_kernel(page, "w.params.wind_strength", 37.5, timeout=20)
 
     # ...and bad text typed into a readout breaks nothing: junk is refused by the
     # slider, an out-of-range number is clamped to the slider's (= the trait's) range.
-    set_slider(page, "gravity", "heavy", check=False)
-    set_slider(page, "gravity", 1e9, check=False)
+    set_slider(page, panel_label("gravity"), "heavy", check=False)
+    set_slider(page, panel_label("gravity"), 1e9, check=False)
     wait_for_kernel(page, "w.params.gravity", 50.0, timeout=20)
-    set_slider(page, "gravity", 9.8)
+    set_slider(page, panel_label("gravity"), 9.8)
     wait_for_kernel(page, "w.params.gravity", 9.8, timeout=20)
 
     # 3. Toggling a culling checkbox changes the visible count.

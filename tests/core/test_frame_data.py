@@ -108,21 +108,53 @@ def test_clock_rules_are_the_kernel_clocks():
 
 
 def test_scene_style_is_the_kernel_scenes_sky_and_ground():
+    """Every sky/ground value (colours, ground square, field, cover, far plane, fog) the
+    browser is sent is the kernel scene's, byte for byte, and follows the params' fog."""
     from grasswidget.gpu.scene import GrassScene
 
     blades = gw.Blades.on_plane(256, size=6.0)
-    scene = GrassScene(blades, size=(64, 48))
+    params = gw.GrassParams(fog_density=0.02)
+    scene = GrassScene(blades, size=(64, 48), params=params)
     try:
-        style = frame_data.scene_style(blades, scene.camera.depth_range[1])
-        mat = scene.sky_ground.material.uniform_buffer.data
-        for key in ("sky_bottom", "sky_top", "ground_color", "ground"):
-            assert np.allclose(mat[key], style[key], atol=1e-6), key
+        layout = uniforms.SKY_GROUND_LAYOUT
+
+        def kernel_bytes():
+            mat = scene.sky_ground.material.uniform_buffer.data
+            return pack(layout, {k: mat[k] for k, _ in layout})
+
+        style = frame_data.scene_style(blades, scene.camera.depth_range[1], params)
+        assert uniforms.sky_ground_uniform(style) == kernel_bytes()
+        assert style["fog_density"] == 0.02 and 0 < style["cover"] < 1
+        lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
+        assert np.allclose(style["field"], [*(0.5 * (lo + hi))[[0, 2]], *(0.5 * (hi - lo))[[0, 2]]])
         # ground to the horizon: the square reaches past the far plane from the field's far edge
         assert style["ground"][3] >= 0.5 * 6.0 + scene.camera.depth_range[1]
-        layout = uniforms.SKY_GROUND_LAYOUT
-        assert uniforms.sky_ground_uniform(style) == pack(layout, {k: mat[k] for k, _ in layout})
+        params.fog_density = 0.0  # a change reaches both engines the same way
+        style = frame_data.scene_style(blades, scene.camera.depth_range[1], params)
+        assert style["fog_density"] == 0.0 and uniforms.sky_ground_uniform(style) == kernel_bytes()
+        scene.ground.visible = False  # the ground switch survives a rewrite of the values
+        params.fog_density = 0.01
+        assert scene.sky_ground.material.uniform_buffer.data["show_ground"] == 0
     finally:
         scene.release()
+
+
+def test_kernel_grass_material_holds_the_bytes_the_browser_is_sent():
+    """The blade material: the kernel's GrassMaterial (looks written by GrassField from
+    the params) and the browser's material_uniform, both from frame_data, byte for byte."""
+    from grasswidget.gpu.field import GrassField
+
+    params = gw.GrassParams(color_variation=0.8, patch_size=7.5, dryness=0.45, translucency=0.2,
+                            fog_density=0.03, blade_shape="quad")
+    field = GrassField(gw.Blades.on_plane(64, seed=1), params=params)
+    try:
+        assert field.material.uniform_buffer.data.tobytes() == uniforms.material_uniform(params)
+        params.dryness = 0.9
+        params.fog_density = 0.0
+        assert field.material.uniform_buffer.data.tobytes() == uniforms.material_uniform(params)
+        assert field.material.dryness == pytest.approx(0.9)
+    finally:
+        field.release()
 
 
 # ---------------------------------------------------------------------- engine.js under Node.js

@@ -43,6 +43,22 @@ def test_both_engines_lay_the_struct_out_alike(binding):
     assert kernel_size == browser_uniforms.struct_size(layout)
 
 
+def test_grass_material_struct_is_the_layout_byte_for_byte():
+    """The kernel's GrassMaterial (pygfx's base fields opacity and alpha_test included) and
+    the browser's blade material struct put every field at the same byte offset."""
+    from pygfx.utils import array_from_shadertype
+
+    from grasswidget.gpu.material import GrassMaterial
+
+    arr = array_from_shadertype(GrassMaterial.uniform_type)
+    layout = uniform_layouts.GRASS_MATERIAL_LAYOUT
+    kernel = {name: arr.dtype.fields[name][1] for name in arr.dtype.names
+              if not name.startswith("__") and arr.dtype.fields[name][0].itemsize}
+    assert kernel == {name: off for name, (off, _d, _c) in browser_uniforms.offsets(layout).items()}
+    assert arr.dtype.itemsize == browser_uniforms.struct_size(layout)
+    assert browser_uniforms.MATERIAL_LAYOUT is layout
+
+
 def test_the_engines_import_the_one_layout():
     from grasswidget.gpu import field, simulation
 

@@ -51,7 +51,7 @@ def test_sphere_collider_validates():
 def test_collider_list_limits(fresh):
     field = fresh
     balls = [gw.SphereCollider(center=(k, 5, 0), radius=0.1) for k in range(MAX_COLLIDERS + 1)]
-    field.colliders.extend(balls[:MAX_COLLIDERS])  # 16 is fine
+    field.colliders.extend(balls[:MAX_COLLIDERS])  # MAX_COLLIDERS is fine
     field.step(2)
     with pytest.raises(ValueError, match=f"colliders: at most {MAX_COLLIDERS}"):
         field.colliders.append(balls[-1])
@@ -95,6 +95,62 @@ def test_gpu_matches_reference_with_spheres(fresh, blades, steps):
     assert np.abs(gpu["collision"] - cpu["collision"]).max() < 1e-3
     assert (cpu["collision"] > 0).sum() > 20  # the spheres really hit blades
     assert gpu["collision"].max() <= 1.0
+
+
+def _moving_crowd(rng, size):
+    """40 balls: resting in the grass at random places (many straddle grid cells), overlapping
+    pairs, one bigger than a grid cell, three at the field's edge and one far outside."""
+    k = 40
+    r = rng.uniform(0.25, 0.6, k)
+    c = np.column_stack([rng.uniform(-size / 2, size / 2, k), 0.7 * r, rng.uniform(-size / 2, size / 2, k)])
+    c[1::6] = c[0::6][: len(c[1::6])] + (0.3, 0.1, 0.2)  # overlapping pairs
+    r[5], c[5] = 3.0, (0.0, 2.6, 0.0)  # bigger than a cell, resting on the grass
+    c[6:9, 0] = size / 2 - 0.2  # at the edge: they leave the field as the crowd drifts +x
+    c[9] = (40.0, 0.5, 0.0)  # far outside
+    return np.column_stack([c, r])
+
+
+def test_gpu_matches_reference_with_a_moving_crowd():
+    """Dozens of balls (set_array) drifting across a field for 60 steps: the GPU, which tests
+    only the balls listed in each blade's grid cell, equals the reference's loop over all."""
+    from grasswidget.core.collider_grid import build_collider_grid, root_bounds
+
+    rng = np.random.default_rng(21)
+    size = 12.0
+    blades = gw.Blades.on_plane(4096, size=size, seed=3, height=(0.4, 0.8), width=(0.03, 0.05))
+    field = gw.GrassField(blades, gw.GrassParams(wind_strength=10.0))
+    crowd = _moving_crowd(rng, size).astype(np.float32).astype(np.float64)
+    cpu = blades.rest_state()
+    drift = np.array([0.35, 0.0, 0.1, 0.0])
+    for seg in range(6):
+        balls = crowd + seg * drift
+        field.colliders.set_array(balls)
+        field.step(10)
+        cpu = ref.simulate(cpu, field.params, 10, first_step=10 * seg, colliders=balls)
+    gpu = field.read_state()
+    err = np.max([np.linalg.norm(gpu[k] - cpu[k], axis=1) / blades.height for k in ("v1", "v2")], axis=0)
+    print(f"crowd of {len(crowd)}: |gpu - ref| / h max {err.max():.2e}, 99th percentile {np.percentile(err, 99):.2e}")
+    # float32 drift grows in the trampled blades (pushes switch on at a sphere's surface); a ball
+    # missing from a blade's list would be off by centimetres (~1e-2 of h)
+    assert np.percentile(err, 99) < 2e-5 and err.max() < 5e-4
+    assert np.percentile(np.abs(gpu["collision"] - cpu["collision"]), 99) < 1e-4
+    assert (cpu["collision"] > 0).mean() > 0.2  # the balls really trample the field
+    # and the grid really prunes: several cells, a blade tests a fraction of the balls
+    grid = build_collider_grid(balls, root_bounds(blades.v0), blades.height.max())
+    assert grid.nx * grid.nz >= 16
+    assert grid.cell_count[grid.cell_of(blades.v0)].mean() < 0.3 * len(crowd)
+    assert field.simulation.collider_grid.nx * field.simulation.collider_grid.nz == grid.nx * grid.nz
+    # the same run with one cell (every blade tests every ball, the paper's loop) is equal bit for bit
+    field.simulation.max_grid_cells = 1
+    field.reset()
+    for seg in range(6):
+        field.colliders.set_array(crowd + seg * drift)
+        field.step(10)
+    assert field.simulation.collider_grid.nx * field.simulation.collider_grid.nz == 1
+    looped = field.read_state()
+    for key in ("v1", "v2", "collision"):
+        assert np.array_equal(looped[key], gpu[key]), key
+    field.release()
 
 
 def test_reset_zeroes_collision(fresh):

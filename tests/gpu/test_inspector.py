@@ -121,6 +121,26 @@ def test_arrows_equal_the_reference_forces_against_a_ball(fresh_scene):
     assert not np.any(forces[:, 3])
 
 
+def test_arrows_equal_the_reference_forces_in_a_crowd(fresh_scene):
+    """30 balls (set_array) resting on the grass: the inspector reads the same collider grid as the
+    simulation, and its collision arrows equal the reference's (every ball)."""
+    scene = fresh_scene
+    scene.params.wind_strength = 0.0
+    rng = np.random.default_rng(3)
+    r = rng.uniform(0.6, 1.1, 30)
+    balls = np.column_stack([rng.uniform(-4, 4, 30), r + 0.1, rng.uniform(-4, 4, 30), r])
+    balls = balls.astype(np.float32).astype(np.float64)
+    scene.colliders.set_array(balls)
+    scene.step(30)
+    v0 = scene.field.blades.v0
+    dist = np.linalg.norm(v0[:, None, [0, 2]] - balls[None, :, [0, 2]], axis=2) - balls[:, 3]
+    near = np.argsort(np.abs(dist - 0.3).min(axis=1))[:64]  # blades just outside some ball's rim
+    scene.inspect(near)
+    scene.render()
+    forces, expected = _check(scene, near, colliders=balls)
+    assert (np.linalg.norm(forces[:, 3], axis=1) > 1e-3).sum() >= 5, np.linalg.norm(forces[:, 3], axis=1)
+
+
 def test_inspector_is_drawn_and_cleared(fresh_scene, tmp_path):
     scene = fresh_scene
     scene.params.wind_strength = 25.0

@@ -243,7 +243,7 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
 
 
 def test_stats_count_the_occluded_blades(scene):
-    from grasswidget.notebook.panel import CULL_CHECKBOXES, format_stats
+    from grasswidget.notebook.panel import CULL_CHECKBOXES, format_details
 
     scene.field.reset()
     scene.reset_camera()
@@ -257,6 +257,6 @@ def test_stats_count_the_occluded_blades(scene):
         scene.render()
     assert stats.occluded == scene.field.read_occluded_count() > 500
     assert stats.visible == scene.visible_count()
-    line = format_stats(dict(visible=stats.visible, blades=6000, occluded=stats.occluded))
+    line = format_details(dict(visible=stats.visible, blades=6000, occluded=stats.occluded))
     assert f"{stats.occluded:,} occluded" in line
     assert ("occlusion culling", "cull_occlusion") in CULL_CHECKBOXES

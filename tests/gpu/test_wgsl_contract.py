@@ -21,6 +21,7 @@ from conftest import HARNESS_BINDINGS
 
 from grasswidget.core import reference as ref
 from grasswidget.core.blades import BLADE_LAYOUT, pack_state
+from grasswidget.core.collider_grid import GRID_HEADER_WORDS, build_collider_grid, collider_cell_range
 from grasswidget.core.enums import BladeShape, ColorBy, GravityMode, WindField
 from grasswidget.core.shader_files import read_shader, render_wgsl, template_vars
 
@@ -332,6 +333,11 @@ TWINS = {
                     lambda p, c: ref.sphere_push(p, c[:, :3], c[:, 3]), 2),
     "collide_sphere": (lambda r: (lambda b: [b[0], b[1], b[2], _spheres(r, b[2])])(_blade_state(r)),
                        ref.collide_sphere, 5),
+    "sphere_in_reach": (lambda r: (lambda v0: [v0, _u(r, 0.3, 2.0), np.concatenate(
+                            [v0 + r.normal(scale=1.5, size=(N, 3)), _u(r, 0.2, 1.5)[:, None]], axis=1)])(_pts(r)),
+                        ref.sphere_in_reach, 0),
+    "grid_cell": (lambda r: [_pts(r, 12.0), r.uniform(-10, -2, (N, 2)), _u(r, 0.2, 3.0), r.integers(1, 40, N),
+                             r.integers(1, 40, N)], ref.grid_cell, 0),
     "fade_collision": (lambda r: [_u(r, 0, 1), _u(r, 0, 2), _u(r, 1e-3, 0.1)], ref.fade_collision, 1),
     "gain_collision": (lambda r: [_u(r, 0, 1), _u(r, 0, 0.005), _u(r, 0, 400)], ref.gain_collision, 1),
     "effective_stiffness": (lambda r: [_u(r, 0, 40), _u(r, 0, 1)], ref.effective_stiffness, 1),
@@ -354,6 +360,16 @@ TWINS = {
     "blade_shape_t": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99)],
                       lambda u, v, shape, tau: _rows(ref.blade_shape_t, u, v, shape, tau), 1),
     "hash01": (lambda r: [r.integers(0, 2**32, N)], ref.hash01, 1),
+    "clump_noise": (lambda r: [_u(r, -50, 50), _u(r, -50, 50), _u(r, 0.5, 20)], ref.clump_noise, 1),
+    "blade_base_color": (lambda r: [r.uniform(0, 0.6, (N, 3)), r.uniform(0.2, 1, (N, 3)), _u(r, -0.1, 1.1), _u(r, 0, 1),
+                                    r.uniform(-1, 1, (N, 2)), _u(r, 0, 1), _u(r, 0, 1)], ref.blade_base_color, 1),
+    "backlight": (lambda r: [_unit(r), _unit(r), _u(r, -0.1, 1.1), _u(r, 0, 1)], ref.backlight, 1),
+    "fog_amount": (lambda r: [_u(r, -1, 400), _u(r, -0.01, 0.2)], ref.fog_amount, 1),
+    "sky_color": (lambda r: [_u(r, -1, 1), r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3))], ref.sky_color, 1),
+    "field_inside": (lambda r: [_u(r, -20, 20), _u(r, -20, 20), r.uniform(-5, 5, (N, 2)), r.uniform(1, 15, (N, 2)),
+                                _u(r, 0.1, 2)], ref.field_inside, 10),
+    "ground_color": (lambda r: [r.uniform(0, 1, (N, 3)), r.uniform(0, 1, (N, 3)), _u(r, -0.2, 1.2), _u(r, 0, 1)],
+                     ref.ground_color, 1),
     "occlusion_bounds": (
         lambda r: (lambda b: [b[0], b[1], b[2], _u(r, 0.0, 0.3), _view_proj(r),
                               np.stack([_u(r, 100, 2000), _u(r, 100, 1200)], axis=1)])(_blade_state(r)),
@@ -361,8 +377,8 @@ TWINS = {
     "hzb_level": (lambda r: (lambda x, y: [np.stack([x, y, x + r.exponential(40.0, N), y + r.exponential(20.0, N)],
                                                     axis=1)])(_u(r, 0, 800), _u(r, 0, 600)),
                   ref.hzb_level, 0),
-    "blade_shade": (lambda r: [_unit(r), _unit(r), _u(r, 0, 1), _u(r, 0, 1), r.uniform(0, 1, (N, 3)),
-                               r.uniform(0, 1, (N, 3)), _u(r, 0, 1), _unit(r), _u(r, 0, 1)], ref.blade_shade, 1),
+    "blade_shade": (lambda r: [_unit(r), _unit(r), _u(r, 0, 1), r.uniform(0, 1, (N, 3)), _u(r, 0, 1.5), _u(r, 0, 1),
+                               r.uniform(0, 1, (N, 3)), _unit(r), _u(r, 0, 1)], ref.blade_shade, 1),
     "clip_to_pixel": (lambda r: [_clip_points(r), _viewports(r)], ref.clip_to_pixel, 2000),
     "raster_step": (lambda r: [r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)),
                                _u(r, 0, 1)], ref.raster_step, 1),
@@ -425,32 +441,50 @@ def test_wgsl_function_equals_numpy_twin(name, run_compute):
 
 # ------------------------------------------------------------------ the collision include
 
-#: Colliders per row in the collision include's test (a stand-in for u_sim's array).
-K_SPHERES = 4
+#: Colliders per row in the collision include's test (the row's own collider grid).
+K_SPHERES = 6
+#: Cells of each row's grid (small, so that spheres straddle cells and lists differ).
+GRID_CELLS = 4
+#: Words of the stand-in s_collider_grid of a row: header, cell table, lists.
+GRID_ROW_WORDS = GRID_HEADER_WORDS + 2 * GRID_CELLS + GRID_CELLS * K_SPHERES
 
 
 def test_collision_include_equals_numpy_twins(run_compute):
-    """collisions.wgsl (the one loop over the colliders) against reference.collide_spheres and
-    reference.collision_passes: per row a blade, 0..K_SPHERES spheres around it and the stand-in
-    u_sim (n_colliders, colliders) the include reads."""
+    """collisions.wgsl (the loop over the spheres listed in the blade's grid cell) against
+    reference.collide_spheres / collision_passes (every sphere) and collider_grid.collider_cell_range:
+    per row a blade, 0..K_SPHERES spheres around it (some out of reach) and their grid, built by
+    build_collider_grid over a few cells around the blade, as the stand-in s_colliders /
+    s_collider_grid the include reads."""
     rng = np.random.default_rng(16)
     v0, v1, v2, up, h = _valid_blade(rng)
     mid = 0.25 * v0 + 0.5 * v1 + 0.25 * v2
     spheres = np.empty((N, K_SPHERES, 4))
     spheres[..., :3] = np.where(rng.uniform(0, 1, (N, K_SPHERES, 1)) < 0.5, v2[:, None], mid[:, None])
-    spheres[..., :3] += rng.normal(scale=0.4, size=(N, K_SPHERES, 3)) * h[:, None, None]
+    far = rng.uniform(0, 1, (N, K_SPHERES, 1)) < 0.25  # out of reach, or nearly
+    spread = np.where(far, 3.0, 0.4)
+    spheres[..., :3] += rng.normal(size=(N, K_SPHERES, 3)) * spread * h[:, None, None]
     spheres[..., 3] = rng.uniform(0.1, 0.6, (N, K_SPHERES)) * h[:, None]
     n_colliders = rng.integers(0, K_SPHERES + 1, N)
     inputs = [_as_gpu_sees(x) for x in (v0, v1, v2, up, h, spheres)]
     v0, v1, v2, up, h, spheres = inputs
-    words = np.concatenate([_pack_one("i32", n_colliders), _pack_one("vec4<f32>", spheres.reshape(N, -1))]
+    grids = np.zeros((N, GRID_ROW_WORDS), np.uint32)
+    for k in range(N):
+        lo = v0[k] - rng.uniform(0.5, 3.0, 3) * h[k]
+        hi = v0[k] + rng.uniform(0.5, 3.0, 3) * h[k]
+        words = build_collider_grid(spheres[k, : n_colliders[k]], (lo[0], lo[2], hi[0], hi[2]), h[k],
+                                    max_cells=GRID_CELLS, one_cell_max=0).words()
+        grids[k, : len(words)] = words
+    words = np.concatenate([_pack_one("i32", n_colliders), _pack_one("vec4<f32>", spheres.reshape(N, -1)), grids]
                            + [_pack_one(t, x) for t, x in zip(("vec3<f32>",) * 4 + ("f32",), (v0, v1, v2, up, h))],
                            axis=1)
     w_in = words.shape[1]
-    s = 1 + 4 * K_SPHERES  # where the blade starts in a row
+    g = 1 + 4 * K_SPHERES  # where the grid starts in a row
+    s = g + GRID_ROW_WORDS  # where the blade starts
     code = BLADE_MATH + HARNESS_BINDINGS + f"""
-struct HarnessSim {{ n_colliders: i32, colliders: array<vec4<f32>, {K_SPHERES}> }};
+struct HarnessSim {{ n_colliders: i32 }};
 var<private> u_sim: HarnessSim;
+var<private> s_colliders: array<vec4<f32>, {K_SPHERES}>;
+var<private> s_collider_grid: array<u32, {GRID_ROW_WORDS}>;
 """ + render_wgsl("collisions.wgsl") + f"""
 fn vec3_at(k: u32) -> vec3<f32> {{
     return vec3<f32>(bitcast<f32>(harness_in[k]), bitcast<f32>(harness_in[k + 1u]), bitcast<f32>(harness_in[k + 2u]));
@@ -462,32 +496,41 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
     let b = i * {w_in}u;
     u_sim.n_colliders = bitcast<i32>(harness_in[b]);
     for (var c = 0u; c < {K_SPHERES}u; c = c + 1u) {{
-        u_sim.colliders[c] = vec4<f32>(vec3_at(b + 1u + 4u * c), bitcast<f32>(harness_in[b + 4u + 4u * c]));
+        s_colliders[c] = vec4<f32>(vec3_at(b + 1u + 4u * c), bitcast<f32>(harness_in[b + 4u + 4u * c]));
     }}
+    for (var w = 0u; w < {GRID_ROW_WORDS}u; w = w + 1u) {{ s_collider_grid[w] = harness_in[b + {g}u + w]; }}
     let v0 = vec3_at(b + {s}u);
     let v1 = vec3_at(b + {s + 3}u);
     let v2 = vec3_at(b + {s + 6}u);
     let up = vec3_at(b + {s + 9}u);
     let h = bitcast<f32>(harness_in[b + {s + 12}u]);
-    let pushed = collide_spheres(v0, v1, v2);
+    let pushed = collide_spheres(v0, v1, v2, h);
     let collided = collision_passes(v0, v1, v2, up, h);
-    let o = i * 12u;
+    let list = collider_cell_range(v0);
+    let o = i * 14u;
     let outs = array<f32, 12>(pushed.v2.x, pushed.v2.y, pushed.v2.z, pushed.add, select(0.0, 1.0, pushed.hit),
                               collided.v1.x, collided.v1.y, collided.v1.z, collided.v2.x, collided.v2.y, collided.v2.z,
                               collided.add);
     for (var k = 0u; k < 12u; k = k + 1u) {{ harness_out[o + k] = bitcast<u32>(outs[k]); }}
+    harness_out[o + 12u] = list.x;
+    harness_out[o + 13u] = list.y;
 }}
 """
-    gpu = run_compute(code, words, 12, N).view(np.float32).astype(np.float64)
+    out = run_compute(code, words, 14, N)
+    gpu = out[:, :12].view(np.float32).astype(np.float64)
+    ranges = np.array([[int(x[0]) for x in collider_cell_range(v0[k: k + 1], grids[k])] for k in range(N)])
+    assert np.array_equal(out[:, 12:14].astype(np.int64), ranges), "collider_cell_range differs from its twin"
     cpu = np.zeros((N, 12))
     for k in range(N):
         row = spheres[k, : n_colliders[k]]
-        pv2, padd, phit = ref.collide_spheres(v0[k: k + 1], v1[k: k + 1], v2[k: k + 1], row)
+        pv2, padd, phit = ref.collide_spheres(v0[k: k + 1], v1[k: k + 1], v2[k: k + 1], h[k: k + 1], row)
         cv1, cv2, cadd = ref.collision_passes(v0[k: k + 1], v1[k: k + 1], v2[k: k + 1], up[k: k + 1], h[k: k + 1], row)
         cpu[k] = np.concatenate([pv2[0], padd, phit.astype(float), cv1[0], cv2[0], cadd])
     hit = cpu[:, 4] > 0
     assert 0.2 < hit.mean() < 0.9, f"weak inputs: {hit.mean():.0%} of the rows collide"
     assert not hit[n_colliders == 0].any()
+    # the grids have several cells and leave spheres out of some lists (the test can tell a grid from a loop)
+    assert (grids[:, 0] * grids[:, 1] > 1).mean() > 0.5 and (ranges[:, 1] < n_colliders).any()
     assert np.array_equal(gpu[:, 4], cpu[:, 4]), "hit differs"
     err = np.abs(gpu - cpu)
     tol = 1e-4 * np.maximum(h, 1.0)[:, None] + 2e-5 * np.abs(cpu)

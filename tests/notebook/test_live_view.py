@@ -148,7 +148,7 @@ def test_adaptive_scale_goes_down_when_slow_and_back_up_when_fast(widget, tmp_pa
     w, h = widget.canvas.get_physical_size()
     assert (w, h) == (full[0] // 2, full[1] // 2)
     widget.view.refresh_stats()
-    line = widget.stats_line.value
+    line = widget.panel.details_line.value
     assert "scale 0.50" in line and "render" in line and " ms" in line, line
 
     # paused: full resolution at once, and Save PNG too
@@ -218,7 +218,18 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     s = widget.stats
     assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6) and s["encode_send_ms"] == pytest.approx(6.0, abs=1e-6)
     assert s["render_ms"] is not None and s["scale"] == 1.0
-    line = widget.stats_line.value
+    line = widget.panel.details_line.value
     for word in ("frames/s delivered", "render", "readback 4", "encode+send 6", "scale 1.00", "steps/frame"):
         assert word in line, (word, line)
+    status = widget.stats_line.value  # one line in words; the timings wait behind "details"
+    assert "frames/s" in status and "blades drawn" in status and "real time" in status, status
+    assert "readback" not in status and "ms" not in status
+    assert widget.panel.details_line.layout.display == "none"
+    widget.panel.details_button.value = True
+    assert widget.panel.details_line.layout.display != "none"
+    widget.panel.details_button.value = False
     assert math.isfinite(s["fps"])
+    widget.pause()  # paused, the status says so (not "real time" at a stale rate)
+    assert "paused" in widget.stats_line.value and "real time" not in widget.stats_line.value
+    widget.play()
+    assert "paused" not in widget.stats_line.value

@@ -32,8 +32,12 @@ def test_layout_and_labels(widget):
     assert isinstance(widget.canvas, RenderCanvas)
     assert widget.children[0] is widget.canvas
     labels = {s.description for s in widget.sliders.values()}
-    assert labels == {"blades", "wind_strength", "wind_direction", "wind_speed", "gravity", "stiffness_scale",
-                      "time_scale"}
+    assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
+                      "stiffness ×", "time (× real time)"}
+    looks = {s.description for s in widget.panel.look_sliders.values()}
+    assert looks == {"colour variety", "patch size (m)", "dry grass", "sunlit tips", "fog (1/m)"}
+    tip = widget.sliders["wind_strength"].tooltip
+    assert tip.startswith(gw.GrassParams.class_traits()["wind_strength"].help) and "0 to 200 m/s²" in tip
     assert [c.description for c in widget.checkboxes.values()] == [
         "orientation culling", "frustum culling", "distance culling", "occlusion culling", "LOD"]
     assert widget.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)

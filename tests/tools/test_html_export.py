@@ -99,7 +99,9 @@ def test_controls_send_what_the_kernel_would(page_data):
     _place(state, controls["ball"], 1.25, -2.5)
     p = view.params.copy()
     p.cull_orientation, p.cull_distance, p.color_by, p.wind_strength, p.wind_direction = False, False, "lod", 12.0, 90.0
-    r = [row for row in state["balls"]][0][3]
+    spheres = lambda: np.frombuffer(state["collider_spheres"], "<f4").reshape(-1, 4)  # noqa: E731
+    n_spheres = lambda: int(np.frombuffer(state["collider_grid"], "<u4")[2])  # noqa: E731  (grid word 2)
+    r = float(spheres()[0, 3])
     ball = SphereCollider(center=(1.25, float(view.blades.v0[:, 1].min()) + r, -2.5), radius=r)
     assert state["cull_uniform"] == uniforms.cull_uniform(p, 256)
     # the ball's numbers are fitted on float32 probes: equal to float32 rounding
@@ -108,10 +110,11 @@ def test_controls_send_what_the_kernel_would(page_data):
     sim = uniforms.offsets(uniforms.SIM_LAYOUT)
     assert np.frombuffer(state["sim_uniform"], "<i4")[sim["n_colliders"][0] // 4] == 1
     assert state["playing"] is False
-    np.testing.assert_allclose(state["balls"][0], [1.25, ball.center[1], -2.5, r], rtol=1e-6)
+    np.testing.assert_allclose(spheres()[0], [1.25, ball.center[1], -2.5, r], rtol=1e-6)
+    assert n_spheres() == 1
     # the ball off again: no collider, as at the start
     _apply(state, controls["ball"], 0)
-    assert state["sim_uniform"] == uniforms.sim_uniform(p, 256, []) and state["balls"] == []
+    assert state["sim_uniform"] == uniforms.sim_uniform(p, 256, []) and n_spheres() == 0
     # the start values: what the panel shows first
     assert ws["values"][ws["value"]] == 7.0 and controls["playing"]["values"][controls["playing"]["value"]] is True
 
@@ -162,7 +165,8 @@ def test_widget_save_html_carries_its_view(tmp_path):
     assert data["state"]["camera"]["position"] == pytest.approx([0.0, 3.0, 7.0])
     controls = {c["id"]: c for c in data["controls"]}
     assert controls["wind_strength"]["values"][controls["wind_strength"]["value"]] == 9.0
-    assert controls["ball"]["values"][controls["ball"]["value"]] is True and len(data["state"]["balls"]) == 1
+    assert controls["ball"]["values"][controls["ball"]["value"]] is True
+    assert np.frombuffer(base64.b64decode(data["state"]["collider_grid"]), "<u4")[2] == 1  # one sphere
     assert data["state"]["playing"] is False
     still = iio.imread(base64.b64decode(data["still"]), extension=".png")
     assert still.shape[:2] == (240, 320)

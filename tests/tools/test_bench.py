@@ -1,0 +1,25 @@
+"""The benchmark's compute_raster_max_px sweep (``grasswidget bench --raster-max-px``)."""
+
+import pytest
+
+from grasswidget.errors import GrassValueError
+from grasswidget.tools.bench import format_table, run_bench
+
+
+def test_raster_max_px_sweep_rows():
+    report = run_bench("meadow", [4096], frames=1, size=(96, 54), progress=False, compute_raster="both",
+                       raster_max_px=[1, 6])
+    rows = report["results"]
+    assert [(r["compute_raster"], r["compute_raster_max_px"]) for r in rows] == [(False, None), (True, 1.0),
+                                                                                 (True, 6.0)]
+    off, narrow, wide = rows
+    assert off["rastered"] == 0
+    # a wider threshold sends more of the (same) visible blades to the compute rasterizer
+    assert 0 < narrow["rastered"] < wide["rastered"] <= wide["visible"]
+    table = format_table(report)
+    assert " 6 " in table.splitlines()[-1]
+
+
+def test_raster_max_px_out_of_range_names_the_parameter():
+    with pytest.raises(GrassValueError, match="compute_raster_max_px"):
+        run_bench("meadow", [64], frames=1, size=(32, 24), progress=False, raster_max_px=[40])
