@@ -96,9 +96,10 @@ class Blades:
 
         Roots are uniform on the plane (jittered-stratified, so the meadow has no
         bald patches), each blade has a uniform random orientation in [0, 2 pi) and
-        height, width and stiffness uniform in the given (min, max) ranges. Ids are
-        shuffled, so id order carries no spatial pattern (distance culling thins by
-        id). The same arguments give the same blades.
+        height, width and stiffness uniform in the given (min, max) ranges. Ids follow
+        the ground in patches of about 16 blades in Z order, in random order within a
+        patch (GPU threads that run together share colliders and pixels; distance
+        culling thins by id modulo its levels, evenly in every patch). The same arguments give the same blades.
 
         Args:
             count: number of blades N, >= 1. A count whose making would not fit in the
@@ -117,8 +118,8 @@ class Blades:
         w = _check_range("width", width)
         s = _check_range("stiffness", stiffness)
         rng = np.random.default_rng(seed)
-        # Jittered stratified sampling on a k x k grid (k*k >= count), then a random
-        # subset and a random permutation of the ids.
+        # Jittered stratified sampling on a k x k grid (k*k >= count): a random subset
+        # of the cells, in patches in Z order (see _jittered_unit_square).
         x, z = _jittered_unit_square(rng, count)
         v0 = np.zeros((count, 3), np.float32)
         v0[:, 0] = (x - 0.5) * size
@@ -352,14 +353,39 @@ def _count_from(count, density, area):
     return n
 
 
+#: Side of the tiles (in jitter cells, about one blade each) whose Z order orders the
+#: blades of on_plane and on_heightmap.
+TILE = 4
+
+
 def _jittered_unit_square(rng, count):
     """``count`` points (x, z) in [0, 1)^2, jittered-stratified on a k x k grid
-    (k*k >= count, random subset of cells), in random order."""
+    (k*k >= count, random subset of cells), ordered by tiles of TILE x TILE cells in
+    Z order, in random order within a tile: the 32 or 64 GPU threads that run together
+    work on one patch of the meadow (they test the same colliders and draw near
+    pixels), while ids modulo a small number (distance culling's buckets) still fall
+    at random within each patch."""
     k = int(np.ceil(np.sqrt(count)))
-    cells = rng.permutation(k * k)[:count]
+    cells = rng.permutation(k * k)[:count]  # a random subset, in random order
+    tile = z_order(cells % k // TILE, cells // k // TILE)
+    cells = cells[np.argsort(tile, kind="stable")]  # stable: random order within a tile
     x = (cells % k + rng.random(count)) / k
     z = (cells // k + rng.random(count)) / k
     return x, z
+
+
+def z_order(ix, iz):
+    """The Z-order (Morton) key of integer cell coordinates ``ix``, ``iz`` (each
+    0 .. 2^16 - 1): their bits interleaved, x in the even bits. Sorting by it keeps
+    cells that are near on the ground near in the order."""
+    def spread(v):
+        v = np.asarray(v, np.uint64) & np.uint64(0xFFFF)
+        v = (v | (v << np.uint64(8))) & np.uint64(0x00FF00FF)
+        v = (v | (v << np.uint64(4))) & np.uint64(0x0F0F0F0F)
+        v = (v | (v << np.uint64(2))) & np.uint64(0x33333333)
+        v = (v | (v << np.uint64(1))) & np.uint64(0x55555555)
+        return v
+    return spread(ix) | (spread(iz) << np.uint64(1))
 
 
 #: The GPU blade record, row by row: 4 x vec4<f32> = 64 bytes per blade (the paper's

@@ -38,18 +38,28 @@ def test_on_plane_layout_and_ranges():
     assert np.allclose(p[:, 2, :3], b.v0 + b.up * b.height[:, None])
 
 
-def test_on_plane_uniform_and_shuffled():
+def test_on_plane_uniform_and_in_patches():
     b = gw.Blades.on_plane(40000, size=10.0, seed=1)
     # uniform: every 1 m^2 cell gets ~400 blades
     hist, _, _ = np.histogram2d(b.v0[:, 0], b.v0[:, 2], bins=10, range=[[-5, 5], [-5, 5]])
     assert hist.min() > 300 and hist.max() < 500
-    # ids carry no spatial pattern: position is uncorrelated with id
+    # ids in patches: 32 consecutive ids (GPU threads that run together) lie within
+    # about two 4 x 4-cell tiles (cells of 5 cm here), not across the field
+    extents = [np.ptp(b.v0[i:i + 32][:, [0, 2]], axis=0).max() for i in range(0, len(b) - 32, 32)]
+    assert np.median(extents) < 0.5 and np.percentile(extents, 95) < 2.0
+    # each patch in random order: ids modulo distance culling's buckets are spread
+    # evenly over the ground (every 1 m^2 cell holds each residue about equally)
     ids = np.arange(len(b))
-    for axis in (0, 2):
-        assert abs(np.corrcoef(ids, b.v0[:, axis])[0, 1]) < 0.03
-    # and a contiguous block of ids is spread over the whole field
-    block = b.v0[:1000]
-    assert np.ptp(block[:, 0]) > 9 and np.ptp(block[:, 2]) > 9
+    for buckets in (4, 8, 10, 16):
+        for r in range(buckets):
+            hist_r, _, _ = np.histogram2d(b.v0[ids % buckets == r, 0], b.v0[ids % buckets == r, 2], bins=10,
+                                          range=[[-5, 5], [-5, 5]])
+            assert np.all(np.abs(hist_r / hist * buckets - 1.0) < 0.5), (buckets, r)
+    # and within a patch no residue takes one fixed place: residue 0's position inside
+    # its tile is spread (not one corner of every tile)
+    tile = 10.0 / np.ceil(np.sqrt(len(b))) * 4
+    inside = np.mod(b.v0[ids % 4 == 0][:, [0, 2]] + 5.0, tile) / tile
+    assert np.all(np.histogram(inside[:, 0], bins=4, range=(0, 1))[0] > 0.15 * len(inside))
 
 
 def test_same_seed_same_blades():

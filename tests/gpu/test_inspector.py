@@ -103,8 +103,9 @@ def test_arrows_equal_the_reference_forces_against_a_ball(fresh_scene):
     scene.colliders.append(ball)
     scene.step(40)
     v0 = scene.field.blades.v0
-    # the blades around the ball's rim (1.0 .. 1.8 m from its axis) lean on it
-    near = np.argsort(np.abs(np.linalg.norm(v0[:, [0, 2]], axis=1) - 1.4))[:64]
+    # the 64 blades nearest 1.15 m from the ball's axis (just inside its 1.1 m rim at the
+    # blades' mid height) lean on it
+    near = np.argsort(np.abs(np.linalg.norm(v0[:, [0, 2]], axis=1) - 1.15))[:64]
     scene.inspect(near)
     scene.render()
     spheres = np.array([[*ball.center, ball.radius]])
