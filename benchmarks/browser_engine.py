@@ -11,12 +11,21 @@ WebGPU on the CPU), shows ``GrassWidget(backend="browser")`` at 640 x 480 and
 * occlusion culling off vs on in the cis565 view (640 x 480, the near grass fills it) at
   2^13 and 2^15 blades, playing: windows interleaved off, on, off, on in one run, frames/s
   presented, blades drawn and occluded (``--occlusion-only`` runs just this part and
-  writes ``browser_occlusion_swiftshader.json``).
+  writes ``browser_occlusion_swiftshader.json``);
+* the compute rasterizer of thin blades (``GrassParams.compute_raster``) off vs on in the
+  default view (640 x 480) at 4096 and 2^14 blades, playing: windows interleaved off, on, off,
+  on in one run, frames/s presented, blades drawn and drawn in compute; then, with the
+  engine's own loop held, where a frame's time goes: the frame encoded by the engine into an
+  offscreen target (no presentation), the same frame with one pass left out at a time (its
+  draws or dispatches skipped: the pass's cost), the simulation's steps, and the presented
+  rate of the live loop (the rest is presentation and the page) (``--compute-raster-only``
+  runs just this part and writes ``browser_compute_raster_swiftshader.json``).
 
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/browser_engine.py [--out benchmarks/browser_engine_swiftshader.json]
     .venv/bin/python benchmarks/browser_engine.py --occlusion-only [--out benchmarks/browser_occlusion_swiftshader.json]
+    .venv/bin/python benchmarks/browser_engine.py --compute-raster-only [--out benchmarks/browser_compute_raster_swiftshader.json]
 
 Prints a table and writes the JSON (machine, browser, adapter and figures).
 """
@@ -52,6 +61,11 @@ STARTUP_BLADES = 1 << 18
 WINDOW_S = 6.0
 OCCLUSION_COUNTS = (1 << 13, 1 << 15)
 OCCLUSION_ROUNDS = 2
+#: (preset, blades, profile): the default view has no blade under 2 px at 640 x 480; the meadow's far field has many.
+RASTER_ROWS = ((None, 4096, True), (None, 1 << 14, True), ("meadow", 1 << 14, False))
+RASTER_ROUNDS = 2
+PROFILE_FRAMES = 4
+PROFILE_ROUNDS = 3
 
 # The page's newest open engine (engine.js keeps them in a Map: engine_key -> engine).
 _ENGINE = ("(() => { const es = [...(globalThis.__grasswidgetEngines || new Map()).values()].filter((e) => !e.closed); "
@@ -123,16 +137,189 @@ def occlusion_on_off(page, server, root):
     return out
 
 
+# Where a frame's time goes, measured in the page with the engine's own loop held: each variant
+# encodes PROFILE_FRAMES frames with the engine's encodeFrame into an offscreen target the size of
+# the canvas, submits them back to back and waits for the GPU (ms per frame). A variant leaves
+# out the draws / dispatches of some pipelines (a pass whose work is skipped: its cost is the
+# difference to the full frame). "simulate_ms": the simulation's dispatch of `steps` fixed steps.
+_PROFILE_JS = """async ({frames, steps, rounds}) => {
+  const es = [...(globalThis.__grasswidgetEngines || new Map()).values()].filter((e) => !e.closed);
+  const e = es[es.length - 1];
+  const device = e.device;
+  const view = [...e.views][0];
+  const W = view.canvas.width, H = view.canvas.height;
+  const targets = new Map();
+  const target = (w, h) => {
+    const key = `${w}x${h}`;
+    if (!targets.has(key)) {
+      const color = device.createTexture({ size: [w, h], format: e.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
+      targets.set(key, { color, view: color.createView(), depth: e.depthFor(w, h) });
+    }
+    return targets.get(key);
+  };
+  const wrapPass = (pass, skip) => {
+    let current = null;
+    return new Proxy(pass, { get(t, k) {
+      if (k === "setPipeline") return (p) => { current = p; t.setPipeline(p); };
+      if (typeof k === "string" && (k.startsWith("draw") || k.startsWith("dispatch"))) {
+        return (...a) => { if (!(skip === "all" || skip.has(current))) t[k](...a); };
+      }
+      const v = t[k];
+      return typeof v === "function" ? v.bind(t) : v;
+    } });
+  };
+  const wrapEncoder = (enc, skip) => new Proxy(enc, { get(t, k) {
+    if (k === "beginRenderPass" || k === "beginComputePass") return (d) => wrapPass(t[k](d), skip);
+    const v = t[k];
+    return typeof v === "function" ? v.bind(t) : v;
+  } });
+  const timeFrames = async (skip, w, h) => {
+    const t = target(w, h);
+    await device.queue.onSubmittedWorkDone();
+    const t0 = performance.now();
+    for (let i = 0; i < frames; i++) {
+      const enc = device.createCommandEncoder();
+      e.encodeFrame(wrapEncoder(enc, skip), t.view, t.depth, w, h);
+      device.queue.submit([enc.finish()]);
+    }
+    await device.queue.onSubmittedWorkDone();
+    return (performance.now() - t0) / frames;
+  };
+  const pipes = (list) => new Set((list || []).filter(Boolean).map((p) => p.pipeline));
+  const o = e.occlusion, r = e.raster;
+  const variants = {
+    "full": () => timeFrames(new Set(), W, H),
+    "half_size": () => timeFrames(new Set(), Math.round(W / 2), Math.round(H / 2)),
+    "occlusion_off": async () => {
+      const keep = e.occlusionOn;
+      e.occlusionOn = () => false;
+      try { return await timeFrames(new Set(), W, H); } finally { e.occlusionOn = keep; }
+    },
+    "no_draws_or_dispatches": () => timeFrames("all", W, H),
+  };
+  const skips = {
+    "sky_ground": pipes([e.skyGround]),
+    "ribbons": pipes([...e.bladePipes, ...e.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
+    "culling": pipes([...e.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
+      ...(o ? [o.cull] : [])]),
+    "occlusion_pyramid": pipes(o ? o.levels : []),
+  };
+  if (e.rasterOn && e.rasterOn()) {
+    skips["compute_raster_resolve"] = pipes(r ? [r.resolve, r.resolveFlat] : []);
+    skips["compute_raster_walks"] = pipes([...e.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
+      ...(r ? [r.second_depth, r.second_payload] : [])]);
+    skips["compute_raster_clear"] = pipes(e.computePasses.filter((p) => p.name === "raster_clear"));
+  }
+  for (const [name, skip] of Object.entries(skips)) variants[`without_${name}`] = () => timeFrames(skip, W, H);
+  const samples = {};
+  for (let k = 0; k < rounds; k++) {
+    for (const [name, run] of Object.entries(variants)) (samples[name] = samples[name] || []).push(await run());
+  }
+  const median = (a) => { const b = [...a].sort((x, y) => x - y); return b[Math.floor(b.length / 2)]; };
+  const out = { size: [W, H], frames, rounds, ms: {}, samples };
+  for (const [name, a] of Object.entries(samples)) out.ms[name] = median(a);
+  await device.queue.onSubmittedWorkDone();
+  const t0 = performance.now();
+  e.simulate(steps);
+  await device.queue.onSubmittedWorkDone();
+  out.simulate_ms = performance.now() - t0;
+  out.simulate_steps = steps;
+  for (const t of targets.values()) { t.color.destroy(); t.depth.destroy(); }
+  return out;
+}"""
+
+
+def profile_frame(page, steps):
+    """Hold the engine's loop, time the frame offscreen with each pass left out (see _PROFILE_JS), resume."""
+    page.evaluate(f"() => {{ const e = {_ENGINE}; e.ready = false; }}")
+    try:
+        page.wait_for_timeout(1500)  # frames in flight finish
+        return page.evaluate(_PROFILE_JS, {"frames": PROFILE_FRAMES, "steps": steps, "rounds": PROFILE_ROUNDS})
+    finally:
+        page.evaluate(f"() => {{ const e = {_ENGINE}; e.ready = true; e.scheduleFrame(); }}")
+
+
+def compute_raster_on_off(page, server, root):
+    """The compute rasterizer off vs on in the default view, windows interleaved in one run, then
+    where a frame's time goes (profile_frame) with it off and on."""
+    write_notebook(root / "compute_raster.ipynb", [
+        f"import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        f"w = gw.GrassWidget({RASTER_ROWS[0][1]}, backend='browser', size=(640, 480))\nw",
+    ])
+    open_notebook(page, server, "compute_raster.ipynb")
+    run_all_cells(page, timeout=120)
+    wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=60)
+    out = {"view": "default view, 640 x 480, playing (the widget's defaults: culling, LOD, occlusion culling on)",
+           "window": f"at least 4 frames and {WINDOW_S} s after 2 warm-up frames", "rounds": RASTER_ROUNDS,
+           "rows": []}
+    for preset, n, profile in RASTER_ROWS:
+        if preset is not None:  # the preset's blades and camera in the same widget
+            kernel_execute(page, f"b, _, v = preset_field({preset!r}, {n})\nw.set_blades(b)\n"
+                                 "w.camera_state = {k: v[k] for k in ('position', 'target', 'fov_deg')}")
+        elif (engine_info(page) or {}).get("n") != n:
+            kernel_execute(page, f"w.set_blades({n})")
+        poll(lambda: (engine_info(page) or {}).get("n") == n, f"the browser to hold {n} blades", 120, 0.5, page=page)
+        row = {"view": preset or "default", "blades": n, "off": [], "on": [], "profile": {}}
+        for _ in range(RASTER_ROUNDS):
+            for mode in ("off", "on"):
+                kernel_execute(page, f"w.params.compute_raster = {mode == 'on'}")
+                fps = frames_per_s_after(page, 2, 4, WINDOW_S)
+                since = engine_info(page)["now"]
+                info = poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
+                            "a visible count read back after the window", 120, 0.5, page=page)
+                rastered = page.evaluate(f"() => {_ENGINE}.rastered")
+                row[mode].append({"frames_per_s": round(fps, 3), "ribbons": sum(info["visible"]),
+                                  "compute": rastered})
+                print(f"{preset or 'default':>8} {n:>8} blades, compute raster {mode:>3}: {fps:6.2f} frames/s presented, "
+                      f"{sum(info['visible'])} as ribbons, {rastered} in compute")
+        med = {m: sorted(r["frames_per_s"] for r in row[m])[len(row[m]) // 2] for m in ("off", "on")}
+        row["on_over_off"] = round(med["on"] / med["off"], 2) if med["off"] else None
+        print(f"{n:>8} blades: compute raster on / off = {row['on_over_off']}x frames/s")
+        steps = max(1, round(60 / max(med["off"], 1e-3)))  # the steps one presented frame simulates while playing
+        for mode in ("off", "on") if profile else ():
+            kernel_execute(page, f"w.params.compute_raster = {mode == 'on'}")
+            frames_per_s_after(page, 2, 2, 1.0)
+            prof = profile_frame(page, steps)
+            row["profile"][mode] = prof
+            ms = prof["ms"]
+            prof["pass_cost_ms"] = {k[len("without_"):]: round(ms["full"] - v, 1) for k, v in ms.items()
+                                    if k.startswith("without_")}
+            print(f"{n:>8} blades, {mode:>3}: offscreen frame {ms['full']:.1f} ms (median of {PROFILE_ROUNDS}), "
+                  f"half size {ms['half_size']:.1f}, occlusion off {ms['occlusion_off']:.1f}, no draws or "
+                  f"dispatches {ms['no_draws_or_dispatches']:.1f}; passes' cost (full - without) "
+                  f"{prof['pass_cost_ms']}; simulate {steps} steps {prof['simulate_ms']:.1f} ms")
+        out["rows"].append(row)
+    out["adapter"] = engine_info(page)["adapter"]
+    kernel_execute(page, "w.close()")
+    page.goto("about:blank")
+    server.shutdown_kernels()
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=None, help="JSON path (default benchmarks/browser_engine_swiftshader.json, "
                                                  "with --occlusion-only benchmarks/browser_occlusion_swiftshader.json)")
     ap.add_argument("--occlusion-only", action="store_true", help="only occlusion culling off vs on (cis565 view)")
+    ap.add_argument("--compute-raster-only", action="store_true",
+                    help="only the compute rasterizer off vs on, and where a frame's time goes (default view)")
     args = ap.parse_args(argv)
     if args.out is None:
-        name = "browser_occlusion_swiftshader.json" if args.occlusion_only else "browser_engine_swiftshader.json"
+        name = ("browser_occlusion_swiftshader.json" if args.occlusion_only else
+                "browser_compute_raster_swiftshader.json" if args.compute_raster_only else
+                "browser_engine_swiftshader.json")
         args.out = str(ROOT / "benchmarks" / name)
     root = Path(tempfile.mkdtemp(prefix="gw-bench-browser-"))
+    if args.compute_raster_only:
+        env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+        result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
+                              "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d")}
+        with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
+            result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+            result["compute_raster"] = compute_raster_on_off(browser.page, server, root)
+        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.out}")
+        return
     if args.occlusion_only:
         env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
         result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),

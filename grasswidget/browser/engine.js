@@ -25,6 +25,10 @@
 // u_cull.occlusion_phase (Python's bytes) is 1, each frame is drawn in two phases around a
 // max-depth pyramid, as the kernel engine's grasswidget.gpu.occlusion.render_frame does; the
 // functions of this engine that do it are grouped under "occlusion culling" below.
+// The compute rasterizer of thin blades (shaders.compute_raster, BrowserShaders.compute_raster):
+// while u_cull.compute_raster (Python's bytes) is 1, the compute passes marked only_if
+// "compute_raster" run with each view size's per-pixel buffers, and a resolve draw follows the
+// ribbons, as the kernel engine's grasswidget.gpu.render_frame does ("compute rasterizer" below).
 // The browser answers with gpu_status (a trait), stats, state, snapshot,
 // inspected, compiled, pick, error and device_lost messages. A compute pass or
 // an overlay with "only_if" runs while its condition holds ("frozen",
@@ -537,6 +541,10 @@ class GrassEngine {
       }
       const limits = {};
       for (const k of ["maxStorageBufferBindingSize", "maxBufferSize"]) limits[k] = adapter.limits[k];
+      // The most storage buffers one of Python's shaders binds (occlusion culling's second pass
+      // with the compute rasterizer: 10; WebGPU's default is 8), as far as the adapter allows.
+      const storage = this.model.get("shaders").max_storage_buffers || 8;
+      limits.maxStorageBuffersPerShaderStage = Math.min(Math.max(storage, 8), adapter.limits.maxStorageBuffersPerShaderStage);
       const device = await adapter.requestDevice({ requiredLimits: limits });
       if (this.closed) { device.destroy(); return; }
       const info = adapter.info || {};
@@ -639,7 +647,7 @@ class GrassEngine {
     for (const pass of shaders.compute_passes) {
       const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
       this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
-        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now" });
+        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now", sized: !!pass.sized });
     }
     this.depthFormat = (shaders.occlusion && shaders.occlusion.depth_format) || "depth24plus";
     const depthStencil = { format: this.depthFormat, depthWriteEnabled: true, depthCompare: "less" };
@@ -677,6 +685,7 @@ class GrassEngine {
     this.balls = await renderPipeline({ ...shaders.balls, vertex: "vs_ball", fragment: "fs_ball" }, "balls.wgsl",
       { topology: "triangle-list", depth: { format: this.depthFormat, depthWriteEnabled: false, depthCompare: "less" }, blend });
     this.occlusion = shaders.occlusion ? await this.buildOcclusionPipelines(shaders.occlusion, ribbons) : null;
+    this.raster = shaders.compute_raster ? await this.buildRasterPipelines(shaders.compute_raster, depthStencil) : null;
     // Lines and points over the meadow (overlay.wgsl): a quad per item, `instances` items.
     this.overlays = [];
     for (const o of shaders.overlays || []) {
@@ -691,6 +700,7 @@ class GrassEngine {
     if (!condition) return true;
     if (condition === "frozen") return this.model.get("frustum_lines").byteLength > 0;
     if (condition === "inspecting") return (this.model.get("inspected") || []).length > 0;
+    if (condition === "compute_raster") return this.rasterOn();
     return false;
   }
 
@@ -734,9 +744,11 @@ class GrassEngine {
     };
     this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
     if (this.occlusion) this.buildOcclusionBuffers(buffer);
-    // The args of the first phase, then (with occlusion culling) the second's and the occluded count.
-    this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0),
-      U.MAP_READ | U.COPY_DST, "args readback");
+    if (this.raster) this.buildRasterBuffers(buffer);
+    // The args of the first phase, then (with occlusion culling) the second's and the occluded
+    // count, then (with the compute rasterizer) its counters.
+    this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0)
+      + (this.raster ? 4 * this.raster.spec.args_words : 0), U.MAP_READ | U.COPY_DST, "args readback");
     const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];  // world_transform and its inverse
     device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([...identity, ...identity]));
     this.uploadRestPose();
@@ -755,9 +767,11 @@ class GrassEngine {
         return { binding: b.binding, resource: { buffer } };
       }),
     });
-    for (const p of [this.sim, ...this.computePasses, ...this.bladePipes, ...this.flatBladePipes, this.skyGround,
-      this.balls, ...this.overlays]) p.group = group(p);
+    // (the passes bound to a view size's buffers get theirs from rasterTarget)
+    for (const p of [this.sim, ...this.computePasses.filter((q) => !q.sized), ...this.bladePipes,
+      ...this.flatBladePipes, this.skyGround, this.balls, ...this.overlays]) p.group = group(p);
     if (this.occlusion) this.makeOcclusionBindGroups(group);
+    if (this.raster) this.dropRasterTargets();
   }
 
   uploadRestPose() {
@@ -885,15 +899,18 @@ class GrassEngine {
   encodeFrame(encoder, colorView, depthTexture, width, height) {
     this.writeStdInfo(width, height);
     const twoPhases = this.occlusionOn();
+    const raster = this.rasterOn() ? this.rasterTarget(width, height) : null;
     const depthView = depthTexture.createView();
     const blades = this.workgroups(this.n);
+    const pixels = this.workgroups(width * height);
     const cpass = encoder.beginComputePass();
     for (const p of this.computePasses) {
       if (!this.active(p.onlyIf)) continue;
       if (p.simNow) this.writeSimNow();
       cpass.setPipeline(p.pipeline);
-      cpass.setBindGroup(0, p.group);
+      cpass.setBindGroup(0, p.sized ? raster.groups.get(p.name) : p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
+      else if (p.dispatch === "pixels") cpass.dispatchWorkgroups(pixels[0], pixels[1]);
       else cpass.dispatchWorkgroups(1);
     }
     cpass.end();
@@ -909,13 +926,16 @@ class GrassEngine {
       if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
       else pass.drawIndirect(this.res.s_args, 16 * k);
     });
+    if (raster) this.encodeRasterResolve(pass, raster);
     pass.setPipeline(this.skyGround.pipeline);
     pass.setBindGroup(0, this.skyGround.group);
     pass.draw(4);
     if (twoPhases) {
       pass.end();
-      this.encodeOcclusionSecondPhase(encoder, depthTexture, width, height);
-      this.encodeBalls(this.beginOcclusionDrawPass(encoder, colorView, depthView));
+      this.encodeOcclusionSecondPhase(encoder, depthTexture, width, height, raster);
+      const second = this.beginOcclusionDrawPass(encoder, colorView, depthView);
+      if (raster) this.encodeRasterResolve(second, raster);
+      this.encodeBalls(second);
       return;
     }
     this.encodeBalls(pass);
@@ -1019,6 +1039,9 @@ class GrassEngine {
       // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
       this.visible = this.lodSegments.map((_, k) => a[4 * k + 1] + (second ? second[4 * k + 1] : 0));
       this.occluded = second && this.occlusionOn() ? second[4 * classes] : null;
+      // Blades drawn by the compute rasterizer (both phases); 0 while it is off (as the kernel's stats).
+      const at = 4 * classes + (this.occlusion ? this.occlusion.spec.args_words : 0);
+      this.rastered = this.raster ? (this.rasterOn() ? a[at] : 0) : null;
       this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });
@@ -1033,7 +1056,8 @@ class GrassEngine {
     const steps = this.pendingSteps || 0;
     this.pendingSteps = 0;
     this.report("stats", "", {
-      fps, visible: this.visible, occluded: this.occluded === undefined ? null : this.occluded, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
+      fps, visible: this.visible, occluded: this.occluded === undefined ? null : this.occluded,
+      rastered: this.rastered === undefined ? null : this.rastered, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
       frame_size: this.frameSize || null, adapter: this.adapterText, views: this.views.size,
     });
   }
@@ -1123,7 +1147,7 @@ class GrassEngine {
   }
 
   // Between the phases: the depth into the pyramid's level 0, the further levels, the second cull.
-  encodeOcclusionSecondPhase(encoder, depthTexture, width, height) {
+  encodeOcclusionSecondPhase(encoder, depthTexture, width, height, raster) {
     const o = this.occlusion;
     const t = this.occlusionTarget(width, height);
     encoder.copyTextureToBuffer({ texture: depthTexture, aspect: "depth-only" },
@@ -1139,6 +1163,13 @@ class GrassEngine {
     cpass.setPipeline(o.cull.pipeline);
     cpass.setBindGroup(0, t.cullGroup);
     cpass.dispatchWorkgroups(blades[0], blades[1]);
+    if (raster) {  // the thin blades the second phase listed, walked into the same per-pixel words
+      for (const name of ["second_depth", "second_payload"]) {
+        cpass.setPipeline(this.raster[name].pipeline);
+        cpass.setBindGroup(0, raster.groups.get(name));
+        cpass.dispatchWorkgroups(blades[0], blades[1]);
+      }
+    }
     cpass.end();
   }
 
@@ -1172,6 +1203,91 @@ class GrassEngine {
     if (this.occlusion) {
       encoder.copyBufferToBuffer(this.res.s_occlusion_args, 0, this.argsRead, first, 4 * this.occlusion.spec.args_words);
     }
+    if (this.raster) {
+      const at = first + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0);
+      encoder.copyBufferToBuffer(this.res.s_raster_args, 0, this.argsRead, at, 4 * this.raster.spec.args_words);
+    }
+  }
+
+  // ---------------------------------------------------------------- compute rasterizer
+  // Python's shaders.compute_raster (grasswidget.browser.wgsl.BrowserShaders.compute_raster)
+  // executed: per view size, the per-pixel depth and payload words and the bind groups of the
+  // passes that use them; the resolve draw. The clear and the walks are compute passes of
+  // shaders.compute_passes (only_if "compute_raster", "sized").
+
+  async buildRasterPipelines(spec, depthStencil) {
+    const second_depth = await this.computePipeline(spec.second_depth, "raster.wgsl (depth, occlusion second phase)");
+    const second_payload = await this.computePipeline(spec.second_payload, "raster.wgsl (payload, occlusion second phase)");
+    const resolve = await this.renderPipeline(spec.resolve, "raster_resolve.wgsl", { topology: "triangle-strip", depth: depthStencil });
+    const resolveFlat = await this.renderPipeline(spec.resolve_flat, "raster_resolve.wgsl (colour by)",
+      { topology: "triangle-strip", depth: depthStencil });
+    return { spec, second_depth, second_payload, resolve, resolveFlat, targets: new Map() };
+  }
+
+  // u_cull.compute_raster of Python's bytes (frame_data.compute_raster_values): 1 = on.
+  rasterOn() {
+    if (!this.raster) return false;
+    const cu = this.model.get("cull_uniform");
+    const at = this.raster.spec.switch_offset;
+    if (!cu || cu.byteLength < at + 4) return false;
+    return new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(at, true) === 1;
+  }
+
+  // s_raster (the listed blades) and s_raster_args (counters, read by the stats).
+  buildRasterBuffers(buffer) {
+    const U = GPUBufferUsage;
+    this.res.s_raster = buffer(this.n * 4, U.STORAGE, "compute raster list");
+    this.res.s_raster_args = buffer(4 * this.raster.spec.args_words, U.STORAGE | U.COPY_SRC, "compute raster counters");
+  }
+
+  dropRasterTargets() {
+    for (const t of this.raster.targets.values()) { t.depth.destroy(); t.payload.destroy(); }
+    this.raster.targets.clear();
+  }
+
+  // The per-pixel words of a (width, height) view and the bind groups that use them; this frame's
+  // render size written into u_cull (cull.wgsl lists thin blades only in renders of that size).
+  // A few sizes are kept (views, snapshots).
+  rasterTarget(width, height) {
+    const r = this.raster;
+    const size = new Float32Array([width]);
+    this.device.queue.writeBuffer(this.res.u_cull, r.spec.width_offset, size);
+    this.device.queue.writeBuffer(this.res.u_cull, r.spec.height_offset, new Float32Array([height]));
+    const key = `${width}x${height}`;
+    let t = r.targets.get(key);
+    if (t) { r.targets.delete(key); r.targets.set(key, t); return t; }
+    const U = GPUBufferUsage;
+    const bytes = 4 * width * height;
+    const depth = this.device.createBuffer({ size: bytes, usage: U.STORAGE, label: "compute raster depth" });
+    const payload = this.device.createBuffer({ size: bytes, usage: U.STORAGE, label: "compute raster payload" });
+    const res = { ...this.res, s_raster_depth: depth, s_raster_payload: payload };
+    const group = (p) => this.device.createBindGroup({
+      layout: p.layout,
+      entries: p.shader.bindings.map((b) => ({ binding: b.binding, resource: { buffer: res[b.resource || b.name] } })),
+    });
+    const groups = new Map();
+    for (const p of this.computePasses.filter((q) => q.sized)) groups.set(p.name, group(p));
+    for (const name of ["second_depth", "second_payload"]) groups.set(name, group(r[name]));
+    groups.set("resolve", group(r.resolve));
+    groups.set("resolveFlat", group(r.resolveFlat));
+    t = { depth, payload, groups };
+    r.targets.set(key, t);
+    while (r.targets.size > 3) {
+      const [oldKey, old] = r.targets.entries().next().value;
+      old.depth.destroy(); old.payload.destroy();
+      r.targets.delete(oldKey);
+    }
+    return t;
+  }
+
+  // The resolve: one full-screen draw writing the compute-drawn pixels' colour and depth (the
+  // colour-by views' variant while color_by is not natural, as the ribbons).
+  encodeRasterResolve(pass, target) {
+    const flat = this.ribbonPipes() !== this.bladePipes;
+    const p = flat ? this.raster.resolveFlat : this.raster.resolve;
+    pass.setPipeline(p.pipeline);
+    pass.setBindGroup(0, target.groups.get(flat ? "resolveFlat" : "resolve"));
+    pass.draw(4);
   }
 
   // ---------------------------------------------------------------- requests from Python

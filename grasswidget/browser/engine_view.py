@@ -20,7 +20,8 @@ Differences, by design:
   60 ms while the ball rolls; Python moves the ball by that much simulated time
   and sends the new position (the ball lags the grass by that interval).
 * ``fps`` is frames presented per second in the browser and ``visible`` the
-  browser's indirect-draw instance counts (both occlusion phases), ``occluded`` the
+  browser's indirect-draw instance counts (both occlusion phases) plus ``rastered``,
+  the blades its compute rasterizer drew (``params.compute_raster``), ``occluded`` the
   blades culled by occlusion (None while ``params.cull_occlusion`` is off), read back
   asynchronously.
 * Teaching views: freeze culling copies the browser's camera (its matrices
@@ -100,7 +101,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.playing = bool(clock.playing)
         self.browser_view.time_scale = float(clock.time_scale)
         self._ball_scene = _BallScene(self.browser_view)
-        self._stats = {"fps": None, "visible": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
+        self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None}
         self.browser_view.on("stats", self._on_browser_stats)
         self.browser_view.on("error", self.report_error)
@@ -406,10 +407,14 @@ class BrowserEngineView(GrassView):
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)
         frames = max(1, round((fps or 0) * 0.5))
+        rastered = msg.get("rastered")
+        rastered = int(rastered) if rastered is not None else None
         self._stats.update(
             fps=fps,
-            visible=int(sum(per_class)) if per_class else None,
+            # every blade drawn: as ribbons (per LOD class) and in compute (rastered), as the kernel counts
+            visible=int(sum(per_class)) + (rastered or 0) if per_class else None,
             visible_per_class=list(per_class) if per_class else None,
+            rastered=rastered,
             # blades culled by occlusion (both phases' draws are in visible); None while it is off
             occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
             blades=self.blade_count,

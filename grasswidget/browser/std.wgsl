@@ -4,12 +4,16 @@
 // as pygfx does), the fragment output and the helpers those files call. The
 // canvas stores sRGB values directly, so srgb2physical is the identity here
 // (pygfx converts to linear and its output pass converts back: the same pixels
-// for opaque surfaces).
+// for opaque surfaces). With the template variable frag_depth the fragment output
+// also carries its depth (raster_resolve.wgsl writes the compute-rasterized blades' depth).
 
 /*__GRASSWIDGET_VARYINGS__*/
 
 struct FragmentOutput {
     @location(0) color: vec4<f32>,
+$$ if frag_depth
+    @builtin(frag_depth) depth: f32,
+$$ endif
 };
 
 fn srgb2physical(color: vec3<f32>) -> vec3<f32> {

@@ -19,7 +19,8 @@ from __future__ import annotations
 from ..core.collider_grid import GRID_WORDS
 from ..core.colliders import MAX_COLLIDERS
 from ..core.enums import WindField
-from ..core.frame_data import clock_rules, collider_grid, cull_uniform_values, material_values, sim_uniform_values, srgb
+from ..core.frame_data import (clock_rules, collider_grid, compute_raster_values, cull_uniform_values, material_values,
+                               sim_uniform_values, srgb)
 from ..core.params import GrassParams
 from ..core.uniform_layouts import (CULL_LAYOUT, GRASS_MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT,
                                    layout_description, offsets, pack, struct_size, wgsl_struct)
@@ -82,8 +83,13 @@ def collider_buffers(colliders, blades) -> tuple:
 def cull_uniform(params: GrassParams, n_blades: int, frozen=None) -> bytes:
     """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values` (the
     browser draws every frame in occlusion culling's two phases while
-    ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then)."""
-    return pack(CULL_LAYOUT, cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True))
+    ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then), with the compute
+    rasterizer's switch and material values (:func:`grasswidget.core.frame_data.compute_raster_values`;
+    the browser writes the render size, ``raster_width`` and ``raster_height``, for each view)."""
+    values = cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True)
+    material = material_values(params)  # the material the ribbons get (material_uniform)
+    values.update(compute_raster_values(params, n_blades, material["blade_shape"], material["tip_threshold"]))
+    return pack(CULL_LAYOUT, values)
 
 
 def sky_ground_uniform(style: dict) -> bytes:

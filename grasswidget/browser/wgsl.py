@@ -23,8 +23,8 @@ from pathlib import Path
 import jinja2
 
 from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
-from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, WORKGROUP_SIZE, ribbon_vars, shader_dir,
-                                 template_vars, wgsl_environment, wgsl_float)
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, WORKGROUP_SIZE, raster_resolve_vars,
+                                 ribbon_vars, shader_dir, template_vars, wgsl_environment, wgsl_float)
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
                              MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
 from ..core.uniform_layouts import INSPECT_LAYOUT
@@ -70,16 +70,28 @@ _STORAGE = {
         "s_occlusion_flags": "var<storage, read_write> s_occlusion_flags: array<u32>",
         "s_hzb": "var<storage, read_write> s_hzb: array<f32>",
         "s_hzb_levels": "var<storage, read> s_hzb_levels: array<vec4<u32>>",
+        # The compute rasterizer (cull.wgsl with compute_raster, raster.wgsl): its list of blades
+        # (read_write only where written), counters and per-pixel depth and payload words.
+        "s_raster": "var<storage, read_write> s_raster: array<u32>",
+        "s_raster_args": "var<storage, read_write> s_raster_args: array<atomic<u32>>",
+        "s_raster_depth": "var<storage, read_write> s_raster_depth: array<atomic<u32>>",
+        "s_raster_payload": "var<storage, read_write> s_raster_payload: array<atomic<u32>>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
         "s_visible": "var<storage, read> s_visible: array<u32>",
         "s_culled": "var<storage, read> s_culled: array<u32>",
+        # the compute rasterizer's resolve (raster_resolve.wgsl)
+        "s_raster_depth": "var<storage, read> s_raster_depth: array<u32>",
+        "s_raster_payload": "var<storage, read> s_raster_payload: array<u32>",
+        "s_raster_args": "var<storage, read> s_raster_args: array<u32>",
     },
 }
 
 #: Storage declared read_write only when the file stores into it (``name[...] = ...``).
-_WRITTEN_WHERE_STORED = ("s_occlusion_flags", "s_hzb")
+_WRITTEN_WHERE_STORED = ("s_occlusion_flags", "s_hzb", "s_raster")
+#: An index in brackets, one level of brackets inside allowed (``s_raster[wg_base[RASTER] + slot]``).
+_INDEX = r"\[(?:[^\[\]]|\[[^\]]*\])*\]"
 
 _DECL_RE = re.compile(r"@group\(\s*0\s*\)\s*@binding\(\s*(\d+)\s*\)\s*var\s*<\s*([a-z_, ]+?)\s*>\s*(\w+)")
 
@@ -150,7 +162,8 @@ def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, *
     env = _environment()
     source = (shader_dir() / filename).read_text(encoding="utf-8")
     # teaching_views: the colour-by views (the culled blades' list and draw, flat colours).
-    values = {**template_vars(), "teaching_views": True, "bindings_code": _MARK, "write_pick": False, **variables}
+    values = {**template_vars(), "teaching_views": True, "bindings_code": _MARK, "write_pick": False,
+              "frag_depth": False, **variables}
     body = env.from_string(source).render(**values)
     if _VARYINGS_MARK in body:
         body = body.replace(_VARYINGS_MARK, varyings_struct(body), 1)
@@ -175,9 +188,9 @@ def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, *
     for name, decl in _STORAGE[stage].items():
         if name in declared or not _uses(body.replace(_MARK, ""), name):
             continue
-        if "atomic" in decl and f"atomicAdd(&{name}" not in body:
+        if "atomic" in decl and not re.search(rf"\batomic\w+\(\s*&\s*{name}\b", body):
             decl = decl.replace("array<atomic<u32>>", "array<u32>")
-        if name in _WRITTEN_WHERE_STORED and not re.search(rf"\b{name}\[[^\]]*\]\s*=(?!=)", body):
+        if name in _WRITTEN_WHERE_STORED and not re.search(rf"\b{name}{_INDEX}\s*=(?!=)", body):
             decl = decl.replace("read_write", "read")
         lines.append(f"@group(0) @binding({take()}) {decl};")
     header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
@@ -224,11 +237,12 @@ class BrowserShaders:
     def cull(phase: str = "scatter") -> dict:
         """The culling pass, drawing order by distance band as in the kernel: phase "count"
         counts survivors per (class, band), :meth:`prefix_bands` turns counts into slots,
-        phase "scatter" writes the lists nearest band first. Rendered as occlusion
+        phase "scatter" writes the lists nearest band first; with the compute rasterizer on
+        (``u_cull.compute_raster``) the thin blades go to its list instead. Rendered as occlusion
         culling's first phase (``occlusion = 1``): while ``u_cull.occlusion_phase`` is 1
         it keeps only the blades seen last frame (``s_occlusion_flags``), else all."""
         return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase, occlusion=1,
-                             band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+                             compute_raster=True, band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
 
     @staticmethod
     def cull_occlusion() -> dict:
@@ -237,7 +251,53 @@ class BrowserShaders:
         tested against the max-depth pyramid; the newly visible ones are listed from the end
         of their class's list, counted in ``s_occlusion_args`` (bound as its ``s_args``)."""
         return render_shader(_body_file("cull"), "compute", bands=0, phase="scatter", occlusion=2,
-                             resources={"s_args": "s_occlusion_args"})
+                             compute_raster=True, resources={"s_args": "s_occlusion_args"})
+
+    @staticmethod
+    def raster(step: str, second: bool = False) -> dict:
+        """``raster.wgsl``, the compute rasterizer of thin blades: step "clear" (per-pixel words
+        and counters), "depth" or "payload" (the walks); ``second``: the walks of occlusion
+        culling's second phase (only the blades it listed)."""
+        return render_shader("raster.wgsl", "compute", step=step, second=bool(second))
+
+    @staticmethod
+    def raster_resolve(flat_colors: bool = False) -> dict:
+        """``raster_resolve.wgsl``: one full-screen draw (4 vertices, triangle strip) shading the
+        compute-rasterized pixels like the ribbons and writing their depth; ``flat_colors``:
+        the colour-by views' variant (colour by LOD: "drawn in compute" in its teaching colour)."""
+        return render_shader("raster_resolve.wgsl", "render", **raster_resolve_vars(), teaching_views=flat_colors,
+                             frag_depth=True)
+
+    @classmethod
+    def compute_raster(cls) -> dict:
+        """The compute rasterizer of thin blades (``GrassParams.compute_raster``), as the kernel
+        engine's ``grasswidget.gpu.render_frame`` runs it, executed by the browser engine while
+        ``u_cull.compute_raster`` (Python's bytes at ``switch_offset``, i32) is 1:
+
+        * per view size (w, h): ``s_raster_depth`` and ``s_raster_payload`` of w * h u32 each;
+          before each frame's passes the engine writes w and h (f32) at ``width_offset`` and
+          ``height_offset`` of ``u_cull`` (cull.wgsl lists thin blades only in renders of that size);
+        * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the clear
+          dispatched over the pixels, ``dispatch: "pixels"``; the walks over the blades), bound to
+          that size's buffers;
+        * ``resolve`` / ``resolve_flat`` (the natural and the colour-by views' variant, as the
+          ribbons') drawn after the ribbons in the same render pass, before sky and ground; with
+          occlusion culling the second phase's walks (``second_depth``, ``second_payload``) run
+          after the second culling pass and the resolve is drawn again after its ribbons;
+        * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, 0, 0);
+          the stats read ``s_raster_args[0]`` (blades drawn in compute).
+        """
+        at = offsets(CULL_LAYOUT)
+        return {
+            "switch_offset": int(at["compute_raster"][0]),
+            "width_offset": int(at["raster_width"][0]),
+            "height_offset": int(at["raster_height"][0]),
+            "args_words": 4,
+            "second_depth": cls.raster("depth", second=True),
+            "second_payload": cls.raster("payload", second=True),
+            "resolve": cls.raster_resolve(False),
+            "resolve_flat": cls.raster_resolve(True),
+        }
 
     @staticmethod
     def hzb_level(level: int) -> dict:
@@ -357,16 +417,24 @@ class BrowserShaders:
         ]
 
     @classmethod
-    def all(cls, wind_wgsl: str = "") -> dict:
+    def shaders(cls, wind_wgsl: str = "") -> dict:
         return {
             # The compute passes of every frame, in order ("blades": one invocation per blade,
             # "one": one workgroup): reset the draw arguments, count survivors per distance band,
             # turn counts into slots, cull and scatter the lists nearest band first.
             "compute_passes": [
                 {"shader": "reset_args", "dispatch": "one", "label": "reset_args.wgsl"},
+                # the compute rasterizer's per-pixel words and counters (per view size: "sized")
+                {"shader": "raster_clear", "dispatch": "pixels", "label": "raster.wgsl (clear)",
+                 "only_if": "compute_raster", "sized": True},
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
+                # the compute rasterizer's walks of the thin blades the culling listed
+                {"shader": "raster_depth", "dispatch": "blades", "label": "raster.wgsl (depth)",
+                 "only_if": "compute_raster", "sized": True},
+                {"shader": "raster_payload", "dispatch": "blades", "label": "raster.wgsl (payload)",
+                 "only_if": "compute_raster", "sized": True},
                 # the blade inspector's forces, polygon and points, while blades are inspected
                 # (u_sim for "now": the current parameters and colliders at the time of the next step)
                 {"shader": "inspect", "dispatch": "one", "label": "inspect.wgsl", "only_if": "inspecting",
@@ -382,6 +450,10 @@ class BrowserShaders:
             "cull_count": cls.cull("count"),
             "prefix_bands": cls.prefix_bands(),
             "cull": cls.cull("scatter"),
+            "raster_clear": cls.raster("clear"),
+            "raster_depth": cls.raster("depth"),
+            "raster_payload": cls.raster("payload"),
+            "compute_raster": cls.compute_raster(),
             "blades": cls.blades(flat_colors=False),
             "blades_flat": cls.blades(flat_colors=True),
             # byte offset of u_cull.color_by: the engine draws "blades_flat" while it is not natural (0)
@@ -392,3 +464,30 @@ class BrowserShaders:
             "bands": DISTANCE_BANDS,
             "occlusion": cls.occlusion(),
         }
+
+    @classmethod
+    def all(cls, wind_wgsl: str = "") -> dict:
+        """Every shader of the engine (:meth:`shaders`), with ``max_storage_buffers``: the most
+        storage buffers one of them binds (the engine asks its device for that many per
+        shader stage; WebGPU's default is 8, occlusion culling's second pass with the
+        compute rasterizer binds 10)."""
+        out = cls.shaders(wind_wgsl)
+        out["max_storage_buffers"] = max(_storage_count(sh) for sh in _all_shader_dicts(out))
+        return out
+
+
+def _all_shader_dicts(tree):
+    """Every rendered shader ({"code", "bindings"}) in a nested dict / list."""
+    if isinstance(tree, dict):
+        if "code" in tree and "bindings" in tree:
+            yield tree
+        else:
+            for value in tree.values():
+                yield from _all_shader_dicts(value)
+    elif isinstance(tree, list):
+        for value in tree:
+            yield from _all_shader_dicts(value)
+
+
+def _storage_count(shader) -> int:
+    return sum(1 for b in shader["bindings"] if b["kind"] != "uniform")

@@ -52,7 +52,8 @@ from .params import LOOK_TRAITS, GrassParams
 from .reference import ground_cover, wind_period
 
 __all__ = [
-    "sim_uniform_values", "collider_grid", "cull_uniform_values", "clock_rules", "orbit_rules", "scene_style", "ground_square",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
+    "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
@@ -251,6 +252,27 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
             frozen_viewport_height=float(frozen.viewport_size[1]),
         )
     return values
+
+
+#: Most blades a field may have for the compute rasterizer (its payload holds 24 bits of blade id);
+#: a larger field draws every blade with the hardware rasterizer, in both engines.
+MAX_RASTER_BLADES = 1 << 24
+
+
+def compute_raster_on(params, n_blades: int) -> bool:
+    """Whether the compute rasterizer draws the thin blades of a field of ``n_blades`` (both
+    engines): ``params.compute_raster`` on, ``compute_raster_max_px`` > 0 and at most
+    :data:`MAX_RASTER_BLADES` blades."""
+    return bool(params.compute_raster) and params.compute_raster_max_px > 0 and int(n_blades) <= MAX_RASTER_BLADES
+
+
+def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float) -> dict:
+    """The compute rasterizer's ``u_cull`` values but the render size (``raster_width`` and
+    ``raster_height``, which the engine writes for each render: 0 here): ``compute_raster``
+    (1 when :func:`compute_raster_on`), ``raster_blade_shape`` (the material's
+    ``enums.BladeShape`` id) and ``raster_tip_threshold`` (the material's, 0..1)."""
+    return dict(compute_raster=int(compute_raster_on(params, n_blades)), raster_width=0.0, raster_height=0.0,
+                raster_blade_shape=int(blade_shape), raster_tip_threshold=float(tip_threshold))
 
 
 # ---------------------------------------------------------------------- frame rules

@@ -20,7 +20,7 @@ from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShade
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
-from ..core.frame_data import cull_uniform_values, look_values
+from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
 from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
@@ -42,8 +42,6 @@ from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
 
 N_CLASSES = len(LOD_SEGMENTS)
 
-#: Most blades a field may have for the compute rasterizer (24 bits of blade id in its payload).
-MAX_RASTER_BLADES = 1 << 24
 
 #: ``u_cull`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.CULL_LAYOUT``).
 CULL_UNIFORM = shadertype(CULL_LAYOUT)
@@ -360,8 +358,8 @@ class GrassField(gfx.WorldObject):
         every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
         """
         p = self.params
-        width, height = (int(size[0]), int(size[1])) if p.compute_raster else (0, 0)
-        if p.compute_raster_max_px <= 0 or self.count > MAX_RASTER_BLADES or width <= 0 or height <= 0:
+        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count) else (0, 0)
+        if width <= 0 or height <= 0:
             width = height = 0
         usage = wgpu.BufferUsage
         if width and self.raster_list_buffer.nitems < self.count:

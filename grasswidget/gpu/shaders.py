@@ -297,6 +297,7 @@ class RasterResolveShader(BaseShader):
             4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
             5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
             6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
+            7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # none listed: no fragment
         }
         self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
         return {0: bindings}

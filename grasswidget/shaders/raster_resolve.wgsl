@@ -9,7 +9,8 @@
 // RASTER_COLOR (teaching.COMPUTE_RASTER_COLOR: "drawn in compute").
 //
 // Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material,
-// s_blades, s_raster_depth and s_raster_payload (array<u32>, read).
+// s_blades, s_raster_depth and s_raster_payload (array<u32>, read), s_raster_args
+// (array<u32>, read: blades listed, raster.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
@@ -31,8 +32,12 @@ fn vs_main(in: VertexInput) -> Varyings {
         vec2<f32>(-1.0,  1.0),
         vec2<f32>( 1.0,  1.0),
     );
+    // No blade listed for the compute rasterizer this frame (none thin enough): a quad of
+    // zero area, so no pixel runs the fragment shader (on a CPU adapter a full-screen pass
+    // that writes frag_depth costs as much as the whole sky and ground).
+    let listed = select(0.0, 1.0, s_raster_args[0] > 0u);
     var varyings: Varyings;
-    varyings.position = vec4<f32>(positions[i32(in.index)], 0.5, 1.0);
+    varyings.position = vec4<f32>(positions[i32(in.index)] * listed, 0.5, 1.0);
     return varyings;
 }
 

@@ -36,6 +36,9 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
              + shaders["blades"] + shaders["blades_flat"] + shaders["overlays"])
     occlusion = shaders["occlusion"]
     texts += [occlusion["cull"], *occlusion["hzb_levels"], *occlusion["blades"], *occlusion["blades_flat"]]
+    raster = shaders["compute_raster"]
+    texts += [shaders[k] for k in ("raster_clear", "raster_depth", "raster_payload")]
+    texts += [raster[k] for k in ("second_depth", "second_payload", "resolve", "resolve_flat")]
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -63,8 +66,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert offset == offsets(CULL_LAYOUT)["color_by"][0]
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
-    assert [p["shader"] for p in shaders["compute_passes"]] == ["reset_args", "cull_count", "prefix_bands", "cull",
-                                                                "inspect"]
+    assert [p["shader"] for p in shaders["compute_passes"]] == [
+        "reset_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_depth", "raster_payload", "inspect"]
     # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
     # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
     assert shaders["compute_passes"][-1]["only_if"] == "inspecting"
@@ -92,6 +95,39 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert len(occlusion["blades"]) == len(occlusion["blades_flat"]) == 4
     assert all("n_blades - 1u - in.instance_index" in b["code"] for b in occlusion["blades"] + occlusion["blades_flat"])
     assert occlusion["phase_offset"] == offsets(CULL_LAYOUT)["occlusion_phase"][0]
+    # The compute rasterizer (issue 22): the kernel's raster.wgsl and raster_resolve.wgsl; its passes run
+    # only while u_cull.compute_raster is on, bound per view size (the clear over the pixels); the culling
+    # lists thin blades into s_raster (written there, read by the walks); the walks do atomic depth
+    # tests; the resolve writes frag_depth and reads the words; its colour-by variant has the
+    # "drawn in compute" colour; the device must allow the most storage buffers one shader binds.
+    sized = [p for p in shaders["compute_passes"] if p.get("sized")]
+    assert [(p["shader"], p["dispatch"], p["only_if"]) for p in sized] == [
+        ("raster_clear", "pixels", "compute_raster"), ("raster_depth", "blades", "compute_raster"),
+        ("raster_payload", "blades", "compute_raster")]
+    for sh in (shaders["cull"], occlusion["cull"]):
+        kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
+        assert kinds["s_raster"] == "storage" and kinds["s_raster_args"] == "storage"
+        assert "atomicAdd(&s_raster_args[0]" in sh["code"] and "s_raster[wg_base[RASTER] + slot] = i;" in sh["code"]
+    for sh in (shaders["raster_depth"], shaders["raster_payload"], raster["second_depth"], raster["second_payload"]):
+        kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
+        assert kinds["s_raster"] == "read-only-storage" and kinds["s_raster_depth"] == "storage"
+        assert "var<storage, read_write> s_raster_depth: array<atomic<u32>>" in sh["code"]
+    assert "atomicMin(&s_raster_depth[index], depth);" in shaders["raster_depth"]["code"]
+    assert "let first = atomicLoad(&s_raster_args[1]);" in raster["second_depth"]["code"]
+    for name, flat in (("resolve", False), ("resolve_flat", True)):
+        sh = raster[name]
+        kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
+        assert kinds["s_raster_depth"] == kinds["s_raster_payload"] == kinds["s_raster_args"] == "read-only-storage"
+        assert "select(0.0, 1.0, s_raster_args[0] > 0u)" in sh["code"]  # nothing listed: no fragment shaded
+        assert "@builtin(frag_depth) depth: f32" in sh["code"] and "blade_shade(" in sh["code"]
+        assert ("const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]) == flat
+    assert all("@builtin(frag_depth)" not in b["code"] for b in shaders["blades"])
+    at = offsets(CULL_LAYOUT)
+    assert (raster["switch_offset"], raster["width_offset"], raster["height_offset"]) == (
+        at["compute_raster"][0], at["raster_width"][0], at["raster_height"][0])
+    assert shaders["max_storage_buffers"] == max(
+        sum(b["kind"] != "uniform" for b in sh["bindings"]) for sh in texts) == len(
+        [b for b in occlusion["cull"]["bindings"] if b["kind"] != "uniform"])
     # Sky and ground: the kernel engine's own file, its u_material bound to the engine's u_sky_ground buffer.
     sky = shaders["sky_ground"]
     body = (shader_dir() / "sky_ground.wgsl").read_text()

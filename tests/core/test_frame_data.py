@@ -49,10 +49,24 @@ def test_kernel_buffers_hold_the_bytes_the_browser_is_sent():
         browser_sim[off["time0"][0]: off["time0"][0] + 4] = np.float32(0.25).tobytes()
         assert kernel_sim == bytes(browser_sim)
         # The browser draws every frame in occlusion culling's two phases (occlusion_phase 1 while
-        # cull_occlusion is on); the kernel arms its first phase per render (render_frame).
+        # cull_occlusion is on); the kernel arms its first phase per render (render_frame). The
+        # compute rasterizer's material values: the kernel writes them when it sets up a render.
+        field.prepare_compute_raster((640, 480))
         assert field.cull_uniform_buffer.data.tobytes() != uniforms.cull_uniform(params, field.count)
         field.occlusion.arm(1)
         assert field.cull_uniform_buffer.data.tobytes() == uniforms.cull_uniform(params, field.count)
+        # With the compute rasterizer on, the same bytes but the render size, which the browser
+        # writes for each view (shaders.compute_raster's width_offset and height_offset).
+        params.compute_raster = True
+        field.prepare_compute_raster((640, 480))
+        browser_cull = bytearray(uniforms.cull_uniform(params, field.count))
+        at = uniforms.offsets(CULL_LAYOUT)
+        assert browser_cull[at["compute_raster"][0]: at["compute_raster"][0] + 4] == np.int32(1).tobytes()
+        browser_cull[at["raster_width"][0]: at["raster_width"][0] + 4] = np.float32(640).tobytes()
+        browser_cull[at["raster_height"][0]: at["raster_height"][0] + 4] = np.float32(480).tobytes()
+        assert field.cull_uniform_buffer.data.tobytes() == bytes(browser_cull)
+        params.compute_raster = False
+        field.prepare_compute_raster((640, 480))
         off = uniforms.offsets(CULL_LAYOUT)["occlusion_phase"][0]
         params.cull_occlusion = False
         assert uniforms.cull_uniform(params, field.count)[off: off + 4] == bytes(4)
