@@ -15,7 +15,7 @@ from .gpu.runtime_dir import ensure_runtime_dir
 ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
 
 from .core.blades import Blades  # noqa: E402
-from .core.colliders import SphereCollider  # noqa: E402
+from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
@@ -80,7 +80,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
     _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
-    "Blades", "GrassParams", "SphereCollider", "CULL_COLORS", "LOD_COLORS",
+    "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
