@@ -56,6 +56,7 @@ from tests.browser.harness import (  # noqa: E402
     kernel_eval,
     open_notebook,
     run_all_cells,
+    panel_label,
     set_slider,
     toggle_checkbox,
     view_locator,
@@ -235,14 +236,14 @@ def main(argv=None):
             if which == 0:
                 drag(page, view_of(page, args.engine), 60 if k % 8 == 0 else -60, 10)
             elif which == 1:
-                set_slider(page, "wind_strength", [3.0, 8.0, 12.5][k % 3])
+                set_slider(page, panel_label("wind_strength"), [3.0, 8.0, 12.5][k % 3])
             elif which == 2:
-                set_slider(page, "stiffness_scale", [0.8, 1.0, 1.6][k % 3])
+                set_slider(page, panel_label("stiffness_scale"), [0.8, 1.0, 1.6][k % 3])
             elif not args.blade_changes:
-                set_slider(page, "gravity", [9.8, 6.0, 14.0][k % 3])
+                set_slider(page, panel_label("gravity"), [9.8, 6.0, 14.0][k % 3])
             else:  # a blade-count change, every fourth action
                 count = counts[(k // 4) % 2]
-                set_slider(page, "blades", count)
+                set_slider(page, panel_label("blades"), count)
                 wait_for_kernel(page, "w.blade_count", count, timeout=120)
             actions += 1
 
