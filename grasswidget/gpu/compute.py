@@ -8,6 +8,8 @@ Binding objects), and is recorded into our own command encoder.
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 from pygfx.renderers.wgpu import get_shared
 
 from .. import compat
@@ -37,6 +39,35 @@ def destroy_buffers(buffers):
         obj.destroy()
 
 
+#: Compute pipelines kept for reuse, most recently used last: (device id, WGSL, bind group
+#: layout) -> (bind group layout, pipeline). A new field (a blade-count change) builds the
+#: same shaders again; compiling them anew cost lavapipe about 100 KB of memory a pipeline
+#: that was never given back (2.5 MB per blade-count change in all).
+_PIPELINES: "OrderedDict[tuple, tuple]" = OrderedDict()
+#: How many pipelines _PIPELINES keeps (custom wind shaders add new ones).
+PIPELINE_CACHE_SIZE = 64
+
+
+def _pipeline(device, wgsl, layout_entries):
+    """(bind group layout, compute pipeline) of this WGSL and layout on ``device``, built
+    once and then reused."""
+    key = (id(device), wgsl, repr(layout_entries))
+    found = _PIPELINES.get(key)
+    if found is not None:
+        _PIPELINES.move_to_end(key)
+        return found
+    module = device.create_shader_module(code=wgsl)
+    layout = device.create_bind_group_layout(entries=layout_entries)
+    pipeline = device.create_compute_pipeline(
+        layout=device.create_pipeline_layout(bind_group_layouts=[layout]),
+        compute={"module": module, "entry_point": "main"},
+    )
+    _PIPELINES[key] = (layout, pipeline)
+    while len(_PIPELINES) > PIPELINE_CACHE_SIZE:
+        _PIPELINES.popitem(last=False)
+    return layout, pipeline
+
+
 class ComputeProgram:
     """One compute shader + its bind group, ready to be dispatched into a pass."""
 
@@ -54,13 +85,8 @@ class ComputeProgram:
                 sync_buffer(binding.resource)  # ... and uploads pending data.
             group_entries.append(entry)
             layout_entries.append(layout_entry)
-        module = device.create_shader_module(code=self.wgsl)
-        layout = device.create_bind_group_layout(entries=layout_entries)
+        layout, self.pipeline = _pipeline(device, self.wgsl, layout_entries)
         self.bind_group = device.create_bind_group(layout=layout, entries=group_entries)
-        self.pipeline = device.create_compute_pipeline(
-            layout=device.create_pipeline_layout(bind_group_layouts=[layout]),
-            compute={"module": module, "entry_point": "main"},
-        )
         self.bindings = bindings
 
     def dispatch(self, compute_pass, workgroups):

@@ -139,3 +139,33 @@ def test_widget_draw_loop_keeps_memory_flat(widget):
     assert widget.scene.field.step_count > steps  # it played
     assert tuple(widget.ball.collider.center) != center  # the ball rolled
     assert growth < GROWTH_BOUND_MB, f"resident memory grew {growth:.1f} MB over 200 frames of the widget loop"
+
+
+def test_a_new_field_reuses_the_compiled_compute_shaders(monkeypatch):
+    """A second field with the same parameters (what a blade-count change makes) builds no
+    compute pipeline of its own: lavapipe kept memory for every pipeline it compiled."""
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    first = gw.GrassScene(1024, size=(64, 48))
+    first.step(2)
+    first.render()
+    built = []
+    original = type(device).create_compute_pipeline
+
+    def counting(self, *args, **kwargs):
+        built.append(kwargs.get("compute"))
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(type(device), "create_compute_pipeline", counting)
+    second = gw.GrassScene(1536, size=(64, 48))
+    second.step(2)
+    img = second.render()
+    assert built == []
+    assert second.visible_count() > 0 and np.unique(img[..., :3].reshape(-1, 3), axis=0).shape[0] > 20
+    # a different wind shader is a different pipeline
+    second.params.wind_wgsl = "return vec3<f32>(0.0, 0.0, 2.0 * sin(t + p.x));"
+    second.step(1)
+    assert len(built) >= 1
+    first.release()
+    second.release()
