@@ -97,6 +97,33 @@ def frames_per_s_after(page, warm_frames, min_frames, min_seconds):
     return (b["frames"] - a["frames"]) * 1000.0 / (b["now"] - a["now"])
 
 
+def visible_read_back(page, what):
+    """The engine's info once a visible count has been read back by a frame drawn after
+    now (the readback is asynchronous)."""
+    since = engine_info(page)["now"]
+    return poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
+                f"a visible count read back after {what}", 120, 0.5, page=page)
+
+
+def alternate_on_off(page, setting, rounds, report):
+    """``rounds`` rounds of ``w.params.<setting>`` off then on, interleaved: {"off": [...],
+    "on": [...]} of ``report(mode, frames/s presented after the switch, engine info read
+    back after the window)``, called while that mode is still on."""
+    out = {"off": [], "on": []}
+    for _ in range(rounds):
+        for mode in ("off", "on"):
+            kernel_execute(page, f"w.params.{setting} = {mode == 'on'}")
+            fps = frames_per_s_after(page, 2, 4, WINDOW_S)
+            out[mode].append(report(mode, fps, visible_read_back(page, "the window")))
+    return out
+
+
+def median_ratio(row):
+    """Median frames/s on over off of a row's "on" and "off" lists, or None."""
+    med = {m: sorted(r["frames_per_s"] for r in row[m])[len(row[m]) // 2] for m in ("off", "on")}
+    return (round(med["on"] / med["off"], 2) if med["off"] else None), med
+
+
 def occlusion_on_off(page, server, root):
     """Occlusion culling off vs on in the cis565 view, windows interleaved in one run."""
     write_notebook(root / "occlusion.ipynb", [
@@ -114,20 +141,13 @@ def occlusion_on_off(page, server, root):
             kernel_execute(page, f"w.set_blades(preset_field('cis565', {n})[0])")
             poll(lambda: (engine_info(page) or {}).get("n") == n, f"the browser to hold {n} blades", 120, 0.5,
                  page=page)
-        row = {"blades": n, "off": [], "on": []}
-        for _ in range(OCCLUSION_ROUNDS):
-            for mode in ("off", "on"):
-                kernel_execute(page, f"w.params.cull_occlusion = {mode == 'on'}")
-                fps = frames_per_s_after(page, 2, 4, WINDOW_S)
-                since = engine_info(page)["now"]
-                info = poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
-                            "a visible count read back after the window", 120, 0.5, page=page)
-                row[mode].append({"frames_per_s": round(fps, 3), "drawn": sum(info["visible"]),
-                                  "occluded": info["occluded"]})
-                print(f"{n:>8} blades, occlusion {mode:>3}: {fps:6.2f} frames/s presented, "
-                      f"{sum(info['visible'])} drawn, {info['occluded']} occluded")
-        med = {m: sorted(r["frames_per_s"] for r in row[m])[len(row[m]) // 2] for m in ("off", "on")}
-        row["on_over_off"] = round(med["on"] / med["off"], 2) if med["off"] else None
+        def report(mode, fps, info):
+            print(f"{n:>8} blades, occlusion {mode:>3}: {fps:6.2f} frames/s presented, "
+                  f"{sum(info['visible'])} drawn, {info['occluded']} occluded")
+            return {"frames_per_s": round(fps, 3), "drawn": sum(info["visible"]), "occluded": info["occluded"]}
+
+        row = {"blades": n, **alternate_on_off(page, "cull_occlusion", OCCLUSION_ROUNDS, report)}
+        row["on_over_off"], _ = median_ratio(row)
         print(f"{n:>8} blades: occlusion on / off = {row['on_over_off']}x frames/s")
         out["rows"].append(row)
     out["adapter"] = engine_info(page)["adapter"]
@@ -259,21 +279,15 @@ def compute_raster_on_off(page, server, root):
         elif (engine_info(page) or {}).get("n") != n:
             kernel_execute(page, f"w.set_blades({n})")
         poll(lambda: (engine_info(page) or {}).get("n") == n, f"the browser to hold {n} blades", 120, 0.5, page=page)
-        row = {"view": preset or "default", "blades": n, "off": [], "on": [], "profile": {}}
-        for _ in range(RASTER_ROUNDS):
-            for mode in ("off", "on"):
-                kernel_execute(page, f"w.params.compute_raster = {mode == 'on'}")
-                fps = frames_per_s_after(page, 2, 4, WINDOW_S)
-                since = engine_info(page)["now"]
-                info = poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
-                            "a visible count read back after the window", 120, 0.5, page=page)
-                rastered = page.evaluate(f"() => {_ENGINE}.rastered")
-                row[mode].append({"frames_per_s": round(fps, 3), "ribbons": sum(info["visible"]),
-                                  "compute": rastered})
-                print(f"{preset or 'default':>8} {n:>8} blades, compute raster {mode:>3}: {fps:6.2f} frames/s presented, "
-                      f"{sum(info['visible'])} as ribbons, {rastered} in compute")
-        med = {m: sorted(r["frames_per_s"] for r in row[m])[len(row[m]) // 2] for m in ("off", "on")}
-        row["on_over_off"] = round(med["on"] / med["off"], 2) if med["off"] else None
+        def report(mode, fps, info):
+            rastered = page.evaluate(f"() => {_ENGINE}.rastered")
+            print(f"{preset or 'default':>8} {n:>8} blades, compute raster {mode:>3}: {fps:6.2f} frames/s presented, "
+                  f"{sum(info['visible'])} as ribbons, {rastered} in compute")
+            return {"frames_per_s": round(fps, 3), "ribbons": sum(info["visible"]), "compute": rastered}
+
+        row = {"view": preset or "default", "blades": n,
+               **alternate_on_off(page, "compute_raster", RASTER_ROUNDS, report), "profile": {}}
+        row["on_over_off"], med = median_ratio(row)
         print(f"{n:>8} blades: compute raster on / off = {row['on_over_off']}x frames/s")
         steps = max(1, round(60 / max(med["off"], 1e-3)))  # the steps one presented frame simulates while playing
         for mode in ("off", "on") if profile else ():
@@ -357,9 +371,7 @@ def main(argv=None):
             page.wait_for_timeout(1500)  # let the first frames after the rebuild pass
             fps = presented_fps(page, WINDOW_S)
             # The visible count read back by a frame drawn with these blades (the readback is asynchronous).
-            since = engine_info(page)["now"]
-            info = poll(lambda: (lambda e: (e["visibleAt"] > since, e))(engine_info(page)),
-                        "a visible count read back after the measurement", 120, 0.5, page=page)
+            info = visible_read_back(page, "the measurement")
             visible = sum(info["visible"])
             result["fps"][str(n)] = {"frames_per_s": round(fps, 2), "visible": visible}
             print(f"{n:>8} blades: {fps:6.2f} frames/s presented, {visible} visible")
