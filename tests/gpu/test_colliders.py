@@ -231,3 +231,25 @@ def test_rolled_sphere_leaves_a_trail_that_recovers(fresh, blades):
     err = (np.linalg.norm(back["v2"] - calm["v2"], axis=1) / blades.height).max()
     print("back to calm: max |v2 - calm| / h", err)
     assert err < 1e-3
+
+
+def test_set_array_balls_are_drawn_and_follow_the_crowd():
+    """The set_array spheres are drawn (an instanced mesh sized to the crowd): more balls
+    change more pixels, a crowd past the first 16 instances shows too, and an empty array
+    gives the picture without balls back. Balls above the grass; render only: the grass
+    does not move."""
+    scene = gw.GrassScene(gw.Blades.on_plane(2048, size=10.0, seed=5), size=(160, 120))
+    try:
+        bare = scene.render().astype(int)
+        rng = np.random.default_rng(4)
+
+        def changed(k):
+            xz = rng.uniform(-4.0, 4.0, (k, 2))
+            scene.colliders.set_array(np.c_[xz[:, 0], np.full(k, 3.2), xz[:, 1], np.full(k, 0.5)])
+            return (np.abs(scene.render().astype(int) - bare).max(axis=2) > 12).mean()
+
+        few, many = changed(8), changed(40)
+        assert 0.002 < few < many
+        assert changed(0) == 0.0
+    finally:
+        scene.release()
