@@ -147,7 +147,8 @@ def format_status(stats: dict) -> str:
     draws on demand); playing before the first measured frame (``fps`` None),
     ``"starting…"``; playing while no frame arrives (``fps`` below
     :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``. "real time" or "slow motion"
-    only follow a measured frame rate."""
+    only follow a measured frame rate, and not while ``sim_speed`` is given as None
+    (the speed of simulated time is not measured yet)."""
     s = stats
     fps = s.get("fps")
     if s.get("playing") is False:
@@ -166,7 +167,7 @@ def format_status(stats: dict) -> str:
     if s.get("playing") is not False and fps is not None and fps >= NO_FRAMES_BELOW:
         if s.get("slow_motion") and s.get("sim_speed") is not None:
             parts.append(f"slow motion {format_speed(s['sim_speed'])}")
-        else:
+        elif "sim_speed" not in s or s["sim_speed"] is not None:  # not measured yet: no claim
             parts.append("real time")
     return " · ".join(parts)
 
