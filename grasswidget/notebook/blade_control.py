@@ -3,8 +3,7 @@
 A linear slider from 1 to the adapter's maximum (4,194,304 on a GPU) moves tens of
 thousands of blades per pixel: a small nudge froze a live lecture demo. This control
 moves in powers of two instead (one arrow key press or one step of the slider doubles
-or halves the count), and its readout writes the count in words with its power of two,
-``"65,536 (2¹⁶)"``.
+or halves the count), and its readout writes the count out, ``"65,536"``.
 
 **When it asks first.** A count the meadow will not draw at the view's ``target_fps``
 is not applied at once: a line under the slider says ``"Apply 262,144 blades? about
@@ -32,16 +31,11 @@ import ipywidgets as ipw
 
 __all__ = ["BladeCountControl", "blade_stops", "count_words", "estimate_fps", "needs_confirmation"]
 
-_SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
-
-
 def count_words(n: int) -> str:
-    """A blade count as the control writes it: ``"4,096 (2¹²)"`` for a power of two,
-    ``"5,000"`` otherwise."""
-    n = int(n)
-    if n >= 2 and n & (n - 1) == 0:
-        return f"{n:,} (2{str(n.bit_length() - 1).translate(_SUPERSCRIPT)})"
-    return f"{n:,}"
+    """A blade count as the control's readout writes it, with thousands separators:
+    ``"262,144"`` (the readout is 72 CSS px wide; a power of two written after it,
+    "262,144 (2¹⁸)", would be clipped)."""
+    return f"{int(n):,}"
 
 
 def blade_stops(max_blades: int, current: int | None = None) -> list:

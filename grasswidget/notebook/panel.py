@@ -369,8 +369,9 @@ class ControlPanel:
         self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
 
         # Rows that fit the view (two columns of controls in 640 px); each wraps when the view is narrower.
-        sliders = _wrapping_row(list(self.sliders.values()) + [self.wind_field_dropdown,
-                                                               self.blade_control.confirm_row])
+        controls = list(self.sliders.values())
+        controls.insert(1, self.blade_control.confirm_row)  # the blade count's question, under it (while asking)
+        sliders = _wrapping_row(controls + [self.wind_field_dropdown])
         #: The "looks" row: a heading and the look sliders.
         self.looks_row = _wrapping_row([ipw.HTML("<b>looks</b>", layout=ipw.Layout(width="100%"))]
                                        + list(self.look_sliders.values()))
