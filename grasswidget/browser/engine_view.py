@@ -399,6 +399,7 @@ class BrowserEngineView(GrassView):
     def current_stats(self) -> dict:
         s = dict(self._stats)
         s["blades"] = self.blade_count
+        s["target_fps"] = self.target_fps  # as the kernel's (the blade control's estimate aims for it)
         return s
 
     def refresh_stats(self):

@@ -81,21 +81,24 @@ class BladeCountControl:
             an exception it raises goes to ``on_error`` and the control goes back.
         on_error: shows an error (the panel's message line).
         width: CSS width of the slider.
+        target_fps: a function returning the frames/s to keep (the widget's
+            ``target_fps``, read at each choice), or None: the stats' ``target_fps``.
 
     Attributes: ``slider`` (an ipywidgets ``SelectionSlider`` whose ``value`` is the
     blade count, applied on release or key press), ``question`` (the confirmation
     text), ``apply_button``, ``cancel_button``, ``confirm_row`` (hidden unless a
     count waits), ``pending`` (the count waiting for Apply, or None), ``count``
     (the count applied), ``measured`` ((frames/s, blades) of the last measurement
-    while playing, or None) and ``target_fps``.
+    while playing, or None) and :attr:`target_fps`.
     """
 
-    def __init__(self, count, max_blades, apply, on_error, width="314px"):
+    def __init__(self, count, max_blades, apply, on_error, width="314px", target_fps=None):
         self.max_blades = int(max_blades)
         self.count = int(count)
         self.pending = None
         self.measured = None
-        self.target_fps = None
+        self._target_source = target_fps
+        self._stats_target = None
         self._apply = apply
         self._on_error = on_error
         self.slider = ipw.SelectionSlider(
@@ -116,6 +119,17 @@ class BladeCountControl:
                                     layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center",
                                                       display="none"))
 
+    @property
+    def target_fps(self) -> float | None:
+        """Frames/s a count must keep to be applied without asking (the widget's
+        ``target_fps``; None when unknown)."""
+        if self._target_source is not None:
+            try:
+                return float(self._target_source())
+            except Exception:  # noqa: BLE001  (a closed widget: fall back on the stats)
+                pass
+        return self._stats_target
+
     def _options(self, current):
         return [(count_words(n), n) for n in blade_stops(self.max_blades, current)]
 
@@ -132,7 +146,7 @@ class BladeCountControl:
         """Remember the frame rate measured while playing (``fps`` with ``blades``) and the
         view's ``target_fps``, for the estimate."""
         if stats.get("target_fps"):
-            self.target_fps = float(stats["target_fps"])
+            self._stats_target = float(stats["target_fps"])
         fps, blades = stats.get("fps"), stats.get("blades")
         if stats.get("playing") is not False and fps and fps > 0 and blades:
             self.measured = (float(fps), int(blades))
@@ -177,7 +191,8 @@ class BladeCountControl:
 
     def _ask(self, count, fps):
         self.pending = count
-        target = f" (target {self.target_fps:g})" if self.target_fps else ""
+        target_fps = self.target_fps
+        target = f" (target {target_fps:g})" if target_fps else ""
         cost = (f"about {fps:.2g} frames/s here{target}" if fps is not None
                 else "the frame rate is not measured yet (play the view first)")
         self.question.value = (f"<span style='color:#a60'>Apply {count:,} blades? "

@@ -288,12 +288,9 @@ class ControlPanel:
         column = _column_width(self.view_size[0])
 
         # blade count: powers of two, asks before a count slower than the target frame rate
-        self.blade_control = BladeCountControl(blade_count, max_blades, actions.set_blades, err, width=column)
+        self.blade_control = BladeCountControl(blade_count, max_blades, actions.set_blades, err, width=column,
+                                               target_fps=lambda: actions.target_fps)
         self.blade_slider = self.blade_control.slider
-        try:
-            self.blade_control.target_fps = float(actions.target_fps)
-        except (AttributeError, TypeError, ValueError):
-            pass  # the view's stats say it later
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
             self.sliders[name] = s = _slider(name, params, step, fmt, column)

@@ -14,7 +14,10 @@ status line, shift + drag and the blade count control.
   count past what the measured frame rate keeps at ``target_fps`` asks (Apply /
   Cancel) before anything is built, End (the top) too. A screenshot of the panel with
   the question is saved (``blade-control-question.png`` in ``$GW_ARTIFACTS_DIR`` or a
-  temporary folder, path printed).
+  temporary folder, path printed). ``test_blade_control_keyboard_browser_engine``: the
+  same control over the browser engine (backend="browser", WebGPU in Chromium), whose
+  frame rate comes from the browser's stats: a press halves, one past the target asks and
+  Apply builds it.
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ from pathlib import Path
 
 import pytest
 
-from .harness import (drag, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, view_locator,
-                      wait_for_kernel, wait_for_view, write_notebook)
+from .harness import (Browser, drag, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
+                      view_locator, wait_for_kernel, wait_for_view, write_notebook)
 
 pytestmark = pytest.mark.browser
 
@@ -161,3 +164,46 @@ def test_blade_control_keyboard(page, browser, lab_server, browser_root):
         assert not errors, errors
     finally:
         page.set_viewport_size({"width": 1280, "height": 1000})
+
+
+@pytest.fixture(scope="module")
+def webgpu_browser():
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+def test_blade_control_keyboard_browser_engine(webgpu_browser, lab_server, browser_root):
+    page = webgpu_browser.page
+    name = "lecture_blades_browser.ipynb"
+    write_notebook(browser_root / name, ["import grasswidget as gw",
+                                         "w = gw.GrassWidget(blades=256, size=(400, 300), backend='browser', "
+                                         "target_fps=1)\nw"])
+    try:
+        open_notebook(page, lab_server, name)
+        since = len(webgpu_browser.console)
+        run_all_cells(page, timeout=180)
+        assert kernel_eval(page, "w.backend") == "browser"
+        # the browser's frame rate, measured while playing
+        wait_for_kernel(page, "w.panel.blade_control.measured is not None", True, timeout=90)
+        handle, readout = _blade_handle(page)
+        handle.scroll_into_view_if_needed()
+        # one press halves (fewer blades never ask)
+        _press(page, handle, "ArrowLeft")
+        wait_for_kernel(page, "w.blade_count", 128, timeout=30)
+        poll(lambda: readout.inner_text().strip() == "128", "the readout on 128", 15, 0.2, page=page)
+        # one press doubles; past the target frame rate it asks first, Apply builds it
+        kernel_execute(page, "w.target_fps = 240")
+        _press(page, handle, "ArrowRight")
+        question = page.locator(".grasswidget .widget-html-content", has_text="Apply 256 blades?")
+        question.wait_for(timeout=20_000)
+        print(f"\n[lecture] browser engine: {question.inner_text()!r}")
+        assert "(target 240)" in question.inner_text()
+        assert kernel_eval(page, "(w.blade_count, w.panel.blade_control.pending)") == [128, 256]
+        page.locator("button.jupyter-button", has_text="Apply").click()
+        wait_for_kernel(page, "w.blade_count", 256, timeout=30)
+        wait_for_kernel(page, "w.stats['blades']", 256, timeout=30)  # the browser draws the new field
+        errors = _page_errors(webgpu_browser, since)
+        assert not errors, errors
+    finally:
+        page.goto("about:blank")
+        lab_server.shutdown_kernels()

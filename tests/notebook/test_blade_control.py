@@ -117,3 +117,16 @@ def test_a_count_from_code_is_shown_exactly_and_a_refused_count_goes_back():
 def test_status_says_only_what_it_knows(stats, want, never):
     line = format_status(stats)
     assert want in line and never not in line, line
+
+
+def test_the_target_is_read_when_choosing():
+    """The widget's target_fps as it is now (set a moment ago), not as of the last stats."""
+    target = [1.0]
+    applied = []
+    c = BladeCountControl(256, 1 << 18, applied.append, print, target_fps=lambda: target[0])
+    c.note_stats({"fps": 4.0, "blades": 256, "target_fps": 1.0, "playing": True})
+    c.slider.value = 512  # about 2 frames/s >= 1: applied
+    assert applied == [512]
+    target[0] = 240.0
+    c.slider.value = 1024  # about 1 frame/s < 240: asks, naming the target in force
+    assert c.pending == 1024 and "(target 240)" in c.question.value and applied == [512]
