@@ -80,7 +80,7 @@ class BladeCountControl:
         apply: called with a blade count to apply it (the widget's ``set_blades``);
             an exception it raises goes to ``on_error`` and the control goes back.
         on_error: shows an error (the panel's message line).
-        width: CSS width of the slider.
+        width: CSS width of the slider; description: its label.
         target_fps: a function returning the frames/s to keep (the widget's
             ``target_fps``, read at each choice), or None: the stats' ``target_fps``.
 
@@ -92,7 +92,7 @@ class BladeCountControl:
     while playing, or None) and :attr:`target_fps`.
     """
 
-    def __init__(self, count, max_blades, apply, on_error, width="314px", target_fps=None):
+    def __init__(self, count, max_blades, apply, on_error, width="314px", target_fps=None, description="blades"):
         self.max_blades = int(max_blades)
         self.count = int(count)
         self.pending = None
@@ -102,7 +102,7 @@ class BladeCountControl:
         self._apply = apply
         self._on_error = on_error
         self.slider = ipw.SelectionSlider(
-            options=self._options(self.count), value=self.count, description="blades",
+            options=self._options(self.count), value=self.count, description=description,
             continuous_update=False, style={"description_width": "140px"}, layout=ipw.Layout(width=width),
             tooltip=("Number of blades, in powers of two (arrow keys: double / halve). Rebuilds the field; "
                      "a count slower than the target frame rate asks first."),

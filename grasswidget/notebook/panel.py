@@ -289,7 +289,8 @@ class ControlPanel:
 
         # blade count: powers of two, asks before a count slower than the target frame rate
         self.blade_control = BladeCountControl(blade_count, max_blades, actions.set_blades, err, width=column,
-                                               target_fps=lambda: actions.target_fps)
+                                               target_fps=lambda: actions.target_fps,
+                                               description=control_label("blades"))
         self.blade_slider = self.blade_control.slider
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
