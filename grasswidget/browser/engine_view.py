@@ -175,9 +175,10 @@ class BrowserEngineView(GrassView):
         if self.ball is None:
             return
         try:
+            if msg.get("x") is not None or msg.get("z") is not None:  # both None: the pointer is on the sky
+                self.ball.move_to(float(msg["x"]), float(msg["z"]))
             if msg.get("phase") == "down" and not self.ball.enabled:
                 self.ball.enabled = True
-            self.ball.move_to(float(msg["x"]), float(msg["z"]))
         except Exception as err:  # noqa: BLE001
             self.report_error(err)
 

@@ -234,6 +234,12 @@ def test_browser_messages_move_the_ball_and_never_raise():
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
     view = w.view.browser_view
     try:
+        center = w.ball.collider.center
+        view.handle_message({"type": "ball", "phase": "move", "x": None, "z": None})  # on the sky, not pressed
+        assert not w.ball.enabled and w.ball.collider.center == center
+        view.handle_message({"type": "ball", "phase": "down", "x": None, "z": None})  # a press on the sky
+        assert w.ball.enabled and w.ball.collider.center == center  # on, where it was
+        w.ball.enabled = False
         view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
         assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5
         assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
