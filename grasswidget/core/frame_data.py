@@ -57,12 +57,16 @@ __all__ = [
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+    "SLOW_MOTION_BELOW",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
 ]
 
 #: The most fixed steps one drawn frame may take while playing, in both engines (a frame
 #: owed more gets this many and the rest is dropped: slow motion).
 MAX_STEPS_PER_FRAME = 64
+#: Below this many simulated seconds per (time-scaled) wall second the status line says
+#: "slow motion", in both engines.
+SLOW_MOTION_BELOW = 0.97
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil

@@ -66,6 +66,7 @@ import numpy as np
 
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
+from ..core.frame_data import SLOW_MOTION_BELOW
 from ..core.blades import Blades
 from ..core.view_api import GrassView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -81,8 +82,6 @@ GPU_MAX_BLADES = 1 << 22
 STATS_INTERVAL = 0.5
 #: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
 MAX_BUFFERED_FRAMES = 3
-#: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
-SLOW_MOTION_BELOW = 0.97
 
 
 def _exclusive(method):

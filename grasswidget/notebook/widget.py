@@ -115,7 +115,9 @@ class GrassWidget(ipw.VBox):
             ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
         sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
         step_button, reset_blades_button, reset_camera_button, save_button,
-        png_scale, file_line, stats_line, message_line: the panel's controls.
+        png_scale, file_line, stats_line, message_line: the panel's controls
+            (``blade_slider``: the blade count control's slider, in powers of two, see
+            :mod:`grasswidget.notebook.blade_control`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
     and ``culling_frozen`` (cull against a copy of the camera taken when it was set).

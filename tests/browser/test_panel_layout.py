@@ -80,8 +80,9 @@ MEASURE = """
 STATES = {
     "default": "w.pause()",
     "squeezed": "w.sliders['blades'].layout.width = '150px'; w.pause()",  # not a state a user meets: proves the checks bite
-    # the slider shows its top value (as after a drag to the end) without building that many blades
-    "widest": ("w.panel.show_blade_count(w.blade_slider.max)\n"
+    # the blade control shows its top value (as after a drag to the end) and asks before building
+    # that many blades: the longest count and question
+    "widest": ("w.blade_slider.value = w.max_blades\n"
                "w.params.wind_direction = -360; w.params.wind_strength = 200; w.params.wind_speed = 50\n"
                "w.params.gravity = 50; w.params.stiffness_scale = 20; w.time_scale = 10\n"
                "w.ball.enabled = True; w.ball.set_radius(w.ball.radius_slider.max)\n"
@@ -147,6 +148,6 @@ def _check_states(page, size):
         if state == "widest":  # the widest values are on screen, whole
             ball = kernel_eval(page, "[f'{s.value:.2f}' for s in (w.ball.x_slider, w.ball.radius_slider)]")
             ball = [t.replace("-", "\u2212") for t in ball]  # the readouts write a minus sign
-            for text in ("262144", "−360", "200.0", "20.00", "10.00", *ball, "orientation culling",
+            for text in ("262,144", "Apply 262,144 blades?", "−360", "200.0", "20.00", "10.00", *ball, "orientation culling",
                          "blade 0: height", "freeze culling"):
                 assert any(text in t for t in m["texts"]), (text, m["texts"])
