@@ -32,8 +32,13 @@ browser when it offers a WebGPU adapter. A browser without WebGPU makes a
 "browser" or "auto" widget fall back to kernel streaming with one line saying so.
 
 Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
-right-drag to pan, wheel to zoom (the camera stays above the ground and the
-field in sight, see :mod:`grasswidget.notebook.orbit`). Shift + drag puts the ball (a sphere
+right-drag to pan, wheel to zoom (the camera stays above the grass, or the
+ground with ``camera_floor="ground"``, and the field in sight, see
+:mod:`grasswidget.core.orbit_limits`); ``look_from("home" | "top" | "low")`` and
+the camera bar's buttons move it to a named view
+(:mod:`grasswidget.core.camera_presets`). Layouts (:mod:`grasswidget.notebook.layout`):
+the panel beside the view, or under it in a narrow notebook; ``layout="lecture"``
+gives a 1280 x 720 view and the panel folded to one line. Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
@@ -92,7 +97,8 @@ class GrassWidget(ipw.VBox):
             or a :class:`grasswidget.Blades`.
         preset: None, or a preset name passed to ``GrassScene.preset`` (e.g.
             "cis565", "meadow").
-        size: (width, height) of the view in CSS pixels, or "WxH".
+        size: (width, height) of the view in CSS pixels, or "WxH" (default 640 x 480;
+            1280 x 720 with ``layout="lecture"``).
         params: a :class:`GrassParams` to use (and share); default a new one.
         max_fps, quality: override the adapter's streaming defaults
             (:func:`streaming_defaults`): the stream cap (frames/s) and JPEG quality.
@@ -102,6 +108,10 @@ class GrassWidget(ipw.VBox):
             adapter, 2 on a GPU; the browser's devicePixelRatio below that).
             E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
             twice the frames/s, and the browser scales the picture up.
+        layout: "default" (the panel unfolded beside or under the view) or "lecture"
+            (a 1280 x 720 view unless ``size`` is given, the panel folded to one
+            line: play/pause, camera presets, "more"). ``w.layout_mode`` says which;
+            ``w.layout`` is ipywidgets' Layout as on every widget.
         backend: "kernel" (default: render in the kernel, stream frames),
             "browser" (simulate and draw in the browser with WebGPU) or "auto"
             (the browser when it offers WebGPU). ``w.backend`` says which is live.
@@ -121,8 +131,10 @@ class GrassWidget(ipw.VBox):
         step_button, reset_blades_button, reset_camera_button, save_button,
         png_scale, file_line, stats_line, message_line: the panel's controls.
 
-    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
-    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
+    ``culling_frozen`` (cull against a copy of the camera taken when it was set),
+    ``camera_floor`` ("grass" or "ground": what the orbit keeps the camera above) and
+    ``panel_folded`` (only the camera bar shows).
 
     Time: while playing, simulated time follows the wall clock in whole fixed
     steps of ``params.dt`` (:attr:`sim_time` counts it); when a frame would need
