@@ -31,7 +31,7 @@ from .orbit_limits import GRASS_CLEARANCE, MAX_ELEVATION_DEG, OrbitLimits, clamp
 from ..errors import GrassValueError
 
 __all__ = ["CAMERA_PRESETS", "TOP_ELEVATION_DEG", "TOP_MARGIN", "LOW_EYE_ABOVE_GRASS", "check_camera_preset",
-           "camera_preset", "field_box"]
+           "camera_preset", "field_box", "floor_for"]
 
 #: The names :func:`camera_preset` (and ``GrassWidget.look_from``) knows.
 CAMERA_PRESETS = ("home", "top", "low")
@@ -138,3 +138,12 @@ def _low(box, cx, cz, half_x, half_z, toward_home, height):
     mean_height = float(np.mean(height)) if len(height) else 1.0
     target = np.array([cx, box["ground"] + 0.5 * mean_height, cz]) - edge * toward_home
     return position, target
+
+
+def floor_for(blades, camera: dict, far) -> str:
+    """The orbit floor a camera needs: ``"grass"`` when ``camera`` (position, target) lies inside
+    the "grass" orbit limits of ``blades`` (a :class:`~grasswidget.core.blades.Blades`; far plane
+    ``far`` m), else ``"ground"`` (it is lower than the grass floor allows, e.g. the cis565 course
+    view 1 m above the ground, and would jump up at the first drag)."""
+    grass = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor="grass")
+    return "grass" if grass.allows(camera["position"], camera["target"], tol=1e-4) else "ground"

@@ -14,15 +14,13 @@ It knows the widget only through its traits (``playing``, ``camera_floor``,
 ``panel_folded``) and methods (``look_from``, ``toggle_play``); an error from a
 button goes to ``on_error`` (the panel's message line), never into the notebook.
 
-:func:`floor_for` says which floor a camera needs: a camera below the "grass" floor
-(the cis565 course view, 1 m above the ground) can only be kept under "ground".
+:func:`grasswidget.core.camera_presets.floor_for` says which floor a camera needs.
 """
 
 from __future__ import annotations
 
 import ipywidgets as ipw
 
-from ..core.orbit_limits import OrbitLimits
 
 __all__ = ["CameraBar", "PRESET_BUTTONS", "floor_for"]
 
@@ -32,13 +30,6 @@ PRESET_BUTTONS = (
     ("top", "arrow-down", "Straight down over the whole field (the freeze-culling view)"),
     ("low", "eye", "A student's eye just above the grass, looking across the field"),
 )
-
-
-def floor_for(blades, camera: dict, far) -> str:
-    """``"grass"`` when ``camera`` (position, target) lies inside the "grass" orbit limits of
-    ``blades`` (a far plane of ``far`` m), else ``"ground"`` (it is lower than the grass allows)."""
-    grass = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor="grass")
-    return "grass" if grass.allows(camera["position"], camera["target"], tol=1e-4) else "ground"
 
 
 class CameraBar:

@@ -64,9 +64,9 @@ from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
-from .camera_bar import CameraBar, floor_for
+from .camera_bar import CameraBar
 from .layout import PANEL_WIDTH, WidgetLayout
-from ..core.camera_presets import camera_preset, check_camera_preset
+from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
 from ..core.params import ChoiceTrait, GrassParams, RangedFloat
 
@@ -593,7 +593,8 @@ class GrassWidget(ipw.VBox):
         colliders = [ball.collider] if ball is not None and ball.enabled else []
         return save_html(path, blades, self.params, size=self.size, camera=camera, colliders=colliders,
                          ball_radius=float(ball.collider.radius) if ball is not None else None,
-                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title)
+                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title,
+                         camera_floor=self.camera_floor)
 
     def set_wind_wgsl(self, body: str, select: bool = True):
         """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
