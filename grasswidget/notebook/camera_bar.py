@@ -3,7 +3,7 @@
 :class:`CameraBar` is the first line of a GrassWidget's panel, in both layouts
 (see :mod:`grasswidget.notebook.layout`):
 
-* a Play/Pause button, shown only while the panel is folded (the full panel has its own);
+* a Play/Pause button, in the bar only while the panel is folded (the full panel has its own);
 * "home", "top" and "low" (``GrassWidget.look_from``: the start camera, straight down
   over the whole field, a student's eye just above the grass looking across it);
 * "above the grass" (the widget's ``camera_floor``: ticked = "grass", the orbit keeps the
@@ -105,7 +105,10 @@ class CameraBar:
         self.play_button.icon = "pause" if playing else "play"
 
     def _show_folded(self, folded):
-        self.play_button.layout.display = "" if folded else "none"  # the full panel has its own
+        # The full panel has its own Play/Pause: the bar's is on the page only while folded
+        # (not merely hidden, so the page holds one visible "Pause" either way).
+        rest = [self.preset_buttons[name] for name, _i, _t in PRESET_BUTTONS]
+        self.row.children = ([self.play_button] if folded else []) + rest + [self.floor_checkbox, self.more_button]
         self.more_button.description = "more" if folded else "less"
         self.more_button.icon = "chevron-down" if folded else "chevron-up"
 
