@@ -286,6 +286,14 @@ class BrowserEngineView(GrassView):
     def reset_camera(self):
         self.browser_view.reset_camera()
 
+    def set_camera_floor(self, floor: str):
+        """The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``)."""
+        self.browser_view.camera_floor = floor
+
+    @property
+    def orbit_limits(self):
+        return self.browser_view.orbit_limits
+
     def request_draw(self):
         """The browser draws every animation frame; parameter changes arrive as traits."""
 

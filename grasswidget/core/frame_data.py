@@ -291,10 +291,12 @@ def clock_rules(params) -> dict:
             "max_steps_per_frame": int(MAX_STEPS_PER_FRAME)}
 
 
-def orbit_rules(blades, far) -> dict:
-    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades and a far plane
-    of ``far`` metres, as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground)."""
-    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far)
+def orbit_rules(blades, far, floor="grass") -> dict:
+    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades, a far plane
+    of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
+    as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground). The browser clamps
+    with these numbers (engine.js ``clampOrbit``); the floor only changes them."""
+    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
 
 
@@ -400,8 +402,9 @@ def scene_style(blades, far, params=None) -> dict:
     return style
 
 
-def frame_rules(params, blades, far) -> dict:
+def frame_rules(params, blades, far, floor="grass") -> dict:
     """``{"clock": clock_rules, "orbit": orbit_rules, "style": scene_style}`` for a field
-    of ``blades`` seen by a camera whose far plane is ``far`` metres."""
-    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far),
+    of ``blades`` seen by a camera whose far plane is ``far`` metres, orbiting above the
+    ``floor`` ("grass" or "ground", see :func:`orbit_rules`)."""
+    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far, floor),
             "style": scene_style(blades, far, params)}

@@ -243,6 +243,7 @@ class KernelView(GrassView):
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
+        self._camera_floor = "grass"  # what the orbit stays above (set_camera_floor), kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
         self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
@@ -320,7 +321,7 @@ class KernelView(GrassView):
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
         # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
-        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene, self._camera_floor),
                                                 register_events=scene.renderer)
         # A custom target: orbit and zoom around the point the view looks at
         # (GrassScene aims with look_at, which leaves the camera extent unrelated
@@ -445,6 +446,19 @@ class KernelView(GrassView):
             self.controller.target = self._home_target  # panning moves the target
             self.scene.camera.set_state(self._home_state)
         self.request_draw()
+
+    @_exclusive
+    def set_camera_floor(self, floor: str):
+        """New orbit limits for the controller: above the grass's tips or above the ground."""
+        from .orbit import OrbitLimits
+
+        self._camera_floor = floor
+        if self.controller is not None and self.scene is not None:
+            self.controller.limits = OrbitLimits.for_scene(self.scene, floor)
+
+    @property
+    def orbit_limits(self):
+        return self.controller.limits if self.controller is not None else None
 
     def current_camera(self) -> dict:
         """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
