@@ -36,11 +36,16 @@
 // next step (no steps) first, as the kernel's inspector does. Fixed steps: step(n) runs exactly n
 // steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
 // rules (SimClock below).
+// Views at rest: a view that is not visible (scrolled away, a collapsed output, a hidden tab:
+// an IntersectionObserver per canvas and document.visibilityState) draws nothing; with no view
+// visible the engine simulates nothing, sends no stats and asks for no animation frame, and its
+// clock stops as pause() stops it (SimClock.stop, Python's rule): on return simulated time goes
+// on from where it stopped. canvas.grasswidgetFramesDrawn counts a view's frames (tests).
 //
 // One engine per widget model (GPU device, buffers, simulation, clock), however
 // many times the widget is displayed: anywidget's initialize() makes it, each
-// render() only adds a view (a canvas) of it, and every view draws the same
-// meadow from the same camera.
+// render() only adds a view (a canvas) of it, and every visible view draws the
+// same meadow from the same camera.
 
 const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 
+import imageio.v3 as iio
 import pytest
 
 from .harness import (
@@ -141,6 +142,13 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         back_at = time.monotonic()
         away_s = back_at - hidden_at
         assert _on_screen(page, engine) == [True, False, False]
+        if backend == "kernel":
+            # The first frames back are a frame's worth of steps each, not one capped frame
+            # (64 steps, 0.53 s) owed for the time away (the kernel's sim_time is exact).
+            first_back = wait_for_kernel(page, "ws[0].sim_time", predicate=lambda t: t > stopped_at,
+                                         timeout=30, interval=0.05) - stopped_at
+            print(f"[views at rest, kernel] view 0's first simulated time back: +{first_back:.3f} s")
+            assert first_back < 0.45, first_back
         on_way_back, _ = _count_window(page, engine, 0)
         frames_back, seconds_back = _count_window(page, engine, 0)
         print(f"[views at rest, {backend}] scrolled back to view 0 after {away_s:.1f} s away: "
@@ -148,6 +156,17 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         assert on_way_back[0] >= MIN_FRAMES_SHOWN and frames_back[0] >= MIN_FRAMES_SHOWN
         assert on_way_back[1] <= engine.on_their_way and on_way_back[2] == 0, on_way_back
         assert frames_back[1] == 0 and frames_back[2] == 0, frames_back
+        # What the view shows once back: sky above, blades on soil below (256 blades are a
+        # sparse meadow: a few percent of green in the lower half; saved for a look).
+        shot = browser_root / f"views_at_rest_{backend}.png"
+        page.locator(engine.selector).nth(0).screenshot(path=str(shot))
+        rgb = iio.imread(shot)[..., :3].astype(int)
+        top, lower = rgb[: rgb.shape[0] // 8], rgb[rgb.shape[0] // 2:]
+        sky = float(((top[..., 2] > top[..., 0] + 10) & (top[..., 2] >= top[..., 1])).mean())
+        grass = float(((lower[..., 1] > lower[..., 0] + 8) & (lower[..., 1] > lower[..., 2] + 8)).mean())
+        print(f"[views at rest, {backend}] view 0 back on screen: {shot}, sky in its top rows {sky:.0%}, "
+              f"green in its lower half {grass:.1%}")
+        assert sky > 0.8 and grass > 0.01, (sky, grass)
         resumed = wait_for_kernel(page, "ws[0].sim_time", predicate=lambda t: t > stopped_at + 0.1, timeout=30)
         gained = _sim_time(page, 0) - stopped_at
         since_back = time.monotonic() - back_at
