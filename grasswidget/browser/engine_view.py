@@ -427,6 +427,7 @@ class BrowserEngineView(GrassView):
         self.report_stats(self.current_stats())
         if self.browser_view.inspected:
             self._request_inspected()
+        self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
 
     # ------------------------------------------------------------------ keys, closing
 

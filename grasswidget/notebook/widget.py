@@ -50,7 +50,7 @@ import os
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import All, Bool
+from traitlets import All, Bool, Unicode, validate
 
 from . import cell_rerun
 from .adaptive import check_target_fps
@@ -131,6 +131,10 @@ class GrassWidget(ipw.VBox):
                              help="Simulated seconds per wall-clock second while playing.")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
     culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
+    chart = Unicode(None, allow_none=True,
+                    help='The live chart under the view: None (hidden), "tip" (tip offset of each inspected blade), '
+                         '"bend" (bend angle), "culling" (blades kept after each culling test) or "frame" (where '
+                         "a frame's time goes), against simulated time (see grasswidget.notebook.lab_bench).")
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -138,6 +142,7 @@ class GrassWidget(ipw.VBox):
     view: GrassView | None = None
     panel = None
     ball = None
+    bench = None
 
     scene = property(lambda self: self.view.scene if self.view is not None else None,
                      doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
@@ -224,17 +229,22 @@ class GrassWidget(ipw.VBox):
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=self.size,
                                       ball_row=self.ball.controls)
+            from .lab_bench import LabBench
+
+            self.bench = LabBench(self.view, self.size[0], owner=self, name="chart", on_error=self._show_error)
         except BaseException:
             self.close()
             raise
-        # The panel is exactly as wide as the view; its rows wrap within it.
-        super().__init__(children=[self.view.widget, *self.panel.rows],
+        # The panel is exactly as wide as the view; its rows wrap within it. The lab bench
+        # (the live chart and its dropdown) sits right under the view.
+        super().__init__(children=[self.view.widget, self.bench.widget, *self.panel.rows],
                          layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
         self.add_class("grasswidget")
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
         self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.observe(self._on_chart, names="chart")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -421,6 +431,7 @@ class GrassWidget(ipw.VBox):
             raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.playing = False
         self.view.step(n)
+        self.bench.after_step()
 
     def reset_blades(self):
         """Every blade back to its rest pose; the simulation clock back to 0."""
@@ -455,6 +466,41 @@ class GrassWidget(ipw.VBox):
         its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
         self._check_open()
         return self.view.read_inspected(timeout=timeout)
+
+    def traces(self) -> dict:
+        """What simulated time did, sampled while it advances (the lab bench; see
+        :mod:`grasswidget.notebook.trace_feed` for when samples are taken): NumPy arrays in a dict,
+        over the last :attr:`trace_window` simulated seconds.
+
+        ``t`` (T,) simulated s since reset_blades(); ``step`` (T,) step count; ``ids`` (K,) the blades
+        inspected in the window; ``v0``, ``v2`` (T, K, 3) m in the field's local space;
+        ``tip_offset`` (T, K) m from rest; ``bend_deg`` (T, K) degrees from ``up``; ``collision``
+        (T, K) collision strength eta (0..1); ``force`` {name: (T, K)} magnitudes of gravity,
+        recovery, wind (m/s^2) and the collision push (m per step); ``kept`` {test: (T,)} blades
+        kept after each culling test (orientation, frustum, distance, occlusion); ``drawn``
+        {path: (T,)} drawn as ribbons and in compute; ``frame_ms`` {stage: (T,)}. NaN where a
+        number is unknown (a blade not inspected at that time). See
+        :meth:`grasswidget.core.traces.TraceRecorder.traces`."""
+        self._check_open()
+        return self.bench.traces()
+
+    def save_traces(self, path) -> str:
+        """Write :meth:`traces` to ``path`` (``.csv``: one row per sample; ``.npz``: the arrays) and
+        return the path; ``grasswidget.load_traces(path)`` reads it back. Another extension raises
+        GrassValueError naming the allowed ones, a missing folder MissingFileError."""
+        self._check_open()
+        return self.bench.save(path)
+
+    @property
+    def trace_window(self) -> float:
+        """Rolling window of :meth:`traces`, simulated seconds (default 60; 0.1..3600; a value out
+        of range raises GrassValueError naming ``window_s`` and the range, and the old one stays)."""
+        return self.bench.window_s if self.bench is not None else None
+
+    @trace_window.setter
+    def trace_window(self, value):
+        self._check_open()
+        self.bench.window_s = value
 
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
@@ -598,6 +644,8 @@ class GrassWidget(ipw.VBox):
                 params.unobserve(self._on_param_change, names=All)
             except ValueError:
                 pass
+        if self.bench is not None:
+            self.bench.close()
         if self.panel is not None:
             self.panel.close()
         if self.view is not None:
@@ -632,6 +680,7 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+            self.bench.set_playing(playing)
             self._show_stats(self.view.current_stats())
 
     def _show_inspected(self, blades):
@@ -642,6 +691,17 @@ class GrassWidget(ipw.VBox):
         if self._closed:
             return
         self.view.set_culling_frozen(bool(change["new"]))
+        self.bench.set_culling_frozen(bool(change["new"]))
+
+    @validate("chart")
+    def _valid_chart(self, proposal):
+        from .lab_bench import check_chart
+
+        return check_chart(proposal["value"])
+
+    def _on_chart(self, change):
+        if not self._closed:
+            self.bench.show(change["new"])
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
@@ -663,6 +723,7 @@ class GrassWidget(ipw.VBox):
         except Exception:
             pass
         self.children = [new.widget, *self.children[1:]]
+        self.bench.attach(new)
         old.close()
         new.set_playing(self.playing)
         self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "

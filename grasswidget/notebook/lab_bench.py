@@ -1,0 +1,161 @@
+"""The lab bench of a live view: its traces and the live chart under it.
+
+:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.GrassView`:
+
+* a :class:`~grasswidget.core.traces.TraceRecorder` (the rolling window of samples),
+* the feed that fills it for the view's engine (:mod:`grasswidget.notebook.trace_feed`),
+* a :class:`~grasswidget.browser.trace_chart.TraceChart` (uPlot in the browser) and
+  the "chart" dropdown that picks what it shows.
+
+It knows no GrassWidget: the owner passes the view, tells it when the chart choice,
+the play state, the frozen culling or the view itself change, and puts
+:attr:`LabBench.widget` under the view. Another widget (a comparison of two views)
+can make one LabBench per view and read :meth:`LabBench.traces` of each.
+
+The chart is redrawn at most :data:`CHART_UPDATES_PER_S` times a second while
+playing (the newest samples are pushed when playing stops), and the series are
+thinned to at most :data:`CHART_MAX_POINTS` points, so its cost stays small whatever
+the frame rate.
+"""
+
+from __future__ import annotations
+
+import time
+
+import ipywidgets as ipw
+
+from ..core.teaching import INSPECTED_BLADE_COLORS
+from ..core.traces import CHART_KINDS, DEFAULT_WINDOW_S, TraceRecorder
+from ..errors import GrassValueError
+from .control_link import ControlLink
+
+__all__ = ["LabBench", "check_chart", "CHART_UPDATES_PER_S", "CHART_MAX_POINTS", "CHART_HEIGHT", "CHART_LABELS"]
+
+#: At most this many chart updates a second while playing.
+CHART_UPDATES_PER_S = 5.0
+#: At most this many points per series are sent to the chart.
+CHART_MAX_POINTS = 600
+#: Height of the chart, CSS pixels.
+CHART_HEIGHT = 170
+#: The dropdown's words for each chart (None: hidden).
+CHART_LABELS = {None: "none", "tip": "tip offset", "bend": "bend angle", "culling": "culling", "frame": "frame time"}
+
+
+def check_chart(value):
+    """None or one of :data:`grasswidget.core.traces.CHART_KINDS`; GrassValueError names them."""
+    if value is not None and (not isinstance(value, str) or value not in CHART_KINDS):
+        raise GrassValueError(f"chart must be None or one of {', '.join(map(repr, CHART_KINDS))}; got {value!r}")
+    return value
+
+
+class LabBench:
+    """Traces and the live chart of one view (see the module docstring).
+
+    Args:
+        view: the GrassView to sample.
+        width: the chart's width (CSS pixels; the view's).
+        window_s: the traces' rolling window (simulated seconds, 0.1..3600; default 60).
+        owner, name: a HasTraits object and the name of its chart trait (None or a chart
+            kind) that the dropdown is linked to; ``on_error`` gets a value it refused.
+    """
+
+    def __init__(self, view, width, *, owner, name="chart", window_s=DEFAULT_WINDOW_S, on_error=None):
+        from ..browser.trace_chart import TraceChart
+
+        self.recorder = TraceRecorder(window_s)
+        self.view = view
+        self.feed = None
+        self.kind = None
+        self.playing = True
+        self._pushed_at = -1e9
+        self._pushed_version = -1
+        self.chart = TraceChart(width=int(width), height=CHART_HEIGHT)
+        self.chart.layout.display = "none"
+        self.dropdown = ipw.Dropdown(options=[(label, kind) for kind, label in CHART_LABELS.items()], value=None,
+                                     description="chart", layout=ipw.Layout(width="190px"),
+                                     style={"description_width": "40px"},
+                                     tooltip="A live chart under the view: tip offset or bend of the inspected "
+                                             "blades, blades kept by culling, frame time (w.chart)")
+        self._link = ControlLink(self.dropdown, owner, name, on_error=on_error)
+        #: What the widget shows: the chart, then the row with its dropdown.
+        self.widget = ipw.VBox([self.chart, ipw.HBox([self.dropdown])])
+        self.widget.add_class("grasswidget-lab-bench")
+        self.attach(view)
+
+    # ------------------------------------------------------------------ the view
+
+    def attach(self, view):
+        """Sample ``view`` from now on (a new engine: the traces start again)."""
+        from .trace_feed import make_feed
+
+        if self.feed is not None:
+            self.feed.detach()
+        self.view = view
+        self.recorder.clear()
+        self.feed = make_feed(view, self.recorder, on_sample=self._on_sample)
+
+    def set_culling_frozen(self, frozen: bool):
+        self.feed.set_culling_frozen(frozen)
+
+    def after_step(self):
+        """A step(n) call: the browser engine samples after it (the kernel samples the frame drawn next)."""
+        sample_now = getattr(self.feed, "sample_now", None)
+        if sample_now is not None:
+            sample_now()
+
+    def set_playing(self, playing: bool):
+        self.playing = bool(playing)
+        if not playing:
+            self.push()
+
+    # ------------------------------------------------------------------ traces
+
+    @property
+    def window_s(self) -> float:
+        return self.recorder.window_s
+
+    @window_s.setter
+    def window_s(self, value):
+        self.recorder.window_s = value
+        self.push()
+
+    def traces(self) -> dict:
+        """:meth:`grasswidget.core.traces.TraceRecorder.traces` of the samples so far (frames still in
+        flight in the kernel engine included)."""
+        self.feed.flush()
+        return self.recorder.traces()
+
+    def save(self, path) -> str:
+        self.feed.flush()
+        return self.recorder.save(path)
+
+    # ------------------------------------------------------------------ chart
+
+    def show(self, kind):
+        """Show the chart of ``kind`` (None hides it)."""
+        self.kind = check_chart(kind)
+        self.chart.layout.display = "none" if kind is None else None
+        self._pushed_version = -1
+        self.push()
+
+    def _on_sample(self):
+        if self.kind is None:
+            return
+        if not self.playing or time.perf_counter() - self._pushed_at >= 1.0 / CHART_UPDATES_PER_S:
+            self.push()
+
+    def push(self):
+        """Send the chart its series now (nothing when hidden or unchanged)."""
+        if self.kind is None or self.recorder.version == self._pushed_version:
+            return
+        self._pushed_at = time.perf_counter()
+        self._pushed_version = self.recorder.version
+        self.chart.data = self.recorder.chart_series(self.kind, INSPECTED_BLADE_COLORS, CHART_MAX_POINTS)
+
+    def close(self):
+        if self.feed is not None:
+            self.feed.detach()
+            self.feed = None
+        self._link.unlink()
+        for w in (self.dropdown, self.chart, self.widget):
+            w.close()
