@@ -250,8 +250,8 @@ class TraceRecorder:
     def save(self, path) -> str:
         """Write the traces to ``path``: ``.npz`` (the arrays of :meth:`traces`, dicts flattened to
         ``kept_orientation`` etc.) or ``.csv`` (one row per sample: t, step, then per blade id
-        ``v2x_<id>``, ``v2y_<id>``, ``v2z_<id>``, ``tip_offset_<id>``, ``bend_deg_<id>``,
-        ``collision_<id>`` and ``<force>_<id>``, then ``kept_<test>``, ``drawn_<path>``,
+        ``v0x_<id>`` .. ``v0z_<id>``, ``v2x_<id>`` .. ``v2z_<id>``, ``tip_offset_<id>``, ``bend_deg_<id>``,
+        ``collision_strength_<id>`` and ``force_<name>_<id>``, then ``kept_<test>``, ``drawn_<path>``,
         ``frame_ms_<stage>``). Returns the path. :func:`load_traces` reads either back."""
         path = check_trace_path(path)
         tr = self.traces()
@@ -267,11 +267,11 @@ class TraceRecorder:
             for a, axis in enumerate("xyz"):
                 header.append(f"v2{axis}_{i}")
                 columns.append(tr["v2"][:, j, a])
-            for name in ("tip_offset", "bend_deg", "collision"):
-                header.append(f"{name}_{i}")
+            for name, column in _CSV_PER_BLADE:
+                header.append(f"{column}_{i}")
                 columns.append(tr[name][:, j])
             for name in FORCE_NAMES:
-                header.append(f"{name}_{i}")
+                header.append(f"force_{name}_{i}")
                 columns.append(tr["force"][name][:, j])
         for group in ("kept", "drawn", "frame_ms"):
             for name, values in tr[group].items():
@@ -335,6 +335,10 @@ class TraceRecorder:
                 "series": series}
 
 
+#: The per-blade arrays of :meth:`TraceRecorder.traces` and their CSV column names (``<name>_<id>``).
+_CSV_PER_BLADE = (("tip_offset", "tip_offset"), ("bend_deg", "bend_deg"), ("collision", "collision_strength"))
+
+
 def _csv_cell(x):
     x = float(x)
     return "" if not np.isfinite(x) else repr(x)
@@ -380,10 +384,10 @@ def load_traces(path) -> dict:
     for v in ("v0", "v2"):
         out[v] = np.stack([np.stack([col[f"{v}{a}_{i}"] for a in "xyz"], axis=-1) for i in ids], axis=1) \
             if ids else np.zeros((len(body), 0, 3))
-    for name in ("tip_offset", "bend_deg", "collision"):
-        out[name] = np.stack([col[f"{name}_{i}"] for i in ids], axis=1) if ids else np.zeros((len(body), 0))
-    out["force"] = {name: (np.stack([col[f"{name}_{i}"] for i in ids], axis=1) if ids else np.zeros((len(body), 0)))
-                    for name in FORCE_NAMES}
+    for name, column in _CSV_PER_BLADE:
+        out[name] = np.stack([col[f"{column}_{i}"] for i in ids], axis=1) if ids else np.zeros((len(body), 0))
+    out["force"] = {name: (np.stack([col[f"force_{name}_{i}"] for i in ids], axis=1) if ids
+                           else np.zeros((len(body), 0))) for name in FORCE_NAMES}
     for g in ("kept", "drawn", "frame_ms"):
         out[g] = {name: col[f"{g}_{name}"] for name in groups[g]}
     return out

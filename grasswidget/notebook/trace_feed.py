@@ -1,6 +1,8 @@
 """Where the traces' samples come from: one feed per engine, filling a TraceRecorder.
 
-Sampling rule (both engines): a sample is taken when simulated time has advanced
+Time: a sample's ``t`` is the field's step count times ``params.dt`` (a new blade
+count starts a field at rest, at step 0, and a new trace). Sampling rule (both
+engines): a sample is taken when simulated time has advanced
 (the step count changed) since the last one, so a paused view that only redraws
 adds nothing, and a sample taken again at the same step count replaces the last.
 
@@ -9,7 +11,8 @@ adds nothing, and a sample taken again at the same step count replaces the last.
   (the frame drawn after it; two calls before a frame is drawn make one sample). The
   inspected blades' numbers of that frame come from
   :class:`grasswidget.gpu.trace_readback.InspectedReadback` a frame or two later
-  (non-blocking), with the frame's time and step count attached.
+  (non-blocking while playing; a paused frame waits for its few bytes, as no next
+  frame would pick them up), with the frame's time and step count attached.
 * browser engine (:class:`BrowserTraceFeed`): at each stats message of the browser
   (every 0.5 s) and after each ``step(n)``: one ``read_inspected`` request answered
   by the browser with its step count (non-blocking for the kernel), so 2 samples a
@@ -80,8 +83,8 @@ class _Feed:
         except ValueError:
             pass
 
-    def after_frame(self):  # pragma: no cover - each feed has its own
-        raise NotImplementedError
+    def after_frame(self):
+        """Take this frame's sample (each engine's feed)."""
 
 
 class KernelTraceFeed(_Feed):
@@ -120,12 +123,13 @@ class KernelTraceFeed(_Feed):
         if live.get("occluded") is not None and view.params.cull_occlusion:
             stats["occluded"] = live["occluded"]
         kept, drawn = self._counts(stats)
-        tag = (float(step * view.params.dt) if view.sim_time is None else float(view.sim_time), step,
-               kept, drawn, self._frame_ms(stats))
+        tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms(stats))
         if not view.inspected or not self.readback.after_render(tag):
             if view.inspected:  # the ring is full: the frame is skipped
                 return
             self._record(*tag, rows=[])
+        elif not view.clock_source.playing:
+            self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
     def flush(self):
         """Wait for the frames in flight and record them (tests, and before reading the traces)."""

@@ -50,7 +50,7 @@ import os
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import All, Bool, Unicode, validate
+from traitlets import All, Any, Bool, validate
 
 from . import cell_rerun
 from .adaptive import check_target_fps
@@ -131,7 +131,7 @@ class GrassWidget(ipw.VBox):
                              help="Simulated seconds per wall-clock second while playing.")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
     culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
-    chart = Unicode(None, allow_none=True,
+    chart = Any(None, allow_none=True,
                     help='The live chart under the view: None (hidden), "tip" (tip offset of each inspected blade), '
                          '"bend" (bend angle), "culling" (blades kept after each culling test) or "frame" (where '
                          "a frame's time goes), against simulated time (see grasswidget.notebook.lab_bench).")
