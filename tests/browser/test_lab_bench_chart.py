@@ -1,0 +1,89 @@
+"""The lab bench's live chart in real Chromium (kernel engine, JupyterLab).
+
+``w.chart = "tip"`` shows the chart under the view: uPlot draws on a canvas (the blades'
+colours are on it), its data advances while playing (the newest x, simulated time,
+grows), a newly inspected blade's series appears, and nothing is fetched from outside
+the Jupyter server (uPlot is inside the widget's module). The "chart" dropdown switches
+it off again.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grasswidget.core.teaching import INSPECTED_BLADE_COLORS, hex_to_rgb
+from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_frames, wait_for_view, write_notebook
+
+pytestmark = pytest.mark.browser
+
+CHART = ".gw-trace-chart"
+
+
+def _chart_state(page):
+    return page.evaluate(f"""() => {{
+        const c = document.querySelector("{CHART}");
+        if (!c) return null;
+        const canvas = c.querySelector("canvas");
+        const box = c.getBoundingClientRect();
+        return {{points: +c.dataset.points || 0, xLast: c.dataset.xLast ? +c.dataset.xLast : null,
+                series: c.dataset.series || "", visible: box.width > 0 && box.height > 0 && !!canvas}};
+    }}""")
+
+
+def _chart_pixels(page):
+    import imageio.v3 as iio
+
+    return iio.imread(page.locator(f"{CHART} canvas").first.screenshot(), extension=".png")[..., :3].astype(int)
+
+
+def _has_colour(px, hex_color, tol=40):
+    rgb = np.array(hex_to_rgb(hex_color))
+    return int((np.abs(px - rgb).max(axis=-1) < tol).sum())
+
+
+def test_tip_chart_appears_moves_while_playing_and_follows_a_new_blade(page, lab_server, browser_root):
+    outside = []
+    page.on("request", lambda r: outside.append(r.url) if not r.url.startswith(
+        (lab_server.base_url, "data:", "blob:", "about:")) else None)
+    write_notebook(browser_root / "lab_bench_chart.ipynb", [
+        "import grasswidget as gw\n"
+        "w = gw.GrassWidget(1024, size=(320, 240))\n"
+        "w.params.wind_strength = 25\n"
+        "w.inspect([3, 50])\n"
+        "w.chart = 'tip'\n"
+        "w",
+    ])
+    open_notebook(page, lab_server, "lab_bench_chart.ipynb")
+    run_all_cells(page)
+    wait_for_view(page)
+    wait_for_frames(page, 3, timeout=60)
+
+    first = poll(lambda: (lambda s: (bool(s and s["visible"] and s["points"] > 2), s))(_chart_state(page)),
+                 "the chart to show samples", timeout=60, page=page)
+    assert first["series"] == "blade 3|blade 50"
+    x0 = first["xLast"]
+    # it moves while playing: the newest simulated time it shows grows, several times
+    seen = {x0}
+    for _ in range(3):
+        s = poll(lambda: (lambda s: (s["xLast"] > max(seen), s))(_chart_state(page)), "the chart's x to advance",
+                 timeout=30, page=page)
+        seen.add(s["xLast"])
+    assert max(seen) > x0
+    px = _chart_pixels(page)
+    for color in INSPECTED_BLADE_COLORS[:2]:  # both blades' lines, in the inspector line's colours
+        assert _has_colour(px, color) > 20, color
+
+    # a newly inspected blade gets its series (and its colour) while playing
+    kernel_execute(page, "w.inspect([3, 50, 200])")
+    poll(lambda: (lambda s: ("blade 200" in s["series"], s))(_chart_state(page)), "blade 200's series", timeout=30,
+         page=page)
+    poll(lambda: (_has_colour(_chart_pixels(page), INSPECTED_BLADE_COLORS[2]) > 20, "third colour"),
+         "blade 200's line drawn", timeout=30, page=page)
+    assert kernel_eval(page, "[int(i) for i in w.traces()['ids']]") == [3, 50, 200]
+
+    # the dropdown under the view switches it off (and w.chart follows)
+    page.locator(".grasswidget-lab-bench select").first.select_option(label="none")
+    poll(lambda: (kernel_eval(page, "w.chart is None"), "w.chart"), "w.chart to be None", timeout=20, page=page)
+    poll(lambda: (lambda s: (not s["visible"], s))(_chart_state(page)), "the chart to hide", timeout=20, page=page)
+    assert not outside, f"fetched from outside the server: {outside[:5]}"
