@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import collections
 import csv
+import math
 import os
 from dataclasses import dataclass, field
 
@@ -112,6 +113,20 @@ class TraceSample:
     kept: dict = field(default_factory=dict)      # CULL_TESTS -> count (None: unknown)
     drawn: dict = field(default_factory=dict)     # DRAW_PATHS -> count
     frame_ms: dict = field(default_factory=dict)  # FRAME_STAGES -> ms
+    _tip_cm: list = field(default=None, repr=False, compare=False)
+    _bend_deg: list = field(default=None, repr=False, compare=False)
+
+    def tip_cm(self) -> list:
+        """Tip offset from rest of each blade, cm (computed once, kept for the charts)."""
+        if self._tip_cm is None:
+            self._tip_cm = (100.0 * tip_offset(self.v0, self.v2, self.up, self.height)).tolist() if self.ids else []
+        return self._tip_cm
+
+    def bend_deg(self) -> list:
+        """Bend angle from ``up`` of each blade, degrees (computed once)."""
+        if self._bend_deg is None:
+            self._bend_deg = bend_degrees(self.v0, self.v2, self.up).tolist() if self.ids else []
+        return self._bend_deg
 
     @classmethod
     def from_inspected(cls, t, step_count, rows, up, kept=None, drawn=None, frame_ms=None):
@@ -207,7 +222,9 @@ class TraceRecorder:
         step); ``kept`` dict of (T,) per CULL_TESTS; ``drawn`` dict of (T,) per DRAW_PATHS;
         ``frame_ms`` dict of (T,) per FRAME_STAGES; ``window_s`` (float).
         """
-        samples = list(self._samples)
+        return self._arrays(list(self._samples))
+
+    def _arrays(self, samples) -> dict:
         n = len(samples)
         ids = []
         for s in samples:
@@ -289,50 +306,55 @@ class TraceRecorder:
     def chart_series(self, kind: str, colors, max_points: int = 600) -> dict:
         """What a chart of ``kind`` (one of :data:`CHART_KINDS`) draws: ``{"x": [...], "x_label",
         "y_label", "series": [{"label", "color", "values", "fill"}]}`` as plain lists (NaN as None),
-        at most ``max_points`` points (every k-th sample, the newest always in). ``colors``: the
+        at most ``max_points`` points (every k-th sample counted back from the newest). ``colors``: the
         colour of each inspected blade, by position in the ids (cycled)."""
-        tr = self.traces()
-        t = tr["t"]
-        n = len(t)
-        keep = np.arange(n)
-        if n > max_points:
+        samples = list(self._samples)
+        n = len(samples)
+        if n > max_points:  # thin before building the arrays: a push costs the same however long the window
             stride = int(np.ceil(n / max_points))
-            keep = np.unique(np.r_[np.arange(n - 1, -1, -stride)[::-1], n - 1])
+            samples = [samples[i] for i in range(n - 1, -1, -stride)][::-1]
+        # Plain Python over at most max_points samples (no (T, K, 3) arrays): a push costs about a
+        # millisecond whatever the window holds.
+        n = len(samples)
         series = []
         if kind in ("tip", "bend"):
-            values = tr["tip_offset"] * 100.0 if kind == "tip" else tr["bend_deg"]
+            columns = {}
+            for r, sample in enumerate(samples):
+                per_blade = sample.tip_cm() if kind == "tip" else sample.bend_deg()
+                for j, i in enumerate(sample.ids):
+                    if i not in columns:
+                        columns[i] = [None] * n
+                    columns[i][r] = per_blade[j]
             # A blade inspected now has the colour of its place in the inspected ids (as the panel
             # shows it); one no longer inspected the next colours after those.
             now = list(self.last.ids) if self.last is not None else []
             extra = 0
-            for j, i in enumerate(tr["ids"]):
-                if int(i) in now:
-                    place = now.index(int(i))
+            for i, values in columns.items():
+                if i in now:
+                    place = now.index(i)
                 else:
                     place = len(now) + extra
                     extra += 1
-                series.append({"label": f"blade {int(i)}", "color": colors[place % len(colors)],
-                               "values": values[keep, j]})
-            y_label = "tip offset from rest (cm)" if kind == "tip" else "bend (degrees from up)"
+                series.append({"label": f"blade {int(i)}", "color": colors[place % len(colors)], "values": values})
+            y_label = "tip offset (cm)" if kind == "tip" else "bend from up (°)"
         elif kind == "culling":
             from .teaching import CULL_COLORS
 
             for name in CULL_TESTS:
                 series.append({"label": f"kept after {name}", "color": CULL_COLORS[name],
-                               "values": tr["kept"][name][keep], "fill": True})
+                               "values": [s.kept.get(name) for s in samples], "fill": True})
             y_label = "blades kept"
         elif kind == "frame":
             for name, color in zip(FRAME_STAGES, ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")):
                 series.append({"label": name.replace("_", " + ") + " (ms)", "color": color,
-                               "values": tr["frame_ms"][name][keep]})
+                               "values": [s.frame_ms.get(name) for s in samples]})
             y_label = "ms per frame"
         else:
             raise GrassValueError(f"chart must be None or one of {', '.join(map(repr, CHART_KINDS))}; got {kind!r}")
         for s in series:
-            s["values"] = [None if not np.isfinite(v) else float(v) for v in s["values"]]
+            s["values"] = [None if v is None or not math.isfinite(v) else float(v) for v in s["values"]]
             s.setdefault("fill", False)
-        return {"x": [float(x) for x in t[keep]], "x_label": "simulated time (s)", "y_label": y_label,
-                "series": series}
+        return {"x": [s.t for s in samples], "x_label": "simulated time (s)", "y_label": y_label, "series": series}
 
 
 #: The per-blade arrays of :meth:`TraceRecorder.traces` and their CSV column names (``<name>_<id>``).
