@@ -13,16 +13,19 @@ for the culling camera:
 * ``kept["distance"]`` = visible + occluded and ``kept["occlusion"]`` = visible: the
   GPU's own counts (as the stats line shows them).
 
-A disabled test keeps what the test before it kept. The reference runs again only
-when the camera, the culling parameters or the blades change, and while they change
+A disabled test keeps what the test before it kept. The reference runs again, on a
+worker thread (a frame never waits for it; the numbers then lag the camera by one
+count), only when the camera, the culling parameters or the blades change, and while they change
 (a camera being dragged) at most every :data:`RECOUNT_INTERVAL_S` seconds or ten
 times as long as the last count took, whichever is longer (at most a tenth of a core:
-about 15 ms a count at 2^16 blades on this machine's CPU).
+about 0.3 s a count at 2^16 blades on a loaded 2-core machine).
 """
 
 from __future__ import annotations
 
+import threading
 import time
+import types
 
 import numpy as np
 
@@ -44,19 +47,44 @@ class CullCounter:
     Args:
         blades: the field's :class:`~grasswidget.core.blades.Blades` (field space = world space).
         params: the :class:`GrassParams` (its ``cull_*`` traits are read at each count).
+        background: recount on a worker thread (the default), so a frame never waits for it;
+            the first count of a field is always done at once.
     """
 
-    def __init__(self, blades, params):
+    def __init__(self, blades, params, background=True):
         self.params = params
+        self.background = background
+        self._lock = threading.Lock()
+        self._generation = 0
         self.set_blades(blades)
 
     def set_blades(self, blades):
         """A new field (the blade count changed): forget the cached counts."""
-        self._state = blades.rest_state()
-        self._key = None
-        self._counts = None
-        self._counted_at = -np.inf
-        self._interval = RECOUNT_INTERVAL_S
+        with self._lock:
+            self._generation += 1
+            self._state = blades.rest_state()
+            self._key = None
+            self._counts = None
+            self._started_at = -np.inf
+            self._interval = RECOUNT_INTERVAL_S
+            self._running = False
+
+    def _count(self, generation, key, state, params, camera, depth_range, size):
+        t0 = time.perf_counter()
+        near, far = depth_range
+        view_proj = camera_view_proj(camera["position"], camera["target"], camera["fov_deg"], near, far,
+                                     size[0] / max(size[1], 1))
+        reason = cull_reason(state, params, view_proj, np.asarray(camera["position"], np.float64))
+        n = len(reason)
+        # kept after frustum = culled neither by orientation nor by frustum (distance comes after)
+        counts = {"orientation": int(n - np.count_nonzero(reason == 1)),
+                  "frustum": int(np.count_nonzero(reason == 0) + np.count_nonzero(reason == 3))}
+        with self._lock:
+            self._running = False
+            if generation == self._generation:
+                self._counts = counts
+                # A large field's count takes longer: wait 10 times as long as it took (a tenth of a core).
+                self._interval = max(RECOUNT_INTERVAL_S, 10.0 * (time.perf_counter() - t0))
 
     def kept(self, camera: dict, depth_range, size, visible=None, occluded=None) -> dict:
         """Blades kept after each test (see the module docstring).
@@ -68,25 +96,40 @@ class CullCounter:
                 count (None: occlusion culling off or unknown).
         """
         p = self.params
-        key = (tuple(camera["position"]), tuple(camera["target"]), float(camera["fov_deg"]), tuple(depth_range),
-               tuple(size)) + tuple(getattr(p, name) for name in _CULL_PARAMS)
+        values = {name: getattr(p, name) for name in _CULL_PARAMS}
+        camera = {"position": tuple(float(x) for x in camera["position"]),
+                  "target": tuple(float(x) for x in camera["target"]), "fov_deg": float(camera["fov_deg"])}
+        key = (camera["position"], camera["target"], camera["fov_deg"], tuple(depth_range), tuple(size),
+               tuple(values.values()))
         now = time.perf_counter()
-        if self._counts is None or (key != self._key and now - self._counted_at >= self._interval):
-            near, far = depth_range
-            view_proj = camera_view_proj(camera["position"], camera["target"], camera["fov_deg"], near, far,
-                                         size[0] / max(size[1], 1))
-            reason = cull_reason(self._state, p, view_proj, np.asarray(camera["position"], np.float64))
-            n = len(reason)
-            self._counts = {"orientation": int(n - np.count_nonzero(reason == 1)),
-                            "frustum": int(np.count_nonzero(reason == 0) + np.count_nonzero(reason == 3))}
-            # kept after frustum = not culled by orientation or frustum (distance comes after).
-            self._key, self._counted_at = key, now
-            # A large field's count takes longer: wait 10 times as long as it took (at most 10 % of a core).
-            self._interval = max(RECOUNT_INTERVAL_S, 10.0 * (time.perf_counter() - now))
-        kept = dict(self._counts)
+        with self._lock:
+            first = self._counts is None and not self._running
+            due = key != self._key and not self._running and now - self._started_at >= self._interval
+            if first or due:
+                self._key, self._started_at, self._running = key, now, True
+                job = (self._generation, key, self._state, types.SimpleNamespace(**values), camera,
+                       tuple(depth_range), tuple(size))
+            else:
+                job = None
+        if job is not None:
+            if first or not self.background:
+                self._count(*job)
+            else:
+                threading.Thread(target=self._count, args=job, name="grasswidget-cull-counts", daemon=True).start()
+        with self._lock:
+            kept = dict(self._counts) if self._counts is not None else {"orientation": None, "frustum": None}
         if visible is None:
             kept["distance"] = kept["occlusion"] = None
         else:
             kept["occlusion"] = int(visible)
             kept["distance"] = int(visible) + (int(occluded) if occluded is not None and p.cull_occlusion else 0)
         return kept
+
+    def wait(self, timeout=10.0):
+        """Wait until no count is running (tests)."""
+        deadline = time.perf_counter() + timeout
+        while time.perf_counter() < deadline:
+            with self._lock:
+                if not self._running:
+                    return
+            time.sleep(0.005)

@@ -151,3 +151,19 @@ def test_cull_counter_against_the_reference_on_the_rest_pose():
     counter.set_blades(blades)
     kept = counter.kept(cam, (0.1, 200.0), (320, 240))
     assert kept["orientation"] == kept["frustum"] == 3000 and kept["distance"] is None
+
+
+def test_cull_counter_recounts_in_the_background_when_the_camera_moves():
+    blades = gw.Blades.on_plane(2000, seed=5)
+    counter = CullCounter(blades, gw.GrassParams(cull_occlusion=False))
+    near = {"position": [0.0, 4.0, 14.0], "target": [0.0, 0.0, 0.0], "fov_deg": 50.0}
+    away = {"position": [0.0, 4.0, -14.0], "target": [0.0, 0.0, -40.0], "fov_deg": 50.0}  # looking off the field
+    first = counter.kept(near, (0.1, 200.0), (320, 240))  # the first count is done at once
+    assert first["frustum"] > 0
+    import time
+
+    time.sleep(0.3)  # past RECOUNT_INTERVAL_S
+    # a moved camera starts a recount on a worker thread, answering with the last counts meanwhile
+    counter.kept(away, (0.1, 200.0), (320, 240))
+    counter.wait()
+    assert counter.kept(away, (0.1, 200.0), (320, 240))["frustum"] < first["frustum"] // 4
