@@ -87,3 +87,65 @@ def test_tip_chart_appears_moves_while_playing_and_follows_a_new_blade(page, lab
     poll(lambda: (kernel_eval(page, "w.chart is None"), "w.chart"), "w.chart to be None", timeout=20, page=page)
     poll(lambda: (lambda s: (not s["visible"], s))(_chart_state(page)), "the chart to hide", timeout=20, page=page)
     assert not outside, f"fetched from outside the server: {outside[:5]}"
+
+
+@pytest.fixture(scope="module")
+def webgpu_browser():
+    from .harness import Browser
+
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+COMPARE = """
+import numpy as np
+tr = w.traces()
+scene = gw.GrassScene(w.view.blades, size=(320, 240), params=w.params.copy())
+done, worst = 0, 0.0
+h = w.view.blades.height[list(tr['ids'])]
+for k, s in enumerate(tr['step']):
+    scene.step(int(s) - done)
+    done = int(s)
+    want = scene.field.read_state()['v2'][list(tr['ids'])]
+    worst = max(worst, float((np.abs(tr['v2'][k] - want).max(axis=-1) / h).max()))
+scene.release()
+result = {'steps': [int(s) for s in tr['step']], 'ids': [int(i) for i in tr['ids']], 'worst': worst,
+          'kept': {k: [None if v != v else float(v) for v in a] for k, a in tr['kept'].items()}}
+"""
+
+
+def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_browser, lab_server, browser_root):
+    """The browser engine records the browser's numbers: each sample's v2 equals a GrassScene in the
+    kernel stepped the same steps (within 1e-4 of the blade height), and the chart draws them."""
+    page = webgpu_browser.page
+    write_notebook(browser_root / "lab_bench_browser.ipynb", [
+        "import grasswidget as gw\n"
+        "w = gw.GrassWidget(1024, size=(320, 240), backend='browser')\n"
+        "w.params.wind_strength = 25\n"
+        "w.pause()\n"
+        "w",
+    ])
+    try:
+        open_notebook(page, lab_server, "lab_bench_browser.ipynb")
+        run_all_cells(page, timeout=120)
+        from .harness import wait_for_kernel
+
+        wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=120)
+        kernel_execute(page, "w.inspect([3, 50]); w.chart = 'tip'; w.step(7)")
+        wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-1:]", [7], timeout=60)
+        kernel_execute(page, "w.step(5)")
+        wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-1:]", [12], timeout=60)
+        kernel_execute(page, COMPARE)
+        got = kernel_eval(page, "result")
+        assert got["ids"] == [3, 50] and got["steps"][-2:] == [7, 12]
+        assert got["worst"] <= 1e-4, got
+        assert all(v is not None for v in got["kept"]["orientation"]), got["kept"]
+        s = poll(lambda: (lambda s: (bool(s and s["visible"] and s["series"] == "blade 3|blade 50"), s))(
+            _chart_state(page)), "the browser engine's chart", timeout=30, page=page)
+        assert s["xLast"] == pytest.approx(12 / 120, rel=1e-6)
+    finally:
+        try:
+            page.goto("about:blank")
+            lab_server.shutdown_kernels()
+        except Exception:
+            pass
