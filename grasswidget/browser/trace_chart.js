@@ -5,7 +5,8 @@
 //
 // data: {x: [...], x_label, y_label, series: [{label, color, values: [...], fill}]}; null
 // values are gaps. The chart's root carries data-points, data-x-last and data-series
-// (labels joined by "|"), so a page (and the tests) can see what is drawn.
+// (labels joined by "|"), so a page (and the tests) can see what is drawn, and data-draws /
+// data-draw-ms (updates drawn, milliseconds spent drawing them: the chart's cost in the page).
 
 function render({ model, el }) {
   const box = document.createElement("div");
@@ -14,7 +15,24 @@ function render({ model, el }) {
   let plot = null;
   let shape = "";
 
+  let draws = 0, drawMs = 0, started = null;
+
+  // uPlot paints in a microtask after setData: time from the update to its "draw" hook.
+  function painted() {
+    if (started === null) return;
+    draws += 1;
+    drawMs += performance.now() - started;
+    started = null;
+    box.dataset.draws = String(draws);
+    box.dataset.drawMs = drawMs.toFixed(2);
+  }
+
   function draw() {
+    started = performance.now();
+    paint();
+  }
+
+  function paint() {
     const d = model.get("data") || {};
     const series = d.series || [];
     const x = d.x || [];
@@ -35,6 +53,7 @@ function render({ model, el }) {
       width, height,
       scales: { x: { time: false } },
       legend: { live: false },
+      hooks: { draw: [painted] },
       cursor: { drag: { x: false, y: false } },
       axes: [{ label: d.x_label || "", size: 36, labelSize: 16 }, { label: d.y_label || "", size: 56, labelSize: 16 }],
       series: [
