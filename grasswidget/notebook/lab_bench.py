@@ -74,12 +74,16 @@ class LabBench:
         self.push_seconds = 0.0
         self.chart = TraceChart(width=int(width), height=CHART_HEIGHT)
         self.chart.layout.display = "none"
-        self.dropdown = ipw.Dropdown(options=[(label, kind) for kind, label in CHART_LABELS.items()], value=None,
+        # Option values are strings ("none" for None: a Dropdown whose value is None shows no selection).
+        self.dropdown = ipw.Dropdown(options=[(label, kind or "none") for kind, label in CHART_LABELS.items()],
+                                     value="none",
                                      description="chart", layout=ipw.Layout(width="190px"),
                                      style={"description_width": "40px"},
                                      tooltip="A live chart under the view: tip offset or bend of the inspected "
                                              "blades, blades kept by culling, frame time (w.chart)")
-        self._link = ControlLink(self.dropdown, owner, name, on_error=on_error)
+        self._link = ControlLink(self.dropdown, owner, name, on_error=on_error,
+                                 to_obj=lambda v: None if v == "none" else v,
+                                 to_control=lambda v: "none" if v is None else v)
         #: What the widget shows: the chart, then the row with its dropdown.
         self.widget = ipw.VBox([self.chart, ipw.HBox([self.dropdown])])
         self.widget.add_class("grasswidget-lab-bench")

@@ -122,7 +122,7 @@ def test_chart_trait_dropdown_and_series(widget):
     _show(widget)
     bench = widget.bench
     assert widget.chart is None and bench.chart.layout.display == "none"
-    assert bench.dropdown.value is None
+    assert bench.dropdown.value == "none" and bench.dropdown.label == "none"
     widget.inspect([5, 6])
     widget.step(3)
     widget.view.draw()
@@ -149,7 +149,11 @@ def test_chart_trait_dropdown_and_series(widget):
     bench.dropdown.value = "culling"
     assert widget.chart == "culling" and bench.chart.data["y_label"] == "blades kept"
     widget.chart = None
-    assert bench.chart.layout.display == "none" and bench.dropdown.value is None
+    assert bench.chart.layout.display == "none" and bench.dropdown.value == "none"
+    bench.dropdown.value = "bend"
+    assert widget.chart == "bend"
+    bench.dropdown.value = "none"
+    assert widget.chart is None
 
 
 def test_chart_updates_are_bounded_while_playing(widget):
