@@ -3,7 +3,7 @@
 // in grasswidget/browser/vendor/uplot). No rule lives here: Python decides what is drawn,
 // its labels, colours and how often it changes; this only draws it.
 //
-// data: {x: [...], x_label, y_label, series: [{label, color, values: [...], fill}]}; null
+// data: {x: [...], x_label, y_label, y_zero, series: [{label, color, values: [...], fill}]}; null
 // values are gaps. The chart's root carries data-points, data-x-last and data-series
 // (labels joined by "|"), so a page (and the tests) can see what is drawn, and data-draws /
 // data-draw-ms (updates drawn, milliseconds spent drawing them: the chart's cost in the page).
@@ -42,7 +42,8 @@ function render({ model, el }) {
     box.dataset.points = String(x.length);
     box.dataset.xLast = x.length ? String(x[x.length - 1]) : "";
     box.dataset.series = series.map((s) => s.label).join("|");
-    const key = JSON.stringify([d.x_label, d.y_label, width, height, series.map((s) => [s.label, s.color, !!s.fill])]);
+    const key = JSON.stringify([d.x_label, d.y_label, !!d.y_zero, width, height,
+                                series.map((s) => [s.label, s.color, !!s.fill])]);
     if (plot && key === shape) {
       plot.setData(data);
       return;
@@ -51,7 +52,8 @@ function render({ model, el }) {
     shape = key;
     plot = new uPlot({
       width, height,
-      scales: { x: { time: false } },
+      // y_zero: the y axis starts at 0 (counts, distances, angles, times), else it fits the data
+      scales: { x: { time: false }, y: d.y_zero ? { range: (u, lo, hi) => [0, hi > 0 ? hi * 1.05 : 1] } : {} },
       legend: { live: false },
       hooks: { draw: [painted] },
       cursor: { drag: { x: false, y: false } },

@@ -34,7 +34,7 @@ def _module_text() -> str:
 class TraceChart(anywidget.AnyWidget):
     """A line chart drawn by uPlot in the browser.
 
-    Traits: ``data`` ({"x": [...], "x_label", "y_label", "series": [{"label", "color",
+    Traits: ``data`` ({"x": [...], "x_label", "y_label", "y_zero", "series": [{"label", "color",
     "values", "fill"}]}; None values are gaps), ``width`` and ``height`` (CSS pixels).
     """
 

@@ -305,7 +305,8 @@ class TraceRecorder:
 
     def chart_series(self, kind: str, colors, max_points: int = 600) -> dict:
         """What a chart of ``kind`` (one of :data:`CHART_KINDS`) draws: ``{"x": [...], "x_label",
-        "y_label", "series": [{"label", "color", "values", "fill"}]}`` as plain lists (NaN as None),
+        "y_label", "y_zero" (the y axis starts at 0), "series": [{"label", "color", "values", "fill"}]}``
+        as plain lists (NaN as None),
         at most ``max_points`` points (every k-th sample counted back from the newest). ``colors``: the
         colour of each inspected blade, by position in the ids (cycled)."""
         samples = list(self._samples)
@@ -354,7 +355,8 @@ class TraceRecorder:
         for s in series:
             s["values"] = [None if v is None or not math.isfinite(v) else float(v) for v in s["values"]]
             s.setdefault("fill", False)
-        return {"x": [s.t for s in samples], "x_label": "simulated time (s)", "y_label": y_label, "series": series}
+        return {"x": [s.t for s in samples], "x_label": "simulated time (s)", "y_label": y_label, "y_zero": True,
+                "series": series}
 
 
 #: The per-blade arrays of :meth:`TraceRecorder.traces` and their CSV column names (``<name>_<id>``).
