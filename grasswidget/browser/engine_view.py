@@ -406,7 +406,7 @@ class BrowserEngineView(GrassView):
         per_class = msg.get("visible")
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)
-        frames = max(1, round((fps or 0) * 0.5))
+        frames = max(1, round((fps or 0) * self.browser_view.stats_interval_ms / 1000.0))  # in this message
         rastered = msg.get("rastered")
         rastered = int(rastered) if rastered is not None else None
         self._stats.update(

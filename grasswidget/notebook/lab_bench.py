@@ -100,6 +100,7 @@ class LabBench:
         self.view = view
         self.recorder.clear()
         self.feed = make_feed(view, self.recorder, on_sample=self._on_sample)
+        self.feed.set_charting(self.kind is not None)
 
     def set_culling_frozen(self, frozen: bool):
         self.feed.set_culling_frozen(frozen)
@@ -141,6 +142,7 @@ class LabBench:
     def show(self, kind):
         """Show the chart of ``kind`` (None hides it)."""
         self.kind = check_chart(kind)
+        self.feed.set_charting(kind is not None)
         self.chart.layout.display = "none" if kind is None else None
         self._pushed_version = -1
         self.push()

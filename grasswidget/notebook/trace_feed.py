@@ -14,9 +14,9 @@ adds nothing, and a sample taken again at the same step count replaces the last.
   (non-blocking while playing; a paused frame waits for its few bytes, as no next
   frame would pick them up), with the frame's time and step count attached.
 * browser engine (:class:`BrowserTraceFeed`): at each stats message of the browser
-  (every 0.5 s) and after each ``step(n)``: one ``read_inspected`` request answered
-  by the browser with its step count (non-blocking for the kernel), so 2 samples a
-  second while playing.
+  (every 0.5 s; every 0.2 s while a chart is shown) and after each ``step(n)``: one
+  ``read_inspected`` request answered by the browser with its step count (non-blocking
+  for the kernel), so 2 samples a second while playing, 5 with a chart.
 
 Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts of the
 non-blocking stats for distance and occlusion, the NumPy reference on the rest pose
@@ -29,7 +29,7 @@ from __future__ import annotations
 from ..core.cull_counts import CullCounter
 from ..core.traces import TraceSample
 
-__all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed"]
+__all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed", "CHART_STATS_INTERVAL_MS", "STATS_INTERVAL_MS"]
 
 
 class _Feed:
@@ -131,6 +131,9 @@ class KernelTraceFeed(_Feed):
         elif not view.clock_source.playing:
             self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
+    def set_charting(self, charting: bool):
+        """Nothing to change: the kernel samples every frame."""
+
     def flush(self):
         """Wait for the frames in flight and record them (tests, and before reading the traces)."""
         for tag, rows in self.readback.flush():
@@ -141,12 +144,22 @@ class KernelTraceFeed(_Feed):
         self.readback.release()
 
 
+#: Milliseconds between the browser's stats messages while a chart is shown (5 samples a second).
+CHART_STATS_INTERVAL_MS = 200
+#: ... and otherwise (the browser engine's default).
+STATS_INTERVAL_MS = 500
+
+
 class BrowserTraceFeed(_Feed):
     """Samples of the browser engine: at each stats message and after each step(n)."""
 
     def __init__(self, view, recorder, on_sample=None):
         super().__init__(view, recorder, on_sample)
         self._request_pending = False
+
+    def set_charting(self, charting: bool):
+        """A chart is shown: ask the browser for a stats message (a sample) every 200 ms instead of 500."""
+        self.view.browser_view.stats_interval_ms = CHART_STATS_INTERVAL_MS if charting else STATS_INTERVAL_MS
 
     def after_frame(self):
         self._check_blades()
