@@ -57,12 +57,12 @@ TRACE_FORMATS = (".csv", ".npz")
 CHART_KINDS = ("tip", "bend", "culling", "frame")
 
 
-def check_window(window_s) -> float:
-    """A valid rolling window (simulated seconds) as a float; GrassValueError names the range."""
+def check_window(window_s, name="window_s") -> float:
+    """A valid rolling window (simulated seconds) as a float; GrassValueError names ``name`` and the range."""
     lo, hi = WINDOW_RANGE_S
     if isinstance(window_s, bool) or not isinstance(window_s, (int, float, np.integer, np.floating)) \
             or not np.isfinite(window_s) or not lo <= float(window_s) <= hi:
-        raise GrassValueError(f"window_s (rolling window of the traces, simulated seconds) must be a number "
+        raise GrassValueError(f"{name} (rolling window of the traces, simulated seconds) must be a number "
                               f"in [{lo:g}, {hi:g}]; got {window_s!r}")
     return float(window_s)
 

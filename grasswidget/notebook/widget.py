@@ -494,13 +494,15 @@ class GrassWidget(ipw.VBox):
     @property
     def trace_window(self) -> float:
         """Rolling window of :meth:`traces`, simulated seconds (default 60; 0.1..3600; a value out
-        of range raises GrassValueError naming ``window_s`` and the range, and the old one stays)."""
+        of range raises GrassValueError naming ``trace_window`` and the range, and the old one stays)."""
         return self.bench.window_s if self.bench is not None else None
 
     @trace_window.setter
     def trace_window(self, value):
+        from ..core.traces import check_window
+
         self._check_open()
-        self.bench.window_s = value
+        self.bench.window_s = check_window(value, "trace_window")
 
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the

@@ -97,7 +97,7 @@ def test_trace_window_bounds_the_samples_and_refuses_bad_values(widget):
     t = widget.traces()["t"]
     assert t[-1] == pytest.approx(48 * widget.params.dt) and t[-1] - t[0] <= 0.1 + 1e-9 and len(t) == 3
     for bad in (0, 1e6, "long"):
-        with pytest.raises(gw.GrassValueError, match=r"window_s .* \[0.1, 3600\]"):
+        with pytest.raises(gw.GrassValueError, match=r"trace_window .* \[0.1, 3600\]"):
             widget.trace_window = bad
     assert widget.trace_window == 0.1 and len(widget.traces()["t"]) == 3
 
@@ -173,3 +173,13 @@ def test_chart_updates_are_bounded_while_playing(widget):
     assert 1 <= len(pushes) <= 1 + elapsed * 5.0 + 1
     widget.pause()  # the newest samples reach the chart when playing stops
     assert widget.bench.chart.data["x"][-1] == pytest.approx(widget.traces()["t"][-1])
+
+
+def test_the_panel_marks_each_inspected_blade_in_its_chart_colour(widget):
+    _show(widget)
+    widget.inspect([5, 6])
+    widget.step(1)
+    widget.view.draw()
+    html = widget.panel.inspect_line.value
+    assert html.index(INSPECTED_BLADE_COLORS[0]) < html.index("blade 5") < html.index(INSPECTED_BLADE_COLORS[1]) \
+        < html.index("blade 6")
