@@ -183,3 +183,19 @@ def test_the_panel_marks_each_inspected_blade_in_its_chart_colour(widget):
     html = widget.panel.inspect_line.value
     assert html.index(INSPECTED_BLADE_COLORS[0]) < html.index("blade 5") < html.index(INSPECTED_BLADE_COLORS[1]) \
         < html.index("blade 6")
+
+
+def test_collision_strength_is_the_blades_stored_factor_under_a_ball(widget):
+    _show(widget)
+    v0 = widget.view.blades.v0
+    ids = [int(i) for i in np.argsort(np.hypot(v0[:, 0], v0[:, 2]))[:2]] + [int(np.argmax(np.hypot(v0[:, 0], v0[:, 2])))]
+    widget.inspect(ids)  # two blades under the ball at the centre, one at the field's edge
+    widget.ball.move_to(0.0, 0.0)
+    widget.ball.enabled = True
+    widget.step(40)
+    widget.view.draw()
+    tr = widget.traces()
+    want = widget.scene.field.read_state()["collision"][ids]
+    np.testing.assert_allclose(tr["collision"][-1], want, atol=1e-7)
+    assert np.all(tr["collision"][-1][:2] > 0.1) and tr["collision"][-1][2] == 0.0
+    assert np.all(tr["force"]["collision"][-1][:2] >= 0) and tr["force"]["collision"][-1][2] == 0.0
