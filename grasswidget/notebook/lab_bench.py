@@ -56,10 +56,12 @@ class LabBench:
         width: the chart's width (CSS pixels; the view's).
         window_s: the traces' rolling window (simulated seconds, 0.1..3600; default 60).
         owner, name: a HasTraits object and the name of its chart trait (None or a chart
-            kind) that the dropdown is linked to; ``on_error`` gets a value it refused.
+            kind) that the dropdown is linked to (the owner then calls :meth:`show` when it
+            changes); ``on_error`` gets a value it refused. Without an owner the dropdown
+            calls :meth:`show` itself.
     """
 
-    def __init__(self, view, width, *, owner, name="chart", window_s=DEFAULT_WINDOW_S, on_error=None):
+    def __init__(self, view, width, *, owner=None, name="chart", window_s=DEFAULT_WINDOW_S, on_error=None):
         from ..browser.trace_chart import TraceChart
 
         self.recorder = TraceRecorder(window_s)
@@ -81,9 +83,13 @@ class LabBench:
                                      style={"description_width": "40px"},
                                      tooltip="A live chart under the view: tip offset or bend of the inspected "
                                              "blades, blades kept by culling, frame time (w.chart)")
-        self._link = ControlLink(self.dropdown, owner, name, on_error=on_error,
-                                 to_obj=lambda v: None if v == "none" else v,
-                                 to_control=lambda v: "none" if v is None else v)
+        if owner is not None:  # the owner's trait decides; the widget's observer calls show()
+            self._link = ControlLink(self.dropdown, owner, name, on_error=on_error,
+                                     to_obj=lambda v: None if v == "none" else v,
+                                     to_control=lambda v: "none" if v is None else v)
+        else:  # no owner: the dropdown drives this bench itself
+            self._link = None
+            self.dropdown.observe(lambda c: self.show(None if c["new"] == "none" else c["new"]), names="value")
         #: What the widget shows: the chart, then the row with its dropdown.
         self.widget = ipw.VBox([self.chart, ipw.HBox([self.dropdown])])
         self.widget.add_class("grasswidget-lab-bench")
@@ -174,6 +180,7 @@ class LabBench:
         if self.feed is not None:
             self.feed.detach()
             self.feed = None
-        self._link.unlink()
+        if self._link is not None:
+            self._link.unlink()
         for w in (self.dropdown, self.chart, self.widget):
             w.close()

@@ -199,3 +199,24 @@ def test_collision_strength_is_the_blades_stored_factor_under_a_ball(widget):
     np.testing.assert_allclose(tr["collision"][-1], want, atol=1e-7)
     assert np.all(tr["collision"][-1][:2] > 0.1) and tr["collision"][-1][2] == 0.0
     assert np.all(tr["force"]["collision"][-1][:2] >= 0) and tr["force"]["collision"][-1][2] == 0.0
+
+
+def test_a_lab_bench_for_any_view_without_an_owner(widget):
+    """Another widget (a comparison of two views) makes its own LabBench per view."""
+    from grasswidget.notebook.lab_bench import LabBench
+
+    _show(widget)
+    bench = LabBench(widget.view, 200)
+    try:
+        widget.inspect([2])
+        widget.step(3)
+        widget.view.draw()
+        assert bench.traces()["step"].tolist() == [3] == widget.traces()["step"].tolist()
+        bench.dropdown.value = "bend"
+        assert bench.kind == "bend" and bench.chart.data["series"][0]["label"] == "blade 2"
+        assert widget.chart is None  # the widget's own bench is another one
+    finally:
+        bench.close()
+    widget.step(1)
+    widget.view.draw()
+    assert widget.traces()["step"].tolist() == [3, 4]
