@@ -162,8 +162,8 @@ class LabBench:
         elif now >= self._due:
             period = 1.0 / CHART_UPDATES_PER_S
             # due one period after the last due time (not after now), so frames that come every
-            # 0.15 s still give 5 updates a second; never more than half a period of credit
-            self._due = max(self._due + period, now - 0.5 * period)
+            # 0.15 s still give 5 updates a second on average; never two within half a period
+            self._due = max(self._due + period, now + 0.5 * period)
             self.push()
 
     def push(self):

@@ -64,8 +64,9 @@ def test_traces_equal_a_scene_stepped_the_same_steps(widget):
     kept = tr["kept"]
     # (the non-blocking stats lag a frame or two: the count of a frame a step or two away)
     assert abs(kept["occlusion"][-1] - widget.scene.stats.visible) <= 0.02 * widget.scene.stats.visible
+    assert np.isfinite(kept["distance"][1:]).all()  # (the first frame's GPU counts may not be read back yet: NaN)
     for a, b in zip(("orientation", "frustum", "distance"), ("frustum", "distance", "occlusion")):
-        assert np.all(kept[a] >= kept[b]), (a, b)
+        assert not np.any(kept[a] < kept[b]), (a, b)
     assert kept["orientation"][-1] < widget.blade_count
     np.testing.assert_array_equal(tr["drawn"]["ribbons"] + np.nan_to_num(tr["drawn"]["compute"]), kept["occlusion"])
 
