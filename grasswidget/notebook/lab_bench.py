@@ -4,13 +4,15 @@
 
 * a :class:`~grasswidget.core.traces.TraceRecorder` (the rolling window of samples),
 * the feed that fills it for the view's engine (:mod:`grasswidget.notebook.trace_feed`),
-* a :class:`~grasswidget.browser.trace_chart.TraceChart` (uPlot in the browser) and
-  the "chart" dropdown that picks what it shows.
+* a :class:`~grasswidget.browser.trace_chart.TraceChart` (uPlot in the browser;
+  :attr:`LabBench.widget`, to put under the view) and the "chart" dropdown that picks
+  what it shows (:attr:`LabBench.control`, a row for the owner's control panel).
 
 It knows no GrassWidget: the owner passes the view, tells it when the chart choice,
-the play state, the frozen culling or the view itself change, and puts
-:attr:`LabBench.widget` under the view. Another widget (a comparison of two views)
-can make one LabBench per view and read :meth:`LabBench.traces` of each.
+the play state, the frozen culling or the view itself change, puts
+:attr:`LabBench.widget` under the view and :attr:`LabBench.control` in its panel.
+Another widget (a comparison of two views) can make one LabBench per view and read
+:meth:`LabBench.traces` of each.
 
 The chart is redrawn at most :data:`CHART_UPDATES_PER_S` times a second while
 playing (the newest samples are pushed when playing stops), and the series are
@@ -90,9 +92,12 @@ class LabBench:
         else:  # no owner: the dropdown drives this bench itself
             self._link = None
             self.dropdown.observe(lambda c: self.show(None if c["new"] == "none" else c["new"]), names="value")
-        #: What the widget shows: the chart, then the row with its dropdown.
-        self.widget = ipw.VBox([self.chart, ipw.HBox([self.dropdown])])
+        #: What goes under the view: the chart (hidden while ``kind`` is None).
+        self.widget = ipw.VBox([self.chart], layout=ipw.Layout(max_width="100%"))
         self.widget.add_class("grasswidget-lab-bench")
+        #: The row with the "chart" dropdown, for the owner's control panel.
+        self.control = ipw.HBox([self.dropdown])
+        self.control.add_class("grasswidget-lab-bench-control")
         self.attach(view)
 
     # ------------------------------------------------------------------ the view
@@ -182,5 +187,5 @@ class LabBench:
             self.feed = None
         if self._link is not None:
             self._link.unlink()
-        for w in (self.dropdown, self.chart, self.widget):
+        for w in (self.dropdown, self.control, self.chart, self.widget):
             w.close()

@@ -273,9 +273,10 @@ class GrassWidget(ipw.VBox):
         # The view, then the panel column beside it or, where the notebook is narrow, under it.
         self.panel_folded = self.layout_mode == "lecture"
         self.camera_bar = CameraBar(self, on_error=self._show_error)
-        self._layout = WidgetLayout(self.camera_bar.row, self.panel.rows, self.size[0])
+        # The panel's rows, then the lab bench's "chart" choice (its chart goes under the view).
+        self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.bench.control], self.size[0])
         self._layout.fold(self.panel_folded)
-        # The view with the lab bench (the live chart and its dropdown) right under it.
+        # The view with the lab bench's live chart right under it.
         self._stage = ipw.VBox([self.view.widget, self.bench.widget], layout=ipw.Layout(max_width="100%"))
         super().__init__(children=[self._stage, self._layout.column], layout=self._layout.root_layout)
         self.add_class("grasswidget")

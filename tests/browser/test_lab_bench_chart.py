@@ -3,8 +3,8 @@
 ``w.chart = "tip"`` shows the chart under the view: uPlot draws on a canvas (the blades'
 colours are on it), its data advances while playing (the newest x, simulated time,
 grows), a newly inspected blade's series appears, and nothing is fetched from outside
-the Jupyter server (uPlot is inside the widget's module). The "chart" dropdown switches
-it off again.
+the Jupyter server (uPlot is inside the widget's module). The "chart" dropdown in the
+panel switches it off again.
 """
 
 from __future__ import annotations
@@ -90,8 +90,8 @@ def test_tip_chart_appears_moves_while_playing_and_follows_a_new_blade(page, lab
          "blade 200's line drawn", timeout=30, page=page)
     assert kernel_eval(page, "[int(i) for i in w.traces()['ids']]") == [3, 50, 200]
 
-    # the dropdown under the view switches it off (and w.chart follows)
-    page.locator(".grasswidget-lab-bench select").first.select_option(label="none")
+    # the dropdown in the panel switches it off (and w.chart follows)
+    page.locator(".grasswidget-lab-bench-control select").first.select_option(label="none")
     poll(lambda: (kernel_eval(page, "w.chart is None"), "w.chart"), "w.chart to be None", timeout=20, page=page)
     poll(lambda: (lambda s: (not s["visible"], s))(_chart_state(page)), "the chart to hide", timeout=20, page=page)
     assert not outside, f"fetched from outside the server: {outside[:5]}"
