@@ -42,14 +42,14 @@ def _files_written_by_notebooks():
 
 
 def test_notebook_outputs_are_ignored_by_git():
-    """What the notebooks (and the widget's Save PNG, ``grass-<time>.png`` next to the
+    """What the notebooks (and the widget's Save PNG, ``output/grass-<time>.png`` beside the
     notebook) write is ignored by git, so a run leaves no untracked files."""
     if shutil.which("git") is None or not (ROOT / ".git").exists():
         pytest.skip("not a git checkout")
     names = _files_written_by_notebooks()
     assert {"tour.png", "tour.gif", "trampled.png"} <= names, names
     # the notebooks write into output/ (relative to notebooks/)
-    candidates = [f"notebooks/output/{n}" for n in names] + ["notebooks/grass-20260101-120000.png"]
+    candidates = [f"notebooks/output/{n}" for n in names] + ["notebooks/output/grass-20260101-120000.png"]
     r = subprocess.run(["git", "check-ignore", "--no-index", *candidates], cwd=ROOT, capture_output=True, text=True)
     ignored = set(r.stdout.split())
     assert ignored == set(candidates), f"not ignored: {sorted(set(candidates) - ignored)}"
