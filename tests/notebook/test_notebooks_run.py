@@ -109,6 +109,7 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
         assert (tmp_path / "output" / "culling_birdseye.png").stat().st_size > 1000
         text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
         assert "drawn per LOD class, GPU" in text and "orientation" in text
+        _check_culling_counts(text)
     if path.stem == "05_colliders_and_wind":
         for name in ("trampled.png", "vortex.png", "planet.png"):
             assert (tmp_path / "output" / name).stat().st_size > 1000
@@ -117,3 +118,48 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     # nothing but the output folder (ignored by git) was written next to the notebook
     written = {p.name for p in tmp_path.iterdir()} - {work.name, "output", ".ipynb_checkpoints"}
     assert not written, f"{path.name} wrote {sorted(written)} next to itself; write into output/"
+
+
+def _culling_tables(text):
+    """The culling notebook's two count tables: {tests on: drawn} from the course camera, and from
+    the frozen copy of it (the rows after the header naming "(culled by)")."""
+    home, frozen, table = {}, {}, None
+    for line in text.splitlines():
+        if line.strip().startswith("tests on"):
+            table = frozen if "culled by" in line else home
+            continue
+        m = re.match(r"\s*(none|orientation|frustum|distance|all three)\s+(\d+)\b", line)
+        if m and table is not None:
+            table[m.group(1)] = int(m.group(2))
+        elif not m:
+            table = None if not line.startswith(" ") else table
+    return home, frozen
+
+
+def _check_culling_counts(text):
+    """Both tables of 03 give the same counts for the same camera and tests, and they are the counts
+    the NumPy reference gives for the preset's field and camera, computed here on its own."""
+    import numpy as np
+
+    import grasswidget as gw
+    from grasswidget.core import reference as ref
+
+    home, frozen = _culling_tables(text)
+    assert set(home) == {"none", "orientation", "frustum", "distance", "all three"}, home
+    assert set(frozen) == {"orientation", "frustum", "distance", "all three"}, frozen
+    assert all(frozen[k] == home[k] for k in frozen), (home, frozen)
+    scene = gw.GrassScene.preset("cis565", blades=8192, size=(320, 240))
+    assert scene.params.cull_distance_max == 40.0  # the preset's, which the notebook keeps
+    state = scene.field.blades.rest_state()         # render() never advances time: the rest pose
+    scene.freeze_culling()
+    cam = scene.field.frozen_camera
+    tests = {"orientation": ["cull_orientation"], "frustum": ["cull_frustum"], "distance": ["cull_distance"],
+             "all three": ["cull_orientation", "cull_frustum", "cull_distance"]}
+    for label, names in tests.items():
+        p = scene.params.copy()
+        p.cull_occlusion = False
+        for t in ("cull_orientation", "cull_frustum", "cull_distance"):
+            setattr(p, t, t in names)
+        kept = int(np.sum(ref.cull_reason(state, p, cam.view_proj, cam.position) == 0))
+        assert home[label] == kept, (label, home[label], kept)
+    assert home["none"] == scene.field.count
