@@ -55,6 +55,7 @@ from traitlets import All, Bool
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
+from ..core.framing import preset_params
 from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
@@ -207,7 +208,8 @@ class GrassWidget(ipw.VBox):
         streaming["max_blades"] = self.max_blades
         self._blades = self._check_blades(blades)
         self._closed = False
-        self.params = params if params is not None else GrassParams()
+        # A preset's own values (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them.
+        self.params = params if params is not None else GrassParams(**(preset_params(preset) if preset else {}))
 
         try:
             if backend == "kernel":

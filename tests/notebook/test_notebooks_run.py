@@ -23,6 +23,22 @@ pytest.importorskip("matplotlib")
 ROOT = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 PROBE = "import sys as _sys; print('PREFIX=' + _sys.prefix)"
+#: For 03: each culling checkbox of the live widget, flipped, changes the picture it renders and the
+#: blades drawn (the widget's own scene and camera, rendered offscreen twice so that occlusion culling settles).
+LIVE_CULLING_PROBE = """
+import numpy as _np
+def _look():  # offscreen at the view's size, without the supersample (the live view's look)
+    w.scene.render_at(antialias=False)
+    return w.scene.render_at(antialias=False), w.scene.visible_count()
+print(f"LIVE start {_look()[1]}")
+for _name in ("cull_orientation", "cull_frustum", "cull_distance", "cull_occlusion"):
+    _before, _n_before = _look()
+    w.checkboxes[_name].value = not w.checkboxes[_name].value
+    _after, _n_after = _look()
+    w.checkboxes[_name].value = not w.checkboxes[_name].value
+    _px = int((_np.abs(_before.astype(int) - _after.astype(int)).max(axis=2) > 24).sum())
+    print(f"LIVE {_name} {int(w.checkboxes[_name].value)} {_n_before} {_n_after} {_px}")
+"""
 
 
 def test_there_are_notebooks():
@@ -89,6 +105,8 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
     work = tmp_path / path.name
     shutil.copy(path, work)
     nb = nbformat.read(str(work), as_version=4)
+    if path.stem == "03_culling":  # the live widget's checkboxes change its picture and its count
+        nb.cells.append(nbformat.v4.new_code_cell(LIVE_CULLING_PROBE))
     nb.cells.append(nbformat.v4.new_code_cell(PROBE))
     client = nbclient.NotebookClient(
         nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
@@ -110,6 +128,14 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
         text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
         assert "drawn per LOD class, GPU" in text and "orientation" in text
         _check_culling_counts(text)
+        # the live view starts with the count of the tables' "all three" (same camera, same tests)
+        assert int(re.search(r"LIVE start (\d+)", text).group(1)) == _culling_tables(text)[0]["all three"]
+        live = re.findall(r"LIVE (\w+) ([01]) (\d+) (\d+) (\d+)", text)
+        assert len(live) == 4, text[-500:]
+        for name, was_on, n_before, n_after, changed_px in live:
+            # unticking a test draws more blades (ticking one, fewer), and the picture changes
+            more = int(n_after) > int(n_before)
+            assert more == (was_on == "1") and int(changed_px) > 500, (name, was_on, n_before, n_after, changed_px)
     if path.stem == "05_colliders_and_wind":
         for name in ("trampled.png", "vortex.png", "planet.png"):
             assert (tmp_path / "output" / name).stat().st_size > 1000
