@@ -74,9 +74,6 @@ def test_run_all_leaves_every_widget_drawing(path, page, lab_server, browser_roo
     shots = os.environ.get("GW_SHOTS_DIR")
     for i in range(n_views):
         wait_for_view(page, i, timeout=120)  # scrolls it into view: jupyter-rfb draws only visible views
-        if i == 0 and shots:
-            Path(shots).mkdir(parents=True, exist_ok=True)
-            _widget_output(view_locator(page, 0)).screenshot(path=str(Path(shots) / f"nb-{path.stem}.png"))
         # a new frame after a change: ask every open kernel-engine widget to draw
         kernel_execute(page, "for _w in [o for o in __import__('gc').get_objects() if type(o).__name__ == "
                              "'GrassWidget' and getattr(o, 'view', None) is not None and o.backend == 'kernel']:\n"
@@ -84,6 +81,9 @@ def test_run_all_leaves_every_widget_drawing(path, page, lab_server, browser_roo
         wait_for_frames(page, 1, timeout=120, index=i)
         drawn, spread = _not_blank(view_pixels(page, i))
         assert drawn, f"{path.name}: view #{i} is blank (colour spread {spread:.1f})"
+        if i == 0 and shots:
+            Path(shots).mkdir(parents=True, exist_ok=True)
+            _widget_output(view_locator(page, 0)).screenshot(path=str(Path(shots) / f"nb-{path.stem}.png"))
 
     canvases = page.locator("canvas.grasswidget-canvas")
     for i in range(canvases.count()):
