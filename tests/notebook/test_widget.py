@@ -6,6 +6,7 @@ and the draw function is called directly after a fake browser resize event.
 """
 
 import gc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -262,6 +263,10 @@ def test_save_png_from_code_and_button(widget, tmp_path, monkeypatch):
     widget.png_scale.value = 1
     widget.save_button.click()
     assert len(sorted((tmp_path / "output").glob("grass-*.png"))) == 2
+    # save_png() without a path: the same folder, a new name
+    own = widget.save_png(size=(64, 48))
+    assert Path(own).parent == tmp_path / "output" and iio.imread(own).shape[:2] == (48, 64)
+    assert len(sorted((tmp_path / "output").glob("grass-*.png"))) == 3
 
 
 def test_save_animation_gif_deterministic(widget, tmp_path):
