@@ -13,24 +13,36 @@ run "Run All", wait until the kernel is idle with no cell queued, and then check
 * where a notebook's last cells set state it then prints (05: the ball's radius and speed), the
   kernel still holds it once the page has drawn every view (checked after the views).
 
+Notebooks that make a ``backend="auto"`` or ``"browser"`` widget are also run in a Chromium with
+WebGPU (SwiftShader), where that widget is a browser-engine view: its canvas must draw a picture
+(and one per browser-engine widget must). Without WebGPU it falls back to kernel streaming and is
+checked as a kernel view.
+
 With ``GW_SHOTS_DIR`` set, the first widget of each notebook (view and panel) is saved there as
 ``nb-<notebook>.png`` right after Run All, for a person to look at.
 """
 
 from __future__ import annotations
 
+import io
+import json
 import os
+import re
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from .harness import (
+    Browser,
     kernel_eval,
     kernel_execute,
     open_notebook,
+    poll,
     run_all_cells,
+    save_debug_artifacts,
     view_locator,
     view_pixels,
     wait_for_frames,
@@ -48,7 +60,7 @@ STATE_AFTER_RUN_ALL = {
 ROOT = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
-#: Kernel code listing the notebook's GrassWidgets: (backend, open) for each, in creation order.
+#: Kernel code listing the notebook's GrassWidgets: (backend, open) for each.
 WIDGETS = ("[(x.backend if x.view is not None else None, x.view is not None) for x in "
            "sorted((o for o in __import__('gc').get_objects() "
            "if type(o).__name__ == 'GrassWidget' and type(o).__module__.startswith('grasswidget')), key=id)]")
@@ -68,7 +80,53 @@ def _widget_output(locator):
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_run_all_leaves_every_widget_drawing(path, page, lab_server, browser_root):
-    name = f"runall_{path.name}"
+    """Chromium without WebGPU: every widget streams from the kernel (``backend="auto"`` falls back)."""
+    _run_all_and_check(page, lab_server, browser_root, path, shots=os.environ.get("GW_SHOTS_DIR"))
+
+
+#: Notebooks that make a browser-engine widget (``backend="auto"`` or ``"browser"``).
+def _code(path) -> str:
+    return "\n".join("".join(c["source"]) for c in json.loads(path.read_text())["cells"] if c["cell_type"] == "code")
+
+
+BROWSER_ENGINE_NOTEBOOKS = [p for p in NOTEBOOKS if re.search(r"backend\s*=\s*[\"'](auto|browser)[\"']", _code(p))]
+
+
+@pytest.fixture(scope="module")
+def webgpu_browser():
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+@pytest.mark.parametrize("path", BROWSER_ENGINE_NOTEBOOKS, ids=[p.stem for p in BROWSER_ENGINE_NOTEBOOKS])
+def test_run_all_with_webgpu_leaves_browser_views_drawing(path, webgpu_browser, lab_server, browser_root):
+    """Chromium with WebGPU (SwiftShader): the browser-engine widgets draw on their canvases too."""
+    page = webgpu_browser.page
+    try:
+        n_canvases = _run_all_and_check(page, lab_server, browser_root, path, prefix="runall_webgpu_")
+        assert n_canvases >= 1, f"{path.name}: no browser-engine canvas drew in a Chromium with WebGPU"
+    except BaseException:
+        out = save_debug_artifacts(page, os.environ.get("GW_ARTIFACTS_DIR") or browser_root / "artifacts",
+                                   f"runall_webgpu_{path.stem}", webgpu_browser, lab_server)
+        print(f"\n[run all, WebGPU] debug artifacts in {out}")
+        raise
+    finally:
+        try:
+            page.goto("about:blank")
+            lab_server.shutdown_kernels()
+        except Exception:
+            pass
+
+
+def _canvas_drawn(canvas):
+    px = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGBA"))
+    drawn, spread = _not_blank(px)
+    return drawn, spread
+
+
+def _run_all_and_check(page, lab_server, browser_root, path, prefix="runall_", shots=None) -> int:
+    """Run All, then check every widget (see the module's docstring); returns how many browser canvases drew."""
+    name = f"{prefix}{path.name}"
     shutil.copy(path, browser_root / name)
     open_notebook(page, lab_server, name)
     run_all_cells(page, name, timeout=420)
@@ -79,7 +137,6 @@ def test_run_all_leaves_every_widget_drawing(path, page, lab_server, browser_roo
     n_views = page.locator("div.renderview-wrapper img.renderview-view").count()
     assert n_views == kernel_views, f"{n_views} views in the page for {kernel_views} kernel-engine widgets"
 
-    shots = os.environ.get("GW_SHOTS_DIR")
     for i in range(n_views):
         wait_for_view(page, i, timeout=120)  # scrolls it into view: jupyter-rfb draws only visible views
         # a new frame after a change: ask every open kernel-engine widget to draw
@@ -97,17 +154,18 @@ def test_run_all_leaves_every_widget_drawing(path, page, lab_server, browser_roo
         expr, expected = STATE_AFTER_RUN_ALL[path.stem]
         assert kernel_eval(page, expr, name, timeout=60) == expected, expr
 
+    browser_views = sum(1 for backend, _ in widgets if backend == "browser")
     canvases = page.locator("canvas.grasswidget-canvas")
+    drawn_canvases = 0
     for i in range(canvases.count()):
         canvas = canvases.nth(i)
         if not canvas.is_visible():  # a browser view that fell back to kernel streaming
             continue
         canvas.scroll_into_view_if_needed()
-        from PIL import Image
-        import io
-
-        px = np.asarray(Image.open(io.BytesIO(canvas.screenshot())).convert("RGBA"))
-        drawn, spread = _not_blank(px)
-        assert drawn, f"{path.name}: browser canvas #{i} is blank (colour spread {spread:.1f})"
-    print(f"\n[run all] {path.name}: {len(widgets)} widgets, {n_views} kernel views drawing, "
-          f"{canvases.count()} browser canvases")
+        # the first frame of a software WebGPU takes seconds: wait for it, then it must show a picture
+        poll(lambda: _canvas_drawn(canvas), f"browser canvas #{i} of {path.name} to draw", 120, 1.0, page=page)
+        drawn_canvases += 1
+    assert drawn_canvases == browser_views, f"{drawn_canvases} browser canvases drew for {browser_views} browser widgets"
+    print(f"\n[run all] {path.name}: {len(widgets)} widgets, {n_views} kernel views and {drawn_canvases} "
+          f"browser canvases drawing")
+    return drawn_canvases
