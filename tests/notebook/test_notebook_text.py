@@ -71,20 +71,32 @@ def _descriptions_in_source() -> set:
 
 @lru_cache(maxsize=1)
 def panel_labels() -> frozenset:
-    """Every label the panel shows, each also without its unit in brackets."""
+    """Every label the panel shows (the control panel and the camera bar, built headless from a
+    GrassParams and a stand-in owner with the widget's own traits), plus every literal
+    ``description`` in the notebook faces' modules; each also without its unit in brackets."""
+    import copy
+
     from traitlets import HasTraits
 
     from grasswidget.core.params import GrassParams
+    from grasswidget.notebook.camera_bar import CameraBar
     from grasswidget.notebook.panel import ControlPanel
     from grasswidget.notebook.widget import GrassWidget
 
-    class Clock(HasTraits):  # the widget's own traits that the panel edits
-        time_scale = GrassWidget.class_traits()["time_scale"]
-        culling_frozen = GrassWidget.class_traits()["culling_frozen"]
-
-    panel = ControlPanel(GrassParams(), Clock(), object(), blade_count=16, max_blades=64, view_size=(640, 480))
+    # The widget's traits the panel and the camera bar edit (copies: the widget's own stay bound to it).
+    owned = {n: copy.copy(t) for n, t in GrassWidget.class_traits().items()
+             if n in ("time_scale", "culling_frozen", "playing", "camera_floor", "panel_folded")}
+    Owner = type("Owner", (HasTraits,), {
+        **owned,
+        "target_fps": 24.0,
+        # what the buttons would call: nothing is clicked here
+        "__getattr__": lambda self, name: (lambda *args, **kwargs: None),
+    })
+    owner = Owner()
+    panel = ControlPanel(GrassParams(), owner, owner, blade_count=16, max_blades=64, view_size=(640, 480))
+    bar = CameraBar(owner, on_error=lambda err: None)
     try:
-        labels = {w.description for w in _walk(panel.rows) if getattr(w, "description", "")}
+        labels = {w.description for w in _walk(panel.rows + [bar.row]) if getattr(w, "description", "")}
     finally:
         panel.close()
     labels |= _descriptions_in_source()
@@ -273,7 +285,8 @@ def test_panel_labels_are_read_from_the_panel():
     # words with units, the words alone, checkboxes, buttons and the ball row's controls
     for label in ("gust speed (m/s)", "gust speed", "stiffness ×", "time (× real time)", "wind pattern",
                   "frustum culling", "freeze culling", "colour by", "Save PNG", "Reset camera", "Play", "Pause",
-                  "sphere", "Roll", "looks", "details", "fog (1/m)"):
+                  "sphere", "Roll", "looks", "details", "fog (1/m)", "home", "top", "low", "above the grass",
+                  "more"):
         assert label in labels, label
     assert not {"wind_speed", "wind_field", "stiffness_scale", "stiffness x"} & labels
 
