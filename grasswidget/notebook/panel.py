@@ -357,7 +357,7 @@ class ControlPanel:
                                       style={"description_width": "70px"}, layout=ipw.Layout(width="150px"),
                                       tooltip="Resolution of Save PNG, relative to the view")
         self.save_button = ipw.Button(description="Save PNG", icon="camera", layout=bl,
-                                      tooltip="Write a PNG next to the notebook")
+                                      tooltip="Write a PNG into output/ beside the notebook")
         self.save_button.on_click(lambda _b: self._on_save_click())
         self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px", max_width="100%"))
         self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # the one-line status

@@ -60,6 +60,7 @@ from traitlets import All, Any, Bool, validate
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
+from ..core.framing import preset_params
 from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
@@ -244,7 +245,8 @@ class GrassWidget(ipw.VBox):
         streaming["max_blades"] = self.max_blades
         self._blades = self._check_blades(blades)
         self._closed = False
-        self.params = params if params is not None else GrassParams()
+        # A preset's own values (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them.
+        self.params = params if params is not None else GrassParams(**(preset_params(preset) if preset else {}))
 
         try:
             if backend == "kernel":
@@ -594,8 +596,9 @@ class GrassWidget(ipw.VBox):
         browser renders it at that size and Python writes it; this waits for it).
 
         Args:
-            path: file path (default: ``grass-YYYYmmdd-HHMMSS.png`` in the current
-                working directory, i.e. next to the notebook).
+            path: file path (default: ``output/grass-YYYYmmdd-HHMMSS.png`` under the
+                current working directory, i.e. in ``output/`` beside the notebook;
+                the folder is created).
             size: (width, height) or "WxH"; default twice the view size.
         """
         from ..core.framing import parse_size
@@ -603,7 +606,7 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
         if path is None:
-            path = _unique_name(os.getcwd(), "grass", ".png")
+            path = _unique_name(default_picture_folder(), "grass", ".png")
         path = os.fspath(path)
         if not path.lower().endswith(".png"):
             raise GrassValueError(f"path must end in .png; got {path!r}")
@@ -659,11 +662,12 @@ class GrassWidget(ipw.VBox):
         self.view.set_wind_wgsl(body, select=select)
 
     def save_png_later(self, size, done) -> bool:
-        """The Save PNG button: write a PNG of ``size`` (w, h) next to the notebook and call
+        """The Save PNG button: write a PNG of ``size`` (w, h) into ``output/`` beside the notebook
+        (:func:`default_picture_folder`) and call
         ``done(path)`` once written, without blocking the kernel (the browser engine answers
         later; the kernel engine writes it at once). Returns True (it is under way)."""
         self._check_open()
-        path = _unique_name(os.getcwd(), "grass", ".png")
+        path = _unique_name(default_picture_folder(), "grass", ".png")
         self.view.save_png_later(path, size, done)
         return True
 
@@ -832,6 +836,19 @@ class GrassWidget(ipw.VBox):
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
         return f"<GrassWidget {self.blade_count} blades, {self.size[0]}x{self.size[1]}, {state}>"
+
+
+#: Where Save PNG and ``save_png()`` without a path write: this folder under the working
+#: directory (the notebook's folder in Jupyter), as the notebooks save their pictures.
+PICTURE_FOLDER = "output"
+
+
+def default_picture_folder() -> str:
+    """``output/`` under the current working directory (created if missing): where Save PNG
+    and ``GrassWidget.save_png()`` without a path write."""
+    folder = os.path.join(os.getcwd(), PICTURE_FOLDER)
+    os.makedirs(folder, exist_ok=True)
+    return folder
 
 
 def _unique_name(folder, stem, ext):
