@@ -31,7 +31,7 @@ def test_layout_and_labels(widget):
 
     assert isinstance(widget, ipywidgets.VBox)
     assert isinstance(widget.canvas, RenderCanvas)
-    assert widget.children[0] is widget.canvas
+    assert widget.children[0].children[0] is widget.canvas  # the view, with the lab bench under it
     labels = {s.description for s in widget.sliders.values()}
     assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
                       "stiffness ×", "time (× real time)"}
