@@ -576,6 +576,7 @@ class KernelView(GrassView):
             self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
+        self.notify_frame()  # the traces' sample of this frame (grasswidget.notebook.trace_feed)
 
     def _on_visibility(self, visible: bool):
         """No view of this widget on screen (scrolled away, a collapsed output; a hidden tab stops
