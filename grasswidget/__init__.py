@@ -19,7 +19,7 @@ from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
-    WidgetClosedError, WindShaderError,
+    WidgetClosedError, WindShaderError, ExerciseShaderError,
 )
 from .core.params import GrassParams  # noqa: E402
 from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
@@ -82,7 +82,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
     *_LAZY,
 ]
