@@ -23,6 +23,7 @@ from .errors import (  # noqa: E402
 )
 from .core.params import GrassParams  # noqa: E402
 from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
+from .core.exercises import EXERCISES  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -31,19 +32,20 @@ _LAZY = {
     "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.gpu.scene", "GrassScene"),
     "GrassWidget": ("grasswidget.notebook.widget", "GrassWidget"),
+    "exercise": ("grasswidget.notebook.exercise", "exercise"),
 }
 
 #: Modules reachable as attributes of the package (``gw.reference``), loaded on first use.
 _MODULES = {
     **{name: f"grasswidget.core.{name}" for name in (
         "blades", "params", "enums", "colliders", "reference", "memory", "uniform_layouts", "shader_files",
-        "teaching", "framing")},
+        "teaching", "framing", "exercises")},
     "scene": "grasswidget.gpu.scene",
     **{name: f"grasswidget.notebook.{name}" for name in (
         "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
     "ball": "grasswidget.notebook.ball",
     "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
-    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export")},
+    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export", "grading")},
 }
 
 
@@ -80,7 +82,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
     _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
-    "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS",
+    "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",

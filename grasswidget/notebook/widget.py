@@ -524,6 +524,19 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         self.view.set_wind_wgsl(body, select=select)
 
+    def set_function_overrides(self, overrides):
+        """Run user WGSL in place of stock blade-math functions (a
+        :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g. an exercise's
+        forces; see ``gw.exercise``) in the live simulation and culling; None restores the
+        stock ones. Raises :class:`~grasswidget.errors.ExerciseShaderError` (line and column
+        in the user's code) when it does not compile; the functions before stay in force.
+        The kernel engine only (the browser engine does not take overrides yet)."""
+        self._check_open()
+        if self.backend != "kernel":
+            raise GrassValueError("set_function_overrides works with the kernel engine only "
+                                  f"(GrassWidget(backend='kernel')); this widget runs backend={self.backend!r}")
+        self.view.set_function_overrides(overrides)
+
     def save_png_later(self, size, done) -> bool:
         """The Save PNG button: write a PNG of ``size`` (w, h) next to the notebook and call
         ``done(path)`` once written, without blocking the kernel (the browser engine answers
