@@ -32,6 +32,7 @@ import numpy as np
 
 from . import reference as ref
 from .blades import Blades
+from .enums import GravityMode
 from ..errors import GrassValueError
 
 __all__ = ["ExerciseFunction", "ExerciseSpec", "SimulationCase", "CullingCase", "EXERCISES", "exercise_spec",
@@ -236,7 +237,7 @@ def function_io(name, trace, params, k) -> tuple:
     by parameter name, and what its NumPy twin returns."""
     T = {key: (v[k] if isinstance(v, np.ndarray) and v.ndim else v) for key, v in trace.items()}
     if name == "environmental_gravity":
-        mode = params.gravity_mode
+        mode = int(GravityMode.from_label(params.gravity_mode))
         return (dict(v0=T["v0"], gravity_mode=mode, direction=params.gravity_direction, center=params.gravity_center,
                      magnitude=params.gravity), T["g_env"])
     if name == "front_gravity":

@@ -51,6 +51,7 @@ class FunctionGrade:
     all cases), ``wrong`` (blades out of tolerance), ``tolerance`` and ``failure``
     (None, or a dict: ``case``, ``case_description``, ``blade``, ``inputs`` (dict of the
     function's arguments), ``reference`` (what the NumPy twin returns for them),
+    ``your_value`` (what the student's function returned for them, None when not probed),
     ``expected`` and ``yours`` (the blade after the pass: dicts of v1/v2, or the culling
     verdict)).
     """
@@ -87,6 +88,8 @@ class FunctionGrade:
         lines = [f"first failing blade: #{f['blade']} of case \"{f['case']}\" ({f['case_description']})"]
         lines.append("  inputs: " + format_value(f["inputs"]))
         lines.append(f"  reference {self.name}(...) = {format_value(f['reference'])}")
+        if f.get("your_value") is not None:
+            lines.append(f"  your      {self.name}(...) = {format_value(f['your_value'])}")
         lines.append(f"  expected after the pass: {format_value(f['expected'])}")
         lines.append(f"  yours:                   {format_value(f['yours'])}")
         if self.verdict == "NaN":

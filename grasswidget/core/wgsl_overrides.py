@@ -24,6 +24,7 @@ one function by replacing it alone.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import re
 from dataclasses import dataclass
@@ -67,32 +68,45 @@ class WgslFunction:
         return tuple(t for _, t in self.params), self.returns
 
 
+_COMMENT_TOKENS = re.compile(r"//|/\*|\*/")
+
+
 def strip_comments(code: str) -> str:
     """``code`` with its comments (``//`` to the end of the line, ``/* */`` nested)
     replaced by spaces, newlines kept: offsets, lines and columns stay those of ``code``."""
-    out = list(code)
-    i, n = 0, len(code)
-    while i < n:
-        if code.startswith("//", i):
-            j = code.find("\n", i)
-            j = n if j < 0 else j
-            out[i:j] = " " * (j - i)
-            i = j
-        elif code.startswith("/*", i):
-            depth, j = 1, i + 2
-            while j < n and depth:
-                if code.startswith("/*", j):
-                    depth, j = depth + 1, j + 2
-                elif code.startswith("*/", j):
-                    depth, j = depth - 1, j + 2
-                else:
-                    j += 1
-            for k in range(i, j):
-                if out[k] != "\n":
-                    out[k] = " "
-            i = j
-        else:
-            i += 1
+    return _strip_comments(code)
+
+
+@functools.lru_cache(maxsize=32)
+def _strip_comments(code: str) -> str:
+    spans, depth, start, pos = [], 0, 0, 0
+    for m in _COMMENT_TOKENS.finditer(code):
+        if m.start() < pos:
+            continue
+        tok = m.group()
+        if depth == 0 and tok == "//":
+            end = code.find("\n", m.start())
+            end = len(code) if end < 0 else end
+            spans.append((m.start(), end))
+            pos = end
+        elif tok == "/*":
+            if depth == 0:
+                start = m.start()
+            depth += 1
+        elif tok == "*/" and depth:
+            depth -= 1
+            if depth == 0:
+                spans.append((start, m.end()))
+    if depth:
+        spans.append((start, len(code)))
+    if not spans:
+        return code
+    out, at = [], 0
+    for a, b in spans:
+        out.append(code[at:a])
+        out.append(re.sub(r"[^\n]", " ", code[a:b]))
+        at = b
+    out.append(code[at:])
     return "".join(out)
 
 
@@ -102,38 +116,47 @@ def _line_col(code: str, offset: int) -> tuple:
 
 
 _FN_HEAD = re.compile(r"\bfn\s+(\w+)\s*\(([^)]*)\)\s*(?:->\s*([^{]+?))?\s*\{")
+_SCAN = re.compile(r"[{}]|\bfn\b")
 
 
 def parse_functions(code: str) -> list:
     """The module-scope functions of WGSL ``code``, in order (a list of :class:`WgslFunction`).
     Comments are ignored; a function's extent is found by matching braces."""
+    return list(_parse_functions(code))
+
+
+@functools.lru_cache(maxsize=32)
+def _parse_functions(code: str) -> tuple:
     text = strip_comments(code)
-    found, depth, i, n = [], 0, 0, len(text)
-    while i < n:
-        c = text[i]
-        if c == "{":
+    found, depth, skip_to = [], 0, 0
+    head = None
+    for m in _SCAN.finditer(text):
+        if m.start() < skip_to:
+            continue
+        tok = m.group()
+        if tok == "{":
             depth += 1
-        elif c == "}":
+        elif tok == "}":
             depth -= 1
-        elif depth == 0 and text.startswith("fn", i) and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
-            m = _FN_HEAD.match(text, i)
-            if m:
-                j, d = m.end(), 1
-                while j < n and d:
-                    d += {"{": 1, "}": -1}.get(text[j], 0)
-                    j += 1
+            if head is not None and depth == 0:
+                i, hm = head
                 params = tuple(
                     (p.split(":")[0].strip(), re.sub(r"\s+", "", p.split(":", 1)[1]) if ":" in p else "")
-                    for p in m.group(2).split(",") if p.strip()
+                    for p in hm.group(2).split(",") if p.strip()
                 )
-                returns = re.sub(r"\s+", "", m.group(3) or "")
+                returns = re.sub(r"\s+", "", hm.group(3) or "")
                 returns = re.sub(r"^@\w+(\([^)]*\))?", "", returns)
                 line, column = _line_col(code, i)
-                found.append(WgslFunction(m.group(1), params, returns, i, j, line, column, _line_col(code, j - 1)[0]))
-                i = j
-                continue
-        i += 1
-    return found
+                j = m.end()
+                found.append(WgslFunction(hm.group(1), params, returns, i, j, line, column, _line_col(code, j - 1)[0]))
+                head = None
+        elif depth == 0:  # "fn" at module scope
+            hm = _FN_HEAD.match(text, m.start())
+            if hm:
+                head = (m.start(), hm)
+                depth = 1
+                skip_to = hm.end()
+    return tuple(found)
 
 
 class FunctionOverrides:

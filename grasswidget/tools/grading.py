@@ -35,7 +35,7 @@ from ..core.exercises import SIM_TOLERANCE, cull_io, function_io, near_cull_thre
 from ..core.grade_report import FunctionGrade, GradeReport
 from ..core.params import GrassParams
 from ..core.shader_files import render_wgsl
-from ..core.wgsl_overrides import FunctionOverrides
+from ..core.wgsl_overrides import FunctionOverrides, parse_functions
 from ..errors import GrassTypeError
 
 __all__ = ["grade", "overrides_for"]
@@ -87,6 +87,25 @@ def _sim_field(case):
     return field
 
 
+def _probe(overrides, name, cases_inputs):
+    """The student's ``name`` called alone on the GPU with each blade's inputs
+    (:mod:`grasswidget.gpu.function_probe`): {leaf: array over all blades of all cases}."""
+    from ..gpu.function_probe import call_function
+
+    stock = render_wgsl("blade_math.wgsl")
+    (fn,) = [f for f in parse_functions(stock) if f.name == name]
+    rows = [inputs for case_inputs in cases_inputs for inputs in case_inputs]
+    columns = [np.array([np.asarray(row[p], np.float64) if not isinstance(row[p], (int, np.integer)) else row[p]
+                         for row in rows]) for p, _ in fn.params]
+    return call_function(overrides.only(name).apply(stock), name, [t for _, t in fn.params], fn.returns, columns)
+
+
+def _leaf_value(leaves, k):
+    if list(leaves) == ["r"]:
+        return leaves["r"][k]
+    return {key.split(".", 1)[1]: v[k] for key, v in leaves.items()}
+
+
 def _grade_simulation(spec, overrides, cases) -> list:
     fields = [_sim_field(case) for case in cases]
     try:
@@ -100,32 +119,37 @@ def _grade_simulation(spec, overrides, cases) -> list:
         grades = []
         for fn in spec.functions:
             one = overrides.only(fn.name)
-            worst, wrong, checked, first, nan = 0.0, 0, 0, None, False
-            for case, field, exp, trace in zip(cases, fields, expected, traces):
+            io = [[function_io(fn.name, trace, field.params, k) for k in range(len(case.state["v0"]))]
+                  for case, field, trace in zip(cases, fields, traces)]
+            probed = _probe(overrides, fn.name, [[inputs for inputs, _ in rows] for rows in io])
+            finite_value = np.all([np.isfinite(v).reshape(len(v), -1).all(axis=1) for v in probed.values()], axis=0)
+            worst, wrong, checked, first, offset = 0.0, 0, 0, None, 0
+            for c, (case, field, exp) in enumerate(zip(cases, fields, expected)):
                 field.set_function_overrides(one)
                 field.write_state(case.state)
                 field.step_count = case.step_index
                 field.step(1)
                 got = field.read_state()
+                n = len(case.state["v0"])
                 h = np.asarray(case.state["height"], np.float64)
                 err = np.maximum(np.linalg.norm(got["v1"] - exp["v1"], axis=1),
                                  np.linalg.norm(got["v2"] - exp["v2"], axis=1)) / h
-                finite = np.isfinite(got["v1"]).all(axis=1) & np.isfinite(got["v2"]).all(axis=1)
+                finite = (np.isfinite(got["v1"]).all(axis=1) & np.isfinite(got["v2"]).all(axis=1)
+                          & finite_value[offset: offset + n])
                 err = np.where(finite, err, np.inf)
                 bad = err > SIM_TOLERANCE
-                checked += len(err)
+                checked += n
                 wrong += int(bad.sum())
                 worst = max(worst, float(err.max()))
                 if bad.any() and first is None:
-                    k = int(np.argmax(bad))
-                    inputs, reference = function_io(fn.name, trace, field.params, k)
-                    nan = not finite[k]
+                    k = int(np.argmax(~finite)) if not finite.all() else int(np.argmax(bad))
+                    inputs, reference = io[c][k]
                     first = dict(case=case.name, case_description=case.description, blade=k, inputs=inputs,
-                                 reference=reference,
+                                 reference=reference, your_value=_leaf_value(probed, offset + k),
                                  expected={"v1": exp["v1"][k], "v2": exp["v2"][k]},
                                  yours={"v1": got["v1"][k].astype(np.float64), "v2": got["v2"][k].astype(np.float64)})
-                nan = nan or not finite.all()
-            verdict = "NaN" if nan else ("fail" if wrong else "pass")
+                offset += n
+            verdict = "NaN" if not finite_value.all() else ("fail" if wrong else "pass")
             grades.append(FunctionGrade(fn.name, fn.label, verdict, worst, "blade heights", checked, wrong,
                                         SIM_TOLERANCE, first))
         return grades
