@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import GrassValueError
+
 __all__ = ["FunctionGrade", "GradeReport", "format_value"]
 
 #: The verdicts a function can get.
@@ -118,7 +120,7 @@ class GradeReport:
         for f in self.functions:
             if f.name == name:
                 return f
-        raise KeyError(name)
+        raise GrassValueError(f"name must be one of {', '.join(f.name for f in self.functions)}; got {name!r}")
 
     @property
     def failed(self) -> list:
@@ -141,6 +143,13 @@ class GradeReport:
         return f"<GradeReport {self.exercise}: {'passed' if self.passed else 'failed ' + ', '.join(self.failed)}>"
 
     def _repr_markdown_(self):
+        return self.to_markdown()
+
+    def _repr_html_(self):
+        return self.to_html()
+
+    def to_markdown(self) -> str:
+        """The report as Markdown: a table of the functions, then each failing one's first blade."""
         rows = ["| function | result | largest error |", "|---|---|---|"]
         for f in self.functions:
             word = {"pass": "✅ pass", "fail": "❌ fail", "NaN": "❌ NaN"}[f.verdict]
@@ -152,7 +161,9 @@ class GradeReport:
                 details.append(f"**{f.name}**\n\n```\n" + "\n".join(f.failure_lines()) + "\n```")
         return f"**{html.escape(self.summary())}**\n\n" + "\n".join(rows) + "\n\n" + "\n\n".join(details)
 
-    def _repr_html_(self):
+    def to_html(self) -> str:
+        """The report as HTML (what a notebook shows): the summary, a table of the functions
+        (verdict in colour, the largest error, the first failing blade)."""
         esc = html.escape
         colour = {"pass": "#1a7f37", "fail": "#cf222e", "NaN": "#cf222e"}
         rows = []

@@ -95,14 +95,14 @@ class Exercise:
     def _widget_params(self):
         from ..core.params import GrassParams
 
-        if self.spec.kind == "culling":
-            return GrassParams(color_by="cull")  # culled blades drawn in their test's colour
+        if self.spec.kind == "culling":  # culled blades drawn in their test's colour; the three tests only
+            return GrassParams(color_by="cull", cull_occlusion=False)
         return GrassParams(wind_strength=12.0)
 
     def widget(self, wgsl: str, blades: int = 2048, size=(480, 360), **kwargs):
         """A GrassWidget (kernel engine) whose simulation and culling run ``wgsl``'s
         functions, live. The culling exercise starts with ``color_by = "cull"`` (culled
-        blades flat in the colour of their test). ``blades``, ``size`` and ``kwargs`` go
+        blades flat in the colour of their test) and occlusion culling off. ``blades``, ``size`` and ``kwargs`` go
         to :class:`~grasswidget.GrassWidget`; the browser engine does not take student
         functions (``backend`` is "kernel")."""
         from .widget import GrassWidget

@@ -31,7 +31,7 @@ def test_the_starter_fails_and_the_solution_passes(name):
     assert solution.passed, str(solution)
     if ex.spec.kind == "simulation":
         assert max(f.max_error for f in solution.functions) < 1e-5  # float32 rounding of one step, far below the tolerance
-    assert "all passed" in solution._repr_html_() and "fail" in starter._repr_html_()
+    assert "all passed" in solution.to_html() and "fail" in starter.to_html()
 
 
 SCALED = {
@@ -88,7 +88,7 @@ def test_a_nan_fails_with_the_word_nan(forces):
     bad = report["wind_force"]
     assert bad.verdict == "NaN" and bad.failure["case"] == "calm"
     assert np.isnan(bad.failure["your_value"]).all() and not np.isnan(bad.failure["reference"]).any()
-    assert "NaN" in bad.headline() and "NaN" in str(report) and "NaN" in report._repr_html_()
+    assert "NaN" in bad.headline() and "NaN" in str(report) and "NaN" in report.to_html()
 
 
 @pytest.mark.slow
