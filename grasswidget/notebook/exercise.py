@@ -99,39 +99,37 @@ class Exercise:
             return GrassParams(color_by="cull", cull_occlusion=False)
         return GrassParams(wind_strength=12.0)
 
-    def widget(self, wgsl: str, blades: int = 2048, size=(480, 360), **kwargs):
-        """A GrassWidget (kernel engine) whose simulation and culling run ``wgsl``'s
-        functions, live. The culling exercise starts with ``color_by = "cull"`` (culled
-        blades flat in the colour of their test) and occlusion culling off. ``blades``, ``size`` and ``kwargs`` go
-        to :class:`~grasswidget.GrassWidget`; the browser engine does not take student
-        functions (``backend`` is "kernel")."""
+    def widget(self, wgsl: str, blades: int = 2048, size=(480, 360), backend: str = "kernel", **kwargs):
+        """A GrassWidget whose simulation and culling run ``wgsl``'s functions, live. The
+        culling exercise starts with ``color_by = "cull"`` (culled blades flat in the colour
+        of their test) and occlusion culling off. ``backend``: "kernel" (default; the
+        functions can be changed later with ``w.set_function_overrides``), "browser" or
+        "auto" (the browser compiles them when the widget starts). The code is checked
+        (signatures, no loops) and, where the kernel has a GPU adapter, compiled first, so
+        an error names the student's line before any widget shows. ``blades``, ``size`` and
+        ``kwargs`` go to :class:`~grasswidget.GrassWidget`."""
+        from ..tools.grading import check_compiles
         from .widget import GrassWidget
 
         overrides = self.overrides(wgsl)
-        if kwargs.get("backend", "kernel") != "kernel":
-            raise GrassTypeError("backend: exercise widgets run on the kernel engine only; leave backend out")
-        kwargs.pop("backend", None)
+        if backend != "kernel":
+            check_compiles(overrides)
         kwargs.setdefault("params", self._widget_params())
-        w = GrassWidget(blades=blades, size=size, backend="kernel", **kwargs)
-        try:
-            w.set_function_overrides(overrides)
-        except BaseException:
-            w.close()
-            raise
-        return w
+        return GrassWidget(blades=blades, size=size, backend=backend, function_overrides=overrides, **kwargs)
 
-    def compare(self, wgsl: str, blades: int = 1024, size=(320, 240)):
+    def compare(self, wgsl: str, blades: int = 1024, size=(320, 240), backend: str = "kernel"):
         """The student's functions and the reference side by side: two GrassWidgets in an
         HBox, left "yours", right "reference", sharing one GrassParams (a slider on either
-        moves both). Returns the HBox; ``.widgets`` holds (yours, reference)."""
+        moves both); ``backend`` as in :meth:`widget`. Returns the HBox; ``.widgets`` holds
+        (yours, reference)."""
         import ipywidgets as ipw
 
         from .widget import GrassWidget
 
         params = self._widget_params()
-        mine = self.widget(wgsl, blades=blades, size=size, params=params)
+        mine = self.widget(wgsl, blades=blades, size=size, params=params, backend=backend)
         try:
-            ref = GrassWidget(blades=blades, size=size, params=params, backend="kernel")
+            ref = GrassWidget(blades=blades, size=size, params=params, backend=backend)
         except BaseException:
             mine.close()
             raise

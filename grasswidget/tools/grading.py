@@ -38,7 +38,7 @@ from ..core.shader_files import render_wgsl
 from ..core.wgsl_overrides import FunctionOverrides, parse_functions
 from ..errors import GrassTypeError
 
-__all__ = ["grade", "overrides_for"]
+__all__ = ["grade", "overrides_for", "check_compiles"]
 
 
 def overrides_for(spec, wgsl: str) -> FunctionOverrides:
@@ -47,6 +47,25 @@ def overrides_for(spec, wgsl: str) -> FunctionOverrides:
     if not isinstance(wgsl, str):
         raise GrassTypeError(f"wgsl must be a str (the WGSL of your functions); got {type(wgsl).__name__}")
     return FunctionOverrides(wgsl, spec.names, label=f"your {spec.name} code").check(render_wgsl("blade_math.wgsl"))
+
+
+def check_compiles(overrides: FunctionOverrides):
+    """Compile ``overrides`` into the simulation shader with the kernel's adapter (which
+    holds every blade-math function): ExerciseShaderError with the student's line and
+    column when it does not compile. Skipped (returns False) when the kernel has no GPU
+    adapter; True when it compiled."""
+    from ..errors import NoGPUAdapterError
+    from ..gpu.field import GrassField
+
+    try:
+        field = GrassField(Blades.on_plane(1))
+    except NoGPUAdapterError:
+        return False
+    try:
+        field.set_function_overrides(overrides)
+    finally:
+        field.release()
+    return True
 
 
 def _adapter_name() -> str:
