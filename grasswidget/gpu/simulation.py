@@ -10,7 +10,6 @@ inside ``renderer.render()``.
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 import pygfx as gfx
