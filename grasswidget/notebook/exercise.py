@@ -50,7 +50,8 @@ class Exercise:
     @property
     def task(self) -> str:
         """The task as Markdown: what to compute, equations, signatures, units, how it is graded."""
-        rows = "\n".join(f"| `{f.name}` | {f.label} | {f.equation} | {f.units} |" for f in self.spec.functions)
+        cell = (lambda text: text.replace("|", "\\|"))  # |x| in an equation is not a column
+        rows = "\n".join(f"| `{f.name}` | {cell(f.label)} | {cell(f.equation)} | {f.units} |" for f in self.spec.functions)
         sigs = "\n".join(self.signatures())
         return (f"## {self.title}\n{self.spec.task}\n\n| function | computes | equation | units |\n|---|---|---|---|\n"
                 f"{rows}\n\nSignatures (keep them exactly; helper functions of your own are fine, loops are not):\n\n"
