@@ -435,13 +435,13 @@ class KernelView(GrassView):
             self.clock.count(chunk, dt)
 
     @_exclusive
-    @_exclusive
     def set_function_overrides(self, overrides):
         """Replace blade-math functions with user WGSL (GrassField.set_function_overrides), now
         and in every scene built for a new blade count; None: the stock functions."""
         self.scene.field.set_function_overrides(overrides)
         self.function_overrides = overrides
 
+    @_exclusive
     def reset_blades(self):
         """Every blade back to its rest pose; the step counter and sim_time back to 0."""
         self.scene.field.reset()
