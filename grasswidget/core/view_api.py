@@ -126,6 +126,18 @@ class GrassView(abc.ABC):
         self.report_stats = on_stats
         self.report_inspected = on_inspect if on_inspect is not None else (lambda blades: None)
         self.closed = False
+        #: Callables run (no arguments) after each frame the kernel draws, and at each stats message
+        #: of the browser engine: where the traces take their samples (grasswidget.notebook.trace_feed).
+        self.frame_hooks = []
+
+    def notify_frame(self) -> None:
+        """Run :attr:`frame_hooks`; an error in one is reported on the message line, never raised
+        into the frame."""
+        for hook in list(self.frame_hooks):
+            try:
+                hook()
+            except Exception as err:  # a broken listener must not stop the view
+                self.report_error(f"traces: {type(err).__name__}: {err}")
 
     # ------------------------------------------------------------------ what the widget shows
 
