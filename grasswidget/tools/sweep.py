@@ -39,6 +39,7 @@ from ..core.framing import PRESETS, parse_size
 from ..core.params import GrassParams
 from ..core.variants import apply_changes, check_sweep_axes
 from ..errors import GrassTypeError, GrassValueError, MissingFileError
+from .sheet import labelled_sheet
 
 __all__ = ["sweep", "SweepResult", "METRICS", "DEFAULT_BLADES", "DEFAULT_SIZE", "MAX_CELL_PIXELS"]
 
@@ -50,10 +51,6 @@ DEFAULT_BLADES = 4096
 DEFAULT_SIZE = (240, 180)
 #: The most pixels one cell's picture may have (1920 x 1080).
 MAX_CELL_PIXELS = 1920 * 1080
-
-_BACKGROUND = (255, 255, 255, 255)
-_INK = (20, 20, 20, 255)
-_FAINT = (90, 90, 90, 255)
 
 
 def _value_text(value) -> str:
@@ -131,49 +128,23 @@ class SweepResult:
 
 
 def _sheet(result) -> np.ndarray:
-    """The labelled picture: a title, column labels over the cells, row labels left of
-    them (a grid), and under each cell its mean tip offset and bend."""
-    from PIL import Image, ImageDraw, ImageFont
-
-    rows, cols, h, w, _ = result.cells.shape
+    """The labelled picture (:func:`grasswidget.tools.sheet.labelled_sheet`): a title, column
+    labels over the cells, row labels left of them (a grid), and under each cell its mean
+    tip offset and bend."""
     names = list(result.axes)
-    font = ImageFont.load_default(size=13)
-    small = ImageFont.load_default(size=11)
     col_name = names[-1]
     row_name = names[0] if len(names) == 2 else None
-    probe = ImageDraw.Draw(Image.new("RGBA", (1, 1)))
-
-    def text_w(t, f):
-        box = probe.textbbox((0, 0), t, font=f)
-        return box[2] - box[0]
-
-    pad, title_h, head_h, foot_h = 8, 22, 20, 18
-    row_labels = [f"{row_name} = {_value_text(v)}" for v in result.axes[row_name]] if row_name else []
-    left = (max(text_w(t, font) for t in row_labels) + 2 * pad) if row_labels else pad
-    width = left + cols * (w + pad)
-    height = title_h + head_h + rows * (h + foot_h + pad) + pad
-    sheet = Image.new("RGBA", (width, height), _BACKGROUND)
-    draw = ImageDraw.Draw(sheet)
     title = f"{result.blades} blades after {result.steps} steps"
     if result.dt is not None:
         title += f" ({result.steps * result.dt:.2f} s)"
-    draw.text((pad, 4), title, fill=_INK, font=font)
     tips = np.atleast_2d(result.data["mean_tip_offset"])
     bends = np.atleast_2d(result.data["mean_bend_deg"])
-    for c, v in enumerate(result.axes[col_name]):
-        label = f"{col_name} = {_value_text(v)}"
-        x = left + c * (w + pad)
-        draw.text((x + max(0, (w - text_w(label, font)) // 2), title_h + 2), label, fill=_INK, font=font)
-    for r in range(rows):
-        y = title_h + head_h + r * (h + foot_h + pad)
-        if row_labels:
-            draw.text((pad, y + h // 2 - 7), row_labels[r], fill=_INK, font=font)
-        for c in range(cols):
-            x = left + c * (w + pad)
-            sheet.paste(Image.fromarray(result.cells[r, c], "RGBA"), (x, y))
-            note = f"tip {tips[r, c]:.3f} m · bend {bends[r, c]:.1f}°"
-            draw.text((x + 2, y + h + 2), note, fill=_FAINT, font=small)
-    return np.asarray(sheet.convert("RGBA"), np.uint8).copy()
+    rows, cols = tips.shape
+    notes = [[f"tip {tips[r, c]:.3f} m · bend {bends[r, c]:.1f}°" for c in range(cols)] for r in range(rows)]
+    return labelled_sheet(result.cells, title=title,
+                          col_labels=[f"{col_name} = {_value_text(v)}" for v in result.axes[col_name]],
+                          row_labels=[f"{row_name} = {_value_text(v)}" for v in result.axes[row_name]] if row_name else [],
+                          notes=notes)
 
 
 def _check_args(steps, blades, preset, size, params):
