@@ -25,7 +25,7 @@ runtime_dir() {
 install() {
   runtime_dir
   if [ "${GRASSWIDGET_SKIP_INSTALL:-0}" = 1 ]; then return; fi
-  local pkgs="python3 python3-venv python3-pip mesa-vulkan-drivers libvulkan1 chromium"
+  local pkgs="python3 python3-venv python3-pip mesa-vulkan-drivers libvulkan1 chromium nodejs"
   local missing=""
   for p in $pkgs; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done
   if [ -n "$missing" ]; then

@@ -173,3 +173,14 @@ HARNESS_BINDINGS = """
 @group(0) @binding(0) var<storage, read> harness_in: array<u32>;
 @group(0) @binding(1) var<storage, read_write> harness_out: array<u32>;
 """
+
+
+def node_executable() -> str:
+    """The Node.js binary that runs engine.js's rules outside a browser. ``run.sh`` installs
+    Debian's ``nodejs``, so a missing node is a broken set-up: the test fails, never skips."""
+    import shutil
+
+    node = shutil.which("node") or shutil.which("nodejs")
+    if node is None:
+        pytest.fail("Node.js is not installed: ./run.sh test installs Debian's nodejs package")
+    return node

@@ -181,13 +181,12 @@ def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitu
     """
     if hasattr(v0, "gravity") and not isinstance(v0, np.ndarray):  # the (params, v0) form
         params, v0 = v0, gravity_mode
-        mode = getattr(params, "gravity_mode", "direction")
+        mode = params.gravity_mode
         if isinstance(v0, (int, np.integer)):
             if mode == "point":
                 raise GrassValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
             v0 = np.zeros((int(v0), 3))
-        return environmental_gravity(v0, mode, getattr(params, "gravity_direction", (0.0, -1.0, 0.0)),
-                                     getattr(params, "gravity_center", (0.0, 0.0, 0.0)), params.gravity)
+        return environmental_gravity(v0, mode, params.gravity_direction, params.gravity_center, params.gravity)
     mode = GravityMode.from_label(gravity_mode) if isinstance(gravity_mode, str) else GravityMode(int(gravity_mode))
     v0 = np.asarray(v0, np.float64)
     if mode == GravityMode.POINT:
@@ -213,7 +212,7 @@ def wind_period(params):
     the noise and custom fields do not repeat (None). Both sides pass time modulo
     this period, so float32 time on the GPU keeps its precision on long runs.
     """
-    if params.wind_speed <= 0 or getattr(params, "wind_field", "wave") in ("noise", "custom"):
+    if params.wind_speed <= 0 or params.wind_field in ("noise", "custom"):
         return None
     return params.wind_wavelength / params.wind_speed
 
@@ -394,7 +393,7 @@ def wind_field(p, t, params, user_wind=None):
     if kind == "custom":
         p = np.asarray(p, np.float64)
         if user_wind is None:
-            if getattr(params, "wind_wgsl", "").strip():
+            if params.wind_wgsl.strip():
                 raise GrassValueError(
                     "wind_field 'custom' runs WGSL on the GPU; the NumPy reference needs user_wind, "
                     "a Python callable (p, t) -> W equivalent to params.wind_wgsl"
@@ -677,7 +676,7 @@ def _step_collision_and_stiffness(state, params):
     """The step's faded collision strength eta ((N,), :func:`fade_collision`) and the
     effective stiffness ((N,), 1/s, :func:`effective_stiffness`)."""
     n = len(state["v0"])
-    eta = fade_collision(state.get("collision", np.zeros(n)), getattr(params, "collision_fade", 0.15), params.dt)
+    eta = fade_collision(state.get("collision", np.zeros(n)), params.collision_fade, params.dt)
     s = np.asarray(state["stiffness"], np.float64) * params.stiffness_scale
     return eta, effective_stiffness(s, eta)
 
@@ -717,7 +716,7 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     eta, s_eff = _step_collision_and_stiffness(state, params)
     v1, v2 = tip_step(v0, v2, up, h, s_eff, _gravity(state, params), wind_field(v0, t, params, user_wind), params.dt)
     v1, v2, add = collision_passes(v0, v1, v2, up, h, _spheres(colliders))
-    eta = gain_collision(eta, add, getattr(params, "collision_gain", 1.0))
+    eta = gain_collision(eta, add, params.collision_gain)
     out = dict(state)
     out["v1"], out["v2"], out["collision"] = v1, v2, eta
     return out

@@ -14,9 +14,15 @@ import pygfx as gfx
 from ..core.enums import BladeShape
 from ..errors import GrassValueError
 from ..core.frame_data import MATERIAL_DEFAULTS
+from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.uniform_layouts import GRASS_MATERIAL_LAYOUT, shadertype
 
 __all__ = ["GrassMaterial"]
+
+#: The looks' defaults, written once in ``GrassParams`` (a material made without params
+#: looks like a field made with default params).
+_LOOK_DEFAULTS = {name: GrassParams.class_traits()[name].default_value
+                  for name in (*LOOK_TRAITS, "blade_shape")}
 
 #: Ribbon shape labels, in id order (``enums.BladeShape``).
 SHAPES = BladeShape.labels()
@@ -43,15 +49,15 @@ class GrassMaterial(gfx.Material):
         *,
         root_color=MATERIAL_DEFAULTS["root_color"],
         tip_color=MATERIAL_DEFAULTS["tip_color"],
-        color_variation=0.35,
-        patch_size=3.0,
-        dryness=0.1,
-        translucency=0.6,
-        fog_density=0.0,
+        color_variation=_LOOK_DEFAULTS["color_variation"],
+        patch_size=_LOOK_DEFAULTS["patch_size"],
+        dryness=_LOOK_DEFAULTS["dryness"],
+        translucency=_LOOK_DEFAULTS["translucency"],
+        fog_density=_LOOK_DEFAULTS["fog_density"],
         fog_color=MATERIAL_DEFAULTS["fog_color"],
         ambient=MATERIAL_DEFAULTS["ambient"],
         light_direction=MATERIAL_DEFAULTS["light_direction"],
-        blade_shape="triangle-tip",
+        blade_shape=_LOOK_DEFAULTS["blade_shape"],
         tip_threshold=MATERIAL_DEFAULTS["tip_threshold"],
         **kwargs,
     ):

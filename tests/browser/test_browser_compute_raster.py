@@ -1,4 +1,4 @@
-"""Issue 22 in the browser engine, in a real JupyterLab + Chromium (WebGPU on SwiftShader).
+"""The compute rasterizer of thin blades in the browser engine, in a real JupyterLab + Chromium (WebGPU on SwiftShader).
 
 The browser engine runs the kernel engine's compute rasterizer of thin blades (the same
 ``raster.wgsl`` and ``raster_resolve.wgsl``, composed by :mod:`grasswidget.browser.wgsl`):

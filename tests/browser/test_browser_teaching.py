@@ -1,4 +1,4 @@
-"""Issue 16 item 3: the teaching views in the browser engine, in a real JupyterLab +
+"""The teaching views (frozen culling, colour by, the inspector) in the browser engine, in a real JupyterLab +
 Chromium (WebGPU on SwiftShader), one notebook for both tests.
 
 * Frozen culling: after freezing at one camera and flying above the field, the

@@ -18,6 +18,7 @@ from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
 from grasswidget.browser.view import BrowserView, wind_error_from_messages
 from grasswidget.browser.wgsl import BrowserShaders, binding_map
 from grasswidget.core.shader_files import shader_dir
+from conftest import node_executable
 
 
 def _device():
@@ -95,7 +96,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert len(occlusion["blades"]) == len(occlusion["blades_flat"]) == 4
     assert all("n_blades - 1u - in.instance_index" in b["code"] for b in occlusion["blades"] + occlusion["blades_flat"])
     assert occlusion["phase_offset"] == offsets(CULL_LAYOUT)["occlusion_phase"][0]
-    # The compute rasterizer (issue 22): the kernel's raster.wgsl and raster_resolve.wgsl; its passes run
+    # The compute rasterizer: the kernel's raster.wgsl and raster_resolve.wgsl; its passes run
     # only while u_cull.compute_raster is on, bound per view size (the clear over the pixels); the culling
     # lists thin blades into s_raster (written there, read by the walks); the walks do atomic depth
     # tests; the resolve writes frag_depth and reads the words; its colour-by variant has the
@@ -296,15 +297,12 @@ def test_browser_export_filter_is_pygfx_supersampling(bgra):
     Node.js on random pixels, gives what a direct 2D Mitchell filter in linear light over
     the clamped picture gives (pygfx's SSAA of the kernel's exports), to 1/255."""
     import json
-    import shutil
     import subprocess
 
     from grasswidget.browser.view import HERE as browser_dir
     from grasswidget.core.frame_data import export_filter
 
-    node = shutil.which("node") or shutil.which("nodejs")
-    if node is None:
-        pytest.skip("Node.js is not installed (runs engine.js's downsample outside a browser)")
+    node = node_executable()
     f, (w, h) = 2, (9, 7)
     rng = np.random.default_rng(4)
     img = rng.integers(0, 256, (h * f, w * f, 3))

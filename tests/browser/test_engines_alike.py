@@ -1,4 +1,4 @@
-"""Issue 16 items 2 and 4 in a real JupyterLab + Chromium (WebGPU on SwiftShader).
+"""The kernel and browser engines give the same pictures and counts, in a real JupyterLab + Chromium (WebGPU on SwiftShader).
 
 * The two engines on equal terms: the same blades, parameters (the looks on: patches,
   dry grass, sunlit tips, fog), steps and camera give the same picture, saved with
@@ -220,7 +220,7 @@ print('STEPS', s0, s1)
     _compare_engines(out_dir)
 
 
-# ---------------------------------------------------------------------- occlusion culling (issue 17)
+# ---------------------------------------------------------------------- occlusion culling ----------
 
 OCCLUSION_SIZE = (320, 240)
 

@@ -1,4 +1,4 @@
-"""Issue 16 item 2: what a frame needs besides GPU execution is decided once, in Python.
+"""What a frame needs besides GPU execution is decided once, in Python.
 
 * The uniform values: the kernel engine's ``u_sim`` / ``u_cull`` buffers (written by
   GrassField / Simulation) hold byte for byte what the browser engine is sent
@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import subprocess
 
 import numpy as np
 import pytest
 
 import grasswidget as gw
+from conftest import node_executable
 from grasswidget.core import frame_data
 from grasswidget.browser import uniforms
 from grasswidget.browser.view import HERE as BROWSER_DIR
@@ -175,9 +175,7 @@ console.log(JSON.stringify({ steps, poses }));
 
 
 def _run_engine_js(cases):
-    node = shutil.which("node") or shutil.which("nodejs")
-    if node is None:
-        pytest.skip("Node.js is not installed (runs engine.js's clock and orbit rules outside a browser)")
+    node = node_executable()
     url = (BROWSER_DIR / "engine.js").resolve().as_uri()
     out = subprocess.run([node, "--input-type=module", "-e", _NODE_DRIVER % json.dumps(url)],
                          input=json.dumps(cases), capture_output=True, text=True, timeout=60)
@@ -236,9 +234,7 @@ def test_engine_js_lays_out_the_depth_pyramid_as_reference_hzb_layout():
     from grasswidget.browser.wgsl import BrowserShaders
     from grasswidget.core.reference import HZB_MAX_LEVELS, hzb_layout
 
-    node = shutil.which("node") or shutil.which("nodejs")
-    if node is None:
-        pytest.skip("Node.js is not installed (runs engine.js's hzbLayout outside a browser)")
+    node = node_executable()
     rng = np.random.default_rng(3)
     sizes = [[1, 1], [1, 7], [2, 1], [63, 64], [64, 64], [65, 33], [320, 240], [640, 480], [1920, 1080],
              [16384, 16384], [16384, 1]] + rng.integers(1, 5000, (60, 2)).tolist()

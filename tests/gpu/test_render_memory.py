@@ -1,4 +1,4 @@
-"""Resident memory stays flat over hundreds of renders (issue 20).
+"""Resident memory stays flat over hundreds of renders (the lavapipe inline-uniform leak).
 
 On lavapipe (Mesa 22.3) the field's render grew the process by about 0.8 MB a
 frame: the culling shaders branched on ``u_cull`` read from a uniform buffer, and

@@ -10,8 +10,9 @@ process ("Buffer with '' label has been destroyed" in ``wgpuQueueSubmit``).
 The sequence runs in a subprocess (an abort kills the process): the main thread's
 event loop draws and sends frames the way jupyter-rfb asks for them; another
 thread waits until a frame is being drawn and changes the blade count then, for
-every change. The process must exit 0, log no draw error, and send a frame of
-grass after every change.
+every change, and records that the frame was still in progress when it asked (so
+the race is shown to happen, not hoped for). The process must exit 0, log no draw
+error, and send a frame of grass after every change.
 """
 
 import json
@@ -68,15 +69,18 @@ async def main():
         finally:
             in_frame.clear()
     canvas.get_frame = watched_get_frame
-    done, swaps, thread_errors = threading.Event(), [], []
+    done, swaps, thread_errors, mid_frame = threading.Event(), [], [], []
 
     def subshell():  # the comm subshell: the blades slider moves while a frame is drawn
         try:
             for k in range(SWAPS):
                 count = COUNTS[(k + 1) % 2]
                 before = len(sent)
-                in_frame.wait(60)
-                time.sleep(0.02)  # well inside the frame's step + render
+                for _attempt in range(100):  # catch a frame in the middle of its step + render
+                    in_frame.wait(60)
+                    if in_frame.is_set():
+                        break
+                mid_frame.append(in_frame.is_set())  # the race this test is about: a swap during a frame
                 w.set_blades(count)
                 swaps.append(count)
                 t_end = time.monotonic() + 60
@@ -105,7 +109,7 @@ async def main():
     grass = (last[..., 1] > last[..., 0] + 8) & (last[..., 1] > last[..., 2] + 8)
     print("RESULT " + json.dumps({
         "frames": len(sent), "swaps": swaps, "blade_count": w.blade_count, "errors": errors,
-        "thread_errors": thread_errors, "grass_fraction": float(grass.mean()),
+        "thread_errors": thread_errors, "mid_frame": mid_frame, "grass_fraction": float(grass.mean()),
         "last_shape": list(sent[-1].shape)}), flush=True)
     w.close()
 
@@ -126,6 +130,8 @@ def test_blade_count_changes_from_a_comm_thread_while_frames_stream():
     assert result["thread_errors"] == [] and result["errors"] == [], result
     assert result["swaps"] == [COUNTS[(k + 1) % 2] for k in range(SWAPS)]
     assert result["blade_count"] == result["swaps"][-1]
+    # Each change was asked for while a frame was being drawn (the race happened, every time).
+    assert result["mid_frame"] == [True] * SWAPS, result["mid_frame"]
     assert result["frames"] >= 2 * SWAPS + 1  # two frames of each new field, and one more
     assert result["last_shape"][:2] == [120, 160] and result["last_shape"][2] == 4
     assert result["grass_fraction"] > 0.2, result  # a drawn meadow, not a blank frame

@@ -1,4 +1,4 @@
-"""Issue 16 item 1: one view interface (grasswidget.core.view_api.GrassView) that the kernel
+"""One view interface (grasswidget.core.view_api.GrassView) that the kernel
 and the browser views implement in full; the widget talks to it only."""
 
 import ast
