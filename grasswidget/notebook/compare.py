@@ -318,7 +318,7 @@ class Comparison(ipw.VBox):
         for label, follower in self._followers.items():
             owed = follower.owed()
             if owed > 0 and not self.views[label].closed:
-                self.views[label].view.step(owed)
+                self.views[label].step(owed)
 
     def _realign_shared_time(self):
         """After explicit steps, the shared time is where the views stand (so playing on
