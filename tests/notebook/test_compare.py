@@ -174,3 +174,24 @@ def test_bad_variants_raise_before_any_view(monkeypatch, variants, error, words)
     monkeypatch.setattr(widget_module, "GrassWidget", no_view)
     with pytest.raises(error, match=words):
         gw.compare(variants, blades=64)
+
+
+def test_browser_engine_views_follow_the_camera_the_browser_sends():
+    """Browser engine, no browser: a camera the page sends for one view (a drag there) is
+    given to the other; play and pause reach both views' browser models."""
+    c = gw.compare(VARIANTS, blades=BLADES, size=SIZE, backend="browser")
+    try:
+        assert c.backend == "browser" and c.clock is None
+        soft, stiff = c.views["soft"].view, c.views["stiff"].view
+        heard = []
+        soft.add_camera_listener(lambda view: heard.append(view))
+        soft.browser_view.camera = dict(soft.browser_view.camera, position=[3.0, 4.0, 9.0], target=[0.5, 0.5, 0.0])
+        assert np.allclose(stiff.current_camera()["position"], (3.0, 4.0, 9.0))
+        assert np.allclose(stiff.current_camera()["target"], (0.5, 0.5, 0.0))
+        assert len(heard) == 1  # the drag itself; the follower's copy did not come back
+        c.pause()
+        assert [w.view.browser_view.playing for w in c.views.values()] == [False, False]
+        c.play()
+        assert [w.view.browser_view.playing for w in c.views.values()] == [True, True]
+    finally:
+        c.close()
