@@ -14,7 +14,8 @@
 variant (same blades, same preset, same size, same engine), each with its own
 :class:`~grasswidget.GrassParams`: a copy of the shared ones (:attr:`Comparison.params`)
 with the variant's changes. On screen: each view with its label and its differing
-parameters above it and its status line under it, and one
+parameters above it and its status line under it (the view's GrassWidget, its own panel
+folded away), and one
 :class:`~grasswidget.notebook.panel.ControlPanel` for all of them, linked to the shared
 parameters (the controls of the differing ones are disabled there: they belong to
 the views).
@@ -62,6 +63,7 @@ import ipywidgets as ipw
 import numpy as np
 from traitlets import All, Bool
 
+from . import cell_rerun
 from ..core.params import GrassParams, RangedFloat
 from ..core.variants import apply_changes, check_variants
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
@@ -170,6 +172,11 @@ class Comparison(ipw.VBox):
         self.observe(self._on_culling_frozen, names="culling_frozen")
         self.params.observe(self._on_shared_param, names=All)
         self._show_summary()
+        # Re-running the cell that made a comparison closes the previous one (and its views)
+        # when nothing else holds it, as for a GrassWidget (grasswidget.notebook.cell_rerun).
+        cell = cell_rerun.current_cell_id()
+        if cell:
+            cell_rerun.adopt_for_cell(cell, self)
 
     # ------------------------------------------------------------------ building
 
@@ -200,6 +207,8 @@ class Comparison(ipw.VBox):
                                   view_size=self.size)
         controls = {**self.panel.sliders, **self.panel.look_sliders, **self.panel.checkboxes,
                     "wind_field": self.panel.wind_field_dropdown, "color_by": self.panel.color_by_dropdown}
+        # The details (a frame's timings) are each view's own: the panel's toggle would show nothing.
+        self.panel.details_button.layout.display = "none"
         for name in self.differing:
             control = controls.get(name)
             if control is not None:
@@ -207,9 +216,15 @@ class Comparison(ipw.VBox):
                 control.tooltip = f"{name} differs between the views (see the line above each view)"
 
     def _column(self, label, w):
+        """The label, then the view's GrassWidget with its own panel folded away except its status
+        line and message line (what sits between the view and its panel, e.g. a chart, stays)."""
         self.labels[label] = ipw.HTML(value=self._label_html(label), layout=ipw.Layout(max_width=f"{self.size[0]}px"))
-        return ipw.VBox([self.labels[label], w.view.widget, w.stats_line, w.message_line],
-                        layout=ipw.Layout(width=f"{self.size[0]}px"))
+        keep = (w.panel.rows[0], w.message_line)  # the status row (stats line) and the message line
+        for row in w.panel.rows:
+            if all(row is not k for k in keep):
+                row.layout.display = "none"
+        w.panel.details_button.layout.display = "none"
+        return ipw.VBox([self.labels[label], w], layout=ipw.Layout(width=f"{self.size[0]}px"))
 
     def _label_html(self, label) -> str:
         w = self.views[label]
@@ -443,6 +458,45 @@ class Comparison(ipw.VBox):
             paths = [w.save_png(os.path.join(tmp, f"{k}.png"), size=size) for k, w in enumerate(self.views.values())]
             Image.fromarray(self._pictures(size, paths), "RGBA").save(path)
         return path
+
+    def save_png_later(self, size, done) -> bool:
+        """The panel's Save PNG button: write :meth:`save_png`'s picture of every view at ``size``
+        next to the notebook without blocking the kernel (browser views answer later), then call
+        ``done(path)``. Returns True (under way)."""
+        import tempfile
+
+        from PIL import Image
+
+        self._check_open()
+        if self.backend == "kernel":
+            done(self.save_png(size=size))
+            return True
+        tmp = tempfile.TemporaryDirectory()
+        paths = [os.path.join(tmp.name, f"{k}.png") for k in range(len(self.views))]
+        waiting = set(paths)
+        stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+        out = os.path.join(os.getcwd(), f"compare-{stamp}.png")
+
+        def one_done(path):
+            waiting.discard(path)
+            if not waiting:
+                try:
+                    Image.fromarray(self._pictures(size, paths), "RGBA").save(out)
+                finally:
+                    tmp.cleanup()
+                done(out)
+
+        for w, path in zip(self.views.values(), paths):
+            w.view.save_png_later(path, size, one_done)
+        return True
+
+    def parts(self) -> tuple:
+        """What this comparison is made of and owns: its views (GrassWidgets) and their parts,
+        and the panel (see :mod:`grasswidget.notebook.cell_rerun`)."""
+        found = [self.panel] if self.panel is not None else []
+        for w in self.views.values():
+            found += [w, *w.parts()]
+        return tuple(found)
 
     # ------------------------------------------------------------------ closing
 

@@ -195,3 +195,27 @@ def test_browser_engine_views_follow_the_camera_the_browser_sends():
         assert [w.view.browser_view.playing for w in c.views.values()] == [True, True]
     finally:
         c.close()
+
+
+def test_rerunning_the_cell_closes_the_earlier_comparison_and_its_views(monkeypatch):
+    """Cell A makes a comparison (displayed: it lands in the output history), runs again: the
+    first comparison and both its views are closed, the new one stays open."""
+    from IPython.core.interactiveshell import InteractiveShell
+
+    from grasswidget.notebook import cell_rerun
+
+    shell = InteractiveShell.instance()
+    monkeypatch.setattr(cell_rerun, "current_cell_id", lambda: "A")
+    make = ("import grasswidget as gw\n"
+            f"c = gw.compare({VARIANTS!r}, blades=64, size={SIZE!r})\nc\n")
+    try:
+        shell.run_cell(make, store_history=True).raise_error()
+        first = shell.user_ns["c"]
+        shell.run_cell(make, store_history=True).raise_error()
+        second = shell.user_ns["c"]
+        assert first.closed and all(w.closed for w in first.views.values())
+        assert not second.closed and not any(w.closed for w in second.views.values())
+    finally:
+        shell.user_ns["c"].close()
+        shell.reset()
+        InteractiveShell.clear_instance()
