@@ -213,8 +213,7 @@ def sweep(axes, steps=240, blades=DEFAULT_BLADES, preset=None, size=DEFAULT_SIZE
 
     scene_params = base.copy()
     if preset is not None:
-        scene = GrassScene.preset(preset, blades=blades if not isinstance(blades, Blades) else None, size=size,
-                                  params=scene_params, seed=seed)
+        scene = GrassScene.preset(preset, blades=blades, size=size, params=scene_params, seed=seed)
     else:
         field = blades if isinstance(blades, Blades) else Blades.on_plane(int(blades), seed=seed)
         scene = GrassScene(field, size=size, params=scene_params)

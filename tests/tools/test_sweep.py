@@ -117,3 +117,15 @@ def test_cli_sweep_writes_the_sheet_and_refuses_bad_values(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli.main(["sweep", str(tmp_path / "x.jpg"), "--vary", "stiffness_scale=1"])
     assert "must end in .png" in capsys.readouterr().err
+
+
+def test_a_preset_sweep_uses_the_presets_field_and_camera():
+    """The cis565 preset: its field of the given count and its camera (from (0, 1, 10)): the
+    grass fills the lower part of each cell, sky above."""
+    row = gw.sweep({"gravity": [2.0, 20.0]}, steps=20, blades=512, preset="cis565", size=(64, 48), progress=False)
+    assert row.blades == 512 and row.shape == (1, 2)
+    assert row.data["mean_bend_deg"][1] > row.data["mean_bend_deg"][0]  # more gravity, more bend
+    from conftest import grass_mask, sky_mask
+
+    cell = row.cells[0, 0]
+    assert grass_mask(cell[24:]).mean() > 0.3 and sky_mask(cell[:8]).mean() > 0.5
