@@ -147,9 +147,9 @@ class Comparison(ipw.VBox):
         self.views = {}
         self.labels = {}
         self._sync_lock = threading.Lock()
-        self._linking = False
         self.clock = None
         self._followers = {}
+        self._linked = {}
         try:
             for label, changes in self.variants.items():
                 own = apply_changes(self.params.copy(), changes, where=f"variant {label!r}")
@@ -181,22 +181,40 @@ class Comparison(ipw.VBox):
     # ------------------------------------------------------------------ building
 
     def _link_views(self):
-        from .clock import MAX_STEPS_PER_FRAME, SharedClock
-
-        kernel = [w for w in self.views.values() if w.backend == "kernel"]
-        if kernel:
-            self.clock = SharedClock(MAX_STEPS_PER_FRAME)
         for label, w in self.views.items():
-            view = w.view
-            if w.backend == "kernel":
-                follower = self.clock.follower()
-                view.clock = follower  # the view's frame loop now follows the shared time
-                self._followers[label] = follower
-            view.actions = self  # keys and ctrl + click act on every view
-            view.add_camera_listener(self._on_view_camera)
+            self._link_view(label, w.view)
             w.playing = self.playing
             w.observe(self._on_view_playing, names="playing")
+            w.observe(self._on_view_children, names="children")
             w.params.observe(self._on_view_param, names=list(self.differing) or All)
+
+    def _link_view(self, label, view):
+        """Make ``view`` (the GrassView of view ``label``) follow the shared camera and clock."""
+        from .clock import MAX_STEPS_PER_FRAME, SharedClock
+
+        if view.backend == "kernel":
+            if self.clock is None:
+                self.clock = SharedClock(MAX_STEPS_PER_FRAME)
+            follower = self.clock.follower()
+            view.clock = follower  # the view's frame loop now follows the shared time
+            self._followers[label] = follower
+        view.actions = self  # keys and ctrl + click act on every view
+        view.add_camera_listener(self._on_view_camera)
+        self._linked[label] = view
+
+    def _on_view_children(self, change):
+        """A view's GrassWidget replaced its view (a browser without WebGPU: the kernel streams
+        instead): link the new one, at the shared camera."""
+        for label, w in self.views.items():
+            if w.view is not None and w.view is not self._linked.get(label) and not w.closed:
+                old = self._linked.get(label)
+                if old is not None:
+                    old.remove_camera_listener(self._on_view_camera)
+                self._followers.pop(label, None)
+                self._link_view(label, w.view)
+                others = [v.view for lb, v in self.views.items() if lb != label and v.view is not None]
+                if others:
+                    w.view.accept_camera(others[0].current_camera())
 
     def _build_panel(self):
         from .panel import ControlPanel

@@ -219,3 +219,24 @@ def test_rerunning_the_cell_closes_the_earlier_comparison_and_its_views(monkeypa
         shell.user_ns["c"].close()
         shell.reset()
         InteractiveShell.clear_instance()
+
+
+def test_views_that_fall_back_to_the_kernel_stay_linked():
+    """A browser without WebGPU: each browser view's GrassWidget switches to kernel streaming;
+    the new views keep the shared camera, follow the shared clock and step in lockstep."""
+    c = gw.compare(VARIANTS, blades=BLADES, size=SIZE, backend="browser")
+    try:
+        c.camera_state = {"position": (2.0, 5.0, 11.0)}
+        for w in c.views.values():  # what a page without WebGPU reports
+            w.view.browser_view.gpu_status = {"state": "unavailable", "detail": "no adapter (test)"}
+        assert c.backend == "kernel" and c.clock is not None
+        assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.views.values())
+        soft, stiff = c.views["soft"].view, c.views["stiff"].view
+        soft.look((4.0, 5.0, 9.0), (0.0, 0.5, 0.0), 45.0)
+        soft.draw()
+        assert np.allclose(stiff.current_camera()["position"], (4.0, 5.0, 9.0), atol=1e-5)
+        c.step(24)
+        for label, w in c.views.items():
+            _assert_same_state(w.read_state(), _scene_state(w.params, 24))
+    finally:
+        c.close()
