@@ -23,6 +23,10 @@ into a view's parts). What the two views share is written here once:
 
 Both engines have every feature of the interface (the teaching views included).
 
+Camera listeners (:meth:`GrassView.add_camera_listener`): a view tells them when its camera
+moved, and :meth:`GrassView.accept_camera` moves it without telling them, so views can
+follow each other's camera without echoes (a comparison, :mod:`grasswidget.notebook.compare`).
+
 The view is told what to do by the widget and reports back through callbacks
 given at construction: ``clock`` (:class:`ViewClock`), ``actions``
 (:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and

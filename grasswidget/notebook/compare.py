@@ -48,6 +48,10 @@ in every view) act on every view. What "lockstep" guarantees:
   (the browser reports its time only every half second). Use ``reset_blades()`` then
   ``step(n)`` for an exact comparison there.
 
+Each view keeps its own ball (shift + drag; ``c.views[label].ball``), traces and chart
+(``c.views[label].chart``), as any GrassWidget. A browser view whose page has no WebGPU
+falls back to kernel streaming as a GrassWidget does, and is linked again (camera, clock).
+
 Bad input (an unknown parameter, a value out of range, fewer than two or more than four
 variants) raises before any view is made (:func:`grasswidget.core.variants.check_variants`).
 """
