@@ -45,6 +45,7 @@ __all__ = [
     "kernel_dispatch_comm",
     "kernel_requeue_shell",
     "timed_jupyter_canvas_class",
+    "fixed_rfb_esm",
     "widget_registry",
 ]
 
@@ -83,6 +84,9 @@ PRIVATE_USES = (
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("jupyter_rfb", "RemoteFrameBuffer._esm (the text of renderview.js)",
+     "one line corrected: its 'input' handler clears the hidden key input through this.focus_el, a name "
+     "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm)"),
     ("ipywidgets", "widgets.widget._instances",
      "the registry of open widgets (model id -> widget): not a holder when a re-run cell decides whether to close "
      "its earlier widget (cell_rerun.holder_of)"),
@@ -354,6 +358,8 @@ def timed_jupyter_canvas_class():
     class TimedJupyterCanvas(RenderCanvas):
         #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
         on_present = None
+        #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm).
+        _esm = fixed_rfb_esm(str(RenderCanvas._esm))
 
         def _rc_present_bitmap(self, *, data, format, **kwargs):
             if self.on_present is not None:
@@ -361,6 +367,33 @@ def timed_jupyter_canvas_class():
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
 
     return TimedJupyterCanvas
+
+
+#: jupyter-rfb 1.0.2's renderview.js, in the 'input' listener of its hidden key input: the
+#: element is ``this._focusElement``; ``this.focus_el`` (its name in jupyter-rfb 0.x) is never set.
+RFB_INPUT_BUG = "this.focus_el.value = ''"
+RFB_INPUT_FIX = "this._focusElement.value = ''"
+
+
+def fixed_rfb_esm(esm: str) -> str:
+    """jupyter-rfb's front-end module with its typing error corrected.
+
+    The view moves keyboard focus to a hidden text input on pointer down; each
+    character typed there fires 'input', whose listener (jupyter-rfb 1.0.2) clears the
+    input with ``this.focus_el.value = ''``. ``focus_el`` is undefined, so every
+    character threw ``TypeError: Cannot set properties of undefined (setting
+    'value')`` into the page (one per character: the "page error" of a shift + drag
+    during which a key was hit), the listener stopped before sending the 'char' event,
+    and the hidden input kept every character. The fix names the element the listener
+    is registered on (:data:`RFB_INPUT_FIX`). A jupyter-rfb without the faulty line
+    (fixed upstream) is returned unchanged; one with a different use of ``focus_el``
+    raises :class:`UpstreamChangedError` so the upgrade is checked here."""
+    if RFB_INPUT_BUG in esm:
+        esm = esm.replace(RFB_INPUT_BUG, RFB_INPUT_FIX)
+    if "focus_el" in esm:
+        raise UpstreamChangedError("jupyter-rfb's renderview.js changed: it uses focus_el other than as "
+                                   "grasswidget.compat.fixed_rfb_esm expects")
+    return esm
 
 
 # ------------------------------------------------------------------ ipywidgets

@@ -293,3 +293,21 @@ def test_renderer_depth_texture():
     values = np.frombuffer(device.queue.read_buffer(buf), np.float32).reshape(30, 64)[:, :40]
     assert values[0, 0] == 1.0 and values[-1, -1] == 1.0  # cleared to far where nothing is
     assert 0.0 < values[15, 20] < 1.0  # the square's depth in the middle
+
+
+def test_jupyter_rfb_front_end_gets_its_typing_error_corrected():
+    """jupyter-rfb 1.0.2's renderview.js clears its hidden key input through an undefined
+    ``this.focus_el`` (a page error per typed character, tests/browser/test_ball_page_error.py
+    shows it in Chromium); the kernel canvas ships the corrected module."""
+    from jupyter_rfb import RemoteFrameBuffer
+
+    original = str(RemoteFrameBuffer._esm)
+    cls = compat.timed_jupyter_canvas_class()
+    fixed = str(cls._esm)
+    assert "focus_el" not in fixed and compat.RFB_INPUT_FIX in fixed
+    if compat.RFB_INPUT_BUG in original:  # only that line differs
+        assert fixed == original.replace(compat.RFB_INPUT_BUG, compat.RFB_INPUT_FIX)
+    else:
+        assert fixed == original
+    with pytest.raises(compat.UpstreamChangedError):
+        compat.fixed_rfb_esm("this.focus_el.focus()")

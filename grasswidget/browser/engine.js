@@ -431,8 +431,8 @@ class GrassView {
   }
 
   sendBall(e, phase) {
-    const hit = this.groundPoint(e);
-    if (hit) this.engine.report("ball", "", { phase, x: hit[0], z: hit[1] });
+    const hit = this.groundPoint(e);  // null on the sky: Python decides (a press still switches the ball on)
+    if (hit || phase === "down") this.engine.report("ball", "", { phase, x: hit ? hit[0] : null, z: hit ? hit[1] : null });
   }
 
   close() {

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
-from ..core.frame_data import EXPORT_SUPERSAMPLE
+from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW
 from ..core.view_api import GrassView
 from .view import BrowserView
 
@@ -176,9 +176,10 @@ class BrowserEngineView(GrassView):
         if self.ball is None:
             return
         try:
+            if msg.get("x") is not None or msg.get("z") is not None:  # both None: the pointer is on the sky
+                self.ball.move_to(float(msg["x"]), float(msg["z"]))
             if msg.get("phase") == "down" and not self.ball.enabled:
                 self.ball.enabled = True
-            self.ball.move_to(float(msg["x"]), float(msg["z"]))
         except Exception as err:  # noqa: BLE001
             self.report_error(err)
 
@@ -268,10 +269,12 @@ class BrowserEngineView(GrassView):
         return 1.0
 
     def set_playing(self, playing: bool):
+        self._last_stats_t = None  # the speed of time is measured afresh
         if not self.closed:
             self.browser_view.playing = bool(playing)
 
     def set_time_scale(self, time_scale: float):
+        self._last_stats_t = None
         if not self.closed:
             self.browser_view.time_scale = float(time_scale)
 
@@ -283,6 +286,14 @@ class BrowserEngineView(GrassView):
 
     def reset_camera(self):
         self.browser_view.reset_camera()
+
+    def set_camera_floor(self, floor: str):
+        """The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``)."""
+        self.browser_view.camera_floor = floor
+
+    @property
+    def orbit_limits(self):
+        return self.browser_view.orbit_limits
 
     def request_draw(self):
         """The browser draws every animation frame; parameter changes arrive as traits."""
@@ -398,16 +409,32 @@ class BrowserEngineView(GrassView):
     def current_stats(self) -> dict:
         s = dict(self._stats)
         s["blades"] = self.blade_count
+        s["target_fps"] = self.target_fps  # as the kernel's (the blade control's estimate aims for it)
         return s
 
     def refresh_stats(self):
         self.report_stats(self.current_stats())
+
+    def _sim_speed(self, steps):
+        """Simulated seconds per time-scaled wall second since the previous stats message
+        (``steps`` fixed steps of ``params.dt`` were taken in the browser meanwhile), as
+        the kernel's clock measures it; None when unknown (the first message, paused,
+        time_scale 0)."""
+        import time
+
+        now, last = time.perf_counter(), getattr(self, "_last_stats_t", None)
+        self._last_stats_t = now
+        scale = float(self.clock_source.time_scale)
+        if last is None or not self.clock_source.playing or scale <= 0 or now - last <= 0:
+            return None
+        return steps * float(self.params.dt) / ((now - last) * scale)
 
     def _on_browser_stats(self, msg):
         per_class = msg.get("visible")
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)
         frames = max(1, round((fps or 0) * 0.5))
+        sim_speed = self._sim_speed(steps)
         rastered = msg.get("rastered")
         rastered = int(rastered) if rastered is not None else None
         self._stats.update(
@@ -424,6 +451,8 @@ class BrowserEngineView(GrassView):
             frame_size=tuple(msg.get("frame_size") or ()) or None,
             adapter=msg.get("adapter"),
             step_count=msg.get("step_count"),
+            sim_speed=sim_speed,
+            slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
         )
         self.report_stats(self.current_stats())
         if self.browser_view.inspected:

@@ -228,6 +228,7 @@ model.onSend = (msg) => {
       const ball = controls.ball;
       if (!ball) break;
       if (!ball.on) choose(ball, 1);
+      if (msg.x === null || msg.z === null) break;  // a press on the sky: on, where it was (as the kernel does)
       applying = true;
       try { placeBall(ball, msg.x, msg.z); } finally { applying = false; }
       break;

@@ -41,6 +41,7 @@ from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core.frame_data import export_filter, frame_rules
+from ..core.orbit_limits import OrbitLimits, check_floor
 from ..core.params import GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
@@ -117,6 +118,9 @@ class BrowserView(anywidget.AnyWidget):
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)
     camera = Dict().tag(sync=True)
+    #: What the orbit keeps the camera above (Python side; it reaches the browser as the numbers of
+    #: ``frame_rules["orbit"]``): "grass" (the tallest tip) or "ground" (core.orbit_limits.FLOORS).
+    camera_floor = Unicode("grass")
     #: The colliders as [[x, y, z, r], ...] (Python side; the browser gets the two arrays below).
     balls = List()
     #: The spheres (K x 4 float32) and their grid (u32 words; grasswidget.core.collider_grid).
@@ -171,6 +175,7 @@ class BrowserView(anywidget.AnyWidget):
             self._write_frame_rules()
         self.home_camera = dict(self.camera)
         self.observe(self._on_camera_far, names="camera")
+        self.observe(self._on_camera_floor, names="camera_floor")
         self.params.observe(self._on_params)
         self.on_msg(self._on_browser_msg)
 
@@ -194,10 +199,20 @@ class BrowserView(anywidget.AnyWidget):
 
     def _write_frame_rules(self):
         """The clock's rules, orbit limits and scene style for these blades, params and camera far plane."""
-        rules = frame_rules(self.params, self.blades, self.camera.get("far"))
+        rules = frame_rules(self.params, self.blades, self.camera.get("far"), check_floor(self.camera_floor))
         self.frame_rules = rules
         self.sky_ground_uniform = uniforms.sky_ground_uniform(rules["style"])
         self.ball_uniform = uniforms.ball_uniform(rules["style"])
+
+    @property
+    def orbit_limits(self) -> OrbitLimits:
+        """The orbit limits the browser holds its drags to (what ``frame_rules["orbit"]`` says)."""
+        rules = dict(self.frame_rules["orbit"])
+        return OrbitLimits(**{k: tuple(v) if isinstance(v, list) else v for k, v in rules.items()})
+
+    def _on_camera_floor(self, change):
+        with self.hold_sync():
+            self._write_frame_rules()
 
     def _on_camera_far(self, change):
         if (change["old"] or {}).get("far") != (change["new"] or {}).get("far"):

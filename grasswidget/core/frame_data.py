@@ -57,12 +57,16 @@ __all__ = [
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+    "SLOW_MOTION_BELOW",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
 ]
 
 #: The most fixed steps one drawn frame may take while playing, in both engines (a frame
 #: owed more gets this many and the rest is dropped: slow motion).
 MAX_STEPS_PER_FRAME = 64
+#: Below this many simulated seconds per (time-scaled) wall second the status line says
+#: "slow motion", in both engines.
+SLOW_MOTION_BELOW = 0.97
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil
@@ -287,10 +291,12 @@ def clock_rules(params) -> dict:
             "max_steps_per_frame": int(MAX_STEPS_PER_FRAME)}
 
 
-def orbit_rules(blades, far) -> dict:
-    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades and a far plane
-    of ``far`` metres, as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground)."""
-    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far)
+def orbit_rules(blades, far, floor="grass") -> dict:
+    """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades, a far plane
+    of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
+    as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground). The browser clamps
+    with these numbers (engine.js ``clampOrbit``); the floor only changes them."""
+    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
 
 
@@ -396,8 +402,9 @@ def scene_style(blades, far, params=None) -> dict:
     return style
 
 
-def frame_rules(params, blades, far) -> dict:
+def frame_rules(params, blades, far, floor="grass") -> dict:
     """``{"clock": clock_rules, "orbit": orbit_rules, "style": scene_style}`` for a field
-    of ``blades`` seen by a camera whose far plane is ``far`` metres."""
-    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far),
+    of ``blades`` seen by a camera whose far plane is ``far`` metres, orbiting above the
+    ``floor`` ("grass" or "ground", see :func:`orbit_rules`)."""
+    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far, floor),
             "style": scene_style(blades, far, params)}

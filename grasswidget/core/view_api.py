@@ -338,6 +338,16 @@ class GrassView(abc.ABC):
     def reset_camera(self) -> None:
         """Back to the starting view (position, target, field of view)."""
 
+    @abc.abstractmethod
+    def set_camera_floor(self, floor: str) -> None:
+        """Hold the orbit above ``floor`` from now on: "grass" (the tallest blade's tip plus 0.3 m)
+        or "ground" (0.3 m above the ground); already checked (core.orbit_limits.FLOORS)."""
+
+    @property
+    @abc.abstractmethod
+    def orbit_limits(self):
+        """The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to."""
+
     # ------------------------------------------------------------------ teaching views
 
     @abc.abstractmethod

@@ -7,7 +7,8 @@ ground of a :class:`~grasswidget.gpu.scene.GrassScene` and the controls for it:
   as a translucent ball by the scene) or not;
 * ``x``, ``z`` and ``radius`` sliders (metres, in the field's local space);
 * **shift + drag** on the view: the ball follows the point of the ground under
-  the pointer (a shift-click also switches the ball on);
+  the pointer (a shift-click also switches the ball on; one on the sky switches
+  it on where it was, and it follows once the pointer is over the ground);
 * a "Roll" toggle (``rolling``): the ball rolls at ``roll_speed`` m/s of
   simulated time along ``path``: by default a circle around the field's centre
   through the ball's position, so it leaves a ring of trampled grass that slowly
@@ -314,8 +315,10 @@ class BallControl(HasTraits):
             return
         hit = ground_point(scene.camera, float(event.get("x", 0.0)), float(event.get("y", 0.0)), view_size,
                            self._ground_y, np.asarray(scene.field.world.inverse_matrix))
-        if hit is None:
-            return  # on the sky: the ball stays
+        if hit is None:  # on the sky: the ball stays where it is (a press there still switches it on)
+            if switch_on:
+                self.enabled = True
+            return
         pad = 0.1 * self._extent
         x = min(max(hit[0], self._lo[0] - pad), self._hi[0] + pad)
         z = min(max(hit[1], self._lo[2] - pad), self._hi[2] + pad)

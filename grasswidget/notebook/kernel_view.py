@@ -66,6 +66,7 @@ import numpy as np
 
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
+from ..core.frame_data import SLOW_MOTION_BELOW
 from ..core.blades import Blades
 from ..core.view_api import GrassView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -81,8 +82,6 @@ GPU_MAX_BLADES = 1 << 22
 STATS_INTERVAL = 0.5
 #: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
 MAX_BUFFERED_FRAMES = 3
-#: Below this many simulated seconds per (scaled) wall second the stats line says "slow motion".
-SLOW_MOTION_BELOW = 0.97
 
 
 def _exclusive(method):
@@ -244,6 +243,7 @@ class KernelView(GrassView):
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
+        self._camera_floor = "grass"  # what the orbit stays above (set_camera_floor), kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
         self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
@@ -321,7 +321,7 @@ class KernelView(GrassView):
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
         # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
-        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene),
+        self.controller = GroundOrbitController(scene.camera, limits=OrbitLimits.for_scene(scene, self._camera_floor),
                                                 register_events=scene.renderer)
         # A custom target: orbit and zoom around the point the view looks at
         # (GrassScene aims with look_at, which leaves the camera extent unrelated
@@ -446,6 +446,19 @@ class KernelView(GrassView):
             self.controller.target = self._home_target  # panning moves the target
             self.scene.camera.set_state(self._home_state)
         self.request_draw()
+
+    @_exclusive
+    def set_camera_floor(self, floor: str):
+        """New orbit limits for the controller: above the grass's tips or above the ground."""
+        from .orbit import OrbitLimits
+
+        self._camera_floor = floor
+        if self.controller is not None and self.scene is not None:
+            self.controller.limits = OrbitLimits.for_scene(self.scene, floor)
+
+    @property
+    def orbit_limits(self):
+        return self.controller.limits if self.controller is not None else None
 
     def current_camera(self) -> dict:
         """position, target (the orbit centre) and fov_deg (vertical) of the camera."""

@@ -31,13 +31,14 @@ import html
 
 import ipywidgets as ipw
 
+from .blade_control import BladeCountControl
 from .control_link import ControlLink
 from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import legend
 
 __all__ = ["ControlPanel", "PARAM_SLIDERS", "LOOK_SLIDERS", "LABELS", "CULL_CHECKBOXES", "control_label",
-           "control_tooltip", "format_status", "format_details", "legend_html", "inspected_html"]
+           "control_tooltip", "format_status", "format_speed", "format_details", "legend_html", "inspected_html"]
 
 #: Sliders of the panel: (GrassParams trait, slider step, readout format).
 PARAM_SLIDERS = (
@@ -122,26 +123,52 @@ def _wrapping_row(children, **layout):
     return ipw.HBox(children, layout=ipw.Layout(width="100%", flex_flow="row wrap", align_items="center", **layout))
 
 
+#: Frames/s below which the status says no frame arrives (it would read "0.0 frames/s").
+NO_FRAMES_BELOW = 0.05
+
+
+def format_speed(speed: float) -> str:
+    """Simulated seconds per wall second as the status writes it: ``"0.6x"``, and two
+    significant digits below 0.1 (``"0.03x"``), never ``"0.0x"``."""
+    if speed >= 0.1:
+        return f"{speed:.1f}x"
+    return f"{speed:.1g}x" if speed >= 0.01 else "under 0.01x"
+
+
 def format_status(stats: dict) -> str:
     """The one-line status under the view, in words (plain, " · " separated): frames
     per second, blades drawn, and whether time runs in real time or slow motion.
     Keys of a view's stats dict (each optional, None = unknown): ``fps``,
     ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
     seconds), ``playing`` (False: "paused" instead of the speed of time). The rest is
-    in :func:`format_details`."""
+    in :func:`format_details`.
+
+    It only says what it knows: paused, ``"paused"`` (no frame rate: a paused view
+    draws on demand); playing before the first measured frame (``fps`` None),
+    ``"starting…"``; playing while no frame arrives (``fps`` below
+    :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``. "real time" or "slow motion"
+    only follow a measured frame rate, and not while ``sim_speed`` is given as None
+    (the speed of simulated time is not measured yet)."""
     s = stats
-    parts = [f"{s['fps']:.1f} frames/s" if s.get("fps") is not None else "– frames/s"]
+    fps = s.get("fps")
+    if s.get("playing") is False:
+        parts = ["paused"]
+    elif fps is None:
+        parts = ["starting…"]
+    elif fps < NO_FRAMES_BELOW:
+        parts = ["waiting for frames"]
+    else:
+        parts = [f"{fps:.1f} frames/s"]
     blades = s.get("blades")
     if s.get("visible") is not None and blades is not None:
         parts.append(f"{s['visible']:,} of {blades:,} blades drawn")
     elif blades is not None:
         parts.append(f"{blades:,} blades")
-    if s.get("playing") is False:
-        parts.append("paused")
-    elif s.get("slow_motion") and s.get("sim_speed") is not None:
-        parts.append(f"slow motion {s['sim_speed']:.1f}x")
-    elif s.get("fps") is not None:
-        parts.append("real time")
+    if s.get("playing") is not False and fps is not None and fps >= NO_FRAMES_BELOW:
+        if s.get("slow_motion") and s.get("sim_speed") is not None:
+            parts.append(f"slow motion {format_speed(s['sim_speed'])}")
+        elif "sim_speed" not in s or s["sim_speed"] is not None:  # not measured yet: no claim
+            parts.append("real time")
     return " · ".join(parts)
 
 
@@ -234,12 +261,15 @@ class ControlPanel:
         actions: the object whose methods the buttons call: ``toggle_play()``,
             ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``,
             ``save_png(size=(w, h)) -> path`` and ``inspect(ids)`` ("Clear": ``inspect([])``).
-        blade_count, max_blades: the blade slider's value and top.
+        blade_count, max_blades: the blade control's count and top (see
+            :mod:`grasswidget.notebook.blade_control`: powers of two, asks before a
+            count slower than the target frame rate).
         view_size: (w, h) CSS pixels of the view (Save PNG multiplies it).
         ball_row: an ipywidget row (the ball's controls) or None.
 
     Attributes: ``sliders`` (dict name -> slider, incl. "blades" and
-    "time_scale"), ``blade_slider``, ``wind_field_dropdown``, ``checkboxes``
+    "time_scale"), ``blade_control`` (:class:`BladeCountControl`) and its
+    ``blade_slider`` (value: the blade count), ``wind_field_dropdown``, ``checkboxes``
     (dict trait -> checkbox), ``color_by_dropdown``, ``freeze_checkbox``,
     ``legend_line``, ``inspect_line``, ``clear_inspect_button``, ``play_button``, ``step_button``,
     ``reset_blades_button``, ``reset_camera_button``, ``save_button``,
@@ -257,13 +287,11 @@ class ControlPanel:
         err = self.show_error
         column = _column_width(self.view_size[0])
 
-        # blade count: rebuilds the field, so only on release
-        self.blade_slider = ipw.IntSlider(
-            value=blade_count, min=1, max=max_blades, step=1, description=control_label("blades"),
-            continuous_update=False, style=_DESC, layout=ipw.Layout(width=column),
-            tooltip="Number of blades (rebuilds the field; applied on release)",
-        )
-        self.blade_slider.observe(self._on_blade_slider, names="value")
+        # blade count: powers of two, asks before a count slower than the target frame rate
+        self.blade_control = BladeCountControl(blade_count, max_blades, actions.set_blades, err, width=column,
+                                               target_fps=lambda: actions.target_fps,
+                                               description=control_label("blades"))
+        self.blade_slider = self.blade_control.slider
         self.sliders = {"blades": self.blade_slider}
         for name, step, fmt in PARAM_SLIDERS:
             self.sliders[name] = s = _slider(name, params, step, fmt, column)
@@ -339,7 +367,9 @@ class ControlPanel:
         self.message_line = ipw.HTML(value="", layout=ipw.Layout(min_height="0px"))
 
         # Rows that fit the view (two columns of controls in 640 px); each wraps when the view is narrower.
-        sliders = _wrapping_row(list(self.sliders.values()) + [self.wind_field_dropdown])
+        controls = list(self.sliders.values())
+        controls.insert(1, self.blade_control.confirm_row)  # the blade count's question, under it (while asking)
+        sliders = _wrapping_row(controls + [self.wind_field_dropdown])
         #: The "looks" row: a heading and the look sliders.
         self.looks_row = _wrapping_row([ipw.HTML("<b>looks</b>", layout=ipw.Layout(width="100%"))]
                                        + list(self.look_sliders.values()))
@@ -367,17 +397,13 @@ class ControlPanel:
         self.play_button.icon = "pause" if playing else "play"
 
     def show_blade_count(self, count: int):
-        """Move the blade slider without asking for a rebuild."""
-        if self.blade_slider.value != count:
-            self.blade_slider.unobserve(self._on_blade_slider, names="value")
-            try:
-                self.blade_slider.value = count
-            finally:
-                self.blade_slider.observe(self._on_blade_slider, names="value")
+        """Show the blade count (applied elsewhere) on the blade control without asking for a rebuild."""
+        self.blade_control.show_count(count)
 
     def show_stats(self, stats: dict):
         """Show a view's stats dict: the one-line status (:func:`format_status`) and,
         behind the "details" toggle, the timings (:func:`format_details`)."""
+        self.blade_control.note_stats(stats)  # the frame rate its estimate scales
         self.stats_line.value = "<small>" + html.escape(format_status(stats)) + "</small>"
         self.details_line.value = "<small><code>" + html.escape(format_details(stats)) + "</code></small>"
 
@@ -402,13 +428,6 @@ class ControlPanel:
         self.file_line.value = file_link(path, size)
 
     # ------------------------------------------------------------------ controls
-
-    def _on_blade_slider(self, change):
-        try:
-            self._actions.set_blades(int(change["new"]))
-        except Exception as err:  # e.g. out of GPU memory: the old field stays
-            self.show_error(err)
-            self.show_blade_count(int(change["old"]))
 
     def _on_color_by(self, change):
         self.legend_line.value = legend_html(change["new"])

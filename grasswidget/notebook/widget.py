@@ -32,8 +32,13 @@ browser when it offers a WebGPU adapter. A browser without WebGPU makes a
 "browser" or "auto" widget fall back to kernel streaming with one line saying so.
 
 Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
-right-drag to pan, wheel to zoom (the camera stays above the ground and the
-field in sight, see :mod:`grasswidget.notebook.orbit`). Shift + drag puts the ball (a sphere
+right-drag to pan, wheel to zoom (the camera stays above the grass, or the
+ground with ``camera_floor="ground"``, and the field in sight, see
+:mod:`grasswidget.core.orbit_limits`); ``look_from("home" | "top" | "low")`` and
+the camera bar's buttons move it to a named view
+(:mod:`grasswidget.core.camera_presets`). Layouts (:mod:`grasswidget.notebook.layout`):
+the panel beside the view, or under it in a narrow notebook; ``layout="lecture"``
+gives a 1280 x 720 view and the panel folded to one line. Shift + drag puts the ball (a sphere
 collider) on the ground under the pointer; the "sphere" row switches it on and
 off, moves and resizes it and rolls it along a circle ("Roll"). Keys, only
 while the canvas has focus (click it first; the keys go to a hidden text
@@ -59,7 +64,11 @@ from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
-from ..core.params import GrassParams, RangedFloat
+from .camera_bar import CameraBar
+from .layout import PANEL_WIDTH, WidgetLayout
+from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
+from ..core.orbit_limits import FLOORS, clamp_orbit
+from ..core.params import ChoiceTrait, GrassParams, RangedFloat
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
 
@@ -88,7 +97,8 @@ class GrassWidget(ipw.VBox):
             or a :class:`grasswidget.Blades`.
         preset: None, or a preset name passed to ``GrassScene.preset`` (e.g.
             "cis565", "meadow").
-        size: (width, height) of the view in CSS pixels, or "WxH".
+        size: (width, height) of the view in CSS pixels, or "WxH" (default 640 x 480;
+            1280 x 720 with ``layout="lecture"``).
         params: a :class:`GrassParams` to use (and share); default a new one.
         max_fps, quality: override the adapter's streaming defaults
             (:func:`streaming_defaults`): the stream cap (frames/s) and JPEG quality.
@@ -98,6 +108,10 @@ class GrassWidget(ipw.VBox):
             adapter, 2 on a GPU; the browser's devicePixelRatio below that).
             E.g. 0.5 on a CPU adapter renders a quarter of the pixels, about
             twice the frames/s, and the browser scales the picture up.
+        layout: "default" (the panel unfolded beside or under the view) or "lecture"
+            (a 1280 x 720 view unless ``size`` is given, the panel folded to one
+            line: play/pause, camera presets, "more"). ``w.layout_mode`` says which;
+            ``w.layout`` is ipywidgets' Layout as on every widget.
         backend: "kernel" (default: render in the kernel, stream frames),
             "browser" (simulate and draw in the browser with WebGPU) or "auto"
             (the browser when it offers WebGPU). ``w.backend`` says which is live.
@@ -115,10 +129,14 @@ class GrassWidget(ipw.VBox):
             ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
         sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
         step_button, reset_blades_button, reset_camera_button, save_button,
-        png_scale, file_line, stats_line, message_line: the panel's controls.
+        png_scale, file_line, stats_line, message_line: the panel's controls
+            (``blade_slider``: the blade count control's slider, in powers of two, see
+            :mod:`grasswidget.notebook.blade_control`).
 
-    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``
-    and ``culling_frozen`` (cull against a copy of the camera taken when it was set).
+    Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
+    ``culling_frozen`` (cull against a copy of the camera taken when it was set),
+    ``camera_floor`` ("grass" or "ground": what the orbit keeps the camera above) and
+    ``panel_folded`` (only the camera bar shows).
 
     Time: while playing, simulated time follows the wall clock in whole fixed
     steps of ``params.dt`` (:attr:`sim_time` counts it); when a frame would need
@@ -131,6 +149,14 @@ class GrassWidget(ipw.VBox):
                              help="Simulated seconds per wall-clock second while playing.")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
     culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
+    camera_floor = ChoiceTrait("grass", FLOORS, help='What the orbit keeps the camera above: "grass" (0.3 m above '
+                               'the tallest blade\'s tip, so never inside the field) or "ground" (0.3 m above the '
+                               'ground, down among the blades). A widget whose start camera is lower than the grass '
+                               'starts with "ground".')
+    panel_folded = Bool(False, help="Show only the camera bar (play/pause, camera presets, more) under or beside the "
+                        "view; True from the start with layout='lecture'.")
+    camera_bar = None
+    _layout = None
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -159,9 +185,15 @@ class GrassWidget(ipw.VBox):
     stats_line = _panel_property("stats_line")
     message_line = _panel_property("message_line")
 
-    def __init__(self, blades=4096, preset=None, size=(640, 480), params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None, backend="kernel", target_fps=None):
+    def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
+                 pixel_ratio=None, backend="kernel", target_fps=None, layout="default"):
         from ..core.framing import PRESETS, parse_size
+        from .layout import LAYOUT_VIEW_SIZES, check_layout
+
+        #: "default" or "lecture" (see :mod:`grasswidget.notebook.layout`); ``w.layout`` stays ipywidgets' Layout.
+        self.layout_mode = check_layout(layout)
+        if size is None:
+            size = LAYOUT_VIEW_SIZES[self.layout_mode]
 
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
@@ -222,15 +254,23 @@ class GrassWidget(ipw.VBox):
                                               pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"])
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
-                                      max_blades=self.max_blades, view_size=self.size,
+                                      max_blades=self.max_blades, view_size=(min(self.size[0], PANEL_WIDTH),
+                                                                             self.size[1]),
                                       ball_row=self.ball.controls)
+            self.panel.view_size = self.size  # Save PNG multiplies the view's size (the rows fit the column)
+            self._start_camera()
         except BaseException:
             self.close()
             raise
-        # The panel is exactly as wide as the view; its rows wrap within it.
-        super().__init__(children=[self.view.widget, *self.panel.rows],
-                         layout=ipw.Layout(width=f"{self.size[0]}px", max_width="100%"))
+        # The view, then the panel column beside it or, where the notebook is narrow, under it.
+        self.panel_folded = self.layout_mode == "lecture"
+        self.camera_bar = CameraBar(self, on_error=self._show_error)
+        self._layout = WidgetLayout(self.camera_bar.row, self.panel.rows, self.size[0])
+        self._layout.fold(self.panel_folded)
+        super().__init__(children=[self.view.widget, self._layout.column], layout=self._layout.root_layout)
         self.add_class("grasswidget")
+        self.observe(self._on_camera_floor, names="camera_floor")
+        self.observe(lambda change: self._layout.fold(bool(change["new"])), names="panel_folded")
         self.params.observe(self._on_param_change)
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
@@ -428,9 +468,52 @@ class GrassWidget(ipw.VBox):
         self.view.reset_blades()
 
     def reset_camera(self):
-        """Back to the scene's starting view."""
+        """Back to the scene's starting view (``look_from("home")``)."""
+        self.look_from("home")
+
+    def look_from(self, name):
+        """Move the camera to a named view, in both engines (``camera_state`` follows):
+
+        - ``"home"``: the start camera (as :meth:`reset_camera`);
+        - ``"top"``: straight down over the middle of the field, the whole field in
+          the picture (freeze culling at "home", then look from "top" to see what it culls);
+        - ``"low"``: a student's eye just above the grass, at the field's edge on the
+          home side, looking across the field.
+
+        Computed from the field's extent by :func:`grasswidget.core.camera_presets.camera_preset`
+        and held to the orbit limits. A camera lower than the "grass" floor allows (the
+        cis565 course view's home) lowers ``camera_floor`` to "ground"; no preset raises it.
+        Any other name raises GrassValueError naming the presets.
+        """
         self._check_open()
-        self.view.reset_camera()
+        check_camera_preset(name)
+        if name == "home":
+            self.view.reset_camera()
+        else:
+            blades = self.view.blades
+            cam = camera_preset(name, blades.v0, blades.height, home=self._home_camera,
+                                aspect=self.size[0] / self.size[1], fov_deg=self.view.camera_state["fov_deg"],
+                                limits=self.view.orbit_limits)
+            self.view.camera_state = cam
+        if self.camera_floor == "grass" and floor_for(self.view.blades, self.view.camera_state,
+                                                      self.view.depth_range[1]) == "ground":
+            self.camera_floor = "ground"
+
+    def _start_camera(self):
+        """Remember the start camera (for the presets) and start on the floor it needs."""
+        self._home_camera = dict(self.view.camera_state)
+        self.camera_floor = floor_for(self.view.blades, self._home_camera, self.view.depth_range[1])
+        self.view.set_camera_floor(self.camera_floor)
+
+    def _on_camera_floor(self, change):
+        """A new floor: new orbit limits in the view; a camera now below them rises at once."""
+        if self._closed or self.view is None:
+            return
+        self.view.set_camera_floor(change["new"])
+        cam = self.view.camera_state
+        position, target = clamp_orbit(cam["position"], cam["target"], self.view.orbit_limits)
+        if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):
+            self.view.camera_state = {"position": tuple(position), "target": tuple(target)}
 
     def inspect(self, ids):
         """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
@@ -512,7 +595,8 @@ class GrassWidget(ipw.VBox):
         colliders = [ball.collider] if ball is not None and ball.enabled else []
         return save_html(path, blades, self.params, size=self.size, camera=camera, colliders=colliders,
                          ball_radius=float(ball.collider.radius) if ball is not None else None,
-                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title)
+                         playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title,
+                         camera_floor=self.camera_floor)
 
     def set_wind_wgsl(self, body: str, select: bool = True):
         """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
@@ -600,6 +684,8 @@ class GrassWidget(ipw.VBox):
                 pass
         if self.panel is not None:
             self.panel.close()
+        if self.camera_bar is not None:
+            self.camera_bar.close()
         if self.view is not None:
             self.view.close()
         if self.ball is not None:
@@ -656,6 +742,7 @@ class GrassWidget(ipw.VBox):
                              f"render either: {err}")
             return
         self.view = new
+        new.set_camera_floor(self.camera_floor)
         new.attach_ball(self.ball)
         self.ball.attach(new.ball_scene)
         try:

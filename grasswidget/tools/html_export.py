@@ -52,7 +52,7 @@ def still_picture(blades: Blades, params: GrassParams, camera: dict, size, colli
 
 def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480), camera: dict | None = None,
               colliders=(), ball_radius=None, playing: bool = True, time_scale: float = 1.0, still: bool = True,
-              title: str = "grasswidget meadow") -> str:
+              title: str = "grasswidget meadow", camera_floor: str | None = None) -> str:
     """Write the live page to ``path`` (must end in .html, in an existing folder); returns the path.
 
     Args:
@@ -65,8 +65,12 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
             tenth of the field's extent).
         playing, time_scale: the page's clock at the start.
         still: render the still picture shown without WebGPU (False: the line alone).
+        camera_floor: what the page's orbit keeps the camera above, "grass" or "ground"
+            (default: "grass" unless the camera is lower than the grass, as the cis565 view).
     """
     from ..browser.view import BrowserView
+    from ..core.camera_presets import floor_for
+    from ..core.orbit_limits import check_floor
 
     p = check_page_path(path)
     if isinstance(blades, (int,)) and not isinstance(blades, bool):
@@ -82,6 +86,8 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
         ball_radius = float(colliders[0].radius)
     view = BrowserView(blades, params=params, size=tuple(size), camera=camera)
     try:
+        view.camera_floor = (check_floor(camera_floor) if camera_floor is not None
+                             else floor_for(blades, view.camera, view.camera.get("far")))
         view.playing = bool(playing)
         view.time_scale = float(time_scale)
         view.colliders = colliders[:1]

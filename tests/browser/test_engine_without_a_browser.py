@@ -234,6 +234,12 @@ def test_browser_messages_move_the_ball_and_never_raise():
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
     view = w.view.browser_view
     try:
+        center = w.ball.collider.center
+        view.handle_message({"type": "ball", "phase": "move", "x": None, "z": None})  # on the sky, not pressed
+        assert not w.ball.enabled and w.ball.collider.center == center
+        view.handle_message({"type": "ball", "phase": "down", "x": None, "z": None})  # a press on the sky
+        assert w.ball.enabled and w.ball.collider.center == center  # on, where it was
+        w.ball.enabled = False
         view.handle_message({"type": "ball", "phase": "down", "x": 1.0, "z": -0.5})
         assert w.ball.enabled and w.ball.collider.center[0] == 1.0 and w.ball.collider.center[2] == -0.5
         assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
@@ -252,6 +258,30 @@ def test_browser_messages_move_the_ball_and_never_raise():
                                     "step_count": 99, "frame_size": [320, 240]})
         assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.stats_line.value
         view.handle_message({"type": "gpu_status"}, None)   # unknown kinds are ignored
+    finally:
+        w.close()
+
+
+def test_browser_stats_measure_the_speed_of_time(monkeypatch):
+    """The browser's steps between two stats messages give the speed of simulated time, as
+    the kernel's clock does: "real time" at full speed, "slow motion 0.05x" when a frame
+    owed more than the step cap got only the cap, and no claim before it is measured."""
+    import time
+
+    wall = [100.0]
+    monkeypatch.setattr(time, "perf_counter", lambda: wall[0])
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    view = w.view.browser_view
+    try:
+        view.handle_message({"type": "stats", "fps": 30.0, "visible": [10], "steps": 60, "step_count": 60})
+        assert w.stats["sim_speed"] is None and "real time" not in w.stats_line.value  # first message
+        wall[0] += 0.5
+        view.handle_message({"type": "stats", "fps": 30.0, "visible": [10], "steps": 60, "step_count": 120})
+        assert w.stats["sim_speed"] == pytest.approx(60 * w.params.dt / 0.5)
+        assert "30.0 frames/s" in w.stats_line.value and "real time" in w.stats_line.value
+        wall[0] += 10.0  # one frame in 10 s, capped at 64 steps
+        view.handle_message({"type": "stats", "fps": 0.1, "visible": [10], "steps": 64, "step_count": 184})
+        assert "0.1 frames/s" in w.stats_line.value and "slow motion 0.05x" in w.stats_line.value, w.stats_line.value
     finally:
         w.close()
 

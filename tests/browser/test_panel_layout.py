@@ -5,8 +5,9 @@ the widest values every control can show (the largest blade count, -360 degrees,
 two-digit readouts, the ball's row switched on, a saved file's name, an error
 message), the test measures in the page:
 
-* the widget (view + panel) is exactly as wide as the view and every control lies
-  inside it (rows wrap instead of running past the view's edge);
+* the panel column (beside the view, or under it where the notebook is narrow;
+  grasswidget.notebook.layout) is no wider than the view and every control lies
+  inside it (rows wrap instead of running past the column's edge);
 * no text is clipped: every readout, description label, checkbox label, button
   and the stats line shows its whole text (the text's own width, measured with a
   DOM Range, fits the element's box);
@@ -31,9 +32,12 @@ pytestmark = pytest.mark.browser
 
 MEASURE = """
 (root) => {
-  const rootBox = root.getBoundingClientRect();
   const view = root.querySelector(".renderview-wrapper") || root.firstElementChild;
-  const viewBox = view.getBoundingClientRect();
+  const viewWidth = view.getBoundingClientRect().width;
+  // the panel column (beside the view, or under it in a narrow notebook): every control lies inside it
+  const panel = root.querySelector(".grasswidget-panel") || root;
+  const rootBox = panel.getBoundingClientRect();
+  const viewBox = rootBox;
   const problems = [];
   const texts = [];
   const inked = [];  // [name, rect] of every piece of text on screen
@@ -49,7 +53,7 @@ MEASURE = """
     const name = `${el.className.split(" ").filter(c => c.startsWith("widget") || c.startsWith("jupyter")).join(".")} "${text.slice(0, 40)}"`;
     if (box.width < 4) { problems.push(`${name}: squeezed to ${box.width.toFixed(1)} px`); continue; }
     if (box.left < viewBox.left - 0.5 || box.right > viewBox.right + 0.5)
-      problems.push(`${name}: spans ${Math.round(box.left - viewBox.left)}..${Math.round(box.right - viewBox.left)} px, the view is ${Math.round(viewBox.width)} px wide`);
+      problems.push(`${name}: spans ${Math.round(box.left - viewBox.left)}..${Math.round(box.right - viewBox.left)} px, the panel is ${Math.round(viewBox.width)} px wide`);
     // the control it belongs to (a slider, checkbox, button ...) holds it whole
     const control = el.parentElement.closest(".widget-inline-hbox, .jupyter-widgets") || root;
     const cbox = control.getBoundingClientRect();
@@ -73,15 +77,16 @@ MEASURE = """
     const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
     if (w > 1 && h > 1) problems.push(`${na} overlaps ${nb}`);
   }
-  return {rootWidth: rootBox.width, viewWidth: viewBox.width, problems, texts};
+  return {rootWidth: rootBox.width, viewWidth, problems, texts};
 }
 """
 
 STATES = {
     "default": "w.pause()",
     "squeezed": "w.sliders['blades'].layout.width = '150px'; w.pause()",  # not a state a user meets: proves the checks bite
-    # the slider shows its top value (as after a drag to the end) without building that many blades
-    "widest": ("w.panel.show_blade_count(w.blade_slider.max)\n"
+    # the blade control shows its top value (as after a drag to the end) and asks before building
+    # that many blades: the longest count and question
+    "widest": ("w.blade_slider.value = w.max_blades\n"
                "w.params.wind_direction = -360; w.params.wind_strength = 200; w.params.wind_speed = 50\n"
                "w.params.gravity = 50; w.params.stiffness_scale = 20; w.time_scale = 10\n"
                "w.ball.enabled = True; w.ball.set_radius(w.ball.radius_slider.max)\n"
@@ -147,6 +152,6 @@ def _check_states(page, size):
         if state == "widest":  # the widest values are on screen, whole
             ball = kernel_eval(page, "[f'{s.value:.2f}' for s in (w.ball.x_slider, w.ball.radius_slider)]")
             ball = [t.replace("-", "\u2212") for t in ball]  # the readouts write a minus sign
-            for text in ("262144", "−360", "200.0", "20.00", "10.00", *ball, "orientation culling",
+            for text in ("262,144", "Apply 262,144 blades?", "−360", "200.0", "20.00", "10.00", *ball, "orientation culling",
                          "blade 0: height", "freeze culling"):
                 assert any(text in t for t in m["texts"]), (text, m["texts"])

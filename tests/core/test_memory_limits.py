@@ -149,9 +149,11 @@ def test_widget_blade_count_uses_the_same_check(widget):
     with pytest.raises(gw.BladeCountError, match=r"blades: count=1,000,000,000,000 .* at most"):
         widget.set_blades(10**12)
     assert widget.blade_count == old and widget.scene is not None
-    # the slider: the error shows in the message line and the slider goes back
-    widget.blade_slider.max = 10**12  # as if the slider offered it
-    widget.blade_slider.value = 10**12
+    # the blade control: the error shows in the message line and the control goes back
+    control = widget.panel.blade_control
+    control.choose(10**12)  # as if the control offered it: more blades than measured for, so it asks
+    assert control.pending == 10**12 and widget.blade_count == old
+    control.confirm()  # Apply
     assert "count=1,000,000,000,000" in widget.message_line.value
     assert widget.blade_slider.value == old and widget.blade_count == old
     # the slider never offers more than fits
@@ -159,6 +161,6 @@ def test_widget_blade_count_uses_the_same_check(widget):
 
     fresh = gw.GrassWidget(blades=64, size=(160, 120))
     try:
-        assert fresh.blade_slider.max <= max_blade_count()
+        assert max(v for _label, v in fresh.blade_slider.options) <= max_blade_count()
     finally:
         fresh.close()

@@ -117,6 +117,32 @@ def test_shift_drag_moves_the_ball_and_does_not_orbit(widget):
     assert ball.collider.center == center_before
 
 
+def test_shift_press_on_the_sky_switches_the_ball_on_where_it_was(widget):
+    """A shift + drag that starts above the horizon (no ground under the pointer) still
+    switches the ball on, at its place; it follows once the pointer is over the ground."""
+    widget.canvas.handle_event({"event_type": "resize", "width": SIZE[0], "height": SIZE[1], "pixel_ratio": 1.0})
+    widget.scene.render_at(SIZE)
+    ball, cam = widget.ball, widget.scene.camera
+    before = ball.collider.center
+    sky = (SIZE[0] / 2, 1.0)  # the top row of the view: sky in the default view
+    assert ball_ground(widget, *sky) is None
+    widget.view.events(_pointer("pointer_down", *sky, ("Shift",)))
+    assert ball.enabled and ball.collider in widget.scene.colliders and ball.collider.center == before
+    x, y = _screen_of(cam, (1.0, 0.0, 1.0))
+    widget.view.events(_pointer("pointer_move", x, y, ("Shift",), button=0))
+    widget.view.events(_pointer("pointer_up", x, y, ("Shift",)))
+    assert ball.collider.center[0] == pytest.approx(1.0, abs=1e-3) and ball.collider.center[2] == pytest.approx(1.0, abs=1e-3)
+
+
+def ball_ground(widget, x, y):
+    """The ground point under (x, y) px of the view, or None (sky)."""
+    import grasswidget.notebook.ball as wb
+
+    scene, collider = widget.scene, widget.ball.collider
+    ground_y = collider.center[1] - collider.radius  # the ball rests on the ground
+    return wb.ground_point(scene.camera, x, y, SIZE, ground_y, np.asarray(scene.field.world.inverse_matrix))
+
+
 def test_sliders_checkbox_and_bad_values(widget):
     ball = widget.ball
     ball.checkbox.value = True

@@ -209,8 +209,12 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
 
     monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # no refresh inside the draw: this test refreshes
     _resize(widget)
+    wall = TickingWall()  # frames 50 ms apart: the clock measures the speed of time (real time)
+    widget.view.clock.now = wall
+    for _ in range(3):
+        wall.advance(0.05)
+        widget.view.draw()
     # what the canvas reports for a streamed frame: pixels presented, then sent
-    widget.view.draw()
     d0, d1 = widget.view.timing.last_draw
     widget.canvas.on_present(d1 + 0.004)  # what the canvas calls for a streamed frame
     widget.canvas.on_sent(d1 + 0.010, WIDGET_SIZE)

@@ -142,7 +142,7 @@ def test_clamp_orbit_is_the_least_move():
     assert np.linalg.norm(p - (0, 1, 0)) == pytest.approx(1.0)
     # straight down: tilted back to the highest elevation allowed
     p, t = clamp_orbit((0, 10, 0), (0, 0.5, 0), limits)
-    assert math.degrees(math.asin((p[1] - t[1]) / np.linalg.norm(p - t))) == pytest.approx(85.0)
+    assert math.degrees(math.asin((p[1] - t[1]) / np.linalg.norm(p - t))) == pytest.approx(limits.max_elevation_deg)
     # target off the field: back over it, the camera moved with it
     p, t = clamp_orbit((50, 4, 10), (40, 1, 0), limits)
     assert np.allclose(t, (5, 1, 0)) and np.allclose(p, (15, 4, 10))
@@ -150,3 +150,73 @@ def test_clamp_orbit_is_the_least_move():
     planet = OrbitLimits.for_field(np.float32([[0, -3, 0], [0, 3, 0]]), np.float32([[0, -1, 0], [0, 1, 0]]),
                                    np.float32([1, 1]), far=100)
     assert planet.ground_y is None
+
+
+def _tallest_tip(widget):
+    b = widget.view.blades
+    return float(np.max(b.v0[:, 1] + b.height))
+
+
+def test_one_huge_drag_or_wheel_flick_stays_above_the_blades(view):
+    top = _tallest_tip(view)
+    assert view.camera_floor == "grass"
+    _drag(view, (80, 10), (-150, -2000), steps=1)  # one diagonal drag, all in one pointer move
+    pos, _ = _check_view(view)
+    assert pos[1] >= top + 0.3 - 1e-4
+    _wheel(view, -20000, times=1)  # one wheel flick, all the way in
+    pos, target = _check_view(view)
+    assert pos[1] >= top + 0.3 - 1e-4
+    img = view.scene.render_at(SIZE)  # above the grass: sky and grass, not a wall of blades
+    assert sky_mask(img).mean() < 0.6 and grass_mask(img).mean() > 0.1
+
+
+def test_look_from_top_low_home_in_the_kernel_engine(view):
+    from grasswidget.errors import GrassValueError
+
+    home = view.camera_state
+    view.look_from("top")
+    cam = view.camera_state
+    d = np.subtract(cam["target"], cam["position"])
+    assert d[1] / np.linalg.norm(d) < -0.999  # straight down
+    img = view.scene.render_at(SIZE)
+    assert sky_mask(img).mean() == 0 and grass_mask(img).mean() > 0.05
+    pos, _ = _check_view(view)  # inside the limits: the next drag starts from here
+    view.look_from("low")
+    y = view.camera_state["position"][1]
+    assert _tallest_tip(view) + 0.3 <= y <= _tallest_tip(view) + 0.5
+    with pytest.raises(GrassValueError, match="'home', 'top', 'low'"):
+        view.look_from("side")
+    assert view.camera_state["position"][1] == pytest.approx(y)  # nothing moved
+    view.look_from("home")
+    assert np.allclose(view.camera_state["position"], home["position"], atol=1e-4)
+
+
+def test_camera_floor_ground_lets_the_camera_down_and_grass_lifts_it_back(view):
+    from grasswidget.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="'grass', 'ground'"):
+        view.camera_floor = "sky"
+    assert view.camera_floor == "grass"
+    view.camera_floor = "ground"
+    assert view.controller.limits.clearance == pytest.approx(0.3)
+    _drag(view, (80, 10), (0, -2000), steps=1)
+    pos, _ = _check_view(view)
+    assert pos[1] == pytest.approx(view.controller.limits.ground_y + 0.3, abs=0.05)  # among the blades
+    view.camera_floor = "grass"  # the camera rises at once, not at the next drag
+    assert view.camera_state["position"][1] >= _tallest_tip(view) + 0.3 - 1e-4
+    assert view.camera_bar.floor_checkbox.value is True
+
+
+def test_a_start_camera_below_the_grass_starts_on_the_ground_floor():
+    import grasswidget as gw
+
+    w = gw.GrassWidget(blades=256, preset="cis565", size=SIZE)
+    try:
+        assert w.camera_floor == "ground" and w.camera_state["position"][1] == pytest.approx(1.0)
+        w.look_from("top")
+        assert w.camera_floor == "ground"  # no preset raises the floor
+        w.camera_floor = "grass"
+        w.look_from("home")  # the course view is lower than the grass: the floor comes down with it
+        assert w.camera_floor == "ground" and w.camera_state["position"][1] == pytest.approx(1.0)
+    finally:
+        w.close()
