@@ -68,7 +68,8 @@ import numpy as np
 from traitlets import All, Bool
 
 from . import cell_rerun
-from ..core.params import GrassParams, RangedFloat
+from ..core.orbit_limits import FLOORS
+from ..core.params import ChoiceTrait, GrassParams, RangedFloat
 from ..core.variants import apply_changes, check_variants
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 
@@ -125,9 +126,13 @@ class Comparison(ipw.VBox):
         clock: the :class:`~grasswidget.notebook.clock.SharedClock` the kernel engine's views
             follow (None with the browser engine).
 
-    Traits: ``playing``, ``time_scale`` and ``culling_frozen``, applied to every view.
+    Traits: ``playing``, ``time_scale``, ``culling_frozen`` and ``camera_floor``, applied to every
+    view; ``panel_folded`` (only the shared camera bar shows).
     """
 
+    camera_floor = ChoiceTrait("grass", FLOORS, help='What every view\'s orbit keeps the camera above: "grass" '
+                               '(the tallest blade\'s tip) or "ground" (as GrassWidget.camera_floor).')
+    panel_folded = Bool(False, help="Show only the camera bar of the shared panel (play/pause, camera presets, more).")
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per wall-clock second while playing (every view).")
     playing = Bool(True, help="Animate every view (True) or pause them all (False).")
@@ -136,6 +141,7 @@ class Comparison(ipw.VBox):
     _closed = False
     views: dict = {}
     panel = None
+    camera_bar = None
 
     def __init__(self, variants, blades=4096, preset=None, backend="kernel", size=DEFAULT_VIEW_SIZE, params=None,
                  **widget_options):
@@ -169,11 +175,20 @@ class Comparison(ipw.VBox):
         grid = ipw.GridBox(columns, layout=ipw.Layout(
             grid_template_columns=f"repeat({per_row}, {self.size[0]}px)", grid_gap="6px 10px", width="auto"))
         width = per_row * self.size[0] + (per_row - 1) * 10
-        super().__init__(children=[grid, *self.panel.rows], layout=ipw.Layout(width=f"{width}px", max_width="100%"))
+        from .camera_bar import CameraBar
+
+        #: The shared panel's first line: play/pause while folded, the camera presets (every view), more/less.
+        self.camera_bar = CameraBar(self, on_error=self._show_error)
+        self._more = ipw.VBox(list(self.panel.rows), layout=ipw.Layout(width="100%"))
+        super().__init__(children=[grid, self.camera_bar.row, self._more],
+                         layout=ipw.Layout(width=f"{width}px", max_width="100%"))
         self.add_class("grasswidget-compare")
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
         self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.observe(self._on_camera_floor, names="camera_floor")
+        self.observe(lambda change: setattr(self._more.layout, "display", "none" if change["new"] else ""),
+                     names="panel_folded")
         self.params.observe(self._on_shared_param, names=All)
         self._show_summary()
         # Re-running the cell that made a comparison closes the previous one (and its views)
@@ -246,6 +261,8 @@ class Comparison(ipw.VBox):
             if all(row is not k for k in keep):
                 row.layout.display = "none"
         w.panel.details_button.layout.display = "none"
+        if w.camera_bar is not None:  # the shared panel's camera bar moves every view
+            w.camera_bar.row.layout.display = "none"
         return ipw.VBox([self.labels[label], w], layout=ipw.Layout(width=f"{self.size[0]}px"))
 
     def _label_html(self, label) -> str:
@@ -333,11 +350,22 @@ class Comparison(ipw.VBox):
 
     def reset_camera(self):
         """Every view back to the starting view (the same for all: same blades, same preset)."""
+        self.look_from("home")
+
+    def look_from(self, name):
+        """Move the shared camera to a named view ("home", "top", "low"; as
+        ``GrassWidget.look_from``): every view looks from there."""
         self._check_open()
-        for w in self.views.values():
-            w.reset_camera()
         first = next(iter(self.views.values()))
+        first.look_from(name)  # checks the name; may lower the floor (then every view's follows)
         self._follow(first.view)
+        if first.camera_floor != self.camera_floor:
+            self.camera_floor = first.camera_floor
+
+    def _on_camera_floor(self, change):
+        for w in self.views.values():
+            if w.camera_floor != change["new"]:
+                w.camera_floor = change["new"]
 
     def _on_playing(self, change):
         playing = bool(change["new"])
@@ -515,9 +543,12 @@ class Comparison(ipw.VBox):
     def parts(self) -> tuple:
         """What this comparison is made of and owns: its views (GrassWidgets) and their parts,
         and the panel (see :mod:`grasswidget.notebook.cell_rerun`)."""
-        found = [self.panel] if self.panel is not None else []
+        found = [p for p in (self.panel, self.camera_bar) if p is not None]
         for w in self.views.values():
             found += [w, *w.parts()]
+        for bar in [self.camera_bar]:
+            if bar is not None:  # its Play button is off the page while the panel is unfolded
+                found += [bar.row, bar.play_button, bar.floor_checkbox, bar.more_button, *bar.preset_buttons.values()]
         return tuple(found)
 
     # ------------------------------------------------------------------ closing
@@ -527,6 +558,8 @@ class Comparison(ipw.VBox):
         if self._closed:
             return
         self._closed = True
+        if getattr(self, "camera_bar", None) is not None:
+            self.camera_bar.close()
         try:
             self.params.unobserve(self._on_shared_param, names=All)
         except ValueError:
