@@ -74,10 +74,10 @@ def _check(page):
     assert np.abs(second_after[..., :3].astype(int) - second_before[..., :3].astype(int)).mean() > 3
 
     # the shared panel's play button plays both views, and pauses both
-    page.locator(".grasswidget-compare button", has_text="Play").first.click()
+    page.locator(".grasswidget-compare button:visible", has_text="Play").first.click()
     wait_for_kernel(page, "[w.playing for w in c.views.values()]", [True, True], timeout=20)
     wait_for_kernel(page, "min(c.sim_times.values()) > 0.2", True, timeout=60)
-    page.locator(".grasswidget-compare button", has_text="Pause").first.click()
+    page.locator(".grasswidget-compare button:visible", has_text="Pause").first.click()
     wait_for_kernel(page, "[w.playing for w in c.views.values()]", [False, False], timeout=20)
     times = kernel_eval(page, "[w.view.clock.steps for w in c.views.values()]")
     assert times[0] == times[1] > 0  # paused at the same simulated time

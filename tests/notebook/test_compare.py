@@ -244,3 +244,18 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
             _assert_same_state(w.read_state(), _scene_state(w.params, 24))
     finally:
         c.close()
+
+
+def test_camera_presets_move_every_view(comparison):
+    """The shared camera bar's presets (c.look_from) and key r (reset_camera) move every view alike."""
+    c = comparison
+    home = c.camera_state
+    c.look_from("top")
+    top = [w.camera_state for w in c.views.values()]
+    assert np.allclose(top[0]["position"], top[1]["position"]) and top[0]["position"][1] > home["position"][1] + 1
+    c.views["stiff"].view.on_key({"key": "r", "modifiers": []})
+    assert all(np.allclose(w.camera_state["position"], home["position"], atol=1e-5) for w in c.views.values())
+    c.camera_floor = "ground"
+    assert [w.camera_floor for w in c.views.values()] == ["ground", "ground"]
+    with pytest.raises(gw.GrassValueError):
+        c.look_from("sideways")
