@@ -33,13 +33,15 @@ _LAZY = {
     "GrassWidget": ("grasswidget.notebook.widget", "GrassWidget"),
     "compare": ("grasswidget.notebook.compare", "compare"),
     "sweep": ("grasswidget.tools.sweep", "sweep"),
+    "TraceRecorder": ("grasswidget.core.traces", "TraceRecorder"),
+    "load_traces": ("grasswidget.core.traces", "load_traces"),
 }
 
 #: Modules reachable as attributes of the package (``gw.reference``), loaded on first use.
 _MODULES = {
     **{name: f"grasswidget.core.{name}" for name in (
         "blades", "params", "enums", "colliders", "reference", "memory", "uniform_layouts", "shader_files",
-        "teaching", "framing")},
+        "teaching", "framing", "traces")},
     "scene": "grasswidget.gpu.scene",
     **{name: f"grasswidget.notebook.{name}" for name in (
         "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},

@@ -13,7 +13,8 @@
 //            time_scale, camera ({position, target, fov_deg, near, far}),
 //            collider_spheres / collider_grid (the colliders and their grid, bytes;
 //            grasswidget.core.collider_grid; the balls are drawn from the spheres),
-//            show_colliders, report_steps, width, height, pixel_ratio,
+//            show_colliders, report_steps, stats_interval_ms (how often the stats
+//            message goes; 500 when absent), width, height, pixel_ratio,
 //            frustum_lines (the frozen culling camera's 12 edges, 24 x 3 float32;
 //            empty: not frozen), inspect_uniform (u_inspect packed) and inspected
 //            (the inspected blade ids).
@@ -993,7 +994,7 @@ class GrassEngine {
         const { color, depth, w, h } = view.targets();
         const encoder = device.createCommandEncoder();
         this.encodeFrame(encoder, color, depth, w, h);
-        const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > STATS_INTERVAL_MS / 2;
+        const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > this.statsInterval() / 2;
         if (readArgs) this.encodeArgsRead(encoder);
         device.queue.submit([encoder.finish()]);
         if (readArgs) this.readArgs();
@@ -1047,9 +1048,15 @@ class GrassEngine {
     }, () => { this.argsReadPending = false; });
   }
 
+  // Milliseconds between stats messages: Python's stats_interval_ms (the lab bench asks for 200
+  // while a chart is shown), else STATS_INTERVAL_MS.
+  statsInterval() {
+    return this.model.get("stats_interval_ms") || STATS_INTERVAL_MS;
+  }
+
   maybeSendStats() {
     const now = performance.now();
-    if (now - this.statsTime < STATS_INTERVAL_MS) return;
+    if (now - this.statsTime < this.statsInterval()) return;
     const fps = ((this.frames - this.statsFrames) * 1000) / (now - this.statsTime);
     this.statsFrames = this.frames;
     this.statsTime = now;

@@ -433,7 +433,7 @@ class BrowserEngineView(GrassView):
         per_class = msg.get("visible")
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)
-        frames = max(1, round((fps or 0) * 0.5))
+        frames = max(1, round((fps or 0) * self.browser_view.stats_interval_ms / 1000.0))  # in this message
         sim_speed = self._sim_speed(steps)
         rastered = msg.get("rastered")
         rastered = int(rastered) if rastered is not None else None
@@ -457,6 +457,7 @@ class BrowserEngineView(GrassView):
         self.report_stats(self.current_stats())
         if self.browser_view.inspected:
             self._request_inspected()
+        self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
 
     # ------------------------------------------------------------------ keys, closing
 

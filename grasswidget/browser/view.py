@@ -131,6 +131,8 @@ class BrowserView(anywidget.AnyWidget):
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
+    #: Milliseconds between the browser's stats messages (100..2000; the lab bench's traces sample at each).
+    stats_interval_ms = Int(500).tag(sync=True)
     #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
     pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)

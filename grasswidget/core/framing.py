@@ -15,10 +15,24 @@ import numpy as np
 from .blades import Blades
 from ..errors import GrassValueError
 
-__all__ = ["PRESETS", "preset_field", "parse_size"]
+__all__ = ["PRESETS", "PRESET_PARAMS", "preset_field", "preset_params", "parse_size"]
 
 #: Named scenes: see GrassScene.preset().
 PRESETS = ("cis565", "meadow")
+
+#: The GrassParams values a preset sets when it makes its own params (``params=None``):
+#: the cis565 preset's distance culling reaches zero at 40 m (``cull_distance_max``; the
+#: paper's 100 m is for fields of hundreds of metres, this field's far corner is 18 m away).
+PRESET_PARAMS = {"cis565": {"cull_distance_max": 40.0}, "meadow": {}}
+
+
+def preset_params(name) -> dict:
+    """The GrassParams values (trait -> value) preset ``name`` sets when it makes its own
+    params; ``GrassScene.preset`` and ``GrassWidget(preset=...)`` both use them, so a widget
+    and a scene of one preset cull alike."""
+    if name not in PRESETS:
+        raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+    return dict(PRESET_PARAMS[name])
 
 
 def parse_size(size, name="size"):

@@ -28,6 +28,7 @@ __all__ = [
     "COMPUTE_RASTER_COLOR",
     "FROZEN_FRUSTUM_COLOR",
     "INSPECTOR_COLORS",
+    "INSPECTED_BLADE_COLORS",
     "MAX_INSPECTED",
     "ARROW_ACCEL_PER_HEIGHT",
     "COLLISION_ARROW_SCALE",
@@ -65,6 +66,9 @@ INSPECTOR_COLORS = {
     "wind": "#ff3030",
     "collision": "#ffb000",
 }
+#: One colour per inspected blade, by its position in the inspected ids (cycled): the panel's
+#: inspector line marks each blade with it and the lab bench's charts draw its series in it.
+INSPECTED_BLADE_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#8c564b"]
 #: The blade inspector draws at most this many blades.
 MAX_INSPECTED = 64
 #: Inspector arrows: an acceleration of this many m/s^2 is drawn as long as the
@@ -239,10 +243,13 @@ def inspected_rows(ids, heights, stiffnesses, stiffness_scale, points, forces) -
     """The inspector's numbers as both engines return them (``read_inspected``): one dict
     per id with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times ``stiffness_scale``),
     ``v0``, ``v1``, ``v2`` (float32 (3,), from ``points`` (n, 3, 3)) and one float32 (3,)
-    vector per name of ``reference.FORCE_NAMES`` (from ``forces`` (n, n_forces, 3 or 4)).
+    vector per name of ``reference.FORCE_NAMES`` (from ``forces`` (n, n_forces, 3 or 4));
+    with 4 components (inspect.wgsl writes the blade's stored collision factor eta in w)
+    also ``collision_strength`` (eta, 0..1).
     ``heights`` and ``stiffnesses`` are the whole field's (indexed by id)."""
     points = np.asarray(points, np.float32)
-    forces = np.asarray(forces, np.float32)[..., :3]
+    raw = np.asarray(forces, np.float32)
+    forces = raw[..., :3]
     out = []
     for k, i in enumerate(ids):
         i = int(i)
@@ -250,6 +257,8 @@ def inspected_rows(ids, heights, stiffnesses, stiffness_scale, points, forces) -
                "v0": points[k, 0].copy(), "v1": points[k, 1].copy(), "v2": points[k, 2].copy()}
         for j, name in enumerate(FORCE_NAMES):
             row[name] = forces[k, j].copy()
+        if raw.shape[-1] == 4:
+            row["collision_strength"] = float(raw[k, 0, 3])
         out.append(row)
     return out
 

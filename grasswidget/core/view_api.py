@@ -133,6 +133,18 @@ class GrassView(abc.ABC):
         #: Functions ``fn(view)`` called when the camera moved (see :meth:`add_camera_listener`).
         self.camera_listeners = []
         self.reported_camera = None  # the camera as the listeners last heard of it
+        #: Callables run (no arguments) after each frame the kernel draws, and at each stats message
+        #: of the browser engine: where the traces take their samples (grasswidget.notebook.trace_feed).
+        self.frame_hooks = []
+
+    def notify_frame(self) -> None:
+        """Run :attr:`frame_hooks`; an error in one is reported on the message line, never raised
+        into the frame."""
+        for hook in list(self.frame_hooks):
+            try:
+                hook()
+            except Exception as err:  # a broken listener must not stop the view
+                self.report_error(f"traces: {type(err).__name__}: {err}")
 
     # ------------------------------------------------------------------ what the widget shows
 

@@ -135,19 +135,19 @@ def is_cpu_adapter() -> bool:
 def cpu_notice(short: bool = False) -> str | None:
     """The one-line notice for a CPU adapter, or None when rendering runs on a GPU.
 
-    ``short=True`` gives the form the widget's stats line shows, e.g.
-    ``"CPU adapter (llvmpipe): pixel ratio 1, no anti-aliasing"``.
+    It says what is true on a CPU adapter: the live view is drawn without
+    post-process anti-aliasing (to keep frames cheap), while exports (``save_png``,
+    Save PNG, ``save_animation``, the CLI snapshot) are anti-aliased by rendering
+    at 2x and filtering down. E.g. ``"grasswidget: CPU adapter (llvmpipe): live
+    view without anti-aliasing, exports anti-aliased"``; ``short=True`` gives the
+    form the widget's "details" line shows, without the ``grasswidget:`` prefix.
     """
     if not is_cpu_adapter():
         return None
     info = adapter_info()
-    if short:
-        name = str(info.get("device") or info["summary"]).split(" (")[0]
-        return f"CPU adapter ({name}): pixel ratio 1, no anti-aliasing"
-    return (
-        f"grasswidget: rendering on a CPU adapter ({info['summary']}); "
-        "using pixel ratio 1 and no post-process anti-aliasing."
-    )
+    name = str(info.get("device") or info["summary"]).split(" (")[0]
+    text = f"CPU adapter ({name}): live view without anti-aliasing, exports anti-aliased"
+    return text if short else f"grasswidget: {text}"
 
 
 def announce_cpu_defaults():

@@ -157,7 +157,7 @@ class BladeInspector(gfx.WorldObject):
         device = ensure_device()
         n = len(self.ids)
         raw = device.queue.read_buffer(sync_buffer(self.forces_buffer), 0, n * N_FORCES * 16)
-        forces = np.frombuffer(raw, np.float32).reshape(n, N_FORCES, 4)[:, :, :3]
+        forces = np.frombuffer(raw, np.float32).reshape(n, N_FORCES, 4)  # w: collision eta
         raw = device.queue.read_buffer(sync_buffer(self.points_buffer), 0, n * 3 * 12)
         points = np.frombuffer(raw, np.float32).reshape(n, 3, 3)
         blades = self.field.blades

@@ -21,7 +21,7 @@ from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .occlusion import render_frame
 from ..core import frame_data
 from ..core.frame_data import ground_square, sky_ground_values
-from ..core.framing import PRESETS, parse_size, preset_field  # pure helpers, re-exported here
+from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams
 
@@ -29,7 +29,7 @@ __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_fi
            "EXPORT_SUPERSAMPLE", "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
 
 #: The cis565 preset's distance-culling reach (m) when it makes its own params.
-CIS565_DISTANCE_MAX = 40.0
+CIS565_DISTANCE_MAX = preset_params("cis565")["cull_distance_max"]
 
 #: ``compute_raster_max_px`` of the params a GrassScene makes on a GPU adapter (pixels;
 #: GrassParams' own default is 2). Measured on an H100 (meadow 1920x1080, culled,
@@ -174,8 +174,8 @@ class GrassScene:
             if isinstance(blades, bool) or not isinstance(blades, (int, np.integer)) or blades < 1:
                 raise GrassValueError(f"blades must be a blade count >= 1, a Blades or None; got {blades!r}")
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
-        if name == "cis565" and params is None:
-            params = adapter_params(cull_distance_max=CIS565_DISTANCE_MAX)
+        if params is None:
+            params = adapter_params(**preset_params(name))
         b, default_size, view = preset_field(name, blades, seed)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])

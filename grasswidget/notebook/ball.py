@@ -158,15 +158,20 @@ class BallControl(HasTraits):
         # (the row wraps on a narrower view).
         lay = ipw.Layout(width="272px")
         style = {"description_width": "50px"}
+        # continuous_update=False: the page sends a slider's value when the user lets go (or types
+        # it), never on its own. With True, ipywidgets' slider sends back the value it snapped to its
+        # step grid (1.5 -> 1.4999999999999998) whenever it is drawn or moved from Python: a view
+        # drawn late (Run All) sent a stale radius over a later ``set_radius``, and echoes of the
+        # rolling ball's position read as moves by hand.
         self.checkbox = ipw.Checkbox(value=False, description="sphere", indent=False,
                                      layout=ipw.Layout(width="76px"),
                                      tooltip="A sphere collider on the ground (shift + drag on the view moves it)")
         self.x_slider = ipw.FloatSlider(description="x", step=0.05, readout_format=".2f", style=style, layout=lay,
-                                        continuous_update=True, tooltip="Ball centre x (m)")
+                                        continuous_update=False, tooltip="Ball centre x (m)")
         self.z_slider = ipw.FloatSlider(description="z", step=0.05, readout_format=".2f", style=style, layout=lay,
-                                        continuous_update=True, tooltip="Ball centre z (m)")
+                                        continuous_update=False, tooltip="Ball centre z (m)")
         self.radius_slider = ipw.FloatSlider(description="radius", step=0.05, readout_format=".2f", style=style,
-                                             layout=lay, continuous_update=True, tooltip="Ball radius (m)")
+                                             layout=lay, continuous_update=False, tooltip="Ball radius (m)")
         self._update_slider_ranges()
         self.roll_button = ipw.ToggleButton(value=False, description="Roll", icon="circle",
                                             layout=ipw.Layout(width="90px"),

@@ -576,6 +576,7 @@ class KernelView(GrassView):
             self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
+        self.notify_frame()  # the traces' sample of this frame (grasswidget.notebook.trace_feed)
 
     def _on_present(self, t):
         self.timing.presented(t)

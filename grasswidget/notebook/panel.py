@@ -35,7 +35,7 @@ from .blade_control import BladeCountControl
 from .control_link import ControlLink
 from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
-from ..core.teaching import legend
+from ..core.teaching import INSPECTED_BLADE_COLORS, legend
 
 __all__ = ["ControlPanel", "PARAM_SLIDERS", "LOOK_SLIDERS", "LABELS", "CULL_CHECKBOXES", "control_label",
            "control_tooltip", "format_status", "format_speed", "format_details", "legend_html", "inspected_html"]
@@ -233,14 +233,16 @@ def inspected_html(blades: list) -> str:
     if not blades:
         return "<small>ctrl + click a blade to inspect it</small>"
     lines = []
-    for b in blades[:4]:
+    for k, b in enumerate(blades[:4]):
         size = {name: float(sum(float(x) * float(x) for x in b[name])) ** 0.5 for name in FORCE_NAMES}
         forces = ", ".join(f"{name} {size[name]:.2f}" for name in FORCE_NAMES if name != "collision")
-        lines.append(f"blade {b['id']}: height {b['height']:.2f} m, stiffness {b['stiffness']:.2f} /s², "
-                     f"|force| (m/s²): {forces}; collision push {1000 * size['collision']:.1f} mm/step")
+        text = (f"blade {b['id']}: height {b['height']:.2f} m, stiffness {b['stiffness']:.2f} /s², "
+                f"|force| (m/s²): {forces}; collision push {1000 * size['collision']:.1f} mm/step")
+        color = INSPECTED_BLADE_COLORS[k % len(INSPECTED_BLADE_COLORS)]  # its colour in the lab bench's charts
+        lines.append(f"<span style='color:{color}'>&#9632;</span> " + html.escape(text))
     if len(blades) > 4:
-        lines.append(f"... and {len(blades) - 4} more")
-    return "<small><code>" + "<br>".join(html.escape(x) for x in lines) + "</code></small>"
+        lines.append(html.escape(f"... and {len(blades) - 4} more"))
+    return "<small><code>" + "<br>".join(lines) + "</code></small>"
 
 
 def _slider(name, owner, step, fmt, width):
@@ -355,7 +357,7 @@ class ControlPanel:
                                       style={"description_width": "70px"}, layout=ipw.Layout(width="150px"),
                                       tooltip="Resolution of Save PNG, relative to the view")
         self.save_button = ipw.Button(description="Save PNG", icon="camera", layout=bl,
-                                      tooltip="Write a PNG next to the notebook")
+                                      tooltip="Write a PNG into output/ beside the notebook")
         self.save_button.on_click(lambda _b: self._on_save_click())
         self.file_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px", max_width="100%"))
         self.stats_line = ipw.HTML(value="", layout=ipw.Layout(min_height="20px"))  # the one-line status

@@ -55,11 +55,12 @@ import os
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import All, Bool
+from traitlets import All, Any, Bool, validate
 
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
+from ..core.framing import preset_params
 from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
@@ -149,6 +150,10 @@ class GrassWidget(ipw.VBox):
                              help="Simulated seconds per wall-clock second while playing.")
     playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
     culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
+    chart = Any(None, allow_none=True,
+                    help='The live chart under the view: None (hidden), "tip" (tip offset of each inspected blade), '
+                         '"bend" (bend angle), "culling" (blades kept after each culling test) or "frame" (where '
+                         "a frame's time goes), against simulated time (see grasswidget.notebook.lab_bench).")
     camera_floor = ChoiceTrait("grass", FLOORS, help='What the orbit keeps the camera above: "grass" (0.3 m above '
                                'the tallest blade\'s tip, so never inside the field) or "ground" (0.3 m above the '
                                'ground, down among the blades). A widget whose start camera is lower than the grass '
@@ -164,6 +169,7 @@ class GrassWidget(ipw.VBox):
     view: GrassView | None = None
     panel = None
     ball = None
+    bench = None
 
     scene = property(lambda self: self.view.scene if self.view is not None else None,
                      doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
@@ -239,7 +245,8 @@ class GrassWidget(ipw.VBox):
         streaming["max_blades"] = self.max_blades
         self._blades = self._check_blades(blades)
         self._closed = False
-        self.params = params if params is not None else GrassParams()
+        # A preset's own values (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them.
+        self.params = params if params is not None else GrassParams(**(preset_params(preset) if preset else {}))
 
         try:
             if backend == "kernel":
@@ -259,15 +266,21 @@ class GrassWidget(ipw.VBox):
                                       ball_row=self.ball.controls)
             self.panel.view_size = self.size  # Save PNG multiplies the view's size (the rows fit the column)
             self._start_camera()
+            from .lab_bench import LabBench
+
+            self.bench = LabBench(self.view, self.size[0], owner=self, name="chart", on_error=self._show_error)
         except BaseException:
             self.close()
             raise
         # The view, then the panel column beside it or, where the notebook is narrow, under it.
         self.panel_folded = self.layout_mode == "lecture"
         self.camera_bar = CameraBar(self, on_error=self._show_error)
-        self._layout = WidgetLayout(self.camera_bar.row, self.panel.rows, self.size[0])
+        # The panel's rows, then the lab bench's "chart" choice (its chart goes under the view).
+        self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.bench.control], self.size[0])
         self._layout.fold(self.panel_folded)
-        super().__init__(children=[self.view.widget, self._layout.column], layout=self._layout.root_layout)
+        # The view with the lab bench's live chart right under it.
+        self._stage = ipw.VBox([self.view.widget, self.bench.widget], layout=ipw.Layout(max_width="100%"))
+        super().__init__(children=[self._stage, self._layout.column], layout=self._layout.root_layout)
         self.add_class("grasswidget")
         self.observe(self._on_camera_floor, names="camera_floor")
         self.observe(lambda change: self._layout.fold(bool(change["new"])), names="panel_folded")
@@ -275,6 +288,7 @@ class GrassWidget(ipw.VBox):
         self.observe(self._on_playing, names="playing")
         self.observe(self._on_time_scale, names="time_scale")
         self.observe(self._on_culling_frozen, names="culling_frozen")
+        self.observe(self._on_chart, names="chart")
         self._show_stats(self.view.current_stats())
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
@@ -461,6 +475,7 @@ class GrassWidget(ipw.VBox):
             raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.playing = False
         self.view.step(n)
+        self.bench.after_step()
 
     def reset_blades(self):
         """Every blade back to its rest pose; the simulation clock back to 0."""
@@ -539,13 +554,51 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         return self.view.read_inspected(timeout=timeout)
 
+    def traces(self) -> dict:
+        """What simulated time did, sampled while it advances (the lab bench; see
+        :mod:`grasswidget.notebook.trace_feed` for when samples are taken): NumPy arrays in a dict,
+        over the last :attr:`trace_window` simulated seconds.
+
+        ``t`` (T,) simulated s since reset_blades(); ``step`` (T,) step count; ``ids`` (K,) the blades
+        inspected in the window; ``v0``, ``v2`` (T, K, 3) m in the field's local space;
+        ``tip_offset`` (T, K) m from rest; ``bend_deg`` (T, K) degrees from ``up``; ``collision``
+        (T, K) collision strength eta (0..1); ``force`` {name: (T, K)} magnitudes of gravity,
+        recovery, wind (m/s^2) and the collision push (m per step); ``kept`` {test: (T,)} blades
+        kept after each culling test (orientation, frustum, distance, occlusion); ``drawn``
+        {path: (T,)} drawn as ribbons and in compute; ``frame_ms`` {stage: (T,)}. NaN where a
+        number is unknown (a blade not inspected at that time). See
+        :meth:`grasswidget.core.traces.TraceRecorder.traces`."""
+        self._check_open()
+        return self.bench.traces()
+
+    def save_traces(self, path) -> str:
+        """Write :meth:`traces` to ``path`` (``.csv``: one row per sample; ``.npz``: the arrays) and
+        return the path; ``grasswidget.load_traces(path)`` reads it back. Another extension raises
+        GrassValueError naming the allowed ones, a missing folder MissingFileError."""
+        self._check_open()
+        return self.bench.save(path)
+
+    @property
+    def trace_window(self) -> float:
+        """Rolling window of :meth:`traces`, simulated seconds (default 60; 0.1..3600; a value out
+        of range raises GrassValueError naming ``trace_window`` and the range, and the old one stays)."""
+        return self.bench.window_s if self.bench is not None else None
+
+    @trace_window.setter
+    def trace_window(self, value):
+        from ..core.traces import check_window
+
+        self._check_open()
+        self.bench.window_s = check_window(value, "trace_window")
+
     def save_png(self, path=None, size=None) -> str:
         """Write a PNG of the current view and return its path (in browser mode the
         browser renders it at that size and Python writes it; this waits for it).
 
         Args:
-            path: file path (default: ``grass-YYYYmmdd-HHMMSS.png`` in the current
-                working directory, i.e. next to the notebook).
+            path: file path (default: ``output/grass-YYYYmmdd-HHMMSS.png`` under the
+                current working directory, i.e. in ``output/`` beside the notebook;
+                the folder is created).
             size: (width, height) or "WxH"; default twice the view size.
         """
         from ..core.framing import parse_size
@@ -553,7 +606,7 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
         if path is None:
-            path = _unique_name(os.getcwd(), "grass", ".png")
+            path = _unique_name(default_picture_folder(), "grass", ".png")
         path = os.fspath(path)
         if not path.lower().endswith(".png"):
             raise GrassValueError(f"path must end in .png; got {path!r}")
@@ -609,11 +662,12 @@ class GrassWidget(ipw.VBox):
         self.view.set_wind_wgsl(body, select=select)
 
     def save_png_later(self, size, done) -> bool:
-        """The Save PNG button: write a PNG of ``size`` (w, h) next to the notebook and call
+        """The Save PNG button: write a PNG of ``size`` (w, h) into ``output/`` beside the notebook
+        (:func:`default_picture_folder`) and call
         ``done(path)`` once written, without blocking the kernel (the browser engine answers
         later; the kernel engine writes it at once). Returns True (it is under way)."""
         self._check_open()
-        path = _unique_name(os.getcwd(), "grass", ".png")
+        path = _unique_name(default_picture_folder(), "grass", ".png")
         self.view.save_png_later(path, size, done)
         return True
 
@@ -682,6 +736,8 @@ class GrassWidget(ipw.VBox):
                 params.unobserve(self._on_param_change, names=All)
             except ValueError:
                 pass
+        if self.bench is not None:
+            self.bench.close()
         if self.panel is not None:
             self.panel.close()
         if self.camera_bar is not None:
@@ -718,6 +774,7 @@ class GrassWidget(ipw.VBox):
         self.panel.show_playing(playing)
         if not self._closed:
             self.view.set_playing(playing)
+            self.bench.set_playing(playing)
             self._show_stats(self.view.current_stats())
 
     def _show_inspected(self, blades):
@@ -728,6 +785,17 @@ class GrassWidget(ipw.VBox):
         if self._closed:
             return
         self.view.set_culling_frozen(bool(change["new"]))
+        self.bench.set_culling_frozen(bool(change["new"]))
+
+    @validate("chart")
+    def _valid_chart(self, proposal):
+        from .lab_bench import check_chart
+
+        return check_chart(proposal["value"])
+
+    def _on_chart(self, change):
+        if not self._closed:
+            self.bench.show(change["new"])
 
     def _on_browser_unavailable(self, reason):
         """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
@@ -749,7 +817,8 @@ class GrassWidget(ipw.VBox):
             new.camera_state = camera
         except Exception:
             pass
-        self.children = [new.widget, *self.children[1:]]
+        self._stage.children = [new.widget, *self._stage.children[1:]]
+        self.bench.attach(new)
         old.close()
         new.set_playing(self.playing)
         self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
@@ -767,6 +836,19 @@ class GrassWidget(ipw.VBox):
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
         return f"<GrassWidget {self.blade_count} blades, {self.size[0]}x{self.size[1]}, {state}>"
+
+
+#: Where Save PNG and ``save_png()`` without a path write: this folder under the working
+#: directory (the notebook's folder in Jupyter), as the notebooks save their pictures.
+PICTURE_FOLDER = "output"
+
+
+def default_picture_folder() -> str:
+    """``output/`` under the current working directory (created if missing): where Save PNG
+    and ``GrassWidget.save_png()`` without a path write."""
+    folder = os.path.join(os.getcwd(), PICTURE_FOLDER)
+    os.makedirs(folder, exist_ok=True)
+    return folder
 
 
 def _unique_name(folder, stem, ext):

@@ -113,7 +113,7 @@ fn main(@builtin(local_invocation_index) slot: u32) {
     set_vertex(base + 2u, v1);
     set_vertex(base + 3u, v2);
     for (var k = 0u; k < N_FORCES; k = k + 1u) {
-        s_forces[N_FORCES * slot + k] = vec4<f32>(forces[k], 0.0);
+        s_forces[N_FORCES * slot + k] = vec4<f32>(forces[k], s_collision[i]);  // w: the stored collision eta
         put_arrow(base + 4u + 6u * k, v2, forces[k] * scales[k], eye);
     }
 }

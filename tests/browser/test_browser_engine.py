@@ -236,11 +236,11 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
     assert shot_a.shape == first.shape
 
     # 5. Save PNG: rendered by the browser at 2x, anti-aliased there (rendered 2x larger again and
-    # filtered down), written next to the notebook by Python. Paused, so the picture can be retaken.
+    # filtered down), written into output/ beside the notebook by Python. Paused, so the picture can be retaken.
     kernel_execute(page, "w.pause()")
-    old = set(root.glob("grass-*.png"))
+    old = set((root / "output").glob("grass-*.png"))
     click_button(page, "Save PNG")
-    new = poll(lambda: set(root.glob("grass-*.png")) - old, "Save PNG to write a file", 60, 0.3, page=page)
+    new = poll(lambda: set((root / "output").glob("grass-*.png")) - old, "Save PNG to write a file", 60, 0.3, page=page)
     import imageio.v3 as iio
 
     img = poll(lambda: (True, iio.imread(next(iter(new)))), "the saved PNG to be readable", 10, 0.2, page=page)

@@ -10,7 +10,7 @@ checks, through the page and the kernel:
 * toggling a culling checkbox changes the number of visible blades;
 * a mouse drag orbits the camera (its position changes in the kernel);
 * the keyboard works only through the focused view (space = play/pause);
-* "Save PNG" writes a PNG next to the notebook.
+* "Save PNG" writes a PNG into output/ beside the notebook.
 
 * while playing, simulated time follows the wall clock (``w.sim_time`` against
   the kernel's clock over several seconds, within 10%).
@@ -253,10 +253,10 @@ def _run_checks(page, server, folder):
     page.keyboard.press("Space")
     wait_for_kernel(page, "w.playing", True, timeout=15)
 
-    # 6. Save PNG writes a file next to the notebook and shows its name.
+    # 6. Save PNG writes a file into output/ beside the notebook and shows its name.
     click_button(page, "Save PNG")
     text = wait_for_output_text(page, "saved grass-", timeout=60)
-    pngs = sorted(folder.glob("grass-*.png"))
+    pngs = sorted((folder / "output").glob("grass-*.png"))
     assert len(pngs) == 1, (pngs, text[-300:])
     import imageio.v3 as iio
 

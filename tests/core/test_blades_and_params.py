@@ -126,3 +126,21 @@ def test_bad_wind_field_and_type():
     assert p.wind_field == "wave" and p.gravity == 9.8
     with pytest.raises(TraitError, match="gravity"):
         GrassParams(gravity=-1)
+
+
+def test_preset_params_are_one_table_for_scene_and_widget():
+    """GrassScene.preset and GrassWidget(preset=...) take a preset's own parameter values from
+    core.framing.preset_params: the cis565 preset culls by distance to zero at 40 m in both."""
+    import pytest
+
+    from grasswidget.core.framing import PRESETS, preset_params
+    from grasswidget.errors import GrassValueError
+
+    assert preset_params("cis565") == {"cull_distance_max": 40.0}
+    assert preset_params("meadow") == {}
+    assert set(PRESETS) == {"cis565", "meadow"}
+    p = preset_params("cis565")
+    p["cull_distance_max"] = 1.0                      # a copy: the table stays as it is
+    assert preset_params("cis565")["cull_distance_max"] == 40.0
+    with pytest.raises(GrassValueError, match="preset must be one of cis565, meadow"):
+        preset_params("lawn")

@@ -6,6 +6,7 @@ and the draw function is called directly after a fake browser resize event.
 """
 
 import gc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,7 +31,7 @@ def test_layout_and_labels(widget):
 
     assert isinstance(widget, ipywidgets.VBox)
     assert isinstance(widget.canvas, RenderCanvas)
-    assert widget.children[0] is widget.canvas
+    assert widget.children[0].children[0] is widget.canvas  # the view, with the lab bench under it
     labels = {s.description for s in widget.sliders.values()}
     assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
                       "stiffness ×", "time (× real time)"}
@@ -261,16 +262,21 @@ def test_save_png_from_code_and_button(widget, tmp_path, monkeypatch):
     img = iio.imread(path)
     assert img.shape[:2] == (150, 200)
     assert grass_mask(img).mean() > 0.1
-    # default: twice the view; the button writes into the working directory
+    # default: twice the view; the button writes into output/ under the working directory (created)
     monkeypatch.chdir(tmp_path)
     widget.save_button.click()
-    pngs = sorted(tmp_path.glob("grass-*.png"))
+    assert not list(tmp_path.glob("grass-*.png"))
+    pngs = sorted((tmp_path / "output").glob("grass-*.png"))
     assert len(pngs) == 1, widget.message_line.value
     assert iio.imread(pngs[0]).shape[:2] == (2 * SIZE[1], 2 * SIZE[0])
     assert pngs[0].name in widget.file_line.value
     widget.png_scale.value = 1
     widget.save_button.click()
-    assert len(sorted(tmp_path.glob("grass-*.png"))) == 2
+    assert len(sorted((tmp_path / "output").glob("grass-*.png"))) == 2
+    # save_png() without a path: the same folder, a new name
+    own = widget.save_png(size=(64, 48))
+    assert Path(own).parent == tmp_path / "output" and iio.imread(own).shape[:2] == (48, 64)
+    assert len(sorted((tmp_path / "output").glob("grass-*.png"))) == 3
 
 
 def test_save_animation_gif_deterministic(widget, tmp_path):

@@ -54,6 +54,10 @@ def test_wheel_metadata(wheel):
     # the live page's parts ship inside the package
     for f in ("engine.js", "page.js", "page.html", "page.py"):
         assert f"grasswidget/browser/{f}" in names
+    # the lab bench's chart: its module and the vendored uPlot (nothing is fetched at run time), with its licence
+    for f in ("trace_chart.js", "trace_chart.py", "vendor/uplot/uPlot.iife.min.js", "vendor/uplot/uPlot.min.css",
+              "vendor/uplot/LICENSE"):
+        assert f"grasswidget/browser/{f}" in names, f
 
 
 def test_sdist_metadata_and_files(tmp_path):
@@ -92,9 +96,11 @@ def test_wheel_alone_in_a_fresh_venv(wheel, tmp_path):
     widget = run("-c", "import grasswidget as gw\n"
                        "k = gw.GrassWidget(256, size=(160, 120)); b = gw.GrassWidget(256, backend='browser', size=(160, 120))\n"
                        "k.step(3); print('ENGINES', k.backend, b.backend, k.scene.field.step_count)\n"
+                       "k.chart = 'tip'; print('CHART', k.bench.chart.data['y_label'])\n"
                        "k.close(); b.close()")
     assert widget.returncode == 0, widget.stderr
     assert "ENGINES kernel browser 3" in widget.stdout
+    assert "CHART tip offset (cm)" in widget.stdout
     page = run("-m", "grasswidget", "html", "page.html", "--blades", "256", "--size", "160x120", "--no-still")
     assert page.returncode == 0, page.stderr
     assert "export default" in (work / "page.html").read_text()

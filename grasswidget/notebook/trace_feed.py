@@ -1,0 +1,202 @@
+"""Where the traces' samples come from: one feed per engine, filling a TraceRecorder.
+
+Time: a sample's ``t`` is the field's step count times ``params.dt`` (a new blade
+count starts a field at rest, at step 0, and a new trace). Sampling rule (both
+engines): a sample is taken when simulated time has advanced
+(the step count changed) since the last one, so a paused view that only redraws
+adds nothing, and a sample taken again at the same step count replaces the last.
+
+* kernel engine (:class:`KernelTraceFeed`): after every frame the kernel draws while
+  time advances, so one sample per frame while playing and one per ``step(n)`` call
+  (the frame drawn after it; two calls before a frame is drawn make one sample). The
+  inspected blades' numbers of that frame come from
+  :class:`grasswidget.gpu.trace_readback.InspectedReadback` a frame or two later
+  (non-blocking while playing; a paused frame waits for its few bytes, as no next
+  frame would pick them up), with the frame's time and step count attached.
+* browser engine (:class:`BrowserTraceFeed`): at each stats message of the browser
+  (every 0.5 s; every 0.2 s while a chart is shown) and after each ``step(n)``: one
+  ``read_inspected`` request answered by the browser with its step count (non-blocking
+  for the kernel), so 2 samples a second while playing, 5 with a chart.
+
+Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts of the
+non-blocking stats for distance and occlusion, the NumPy reference on the rest pose
+for orientation and frustum). Frame times: the view's stats (``render_ms``,
+``readback_ms``, ``encode_send_ms``, ``ack_ms``; the browser: its frame time as render).
+"""
+
+from __future__ import annotations
+
+from ..core.cull_counts import CullCounter
+from ..core.traces import TraceSample
+
+__all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed", "CHART_STATS_INTERVAL_MS", "STATS_INTERVAL_MS"]
+
+
+class _Feed:
+    """What both feeds share: the recorder, the culling camera, the counts of a sample."""
+
+    def __init__(self, view, recorder, on_sample=None):
+        self.view = view
+        self.recorder = recorder
+        self.on_sample = on_sample or (lambda: None)
+        self.counter = CullCounter(view.blades, view.params)
+        self._blade_count = view.blade_count
+        self.frozen_camera = None
+        self._last_step = None
+        view.frame_hooks.append(self.after_frame)
+
+    def set_culling_frozen(self, frozen: bool):
+        """Count culling against the camera of now (frozen) or the live camera (not frozen)."""
+        self.frozen_camera = self.view.current_camera() if frozen else None
+
+    def _check_blades(self):
+        if self.view.blade_count != self._blade_count:  # a new field: new rest pose, new ids
+            self._blade_count = self.view.blade_count
+            self.counter.set_blades(self.view.blades)
+            self.recorder.clear()
+            self._last_step = None
+
+    def _counts(self, stats):
+        camera = self.frozen_camera or self.view.current_camera()
+        visible = stats.get("visible")
+        occluded = stats.get("occluded")
+        rastered = stats.get("rastered")
+        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded)
+        drawn = {"ribbons": None if visible is None else visible - (rastered or 0), "compute": rastered}
+        return kept, drawn
+
+    @staticmethod
+    def _frame_ms(stats):
+        return {"render": stats.get("render_ms", stats.get("draw_ms")), "readback": stats.get("readback_ms"),
+                "encode_send": stats.get("encode_send_ms"), "ack": stats.get("ack_ms")}
+
+    def _record(self, t, step_count, kept, drawn, frame_ms, rows):
+        up = self.view.blades.up
+        if rows and max(int(r["id"]) for r in rows) >= len(up):
+            rows = []  # the answer of a field replaced meanwhile
+        self.recorder.record(TraceSample.from_inspected(t, step_count, rows, up, kept, drawn, frame_ms))
+        self.on_sample()
+
+    def detach(self):
+        try:
+            self.view.frame_hooks.remove(self.after_frame)
+        except ValueError:
+            pass
+
+    def after_frame(self):
+        """Take this frame's sample (each engine's feed)."""
+
+
+class KernelTraceFeed(_Feed):
+    """Samples of the kernel engine: after each drawn frame in which time advanced."""
+
+    def __init__(self, view, recorder, on_sample=None):
+        super().__init__(view, recorder, on_sample)
+        from ..gpu.trace_readback import InspectedReadback
+
+        self._readback_field = view.scene.field
+        self.readback = InspectedReadback(self._readback_field)
+
+    def after_frame(self):
+        view = self.view
+        scene = view.scene
+        if scene is None:
+            return
+        if scene.field is not self._readback_field:  # the blade count changed: a new field
+            self.readback.release()
+            self._readback_field = scene.field
+            from ..gpu.trace_readback import InspectedReadback
+
+            self.readback = InspectedReadback(scene.field)
+        self._check_blades()
+        for tag, rows in self.readback.poll():
+            self._record(*tag, rows)
+        step = int(scene.field.step_count)
+        if step == self._last_step:
+            return
+        self._last_step = step
+        stats = dict(view.stats)
+        live = scene.stats.as_dict() if scene.stats is not None else {}
+        for key in ("visible", "rastered"):
+            if live.get(key) is not None:
+                stats[key] = live[key]
+        if live.get("occluded") is not None and view.params.cull_occlusion:
+            stats["occluded"] = live["occluded"]
+        kept, drawn = self._counts(stats)
+        tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms(stats))
+        if not view.inspected or not self.readback.after_render(tag):
+            if view.inspected:  # the ring is full: the frame is skipped
+                return
+            self._record(*tag, rows=[])
+        elif not view.clock_source.playing:
+            self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
+
+    def set_charting(self, charting: bool):
+        """Nothing to change: the kernel samples every frame."""
+
+    def flush(self):
+        """Wait for the frames in flight and record them (tests, and before reading the traces)."""
+        for tag, rows in self.readback.flush():
+            self._record(*tag, rows)
+
+    def detach(self):
+        super().detach()
+        self.readback.release()
+
+
+#: Milliseconds between the browser's stats messages while a chart is shown (5 samples a second).
+CHART_STATS_INTERVAL_MS = 200
+#: ... and otherwise (the browser engine's default).
+STATS_INTERVAL_MS = 500
+
+
+class BrowserTraceFeed(_Feed):
+    """Samples of the browser engine: at each stats message and after each step(n)."""
+
+    def __init__(self, view, recorder, on_sample=None):
+        super().__init__(view, recorder, on_sample)
+        self._request_pending = False
+
+    def set_charting(self, charting: bool):
+        """A chart is shown: ask the browser for a stats message (a sample) every 200 ms instead of 500."""
+        self.view.browser_view.stats_interval_ms = CHART_STATS_INTERVAL_MS if charting else STATS_INTERVAL_MS
+
+    def after_frame(self):
+        self._check_blades()
+        step = self.view.stats.get("step_count")
+        if step is None or step == self._last_step:
+            return
+        self.sample_now()
+
+    def sample_now(self):
+        """Ask the browser for the inspected blades' numbers now (answered after what it was
+        asked before, e.g. a step(n)); the sample is recorded when the answer comes."""
+        view = self.view
+        if view.closed or self._request_pending:
+            return
+        ids = list(view.inspected)
+        stats = dict(view.stats)
+        kept, drawn = self._counts(stats)
+        frame_ms = self._frame_ms(stats)
+        bview = view.browser_view
+
+        def answered(msg, buffers):
+            self._request_pending = False
+            if msg.get("type") != "inspected" or msg.get("step_count") is None:
+                return
+            step = int(msg["step_count"])
+            rows = bview.inspected_from_answer(msg, buffers, ids) if ids else []
+            self._last_step = step
+            self._record(step * view.params.dt, step, kept, drawn, frame_ms, rows)
+
+        self._request_pending = True
+        bview.request_async({"type": "read_inspected"}, answered)
+
+    def flush(self):
+        """Nothing is held back in the kernel (the browser answers on its own)."""
+
+
+def make_feed(view, recorder, on_sample=None):
+    """The feed for ``view``'s engine."""
+    cls = KernelTraceFeed if view.backend == "kernel" else BrowserTraceFeed
+    return cls(view, recorder, on_sample)

@@ -1,0 +1,223 @@
+"""The lab bench in the kernel engine: w.traces() against a GrassScene stepped the same steps,
+the sampling rule, the rolling window, save_traces, and the chart trait and its dropdown."""
+
+import numpy as np
+import pytest
+
+import grasswidget as gw
+from grasswidget.core.teaching import INSPECTED_BLADE_COLORS
+from grasswidget.core.traces import load_traces
+from conftest import WIDGET_SIZE
+
+pytest.importorskip("ipywidgets")
+pytest.importorskip("jupyter_rfb")
+
+IDS = [3, 100, 777]
+
+
+def _show(w):
+    w.canvas.handle_event({"event_type": "resize", "width": WIDGET_SIZE[0], "height": WIDGET_SIZE[1],
+                           "pixel_ratio": 1.0})
+
+
+def test_traces_equal_a_scene_stepped_the_same_steps(widget):
+    _show(widget)
+    widget.params.wind_strength = 25.0
+    widget.inspect(IDS)
+    widget.step(7)
+    widget.view.draw()
+    widget.play()
+    frames = 4
+    for _ in range(frames):
+        widget.view.draw()  # each frame while playing advances steps_per_frame steps and takes a sample
+    widget.step(5)
+    widget.view.draw()
+    widget.view.draw()  # a redraw without time passing adds no sample
+    tr = widget.traces()
+    steps = tr["step"]
+    assert len(steps) == 1 + frames + 1 and np.all(np.diff(steps) > 0)
+    assert steps[0] == 7 and steps[-1] - steps[-2] == 5
+    np.testing.assert_allclose(tr["t"], steps * widget.params.dt, rtol=1e-9)
+    assert list(tr["ids"]) == IDS and tr["v2"].shape == (len(steps), 3, 3)
+
+    scene = gw.GrassScene(widget.view.blades, size=WIDGET_SIZE, params=widget.params.copy())
+    try:
+        done = 0
+        heights = widget.view.blades.height[IDS]
+        for k, s in enumerate(steps):
+            scene.step(int(s) - done)
+            done = int(s)
+            want = scene.field.read_state()["v2"][IDS]
+            err = np.abs(tr["v2"][k] - want).max(axis=-1)
+            assert np.all(err <= 1e-4 * heights), (k, s, err)
+    finally:
+        scene.release()
+    # the derived numbers, from the recorded points
+    state0 = widget.view.blades.rest_state()
+    rest = state0["v0"][IDS] + state0["up"][IDS] * heights[:, None]
+    np.testing.assert_allclose(tr["tip_offset"][-1], np.linalg.norm(tr["v2"][-1] - rest, axis=-1), atol=1e-6)
+    assert np.all(tr["tip_offset"][-1] > 0.01)  # the wind bent them
+    assert np.all((tr["bend_deg"] > 0) & (tr["bend_deg"] < 90))
+    assert np.all(tr["force"]["gravity"] > 9.7) and np.all(tr["force"]["wind"] > 0)
+    np.testing.assert_array_equal(tr["collision"], 0.0)  # no ball
+    # whole-field numbers: the GPU's drawn count, and every test keeps no more than the one before
+    kept = tr["kept"]
+    # (the non-blocking stats lag a frame or two: the count of a frame a step or two away)
+    assert abs(kept["occlusion"][-1] - widget.scene.stats.visible) <= 0.02 * widget.scene.stats.visible
+    assert np.isfinite(kept["distance"][1:]).all()  # (the first frame's GPU counts may not be read back yet: NaN)
+    for a, b in zip(("orientation", "frustum", "distance"), ("frustum", "distance", "occlusion")):
+        assert not np.any(kept[a] < kept[b]), (a, b)
+    assert kept["orientation"][-1] < widget.blade_count
+    np.testing.assert_array_equal(tr["drawn"]["ribbons"] + np.nan_to_num(tr["drawn"]["compute"]), kept["occlusion"])
+
+
+def test_reset_and_a_new_blade_count_start_a_new_trace(widget):
+    _show(widget)
+    widget.inspect([1])
+    widget.step(10)
+    widget.view.draw()
+    assert widget.traces()["step"].tolist() == [10]
+    widget.reset_blades()
+    widget.step(2)
+    widget.view.draw()
+    assert widget.traces()["step"].tolist() == [2]
+    widget.blade_count = 512
+    widget.step(3)
+    widget.view.draw()
+    tr = widget.traces()
+    assert tr["step"].tolist() == [3] and tr["ids"].tolist() == [1]  # a new field starts at rest
+
+
+def test_trace_window_bounds_the_samples_and_refuses_bad_values(widget):
+    _show(widget)
+    assert widget.trace_window == 60.0
+    widget.trace_window = 0.1
+    for _ in range(8):
+        widget.step(6)  # 0.05 s each
+        widget.view.draw()
+    t = widget.traces()["t"]
+    assert t[-1] == pytest.approx(48 * widget.params.dt) and t[-1] - t[0] <= 0.1 + 1e-9 and len(t) == 3
+    for bad in (0, 1e6, "long"):
+        with pytest.raises(gw.GrassValueError, match=r"trace_window .* \[0.1, 3600\]"):
+            widget.trace_window = bad
+    assert widget.trace_window == 0.1 and len(widget.traces()["t"]) == 3
+
+
+def test_save_traces_round_trip_and_bad_extension(widget, tmp_path):
+    _show(widget)
+    widget.inspect([8, 9])
+    for _ in range(3):
+        widget.step(4)
+        widget.view.draw()
+    want = widget.traces()
+    for ext in (".npz", ".csv"):
+        got = load_traces(widget.save_traces(tmp_path / f"t{ext}"))
+        np.testing.assert_allclose(got["v2"], want["v2"], atol=0)
+        np.testing.assert_array_equal(got["step"], want["step"])
+        np.testing.assert_allclose(got["kept"]["frustum"], want["kept"]["frustum"])
+    with pytest.raises(gw.GrassValueError, match=r"path must end in \.csv or \.npz"):
+        widget.save_traces(tmp_path / "t.xlsx")
+
+
+def test_chart_trait_dropdown_and_series(widget):
+    _show(widget)
+    bench = widget.bench
+    assert widget.chart is None and bench.chart.layout.display == "none"
+    assert bench.dropdown.value == "none" and bench.dropdown.label == "none"
+    widget.inspect([5, 6])
+    widget.step(3)
+    widget.view.draw()
+    widget.chart = "tip"
+    assert bench.dropdown.value == "tip" and bench.chart.layout.display is None
+    data = bench.chart.data
+    assert [s["label"] for s in data["series"]] == ["blade 5", "blade 6"]
+    assert [s["color"] for s in data["series"]] == INSPECTED_BLADE_COLORS[:2]
+    assert data["x"] == [pytest.approx(3 * widget.params.dt)]
+    # a newly inspected blade gets its series at the next sample
+    widget.inspect([5, 6, 40])
+    widget.step(2)
+    widget.view.draw()
+    widget.view.draw()
+    data = bench.chart.data
+    assert [s["label"] for s in data["series"]] == ["blade 5", "blade 6", "blade 40"]
+    assert data["series"][2]["values"][0] is None and data["series"][2]["values"][-1] > 0
+    assert len(data["x"]) == 2
+    # bad names: the project's error, naming what is allowed; nothing changes
+    for bad in ("pie", 3, ""):
+        with pytest.raises(gw.GrassValueError, match="chart must be None or one of 'tip', 'bend', 'culling', 'frame'"):
+            widget.chart = bad
+    assert widget.chart == "tip"
+    bench.dropdown.value = "culling"
+    assert widget.chart == "culling" and bench.chart.data["y_label"] == "blades kept"
+    widget.chart = None
+    assert bench.chart.layout.display == "none" and bench.dropdown.value == "none"
+    bench.dropdown.value = "bend"
+    assert widget.chart == "bend"
+    bench.dropdown.value = "none"
+    assert widget.chart is None
+
+
+def test_chart_updates_are_bounded_while_playing(widget):
+    _show(widget)
+    widget.chart = "frame"
+    pushes = []
+    widget.bench.chart.observe(lambda c: pushes.append(c), names="data")
+    widget.play()
+    frames = 12
+    import time
+
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        widget.view.draw()
+    elapsed = time.perf_counter() - t0
+    assert len(widget.traces()["t"]) == frames
+    assert 1 <= len(pushes) <= 1 + elapsed * 5.0 + 1
+    widget.pause()  # the newest samples reach the chart when playing stops
+    assert widget.bench.chart.data["x"][-1] == pytest.approx(widget.traces()["t"][-1])
+
+
+def test_the_panel_marks_each_inspected_blade_in_its_chart_colour(widget):
+    _show(widget)
+    widget.inspect([5, 6])
+    widget.step(1)
+    widget.view.draw()
+    html = widget.panel.inspect_line.value
+    assert html.index(INSPECTED_BLADE_COLORS[0]) < html.index("blade 5") < html.index(INSPECTED_BLADE_COLORS[1]) \
+        < html.index("blade 6")
+
+
+def test_collision_strength_is_the_blades_stored_factor_under_a_ball(widget):
+    _show(widget)
+    v0 = widget.view.blades.v0
+    ids = [int(i) for i in np.argsort(np.hypot(v0[:, 0], v0[:, 2]))[:2]] + [int(np.argmax(np.hypot(v0[:, 0], v0[:, 2])))]
+    widget.inspect(ids)  # two blades under the ball at the centre, one at the field's edge
+    widget.ball.move_to(0.0, 0.0)
+    widget.ball.enabled = True
+    widget.step(40)
+    widget.view.draw()
+    tr = widget.traces()
+    want = widget.scene.field.read_state()["collision"][ids]
+    np.testing.assert_allclose(tr["collision"][-1], want, atol=1e-7)
+    assert np.all(tr["collision"][-1][:2] > 0.1) and tr["collision"][-1][2] == 0.0
+    assert np.all(tr["force"]["collision"][-1][:2] >= 0) and tr["force"]["collision"][-1][2] == 0.0
+
+
+def test_a_lab_bench_for_any_view_without_an_owner(widget):
+    """Another widget (a comparison of two views) makes its own LabBench per view."""
+    from grasswidget.notebook.lab_bench import LabBench
+
+    _show(widget)
+    bench = LabBench(widget.view, 200)
+    try:
+        widget.inspect([2])
+        widget.step(3)
+        widget.view.draw()
+        assert bench.traces()["step"].tolist() == [3] == widget.traces()["step"].tolist()
+        bench.dropdown.value = "bend"
+        assert bench.kind == "bend" and bench.chart.data["series"][0]["label"] == "blade 2"
+        assert widget.chart is None  # the widget's own bench is another one
+    finally:
+        bench.close()
+    widget.step(1)
+    widget.view.draw()
+    assert widget.traces()["step"].tolist() == [3, 4]
