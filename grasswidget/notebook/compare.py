@@ -204,7 +204,9 @@ class Comparison(ipw.VBox):
             self._link_view(label, w.view)
             w.playing = self.playing
             w.observe(self._on_view_playing, names="playing")
-            w.observe(self._on_view_children, names="children")
+            # A browser view without WebGPU is replaced by a kernel view, and the widget says so on
+            # its message line: that is when to link the new one.
+            w.message_line.observe(self._on_view_message, names="value")
             w.params.observe(self._on_view_param, names=list(self.differing) or All)
 
     def _link_view(self, label, view):
@@ -221,9 +223,9 @@ class Comparison(ipw.VBox):
         view.add_camera_listener(self._on_view_camera)
         self._linked[label] = view
 
-    def _on_view_children(self, change):
-        """A view's GrassWidget replaced its view (a browser without WebGPU: the kernel streams
-        instead): link the new one, at the shared camera."""
+    def _on_view_message(self, change):
+        """A view's GrassWidget may have replaced its view (a browser without WebGPU: the kernel
+        streams instead, and the message line says so): link the new one, at the shared camera."""
         for label, w in self.views.items():
             if w.view is not None and w.view is not self._linked.get(label) and not w.closed:
                 old = self._linked.get(label)
