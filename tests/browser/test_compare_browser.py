@@ -1,6 +1,6 @@
 """A comparison (gw.compare) in JupyterLab and Chromium: both views stream, a drag in one
-view orbits both cameras alike, the other view's picture follows, and the play button of
-the shared panel pauses and plays both views.
+view orbits both cameras alike, the other view's picture follows, the play button of
+the shared panel pauses and plays both views, and each view shows its own chart.
 
 Saves a screenshot of the comparison (``compare-jupyterlab.png`` in ``$GW_ARTIFACTS_DIR``
 or a temporary folder, path printed) to look at.
@@ -37,7 +37,8 @@ def test_drag_in_one_view_orbits_both(page, lab_server, browser_root):
     write_notebook(browser_root / "compare_views.ipynb", [
         "import grasswidget as gw",
         "c = gw.compare({'soft': {'stiffness_scale': 0.5}, 'stiff': {'stiffness_scale': 2.0}}, "
-        "blades=512, size=(240, 180))\nc.pause()\nc",
+        "blades=512, size=(240, 180))\nc.pause()\nc.inspect([17])\n"
+        "for view in c.views.values():\n    view.chart = 'tip'\nc",
     ])
     open_notebook(page, lab_server, "compare_views.ipynb")
     old_viewport = page.viewport_size
@@ -81,6 +82,13 @@ def _check(page):
     wait_for_kernel(page, "[w.playing for w in c.views.values()]", [False, False], timeout=20)
     times = kernel_eval(page, "[w.view.clock.steps for w in c.views.values()]")
     assert times[0] == times[1] > 0  # paused at the same simulated time
+
+    # a chart under each view, each with its own view's samples
+    charts = page.locator(".grasswidget-compare .gw-trace-chart canvas")
+    poll(lambda: charts.count() >= 2 and charts.nth(0).is_visible() and charts.nth(1).is_visible(),
+         "a chart under each view", 30, 0.5, page=page)
+    counts = kernel_eval(page, "[len(w.traces()['t']) for w in c.views.values()]")
+    assert min(counts) >= 2, counts
 
     out = Path(os.environ.get("GW_ARTIFACTS_DIR") or tempfile.mkdtemp(prefix="gw-compare-"))
     out.mkdir(parents=True, exist_ok=True)
