@@ -32,6 +32,8 @@ _LAZY = {
     "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.gpu.scene", "GrassScene"),
     "GrassWidget": ("grasswidget.notebook.widget", "GrassWidget"),
+    "compare": ("grasswidget.notebook.compare", "compare"),
+    "sweep": ("grasswidget.tools.sweep", "sweep"),
     "exercise": ("grasswidget.notebook.exercise", "exercise"),
     "TraceRecorder": ("grasswidget.core.traces", "TraceRecorder"),
     "load_traces": ("grasswidget.core.traces", "load_traces"),
@@ -47,7 +49,7 @@ _MODULES = {
         "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
     "ball": "grasswidget.notebook.ball",
     "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
-    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export", "grading")},
+    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export", "sweep", "grading")},
 }
 
 

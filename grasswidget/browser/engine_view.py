@@ -113,6 +113,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.on("pick", self._on_pick_msg)
         self.browser_view.observe(self._on_gpu_status, names="gpu_status")
         self.browser_view.observe(self._on_browser_playing, names="playing")
+        self.browser_view.observe(lambda _change: self.report_camera_moved(), names="camera")
 
     @property
     def widget(self):

@@ -573,6 +573,8 @@ class KernelView(GrassView):
             self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
         scene.draw_frame()
         self._inspect_stale = False
+        if self.camera_listeners:  # a linked view (a comparison) follows this camera
+            self.report_camera_moved()
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)
