@@ -119,24 +119,44 @@ class Exercise:
         return GrassWidget(blades=blades, size=size, backend=backend, function_overrides=overrides, **kwargs)
 
     def compare(self, wgsl: str, blades: int = 1024, size=(320, 240), backend: str = "kernel"):
-        """The student's functions and the reference side by side: two GrassWidgets in an
-        HBox, left "yours", right "reference", sharing one GrassParams (a slider on either
-        moves both); ``backend`` as in :meth:`widget`. Returns the HBox; ``.widgets`` holds
-        (yours, reference)."""
-        import ipywidgets as ipw
+        """The student's functions and the reference side by side, "yours" and "reference".
 
+        Kernel engine (default): a :func:`gw.compare <grasswidget.notebook.compare.compare>`
+        comparison: one camera, one clock (``c.step(n)`` advances both exactly n steps), one
+        panel on the shared parameters; ``c.views["yours"]`` runs the student's functions.
+        ``backend="browser"`` or ``"auto"``: the browser compiles user functions only when a
+        view starts, which a comparison's views cannot be given, so the two GrassWidgets stand
+        in an HBox instead, sharing one GrassParams (no linked camera or clock); ``.views``
+        holds them too. The code is checked first (ExerciseShaderError with the line)."""
+        from .compare import compare
         from .widget import GrassWidget
 
+        overrides = self.overrides(wgsl)
         params = self._widget_params()
+        if backend == "kernel":
+            from ..tools.grading import check_compiles
+
+            check_compiles(overrides)  # the error before any view exists
+            comparison = compare({"yours": {}, "reference": {}}, blades=blades, size=size, params=params,
+                                 backend="kernel")
+            try:
+                comparison.views["yours"].set_function_overrides(overrides)
+            except BaseException:
+                comparison.close()
+                raise
+            return comparison
+
+        import ipywidgets as ipw
+
         mine = self.widget(wgsl, blades=blades, size=size, params=params, backend=backend)
         try:
             ref = GrassWidget(blades=blades, size=size, params=params, backend=backend)
         except BaseException:
             mine.close()
             raise
-        columns = [ipw.VBox([ipw.HTML(f"<b>{title}</b>"), w]) for title, w in (("yours", mine), ("reference", ref))]
-        box = ipw.HBox(columns)
-        box.widgets = (mine, ref)
+        views = {"yours": mine, "reference": ref}
+        box = ipw.HBox([ipw.VBox([ipw.HTML(f"<b>{title}</b>"), w]) for title, w in views.items()])
+        box.views = views
         return box
 
 

@@ -55,12 +55,34 @@ def test_the_live_widget_runs_the_students_gravity_and_keeps_it_across_blade_cou
         ref.close()
 
 
-def test_compare_shows_yours_and_the_reference_with_one_set_of_params():
+def test_compare_runs_yours_next_to_the_reference_in_lockstep():
+    """ex.compare is a gw.compare comparison: one clock, one camera; only "yours" runs the student's code."""
+    ex = gw.exercise("forces")
+    c = ex.compare(ex.solution().replace(*UPWARD), blades=128, size=SIZE)
+    try:
+        assert list(c.views) == ["yours", "reference"]
+        mine, ref = c.views["yours"], c.views["reference"]
+        assert mine.function_overrides is not None and ref.function_overrides is None
+        c.params.wind_strength = 0.0  # shared: reaches both views
+        assert mine.params.wind_strength == ref.params.wind_strength == 0.0
+        c.pause()
+        c.reset_blades()
+        c.step(120)
+        up = [float(np.mean(v.read_state()["v2"][:, 1] / v.read_state()["height"])) for v in (mine, ref)]
+        assert up[0] > 0.95 and up[0] > up[1] + 0.05, up
+        with pytest.raises(gw.ExerciseShaderError):
+            ex.compare(ex.solution().replace("var d = direction;", "var d = direction"), blades=128, size=SIZE)
+    finally:
+        c.close()
+
+
+def test_compare_in_the_browser_engine_is_two_widgets_on_one_set_of_params():
     ex = gw.exercise("culling")
-    box = ex.compare(ex.starter, blades=128, size=SIZE)
-    mine, ref = box.widgets
+    box = ex.compare(ex.starter, blades=128, size=SIZE, backend="browser")
+    mine, ref = box.views["yours"], box.views["reference"]
     try:
         assert mine.params is ref.params and mine.params.color_by == "cull"
+        assert mine.function_overrides is not None and ref.function_overrides is None
         assert [c.children[0].value for c in box.children] == ["<b>yours</b>", "<b>reference</b>"]
     finally:
         mine.close()
