@@ -747,10 +747,12 @@ class GrassWidget(ipw.VBox):
 
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
-        scene and camera controller, the control panel and the ball (those that exist).
+        scene and camera controller, the control panel, the ball, the camera bar, the lab
+        bench (chart) and the layout (those that exist; their ipywidgets, shown or not).
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
-        found = (view, self.panel, self.ball)
+        found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
+                 getattr(self, "_layout", None), getattr(self, "_stage", None))
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -781,6 +783,11 @@ class GrassWidget(ipw.VBox):
             self.view.close()
         if self.ball is not None:
             self.ball.detach()
+        layout, stage = getattr(self, "_layout", None), getattr(self, "_stage", None)
+        if layout is not None:
+            layout.close()  # an open box would keep the closed rows (and through them this widget) alive
+        if stage is not None:
+            stage.close()
         super().close()
 
     # ------------------------------------------------------------------ internals

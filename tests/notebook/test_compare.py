@@ -197,10 +197,6 @@ def test_browser_engine_views_follow_the_camera_the_browser_sends():
         c.close()
 
 
-@pytest.mark.xfail(strict=True, reason="main since the camera merge: a GrassWidget's camera bar Play button, off the "
-                   "page while the panel is unfolded, counts as an open widget holding it, so no re-run closes "
-                   "a GrassWidget (tests/notebook/test_cell_rerun.py fails the same way); remove this mark "
-                   "when that is fixed")
 def test_rerunning_the_cell_closes_the_earlier_comparison_and_its_views(monkeypatch):
     """Cell A makes a comparison (displayed: it lands in the output history), runs again: the
     first comparison and both its views are closed, the new one stays open."""
