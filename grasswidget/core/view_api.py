@@ -211,6 +211,13 @@ class GrassView(abc.ABC):
         """Compile ``body`` as the custom wind (WindShaderError with the line on failure; the old wind
         stays); with ``select``, ``params.wind_field`` becomes "custom"."""
 
+    @abc.abstractmethod
+    def set_function_overrides(self, overrides) -> None:
+        """Run user WGSL (a :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, or None for
+        the stock functions) in place of stock blade-math functions: the kernel engine compiles them
+        now (ExerciseShaderError with the user's line on failure, the old ones stay); the browser
+        engine compiles them when it starts and refuses a change later (GrassValueError)."""
+
     # ------------------------------------------------------------------ time
 
     @property

@@ -279,6 +279,8 @@ class KernelView(GrassView):
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
         self._stats_confirmed = 0
+        #: User WGSL replacing blade-math functions (an exercise's), kept across blade changes; None: stock.
+        self.function_overrides = None
         self.set_blades(blades)
 
     # ------------------------------------------------------------------ scene
@@ -302,6 +304,8 @@ class KernelView(GrassView):
         cam_state = old.camera.get_state() if old is not None else None
         old_target = self.controller.target if (old is not None and self.controller is not None) else None
         scene = self._make_scene(blades)
+        if self.function_overrides is not None:
+            scene.field.set_function_overrides(self.function_overrides)
         if old is not None:
             old.release()
         # Render at the canvas's physical size (no SSAA, no upscaling): that size is
@@ -429,6 +433,13 @@ class KernelView(GrassView):
                     self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
             self.scene.step(chunk)
             self.clock.count(chunk, dt)
+
+    @_exclusive
+    def set_function_overrides(self, overrides):
+        """Replace blade-math functions with user WGSL (GrassField.set_function_overrides), now
+        and in every scene built for a new blade count; None: the stock functions."""
+        self.scene.field.set_function_overrides(overrides)
+        self.function_overrides = overrides
 
     @_exclusive
     def reset_blades(self):
