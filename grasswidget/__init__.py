@@ -19,10 +19,11 @@ from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
-    WidgetClosedError, WindShaderError,
+    WidgetClosedError, WindShaderError, ExerciseShaderError,
 )
 from .core.params import GrassParams  # noqa: E402
 from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
+from .core.exercises import EXERCISES  # noqa: E402
 
 __version__ = "0.1.0"
 
@@ -31,6 +32,9 @@ _LAZY = {
     "GrassMaterial": ("grasswidget.gpu.material", "GrassMaterial"),
     "GrassScene": ("grasswidget.gpu.scene", "GrassScene"),
     "GrassWidget": ("grasswidget.notebook.widget", "GrassWidget"),
+    "compare": ("grasswidget.notebook.compare", "compare"),
+    "sweep": ("grasswidget.tools.sweep", "sweep"),
+    "exercise": ("grasswidget.notebook.exercise", "exercise"),
     "TraceRecorder": ("grasswidget.core.traces", "TraceRecorder"),
     "load_traces": ("grasswidget.core.traces", "load_traces"),
 }
@@ -39,13 +43,13 @@ _LAZY = {
 _MODULES = {
     **{name: f"grasswidget.core.{name}" for name in (
         "blades", "params", "enums", "colliders", "reference", "memory", "uniform_layouts", "shader_files",
-        "teaching", "framing", "traces")},
+        "teaching", "framing", "traces", "exercises")},
     "scene": "grasswidget.gpu.scene",
     **{name: f"grasswidget.notebook.{name}" for name in (
         "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
     "ball": "grasswidget.notebook.ball",
     "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
-    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export")},
+    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export", "sweep", "grading")},
 }
 
 
@@ -82,9 +86,9 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
     _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
-    "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS",
+    "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
     *_LAZY,
 ]

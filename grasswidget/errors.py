@@ -17,6 +17,7 @@ error                           also a                              raised for
 ``BladeCountError``             ``GrassValueError``                 more blades than memory holds
 ``BladeLimitError``             ``BladeCountError``                 more blades than one GPU buffer binding holds
 ``WindShaderError``             ``GrassValueError``                 a ``wind_wgsl`` snippet that does not compile
+``ExerciseShaderError``         ``GrassValueError``                 exercise WGSL that does not compile or breaks a rule
 ``MissingFileError``            ``FileNotFoundError``               an output folder or shipped shader not there
 ``MissingDependencyError``      ``ImportError``                     an optional package a feature needs
 ``NoGPUAdapterError``           ``RuntimeError``                    no usable WebGPU adapter
@@ -33,7 +34,7 @@ from traitlets import TraitError
 
 __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
     "PageBuildError",
 ]
@@ -97,6 +98,21 @@ class WindShaderError(GrassValueError):
     the error is not inside it), ``reason`` (naga's one-line summary) and
     ``naga_message`` (the full message; its line numbers are those of the whole
     simulation shader). The previous wind stays in force.
+    """
+
+    def __init__(self, message, line=None, column=None, reason="", naga_message=""):
+        super().__init__(message)
+        self.line, self.column, self.reason, self.naga_message = line, column, reason, naga_message
+
+
+class ExerciseShaderError(GrassValueError):
+    """Exercise WGSL (the functions a student writes, see ``gw.exercise``) that does
+    not compile, misses a function, changes a signature or uses a loop.
+
+    The sibling of :class:`WindShaderError`, with the same attributes: ``line`` and
+    ``column`` (1-based, within the student's code; None when the error is not inside
+    it), ``reason`` (one line) and ``naga_message`` (the compiler's full message, ""
+    for the checks made before compiling; its line numbers are those of the whole shader).
     """
 
     def __init__(self, message, line=None, column=None, reason="", naga_message=""):

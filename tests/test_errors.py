@@ -85,7 +85,8 @@ def test_each_error_is_also_its_builtin():
     expect = {
         "GrassValueError": ValueError, "GrassTypeError": TypeError, "ParameterError": ValueError,
         "UnknownNameError": AttributeError, "MissingLimitError": KeyError, "BladeCountError": ValueError,
-        "BladeLimitError": ValueError, "WindShaderError": ValueError, "MissingFileError": FileNotFoundError,
+        "BladeLimitError": ValueError, "WindShaderError": ValueError, "ExerciseShaderError": ValueError,
+        "MissingFileError": FileNotFoundError,
         "MissingDependencyError": ImportError, "NoGPUAdapterError": RuntimeError, "WidgetClosedError": RuntimeError,
         "UpstreamChangedError": RuntimeError, "BrowserTimeoutError": TimeoutError,
         "PageBuildError": RuntimeError,

@@ -39,6 +39,7 @@ from ..core.blades import Blades
 from ..core.colliders import ColliderList
 from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW
 from ..core.view_api import GrassView
+from ..errors import GrassValueError
 from .view import BrowserView
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -79,7 +80,7 @@ class BrowserEngineView(GrassView):
     backend = "browser"
 
     def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
-                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0):
+                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None):
         from ..core.framing import preset_field
 
         super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
@@ -97,7 +98,7 @@ class BrowserEngineView(GrassView):
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
         self.browser_view = BrowserView(blades, params=params, size=self.size, camera=camera,
-                                pixel_ratio=float(pixel_ratio or 0.0))
+                                        pixel_ratio=float(pixel_ratio or 0.0), function_overrides=function_overrides)
         self.browser_view.playing = bool(clock.playing)
         self.browser_view.time_scale = float(clock.time_scale)
         self._ball_scene = _BallScene(self.browser_view)
@@ -112,6 +113,7 @@ class BrowserEngineView(GrassView):
         self.browser_view.on("pick", self._on_pick_msg)
         self.browser_view.observe(self._on_gpu_status, names="gpu_status")
         self.browser_view.observe(self._on_browser_playing, names="playing")
+        self.browser_view.observe(lambda _change: self.report_camera_moved(), names="camera")
 
     @property
     def widget(self):
@@ -342,6 +344,18 @@ class BrowserEngineView(GrassView):
                 self.report_error(err)
 
         self.browser_view.request_async(self.browser_view.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
+
+    @property
+    def function_overrides(self):
+        """The user WGSL the browser compiled in place of stock blade-math functions, or None."""
+        return self.browser_view.function_overrides
+
+    def set_function_overrides(self, overrides):
+        """The browser compiles user functions when its engine starts: only the ones it has are accepted."""
+        if overrides != self.browser_view.function_overrides:
+            raise GrassValueError("the browser engine takes user functions when the widget is made "
+                                  "(GrassWidget(function_overrides=...), or gw.exercise(...).widget(code)); "
+                                  "make a new widget, or use backend='kernel' to change them live")
 
     def set_wind_wgsl(self, body, select=True):
         """Compiled by the browser; waits for its answer (see BrowserView.set_wind_wgsl)."""

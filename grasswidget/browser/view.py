@@ -48,7 +48,7 @@ from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspecte
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
-from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body
+from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
 
 __all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
 
@@ -145,7 +145,8 @@ class BrowserView(anywidget.AnyWidget):
     # ---- set by the browser
     gpu_status = Dict({"state": "", "detail": ""}).tag(sync=True)
 
-    def __init__(self, blades=4096, params: GrassParams | None = None, size=(640, 480), camera=None, **kwargs):
+    def __init__(self, blades=4096, params: GrassParams | None = None, size=(640, 480), camera=None,
+                 function_overrides=None, **kwargs):
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
             blades = Blades.on_plane(int(blades))
         if not isinstance(blades, Blades):
@@ -153,6 +154,9 @@ class BrowserView(anywidget.AnyWidget):
         if params is not None and not isinstance(params, GrassParams):
             raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
         self.params = params if params is not None else GrassParams()
+        #: User WGSL replacing blade-math functions (a FunctionOverrides, e.g. an exercise's), compiled
+        #: by the browser with every shader when the engine starts; None: the stock functions.
+        self.function_overrides = function_overrides
         self._colliders = ColliderList()
         self._answers = {}
         self._ids = itertools.count(1)
@@ -170,7 +174,7 @@ class BrowserView(anywidget.AnyWidget):
             self.stdinfo_size = uniforms.struct_size(uniforms.STDINFO_LAYOUT)
             self.stdinfo_layout = uniforms.layout_description(uniforms.STDINFO_LAYOUT)
             self.sim_layout = uniforms.layout_description(uniforms.SIM_LAYOUT)
-            self.shaders = BrowserShaders.all(self.params.wind_wgsl)
+            self.shaders = with_function_overrides(BrowserShaders.all(self.params.wind_wgsl), function_overrides)
             self.inspect_uniform = pack(INSPECT_LAYOUT, {"n_ids": 0})
             self._set_blades(blades)
             self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
@@ -408,8 +412,8 @@ class BrowserView(anywidget.AnyWidget):
         return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
 
     def _request_wind(self, body, old, wait, timeout=ANSWER_TIMEOUT):
-        shader = BrowserShaders.simulate(body)
-        inspect = BrowserShaders.inspect(body)  # the inspector compiles the same wind
+        shader = with_function_overrides(BrowserShaders.simulate(body), self.function_overrides)
+        inspect = with_function_overrides(BrowserShaders.inspect(body), self.function_overrides)  # the same wind
         content = {"type": "compile_simulate", "shader": shader, "passes": {"inspect": inspect}}
 
         def done(msg, _buffers):

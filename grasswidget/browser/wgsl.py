@@ -476,6 +476,24 @@ class BrowserShaders:
         return out
 
 
+def with_function_overrides(tree, overrides):
+    """A copy of a shader tree (:meth:`BrowserShaders.all`, or one shader dict) in which every
+    shader that defines the replaced blade-math functions runs the user's instead
+    (:meth:`~grasswidget.core.wgsl_overrides.FunctionOverrides.apply`: the simulation, the
+    culling passes, the inspector); None gives the tree unchanged. Bindings stay as they were
+    (the user's functions bind nothing)."""
+    if overrides is None:
+        return tree
+    if isinstance(tree, dict):
+        out = {k: with_function_overrides(v, overrides) for k, v in tree.items()}
+        if isinstance(tree.get("code"), str):
+            out["code"] = overrides.apply(tree["code"])
+        return out
+    if isinstance(tree, list):
+        return [with_function_overrides(v, overrides) for v in tree]
+    return tree
+
+
 def _all_shader_dicts(tree):
     """Every rendered shader ({"code", "bindings"}) in a nested dict / list."""
     if isinstance(tree, dict):

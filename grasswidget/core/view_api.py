@@ -23,6 +23,10 @@ into a view's parts). What the two views share is written here once:
 
 Both engines have every feature of the interface (the teaching views included).
 
+Camera listeners (:meth:`GrassView.add_camera_listener`): a view tells them when its camera
+moved, and :meth:`GrassView.accept_camera` moves it without telling them, so views can
+follow each other's camera without echoes (a comparison, :mod:`grasswidget.notebook.compare`).
+
 The view is told what to do by the widget and reports back through callbacks
 given at construction: ``clock`` (:class:`ViewClock`), ``actions``
 (:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and
@@ -126,6 +130,9 @@ class GrassView(abc.ABC):
         self.report_stats = on_stats
         self.report_inspected = on_inspect if on_inspect is not None else (lambda blades: None)
         self.closed = False
+        #: Functions ``fn(view)`` called when the camera moved (see :meth:`add_camera_listener`).
+        self.camera_listeners = []
+        self.reported_camera = None  # the camera as the listeners last heard of it
         #: Callables run (no arguments) after each frame the kernel draws, and at each stats message
         #: of the browser engine: where the traces take their samples (grasswidget.notebook.trace_feed).
         self.frame_hooks = []
@@ -203,6 +210,13 @@ class GrassView(abc.ABC):
     def set_wind_wgsl(self, body: str, select: bool = True) -> None:
         """Compile ``body`` as the custom wind (WindShaderError with the line on failure; the old wind
         stays); with ``select``, ``params.wind_field`` becomes "custom"."""
+
+    @abc.abstractmethod
+    def set_function_overrides(self, overrides) -> None:
+        """Run user WGSL (a :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, or None for
+        the stock functions) in place of stock blade-math functions: the kernel engine compiles them
+        now (ExerciseShaderError with the user's line on failure, the old ones stay); the browser
+        engine compiles them when it starts and refuses a change later (GrassValueError)."""
 
     # ------------------------------------------------------------------ time
 
@@ -288,6 +302,42 @@ class GrassView(abc.ABC):
             raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
         self.look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
         self.request_draw()
+
+    def add_camera_listener(self, fn: Callable) -> None:
+        """Call ``fn(view)`` whenever this view's camera has moved (a drag, the wheel, a pan, code):
+        the kernel engine checks after each frame it draws, the browser engine when the browser's
+        camera reaches the kernel. Used to link the cameras of a comparison
+        (:mod:`grasswidget.notebook.compare`)."""
+        if fn not in self.camera_listeners:
+            self.camera_listeners.append(fn)
+        if self.reported_camera is None:
+            self.reported_camera = self.current_camera()
+
+    def remove_camera_listener(self, fn: Callable) -> None:
+        """Stop calling ``fn`` (nothing happens when it was not added)."""
+        if fn in self.camera_listeners:
+            self.camera_listeners.remove(fn)
+
+    def report_camera_moved(self) -> bool:
+        """Tell the camera listeners when the camera differs from what they last heard
+        (position and target by more than 1e-6 m, the field of view by more than 1e-6 degrees);
+        returns whether it did. A view calls this where its camera may have moved."""
+        if not self.camera_listeners or self.closed:
+            return False
+        now = self.current_camera()
+        last = self.reported_camera
+        if last is not None and all(np.allclose(now[k], last[k], rtol=0.0, atol=1e-6) for k in CAMERA_KEYS):
+            return False
+        self.reported_camera = now
+        for fn in list(self.camera_listeners):
+            fn(self)
+        return True
+
+    def accept_camera(self, state) -> None:
+        """Move the camera to ``state`` (as :attr:`camera_state` takes it) without telling the
+        camera listeners: the move came from them (a linked view), so no echo goes back."""
+        self.camera_state = state
+        self.reported_camera = self.current_camera()
 
     @abc.abstractmethod
     def current_camera(self) -> dict:

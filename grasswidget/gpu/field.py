@@ -147,6 +147,9 @@ class GrassField(gfx.WorldObject):
             usage=usage.INDIRECT | usage.STORAGE | usage.COPY_SRC,
         )
         self._store.flat_colors = self.params.color_by != "natural"
+        # User WGSL in place of stock blade-math functions (set_function_overrides; tracked by
+        # pygfx: a change builds the culling pipelines again).
+        self._store.function_overrides = None
         # The compute rasterizer of thin blades (raster.wgsl): its list and counters
         # (listed, first occlusion phase's part), and per-pixel depth and payload words,
         # allocated by prepare_compute_raster (one item each until then).
@@ -499,6 +502,40 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_wind(body, self.params.wind_wgsl)
         if select:
             self.params.wind_field = "custom"
+
+    @property
+    def function_overrides(self):
+        """The :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides` in force (user WGSL
+        replacing blade-math functions in the simulation, culling and inspector shaders), or
+        None (the stock functions). Set with :meth:`set_function_overrides`."""
+        return self._store.function_overrides
+
+    def set_function_overrides(self, overrides):
+        """Replace blade-math functions (e.g. an exercise's ``wind_force``) with user WGSL in
+        this field's simulation, culling and inspector shaders; None restores the stock ones.
+
+        ``overrides``: a :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`. Checked
+        (:meth:`~grasswidget.core.wgsl_overrides.FunctionOverrides.check`) and compiled now (the
+        simulation shader holds every blade-math function, so the culling compiles too); on an
+        error raises :class:`~grasswidget.errors.ExerciseShaderError` with the user's line and
+        column and keeps the functions in force before the call.
+        """
+        from ..core.shader_files import render_wgsl
+        from ..core.wgsl_overrides import FunctionOverrides
+
+        if overrides is not None and not isinstance(overrides, FunctionOverrides):
+            raise GrassTypeError(f"overrides must be a FunctionOverrides or None; got {type(overrides).__name__}")
+        if overrides == self.function_overrides:
+            return
+        if overrides is not None:
+            overrides.check(render_wgsl("blade_math.wgsl"))
+        old = self._store.function_overrides
+        self._store.function_overrides = overrides
+        try:
+            self.simulation.compile_now(self.params.wind_wgsl)
+        except BaseException:
+            self._store.function_overrides = old
+            raise
 
     def step(self, n: int = 1):
         """Advance the physics by ``n`` fixed steps of ``params.dt`` (n >= 0).

@@ -10,7 +10,6 @@ inside ``renderer.render()``.
 from __future__ import annotations
 
 import math
-import re
 
 import numpy as np
 import pygfx as gfx
@@ -27,7 +26,7 @@ from ..core.shader_files import NO_WIND_BODY
 from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
-from .wgsl import GrassComputeShader, workgroups
+from .wgsl import GrassComputeShader, naga_error_parts, overrides_error, workgroups
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 
@@ -46,28 +45,8 @@ def wind_shader_error(err, wgsl, body):
     text = str(err)
     lines = wgsl.splitlines()
     start = next((k + 2 for k, line in enumerate(lines) if line.strip() == _USER_WIND_SIGNATURE), None)
-    n_body = len(body.splitlines()) or 1
-    in_body = (lambda L: start is not None and start <= L < start + n_body)
-
-    line = column = None
-    head = re.search(r"┌─ [^:\n]*:(\d+):(\d+)", text)
-    if head and in_body(int(head.group(1))):
-        line, column = int(head.group(1)), int(head.group(2))
-    else:
-        gutter = text.splitlines()
-        marked = []
-        for k, row in enumerate(gutter):
-            m = re.match(r"\s*(\d+) │", row)
-            if m and in_body(int(m.group(1))):
-                nxt = gutter[k + 1] if k + 1 < len(gutter) else ""
-                marked.append((("^" not in nxt), int(m.group(1))))
-        if marked:
-            line = sorted(marked)[0][1]
-    reasons = [r.strip() for r in re.findall(r"(?:error|Error): (.+)", text) if "Validation Error" not in r]
-    notes = [r.strip()[2:] for r in text.splitlines() if r.strip().startswith("= ")]
-    reason = "; ".join(dict.fromkeys(reasons + notes)) or text.strip().splitlines()[-1]
-    if line is not None:
-        snippet_line = line - start + 1
+    snippet_line, column, reason = naga_error_parts(text, start, len(body.splitlines()) or 1)
+    if snippet_line is not None:
         src_line = body.splitlines()[snippet_line - 1] if snippet_line <= len(body.splitlines()) else ""
         col = f", column {column}" if column is not None else ""
         message = f"wind_wgsl line {snippet_line}{col}: {reason}\n  {snippet_line} | {src_line}"
@@ -146,9 +125,15 @@ class Simulation:
         try:
             return ComputeProgram(shader, self.field)
         except wgpu.GPUError as err:
+            overrides = self.field.function_overrides
+            wgsl = shader.generate_wgsl()
+            if overrides is not None:
+                error = overrides_error(err, wgsl, overrides)
+                if error.line is not None or not body.strip():
+                    raise error from None
             if not body.strip():
                 raise
-            raise wind_shader_error(err, shader.generate_wgsl(), body) from None
+            raise wind_shader_error(err, wgsl, body) from None
 
     def compile_now(self, body):
         """Compile ``body`` into the program now (no revert on error)."""

@@ -114,6 +114,24 @@ def _widgets_in(widget) -> list:
     return out
 
 
+def _owned_widgets(part) -> list:
+    """The ipywidgets a part of a widget owns: the part itself when it is one (and its
+    children), else the ipywidgets among its attributes, directly or in a dict, list or
+    tuple (a camera bar's buttons, a panel's sliders), whether shown right now or not
+    (a folded panel takes its rows off the page but keeps them)."""
+    import ipywidgets
+
+    if isinstance(part, ipywidgets.Widget):
+        return _widgets_in(part)
+    out = []
+    for value in list(getattr(part, "__dict__", {}).values()):
+        items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple)) else (value,)
+        for item in items:
+            if isinstance(item, ipywidgets.Widget):
+                out.extend(_widgets_in(item))
+    return out
+
+
 def holder_of(widget, user_ns=None, *, parts=(), skip=(), limit: int = SEARCH_LIMIT,
               report: dict | None = None) -> str | None:
     """What holds ``widget`` besides its own wiring and IPython's history, or None.
@@ -144,6 +162,8 @@ def holder_of(widget, user_ns=None, *, parts=(), skip=(), limit: int = SEARCH_LI
     module_dicts = {id(vars(m)): name for name, m in list(sys.modules.items())
                     if m is not None and isinstance(getattr(m, "__dict__", None), dict)}
     own_widgets = _widgets_in(widget)
+    for part in parts:
+        own_widgets += _owned_widgets(part)
     own = {id(w) for w in own_widgets}
     # their comms hold their message handlers (ipywidgets wraps them, so they are not plain methods)
     ignored.update(id(w.comm) for w in own_widgets if getattr(w, "comm", None) is not None)
@@ -158,7 +178,7 @@ def holder_of(widget, user_ns=None, *, parts=(), skip=(), limit: int = SEARCH_LI
         ExecutionResult = ()
 
     frontier = [widget]
-    for obj in [*parts, *(w for w in _widgets_in(widget) if w is not widget)]:
+    for obj in [*parts, *(w for w in own_widgets if w is not widget)]:
         if obj is not None and all(obj is not o for o in frontier):
             frontier.append(obj)
     seen = {id(o) for o in frontier}

@@ -281,6 +281,8 @@ class KernelView(GrassView):
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
         self._stats_confirmed = 0
+        #: User WGSL replacing blade-math functions (an exercise's), kept across blade changes; None: stock.
+        self.function_overrides = None
         self.set_blades(blades)
 
     # ------------------------------------------------------------------ scene
@@ -304,6 +306,8 @@ class KernelView(GrassView):
         cam_state = old.camera.get_state() if old is not None else None
         old_target = self.controller.target if (old is not None and self.controller is not None) else None
         scene = self._make_scene(blades)
+        if self.function_overrides is not None:
+            scene.field.set_function_overrides(self.function_overrides)
         if old is not None:
             old.release()
         # Render at the canvas's physical size (no SSAA, no upscaling): that size is
@@ -431,6 +435,13 @@ class KernelView(GrassView):
                     self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
             self.scene.step(chunk)
             self.clock.count(chunk, dt)
+
+    @_exclusive
+    def set_function_overrides(self, overrides):
+        """Replace blade-math functions with user WGSL (GrassField.set_function_overrides), now
+        and in every scene built for a new blade count; None: the stock functions."""
+        self.scene.field.set_function_overrides(overrides)
+        self.function_overrides = overrides
 
     @_exclusive
     def reset_blades(self):
@@ -564,6 +575,8 @@ class KernelView(GrassView):
             self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
         scene.draw_frame()
         self._inspect_stale = False
+        if self.camera_listeners:  # a linked view (a comparison) follows this camera
+            self.report_camera_moved()
         t1 = time.perf_counter()
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)

@@ -73,3 +73,8 @@ class WidgetLayout:
     def fold(self, folded: bool):
         """Show only the bar (True) or the whole panel (False)."""
         self.more.layout.display = "none" if folded else ""
+
+    def close(self):
+        """Close the column's own boxes (the rows and the bar are closed by their owners)."""
+        self.more.close()
+        self.column.close()

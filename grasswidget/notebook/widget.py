@@ -116,6 +116,10 @@ class GrassWidget(ipw.VBox):
         backend: "kernel" (default: render in the kernel, stream frames),
             "browser" (simulate and draw in the browser with WebGPU) or "auto"
             (the browser when it offers WebGPU). ``w.backend`` says which is live.
+        function_overrides: user WGSL run in place of stock blade-math functions (a
+            :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g.
+            ``gw.exercise("forces").overrides(code)``; default None: the stock ones), in
+            both engines; see :meth:`set_function_overrides`.
 
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
@@ -192,8 +196,10 @@ class GrassWidget(ipw.VBox):
     message_line = _panel_property("message_line")
 
     def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None, backend="kernel", target_fps=None, layout="default"):
+                 pixel_ratio=None, backend="kernel", target_fps=None, layout="default",
+                 function_overrides=None):
         from ..core.framing import PRESETS, parse_size
+        from ..core.wgsl_overrides import FunctionOverrides
         from .layout import LAYOUT_VIEW_SIZES, check_layout
 
         #: "default" or "lecture" (see :mod:`grasswidget.notebook.layout`); ``w.layout`` stays ipywidgets' Layout.
@@ -204,6 +210,10 @@ class GrassWidget(ipw.VBox):
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
         self._requested_backend = backend
+        if function_overrides is not None and not isinstance(function_overrides, FunctionOverrides):
+            raise GrassTypeError("function_overrides must be a FunctionOverrides (e.g. gw.exercise(name).overrides(code)) "
+                                 f"or None; got {type(function_overrides).__name__}")
+        self._function_overrides = function_overrides
         if params is not None and not isinstance(params, GrassParams):
             raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
         if preset is not None and preset not in PRESETS:
@@ -258,7 +268,8 @@ class GrassWidget(ipw.VBox):
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                               on_inspect=self._show_inspected,
                                               on_unavailable=self._on_browser_unavailable,
-                                              pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"])
+                                              pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"],
+                                              function_overrides=function_overrides)
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=(min(self.size[0], PANEL_WIDTH),
@@ -324,9 +335,16 @@ class GrassWidget(ipw.VBox):
             blades = self._streaming["max_blades"]
             self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
             self._streaming["max_blades"] = blades
-        return KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
+        view = KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
                           clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
                           on_inspect=self._show_inspected)
+        if self._function_overrides is not None:
+            try:
+                view.set_function_overrides(self._function_overrides)
+            except BaseException:
+                view.close()
+                raise
+        return view
 
     def _make_ball(self):
         from .ball import BallControl
@@ -661,6 +679,23 @@ class GrassWidget(ipw.VBox):
         self._check_open()
         self.view.set_wind_wgsl(body, select=select)
 
+    def set_function_overrides(self, overrides):
+        """Run user WGSL in place of stock blade-math functions (a
+        :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g. an exercise's
+        forces; see ``gw.exercise``) in the live simulation and culling; None restores the
+        stock ones. Raises :class:`~grasswidget.errors.ExerciseShaderError` (line and column
+        in the user's code) when it does not compile; the functions before stay in force.
+        The kernel engine changes them live; the browser engine compiles them when it starts
+        (``GrassWidget(function_overrides=...)``) and refuses other ones later."""
+        self._check_open()
+        self.view.set_function_overrides(overrides)
+        self._function_overrides = overrides
+
+    @property
+    def function_overrides(self):
+        """The user WGSL in force in place of stock blade-math functions, or None."""
+        return self._function_overrides
+
     def save_png_later(self, size, done) -> bool:
         """The Save PNG button: write a PNG of ``size`` (w, h) into ``output/`` beside the notebook
         (:func:`default_picture_folder`) and call
@@ -712,10 +747,12 @@ class GrassWidget(ipw.VBox):
 
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
-        scene and camera controller, the control panel and the ball (those that exist).
+        scene and camera controller, the control panel, the ball, the camera bar, the lab
+        bench (chart) and the layout (those that exist; their ipywidgets, shown or not).
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
-        found = (view, self.panel, self.ball)
+        found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
+                 getattr(self, "_layout", None), getattr(self, "_stage", None))
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -746,6 +783,11 @@ class GrassWidget(ipw.VBox):
             self.view.close()
         if self.ball is not None:
             self.ball.detach()
+        layout, stage = getattr(self, "_layout", None), getattr(self, "_stage", None)
+        if layout is not None:
+            layout.close()  # an open box would keep the closed rows (and through them this widget) alive
+        if stage is not None:
+            stage.close()
         super().close()
 
     # ------------------------------------------------------------------ internals

@@ -1,4 +1,5 @@
-"""Command line: ``grasswidget snapshot ...``, ``grasswidget html ...`` and ``grasswidget bench ...``.
+"""Command line: ``grasswidget snapshot ...``, ``grasswidget html ...``, ``grasswidget sweep ...`` and
+``grasswidget bench ...``.
 
 Every bad argument is an argument error: exit status 2 and one line on stderr,
 ``grasswidget snapshot: error: argument --wind: ...``, never a traceback. That
@@ -128,6 +129,33 @@ def _html_path(text):
     return text
 
 
+def _sweep_axis(text):
+    """``name=v1,v2,...``: one swept parameter and its values (numbers, or words for a choice
+    trait), checked by the trait itself (:func:`grasswidget.core.variants.check_sweep_axes`)."""
+    from ..core.variants import check_sweep_axes
+
+    name, sep, rest = text.partition("=")
+    if not sep or not name.strip() or not rest.strip():
+        raise argparse.ArgumentTypeError(f"must be NAME=V1,V2,... (e.g. stiffness_scale=0.5,1,2); got {text!r}")
+    values = []
+    for item in rest.split(","):
+        item = item.strip()
+        try:
+            values.append(float(item))
+        except ValueError:
+            values.append(item)
+    try:
+        return check_sweep_axes({name.strip(): values})
+    except (ValueError, TypeError, AttributeError) as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _png_path(text):
+    if not text.lower().endswith(".png"):
+        raise argparse.ArgumentTypeError(f"the sheet is a PNG: the name must end in .png; got {text!r}")
+    return text
+
+
 def build_parser():
     p = _Parser(prog="grasswidget", description="Physically animated grass on the GPU.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -158,6 +186,19 @@ def build_parser():
     h.add_argument("--no-still", action="store_true",
                    help="leave out the still picture shown without WebGPU (no kernel render at save time)")
 
+    w = sub.add_parser("sweep", help="render the meadow for each setting of one or two parameters, after the "
+                                     "same steps, as one labelled PNG (a row, or a grid)")
+    w.add_argument("out", type=_png_path, help="output PNG; a missing folder is created")
+    w.add_argument("--vary", type=_sweep_axis, action="append", required=True, metavar="NAME=V1,V2,...",
+                   help="a GrassParams parameter and its values, e.g. stiffness_scale=0.25,0.5,1,2,4; once for a "
+                        "row, twice for a grid (the first down, the second across)")
+    w.add_argument("--steps", type=_non_negative, default=240, help="fixed steps simulated per setting (default 240)")
+    w.add_argument("--blades", type=_blade_count, default=4096, help="number of blades (default 4096)")
+    w.add_argument("--size", type=_size, default=(240, 180), help="size of each cell WxH (default 240x180)")
+    w.add_argument("--preset", choices=["default", "cis565", "meadow"], default="default", help="scene preset")
+    w.add_argument("--seed", type=_non_negative, default=0, help="random seed, an integer >= 0")
+    w.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     b = sub.add_parser("bench", help="benchmark frame, simulation and culling times")
     b.add_argument("--preset", choices=["cis565", "meadow"], default="cis565")
     b.add_argument("--blades", type=_blade_count, nargs="+", default=None,
@@ -174,7 +215,7 @@ def build_parser():
                         "default: the params' default)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
-    p.subcommands = {"snapshot": s, "bench": b, "html": h}
+    p.subcommands = {"snapshot": s, "bench": b, "html": h, "sweep": w}
     return p
 
 
@@ -202,8 +243,12 @@ def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
     sub = _subparser(parser, args.command)
-    if args.command == "snapshot":
+    if args.command in ("snapshot", "sweep"):
         _make_folder(sub, args.out, "out")
+    if args.command == "sweep":
+        if len(args.vary) > 2 or len({name for axis in args.vary for name in axis}) < len(args.vary):
+            sub.error("argument --vary: give one parameter (a row) or two different ones (a grid); got "
+                      + ", ".join(name for axis in args.vary for name in axis))
     elif args.command == "bench":
         _make_folder(sub, args.json, "--json")
 
@@ -214,10 +259,12 @@ def main(argv=None):
 
         if args.command == "html":
             return _html(args)
-        for count in ([args.blades] if args.command == "snapshot" else args.blades or ()):
+        for count in ([args.blades] if args.command in ("snapshot", "sweep") else args.blades or ()):
             check_blade_count_fits(count)  # the GPU's buffer limit, before any blade is made
         if args.command == "snapshot":
             return _snapshot(args)
+        if args.command == "sweep":
+            return _sweep(args)
         return _bench(args)
     except NoGPUAdapterError as err:
         print(f"{sub.prog}: error: {err}", file=sys.stderr)
@@ -294,6 +341,29 @@ def _html(args):
     kb = os.path.getsize(path) / 1024
     print(f"wrote {path} ({kb:.0f} KiB: {size[0]}x{size[1]}, {len(blades)} blades; open it in a browser with "
           "WebGPU, served over http(s) or from a file)")
+    return 0
+
+
+def _sweep(args):
+    from .sweep import sweep
+
+    axes = {name: values for axis in args.vary for name, values in axis.items()}
+    result = sweep(axes, steps=args.steps, blades=args.blades, preset=None if args.preset == "default" else args.preset,
+                   size=args.size, seed=args.seed, progress=not args.no_progress)
+    path = result.save(args.out)
+    names = list(result.axes)
+    print(f"wrote {path} ({result.image.shape[1]}x{result.image.shape[0]}: "
+          f"{' x '.join(f'{n} ({len(v)})' for n, v in result.axes.items())}, {result.blades} blades, "
+          f"{result.steps} steps)")
+    tips, bends = result.data["mean_tip_offset"].reshape(-1), result.data["mean_bend_deg"].reshape(-1)
+    drawn = result.data["blades_drawn"].reshape(-1)
+    k = 0
+    for row in (result.axes[names[0]] if len(names) == 2 else [None]):
+        for col in result.axes[names[-1]]:
+            where = (f"{names[0]}={row:g}, " if isinstance(row, float) else (f"{names[0]}={row}, " if row is not None else ""))
+            where += f"{names[-1]}={col:g}" if isinstance(col, float) else f"{names[-1]}={col}"
+            print(f"  {where}: mean tip offset {tips[k]:.4f} m, mean bend {bends[k]:.2f} deg, {drawn[k]} blades drawn")
+            k += 1
     return 0
 
 

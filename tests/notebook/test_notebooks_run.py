@@ -141,6 +141,14 @@ def test_notebook_runs_headless(path, tmp_path, monkeypatch):
             assert (tmp_path / "output" / name).stat().st_size > 1000
         text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
         assert "refused: wind_wgsl line 2" in text  # the bad snippet's error names its line
+    if path.stem in ("07_exercise_forces", "08_exercise_validation", "09_exercise_culling"):
+        # the starter's report is shown (not asserted in the notebook) and fails; the teacher's solution passes
+        reports = [o["data"]["text/plain"] for c in nb.cells if c.cell_type == "code" for o in c.outputs
+                   if o.output_type == "execute_result" and "GradeReport" in o["data"].get("text/plain", "")]
+        assert len(reports) == 2 and "failed" in reports[0] and reports[1].endswith("passed>"), reports
+        html = [o["data"]["text/html"] for c in nb.cells if c.cell_type == "code" for o in c.outputs
+                if o.output_type == "execute_result" and "text/html" in o["data"]]
+        assert "first failing blade" in html[0] and "all passed" in html[1]
     # nothing but the output folder (ignored by git) was written next to the notebook
     written = {p.name for p in tmp_path.iterdir()} - {work.name, "output", ".ipynb_checkpoints"}
     assert not written, f"{path.name} wrote {sorted(written)} next to itself; write into output/"
