@@ -45,6 +45,7 @@ __all__ = [
     "kernel_dispatch_comm",
     "kernel_requeue_shell",
     "timed_jupyter_canvas_class",
+    "observe_view_visibility",
     "fixed_rfb_esm",
     "widget_registry",
 ]
@@ -84,6 +85,9 @@ PRIVATE_USES = (
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
+    ("jupyter_rfb", "RemoteFrameBuffer._has_visible_views",
+     "the synced trait its front end sets from an IntersectionObserver per view: whether any view is on screen "
+     "(jupyter-rfb draws only then; the kernel view stops its clock while it is False: observe_view_visibility)"),
     ("jupyter_rfb", "RemoteFrameBuffer._esm (the text of renderview.js)",
      "one line corrected: its 'input' handler clears the hidden key input through this.focus_el, a name "
      "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm)"),
@@ -367,6 +371,21 @@ def timed_jupyter_canvas_class():
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
 
     return TimedJupyterCanvas
+
+
+def observe_view_visibility(canvas, callback):
+    """Call ``callback(visible)`` each time jupyter-rfb's front end says whether any view of
+    ``canvas`` (a jupyter-rfb ``RemoteFrameBuffer``) is on screen (its ``_has_visible_views``
+    trait, set from an IntersectionObserver per view). Returns a function that stops observing."""
+    name = "_has_visible_views"
+    if not canvas.has_trait(name):
+        raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
+
+    def changed(change):
+        callback(bool(change["new"]))
+
+    canvas.observe(changed, names=[name])
+    return lambda: canvas.unobserve(changed, names=[name])
 
 
 #: jupyter-rfb 1.0.2's renderview.js, in the 'input' listener of its hidden key input: the

@@ -311,3 +311,18 @@ def test_jupyter_rfb_front_end_gets_its_typing_error_corrected():
         assert fixed == original
     with pytest.raises(compat.UpstreamChangedError):
         compat.fixed_rfb_esm("this.focus_el.focus()")
+
+
+def test_jupyter_rfb_reports_whether_a_view_is_on_screen():
+    from jupyter_rfb import RemoteFrameBuffer
+
+    rfb = RemoteFrameBuffer()
+    seen = []
+    stop = compat.observe_view_visibility(rfb, seen.append)
+    # What jupyter-rfb's front end syncs from its IntersectionObserver (the trait it draws by).
+    rfb.set_trait("_has_visible_views", True)
+    rfb.set_trait("_has_visible_views", False)
+    stop()
+    rfb.set_trait("_has_visible_views", True)
+    assert seen == [True, False]
+    rfb.close()

@@ -37,11 +37,16 @@
 // next step (no steps) first, as the kernel's inspector does. Fixed steps: step(n) runs exactly n
 // steps of dt; playing follows the wall clock with grasswidget.notebook.clock.SimClock's
 // rules (SimClock below).
+// Views at rest: a view that is not visible (scrolled away, a collapsed output, a hidden tab:
+// an IntersectionObserver per canvas and document.visibilityState) draws nothing; with no view
+// visible the engine simulates nothing, sends no stats and asks for no animation frame, and its
+// clock stops as pause() stops it (SimClock.stop, Python's rule): on return simulated time goes
+// on from where it stopped. canvas.grasswidgetFramesDrawn counts a view's frames (tests).
 //
 // One engine per widget model (GPU device, buffers, simulation, clock), however
 // many times the widget is displayed: anywidget's initialize() makes it, each
-// render() only adds a view (a canvas) of it, and every view draws the same
-// meadow from the same camera.
+// render() only adds a view (a canvas) of it, and every visible view draws the
+// same meadow from the same camera.
 
 const BLADE_STEPS_PER_DISPATCH = 1 << 24;
 const STATS_INTERVAL_MS = 500;
@@ -273,7 +278,30 @@ class GrassView {
     this.handlers = [];
     this.context = null;
     this.depth = null;
+    this.onScreen = false;    // some pixel of the canvas is inside the viewport (IntersectionObserver)
+    this.framesDrawn = 0;     // frames drawn into this canvas (also canvas.grasswidgetFramesDrawn, for tests)
     this.buildDom();
+    this.watchVisibility();
+  }
+
+  // At rest off screen: a view scrolled away, in a collapsed output or a hidden tab draws nothing.
+  watchVisibility() {
+    this.observer = new IntersectionObserver((entries) => {
+      // Only changed entries come; the last one of this canvas says where it is now.
+      for (const entry of entries) this.onScreen = entry.isIntersecting;
+      this.engine.visibilityChanged();
+    });
+    this.observer.observe(this.canvas);
+  }
+
+  // Whether this view can be seen now: on screen, attached to the page, in a visible tab.
+  visible() {
+    return this.onScreen && this.canvas.isConnected && document.visibilityState === "visible";
+  }
+
+  countFrame() {
+    this.framesDrawn += 1;
+    this.canvas.grasswidgetFramesDrawn = this.framesDrawn;
   }
 
   buildDom() {
@@ -438,6 +466,7 @@ class GrassView {
 
   close() {
     for (const off of this.handlers) off();
+    if (this.observer) this.observer.disconnect();
     if (this.depth) this.depth.destroy();
     if (this.context) { try { this.context.unconfigure(); } catch (e) { /* already gone */ } }
     this.wrapper.remove();
@@ -471,6 +500,8 @@ class GrassEngine {
     // Start-up milestones (performance.now() ms), read by benchmarks.
     this.timing = { created: performance.now() };
     this.listen();
+    this.onPageVisibility = () => this.visibilityChanged();
+    document.addEventListener("visibilitychange", this.onPageVisibility);
   }
 
   rules() { return this.model.get("frame_rules"); }
@@ -499,6 +530,23 @@ class GrassEngine {
   removeView(view) {
     this.views.delete(view);
     view.close();
+  }
+
+  // The views that can be seen now; none: the engine rests (no simulation, no drawing, no stats).
+  visibleViews() { return [...this.views].filter((v) => v.visible()); }
+
+  // A view was scrolled in or out of sight, or the tab was shown or hidden. Resting stops the
+  // clock as pause() does (Python's SimClock.stop: no time is owed for the time out of sight),
+  // so on return simulated time goes on from where it stopped, without a catch-up burst.
+  visibilityChanged() {
+    if (this.closed) return;
+    if (this.visibleViews().length) this.scheduleFrame();
+    else this.rest();
+  }
+
+  rest() {
+    this.clock.stop();
+    this.resting = true;
   }
 
   setNote(text) {
@@ -966,14 +1014,23 @@ class GrassEngine {
   }
 
   scheduleFrame() {
-    if (this.closed || this.raf || !this.views.size) return;
+    if (this.closed || this.raf || !this.visibleViews().length) return;
     this.raf = requestAnimationFrame((t) => { this.raf = null; this.frame(t); });
   }
 
-  // One animation frame: the clock's steps (once, whatever the number of views), then every view drawn.
+  // One animation frame: the clock's steps (once, whatever the number of views), then every visible
+  // view drawn. With no view visible nothing runs and no new frame is asked for: the engine rests
+  // until visibilityChanged() finds a view in sight again.
   frame(now) {
     if (!this.ready || this.closed) return;
-    if (!this.views.size) { this.clock.stop(); return; }
+    const shown = this.visibleViews();
+    if (!shown.length) { this.rest(); return; }
+    if (this.resting) {
+      // Back in sight: frames/s is measured from now, not over the time at rest.
+      this.resting = false;
+      this.statsTime = performance.now();
+      this.statsFrames = this.frames;
+    }
     this.scheduleFrame();
     if (this.inFlight >= MAX_FRAMES_IN_FLIGHT) return;
     const t0 = performance.now();
@@ -989,7 +1046,7 @@ class GrassEngine {
       }
       const device = this.device;
       let first = true;
-      for (const view of this.views) {
+      for (const view of shown) {
         if (!view.context) continue;
         const { color, depth, w, h } = view.targets();
         const encoder = device.createCommandEncoder();
@@ -1000,6 +1057,7 @@ class GrassEngine {
         if (readArgs) this.readArgs();
         if (first) this.frameSize = [w, h];
         first = false;
+        view.countFrame();
       }
       this.inFlight += 1;
       device.queue.onSubmittedWorkDone().then(() => {
@@ -1454,6 +1512,7 @@ class GrassEngine {
   close() {
     this.closed = true;
     if (this.raf) cancelAnimationFrame(this.raf);
+    document.removeEventListener("visibilitychange", this.onPageVisibility);
     this.model.off("msg:custom", this.onMsg);
     for (const [name, fn] of this.listeners) this.model.off(`change:${name}`, fn);
     for (const v of [...this.views]) this.removeView(v);

@@ -286,7 +286,9 @@ def clock_rules(params) -> dict:
     """The clock's rules for playing by the wall clock (see :class:`grasswidget.notebook.clock.SimClock`):
     ``dt`` (s, the fixed step), ``wind_period`` (s, 0 = none: the wind time of step k
     is ``(k dt) mod wind_period``), ``max_steps_per_frame`` (a frame owed more steps
-    gets this many and the rest is dropped: slow motion)."""
+    gets this many and the rest is dropped: slow motion). While no view of a widget is on
+    screen both engines stop the clock as ``pause()`` does (no rule of its own: the time out of
+    sight is not simulated, nothing is owed on return)."""
     return {"dt": float(params.dt), "wind_period": float(wind_period(params) or 0.0),
             "max_steps_per_frame": int(MAX_STEPS_PER_FRAME)}
 

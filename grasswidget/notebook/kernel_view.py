@@ -265,6 +265,8 @@ class KernelView(GrassView):
                                            intercept=self._on_pointer)
         self.canvas.add_event_handler(self.events, *EventsWithoutPicking.TYPES)
         self.canvas.add_event_handler(self.on_key, "key_down")
+        # At rest off screen: jupyter-rfb draws only while a view is on screen; the clock stops too.
+        compat.observe_view_visibility(self.canvas, self._on_visibility)
 
         self._frames = 0
         self._draw_ms = 0.0
@@ -588,6 +590,16 @@ class KernelView(GrassView):
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
         self.notify_frame()  # the traces' sample of this frame (grasswidget.notebook.trace_feed)
+
+    def _on_visibility(self, visible: bool):
+        """No view of this widget on screen (scrolled away, a collapsed output; a hidden tab stops
+        the frames' acknowledgements): jupyter-rfb asks for no frame, so nothing is simulated,
+        rendered or sent, and the clock stops as :meth:`pause` stops it. Back on screen, the next
+        frame starts it again: simulated time goes on from where it stopped, the time away is not
+        owed (no catch-up burst, no slow motion on the stats line)."""
+        if not visible:
+            with self.lock:
+                self.clock.stop()
 
     def _on_present(self, t):
         self.timing.presented(t)

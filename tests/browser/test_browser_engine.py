@@ -66,12 +66,18 @@ def _sky_fraction(px):
     return float(((b > r + 10) & (b >= g)).mean())
 
 
+def _show_view(page):
+    """Scroll the canvas back into sight (a control clicked under it may have scrolled it away):
+    a view off screen rests, its engine neither steps nor sends stats."""
+    loc = page.locator("canvas.grasswidget-canvas").first
+    loc.scroll_into_view_if_needed()
+    return loc
+
+
 def _canvas_pixels(page):
     import imageio.v3 as iio
 
-    loc = page.locator("canvas.grasswidget-canvas").first
-    loc.scroll_into_view_if_needed()
-    return iio.imread(loc.screenshot(), extension=".png")
+    return iio.imread(_show_view(page).screenshot(), extension=".png")
 
 
 @pytest.fixture(scope="module")
@@ -196,10 +202,12 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
     culling = ("orientation culling", "frustum culling", "distance culling", "occlusion culling")
     for label in culling:
         toggle_checkbox(page, label, False)
+    _show_view(page)
     wait_for_kernel(page, "w.stats['visible']", N_BLADES, timeout=30)
     assert kernel_eval(page, "w.stats['occluded']") is None  # occlusion culling off: no count
     for label in culling:
         toggle_checkbox(page, label, True)
+    _show_view(page)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")
 
@@ -283,6 +291,7 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
     assert "RAISED 1" in out.stdout and "WIND custom return vec3<f32>(4.0" in out.stdout, out.stdout
 
     # 7. A lost device is recovered with a message; a view that is not shown times out.
+    _show_view(page)
     kernel_execute(page, "w.play(); w.view.browser_view.lose_device()")
     wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")

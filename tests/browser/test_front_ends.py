@@ -137,6 +137,8 @@ def test_browser_engine_in_front_end(server, webgpu_browser):
         # culling off in the panel: every blade is drawn
         for label in ("orientation culling", "frustum culling", "distance culling", "occlusion culling"):
             toggle_checkbox(page, label, False)
+        # back in sight: a view scrolled away (by the clicks under it) rests and sends no stats
+        page.locator("canvas.grasswidget-canvas").first.scroll_into_view_if_needed()
         poll(lambda: (_visible(page) or (0,))[0] == N_BLADES, "every blade visible with culling off", 30, 0.3,
              page=page)
         # pointer input reaches the engine: shift + drag (below) moves the ball; in Notebook 7 a
