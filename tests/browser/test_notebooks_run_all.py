@@ -11,7 +11,11 @@ run "Run All", wait until the kernel is idle with no cell queued, and then check
   not blank (not one flat colour: a grey box fails);
 * for each visible browser-engine canvas: its screenshot is not blank;
 * where a notebook's last cells set state it then prints (05: the ball's radius and speed), the
-  kernel still holds it once the page has drawn every view (checked after the views).
+  kernel still holds it once the page has drawn every view (checked after the views);
+* what the notebook computed: the notebook is saved and its outputs, the pictures it wrote into
+  ``output/`` and, for 03, a probe of its live widget's culling checkboxes are checked by
+  ``tests/notebook_outputs.py`` (03's count tables against the NumPy reference, 07-09's grade
+  reports: the starter fails, the solution passes); it wrote nothing else beside itself.
 
 Notebooks that make a ``backend="auto"`` or ``"browser"`` widget are also run in a Chromium with
 WebGPU (SwiftShader), where that widget is a browser-engine view: its canvas must draw a picture
@@ -34,6 +38,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+
+from notebook_outputs import LIVE_CULLING_PROBE, WRITTEN, check_notebook_outputs
 
 from .harness import (
     Browser,
@@ -127,9 +133,22 @@ def _canvas_drawn(canvas):
 def _run_all_and_check(page, lab_server, browser_root, path, prefix="runall_", shots=None) -> int:
     """Run All, then check every widget (see the module's docstring); returns how many browser canvases drew."""
     name = f"{prefix}{path.name}"
+    out_dir = browser_root / "output"
+    for written in WRITTEN.get(path.stem, ()):  # what this run writes, not an earlier run's file
+        (out_dir / written).unlink(missing_ok=True)
     shutil.copy(path, browser_root / name)
+    beside_before = {p.name for p in browser_root.iterdir()}
     open_notebook(page, lab_server, name)
     run_all_cells(page, name, timeout=420)
+    check_outputs = prefix == "runall_"  # once per notebook: in the run without WebGPU
+    if check_outputs:
+        probe = kernel_execute(page, LIVE_CULLING_PROBE, name, timeout=300).stdout if path.stem == "03_culling" else ""
+        page.evaluate("async () => { await window.jupyterapp.commands.execute('docmanager:save'); }")
+        import nbformat
+
+        check_notebook_outputs(path.stem, nbformat.read(str(browser_root / name), as_version=4), out_dir, probe)
+        written = {p.name for p in browser_root.iterdir()} - beside_before - {"output", ".ipynb_checkpoints"}
+        assert not written, f"{path.name} wrote {sorted(written)} next to itself; write into output/"
 
     widgets = kernel_eval(page, WIDGETS, name, timeout=60)
     assert all(is_open for _backend, is_open in widgets), f"{path.name} left a widget closed: {widgets}"

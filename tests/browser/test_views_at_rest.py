@@ -165,8 +165,9 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
             assert on_way_back[3] == 0 and frames_back[3] == 0, frames_back
         else:
             # jupyter-rfb sets the one frame it got on every view of the widget: the kernel
-            # rendered and sent each frame once, the second <img> is handed the same picture.
-            assert abs(frames_back[3] - frames_back[0]) <= 1, frames_back
+            # rendered and sent each frame once, the second <img> is handed the same picture. The
+            # two counters are read a moment apart at each end of the window: one frame each end.
+            assert abs(frames_back[3] - frames_back[0]) <= 2, frames_back
         # What the view shows once back: sky above, blades on soil below (256 blades are a
         # sparse meadow: a few percent of green in the lower half; saved for a look).
         shot = browser_root / f"views_at_rest_{backend}.png"
