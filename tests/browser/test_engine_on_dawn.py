@@ -65,7 +65,9 @@ def test_browser_engine_on_dawn_draws_the_kernel_engines_picture(tmp_path):
     rgb = frame[..., :3].astype(int)
     grass = ((rgb[..., 1] > rgb[..., 0] + 8) & (rgb[..., 1] > rgb[..., 2] + 8)).mean()
     sky = ((rgb[..., 2] > rgb[..., 0] + 10) & (rgb[..., 2] >= rgb[..., 1])).mean()
-    assert grass > 0.2 and sky > 0.05, (grass, sky)  # a meadow under a sky, not a cleared target
+    soil = ((rgb[..., 0] > rgb[..., 2] + 8) & (rgb.sum(axis=2) < 250)).mean()
+    # The meadow preset's field at this count is sparse (1024 blades on 15 x 15 m): blades on soil under a sky.
+    assert grass > 0.005 and soil > 0.1 and sky > 0.2, (grass, soil, sky)
     # A different state is a different picture: the metric can fail.
     assert bench.frame_difference(frame, kernel[::-1])["mean_abs"] > 4 * max(ours["mean_abs"], 1.0)
     import imageio.v3 as iio
