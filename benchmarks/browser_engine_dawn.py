@@ -272,8 +272,9 @@ def main(argv=None):
         for k, group in enumerate(groups, 1):
             weight = sum(f.stat().st_size for f in group) / 2 ** 20
             carry = json.dumps([str(f.relative_to(ROOT)) if f.is_relative_to(ROOT) else str(f) for f in group])
-            print(f"call {k} of {len(groups)} ({weight:.1f} MiB): carry={carry} "
-                  f"command: bash benchmarks/dawn/run_on_device.sh")
+            cases = " ".join(f.name[len("case_"):-len(".tar.xz")] for f in group if f.name.startswith("case_"))
+            print(f"call {k} of {len(groups)} ({weight:.1f} MiB; one warm machine, in this order): carry={carry} "
+                  f"command: CASES='{cases}' bash benchmarks/dawn/run_on_device.sh")
         return 0
     states = Path(args.states) if args.states else Path(tempfile.mkdtemp(prefix="gw-dawn-states-"))
     manifest = prepare(states, args.blades, size, args.steps, kernel_picture=not args.no_kernel_picture)
@@ -284,6 +285,17 @@ def main(argv=None):
     out = Path(args.out)
     result = run_node(manifest, out, dawn, args.seconds, env=swiftshader_env())
     result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
+    import imageio.v3 as iio
+
+    for case, entry in zip(result["cases"], json.loads(manifest.read_text())["cases"]):
+        w, h = case["width"], case["height"]
+        frame = np.frombuffer(Path(case["frame_file"]).read_bytes(), np.uint8).reshape(h, w, 4)
+        if entry.get("kernel_picture"):
+            kernel = np.frombuffer((states / entry["kernel_picture"]).read_bytes(), np.uint8).reshape(h, w, 4)
+            frame = np.concatenate([kernel, frame], axis=1)
+        picture = states / f"{case['name']}_kernel_dawn.png"
+        iio.imwrite(picture, frame)
+        print(f"{case['name']}: kernel | Dawn side by side: {picture}")
     out.write_text(json.dumps(result, indent=1))
     print(f"wrote {out}")
     return 0 if all(c.get("picture", {}).get("pass", True) for c in result["cases"]) else 1
