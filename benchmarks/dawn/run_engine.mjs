@@ -135,7 +135,10 @@ AdapterProto.requestDevice = async function (descriptor = {}) {
   const features = [...(descriptor.requiredFeatures || [])];
   if (this.features.has("timestamp-query") && !features.includes("timestamp-query")) features.push("timestamp-query");
   const device = await requestDevice.call(this, { ...descriptor, requiredFeatures: features });
-  if (device.features.has("timestamp-query")) profiler.device = device;
+  if (device.features.has("timestamp-query")) {  // a new engine (the next case): its own query set
+    profiler.device = device;
+    profiler.querySet = null;
+  }
   return device;
 };
 function wrapPass(begin, kind) {
