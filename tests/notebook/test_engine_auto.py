@@ -76,3 +76,25 @@ def test_a_fallback_adapter_report_keeps_the_kernel_engine():
         assert w.engine_reason in html.unescape(w.message_line.value)
     finally:
         w.close()
+
+
+def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
+    """No probe where the page cannot change the choice: a kernel GPU keeps the kernel engine, a kernel
+    without an adapter starts the browser engine (the kernel's adapter kind simulated here)."""
+    from grasswidget.notebook import engine_auto
+
+    monkeypatch.setattr(engine_auto, "kernel_adapter", lambda: ("gpu", "NVIDIA H100"))
+    w = gw.GrassWidget(64, size=(64, 48))
+    try:
+        assert w.backend == "kernel" and w.adapter_probe is None
+        assert w.engine_reason == "kernel engine: the kernel renders on a GPU (NVIDIA H100)"
+        assert w.engine_reason in html.unescape(w.message_line.value)
+    finally:
+        w.close()
+    monkeypatch.setattr(engine_auto, "kernel_adapter", lambda: ("none", ""))
+    w = gw.GrassWidget(64, size=(64, 48))
+    try:
+        assert w.backend == "browser" and isinstance(w.view, BrowserEngineView) and w.adapter_probe is None
+        assert w.engine_reason.startswith("browser engine: the kernel has no WebGPU adapter")
+    finally:
+        w.close()
