@@ -22,7 +22,9 @@ and each engine only writes it into its own buffers:
 * :func:`dispatch_rules`, :func:`wind_time`, :func:`steps_per_dispatch`: how the simulation's
   steps are dispatched (workgroup size, blade steps per dispatch, the wind time of a step),
   the same in both engines.
-* :data:`STATS_INTERVAL_MS`: how often both engines report their stats (by default).
+* :data:`STATS_INTERVAL_MS`: how often both engines report their stats (by default);
+  :func:`counter_layout` and :func:`read_counters`: where the drawn, occluded and compute-drawn
+  blade counts lie in the words both engines read back for their stats, and how they are read.
 * :func:`sky_ground_values`: the values of ``u_material`` of
   ``shaders/sky_ground.wgsl`` (``uniform_layouts.SKY_GROUND_LAYOUT``: sky, soil,
   ground beyond the field, horizon, fog), which both engines draw.
@@ -55,7 +57,7 @@ from .enums import BladeShape
 from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import LOOK_TRAITS, GrassParams
-from .reference import ground_cover, wind_period
+from .reference import LOD_SEGMENTS, ground_cover, wind_period
 from .shader_files import WORKGROUP_SIZE
 
 __all__ = [
@@ -65,7 +67,7 @@ __all__ = [
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
     "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
-    "wind_time", "steps_per_dispatch",
+    "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
 ]
 
@@ -94,16 +96,17 @@ SOIL_COLOR = "#3b2a1a"
 BEYOND_COLOR = "#787a4e"
 #: Width (m) of the soft edge between the soil under the field and the ground beyond.
 FIELD_EDGE = 0.5
+#: Direction towards the sun (world space, not normalized), both engines: the kernel scene's light
+#: position, the collider balls' shading and the blade material's default light.
+LIGHT_DIRECTION = (4.0, 10.0, 3.0)
 #: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
 #: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
 #: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
-MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=(0.4, 1.0, 0.3),
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=LIGHT_DIRECTION,
                          tip_threshold=0.5, fog_color=HORIZON_COLOR)
 #: Collider balls: colour (sRGB hex) and opacity (0..1).
 BALL_COLOR = "#dfe8ff"
 BALL_OPACITY = 0.35
-#: Direction towards the sun (world space, not normalized): the kernel scene's light position.
-LIGHT_DIRECTION = (4.0, 10.0, 3.0)
 #: The ground plane lies this far (m) below the lowest blade root (no z-fight with the roots).
 GROUND_DROP = 0.01
 
@@ -330,6 +333,31 @@ def wind_time(step: int, dt: float, period: float) -> float:
     return math.fmod(t, period) if period else t
 
 
+def counter_layout(n_classes: int = len(LOD_SEGMENTS)) -> dict:
+    """Where the stats' counts lie in the u32 words both engines read back after a frame (JSON-able):
+    the first phase's draw args (4 words per LOD class) from word ``first_at`` (0), the second
+    phase's (4 per class, then the occluded count and 3 zeros) from ``second_at``, the compute
+    rasterizer's counters (4 words) from ``raster_at``; ``words`` in all. ``visible``: per class the
+    two words (instance counts) whose sum is the blades drawn; ``occluded`` and ``rastered``: the word
+    of each count. ``n_classes`` >= 1 (default: the LOD classes, ``reference.LOD_SEGMENTS``)."""
+    c = int(n_classes)
+    if c < 1:
+        raise GrassValueError(f"n_classes must be at least 1; got {n_classes!r}")
+    return {"words": 8 * c + 8, "first_at": 0, "second_at": 4 * c, "raster_at": 8 * c + 4,
+            "visible": [[4 * k + 1, 4 * c + 4 * k + 1] for k in range(c)], "occluded": 8 * c, "rastered": 8 * c + 4}
+
+
+def read_counters(words, layout: dict) -> dict:
+    """The counts of one read-back (``words``: u32, at least ``layout["words"]``) as
+    :func:`counter_layout` places them: ``visible_per_class`` (blades drawn per LOD class, both
+    occlusion phases), ``occluded`` and ``rastered`` (ints; whether the pass ran is the caller's)."""
+    w = np.asarray(words).astype(np.int64).ravel()
+    if len(w) < layout["words"]:
+        raise GrassValueError(f"words must hold at least {layout['words']} counters; got {len(w)}")
+    return {"visible_per_class": [int(w[i] + w[j]) for i, j in layout["visible"]],
+            "occluded": int(w[layout["occluded"]]), "rastered": int(w[layout["rastered"]])}
+
+
 def orbit_rules(blades, far, floor="grass") -> dict:
     """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades, a far plane
     of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
@@ -443,8 +471,8 @@ def scene_style(blades, far, params=None) -> dict:
 
 def frame_rules(params, blades, far, floor="grass") -> dict:
     """``{"clock": clock_rules, "dispatch": dispatch_rules, "orbit": orbit_rules, "drag":
-    camera_rules.drag_rules, "style": scene_style}`` for a field of ``blades`` seen by a camera
+    camera_rules.drag_rules, "counters": counter_layout, "style": scene_style}`` for a field of ``blades`` seen by a camera
     whose far plane is ``far`` metres, orbiting above the ``floor`` ("grass" or "ground", see
     :func:`orbit_rules`)."""
     return {"clock": clock_rules(params), "dispatch": dispatch_rules(), "orbit": orbit_rules(blades, far, floor),
-            "drag": drag_rules(), "style": scene_style(blades, far, params)}
+            "drag": drag_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}

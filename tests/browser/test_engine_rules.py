@@ -104,6 +104,7 @@ const out = {
   wind: c.winds.map(([k, clock]) => R.windTime(k, clock)),
   perDispatch: c.blades.map((n) => R.stepsPerDispatch(n, c.dispatch)),
   groups: c.items.map((n) => R.workgroups(n, c.dispatch)),
+  counters: c.readbacks.map((w) => R.readCounters(Uint32Array.from(w), c.counters)),
 };
 console.log(JSON.stringify(out));
 """
@@ -131,9 +132,13 @@ def test_rules_js_computes_what_its_python_twins_decide():
     winds = [[int(k), clocks[int(rng.integers(len(clocks)))]] for k in rng.integers(0, 10 ** 7, 200)]
     counts = [1, 2, 255, 256, 257, 4096, 65535 * 256, 65535 * 256 + 1, 1 << 24, (1 << 24) + 1, 1 << 26, 0]
     counts += [int(n) for n in rng.integers(1, 1 << 25, 50)]
+    layout = rules["counters"]
+    readbacks = [[int(x) for x in rng.integers(0, 1 << 32, layout["words"], dtype=np.uint64)] for _ in range(20)]
+    readbacks += [[int(x) for x in rng.integers(0, 1 << 20, layout["words"])] for _ in range(20)]
     got = _node(_RULES_DRIVER % json.dumps((BROWSER_DIR / "js" / "rules.js").as_uri()), dict(
         cameras=cameras, projections=projections, drags=drags, pans=pans, wheels=wheels, winds=winds,
-        blades=counts, items=counts, drag=rules["drag"], dispatch=rules["dispatch"]))
+        blades=counts, items=counts, drag=rules["drag"], dispatch=rules["dispatch"], readbacks=readbacks,
+        counters=layout))
 
     for (p, t), js in zip(cameras, got["world"]):
         assert np.allclose(np.array(js).reshape(4, 4).T, camera_rules.camera_world(p, t), atol=1e-12), (p, t)
@@ -158,6 +163,34 @@ def test_rules_js_computes_what_its_python_twins_decide():
     assert any(c["wind_period"] > 0 for _, c in winds) and any(c["wind_period"] == 0 for _, c in winds)
     assert got["perDispatch"] == [frame_data.steps_per_dispatch(n) for n in counts]
     assert [tuple(g) for g in got["groups"]] == [workgroups(n)[:2] for n in counts]
+    for words, js in zip(readbacks, got["counters"]):
+        want = frame_data.read_counters(np.array(words, np.uint32), layout)
+        # a sum past 2^32 is a number in JS, not wrapped (a real count stays far below: 2^24 blades)
+        assert js == want, words
+
+
+def test_counter_layout_is_where_both_engines_copy_their_counts():
+    """frame_rules.counters places the browser's copies (the occlusion args and the compute
+    rasterizer's counters, sized by Python's shaders) and the kernel's staging (gpu.stats) alike."""
+    from grasswidget.browser.wgsl import BrowserShaders
+    from grasswidget.core.reference import LOD_SEGMENTS
+
+    layout = frame_data.counter_layout()
+    c = len(LOD_SEGMENTS)
+    assert layout["second_at"] - layout["first_at"] == 4 * c
+    assert layout["raster_at"] - layout["second_at"] == BrowserShaders.occlusion()["args_words"]
+    assert layout["words"] - layout["raster_at"] == BrowserShaders.compute_raster()["args_words"]
+    # the counts from words written as the passes write them: instance counts in word 1 of each args row
+    words = np.zeros(layout["words"], np.uint32)
+    words[[4 * k + 1 for k in range(c)]] = [10 * (k + 1) for k in range(c)]
+    words[[4 * c + 4 * k + 1 for k in range(c)]] = [k + 1 for k in range(c)]
+    words[8 * c], words[8 * c + 4] = 7, 5
+    assert frame_data.read_counters(words, layout) == {
+        "visible_per_class": [11 * (k + 1) for k in range(c)], "occluded": 7, "rastered": 5}
+    with pytest.raises(gw.GrassValueError, match="n_classes"):
+        frame_data.counter_layout(0)
+    with pytest.raises(gw.GrassValueError, match="words"):
+        frame_data.read_counters(words[:-1], layout)
 
 
 def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():

@@ -146,16 +146,16 @@ export class EngineCulling extends EngineResources {
     return pass;
   }
 
-  // The stats' readback: the first phase's args, then the second's with the occluded count.
+  // The stats' readback where Python's layout (frame_rules.counters) puts it: the first phase's
+  // args, the second's with the occluded count, the compute rasterizer's counters.
   encodeArgsRead(encoder) {
-    const first = 16 * this.lodSegments.length;
-    encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 0, first);
+    const at = this.rules().counters;
+    encoder.copyBufferToBuffer(this.res.s_args, 0, this.argsRead, 4 * at.first_at, 16 * this.lodSegments.length);
     if (this.occlusion) {
-      encoder.copyBufferToBuffer(this.res.s_occlusion_args, 0, this.argsRead, first, 4 * this.occlusion.spec.args_words);
+      encoder.copyBufferToBuffer(this.res.s_occlusion_args, 0, this.argsRead, 4 * at.second_at, 4 * this.occlusion.spec.args_words);
     }
     if (this.raster) {
-      const at = first + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0);
-      encoder.copyBufferToBuffer(this.res.s_raster_args, 0, this.argsRead, at, 4 * this.raster.spec.args_words);
+      encoder.copyBufferToBuffer(this.res.s_raster_args, 0, this.argsRead, 4 * at.raster_at, 4 * this.raster.spec.args_words);
     }
   }
 

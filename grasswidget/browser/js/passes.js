@@ -4,7 +4,7 @@
 
 import { EngineCulling } from "./culling.js";
 import { invert4 } from "./linalg.js";
-import { cameraWorld, perspective, stepsPerDispatch, windTime } from "./rules.js";
+import { cameraWorld, perspective, readCounters, stepsPerDispatch, windTime } from "./rules.js";
 
 /** At most this many frames are queued on the GPU; a later animation frame draws nothing. */
 const MAX_FRAMES_IN_FLIGHT = 2;
@@ -216,16 +216,13 @@ export class EnginePasses extends EngineCulling {
     this.argsReadPending = true;
     this.lastArgsRead = performance.now();
     buf.mapAsync(GPUMapMode.READ).then(() => {
-      const a = new Uint32Array(buf.getMappedRange().slice(0));
+      const counts = readCounters(new Uint32Array(buf.getMappedRange().slice(0)), this.rules().counters);
       buf.unmap();
-      const classes = this.lodSegments.length;
-      const second = this.occlusion ? a.subarray(4 * classes) : null;
       // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
-      this.visible = this.lodSegments.map((_, k) => a[4 * k + 1] + (second ? second[4 * k + 1] : 0));
-      this.occluded = second && this.occlusionOn() ? second[4 * classes] : null;
+      this.visible = counts.visible_per_class;
+      this.occluded = this.occlusion && this.occlusionOn() ? counts.occluded : null;
       // Blades drawn by the compute rasterizer (both phases); 0 while it is off (as the kernel's stats).
-      const at = 4 * classes + (this.occlusion ? this.occlusion.spec.args_words : 0);
-      this.rastered = this.raster ? (this.rasterOn() ? a[at] : 0) : null;
+      this.rastered = this.raster ? (this.rasterOn() ? counts.rastered : 0) : null;
       this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });

@@ -59,10 +59,9 @@ export class EngineResources extends EngineDevice {
     this.res.s_balls = this.res.s_colliders;  // the balls are drawn from the colliders' buffer
     if (this.occlusion) this.buildOcclusionBuffers(buffer);
     if (this.raster) this.buildRasterBuffers(buffer);
-    // The args of the first phase, then (with occlusion culling) the second's and the occluded
-    // count, then (with the compute rasterizer) its counters.
-    this.argsRead = buffer(classes * 16 + (this.occlusion ? 4 * this.occlusion.spec.args_words : 0)
-      + (this.raster ? 4 * this.raster.spec.args_words : 0), U.MAP_READ | U.COPY_DST, "args readback");
+    // The args of the first phase, the second's and the occluded count, the compute rasterizer's
+    // counters: where Python's layout puts them (frame_rules.counters).
+    this.argsRead = buffer(4 * this.rules().counters.words, U.MAP_READ | U.COPY_DST, "args readback");
     const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];  // world_transform and its inverse
     device.queue.writeBuffer(this.res.u_wobject, 0, new Float32Array([...identity, ...identity]));
     this.uploadRestPose();

@@ -11,6 +11,7 @@
 //   windTime            grasswidget.core.frame_data.wind_time (wind time of step k, modulo the period)
 //   stepsPerDispatch    grasswidget.core.frame_data.steps_per_dispatch
 //   workgroups          grasswidget.gpu.wgsl.workgroups (with frame_rules.dispatch's workgroup size)
+//   readCounters        grasswidget.core.frame_data.read_counters (the stats' counts, frame_rules.counters)
 
 import { add, clamp, cross, norm, scale, sub } from "./linalg.js";
 
@@ -242,4 +243,18 @@ export function workgroups(items, dispatch) {
   const groups = Math.max(1, Math.ceil(items / dispatch.workgroup_size));
   const x = Math.min(groups, dispatch.max_groups_x);
   return [x, Math.ceil(groups / x)];
+}
+
+/**
+ * The stats' counts of one read-back, where Python's layout puts them (frame_rules.counters).
+ * @param {Uint32Array} words
+ * @param {{visible: number[][], occluded: number, rastered: number}} layout grasswidget.core.frame_data.counter_layout
+ * @returns {{visible_per_class: number[], occluded: number, rastered: number}}
+ */
+export function readCounters(words, layout) {
+  return {
+    visible_per_class: layout.visible.map(([i, j]) => words[i] + words[j]),
+    occluded: words[layout.occluded],
+    rastered: words[layout.rastered],
+  };
 }
