@@ -17,7 +17,8 @@ from pathlib import Path
 
 from ..errors import PageBuildError
 
-__all__ = ["ENTRY", "engine_module_text", "module_order", "module_declarations", "relative_imports"]
+__all__ = ["ENTRY", "engine_module_text", "assemble", "module_order", "module_declarations", "relative_imports",
+           "resolve_import"]
 
 HERE = Path(__file__).resolve().parent
 #: The entry module (anywidget's ``export default {initialize, render}``), relative to this folder.
@@ -49,20 +50,21 @@ def module_order(entry: str = ENTRY) -> list:
         path = HERE / rel
         if not path.is_file():
             raise PageBuildError(f"the browser engine's module {rel} is missing from the package")
-        base = Path(rel).parent
         for dep in relative_imports(path.read_text(encoding="utf-8")):
-            visit((base / dep).as_posix().replace("/./", "/").removeprefix("./"))
+            visit(resolve_import(rel, dep))
         visiting.discard(rel)
         seen.add(rel)
         order.append(rel)
 
     visit(entry)
-    return [_normal(p) for p in order]
+    return order
 
 
-def _normal(rel: str) -> str:
+def resolve_import(module: str, dep: str) -> str:
+    """The path (relative to ``grasswidget/browser``, POSIX) of what ``module`` imports as ``dep``
+    (``"./x.js"``, ``"../x.js"``)."""
     parts = []
-    for part in rel.split("/"):
+    for part in (Path(module).parent / dep).as_posix().split("/"):
         if part == "..":
             parts.pop()
         elif part not in (".", ""):
@@ -76,8 +78,10 @@ def module_declarations(text: str) -> list:
     return _DECLARATION.findall(text)
 
 
-@functools.lru_cache(maxsize=1)
-def _assembled(entry: str) -> str:
+def assemble(entry: str = ENTRY) -> str:
+    """The module text of ``entry`` and every module it imports (see :func:`engine_module_text`);
+    :class:`~grasswidget.errors.PageBuildError` when a module is missing, the modules import each
+    other in a circle, or two declare one top-level name."""
     parts = []
     for rel in module_order(entry):
         text = (HERE / rel).read_text(encoding="utf-8")
@@ -96,4 +100,9 @@ def engine_module_text() -> str:
     """The browser engine as one ES module text (what ``BrowserView._esm``, the live page and the
     HTML export load): every module of :func:`module_order` once, dependencies first, relative
     imports taken out; the entry's ``export default`` and the rules' exports kept."""
-    return _assembled(ENTRY)
+    return _engine_module_text()
+
+
+@functools.lru_cache(maxsize=1)
+def _engine_module_text() -> str:
+    return assemble(ENTRY)
