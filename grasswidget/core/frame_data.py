@@ -362,7 +362,7 @@ def orbit_rules(blades, far, floor="grass") -> dict:
     """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades, a far plane
     of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
     as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground). The browser clamps
-    with these numbers (engine.js ``clampOrbit``); the floor only changes them."""
+    with these numbers (``browser/js/rules.js`` ``clampOrbit``); the floor only changes them."""
     limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
 
