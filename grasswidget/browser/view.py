@@ -3,7 +3,7 @@
 An anywidget whose ES module (``engine.js``, shipped in the package) asks the
 browser for a WebGPU adapter, receives the rest pose of the blades as one binary
 buffer and the parameters as packed uniforms (synced traits), compiles the
-project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.wgsl`)
+project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.browser_wgsl`)
 and runs the simulation, culling, LOD binning and the ribbon draws every frame.
 The kernel needs no GPU for it.
 
@@ -48,7 +48,7 @@ from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspecte
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
 from .kernel_pump import BrowserTimeoutError, wait_for
-from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
+from .browser_wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
 
 __all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
 

@@ -16,7 +16,7 @@ import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
 from grasswidget.browser.view import BrowserView, wind_error_from_messages
-from grasswidget.browser.wgsl import BrowserShaders, binding_map
+from grasswidget.browser.browser_wgsl import BrowserShaders, binding_map
 from grasswidget.core.shader_files import shader_dir
 from conftest import node_executable
 

@@ -11,7 +11,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.browser.view import BrowserView
-from grasswidget.browser.wgsl import BrowserShaders
+from grasswidget.browser.browser_wgsl import BrowserShaders
 from grasswidget.core.wgsl_overrides import OVERRIDE_MARKER
 
 
