@@ -5,18 +5,18 @@ notebook's browser through WebGPU (an anywidget; see :mod:`grasswidget.browser.v
 bindings and :mod:`grasswidget.browser.uniforms` packs the uniforms; neither
 imports GPU code.
 
-The widget (:class:`BrowserView`, which needs anywidget) loads on first use, so the pure
+The widget (:class:`BrowserEngineWidget`, which needs anywidget) loads on first use, so the pure
 parts (``wgsl``, ``uniforms``, ``page``'s limits) import without the notebook packages.
 """
 
-__all__ = ["BrowserView", "BrowserTimeoutError"]
+__all__ = ["BrowserEngineWidget", "BrowserTimeoutError"]
 
 
 def __getattr__(name):
-    if name == "BrowserView":
-        from .view import BrowserView
+    if name == "BrowserEngineWidget":
+        from .view import BrowserEngineWidget
 
-        return BrowserView
+        return BrowserEngineWidget
     if name == "BrowserTimeoutError":
         from ..errors import BrowserTimeoutError
 

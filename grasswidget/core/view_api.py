@@ -8,27 +8,27 @@ draws and shows the meadow. There are two, one per engine:
 * :class:`grasswidget.browser.engine_view.BrowserEngineView` ("browser"): the
   same WGSL run in the notebook's browser through WebGPU.
 
-Both subclass :class:`GrassView` and implement every abstract member; the widget
+Both subclass :class:`EngineView` and implement every abstract member; the widget
 talks to a view through this interface only (no attribute probing, no reaching
 into a view's parts). What the two views share is written here once:
 
-* the keys (:meth:`GrassView.on_key`): space = play/pause, ``s`` = step one
+* the keys (:meth:`EngineView.on_key`): space = play/pause, ``s`` = step one
   frame, ``r`` = reset the camera, nothing with a modifier held;
-* the camera setter (:attr:`GrassView.camera_state`): validation by
+* the camera setter (:attr:`EngineView.camera_state`): validation by
   :func:`check_camera_state`, merging with the current camera, position and
-  target apart; the view only aims its camera (:meth:`GrassView.look`);
-* the nominal steps per frame (:meth:`GrassView.nominal_steps`):
+  target apart; the view only aims its camera (:meth:`EngineView.look`);
+* the nominal steps per frame (:meth:`EngineView.nominal_steps`):
   ``round(time_scale * frame_interval / dt)``, capped to
   :data:`MAX_STEPS_PER_FRAME`.
 
 Both engines have every feature of the interface (the teaching views included).
 
-Camera listeners (:meth:`GrassView.add_camera_listener`): a view tells them when its camera
-moved, and :meth:`GrassView.accept_camera` moves it without telling them, so views can
+Camera listeners (:meth:`EngineView.add_camera_listener`): a view tells them when its camera
+moved, and :meth:`EngineView.accept_camera` moves it without telling them, so views can
 follow each other's camera without echoes (a comparison, :mod:`grasswidget.notebook.compare`).
 
 The view is told what to do by the widget and reports back through callbacks
-given at construction: ``clock`` (:class:`ViewClock`), ``actions``
+given at construction: ``playback`` (:class:`PlaybackState`, the widget's play state), ``actions``
 (:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and
 ``on_inspect(blades)``.
 """
@@ -43,7 +43,7 @@ import numpy as np
 from ..errors import GrassTypeError, GrassValueError
 from .frame_data import MAX_STEPS_PER_FRAME
 
-__all__ = ["GrassView", "ViewClock", "ViewActions", "check_camera_state",
+__all__ = ["EngineView", "PlaybackState", "ViewActions", "check_camera_state", "GrassView", "ViewClock",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -52,7 +52,7 @@ CAMERA_KEYS = ("position", "target", "fov_deg")
 FOV_RANGE_DEG = (1.0, 179.0)
 
 
-class ViewClock(Protocol):
+class PlaybackState(Protocol):
     """What a view reads (and, for ``playing``, may set) on its clock: the widget's traits."""
 
     #: Animate (True) or stand still (False).
@@ -102,7 +102,7 @@ def check_camera_state(state) -> dict:
     return out
 
 
-class GrassView(abc.ABC):
+class EngineView(abc.ABC):
     """A GrassWidget's view (see the module docstring); both engines implement all of it.
 
     Every abstract member below is implemented by both views; concrete members
@@ -111,7 +111,7 @@ class GrassView(abc.ABC):
 
     Constructor arguments every view takes (stored by :meth:`__init__`):
     ``size`` ((w, h) CSS pixels), ``params`` (the shared GrassParams),
-    ``clock`` (:class:`ViewClock`), ``actions`` (:class:`ViewActions`),
+    ``playback`` (:class:`PlaybackState`), ``actions`` (:class:`ViewActions`),
     ``on_error(err)`` (an exception or a text to show), ``on_stats(dict)``
     (called whenever the stats are refreshed) and ``on_inspect(blades)`` (the
     inspected blades' numbers, a list of dicts; ``[]`` when none).
@@ -120,11 +120,11 @@ class GrassView(abc.ABC):
     #: The engine: "kernel" or "browser".
     backend: str = ""
 
-    def __init__(self, size, params, *, clock: ViewClock, actions: ViewActions, on_error: Callable,
+    def __init__(self, size, params, *, playback: PlaybackState, actions: ViewActions, on_error: Callable,
                  on_stats: Callable, on_inspect: Callable | None = None):
         self.size = (int(size[0]), int(size[1]))
         self.params = params
-        self.clock_source = clock
+        self.playback = playback
         self.actions = actions
         self.report_error = on_error
         self.report_stats = on_stats
@@ -233,7 +233,7 @@ class GrassView(abc.ABC):
     def nominal_steps(self) -> int:
         """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
         [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
-        wanted = int(round(float(self.clock_source.time_scale) * self.frame_interval / float(self.params.dt)))
+        wanted = int(round(float(self.playback.time_scale) * self.frame_interval / float(self.params.dt)))
         return max(0, min(wanted, MAX_STEPS_PER_FRAME))
 
     @property
@@ -435,3 +435,8 @@ class GrassView(abc.ABC):
     def close(self) -> None:
         """Release the view's resources (GPU buffers, the canvas or the browser model); idempotent.
         :attr:`closed` is True afterwards."""
+
+
+#: The names of before (issue 26: "view" and "clock" had several meanings): the same objects.
+GrassView = EngineView
+ViewClock = PlaybackState

@@ -68,7 +68,7 @@ from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.frame_data import SLOW_MOTION_BELOW
 from ..core.blades import Blades
-from ..core.view_api import GrassView
+from ..core.view_api import EngineView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
@@ -205,9 +205,9 @@ def orbit_target(scene):
     return pos + forward * d
 
 
-class KernelView(GrassView):
+class KernelView(EngineView):
     """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock
-    (the kernel engine's :class:`~grasswidget.core.view_api.GrassView`).
+    (the kernel engine's :class:`~grasswidget.core.view_api.EngineView`).
 
     Args:
         blades: a blade count or a :class:`Blades` for the first scene.
@@ -215,7 +215,7 @@ class KernelView(GrassView):
         params: the :class:`GrassParams` the scene simulates with.
         preset: None or a ``GrassScene.preset`` name.
         streaming: a :func:`streaming_defaults` dict (possibly overridden).
-        clock: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
+        playback: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
         actions: called by keys: ``toggle_play()``, ``step()``, ``reset_camera()``.
         on_error: called with an exception or a text to show.
         on_stats: called with the stats dict whenever it is refreshed.
@@ -233,9 +233,9 @@ class KernelView(GrassView):
     canvas = None
     _inspect_stale = True  # read_inspected renders first when something changed since the last frame
 
-    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
+    def __init__(self, blades, size, params, *, preset=None, streaming, playback, actions, on_error, on_stats,
                  on_inspect=None):
-        super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
+        super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)
         #: Re-entrant lock held by every frame and every operation on the scene (see
         #: the module docstring, "Threads": controls may run on a comm subshell's thread).
@@ -568,11 +568,11 @@ class KernelView(GrassView):
         if scene is None or scene.renderer is None:
             return
         t0 = time.perf_counter()
-        playing = bool(self.clock_source.playing)
+        playing = bool(self.playback.playing)
         if playing:
             if not self.clock.running:
                 self.clock.start()
-            self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
+            self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
         scene.draw_frame()
         self._inspect_stale = False
         if self.camera_listeners:  # a linked view (a comparison) follows this camera
@@ -615,7 +615,7 @@ class KernelView(GrassView):
         s["blades"] = self.blade_count
         s["scale"] = self.render_scale
         s["target_fps"] = self.target_fps
-        playing = bool(self.clock_source.playing)
+        playing = bool(self.playback.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW

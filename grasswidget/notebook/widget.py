@@ -3,7 +3,7 @@
 ``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
 own module:
 
-* a view (a :class:`grasswidget.core.view_api.GrassView`; the widget talks to it
+* a view (a :class:`grasswidget.core.view_api.EngineView`; the widget talks to it
   through that interface only): :class:`grasswidget.notebook.kernel_view.KernelView`,
   the jupyter-rfb canvas streaming a :class:`~grasswidget.gpu.scene.GrassScene`
   rendered in the kernel, or :class:`grasswidget.browser.engine_view.BrowserEngineView`,
@@ -61,7 +61,7 @@ from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
 from ..core.framing import preset_params
-from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
+from ..core.view_api import MAX_STEPS_PER_FRAME, EngineView
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
@@ -124,7 +124,7 @@ class GrassWidget(ipw.VBox):
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
             with; link or observe its traits, set them from code).
-        view: the :class:`~grasswidget.core.view_api.GrassView` of the live engine (None after close).
+        view: the :class:`~grasswidget.core.view_api.EngineView` of the live engine (None after close).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
@@ -170,7 +170,7 @@ class GrassWidget(ipw.VBox):
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
     _closed = False
-    view: GrassView | None = None
+    view: EngineView | None = None
     panel = None
     ball = None
     bench = None
@@ -264,7 +264,7 @@ class GrassWidget(ipw.VBox):
             else:
                 from ..browser.engine_view import BrowserEngineView
 
-                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
+                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, playback=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                               on_inspect=self._show_inspected,
                                               on_unavailable=self._on_browser_unavailable,
@@ -336,7 +336,7 @@ class GrassWidget(ipw.VBox):
             self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
             self._streaming["max_blades"] = blades
         view = KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
-                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          playback=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
                           on_inspect=self._show_inspected)
         if self._function_overrides is not None:
             try:

@@ -86,7 +86,7 @@ from grasswidget.gpu.scene import GrassScene
 p = m.params.copy()
 p.compute_raster = True
 p.cull_occlusion = False
-scene = GrassScene.preset('meadow', blades=m.view.browser_view.blades, size=({w}, {h}), params=p)
+scene = GrassScene.preset('meadow', blades=m.view.engine_widget.blades, size=({w}, {h}), params=p)
 scene.step(30)
 cam = m.camera_state
 scene.look(cam['position'], cam['target'], cam['fov_deg'])

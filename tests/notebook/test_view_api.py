@@ -1,4 +1,4 @@
-"""One view interface (grasswidget.core.view_api.GrassView) that the kernel
+"""One view interface (grasswidget.core.view_api.EngineView) that the kernel
 and the browser views implement in full; the widget talks to it only."""
 
 import ast
@@ -13,26 +13,26 @@ pytest.importorskip("ipywidgets")
 import grasswidget as gw  # noqa: E402
 from grasswidget.browser.engine_view import BrowserEngineView  # noqa: E402
 from grasswidget.notebook.kernel_view import KernelView  # noqa: E402
-from grasswidget.core.view_api import MAX_STEPS_PER_FRAME, GrassView, check_camera_state  # noqa: E402
+from grasswidget.core.view_api import MAX_STEPS_PER_FRAME, EngineView, check_camera_state  # noqa: E402
 
 SIZE = (160, 120)
 
 
 def _interface_members():
-    return {name for name in dir(GrassView) if not name.startswith("_")}
+    return {name for name in dir(EngineView) if not name.startswith("_")}
 
 
 @pytest.mark.parametrize("view_class", [KernelView, BrowserEngineView])
 def test_both_views_implement_the_whole_interface(view_class):
-    assert issubclass(view_class, GrassView)
+    assert issubclass(view_class, EngineView)
     assert not view_class.__abstractmethods__, f"{view_class.__name__} leaves {sorted(view_class.__abstractmethods__)}"
     for name in _interface_members():
         assert hasattr(view_class, name), name
     # and documented: every member of the interface says what it is
     for name in _interface_members():
-        member = inspect.getattr_static(GrassView, name)
+        member = inspect.getattr_static(EngineView, name)
         doc = getattr(member, "__doc__", None) if not isinstance(member, str) else "constant"
-        assert name in ("backend",) or (doc and doc.strip()), f"GrassView.{name} has no docstring"
+        assert name in ("backend",) or (doc and doc.strip()), f"EngineView.{name} has no docstring"
 
 
 def test_the_widget_does_not_probe_or_reach_through_its_view():
@@ -97,7 +97,7 @@ def test_shared_keys(both):
 
     def press(key, modifiers=()):
         if w.backend == "browser":
-            w.view.browser_view.handle_message({"type": "key", "key": key, "modifiers": list(modifiers)})
+            w.view.engine_widget.handle_message({"type": "key", "key": key, "modifiers": list(modifiers)})
         else:
             w.view.on_key({"type": "key_down", "key": key, "modifiers": modifiers})
 
