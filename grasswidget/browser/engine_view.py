@@ -78,6 +78,9 @@ class BrowserEngineView(EngineView):
     """
 
     backend = "browser"
+    #: The attribute's name of before (when the anywidget was "BrowserView"): the same object.
+    browser_view = property(lambda self: self.engine_widget,
+                            doc="The name of before of ``engine_widget`` (the BrowserEngineWidget).")
 
     def __init__(self, blades, size, params, *, preset=None, playback, actions, on_error, on_stats,
                  on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None):
@@ -117,7 +120,7 @@ class BrowserEngineView(EngineView):
 
     @property
     def widget(self):
-        """The :class:`~grasswidget.browser.view.BrowserEngineWidget` anywidget (the ipywidget to show)."""
+        # The :class:`~grasswidget.browser.view.BrowserEngineWidget` anywidget (the ipywidget to show).
         return self.engine_widget
 
     # ------------------------------------------------------------------ status
@@ -144,7 +147,7 @@ class BrowserEngineView(EngineView):
 
     @property
     def ball_scene(self):
-        """A stand-in scene for the ball: the field's blades and the browser view's colliders."""
+        # A stand-in scene for the ball: the field's blades and the browser view's colliders.
         return self._ball_scene
 
     def attach_ball(self, ball):
@@ -217,12 +220,12 @@ class BrowserEngineView(EngineView):
 
     @property
     def blades(self) -> Blades:
-        """The field's rest pose (what the browser was sent)."""
+        # The field's rest pose (what the browser was sent).
         return self.engine_widget.blades
 
     @property
     def colliders(self) -> ColliderList:
-        """The sphere colliders sent to the browser."""
+        # The sphere colliders sent to the browser.
         return self.engine_widget.colliders
 
     def set_blades(self, blades):
@@ -236,13 +239,13 @@ class BrowserEngineView(EngineView):
 
     @property
     def max_fps(self) -> float:
-        """The browser presents up to its display rate; 60 is the nominal figure."""
+        # The browser presents up to its display rate; 60 is the nominal figure.
         return 60.0
 
     @property
     def steps_per_frame(self) -> int:
-        """Average fixed steps per presented frame, as the browser last reported it (it follows
-        the wall clock); before any report, :meth:`nominal_steps`."""
+        # Average fixed steps per presented frame, as the browser last reported it (it follows
+        # the wall clock); before any report, :meth:`nominal_steps`.
         s = self._stats.get("steps_per_frame")
         if s is not None:
             return int(s)
@@ -250,14 +253,14 @@ class BrowserEngineView(EngineView):
 
     @property
     def sim_time(self) -> float | None:
-        """Simulated seconds since the last reset as of the browser's last stats message (about
-        every 0.5 s): its step count times ``params.dt``; None before the first one."""
+        # Simulated seconds since the last reset as of the browser's last stats message (about
+        # every 0.5 s): its step count times ``params.dt``; None before the first one.
         count = self._stats.get("step_count")
         return None if count is None else int(count) * float(self.params.dt)
 
     @property
     def target_fps(self) -> float:
-        """Kept and reported only: the browser presents at its display's rate (no adaptive resolution)."""
+        # Kept and reported only: the browser presents at its display's rate (no adaptive resolution).
         return self._target_fps
 
     @target_fps.setter
@@ -266,7 +269,7 @@ class BrowserEngineView(EngineView):
 
     @property
     def render_scale(self) -> float:
-        """Always 1: the browser renders at full resolution."""
+        # Always 1: the browser renders at full resolution.
         return 1.0
 
     def set_playing(self, playing: bool):
@@ -289,7 +292,7 @@ class BrowserEngineView(EngineView):
         self.engine_widget.reset_camera()
 
     def set_camera_floor(self, floor: str):
-        """The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``)."""
+        # The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``).
         self.engine_widget.camera_floor = floor
 
     @property
@@ -297,7 +300,8 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.orbit_limits
 
     def request_draw(self):
-        """The browser draws every animation frame; parameter changes arrive as traits."""
+        # The browser draws every animation frame; parameter changes arrive as traits.
+        ...
 
     # ------------------------------------------------------------------ camera
 
@@ -313,16 +317,16 @@ class BrowserEngineView(EngineView):
         return float(cam.get("near", 0.1)), float(cam.get("far", 100.0))
 
     def look(self, position, target, fov_deg):
-        """Send the browser the new camera (near and far planes kept)."""
+        # Send the browser the new camera (near and far planes kept).
         self.engine_widget.camera = dict(self.engine_widget.camera, position=[float(x) for x in position],
                                         target=[float(x) for x in target], fov_deg=float(fov_deg))
 
     # ------------------------------------------------------------------ pictures and state
 
     def save_png(self, path, size):
-        """Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
-        (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
-        browser's answer)."""
+        # Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
+        # (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
+        # browser's answer).
         import imageio.v3 as iio
 
         img = self.engine_widget.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
@@ -330,8 +334,8 @@ class BrowserEngineView(EngineView):
         return path
 
     def save_png_later(self, path, size, done):
-        """Ask the browser for a picture; write it and call ``done(path)`` when it arrives
-        (used by the Save PNG button, which runs inside a comm message and cannot wait)."""
+        # Ask the browser for a picture; write it and call ``done(path)`` when it arrives
+        # (used by the Save PNG button, which runs inside a comm message and cannot wait).
         import imageio.v3 as iio
 
         def write(msg, buffers):
@@ -351,14 +355,14 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.function_overrides
 
     def set_function_overrides(self, overrides):
-        """The browser compiles user functions when its engine starts: only the ones it has are accepted."""
+        # The browser compiles user functions when its engine starts: only the ones it has are accepted.
         if overrides != self.engine_widget.function_overrides:
             raise GrassValueError("the browser engine takes user functions when the widget is made "
                                   "(GrassWidget(function_overrides=...), or gw.exercise(...).widget(code)); "
                                   "make a new widget, or use backend='kernel' to change them live")
 
     def set_wind_wgsl(self, body, select=True):
-        """Compiled by the browser; waits for its answer (see BrowserEngineWidget.set_wind_wgsl)."""
+        # Compiled by the browser; waits for its answer (see BrowserEngineWidget.set_wind_wgsl).
         self.engine_widget.set_wind_wgsl(body, select=select)
 
     def read_state(self, timeout=None) -> dict:
@@ -369,7 +373,7 @@ class BrowserEngineView(EngineView):
     # ------------------------------------------------------------------ teaching views
 
     def set_culling_frozen(self, frozen: bool):
-        """Freeze culling at the browser's current camera (True) or cull against it again (False)."""
+        # Freeze culling at the browser's current camera (True) or cull against it again (False).
         if frozen:
             self.engine_widget.freeze_culling()
         else:
@@ -381,7 +385,7 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.frozen_camera
 
     def inspect(self, ids):
-        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        # Inspect these blade ids (at most 64; [] clears); ValueError names the limit.
         self.engine_widget.inspect(ids)
         if not self.engine_widget.inspected:
             self._report_inspected([])
@@ -393,7 +397,7 @@ class BrowserEngineView(EngineView):
         return tuple(self.engine_widget.inspected)
 
     def read_inspected(self, timeout=None) -> list:
-        """The inspected blades' numbers (GrassScene.read_inspected's format), from the browser."""
+        # The inspected blades' numbers (GrassScene.read_inspected's format), from the browser.
         return self.engine_widget.read_inspected() if timeout is None else self.engine_widget.read_inspected(timeout=timeout)
 
     def _report_inspected(self, rows):
