@@ -296,3 +296,48 @@ def test_modules_renamed_for_one_meaning_keep_their_old_paths():
             "from grasswidget.gpu.occlusion import render_frame\n")
     r = _run(code)
     assert r.returncode == 0, r.stderr
+
+
+TESTS = Path(__file__).resolve().parent
+#: What the tests of a layer may not use: tests are grouped like the layers they test, so a test of
+#: the pure core runs no GPU, browser or widget code (a test of both engines lives with the browser's
+#: tests, which may compare against the kernel's GPU layer).
+TEST_FORBIDDEN = {"core": FORBIDDEN["core"]}
+#: The package's lazy entry points and the layer each loads (``gw.GrassWidget`` is an import too).
+ENTRY_POINT_LAYERS = {"GrassField": "gpu", "GrassMaterial": "gpu", "GrassScene": "gpu", "GrassWidget": "notebook",
+                      "compare": "notebook", "exercise": "notebook", "sweep": "tools"}
+
+
+def _test_layer_violations(layer: str, tests: Path = TESTS) -> list[str]:
+    bad = []
+    for path in sorted((tests / layer).rglob("*.py")):
+        tree = ast.parse(path.read_text(), filename=str(path))
+        names = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id in ("gw", "grasswidget") and node.attr in ENTRY_POINT_LAYERS:
+                names.add(f"grasswidget.{ENTRY_POINT_LAYERS[node.attr]}")
+        for name in sorted(names):
+            if any(name == f or name.startswith(f + ".") for f in TEST_FORBIDDEN[layer]):
+                bad.append(f"{path.relative_to(tests).as_posix()} uses {name}")
+    return sorted(set(bad))
+
+
+def test_the_core_tests_use_only_the_core():
+    """tests/core imports nothing of the GPU, browser, notebook or tools layers (nor their GPU and
+    widget libraries), directly or through ``gw.GrassWidget`` / ``gw.GrassScene``-style entry points."""
+    bad = _test_layer_violations("core")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_test_layer_check_can_fail(tmp_path):
+    (tmp_path / "core").mkdir()
+    (tmp_path / "core" / "test_x.py").write_text("import grasswidget as gw\nfrom grasswidget.browser import view\n"
+                                                 "def test():\n    gw.GrassWidget(64)\n")
+    assert _test_layer_violations("core", tmp_path) == ["core/test_x.py uses grasswidget.browser",
+                                                        "core/test_x.py uses grasswidget.browser.view",
+                                                        "core/test_x.py uses grasswidget.notebook"]
