@@ -41,7 +41,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
+from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from .frame_data import MAX_STEPS_PER_FRAME
 
 __all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state", "GrassView", "ViewClock",
@@ -513,7 +513,7 @@ class ViewMember:
 
     def __set__(self, owner, value):
         if not self.settable:
-            raise AttributeError(f"{type(owner).__name__}.{self.name} is read-only")
+            raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
         setattr(self._open_view(owner), self.name, value)
 
 

@@ -178,6 +178,9 @@ def test_a_view_member_of_a_closed_widget_raises_and_old_names_are_the_same_obje
     from grasswidget.core import view_api
 
     w = gw.GrassWidget(64, size=SIZE, backend="browser")
+    with pytest.raises(gw.ReadOnlyAttributeError, match="GrassWidget.stats can only be read"):
+        w.stats = {}
+    assert isinstance(w.stats, dict) and w.inspected == ()
     w.close()
     for call in (lambda: w.read_inspected(), lambda: w.inspect([0]), lambda: w.read_state()):
         with pytest.raises(gw.WidgetClosedError, match="GrassWidget is closed"):
