@@ -301,7 +301,7 @@ class BrowserEngineView(EngineView):
 
     def request_draw(self):
         # The browser draws every animation frame; parameter changes arrive as traits.
-        ...
+        pass
 
     # ------------------------------------------------------------------ camera
 

@@ -10,7 +10,20 @@ draws and shows the meadow. There are two, one per engine:
 
 Both subclass :class:`EngineView` and implement every abstract member; the widget
 talks to a view through this interface only (no attribute probing, no reaching
-into a view's parts). What the two views share is written here once:
+into a view's parts). Every member is documented here, once: the two views'
+definitions say (in comments) how their engine does it, not what it is. Where the
+widget adds nothing to a member (``w.read_inspected``, ``w.camera_state``, ``w.stats``,
+...), its attribute is a :class:`ViewMember`: the one generic forwarding, whose help
+is this module's text, instead of a hand-written method per member.
+
+Names: a *view* is one engine's view of a widget (this interface and its two
+implementations). The anywidget that runs engine.js in the page is
+:class:`~grasswidget.browser.view.BrowserEngineWidget` (``BrowserEngineView.engine_widget``);
+the kernel engine's clock is :class:`~grasswidget.notebook.clock.SimClock`; what a view
+reads of the widget's play state is its ``playback`` (:class:`PlaybackState`). The
+names of before (``GrassView``, ``ViewClock``, ``clock_source``) are aliases.
+
+What the two views share is written here once:
 
 * the keys (:meth:`EngineView.on_key`): space = play/pause, ``s`` = step one
   frame, ``r`` = reset the camera, nothing with a modifier held;

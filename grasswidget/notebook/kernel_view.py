@@ -415,8 +415,8 @@ class KernelView(EngineView):
             self.canvas.request_draw()
 
     def set_time_scale(self, time_scale: float):
-        # Nothing to do: each frame reads ``time_scale`` from the clock.
-        ...
+        # Nothing to do: each frame reads ``time_scale`` from ``playback``.
+        pass
 
     @_exclusive
     def step(self, n: int):
