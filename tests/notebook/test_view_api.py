@@ -181,6 +181,7 @@ def test_a_view_member_of_a_closed_widget_raises_and_old_names_are_the_same_obje
     with pytest.raises(gw.ReadOnlyAttributeError, match="GrassWidget.stats can only be read"):
         w.stats = {}
     assert isinstance(w.stats, dict) and w.inspected == ()
+    assert w.view.browser_view is w.view.engine_widget and w.view.clock_source is w.view.playback is w
     w.close()
     for call in (lambda: w.read_inspected(), lambda: w.inspect([0]), lambda: w.read_state()):
         with pytest.raises(gw.WidgetClosedError, match="GrassWidget is closed"):
@@ -189,4 +190,5 @@ def test_a_view_member_of_a_closed_widget_raises_and_old_names_are_the_same_obje
         w.camera_state = {"fov_deg": 40.0}
     assert view_api.GrassView is view_api.EngineView and view_api.ViewClock is view_api.PlaybackState
     assert browser_view_module.BrowserView is browser_view_module.BrowserEngineWidget
-    assert BrowserEngineView.browser_view is not None  # the attribute's name of before, a property
+    assert isinstance(BrowserEngineView.browser_view, property)  # the attribute's name of before
+    assert isinstance(view_api.EngineView.clock_source, property)
