@@ -24,7 +24,7 @@ def _run(code):
 
 @pytest.mark.parametrize("module", ["grasswidget.gpu.field", "grasswidget.gpu.material", "grasswidget.gpu.simulation",
                                     "grasswidget.gpu.shader_classes", "grasswidget.gpu.scene", "grasswidget.gpu.frame",
-                                    "grasswidget.gpu", "grasswidget"])
+                                    "grasswidget.gpu", "grasswidget", "grasswidget.gpu.shaders"])
 def test_a_grass_field_renders_whichever_entry_point_is_imported(module):
     """Whichever module a user imports first (then ``gw.GrassField``), pygfx knows how to render a
     GrassField: the package ``grasswidget.gpu`` registers the render function (pygfx's pattern),
