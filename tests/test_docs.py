@@ -40,7 +40,7 @@ def map_modules(text: str) -> set[str]:
             continue
         if line.startswith("  ") and not line.startswith("    ") and words[0].endswith("/"):
             folder = words[0]
-        elif all(re.fullmatch(r"[\w]+\.(py|js)", w) for w in words):
+        elif all(re.fullmatch(r"[\w/]+\.(py|js)", w) for w in words):
             named |= {(folder if line.startswith("    ") else "") + w for w in words}
     return named
 
