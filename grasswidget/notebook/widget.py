@@ -166,6 +166,7 @@ class GrassWidget(ipw.VBox):
                         "view; True from the start with layout='lecture'.")
     camera_bar = None
     _layout = None
+    _mirror = None
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -745,6 +746,26 @@ class GrassWidget(ipw.VBox):
         finally:
             scene.release()
 
+    def _display_(self):
+        """What marimo shows for this widget (only marimo asks for ``_display_``; Jupyter front
+        ends draw the ipywidgets as always): the view, the chart and the panel as anywidgets
+        (see :mod:`grasswidget.notebook.marimo_face`)."""
+        from .marimo_face import marimo_display
+
+        self._check_open()
+        return marimo_display(self)
+
+    def control_mirror(self):
+        """The panel column (camera bar and rows) as one anywidget of plain HTML controls, for
+        front ends without ipywidgets (marimo); made on first use, then the same one
+        (:class:`~grasswidget.notebook.control_mirror.ControlMirror`)."""
+        from .control_mirror import ControlMirror
+
+        self._check_open()
+        if self._mirror is None:
+            self._mirror = ControlMirror(self._layout.column, on_error=self._show_error)
+        return self._mirror
+
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
         scene and camera controller, the control panel, the ball, the camera bar, the lab
@@ -752,7 +773,7 @@ class GrassWidget(ipw.VBox):
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
         found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
-                 getattr(self, "_layout", None), getattr(self, "_stage", None))
+                 getattr(self, "_layout", None), getattr(self, "_stage", None), self._mirror)
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -775,6 +796,8 @@ class GrassWidget(ipw.VBox):
                 pass
         if self.bench is not None:
             self.bench.close()
+        if self._mirror is not None:
+            self._mirror.close()
         if self.panel is not None:
             self.panel.close()
         if self.camera_bar is not None:
