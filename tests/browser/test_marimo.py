@@ -1,0 +1,230 @@
+"""The widget in marimo (``marimo run``), in Chromium with WebGPU (SwiftShader), both engines.
+
+One notebook file, one marimo server, one page: a kernel-engine GrassWidget, a
+browser-engine GrassWidget, a probe cell showing what the kernel holds (each widget's
+``params.wind_strength`` and ``playing``, written by the kernel as they change) and a
+run button whose cell assigns ``w.params.wind_strength = 20.0`` from Python. For each
+engine, through the page only, as a marimo user would:
+
+* the view shows grass under a sky (pixels) and the panel's stats line counts frames;
+* the picture changes while playing; after the panel's "Pause" the kernel says
+  ``playing`` False, the stats line says "paused" and the picture stays; "Play" animates again;
+* the wind slider moved with the keyboard in the page reaches ``params`` in the kernel (the probe);
+* the later cell's Python assignment moves both wind sliders (their readouts say 20.0).
+
+Screenshots of both widgets go to ``$GW_ARTIFACTS_DIR`` (or a temporary folder, printed).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import tempfile
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from .harness import Browser, MarimoServer, panel_label, poll
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+pytest.importorskip("marimo")
+
+N_BLADES = 1024
+ENGINES = ("kernel", "browser")
+
+NOTEBOOK = textwrap.dedent(f'''
+    import marimo
+
+    app = marimo.App(width="full")
+
+
+    @app.cell
+    def _():
+        import html
+        import json
+
+        import ipywidgets as ipw
+        import marimo as mo
+
+        import grasswidget as gw
+        from grasswidget.notebook.control_mirror import ControlMirror
+        return ControlMirror, gw, html, ipw, json, mo
+
+
+    @app.cell
+    def _(gw):
+        wk = gw.GrassWidget({N_BLADES}, backend="kernel", size=(320, 240))
+        wk
+        return (wk,)
+
+
+    @app.cell
+    def _(gw):
+        wb = gw.GrassWidget({N_BLADES}, backend="browser", size=(320, 240))
+        wb
+        return (wb,)
+
+
+    @app.cell
+    def _(ControlMirror, html, ipw, json, wb, wk):
+        # What the kernel holds, rewritten by the kernel whenever it changes.
+        probe = ipw.HTML()
+
+        def show(_change=None):
+            state = {{name: {{"wind": w.params.wind_strength, "playing": w.playing}}
+                     for name, w in (("kernel", wk), ("browser", wb))}}
+            probe.value = "<code class='kernel-state'>" + html.escape(json.dumps(state)) + "</code>"
+
+        for w in (wk, wb):
+            w.params.observe(show, names="wind_strength")
+            w.observe(show, names="playing")
+        show()
+        ControlMirror(probe)
+        return
+
+
+    @app.cell
+    def _(mo):
+        setter = mo.ui.run_button(label="set the wind from Python")
+        setter
+        return (setter,)
+
+
+    @app.cell
+    def _(mo, setter, wb, wk):
+        mo.stop(not setter.value)
+        wk.params.wind_strength = 20.0
+        wb.params.wind_strength = 20.0
+        return
+
+
+    if __name__ == "__main__":
+        app.run()
+''')
+
+
+def _artifacts() -> Path:
+    out = Path(os.environ.get("GW_ARTIFACTS_DIR") or tempfile.mkdtemp(prefix="gw-marimo-"))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def marimo_page(tmp_path_factory):
+    root = tmp_path_factory.mktemp("marimo")
+    (root / "meadows.py").write_text(NOTEBOOK)
+    with MarimoServer(root / "meadows.py") as server, Browser(webgpu=True) as browser:
+        page = browser.page
+        page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
+        try:
+            poll(lambda: page.locator(".grasswidget-marimo").count() == 2, "marimo to show both widgets", 120, 0.5,
+                 page=page)
+            yield page
+        except BaseException:
+            print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
+            raise
+
+
+def _root(page, engine):
+    return page.locator(".grasswidget-marimo").nth(ENGINES.index(engine))
+
+
+def _view(page, engine):
+    selector = "img.renderview-view" if engine == "kernel" else "canvas.grasswidget-canvas"
+    return _root(page, engine).locator(selector).first
+
+
+def _pixels(page, engine):
+    import imageio.v3 as iio
+
+    loc = _view(page, engine)
+    loc.scroll_into_view_if_needed()
+    return iio.imread(loc.screenshot(), extension=".png")[..., :3].astype(np.int32)
+
+
+def _grass_and_sky(px):
+    h = px.shape[0]
+    low, top = px[int(0.6 * h):], px[: int(0.1 * h)]
+    grass = ((low[..., 1] > low[..., 0] + 8) & (low[..., 1] > low[..., 2] + 8)).mean()
+    sky = ((top[..., 2] > top[..., 0] + 10) & (top[..., 2] >= top[..., 1])).mean()
+    return float(grass), float(sky)
+
+
+def _kernel_state(page):
+    text = page.locator("code.kernel-state").first.inner_text()
+    return json.loads(text)
+
+
+def _status(page, engine):
+    # the panel lives in the mirror's shadow root: read the text there (innerText stops at a shadow host)
+    return _root(page, engine).locator(".gwm-root").first.inner_text()
+
+
+def _wind_slider(page, engine):
+    label = panel_label("wind_strength")
+    return _root(page, engine).locator(".gwm-slider").filter(
+        has=page.locator(".gwm-label", has_text=re.compile("^" + re.escape(label) + "$")))
+
+
+def _button(page, engine, name):
+    return _root(page, engine).locator("button.gwm-button:visible", has_text=re.compile(f"^{name}$")).first
+
+
+def _changes(page, engine, before, what, timeout=60):
+    def check():
+        now = _pixels(page, engine)
+        diff = float(np.abs(now - before).mean())
+        return diff > 0.2, diff
+    return poll(check, what, timeout, 0.5, page=page)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_grass_frames_and_play_pause_in_marimo(marimo_page, engine):
+    page = marimo_page
+    poll(lambda: re.search(r"[\d.]+ frames/s", _status(page, engine)), f"the {engine} engine's stats line to "
+         "count frames", 120, 0.5, page=page)
+    first = _pixels(page, engine)
+    grass, sky = _grass_and_sky(first)
+    _root(page, engine).screenshot(path=str(_artifacts() / f"marimo-{engine}.png"))
+    print(f"\n[marimo {engine}] grass {grass:.0%} of the lower part, sky {sky:.0%} of the top; "
+          f"screenshot in {_artifacts()}")
+    assert grass > 0.3 and sky > 0.5, (grass, sky)
+    _changes(page, engine, first, f"the {engine} engine's picture to change while playing")
+
+    _button(page, engine, "Pause").click()
+    poll(lambda: _kernel_state(page)[engine]["playing"] is False, "the kernel to say paused", 30, 0.2, page=page)
+    poll(lambda: "paused" in _status(page, engine), "the stats line to say paused", 30, 0.2, page=page)
+    _button(page, engine, "Play").wait_for(timeout=10_000)  # the button now offers Play
+    still = _pixels(page, engine)
+    page.wait_for_timeout(1500)  # a span of wall time in which a playing meadow would move
+    assert float(np.abs(_pixels(page, engine) - still).mean()) < 0.2, "the picture moved while paused"
+
+    _button(page, engine, "Play").click()
+    poll(lambda: _kernel_state(page)[engine]["playing"] is True, "the kernel to say playing", 30, 0.2, page=page)
+    _changes(page, engine, still, f"the {engine} engine's picture to move again after Play")
+
+
+def test_sliders_and_python_in_marimo(marimo_page):
+    page = marimo_page
+    import grasswidget as gw
+
+    top = gw.GrassParams.class_traits()["wind_strength"].hi
+    for engine in ENGINES:
+        slider = _wind_slider(page, engine)
+        slider.locator("input[type=range]").focus()
+        page.keyboard.press("End")  # the slider's top, as a user's keyboard puts it there
+        poll(lambda: _kernel_state(page)[engine]["wind"] == pytest.approx(top), f"the {engine} widget's "
+             f"params.wind_strength to reach {top} in the kernel", 30, 0.2, page=page)
+    # the other widget kept its own value: one slider, one widget
+    assert _kernel_state(page)["kernel"]["wind"] == pytest.approx(top)
+
+    page.get_by_role("button", name="set the wind from Python").first.click()
+    for engine in ENGINES:
+        readout = _wind_slider(page, engine).locator(".gwm-readout")
+        poll(lambda: readout.inner_text().strip() == "20.0", f"the {engine} wind slider to show 20.0 after "
+             "the later cell's assignment", 60, 0.2, page=page)
+        assert float(_wind_slider(page, engine).locator("input[type=range]").input_value()) == pytest.approx(20.0)
+    assert {e: s["wind"] for e, s in _kernel_state(page).items()} == {"kernel": 20.0, "browser": 20.0}
