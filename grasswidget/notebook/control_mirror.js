@@ -55,7 +55,7 @@ function build(node, send, registry) {
     const current = () => (kind === "selection_slider" ? Number(input.value) : Number(input.value));
     const show = () => {
       const p = item.node;
-      readout.textContent = kind === "selection_slider" ? (p._options_labels || [])[Number(input.value)] ?? ""
+      readout.textContent = kind === "selection_slider" ? (p.labels || [])[Number(input.value)] ?? ""
                                                          : fmt(input.value, p.readout_format);
     };
     const emit = () => { show(); send({ type: "set", id: node.id, value: current() }); };
@@ -64,7 +64,7 @@ function build(node, send, registry) {
     item.update = (p) => {
       lab.textContent = p.description || "";
       if (kind === "selection_slider") {
-        input.min = 0; input.max = Math.max(0, (p._options_labels || []).length - 1); input.step = 1;
+        input.min = 0; input.max = Math.max(0, (p.labels || []).length - 1); input.step = 1;
         if (!dragging) input.value = p.index;
       } else {
         input.min = p.min; input.max = p.max; input.step = p.step;
@@ -82,7 +82,7 @@ function build(node, send, registry) {
     select.addEventListener("change", () => send({ type: "set", id: node.id, value: Number(select.value) }));
     item.update = (p) => {
       lab.textContent = p.description || "";
-      const labels = p._options_labels || [];
+      const labels = p.labels || [];
       if (select.options.length !== labels.length || labels.some((t, i) => select.options[i].text !== t)) {
         select.replaceChildren(...labels.map((t, i) => new Option(t, String(i))));
       }

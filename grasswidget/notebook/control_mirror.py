@@ -42,13 +42,15 @@ import anywidget
 import ipywidgets as ipw
 from traitlets import Unicode
 
-__all__ = ["ControlMirror", "describe", "MIRRORED_TRAITS"]
+from ..errors import GrassTypeError, GrassValueError
+
+__all__ = ["ControlMirror", "describe", "widget_props", "option_labels", "MIRRORED_TRAITS"]
 
 HERE = Path(__file__).resolve().parent
 
 #: The traits of each ipywidget the page shows (when the widget has them); a change of one is a patch.
 MIRRORED_TRAITS = ("value", "index", "description", "tooltip", "description_tooltip", "disabled", "min", "max",
-                   "step", "readout_format", "button_style", "icon", "_options_labels", "continuous_update")
+                   "step", "readout_format", "button_style", "icon", "options", "continuous_update")
 
 #: What each ipywidget class is drawn as in the page.
 KINDS = (
@@ -72,6 +74,12 @@ def kind_of(widget) -> str:
         if isinstance(widget, cls):
             return kind
     return "unsupported"
+
+
+def option_labels(options) -> list:
+    """The labels of a selection widget's ``options``, as ipywidgets shows them: the first item
+    of a (label, value) pair, else the option itself as text."""
+    return [str(o[0]) if isinstance(o, (tuple, list)) and len(o) == 2 else str(o) for o in options]
 
 
 def _layout_props(widget) -> dict:
@@ -107,8 +115,10 @@ def widget_props(widget) -> dict:
         props["direction"] = "column" if isinstance(widget, ipw.VBox) else "row"
         return props
     for name in MIRRORED_TRAITS:
-        if widget.has_trait(name):
+        if widget.has_trait(name) and name != "options":
             props[name] = _plain(getattr(widget, name))
+    if widget.has_trait("options"):
+        props["labels"] = option_labels(widget.options)
     if kind == "selection_slider":
         props.pop("value", None)  # the index says which option
     if kind == "dropdown":
@@ -120,18 +130,25 @@ def widget_props(widget) -> dict:
     return props
 
 
-def describe(widget, ids=None) -> dict:
+def numbering():
+    """A function giving each object a number, the same one each time it is met (1, 2, ...)."""
+    numbers, counter = {}, itertools.count(1)
+
+    def number_of(obj) -> int:
+        if id(obj) not in numbers:
+            numbers[id(obj)] = next(counter)
+        return numbers[id(obj)]
+    return number_of
+
+
+def describe(widget, id_of=None) -> dict:
     """The pure description of an ipywidgets tree: a nested dict ``{"id", "kind", ...props,
-    "children": [...]}`` (see :func:`widget_props`). ``ids`` maps ``id(widget)`` to the
-    number the page knows it by (filled in as widgets are met; a new dict by default)."""
-    ids = {} if ids is None else ids
-    counter = ids.setdefault("__next__", itertools.count(1))
-    key = id(widget)
-    if key not in ids:
-        ids[key] = next(counter)
-    node = {"id": ids[key], **widget_props(widget)}
+    "children": [...]}`` (see :func:`widget_props`). ``id_of(widget)`` gives the number the
+    page knows a widget by (default: a new :func:`numbering`)."""
+    id_of = numbering() if id_of is None else id_of
+    node = {"id": id_of(widget), **widget_props(widget)}
     if node["kind"] == "box":
-        node["children"] = [describe(child, ids) for child in widget.children]
+        node["children"] = [describe(child, id_of) for child in widget.children]
     return node
 
 
@@ -156,17 +173,15 @@ class ControlMirror(anywidget.AnyWidget):
     def __init__(self, root, on_error=None, **kwargs):
         super().__init__(**kwargs)
         if not isinstance(root, ipw.Widget):
-            from ..errors import GrassTypeError
-
             raise GrassTypeError(f"root must be an ipywidget, not {type(root).__name__}")
         self._root = root
         self._on_error = on_error
-        self._ids = {}
+        self._id_of = numbering()  # the mirror holds the widgets it numbers (the tree's own)
         self._by_id = {}
         self._watched = []
         self._closed = False
         self._watch_tree()
-        self.on_msg(self._on_page_message)
+        self.on_msg(lambda _widget, msg, _buffers: self.receive(msg))
 
     @property
     def node_count(self) -> int:
@@ -178,7 +193,7 @@ class ControlMirror(anywidget.AnyWidget):
 
     def snapshot(self) -> dict:
         """The whole tree's description (see :func:`describe`)."""
-        return describe(self._root, self._ids)
+        return describe(self._root, self._id_of)
 
     # ------------------------------------------------------------------ kernel -> page
 
@@ -188,8 +203,7 @@ class ControlMirror(anywidget.AnyWidget):
         todo = [self._root]
         while todo:
             widget = todo.pop()
-            self.snapshot_id(widget)
-            self._by_id[self._ids[id(widget)]] = widget
+            self._by_id[self._id_of(widget)] = widget
             if kind_of(widget) == "box":
                 todo.extend(widget.children)
                 self._observe(widget, self._on_children, "children")
@@ -200,13 +214,6 @@ class ControlMirror(anywidget.AnyWidget):
             layout = getattr(widget, "layout", None)
             if layout is not None:
                 self._observe(layout, self._patcher(widget), ["display", "width"])
-
-    def snapshot_id(self, widget) -> int:
-        """The number the page knows ``widget`` by (given on first sight)."""
-        counter = self._ids.setdefault("__next__", itertools.count(1))
-        if id(widget) not in self._ids:
-            self._ids[id(widget)] = next(counter)
-        return self._ids[id(widget)]
 
     def _observe(self, obj, handler, names):
         obj.observe(handler, names=names)
@@ -228,7 +235,7 @@ class ControlMirror(anywidget.AnyWidget):
             props = widget_props(widget)
             if props["kind"] == "box":
                 props.pop("direction", None)
-            self.send({"type": "patch", "id": self._ids[id(widget)], "props": props})
+            self.send({"type": "patch", "id": self._id_of(widget), "props": props})
         return patch
 
     def _on_children(self, _change):
@@ -242,7 +249,10 @@ class ControlMirror(anywidget.AnyWidget):
 
     # ------------------------------------------------------------------ page -> kernel
 
-    def _on_page_message(self, _widget, msg, _buffers):
+    def receive(self, msg):
+        """Act on a message from the page (see the module's docstring): "ready" answers with a
+        snapshot, "set" sets a control's value, "click" clicks a button. Unknown ids are ignored
+        (a page drawn from an older snapshot)."""
         if not isinstance(msg, dict) or self._closed:
             return
         kind = msg.get("type")
@@ -259,7 +269,8 @@ class ControlMirror(anywidget.AnyWidget):
                 self._set_from_page(widget, msg.get("value"))
         except Exception as err:  # the control's own handler failed: say so, keep the panel alive
             if self._on_error is not None:
-                self._on_error(err)
+                name = getattr(widget, "description", "") or kind_of(widget)
+                self._on_error(GrassValueError(f"{name}: {err}"))
             self._patcher(widget)(None)  # the page shows the kernel's value again
 
     @staticmethod
