@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import Browser, MarimoServer, panel_label, poll
+from .harness import Browser, MarimoServer, drag, panel_label, poll
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 pytest.importorskip("marimo")
@@ -74,13 +74,15 @@ NOTEBOOK = textwrap.dedent(f'''
         probe = ipw.HTML()
 
         def show(_change=None):
-            state = {{name: {{"wind": w.params.wind_strength, "playing": w.playing}}
+            state = {{name: {{"wind": w.params.wind_strength, "playing": w.playing, "ball": w.ball.enabled,
+                             "chart": w.chart}}
                      for name, w in (("kernel", wk), ("browser", wb))}}
             probe.value = "<code class='kernel-state'>" + html.escape(json.dumps(state)) + "</code>"
 
         for w in (wk, wb):
             w.params.observe(show, names="wind_strength")
-            w.observe(show, names="playing")
+            w.observe(show, names=["playing", "chart"])
+            w.ball.observe(show, names="enabled")
         show()
         ControlMirror(probe)
         return
@@ -113,10 +115,15 @@ def _artifacts() -> Path:
 
 
 @pytest.fixture(scope="module")
-def marimo_page(tmp_path_factory):
+def marimo_root(tmp_path_factory):
     root = tmp_path_factory.mktemp("marimo")
     (root / "meadows.py").write_text(NOTEBOOK)
-    with MarimoServer(root / "meadows.py") as server, Browser(webgpu=True) as browser:
+    return root
+
+
+@pytest.fixture(scope="module")
+def marimo_page(marimo_root):
+    with MarimoServer(marimo_root / "meadows.py") as server, Browser(webgpu=True) as browser:
         page = browser.page
         page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
         try:
@@ -186,12 +193,15 @@ def test_grass_frames_and_play_pause_in_marimo(marimo_page, engine):
     page = marimo_page
     poll(lambda: re.search(r"[\d.]+ frames/s", _status(page, engine)), f"the {engine} engine's stats line to "
          "count frames", 120, 0.5, page=page)
-    first = _pixels(page, engine)
-    grass, sky = _grass_and_sky(first)
+    # grass below, sky above (polled: the page may still be laying out cells while it loads)
+    def meadow():
+        px = _pixels(page, engine)
+        grass, sky = _grass_and_sky(px)
+        return grass > 0.3 and sky > 0.5, (grass, sky, px)
+    grass, sky, first = poll(meadow, f"the {engine} view to show grass under a sky", 30, 0.5, page=page)
     _root(page, engine).screenshot(path=str(_artifacts() / f"marimo-{engine}.png"))
     print(f"\n[marimo {engine}] grass {grass:.0%} of the lower part, sky {sky:.0%} of the top; "
           f"screenshot in {_artifacts()}")
-    assert grass > 0.3 and sky > 0.5, (grass, sky)
     _changes(page, engine, first, f"the {engine} engine's picture to change while playing")
 
     _button(page, engine, "Pause").click()
@@ -228,3 +238,51 @@ def test_sliders_and_python_in_marimo(marimo_page):
              "the later cell's assignment", 60, 0.2, page=page)
         assert float(_wind_slider(page, engine).locator("input[type=range]").input_value()) == pytest.approx(20.0)
     assert {e: s["wind"] for e, s in _kernel_state(page).items()} == {"kernel": 20.0, "browser": 20.0}
+
+
+def _checkbox(page, engine, label):
+    return _root(page, engine).locator(".gwm-checkbox", has_text=re.compile(f"^{re.escape(label)}$")) \
+        .locator("input").first
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_pointer_save_and_chart_in_marimo(marimo_page, marimo_root, engine):
+    page = marimo_page
+    if _kernel_state(page)[engine]["playing"]:
+        _button(page, engine, "Pause").click()
+        poll(lambda: _kernel_state(page)[engine]["playing"] is False, "the kernel to say paused", 30, 0.2, page=page)
+    view = _view(page, engine)
+    still = _pixels(page, engine)
+    drag(page, view, 80, 0)  # orbit
+    _changes(page, engine, still, f"a drag to orbit the paused {engine} view", timeout=30)
+
+    assert not _checkbox(page, engine, "sphere").is_checked()
+    page.keyboard.down("Shift")
+    try:
+        drag(page, view, -40, 10, start=(200, 170))
+    finally:
+        page.keyboard.up("Shift")
+    poll(lambda: _checkbox(page, engine, "sphere").is_checked(), "shift + drag to switch the ball on", 30, 0.2,
+         page=page)
+    assert _kernel_state(page)[engine]["ball"] is True
+
+    before = set((marimo_root / "output").glob("*.png")) if (marimo_root / "output").exists() else set()
+    _button(page, engine, "Save PNG").click()
+    poll(lambda: "saved" in _status(page, engine), "Save PNG to say where it wrote", 60, 0.3, page=page)
+    new = sorted(set((marimo_root / "output").glob("*.png")) - before)
+    assert len(new) == 1, new
+    import imageio.v3 as iio
+
+    png = iio.imread(new[0])[..., :3].astype(np.int32)
+    assert png.shape[:2] == (480, 640)  # 2x the 320 x 240 view (the PNG size dropdown's default)
+    assert _grass_and_sky(png)[0] > 0.3
+
+    chart = _root(page, engine).locator(".gw-trace-chart").first
+    assert not chart.is_visible()
+    dropdown = _root(page, engine).locator(".gwm-dropdown", has=page.locator(".gwm-label", has_text="chart"))
+    dropdown.locator("select").select_option(label="culling")
+    poll(lambda: _kernel_state(page)[engine]["chart"] == "culling", "the chart choice to reach the kernel", 30, 0.2,
+         page=page)
+    _button(page, engine, "Play").click()
+    poll(lambda: chart.is_visible() and int(chart.get_attribute("data-points") or 0) > 1,
+         f"the {engine} engine's culling chart to draw samples", 60, 0.5, page=page)
