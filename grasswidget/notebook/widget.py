@@ -167,6 +167,7 @@ class GrassWidget(ipw.VBox):
     camera_bar = None
     _layout = None
     _mirror = None
+    _marimo_stage = None
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -766,6 +767,17 @@ class GrassWidget(ipw.VBox):
             self._mirror = ControlMirror(self._layout.column, on_error=self._show_error)
         return self._mirror
 
+    def marimo_parts(self) -> tuple:
+        """What marimo shows: the stage (view and chart, following an engine switch; a
+        :class:`~grasswidget.notebook.marimo_face.MarimoStage`) and :meth:`control_mirror`.
+        Made on first use (needs marimo), then the same ones."""
+        from .marimo_face import MarimoStage
+
+        self._check_open()
+        if self._marimo_stage is None:
+            self._marimo_stage = MarimoStage(self._stage)
+        return self._marimo_stage, self.control_mirror()
+
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
         scene and camera controller, the control panel, the ball, the camera bar, the lab
@@ -773,7 +785,8 @@ class GrassWidget(ipw.VBox):
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
         found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
-                 getattr(self, "_layout", None), getattr(self, "_stage", None), self._mirror)
+                 getattr(self, "_layout", None), getattr(self, "_stage", None), self._mirror,
+                 self._marimo_stage)
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -798,6 +811,8 @@ class GrassWidget(ipw.VBox):
             self.bench.close()
         if self._mirror is not None:
             self._mirror.close()
+        if self._marimo_stage is not None:
+            self._marimo_stage.close()
         if self.panel is not None:
             self.panel.close()
         if self.camera_bar is not None:
@@ -871,6 +886,9 @@ class GrassWidget(ipw.VBox):
         try:
             new = self._kernel_view()
         except Exception as err:  # no adapter in the kernel either
+            if self._marimo_stage is not None:  # marimo 0.25 makes no anywidget outside a running cell
+                err = ("marimo cannot show a new view from here; run the cell again with backend='kernel' "
+                       f"({type(err).__name__}{': ' + str(err) if str(err) else ''})")
             self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
                              f"render either: {err}")
             return

@@ -144,9 +144,16 @@ def test_marimo_is_optional_and_asked_only_at_display_time():
 def test_display_in_marimo_shows_anywidgets_only(widget):
     mo = pytest.importorskip("marimo")
     html = mo.as_html(widget).text  # what marimo shows (it asks the widget's display protocol)
-    assert "marimo-anywidget" in html and html.count("<marimo-anywidget") == 3  # view, chart, panel
-    assert "grasswidget-marimo" in html
-    assert widget.control_mirror() is widget.control_mirror()  # shown again: the same controls
+    assert "grasswidget-marimo" in html and html.count("<marimo-anywidget") == 2  # the stage and the panel
+    stage, mirror = widget.marimo_parts()
+    assert stage.shown == (widget.view.widget, widget.bench.chart)  # the view, then the chart under it
+    assert stage.html.count("<marimo-anywidget") == 2
+    assert widget.marimo_parts() == (stage, mirror) and mirror is widget.control_mirror()  # shown again: the same
+    # the stage follows a new view (what the fallback to the kernel engine does to the widget's stage)
+    replacement = type(widget.bench.chart)()
+    widget.children[0].children = [replacement, *widget.children[0].children[1:]]
+    assert stage.shown == (replacement, widget.bench.chart)
+    replacement.close()
 
 
 def test_a_non_widget_root_is_refused():
