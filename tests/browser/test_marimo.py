@@ -277,6 +277,17 @@ def test_pointer_save_and_chart_in_marimo(marimo_page, marimo_root, engine):
     assert png.shape[:2] == (480, 640)  # 2x the 320 x 240 view (the PNG size dropdown's default)
     assert _grass_and_sky(png)[0] > 0.3
 
+    # a teaching view: "colour by" LOD paints the blades in the LOD classes' colours, and the legend says so
+    from grasswidget.core.teaching import legend
+
+    still = _pixels(page, engine)
+    colour = _root(page, engine).locator(".gwm-dropdown", has=page.locator(".gwm-label", has_text=panel_label(
+        "color_by")))
+    colour.locator("select").select_option(label="lod")
+    first_class = legend("lod")[0][0]
+    poll(lambda: first_class in _status(page, engine), "the legend of the LOD colours", 30, 0.2, page=page)
+    _changes(page, engine, still, f"the {engine} view to draw the LOD colours", timeout=30)
+
     chart = _root(page, engine).locator(".gw-trace-chart").first
     assert not chart.is_visible()
     dropdown = _root(page, engine).locator(".gwm-dropdown", has=page.locator(".gwm-label", has_text="chart"))
@@ -286,3 +297,4 @@ def test_pointer_save_and_chart_in_marimo(marimo_page, marimo_root, engine):
     _button(page, engine, "Play").click()
     poll(lambda: chart.is_visible() and int(chart.get_attribute("data-points") or 0) > 1,
          f"the {engine} engine's culling chart to draw samples", 60, 0.5, page=page)
+    _root(page, engine).screenshot(path=str(_artifacts() / f"marimo-{engine}-ball-lod-chart.png"))
