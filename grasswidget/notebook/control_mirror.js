@@ -51,8 +51,12 @@ function build(node, send, registry) {
     dom.append(lab, input, readout);
     let dragging = false;
     input.addEventListener("pointerdown", () => { dragging = true; });
-    input.addEventListener("pointerup", () => { dragging = false; });
-    const current = () => (kind === "selection_slider" ? Number(input.value) : Number(input.value));
+    // a drag ends where the pointer is released, on the slider or elsewhere
+    const release = () => { dragging = false; };
+    input.addEventListener("pointerup", release);
+    input.addEventListener("change", release);
+    input.addEventListener("blur", release);
+    const current = () => Number(input.value);
     const show = () => {
       const p = item.node;
       readout.textContent = kind === "selection_slider" ? (p.labels || [])[Number(input.value)] ?? ""
@@ -71,7 +75,7 @@ function build(node, send, registry) {
         if (!dragging) input.value = p.value;
       }
       input.disabled = !!p.disabled;
-      dom.title = p.tooltip || p.description_tooltip || "";
+      dom.title = p.tooltip || "";
       show();
       applyLayout(dom, p.layout, "flex");
     };
@@ -88,7 +92,7 @@ function build(node, send, registry) {
       }
       select.value = String(p.index);
       select.disabled = !!p.disabled;
-      dom.title = p.tooltip || p.description_tooltip || "";
+      dom.title = p.tooltip || "";
       applyLayout(dom, p.layout, "flex");
     };
   } else if (kind === "checkbox") {
@@ -103,7 +107,7 @@ function build(node, send, registry) {
       text.textContent = p.description || "";
       box.checked = !!p.value;
       box.disabled = !!p.disabled;
-      dom.title = p.tooltip || p.description_tooltip || "";
+      dom.title = p.tooltip || "";
       applyLayout(dom, p.layout, "flex");
     };
   } else if (kind === "button" || kind === "toggle") {
@@ -119,7 +123,7 @@ function build(node, send, registry) {
       button.disabled = !!p.disabled;
       button.className = `gwm-button gwm-style-${p.button_style || "plain"}` + (p.value ? " gwm-pressed" : "");
       button.setAttribute("aria-pressed", kind === "toggle" ? String(!!p.value) : "false");
-      dom.title = p.tooltip || p.description_tooltip || "";
+      dom.title = p.tooltip || "";
       applyLayout(dom, p.layout, "flex");
     };
   } else if (kind === "html") {

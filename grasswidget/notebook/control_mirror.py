@@ -40,7 +40,6 @@ from pathlib import Path
 
 import anywidget
 import ipywidgets as ipw
-from traitlets import Unicode
 
 from ..errors import GrassTypeError, GrassValueError
 
@@ -49,7 +48,7 @@ __all__ = ["ControlMirror", "describe", "widget_props", "option_labels", "MIRROR
 HERE = Path(__file__).resolve().parent
 
 #: The traits of each ipywidget the page shows (when the widget has them); a change of one is a patch.
-MIRRORED_TRAITS = ("value", "index", "description", "tooltip", "description_tooltip", "disabled", "min", "max",
+MIRRORED_TRAITS = ("value", "index", "description", "tooltip", "disabled", "min", "max",
                    "step", "readout_format", "button_style", "icon", "options", "continuous_update")
 
 #: What each ipywidget class is drawn as in the page.
@@ -167,8 +166,6 @@ class ControlMirror(anywidget.AnyWidget):
 
     _esm = (HERE / "control_mirror.js").read_text(encoding="utf-8")
     _css = (HERE / "control_mirror.css").read_text(encoding="utf-8")
-    #: What the mirror shows (for the page's class names and tests).
-    title = Unicode("grasswidget controls").tag(sync=True)
 
     def __init__(self, root, on_error=None, **kwargs):
         super().__init__(**kwargs)
