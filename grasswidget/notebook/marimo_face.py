@@ -25,17 +25,44 @@ wide enough, under it otherwise (as in Jupyter, :mod:`grasswidget.notebook.layou
 
 from __future__ import annotations
 
+import base64
+import sys
 from pathlib import Path
 
 import anywidget
 import ipywidgets as ipw
 from traitlets import Unicode
 
+from ..compat import marimo_anywidget_element
 from .layout import PANEL_WIDTH
 
-__all__ = ["marimo_display", "MarimoStage"]
+__all__ = ["marimo_display", "MarimoStage", "running_in_marimo", "esm_for_front_end"]
 
 HERE = Path(__file__).resolve().parent
+
+
+def running_in_marimo() -> bool:
+    """True in the kernel of a marimo notebook (``marimo edit`` or ``marimo run``). Never imports
+    marimo: where nothing has loaded it, this is not marimo."""
+    mo = sys.modules.get("marimo")
+    if mo is None:
+        return False
+    try:
+        return bool(mo.running_in_notebook())
+    except Exception:  # an older or half-initialised marimo: not a notebook we can serve
+        return False
+
+
+def esm_for_front_end(esm: str) -> str:
+    """An anywidget's ES module text as the front end running now takes it: unchanged in Jupyter; in
+    marimo as a ``data:text/javascript;base64,`` URL. marimo 0.25 turns module text into a file of
+    the running cell, so a widget made outside a cell (the kernel engine's view made when a browser
+    turns out to have no WebGPU, in a widget message's handler) fails with an AssertionError; a
+    JavaScript data URL it loads as it is. Jupyter's anywidget would take a data URL for module
+    text, hence only in marimo."""
+    if not running_in_marimo() or esm.startswith("data:"):
+        return esm
+    return "data:text/javascript;base64," + base64.b64encode(esm.encode("utf-8")).decode("ascii")
 
 
 class MarimoStage(anywidget.AnyWidget):
@@ -70,17 +97,16 @@ class MarimoStage(anywidget.AnyWidget):
                 self._walk(child, found, boxes)
 
     def _refresh(self, _change=None):
-        import marimo as mo
-
         for box in self._boxes:
             box.unobserve(self._refresh, names="children")
         found, self._boxes = [], []
         self._walk(self._box, found, self._boxes)
         for box in self._boxes:
             box.observe(self._refresh, names="children")
-        self._elements = [mo.ui.anywidget(w) for w in found]
+        made = [marimo_anywidget_element(w) for w in found]  # also where no cell runs (an engine switch)
+        self._elements = [element for element, _html in made]
         self.shown = tuple(found)
-        self.html = "".join(element.text for element in self._elements)
+        self.html = "".join(html for _element, html in made)
 
     def close(self):
         """Stop following the box and close this anywidget (the shown ones stay)."""

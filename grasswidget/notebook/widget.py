@@ -886,9 +886,6 @@ class GrassWidget(ipw.VBox):
         try:
             new = self._kernel_view()
         except Exception as err:  # no adapter in the kernel either
-            if self._marimo_stage is not None:  # marimo 0.25 makes no anywidget outside a running cell
-                err = ("marimo cannot show a new view from here; run the cell again with backend='kernel' "
-                       f"({type(err).__name__}{': ' + str(err) if str(err) else ''})")
             self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
                              f"render either: {err}")
             return

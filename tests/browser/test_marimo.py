@@ -12,6 +12,10 @@ engine, through the page only, as a marimo user would:
 * the wind slider moved with the keyboard in the page reaches ``params`` in the kernel (the probe);
 * the later cell's Python assignment moves both wind sliders (their readouts say 20.0).
 
+And in a Chromium without WebGPU (a notebook of its own): a ``backend="browser"`` widget hands
+over to the kernel engine in marimo too (the stage shows jupyter-rfb's view with grass, the message
+line says why, the stats line counts frames).
+
 Screenshots of both widgets go to ``$GW_ARTIFACTS_DIR`` (or a temporary folder, printed).
 """
 
@@ -298,3 +302,52 @@ def test_pointer_save_and_chart_in_marimo(marimo_page, marimo_root, engine):
     poll(lambda: chart.is_visible() and int(chart.get_attribute("data-points") or 0) > 1,
          f"the {engine} engine's culling chart to draw samples", 60, 0.5, page=page)
     _root(page, engine).screenshot(path=str(_artifacts() / f"marimo-{engine}-ball-lod-chart.png"))
+
+
+FALLBACK_NOTEBOOK = textwrap.dedent('''
+    import marimo
+
+    app = marimo.App(width="full")
+
+
+    @app.cell
+    def _():
+        import grasswidget as gw
+        w = gw.GrassWidget(512, backend="browser", size=(240, 180))
+        w
+        return (w,)
+
+
+    if __name__ == "__main__":
+        app.run()
+''')
+
+
+def test_fallback_to_the_kernel_engine_in_marimo(tmp_path):
+    (tmp_path / "fallback.py").write_text(FALLBACK_NOTEBOOK)
+    with MarimoServer(tmp_path / "fallback.py") as server, Browser(webgpu=False) as browser:
+        page = browser.page
+        page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
+        try:
+            root = page.locator(".grasswidget-marimo").first
+            poll(lambda: root.locator("img.renderview-view").count() == 1 and
+                 root.locator("canvas.grasswidget-canvas").count() == 0,
+                 "the kernel engine's view to replace the browser engine's", 120, 0.5, page=page)
+            text = root.locator(".gwm-root").first
+            poll(lambda: "the kernel renders the view" in text.inner_text(), "the message saying why", 30, 0.3,
+                 page=page)
+            poll(lambda: re.search(r"[\d.]+ frames/s", text.inner_text()), "frames to stream", 60, 0.5, page=page)
+            view = root.locator("img.renderview-view").first
+
+            def meadow():
+                import imageio.v3 as iio
+
+                px = iio.imread(view.screenshot(), extension=".png")[..., :3].astype(np.int32)
+                grass, sky = _grass_and_sky(px)
+                return grass > 0.15 and sky > 0.5, (grass, sky)  # 512 blades: a sparser meadow
+            grass, sky = poll(meadow, "grass under a sky in the kernel engine's view", 30, 0.5, page=page)
+            root.screenshot(path=str(_artifacts() / "marimo-fallback.png"))
+            print(f"\n[marimo fallback] grass {grass:.0%}, sky {sky:.0%}")
+        except BaseException:
+            print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
+            raise
