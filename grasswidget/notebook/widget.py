@@ -753,7 +753,8 @@ class GrassWidget(ipw.VBox):
         (see :mod:`grasswidget.notebook.marimo_face`)."""
         from .marimo_face import marimo_display
 
-        self._check_open()
+        if self._closed:
+            return repr(self)  # "<GrassWidget ... closed>", as Jupyter shows a closed widget's text
         return marimo_display(self)
 
     def control_mirror(self):

@@ -212,8 +212,16 @@ def test_grass_frames_and_play_pause_in_marimo(marimo_page, engine):
     poll(lambda: _kernel_state(page)[engine]["playing"] is False, "the kernel to say paused", 30, 0.2, page=page)
     poll(lambda: "paused" in _status(page, engine), "the stats line to say paused", 30, 0.2, page=page)
     _button(page, engine, "Play").wait_for(timeout=10_000)  # the button now offers Play
-    still = _pixels(page, engine)
-    page.wait_for_timeout(1500)  # a span of wall time in which a playing meadow would move
+    # the paused view settles (the kernel engine sends one full-resolution frame after pausing) ...
+    seen = [_pixels(page, engine)]
+
+    def settled():
+        seen.append(_pixels(page, engine))
+        a, b = seen[-2], seen[-1]
+        return bool(_grass_and_sky(b)[0] > 0.3 and float(np.abs(a - b).mean()) < 0.2), len(seen)
+    poll(settled, f"the paused {engine} view to settle on a picture of grass", 30, 0.3, page=page)
+    still = seen[-1]
+    page.wait_for_timeout(1500)  # ... and stays: a span of wall time in which a playing meadow would move
     assert float(np.abs(_pixels(page, engine) - still).mean()) < 0.2, "the picture moved while paused"
 
     _button(page, engine, "Play").click()

@@ -156,6 +156,17 @@ def test_display_in_marimo_shows_anywidgets_only(widget):
     replacement.close()
 
 
+def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
+    from grasswidget.notebook.marimo_face import esm_for_front_end, running_in_marimo
+
+    assert not running_in_marimo()  # pytest is no marimo notebook, marimo loaded or not
+    assert esm_for_front_end("export default {};") == "export default {};"
+    mo = pytest.importorskip("marimo")
+    w = gw.GrassWidget(64, backend="browser", size=(160, 120))
+    w.close()
+    assert "closed" in mo.as_html(w).text
+
+
 def test_a_non_widget_root_is_refused():
     with pytest.raises(gw.GrassTypeError, match="root must be an ipywidget"):
         ControlMirror(42)
