@@ -132,6 +132,11 @@ function build(node, send, registry) {
       dom.innerHTML = p.value || "";
       applyLayout(dom, p.layout, "block");
     };
+  } else if (kind === "text") {
+    item.update = (p) => {
+      dom.textContent = p.value || "";
+      applyLayout(dom, p.layout, "block");
+    };
   } else {
     dom.textContent = `(${node.class_name || "a control"} is not shown here)`;
     item.update = (p) => applyLayout(dom, p.layout, "block");

@@ -22,7 +22,7 @@ handlers:
 
 Kinds drawn: ``HBox``/``VBox``/``GridBox`` (boxes), ``FloatSlider``/``IntSlider``/
 ``FloatLogSlider`` (sliders), ``SelectionSlider``, ``Dropdown``, ``Checkbox``,
-``Button``, ``ToggleButton``, ``HTML``/``Label``; any other widget shows as a line
+``Button``, ``ToggleButton``, ``HTML`` and ``Label`` (as text); any other widget shows as a line
 naming its class (the panel uses none).
 
 Wire protocol (custom anywidget messages): the page sends ``{"type": "ready"}`` when
@@ -63,7 +63,7 @@ KINDS = (
     (ipw.ToggleButton, "toggle"),
     (ipw.Button, "button"),
     (ipw.HTML, "html"),
-    (ipw.Label, "html"),
+    (ipw.Label, "text"),
 )
 
 
@@ -173,7 +173,7 @@ class ControlMirror(anywidget.AnyWidget):
             raise GrassTypeError(f"root must be an ipywidget, not {type(root).__name__}")
         self._root = root
         self._on_error = on_error
-        self._id_of = numbering()  # the mirror holds the widgets it numbers (the tree's own)
+        self._id_of = numbering()  # the tree's widgets and, once a box's children change, the new ones
         self._by_id = {}
         self._watched = []
         self._closed = False
@@ -278,7 +278,7 @@ class ControlMirror(anywidget.AnyWidget):
         elif kind in ("checkbox", "toggle"):
             widget.value = bool(value)
         elif kind == "slider":
-            widget.value = type(widget.value)(value)
+            widget.value = int(round(float(value))) if isinstance(widget, ipw.IntSlider) else float(value)
 
     def close(self):
         """Stop mirroring (the mirrored ipywidgets stay as they are) and close the anywidget."""

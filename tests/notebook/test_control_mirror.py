@@ -171,3 +171,26 @@ def test_a_non_widget_root_is_refused():
     with pytest.raises(gw.GrassTypeError, match="root must be an ipywidget"):
         ControlMirror(42)
     assert isinstance(ipw.HTML(), ipw.Widget)
+
+
+def test_any_tree_of_the_kinds_it_knows():
+    """The mirror knows kinds, not the panel: a tree of its own is drawn and driven the same way."""
+    count = ipw.IntSlider(value=3, min=0, max=10, description="count")
+    note = ipw.Label(value="a <b>plain</b> label")
+    other = ipw.ColorPicker(value="#00ff00")
+    root = ipw.VBox([ipw.HBox([count, note]), other])
+    mirror = RecordingMirror(root)
+    try:
+        kinds = {n["kind"] for n in _nodes(mirror.snapshot())}
+        assert kinds == {"box", "slider", "text", "unsupported"}
+        unsupported = [n for n in _nodes(mirror.snapshot()) if n["kind"] == "unsupported"]
+        assert unsupported[0]["class_name"] == "ColorPicker"
+        slider = _node(mirror.snapshot(), "slider", "count")
+        mirror.receive({"type": "set", "id": slider["id"], "value": 6.7})
+        assert count.value == 7  # an IntSlider takes the nearest integer
+        mirror.sent.clear()
+        root.children = [count]  # a box's children change: a new snapshot of the whole tree
+        assert [m["type"] for m in mirror.sent] == ["snapshot"]
+        assert mirror.node_count == 2
+    finally:
+        mirror.close()
