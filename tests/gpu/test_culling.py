@@ -272,7 +272,7 @@ def test_bad_culling_params(name, value):
 def test_lod_draws_each_class_nearest_first():
     """With LOD on, every class's list runs through the distance bands nearest first
     (front-to-back draws); the set of drawn blades is the same either way."""
-    from grasswidget.gpu.shaders import BAND_RANGE, DISTANCE_BANDS
+    from grasswidget.gpu.shader_classes import BAND_RANGE, DISTANCE_BANDS
 
     scene = gw.GrassScene.preset("cis565", blades=4096)
     scene.render()
