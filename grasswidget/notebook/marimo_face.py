@@ -10,7 +10,7 @@ What marimo then shows is made of anywidgets only, each drawn by marimo itself:
 
 * :class:`MarimoStage`: the widget's stage (the live view, then the lab bench's chart),
   as marimo's anywidget elements: the browser engine's
-  :class:`~grasswidget.browser.view.BrowserView` or the kernel engine's jupyter-rfb
+  :class:`~grasswidget.browser.view.BrowserEngineWidget` or the kernel engine's jupyter-rfb
   canvas (jupyter-rfb 1.0's ``RemoteFrameBuffer`` is an anywidget; shown directly,
   without its Output context), and the :class:`~grasswidget.browser.trace_chart.TraceChart`
   (hidden while no chart is chosen). When the widget changes its view (a browser without
