@@ -16,7 +16,7 @@ every ``renderer.render()``:
    bands, count survivors per (class, band).
 3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
 4. ``CullShader("scatter")`` (compute): the same tests again; survivors written
-   to their class's list, with LOD on nearest band first (front-to-back draws:
+   to their class's list, nearest band first whatever the switches (front-to-back draws:
    the depth test rejects hidden fragments before they are written).
 5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
    then one more for the culled blades (instances only with ``color_by = "cull"``).
