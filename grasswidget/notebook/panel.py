@@ -429,6 +429,10 @@ class ControlPanel:
         """Show an error (an exception or a text) on the message line, in red."""
         self.message_line.value = f"<span style='color:#b00'>{html.escape(str(err))}</span>"
 
+    def show_note(self, text):
+        """Show a line of information (not an error) on the message line, e.g. which engine runs and why."""
+        self.message_line.value = f"<span style='color:#335'>{html.escape(str(text))}</span>"
+
     def show_file(self, path, size):
         """Say where a file was written (a link when it is under the working directory)."""
         self.file_line.value = file_link(path, size)

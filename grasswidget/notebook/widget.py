@@ -24,12 +24,15 @@ own module:
     w.save_animation("wind.gif", seconds=3, fps=15)
     w.close()                     # frees the GPU buffers
 
-Two engines (``backend=``): "kernel" (the default) renders in the kernel and
-streams frames (:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL
-simulation, culling and ribbons in the notebook's browser through WebGPU
-(:mod:`grasswidget.browser`), as fast as the student's own GPU; "auto" picks the
-browser when it offers a WebGPU adapter. A browser without WebGPU makes a
-"browser" or "auto" widget fall back to kernel streaming with one line saying so.
+Two engines (``backend=``): "kernel" renders in the kernel and streams frames
+(:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL simulation,
+culling and ribbons in the notebook's browser through WebGPU (:mod:`grasswidget.browser`),
+as fast as the student's own GPU; "auto" (the default) runs the kernel engine, except
+where the kernel renders on a CPU adapter and the page's browser offers a hardware
+WebGPU adapter: there the browser engine takes over when the widget is first shown
+(:mod:`grasswidget.notebook.engine_auto`, the rule in :mod:`grasswidget.core.engine_choice`).
+A browser without WebGPU makes a "browser" widget fall back to kernel streaming with one
+line saying so.
 
 Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
 right-drag to pan, wheel to zoom (the camera stays above the grass, or the
@@ -113,9 +116,11 @@ class GrassWidget(ipw.VBox):
             (a 1280 x 720 view unless ``size`` is given, the panel folded to one
             line: play/pause, camera presets, "more"). ``w.layout_mode`` says which;
             ``w.layout`` is ipywidgets' Layout as on every widget.
-        backend: "kernel" (default: render in the kernel, stream frames),
-            "browser" (simulate and draw in the browser with WebGPU) or "auto"
-            (the browser when it offers WebGPU). ``w.backend`` says which is live.
+        backend: "auto" (default: the kernel engine, unless the kernel renders on a CPU
+            adapter and the browser offers a hardware WebGPU adapter: then the browser
+            engine, decided when the widget is first shown; ``w.engine_reason`` says
+            why), "kernel" (render in the kernel, stream frames) or "browser" (simulate
+            and draw in the browser with WebGPU). ``w.backend`` says which is live.
         function_overrides: user WGSL run in place of stock blade-math functions (a
             :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g.
             ``gw.exercise("forces").overrides(code)``; default None: the stock ones), in
@@ -172,6 +177,7 @@ class GrassWidget(ipw.VBox):
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
     _closed = False
+    _auto = None
     view: EngineView | None = None
     panel = None
     ball = None
@@ -210,7 +216,7 @@ class GrassWidget(ipw.VBox):
     message_line = _panel_property("message_line")
 
     def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None, backend="kernel", target_fps=None, layout="default",
+                 pixel_ratio=None, backend="auto", target_fps=None, layout="default",
                  function_overrides=None):
         from ..core.framing import PRESETS, parse_size
         from ..core.wgsl_overrides import FunctionOverrides
@@ -224,6 +230,12 @@ class GrassWidget(ipw.VBox):
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
         self._requested_backend = backend
+        self._auto = None
+        if backend == "auto":  # the kernel's adapter decides now where it can; else the page's, when shown
+            from .engine_auto import AutoEngine, kernel_adapter
+
+            self._auto = AutoEngine(*kernel_adapter(), on_choice=self._on_engine_choice)
+            backend = self._auto.engine
         if function_overrides is not None and not isinstance(function_overrides, FunctionOverrides):
             raise GrassTypeError("function_overrides must be a FunctionOverrides (e.g. gw.exercise(name).overrides(code)) "
                                  f"or None; got {type(function_overrides).__name__}")
@@ -276,14 +288,7 @@ class GrassWidget(ipw.VBox):
             if backend == "kernel":
                 self.view = self._kernel_view()
             else:
-                from ..browser.engine_view import BrowserEngineView
-
-                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, playback=self,
-                                              actions=self, on_error=self._show_error, on_stats=self._show_stats,
-                                              on_inspect=self._show_inspected,
-                                              on_unavailable=self._on_browser_unavailable,
-                                              pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"],
-                                              function_overrides=function_overrides)
+                self.view = self._browser_view()
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=(min(self.size[0], PANEL_WIDTH),
@@ -304,7 +309,8 @@ class GrassWidget(ipw.VBox):
         self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.bench.control], self.size[0])
         self._layout.fold(self.panel_folded)
         # The view with the lab bench's live chart right under it.
-        self._stage = ipw.VBox([self.view.widget, self.bench.widget], layout=ipw.Layout(max_width="100%"))
+        probe = [self._auto.probe] if self._auto is not None and self._auto.probe is not None else []
+        self._stage = ipw.VBox([self.view.widget, self.bench.widget, *probe], layout=ipw.Layout(max_width="100%"))
         super().__init__(children=[self._stage, self._layout.column], layout=self._layout.root_layout)
         self.add_class("grasswidget")
         self.observe(self._on_camera_floor, names="camera_floor")
@@ -315,6 +321,8 @@ class GrassWidget(ipw.VBox):
         self.observe(self._on_culling_frozen, names="culling_frozen")
         self.observe(self._on_chart, names="chart")
         self._show_stats(self.view.current_stats())
+        if self._auto is not None:
+            self._show_note(self._auto.choice.reason)
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
         # sends the cell id with each execution), so its GPU buffers are freed; one
@@ -360,6 +368,16 @@ class GrassWidget(ipw.VBox):
                 raise
         return view
 
+    def _browser_view(self):
+        from ..browser.engine_view import BrowserEngineView
+
+        return BrowserEngineView(self._blades, self.size, self.params, preset=self._preset, playback=self,
+                                 actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                                 on_inspect=self._show_inspected, on_unavailable=self._on_browser_unavailable,
+                                 pixel_ratio=self._streaming_overrides.get("max_pixel_ratio"),
+                                 target_fps=self._streaming["target_fps"],
+                                 function_overrides=self._function_overrides)
+
     def _make_ball(self):
         from .ball import BallControl
 
@@ -398,9 +416,24 @@ class GrassWidget(ipw.VBox):
 
     @property
     def backend(self) -> str:
-        """The engine that is live: "kernel" or "browser" (a "browser" or "auto" widget
-        whose browser has no WebGPU adapter turns "kernel")."""
+        """The engine that is live: "kernel" or "browser" (a "browser" widget whose browser
+        has no WebGPU adapter turns "kernel"). An "auto" widget says "kernel" until the page
+        has reported its adapter, then the engine the rule chose (see :attr:`engine_reason`)."""
         return self.view.backend if self.view is not None else self._requested_backend
+
+    @property
+    def engine_reason(self) -> str | None:
+        """For ``backend="auto"``: one sentence saying which engine runs and why (also shown on
+        the message line), e.g. "browser engine: the kernel renders on a CPU adapter (llvmpipe)
+        and this browser offers a GPU (nvidia ampere)"; None for "kernel" and "browser"."""
+        return self._auto.choice.reason if self._auto is not None else None
+
+    @property
+    def adapter_probe(self):
+        """For ``backend="auto"`` with the kernel on a CPU adapter: the
+        :class:`~grasswidget.browser.adapter_probe.AdapterProbe` shown with the view, whose
+        ``report`` (the page's WebGPU adapter) decides the engine once; else None."""
+        return self._auto.probe if self._auto is not None else None
 
     @property
     def target_fps(self) -> float:
@@ -730,6 +763,8 @@ class GrassWidget(ipw.VBox):
             self.camera_bar.close()
         if self.view is not None:
             self.view.close()
+        if self._auto is not None:
+            self._auto.close()
         if self.ball is not None:
             self.ball.detach()
         layout, stage = getattr(self, "_layout", None), getattr(self, "_stage", None)
@@ -788,22 +823,15 @@ class GrassWidget(ipw.VBox):
         if not self._closed:
             self.bench.show(change["new"])
 
-    def _on_browser_unavailable(self, reason):
-        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
-        if self._closed or self.view is None or self.view.backend != "browser":
-            return
+    def _replace_view(self, new):
+        """Put ``new`` (the other engine's view) in place of the live view, with the camera, floor,
+        ball, play state, frozen culling and inspected blades carried over; the old view closes."""
         old = self.view
-        camera = old.camera_state
-        try:
-            new = self._kernel_view()
-        except Exception as err:  # no adapter in the kernel either
-            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
-                             f"render either: {err}")
-            return
+        camera, inspected = old.camera_state, tuple(old.inspected)
         self.view = new
         new.set_camera_floor(self.camera_floor)
+        self.ball.attach(new.ball_scene)  # into the new engine's colliders first, then the view sends them
         new.attach_ball(self.ball)
-        self.ball.attach(new.ball_scene)
         try:
             new.camera_state = camera
         except Exception:
@@ -811,7 +839,43 @@ class GrassWidget(ipw.VBox):
         self._stage.children = [new.widget, *self._stage.children[1:]]
         self.bench.attach(new)
         old.close()
+        new.set_time_scale(self.time_scale)
         new.set_playing(self.playing)
+        if self.culling_frozen:
+            new.set_culling_frozen(True)
+        if inspected:
+            try:
+                new.inspect(list(inspected))
+            except Exception:
+                pass
+
+    def _on_engine_choice(self, choice):
+        """The page reported its adapter ("auto"): run the engine the rule chose, say which and why."""
+        if self._closed or self.view is None:
+            return
+        try:
+            if choice.engine == "browser" and self.view.backend != "browser":
+                self._replace_view(self._browser_view())
+        except Exception as err:  # noqa: BLE001 - never raise into the comm handler; the kernel view stays
+            self._show_error(f"{choice.reason}; starting the browser engine failed ({err}): the kernel engine stays")
+            return
+        self._show_note(choice.reason)
+
+    def _show_note(self, text):
+        if self.panel is not None:
+            self.panel.show_note(text)
+
+    def _on_browser_unavailable(self, reason):
+        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
+        if self._closed or self.view is None or self.view.backend != "browser":
+            return
+        try:
+            new = self._kernel_view()
+        except Exception as err:  # no adapter in the kernel either
+            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
+                             f"render either: {err}")
+            return
+        self._replace_view(new)
         self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
                          "and streams it instead (use Chrome or Edge, or enable WebGPU, for backend='browser')")
 

@@ -169,7 +169,7 @@ def _run_checks(page, server, folder):
     open_notebook(page, server, "01_tour.ipynb")
     run_all_cells(page, timeout=180)
 
-    # The tour's browser-engine section made a second widget with backend="auto": this Chromium
+    # The tour's browser-engine section made a second widget with backend="browser": this Chromium
     # has no WebGPU, so it fell back to kernel streaming and said so. Then it is closed, so the
     # checks below find each control of the first widget by its label alone.
     wait_for_kernel(page, "wb.backend", "kernel", timeout=90)
