@@ -43,6 +43,7 @@ from .. import compat
 from ..errors import GrassValueError
 from ..core.reference import HZB_MAX_LEVELS, hzb_layout
 from .adapter import ensure_device
+from .auto_switches import begin_frame
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "render_frame", "MAX_HZB_LEVELS"]
@@ -223,7 +224,8 @@ def _draws_something(ob) -> bool:
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
-    ``params.cull_occlusion`` is on (see the module docstring for the phases).
+    ``params.cull_occlusion`` is on (True, or "auto" and the field's measured decision
+    on: :mod:`grasswidget.gpu.auto_switches`; see the module docstring for the phases).
 
     ``late``: direct children of ``scene`` drawn after the second phase (translucent
     objects that write no depth, e.g. collider balls), with the scene's lights. With
@@ -234,9 +236,17 @@ def render_frame(renderer, scene, camera, late=()):
     when ``params.compute_raster`` is on).
     """
     all_fields = _fields(scene)
+    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    try:
+        _render_frame(renderer, scene, camera, late, all_fields, switches)
+    finally:
+        switches.end()
+
+
+def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
-        field.prepare_compute_raster(renderer.physical_size)
-    fields = [f for f in all_fields if f.params.cull_occlusion]
+        field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
+    fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
     if not fields:
         renderer.render(scene, camera)
         return

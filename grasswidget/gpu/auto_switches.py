@@ -1,0 +1,96 @@
+"""The kernel engine's side of the "auto" switches (occlusion culling, the compute rasterizer).
+
+:func:`grasswidget.gpu.render_frame` asks :func:`begin_frame` which value each GrassField's
+switches have for this frame and calls :meth:`FrameSwitches.end` after it rendered. The rule
+and the trial are :class:`grasswidget.core.pays.AutoSwitches` (pure Python, one per field);
+this module only times the frames and reads the GPU's counts for it: while a field is being
+tried, the frame is GPU-synchronised before and after the render (a 4-byte readback waits for
+the queue), so its wall time is the render's, and the blades drawn, occluded and drawn in
+compute are read back right after it. Frames outside a trial are not synchronised.
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+
+import numpy as np
+import wgpu
+
+from ..core.pays import SWITCHES, AutoSwitches, DecisionContext
+from .adapter import ensure_device
+
+__all__ = ["begin_frame", "switches_of", "FrameSwitches"]
+
+_STATE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_SYNC = {}
+
+
+def switches_of(field) -> AutoSwitches:
+    """The :class:`grasswidget.core.pays.AutoSwitches` of ``field`` (made on first use)."""
+    state = _STATE.get(field)
+    if state is None:
+        state = _STATE[field] = AutoSwitches()
+    return state
+
+
+def _sync(device):
+    buf = _SYNC.get(id(device))
+    if buf is None:
+        buf = _SYNC[id(device)] = device.create_buffer(size=16, usage=wgpu.BufferUsage.COPY_SRC | wgpu.BufferUsage.COPY_DST)
+    device.queue.read_buffer(buf)
+
+
+def _params_key(params) -> tuple:
+    return tuple((k, repr(v)) for k, v in sorted(params.trait_values().items()) if k not in SWITCHES)
+
+
+def context_of(field, camera) -> DecisionContext:
+    """The :class:`DecisionContext` of ``field`` seen by ``camera`` (a pygfx camera)."""
+    eye = np.asarray(camera.world.position, np.float64)
+    forward = np.asarray(camera.world.forward, np.float64)
+    reach = max(float(np.linalg.norm(eye)), 1.0)  # fields sit around the origin: distance to it
+    target = eye + forward * reach
+    return DecisionContext(tuple(map(float, eye)), tuple(map(float, target)), int(field.count), None,
+                           _params_key(field.params))
+
+
+class FrameSwitches:
+    """The switch values of one frame's fields, and the timing of a trial frame."""
+
+    def __init__(self, fields, camera):
+        self.values = {}
+        self.measured = []
+        for field in fields:
+            state = switches_of(field)
+            settings = {name: getattr(field.params, name) for name in SWITCHES}
+            self.values[field] = state.values(settings, context_of(field, camera))
+            if state.measuring:
+                self.measured.append((field, state))
+        self._t0 = None
+        if self.measured:
+            _sync(ensure_device())
+            self._t0 = time.perf_counter()
+
+    def value(self, field, name) -> bool:
+        """This frame's value (bool) of switch ``name`` for ``field``."""
+        return self.values[field][name]
+
+    def end(self):
+        """After the frame's render: time it (GPU-synchronised) and feed the trials."""
+        if self._t0 is None:
+            return
+        _sync(ensure_device())
+        ms = (time.perf_counter() - self._t0) * 1e3
+        for field, state in self.measured:
+            rastered = field.read_raster_count() if field.compute_raster_active else 0
+            visible = int(field.read_draw_args()[:, 1].sum()) + rastered
+            counts = dict(visible=visible, rastered=rastered,
+                          occluded=field.read_occluded_count() if self.value(field, "cull_occlusion") else 0)
+            state.record(ms, counts)
+        self._t0 = None
+
+
+def begin_frame(fields, camera) -> FrameSwitches:
+    """The switch values of ``fields`` for a frame seen by ``camera``; call ``end()`` after it."""
+    return FrameSwitches(fields, camera)
