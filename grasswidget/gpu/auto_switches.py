@@ -20,7 +20,7 @@ import wgpu
 from ..core.pays import SWITCHES, AutoSwitches, DecisionContext
 from .adapter import ensure_device
 
-__all__ = ["begin_frame", "switches_of", "FrameSwitches"]
+__all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts"]
 
 _STATE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _SYNC = {}
@@ -32,6 +32,11 @@ def switches_of(field) -> AutoSwitches:
     if state is None:
         state = _STATE[field] = AutoSwitches()
     return state
+
+
+def wait_for_queue(device=None):
+    """Block until the GPU finished everything submitted so far (a 16-byte readback)."""
+    _sync(device or ensure_device())
 
 
 def _sync(device):
@@ -89,6 +94,13 @@ class FrameSwitches:
                           occluded=field.read_occluded_count() if self.value(field, "cull_occlusion") else 0)
             state.record(ms, counts)
         self._t0 = None
+
+
+def switch_texts(field) -> dict:
+    """{switch name: words} for ``field``'s switches: "on", "off", "auto (measuring)",
+    "auto (on: removed 41 % of blades, ...)" (:func:`grasswidget.core.pays.switch_text`)."""
+    state = switches_of(field)
+    return {name: state.text(name, getattr(field.params, name)) for name in SWITCHES}
 
 
 def begin_frame(fields, camera) -> FrameSwitches:
