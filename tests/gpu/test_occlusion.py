@@ -247,6 +247,7 @@ def test_stats_count_the_occluded_blades(scene):
     from grasswidget.notebook.panel import format_details
     from grasswidget.notebook.switch_choice import SWITCH_CHOICES
 
+    scene.params.cull_occlusion = True  # forced on (the default "auto" may decide either way)
     scene.field.reset()
     scene.reset_camera()
     for _ in range(4):
