@@ -46,8 +46,22 @@ def _sync(device):
     device.queue.read_buffer(buf)
 
 
+_VERSIONS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
 def _params_key(params) -> tuple:
-    return tuple((k, repr(v)) for k, v in sorted(params.trait_values().items()) if k not in SWITCHES)
+    """(id, changes so far) of ``params``: any change of a trait but the switches bumps it
+    (an observer; cheaper per frame than comparing every value)."""
+    count = _VERSIONS.get(params)
+    if count is None:
+        count = _VERSIONS[params] = [0]
+
+        def bump(change, count=count):
+            if change["name"] not in SWITCHES:
+                count[0] += 1
+
+        params.observe(bump)
+    return (id(params), count[0])
 
 
 def context_of(field, camera) -> DecisionContext:
