@@ -4,9 +4,12 @@
 switches have for this frame and calls :meth:`FrameSwitches.end` after it rendered. The rule
 and the trial are :class:`grasswidget.core.pays.AutoSwitches` (pure Python, one per field);
 this module only times the frames and reads the GPU's counts for it: while a field is being
-tried, the frame is GPU-synchronised before and after the render (a 4-byte readback waits for
-the queue), so its wall time is the render's, and the blades drawn, occluded and drawn in
-compute are read back right after it. Frames outside a trial are not synchronised.
+tried, the frame is GPU-synchronised before and after the render (a 16-byte readback waits for
+the queue), so its time is the render's, and the blades drawn, occluded and drawn in compute
+are read back right after it. Frames outside a trial are not synchronised. The time is wall
+time on a GPU adapter and the process's CPU time on a CPU adapter (lavapipe renders in this
+process's threads: its CPU time is the render's work, and moves far less than wall time when
+other processes load the machine).
 """
 
 from __future__ import annotations
@@ -37,6 +40,13 @@ def switches_of(field) -> AutoSwitches:
 def wait_for_queue(device=None):
     """Block until the GPU finished everything submitted so far (a 16-byte readback)."""
     _sync(device or ensure_device())
+
+
+def _clock() -> float:
+    """Seconds: the process's CPU time on a CPU adapter, else wall time (see the module docstring)."""
+    from .adapter import is_cpu_adapter
+
+    return time.process_time() if is_cpu_adapter() else time.perf_counter()
 
 
 def _sync(device):
@@ -89,7 +99,7 @@ class FrameSwitches:
         self._t0 = None
         if self.measured:
             _sync(ensure_device())
-            self._t0 = time.perf_counter()
+            self._t0 = _clock()
 
     def value(self, field, name) -> bool:
         """This frame's value (bool) of switch ``name`` for ``field``."""
@@ -100,7 +110,7 @@ class FrameSwitches:
         if self._t0 is None:
             return
         _sync(ensure_device())
-        ms = (time.perf_counter() - self._t0) * 1e3
+        ms = (_clock() - self._t0) * 1e3
         for field, state in self.measured:
             rastered = field.read_raster_count() if field.compute_raster_active else 0
             visible = int(field.read_draw_args()[:, 1].sum()) + rastered

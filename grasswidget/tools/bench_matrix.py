@@ -9,7 +9,9 @@ raster on/off). After a warm-up of each setting and the auto decision's own tria
 frames counted and reported, not timed), ``rounds`` rounds each run every setting for a
 block of ``block`` timed frames (one dropped first: a switch flipped), in an order rotated
 each round, so drift of a shared machine hits every setting alike. A frame is one
-simulation step and one render, GPU-synchronised (its wall time, milliseconds). Per setting:
+simulation step and one render, GPU-synchronised (its wall time, milliseconds; also the
+process's CPU time over the same frame, ``frame_cpu_ms``: on a CPU adapter the rendering work
+itself, far steadier than wall time on a loaded machine). Per setting:
 median, p10, p90 over all its frames; the best fixed setting and ``defaults / best``
 (best median / defaults median: 1.0 when the defaults are as fast as the best fixed choice,
 0.8 when they take 25 % longer). The report records the machine and the load average
@@ -81,11 +83,11 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
         params, field = scene.params, scene.field
 
         def frame():
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             field.step(1)
             scene.draw_into(renderer)
             wait_for_queue()
-            return (time.perf_counter() - t0) * 1e3
+            return (time.perf_counter() - t0) * 1e3, (time.process_time() - c0) * 1e3
 
         def apply(occlusion, raster):
             params.cull_occlusion = occlusion
@@ -101,19 +103,27 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
             frame()
             trial_frames += 1
         times = {name: [] for name, _, _ in SETTINGS}
+        cpu_times = {name: [] for name, _, _ in SETTINGS}
         for r in range(rounds):
             order = SETTINGS[r % len(SETTINGS):] + SETTINGS[:r % len(SETTINGS)]
             for name, occlusion, raster in order:
                 apply(occlusion, raster)
                 frame()  # dropped: the switch flipped
-                times[name].extend(frame() for _ in range(block))
+                for _ in range(block):
+                    wall, cpu = frame()
+                    times[name].append(wall)
+                    cpu_times[name].append(cpu)
                 bar.update(1)
         settings = {name: dict(median=_pct(t, 50), p10=_pct(t, 10), p90=_pct(t, 90), frames=len(t))
                     for name, t in times.items()}
+        cpu = {name: dict(median=_pct(t, 50), p10=_pct(t, 10), p90=_pct(t, 90)) for name, t in cpu_times.items()}
         best = min((name for name, _, _ in SETTINGS[1:]), key=lambda k: settings[k]["median"])
+        best_cpu = min((name for name, _, _ in SETTINGS[1:]), key=lambda k: cpu[k]["median"])
         rows.append(dict(
             blades=n, size=f"{w}x{h}", frame_ms=settings, best_fixed=best,
             defaults_over_best=settings[best]["median"] / settings["defaults"]["median"],
+            frame_cpu_ms=cpu, best_fixed_cpu=best_cpu,
+            defaults_over_best_cpu=cpu[best_cpu]["median"] / cpu["defaults"]["median"],
             decisions={k: dict(on=d.on, reason=d.reason) for k, d in state.decisions.items()},
             trial_frames=trial_frames,
         ))
@@ -142,9 +152,17 @@ def format_matrix(report: dict) -> str:
              "median frame ms (step + render, GPU-synchronised); auto = what the defaults decided",
              f"{'blades':>9} {'size':>9} {'auto occl/cr':>12} " + " ".join(f"{n:>16}" for n in names)
              + f" {'best fixed':>16} {'defaults/best':>13}"]
-    for r in report["results"]:
-        auto = f"{_on_off(r['decisions'].get('cull_occlusion'))}/{_on_off(r['decisions'].get('compute_raster'))}"
-        lines.append(f"{r['blades']:>9} {r['size']:>9} {auto:>12} "
-                     + " ".join(f"{r['frame_ms'][n]['median']:16.1f}" for n in names)
-                     + f" {r['best_fixed']:>16} {r['defaults_over_best']:13.2f}")
+    for key, best, ratio, title in (("frame_ms", "best_fixed", "defaults_over_best", None),
+                                    ("frame_cpu_ms", "best_fixed_cpu", "defaults_over_best_cpu",
+                                     "median frame CPU ms (the process's CPU time over the same frames: "
+                                     "on a CPU adapter the rendering work itself)")):
+        if title:
+            lines.append(title)
+        for r in report["results"]:
+            if key not in r:
+                continue
+            auto = f"{_on_off(r['decisions'].get('cull_occlusion'))}/{_on_off(r['decisions'].get('compute_raster'))}"
+            lines.append(f"{r['blades']:>9} {r['size']:>9} {auto:>12} "
+                         + " ".join(f"{r[key][n]['median']:16.1f}" for n in names)
+                         + f" {r[best]:>16} {r[ratio]:13.2f}")
     return "\n".join(lines)
