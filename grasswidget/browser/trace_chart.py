@@ -38,7 +38,7 @@ class TraceChart(anywidget.AnyWidget):
     "values", "fill"}]}; None values are gaps), ``width`` and ``height`` (CSS pixels).
     """
 
-    # The text, not a path (a path keeps every instance alive in anywidget 0.11; see BrowserView).
+    # The text, not a path (a path keeps every instance alive in anywidget 0.11; see BrowserEngineWidget).
     _esm = _module_text()
     _css = (VENDOR / "uPlot.min.css").read_text(encoding="utf-8") + \
         "\n.gw-trace-chart { font: 11px sans-serif; }\n.gw-trace-chart .u-legend { font-size: 11px; }\n"

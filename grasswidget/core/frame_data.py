@@ -242,7 +242,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
     second), so ``occlusion_phase`` is written: 1 while ``cull_occlusion`` is on, else
     0 (the browser engine then draws in one phase). False (the kernel engine, default):
     ``occlusion_phase`` is left out, the engine arms it per render
-    (:func:`grasswidget.gpu.occlusion.render_frame`).
+    (:func:`grasswidget.gpu.frame.render_frame`).
 
     ``frozen`` is the frozen culling camera or None (cull against each render's
     camera): anything with ``view_proj`` (4x4, world to WebGPU clip space, row-major

@@ -1,6 +1,6 @@
 """The lab bench of a live view: its traces and the live chart under it.
 
-:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.GrassView`:
+:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.EngineView`:
 
 * a :class:`~grasswidget.core.traces.TraceRecorder` (the rolling window of samples),
 * the feed that fills it for the view's engine (:mod:`grasswidget.notebook.trace_feed`),
@@ -54,7 +54,7 @@ class LabBench:
     """Traces and the live chart of one view (see the module docstring).
 
     Args:
-        view: the GrassView to sample.
+        view: the EngineView to sample.
         width: the chart's width (CSS pixels; the view's).
         window_s: the traces' rolling window (simulated seconds, 0.1..3600; default 60).
         owner, name: a HasTraits object and the name of its chart trait (None or a chart

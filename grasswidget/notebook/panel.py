@@ -258,7 +258,7 @@ class ControlPanel:
 
     Args:
         params: the :class:`GrassParams` the sliders, dropdown and checkboxes edit.
-        clock: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
+        playback: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
             widget) for the ``time_scale`` slider and the "freeze culling" checkbox.
         actions: the object whose methods the buttons call: ``toggle_play()``,
             ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``,
@@ -281,7 +281,7 @@ class ControlPanel:
     (the list of ipywidgets to put under the view).
     """
 
-    def __init__(self, params, clock, actions, *, blade_count, max_blades, view_size, ball_row=None):
+    def __init__(self, params, playback, actions, *, blade_count, max_blades, view_size, ball_row=None):
         self.params = params
         self._actions = actions
         self.view_size = tuple(view_size)
@@ -298,8 +298,8 @@ class ControlPanel:
         for name, step, fmt in PARAM_SLIDERS:
             self.sliders[name] = s = _slider(name, params, step, fmt, column)
             self._links.append(ControlLink(s, params, name, err))
-        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f", column)
-        self._links.append(ControlLink(ts, clock, "time_scale", err))
+        self.sliders["time_scale"] = ts = _slider("time_scale", playback, 0.05, ".2f", column)
+        self._links.append(ControlLink(ts, playback, "time_scale", err))
         #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog.
         self.look_sliders = {}
         for name, step, fmt in LOOK_SLIDERS:
@@ -331,11 +331,11 @@ class ControlPanel:
                                               style=_DESC, layout=ipw.Layout(width="240px"),
                                               tooltip=params.traits()["color_by"].help)
         self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
-        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(clock, "culling_frozen", False)),
+        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(playback, "culling_frozen", False)),
                                             description="freeze culling", indent=False,
                                             layout=ipw.Layout(width="auto", margin="2px 12px 2px 8px"))
-        if clock.has_trait("culling_frozen"):
-            self._links.append(ControlLink(self.freeze_checkbox, clock, "culling_frozen", err))
+        if playback.has_trait("culling_frozen"):
+            self._links.append(ControlLink(self.freeze_checkbox, playback, "culling_frozen", err))
         self.legend_line = ipw.HTML(value=legend_html(params.color_by),
                                     layout=ipw.Layout(min_height="20px", max_width="100%"))
         params.observe(self._on_color_by, names="color_by")

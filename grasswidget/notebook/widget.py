@@ -3,7 +3,7 @@
 ``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
 own module:
 
-* a view (a :class:`grasswidget.core.view_api.GrassView`; the widget talks to it
+* a view (a :class:`grasswidget.core.view_api.EngineView`; the widget talks to it
   through that interface only): :class:`grasswidget.notebook.kernel_view.KernelView`,
   the jupyter-rfb canvas streaming a :class:`~grasswidget.gpu.scene.GrassScene`
   rendered in the kernel, or :class:`grasswidget.browser.engine_view.BrowserEngineView`,
@@ -61,7 +61,7 @@ from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
 from ..core.framing import preset_params
-from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
+from ..core.view_api import MAX_STEPS_PER_FRAME, EngineView, ViewMember
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
@@ -124,7 +124,7 @@ class GrassWidget(ipw.VBox):
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
             with; link or observe its traits, set them from code).
-        view: the :class:`~grasswidget.core.view_api.GrassView` of the live engine (None after close).
+        view: the :class:`~grasswidget.core.view_api.EngineView` of the live engine (None after close).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
@@ -171,17 +171,29 @@ class GrassWidget(ipw.VBox):
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
     _closed = False
-    view: GrassView | None = None
+    view: EngineView | None = None
     panel = None
     ball = None
     bench = None
 
-    scene = property(lambda self: self.view.scene if self.view is not None else None,
-                     doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
-    canvas = property(lambda self: self.view.canvas if self.view is not None else None,
-                      doc="The kernel engine's jupyter-rfb canvas widget (None in the browser engine).")
-    controller = property(lambda self: self.view.controller if self.view is not None else None,
-                          doc="The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine).")
+    # The view's members the widget adds nothing to: each *is* the live view's member of that name
+    # (grasswidget.core.view_api.ViewMember, documented once in EngineView; help() shows that text).
+    scene = ViewMember()
+    canvas = ViewMember()
+    controller = ViewMember()
+    camera_state = ViewMember(settable=True)
+    max_fps = ViewMember()
+    frame_interval = ViewMember()
+    steps_per_frame = ViewMember()
+    sim_time = ViewMember()
+    render_scale = ViewMember(no_view=1.0)
+    stats = ViewMember()
+    read_state = ViewMember()
+    set_wind_wgsl = ViewMember()
+    inspect = ViewMember()
+    inspected = ViewMember(no_view=())
+    read_inspected = ViewMember()
+    reset_blades = ViewMember()
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
     switch_choices = _panel_property("switch_choices")
@@ -266,7 +278,7 @@ class GrassWidget(ipw.VBox):
             else:
                 from ..browser.engine_view import BrowserEngineView
 
-                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
+                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, playback=self,
                                               actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                               on_inspect=self._show_inspected,
                                               on_unavailable=self._on_browser_unavailable,
@@ -338,7 +350,7 @@ class GrassWidget(ipw.VBox):
             self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
             self._streaming["max_blades"] = blades
         view = KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
-                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          playback=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
                           on_inspect=self._show_inspected)
         if self._function_overrides is not None:
             try:
@@ -391,52 +403,6 @@ class GrassWidget(ipw.VBox):
         return self.view.backend if self.view is not None else self._requested_backend
 
     @property
-    def camera_state(self) -> dict:
-        """The camera as a dict: position and target (metres, world space) and fov_deg
-        (vertical field of view). A drag in the view updates it; assigning a dict
-        (any of the three keys) moves the camera, in both engines."""
-        return self.view.camera_state
-
-    @camera_state.setter
-    def camera_state(self, state):
-        self._check_open()
-        self.view.camera_state = state
-
-    def read_state(self, timeout: float = 30.0) -> dict:
-        """The blade state of the live engine, as ``GrassField.read_state()`` returns it.
-
-        In browser mode it asks the browser and waits for its answer (processing
-        widget messages meanwhile, so it works inside a running cell); no answer
-        within ``timeout`` seconds raises TimeoutError naming the browser view."""
-        self._check_open()
-        return self.view.read_state(timeout=timeout)
-
-    @property
-    def max_fps(self) -> float:
-        """Frames per second asked of the canvas scheduler (the nominal frame rate)."""
-        return self.view.max_fps
-
-    @property
-    def frame_interval(self) -> float:
-        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
-        return self.view.frame_interval
-
-    @property
-    def steps_per_frame(self) -> int:
-        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt),
-        capped: what ``step()`` advances by default. While playing the real-time
-        clock decides each frame's steps (``stats["steps_per_frame"]``)."""
-        return self.view.steps_per_frame
-
-    @property
-    def sim_time(self) -> float:
-        """Simulated seconds since the last :meth:`reset_blades` (read-only): every
-        fixed step taken while playing or by :meth:`step` adds ``params.dt``. None
-        before the browser engine's first stats message; there it is as of the last one
-        (about every 0.5 s; its clock runs in the browser)."""
-        return self.view.sim_time if self.view is not None else None
-
-    @property
     def target_fps(self) -> float:
         """Frames per second adaptive resolution aims for while playing (1..240;
         default 24 on a CPU adapter, 60 on a GPU). A bad value raises ValueError
@@ -453,23 +419,6 @@ class GrassWidget(ipw.VBox):
             self.view.target_fps = value
         self._streaming["target_fps"] = value
         self._streaming_overrides["target_fps"] = value
-
-    @property
-    def render_scale(self) -> float:
-        """Fraction of the full pixel ratio live frames render at now (0.5..1;
-        1 while paused). Save PNG and exports always render at full resolution."""
-        return float(self.view.render_scale) if self.view is not None else 1.0
-
-    @property
-    def stats(self) -> dict:
-        """The last stats shown: fps (frames/s delivered to the browser, confirmed
-        by it; frames drawn when there is no browser), target_fps, visible, blades,
-        render_ms / readback_ms / encode_send_ms / ack_ms (where a frame's time
-        goes, averaged since the last refresh), draw_ms (step + render calls of the
-        last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame
-        (of the last frame), frame_size (rendered pixels), scale (render scale),
-        sim_speed (simulated / scaled wall seconds while playing)."""
-        return self.view.stats
 
     # ------------------------------------------------------------------ actions
 
@@ -496,11 +445,6 @@ class GrassWidget(ipw.VBox):
         self.playing = False
         self.view.step(n)
         self.bench.after_step()
-
-    def reset_blades(self):
-        """Every blade back to its rest pose; the simulation clock back to 0."""
-        self._check_open()
-        self.view.reset_blades()
 
     def reset_camera(self):
         """Back to the scene's starting view (``look_from("home")``)."""
@@ -549,30 +493,6 @@ class GrassWidget(ipw.VBox):
         position, target = clamp_orbit(cam["position"], cam["target"], self.view.orbit_limits)
         if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):
             self.view.camera_state = {"position": tuple(position), "target": tuple(target)}
-
-    def inspect(self, ids):
-        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
-        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
-        else raises ValueError naming the limit (nothing changes then)."""
-        self._check_open()
-        self.view.inspect(ids)
-
-    @property
-    def inspected(self) -> tuple:
-        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
-        return tuple(self.view.inspected) if self.view is not None else ()
-
-    def read_inspected(self, timeout: float = 30.0) -> list:
-        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them:
-        one dict per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times
-        ``params.stiffness_scale``), ``v0``, ``v1``, ``v2`` and the forces on v2 of the
-        next step (gravity, recovery, wind in m/s^2; collision: the push of one step in m),
-        for the current state and parameters; ``[]`` when none is inspected.
-
-        In browser mode the browser computes them (the same inspect.wgsl) and this waits for
-        its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
-        self._check_open()
-        return self.view.read_inspected(timeout=timeout)
 
     def traces(self) -> dict:
         """What simulated time did, sampled while it advances (the lab bench; see
@@ -670,16 +590,6 @@ class GrassWidget(ipw.VBox):
                          ball_radius=float(ball.collider.radius) if ball is not None else None,
                          playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title,
                          camera_floor=self.camera_floor)
-
-    def set_wind_wgsl(self, body: str, select: bool = True):
-        """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
-        in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
-        line inside ``body`` when it does not compile (in browser mode: compiled by the
-        browser; this waits for its answer); the old wind stays in force. With
-        ``select``, ``params.wind_field`` becomes "custom". Assigning
-        ``params.wind_wgsl`` does the same, reporting an error on the message line."""
-        self._check_open()
-        self.view.set_wind_wgsl(body, select=select)
 
     def set_function_overrides(self, overrides):
         """Run user WGSL in place of stock blade-math functions (a

@@ -300,7 +300,7 @@ def write_image(path, img):
 
 
 def _snapshot(args):
-    from .. import GrassParams
+    from ..core.params import GrassParams
     from ..gpu.scene import GrassScene
 
     params = GrassParams()

@@ -145,13 +145,13 @@ w.step(100)
 mine = w.read_state()
 kernel_params = w.params.copy()
 kernel_params.wind_field = 'wave'
-field = GrassField(w.view.browser_view.blades, params=kernel_params)
+field = GrassField(w.view.engine_widget.blades, params=kernel_params)
 field.step(200)
 kernel_params.wind_field = 'vortex'
 field.step(100)
 theirs = field.read_state()
 field.release()
-b = w.view.browser_view.blades
+b = w.view.engine_widget.blades
 err = float((np.abs(mine['v2'] - theirs['v2']).max(axis=1) / b.height).max())
 err1 = float((np.abs(mine['v1'] - theirs['v1']).max(axis=1) / b.height).max())
 bent = float((np.linalg.norm(theirs['v2'] - b.v0 - b.up * b.height[:, None], axis=1) / b.height).mean())
@@ -171,7 +171,7 @@ w.reset_blades()
 rng = np.random.default_rng(4)
 r = rng.uniform(0.3, 0.8, 60)
 crowd = np.column_stack([rng.uniform(-8, 8, 60), r + 0.05, rng.uniform(-8, 8, 60), r])  # resting on the grass
-view = w.view.browser_view
+view = w.view.engine_widget
 view.colliders.set_array(crowd)
 view.colliders_changed()
 w.step(100)
@@ -263,8 +263,8 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
 import imageio.v3 as iio, numpy as np
 png = iio.imread({str(next(iter(new)))!r})[..., :3].astype(int)
 size = (png.shape[1], png.shape[0])
-aa = w.view.browser_view.snapshot(size, supersample=2)[..., :3].astype(int)
-plain = w.view.browser_view.snapshot(size)[..., :3].astype(int)
+aa = w.view.engine_widget.snapshot(size, supersample=2)[..., :3].astype(int)
+plain = w.view.engine_widget.snapshot(size)[..., :3].astype(int)
 print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
 """, timeout=120)
     to_aa, to_plain = map(float, out.stdout.split("DIFF")[1].split())
@@ -295,14 +295,14 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
 
     # 7. A lost device is recovered with a message; a view that is not shown times out.
     _show_view(page)
-    kernel_execute(page, "w.play(); w.view.browser_view.lose_device()")
+    kernel_execute(page, "w.play(); w.view.engine_widget.lose_device()")
     wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")
     wait_for_kernel(page, "w.stats['step_count']", predicate=lambda s: s != steps, timeout=60)
     assert kernel_eval(page, "w.view.gpu_status['state']") == "ok"
     out = kernel_execute(page, """
-from grasswidget.browser import BrowserView
-hidden = BrowserView(16)
+from grasswidget.browser import BrowserEngineWidget
+hidden = BrowserEngineWidget(16)
 try:
     hidden.read_state(timeout=1.0)
 except TimeoutError as e:
