@@ -9,7 +9,8 @@ the queue), so its time is the render's, and the blades drawn, occluded and draw
 are read back right after it. Frames outside a trial are not synchronised. The time is wall
 time on a GPU adapter and the process's CPU time on a CPU adapter (lavapipe renders in this
 process's threads: its CPU time is the render's work, and moves far less than wall time when
-other processes load the machine).
+other processes load the machine). While a field's culling is frozen its decision holds (the
+camera flying around a frozen view does not start a trial).
 """
 
 from __future__ import annotations
@@ -93,7 +94,9 @@ class FrameSwitches:
         for field in fields:
             state = switches_of(field)
             settings = {name: getattr(field.params, name) for name in SWITCHES}
-            self.values[field] = state.values(settings, context_of(field, camera))
+            # Culling frozen (a teaching view): the decision holds while the camera flies around it.
+            frozen = getattr(field, "culling_frozen", False) and state.context is not None
+            self.values[field] = state.values(settings, state.context if frozen else context_of(field, camera))
             if state.measuring:
                 self.measured.append((field, state))
         self._t0 = None
