@@ -63,7 +63,7 @@ def test_pure_core_imports_no_gpu_code():
 
 
 PACKAGE = Path(__file__).resolve().parents[1] / "grasswidget"
-NOTEBOOK_LIBS = ("ipywidgets", "anywidget", "jupyter_rfb", "jupyter_ui_poll", "IPython")
+NOTEBOOK_LIBS = ("ipywidgets", "anywidget", "jupyter_rfb", "jupyter_ui_poll", "IPython", "marimo")
 GPU_LIBS = ("pygfx", "wgpu", "rendercanvas", "pylinalg")
 #: What each layer may not import (anywhere in its source, lazy imports included). The core is pure;
 #: the GPU layer knows no widgets and no browser; the browser engine runs in the page and needs no

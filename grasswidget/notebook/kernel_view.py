@@ -155,6 +155,9 @@ def _canvas_class():
             if self.on_sent is not None:
                 self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
 
+    from .marimo_face import esm_for_front_end
+
+    GrassCanvas._esm = esm_for_front_end(str(GrassCanvas._esm))  # marimo: made also outside a running cell
     return GrassCanvas
 
 

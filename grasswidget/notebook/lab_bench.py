@@ -76,7 +76,7 @@ class LabBench:
         #: Pushes sent to the chart and the kernel's seconds spent making them (the chart's cost in the kernel).
         self.pushes = 0
         self.push_seconds = 0.0
-        self.chart = TraceChart(width=int(width), height=CHART_HEIGHT)
+        self.chart = TraceChart(width=int(width), height=CHART_HEIGHT, hidden=True)
         self.chart.layout.display = "none"
         # Option values are strings ("none" for None: a Dropdown whose value is None shows no selection).
         self.dropdown = ipw.Dropdown(options=[(label, kind or "none") for kind, label in CHART_LABELS.items()],
@@ -155,6 +155,7 @@ class LabBench:
         self.kind = check_chart(kind)
         self.feed.set_charting(kind is not None)
         self.chart.layout.display = "none" if kind is None else None
+        self.chart.hidden = kind is None
         self._pushed_version = -1
         self.push()
 

@@ -129,9 +129,13 @@ NO_FRAMES_BELOW = 0.05
 
 def format_speed(speed: float) -> str:
     """Simulated seconds per wall second as the status writes it: ``"0.6x"``, and two
-    significant digits below 0.1 (``"0.03x"``), never ``"0.0x"``."""
+    significant digits below 0.1 (``"0.03x"``), never ``"0.0x"``; a speed just under
+    real time keeps two decimals (``"0.96x"``), never rounding up to ``"1.0x"``."""
     if speed >= 0.1:
-        return f"{speed:.1f}x"
+        text = f"{speed:.1f}"
+        if speed < 1.0 and float(text) >= 1.0:
+            text = f"{min(speed, 0.99):.2f}"
+        return f"{text}x"
     return f"{speed:.1g}x" if speed >= 0.01 else "under 0.01x"
 
 

@@ -167,6 +167,8 @@ class GrassWidget(ipw.VBox):
                         "view; True from the start with layout='lecture'.")
     camera_bar = None
     _layout = None
+    _mirror = None
+    _marimo_stage = None
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
@@ -657,6 +659,38 @@ class GrassWidget(ipw.VBox):
         finally:
             scene.release()
 
+    def _display_(self):
+        """What marimo shows for this widget (only marimo asks for ``_display_``; Jupyter front
+        ends draw the ipywidgets as always): the view, the chart and the panel as anywidgets
+        (see :mod:`grasswidget.notebook.marimo_face`)."""
+        from .marimo_face import marimo_display
+
+        if self._closed:
+            return repr(self)  # "<GrassWidget ... closed>", as Jupyter shows a closed widget's text
+        return marimo_display(self)
+
+    def control_mirror(self):
+        """The panel column (camera bar and rows) as one anywidget of plain HTML controls, for
+        front ends without ipywidgets (marimo); made on first use, then the same one
+        (:class:`~grasswidget.notebook.control_mirror.ControlMirror`)."""
+        from .control_mirror import ControlMirror
+
+        self._check_open()
+        if self._mirror is None:
+            self._mirror = ControlMirror(self._layout.column, on_error=self._show_error)
+        return self._mirror
+
+    def marimo_parts(self) -> tuple:
+        """What marimo shows: the stage (view and chart, following an engine switch; a
+        :class:`~grasswidget.notebook.marimo_face.MarimoStage`) and :meth:`control_mirror`.
+        Made on first use (needs marimo), then the same ones."""
+        from .marimo_face import MarimoStage
+
+        self._check_open()
+        if self._marimo_stage is None:
+            self._marimo_stage = MarimoStage(self._stage)
+        return self._marimo_stage, self.control_mirror()
+
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
         scene and camera controller, the control panel, the ball, the camera bar, the lab
@@ -664,7 +698,8 @@ class GrassWidget(ipw.VBox):
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
         found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
-                 getattr(self, "_layout", None), getattr(self, "_stage", None))
+                 getattr(self, "_layout", None), getattr(self, "_stage", None), self._mirror,
+                 self._marimo_stage)
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -687,6 +722,10 @@ class GrassWidget(ipw.VBox):
                 pass
         if self.bench is not None:
             self.bench.close()
+        if self._mirror is not None:
+            self._mirror.close()
+        if self._marimo_stage is not None:
+            self._marimo_stage.close()
         if self.panel is not None:
             self.panel.close()
         if self.camera_bar is not None:
