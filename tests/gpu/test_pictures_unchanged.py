@@ -1,0 +1,62 @@
+"""The presets' pictures are what they were before the house was rebuilt.
+
+Issue 26 moved rules out of engine.js into Python, split engine.js into modules,
+renamed classes and broke the gpu package's import circle; none of it may change
+a picture. ``tests/data/pictures_before_house2/`` holds the exports that
+``python -m grasswidget snapshot OUT.png --preset P --blades 16384 --size 320x240
+--steps 60 --seed 3`` wrote at commit 9f5380a (before any of those moves), on
+lavapipe. The same command now must give the same picture. The browser engine's
+picture is held to the kernel's by tests/browser/test_engines_alike.py, so the
+two tests together cover both engines.
+
+Tolerance: lavapipe renders these exports bit for bit alike from run to run (the
+fixed-step simulation is deterministic and the draws are ordered), so the bound
+only leaves room for a different CPU's float rounding in the simulation: a mean
+difference of at most 0.5/255 over RGB and at most 0.5 % of pixels off by more
+than 40/255 (one blade edge moved by a pixel in a few places). A changed rule
+moves blades or shades and fails it: measured on the default preset, the picture
+one simulation step later (a wind time off by 1/60 s) is 0.58/255 off on average,
+and a wind of 6 instead of 5 m/s^2 gives 5.1/255 with 3.3 % of pixels off by > 40.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from grasswidget.tools.cli import main as cli_main
+
+BEFORE = Path(__file__).resolve().parents[1] / "data" / "pictures_before_house2"
+MEAN_TOLERANCE = 0.5  # /255, mean |difference| over RGB
+SHARE_TOLERANCE = 0.005  # share of pixels off by more than 40/255 in a channel
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Mean |difference| over RGB (0-255) and the share of pixels off by more than 40."""
+    d = np.abs(a[..., :3].astype(np.float64) - b[..., :3].astype(np.float64))
+    return float(d.mean()), float((d.max(axis=-1) > 40).mean())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", ["default", "cis565", "meadow"])
+def test_preset_picture_is_the_one_from_before(preset, tmp_path):
+    out = tmp_path / f"{preset}.png"
+    assert cli_main(["snapshot", str(out), "--preset", preset, "--blades", "16384", "--size", "320x240",
+                     "--steps", "60", "--seed", "3"]) == 0
+    now = iio.imread(out)
+    before = iio.imread(BEFORE / f"{preset}.png")
+    assert now.shape == before.shape
+    mean, share = difference(now, before)
+    assert mean <= MEAN_TOLERANCE and share <= SHARE_TOLERANCE, (
+        f"{preset}: mean |difference| {mean:.3f}/255, {share:.2%} of pixels off by > 40 (saved {out})")
+
+
+def test_the_bound_tells_a_moved_meadow_apart():
+    """The tolerance is not so loose that moved grass passes: the stored default picture
+    against itself shifted by two pixels (every blade edge moved) is far outside it."""
+    before = iio.imread(BEFORE / "default.png")
+    mean, share = difference(before, np.roll(before, 2, axis=1))
+    assert mean > 4 * MEAN_TOLERANCE and share > 4 * SHARE_TOLERANCE, (mean, share)
