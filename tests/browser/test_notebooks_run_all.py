@@ -46,7 +46,6 @@ from notebook_outputs import LIVE_CULLING_PROBE, WRITTEN, check_notebook_outputs
 
 from .tour_checks import check_tour
 from .harness import (
-    Browser,
     kernel_eval,
     kernel_execute,
     open_notebook,
@@ -101,11 +100,6 @@ def _code(path) -> str:
 
 BROWSER_ENGINE_NOTEBOOKS = [p for p in NOTEBOOKS if re.search(r"backend\s*=\s*[\"'](auto|browser)[\"']", _code(p))]
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 @pytest.mark.parametrize("path", BROWSER_ENGINE_NOTEBOOKS, ids=[p.stem for p in BROWSER_ENGINE_NOTEBOOKS])

@@ -25,7 +25,6 @@ import imageio.v3 as iio
 import pytest
 
 from .harness import (
-    Browser,
     frame_count,
     kernel_eval,
     open_notebook,
@@ -47,11 +46,6 @@ WINDOW_S = 3.0
 #: Frames the view on screen must draw in a window (SwiftShader / lavapipe on 2 shared cores).
 MIN_FRAMES_SHOWN = 10
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _counts_js(selector):

@@ -6,7 +6,8 @@ that Run All left, once that test has checked the notebook's outputs and that ev
 so the tour runs once in the suite. Through the page and the kernel it checks:
 
 * the tour's ``backend="auto"`` widget fell back to kernel streaming in a Chromium without
-  WebGPU and said so;
+  WebGPU, said so, steps and has a ``camera_state`` (its panel's slider reaching the kernel after the
+  fall-back: ``test_front_ends.py::test_fallback_in_front_end``);
 * frames stream and show grass (green-dominant pixels in the lower part);
 * a slider moved in the page reaches Python (``w.params.wind_strength``), and
   junk or out-of-range text typed into a slider readout breaks nothing;
@@ -141,8 +142,12 @@ def check_tour(page, folder):
     # The tour's browser-engine section made a second widget with backend="auto": this Chromium
     # has no WebGPU, so it fell back to kernel streaming and said so. Then it is closed, so the
     # checks below find each control of the first widget by its label alone.
+    # Run All checked that its view streams new frames; here it also steps and keeps its camera_state.
     wait_for_kernel(page, "wb.backend", "kernel", timeout=90)
     assert "WebGPU is not available in this browser" in kernel_eval(page, "wb.message_line.value")
+    kernel_execute(page, "wb.step(5)")
+    assert kernel_eval(page, "wb.scene.field.step_count") >= 5
+    assert kernel_eval(page, "sorted(wb.camera_state)") == ["fov_deg", "position", "target"]
     kernel_execute(page, "wb.close()")
 
     # 1. Frames stream and show grass.
