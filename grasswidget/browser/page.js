@@ -1,4 +1,4 @@
-// grasswidget's live page: runs the browser engine (engine.js, embedded as text)
+// grasswidget's live page: runs the browser engine (its one module text, grasswidget.browser.esm, embedded)
 // with a local model in place of the kernel, and a plain-HTML control panel.
 //
 // The data block (written by grasswidget/browser/page.py) holds the engine's

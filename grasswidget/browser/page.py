@@ -1,6 +1,6 @@
 """A live page with no kernel: one self-contained HTML file that runs the browser engine.
 
-:func:`page_html` writes the browser engine (``engine.js``, unchanged), the synced
+:func:`page_html` writes the browser engine (its one module text, :func:`grasswidget.browser.esm.engine_module_text`), the synced
 state of a :class:`~grasswidget.browser.view.BrowserView` (every synced trait of
 the engine; binary ones base64), a small page script (``page.js``: a model shim
 with ``get/set/on/off/send/save_changes`` that answers the engine locally, and a
@@ -39,6 +39,7 @@ from ..core.colliders import SphereCollider
 from ..core.enums import ColorBy
 from ..core.params import GrassParams
 from ..errors import GrassTypeError, GrassValueError, MissingFileError, PageBuildError
+from .esm import engine_module_text
 
 __all__ = ["PAGE_MAX_BLADES", "PAGE_MAX_PIXELS", "check_page_path", "check_page_blades", "page_state",
            "page_controls", "page_html", "PageBuildError"]
@@ -354,7 +355,7 @@ def page_html(view, *, title="grasswidget meadow", still_png: bytes | None = Non
     check_page_blades(len(view.blades))
     _check_size((view.width, view.height))
     data = {
-        "engine": (HERE / "engine.js").read_text(encoding="utf-8"),
+        "engine": engine_module_text(),
         **page_state(view),
         **page_controls(view, ball_radius=ball_radius, ball_enabled=ball_enabled),
         "still": _b64(still_png) if still_png else None,

@@ -1,6 +1,7 @@
 """BrowserView: the grass simulated, culled and drawn in the notebook's browser (WebGPU).
 
-An anywidget whose ES module (``engine.js``, shipped in the package) asks the
+An anywidget whose ES module (``engine.js`` and its modules under ``js/``, shipped in the
+package and assembled into one module text by :func:`grasswidget.browser.esm.engine_module_text`) asks the
 browser for a WebGPU adapter, receives the rest pose of the blades as one binary
 buffer and the parameters as packed uniforms (synced traits), compiles the
 project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.wgsl`)
@@ -40,13 +41,15 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
-from ..core.frame_data import export_filter, frame_rules
+from ..core import camera_rules
+from ..core.frame_data import STATS_INTERVAL_MS, export_filter, frame_rules
 from ..core.orbit_limits import OrbitLimits, check_floor
 from ..core.params import GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
+from .esm import engine_module_text
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
 
@@ -97,7 +100,7 @@ class BrowserView(anywidget.AnyWidget):
     # The module's text, not its path: anywidget 0.11 connects every instance of a
     # widget whose _esm is a file path to that file's class-wide change signal with a
     # strong closure, which keeps every BrowserView (and its GrassWidget) alive forever.
-    _esm = (HERE / "engine.js").read_text(encoding="utf-8")
+    _esm = engine_module_text()
 
     # ---- state sent to the browser
     #: One engine per widget in the page, however many times it is displayed (engine.js keys it by this).
@@ -131,8 +134,9 @@ class BrowserView(anywidget.AnyWidget):
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
-    #: Milliseconds between the browser's stats messages (100..2000; the lab bench's traces sample at each).
-    stats_interval_ms = Int(500).tag(sync=True)
+    #: Milliseconds between the browser's stats messages (100..2000, default frame_data.STATS_INTERVAL_MS;
+    #: the lab bench's traces sample at each).
+    stats_interval_ms = Int(STATS_INTERVAL_MS).tag(sync=True)
     #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
     pixel_ratio = Float(0.0).tag(sync=True)
     width = Int(640).tag(sync=True)
@@ -515,15 +519,6 @@ class BrowserView(anywidget.AnyWidget):
 
 
 def default_camera(blades: Blades, aspect: float) -> dict:
-    """GrassScene's default view of a field: from above one edge, looking at its middle."""
-    lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
-    extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
-    c = 0.5 * (lo + hi)
-    d = extent * 0.95
-    return {
-        "position": [float(c[0]), 0.28 * d + 1.0, float(c[2]) + d],
-        "target": [float(c[0]), 0.6, float(c[2])],
-        "fov_deg": 45.0,
-        "near": 0.1,
-        "far": 100.0,
-    }
+    """GrassScene's default view of a field (:func:`grasswidget.core.camera_rules.default_camera`;
+    ``aspect`` is not used: the view is the same at every aspect)."""
+    return camera_rules.default_camera(blades.v0)

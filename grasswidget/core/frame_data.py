@@ -19,6 +19,12 @@ and each engine only writes it into its own buffers:
   the browser's clock executes the same rules from this dict.
 * :func:`orbit_rules`: the orbit limits (:class:`grasswidget.core.orbit_limits.OrbitLimits`)
   as a dict; pygfx's held controller and the browser's drag both clamp with them.
+* :func:`dispatch_rules`, :func:`wind_time`, :func:`steps_per_dispatch`: how the simulation's
+  steps are dispatched (workgroup size, blade steps per dispatch, the wind time of a step),
+  the same in both engines.
+* :data:`STATS_INTERVAL_MS`: how often both engines report their stats (by default);
+  :func:`counter_layout` and :func:`read_counters`: where the drawn, occluded and compute-drawn
+  blade counts lie in the words both engines read back for their stats, and how they are read.
 * :func:`sky_ground_values`: the values of ``u_material`` of
   ``shaders/sky_ground.wgsl`` (``uniform_layouts.SKY_GROUND_LAYOUT``: sky, soil,
   ground beyond the field, horizon, fog), which both engines draw.
@@ -26,8 +32,9 @@ and each engine only writes it into its own buffers:
   (``uniform_layouts.GRASS_MATERIAL_LAYOUT``): the browser packs all of them, the
   kernel's GrassField writes the params' looks into its GrassMaterial.
 * :func:`scene_style`: :func:`sky_ground_values` plus the collider balls' colour.
-* :func:`frame_rules`: the three above in one JSON-able dict (the browser's
-  ``frame_rules`` trait).
+* :func:`frame_rules`: all of the above that a frame needs, with the camera's drag rules
+  (:func:`grasswidget.core.camera_rules.drag_rules`), in one JSON-able dict (the browser's
+  ``frame_rules`` trait; ``grasswidget/browser/js/rules.js`` executes it).
 * :data:`EXPORT_SUPERSAMPLE` and :func:`export_filter`: how both engines anti-alias
   exported pictures (render that many times larger, filter down with pygfx's
   Mitchell filter in linear light; the browser engine runs the weights given here).
@@ -47,9 +54,11 @@ from .collider_grid import MAX_GRID_CELLS, build_collider_grid, root_bounds
 from .colliders import collider_array
 from .enums import ColorBy, GravityMode, WindField
 from .enums import BladeShape
+from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import LOOK_TRAITS, GrassParams
-from .reference import ground_cover, wind_period
+from .reference import LOD_SEGMENTS, ground_cover, wind_period
+from .shader_files import WORKGROUP_SIZE
 
 __all__ = [
     "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
@@ -57,7 +66,8 @@ __all__ = [
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
-    "SLOW_MOTION_BELOW",
+    "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
+    "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
 ]
 
@@ -67,6 +77,14 @@ MAX_STEPS_PER_FRAME = 64
 #: Below this many simulated seconds per (time-scaled) wall second the status line says
 #: "slow motion", in both engines.
 SLOW_MOTION_BELOW = 0.97
+#: Milliseconds between two stats reports of a view, both engines (the browser view's
+#: ``stats_interval_ms`` default; the lab bench's charts ask for less while shown).
+STATS_INTERVAL_MS = 500
+#: The most blade steps (blades x fixed steps) one simulation dispatch takes, both engines: a
+#: longer step(n) is split into dispatches of at most this many (no GPU watchdog trips on a long run).
+BLADE_STEPS_PER_DISPATCH = 1 << 24
+#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit).
+MAX_WORKGROUPS_X = 65535
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil
@@ -78,16 +96,17 @@ SOIL_COLOR = "#3b2a1a"
 BEYOND_COLOR = "#787a4e"
 #: Width (m) of the soft edge between the soil under the field and the ground beyond.
 FIELD_EDGE = 0.5
+#: Direction towards the sun (world space, not normalized), both engines: the kernel scene's light
+#: position, the collider balls' shading and the blade material's default light.
+LIGHT_DIRECTION = (4.0, 10.0, 3.0)
 #: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
 #: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
 #: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
-MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=(0.4, 1.0, 0.3),
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=LIGHT_DIRECTION,
                          tip_threshold=0.5, fog_color=HORIZON_COLOR)
 #: Collider balls: colour (sRGB hex) and opacity (0..1).
 BALL_COLOR = "#dfe8ff"
 BALL_OPACITY = 0.35
-#: Direction towards the sun (world space, not normalized): the kernel scene's light position.
-LIGHT_DIRECTION = (4.0, 10.0, 3.0)
 #: The ground plane lies this far (m) below the lowest blade root (no z-fight with the roots).
 GROUND_DROP = 0.01
 
@@ -293,11 +312,57 @@ def clock_rules(params) -> dict:
             "max_steps_per_frame": int(MAX_STEPS_PER_FRAME)}
 
 
+def dispatch_rules() -> dict:
+    """How both engines size their compute dispatches: ``workgroup_size`` (threads per workgroup
+    of the per-blade shaders, ``shader_files.WORKGROUP_SIZE``), ``max_groups_x`` (workgroups along
+    x before folding into y) and ``blade_steps_per_dispatch`` (see :func:`steps_per_dispatch`)."""
+    return {"workgroup_size": int(WORKGROUP_SIZE), "max_groups_x": MAX_WORKGROUPS_X,
+            "blade_steps_per_dispatch": BLADE_STEPS_PER_DISPATCH}
+
+
+def steps_per_dispatch(n_blades: int) -> int:
+    """Fixed steps one simulation dispatch of ``n_blades`` blades takes at most (>= 1):
+    :data:`BLADE_STEPS_PER_DISPATCH` // n_blades."""
+    return max(1, BLADE_STEPS_PER_DISPATCH // max(int(n_blades), 1))
+
+
+def wind_time(step: int, dt: float, period: float) -> float:
+    """The wind time (s) of fixed step ``step`` (>= 0): ``step * dt`` modulo ``period``
+    (s; 0 or None: no period), the ``time0`` both engines write for a dispatch starting there."""
+    t = step * float(dt)
+    return math.fmod(t, period) if period else t
+
+
+def counter_layout(n_classes: int = len(LOD_SEGMENTS)) -> dict:
+    """Where the stats' counts lie in the u32 words both engines read back after a frame (JSON-able):
+    the first phase's draw args (4 words per LOD class) from word ``first_at`` (0), the second
+    phase's (4 per class, then the occluded count and 3 zeros) from ``second_at``, the compute
+    rasterizer's counters (4 words) from ``raster_at``; ``words`` in all. ``visible``: per class the
+    two words (instance counts) whose sum is the blades drawn; ``occluded`` and ``rastered``: the word
+    of each count. ``n_classes`` >= 1 (default: the LOD classes, ``reference.LOD_SEGMENTS``)."""
+    c = int(n_classes)
+    if c < 1:
+        raise GrassValueError(f"n_classes must be at least 1; got {n_classes!r}")
+    return {"words": 8 * c + 8, "first_at": 0, "second_at": 4 * c, "raster_at": 8 * c + 4,
+            "visible": [[4 * k + 1, 4 * c + 4 * k + 1] for k in range(c)], "occluded": 8 * c, "rastered": 8 * c + 4}
+
+
+def read_counters(words, layout: dict) -> dict:
+    """The counts of one read-back (``words``: u32, at least ``layout["words"]``) as
+    :func:`counter_layout` places them: ``visible_per_class`` (blades drawn per LOD class, both
+    occlusion phases), ``occluded`` and ``rastered`` (ints; whether the pass ran is the caller's)."""
+    w = np.asarray(words).astype(np.int64).ravel()
+    if len(w) < layout["words"]:
+        raise GrassValueError(f"words must hold at least {layout['words']} counters; got {len(w)}")
+    return {"visible_per_class": [int(w[i] + w[j]) for i, j in layout["visible"]],
+            "occluded": int(w[layout["occluded"]]), "rastered": int(w[layout["rastered"]])}
+
+
 def orbit_rules(blades, far, floor="grass") -> dict:
     """:meth:`grasswidget.core.orbit_limits.OrbitLimits.for_field` of these blades, a far plane
     of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
     as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground). The browser clamps
-    with these numbers (engine.js ``clampOrbit``); the floor only changes them."""
+    with these numbers (``browser/js/rules.js`` ``clampOrbit``); the floor only changes them."""
     limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
 
@@ -405,8 +470,9 @@ def scene_style(blades, far, params=None) -> dict:
 
 
 def frame_rules(params, blades, far, floor="grass") -> dict:
-    """``{"clock": clock_rules, "orbit": orbit_rules, "style": scene_style}`` for a field
-    of ``blades`` seen by a camera whose far plane is ``far`` metres, orbiting above the
-    ``floor`` ("grass" or "ground", see :func:`orbit_rules`)."""
-    return {"clock": clock_rules(params), "orbit": orbit_rules(blades, far, floor),
-            "style": scene_style(blades, far, params)}
+    """``{"clock": clock_rules, "dispatch": dispatch_rules, "orbit": orbit_rules, "drag":
+    camera_rules.drag_rules, "counters": counter_layout, "style": scene_style}`` for a field of ``blades`` seen by a camera
+    whose far plane is ``far`` metres, orbiting above the ``floor`` ("grass" or "ground", see
+    :func:`orbit_rules`)."""
+    return {"clock": clock_rules(params), "dispatch": dispatch_rules(), "orbit": orbit_rules(blades, far, floor),
+            "drag": drag_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}

@@ -4,7 +4,7 @@
 (NumPy) puts a camera position and orbit target back inside those limits. Both
 engines hold their orbit to them: the kernel's
 :class:`grasswidget.notebook.orbit.GroundOrbitController`, and the browser's
-drag (engine.js ``clampOrbit``, with the limits sent as data by
+drag (``browser/js/rules.js`` ``clampOrbit``, with the limits sent as data by
 :func:`grasswidget.core.frame_data.orbit_rules`).
 
 The limits, for a field on a y-up ground plane:

@@ -18,6 +18,7 @@ import numbers
 import numpy as np
 
 from ..errors import GrassValueError
+from .camera_rules import view_proj
 from .params import COLOR_BY
 from .reference import CULL_REASONS, FORCE_NAMES, LOD_MIN_PIXELS, LOD_SEGMENTS
 
@@ -192,24 +193,10 @@ def camera_view_proj(position, target, fov_deg, near, far, aspect) -> np.ndarray
     looking at ``target`` (metres; world up +y), vertical field of view ``fov_deg``,
     depth 0 at ``near`` and 1 at ``far`` (m), ``aspect`` = width / height.
 
-    The browser engine's camera (``cameraWorld`` and ``perspective`` in engine.js)
-    written in NumPy; the browser's frozen culling camera is computed with it.
+    :func:`grasswidget.core.camera_rules.view_proj` (the camera's matrices, decided there;
+    the browser engine's ``rules.js`` executes them); the frozen culling camera is computed with it.
     """
-    eye, at = np.asarray(position, np.float64), np.asarray(target, np.float64)
-    back = eye - at
-    back = back / max(float(np.linalg.norm(back)), 1e-300)
-    right = np.cross([0.0, 1.0, 0.0], back)
-    right = np.array([1.0, 0.0, 0.0]) if np.linalg.norm(right) < 1e-9 else right / np.linalg.norm(right)
-    up = np.cross(back, right)
-    world = np.eye(4)
-    world[:3, 0], world[:3, 1], world[:3, 2], world[:3, 3] = right, up, back, eye
-    f = 1.0 / np.tan(np.radians(float(fov_deg)) / 2.0)
-    proj = np.zeros((4, 4))
-    proj[0, 0], proj[1, 1] = f / float(aspect), f
-    proj[2, 2] = far / (near - far)
-    proj[2, 3] = near * far / (near - far)
-    proj[3, 2] = -1.0
-    return proj @ np.linalg.inv(world)
+    return view_proj(position, target, fov_deg, near, far, aspect)
 
 
 def frozen_view(camera: dict, viewport_size) -> FrozenView:

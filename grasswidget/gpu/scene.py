@@ -20,7 +20,8 @@ from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .occlusion import render_frame
 from ..core import frame_data
-from ..core.frame_data import ground_square, sky_ground_values
+from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
+from ..core.frame_data import LIGHT_DIRECTION, ground_square, sky_ground_values
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams
@@ -115,9 +116,6 @@ class GrassScene:
         self.params = self.field.params
 
         self.scene = gfx.Scene()
-        lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
-        extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
-        center = 0.5 * (lo + hi)
         # Sky and a flat ground square in one full-screen pass (sized by _fit_ground).
         centre, half = ground_square(blades, None)
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
@@ -133,14 +131,15 @@ class GrassScene:
         self.scene.add(self.collider_balls)
         self.scene.add(gfx.AmbientLight(intensity=0.6))
         sun = gfx.DirectionalLight(intensity=2.0)
-        sun.local.position = (4, 10, 3)
+        sun.local.position = LIGHT_DIRECTION  # core.frame_data's, both engines
         self.scene.add(sun)
         self.light = sun
 
-        self.camera = gfx.PerspectiveCamera(45, self.size[0] / self.size[1], depth_range=(0.1, 100))
-        set_vertical_fov(self.camera, 45, self.size[0] / self.size[1])
+        self.camera = gfx.PerspectiveCamera(DEFAULT_FOV_DEG, self.size[0] / self.size[1],
+                                            depth_range=(DEFAULT_NEAR, DEFAULT_FAR))
+        set_vertical_fov(self.camera, DEFAULT_FOV_DEG, self.size[0] / self.size[1])
         self.preset_name = None
-        self._default_view(extent, center)
+        self._default_view(blades.v0)
         self._fit_ground()
 
         if canvas is None:
@@ -244,10 +243,11 @@ class GrassScene:
 
     # ------------------------------------------------------------------ views
 
-    def _default_view(self, extent, center):
-        d = extent * 0.95
-        self.camera.local.position = (center[0], 0.28 * d + 1.0, center[2] + d)
-        self.camera.look_at((center[0], 0.6, center[2]))
+    def _default_view(self, v0):
+        # core.camera_rules.default_camera: the browser engine's home view too
+        home = default_camera(v0)
+        self.camera.local.position = tuple(home["position"])
+        self.camera.look_at(tuple(home["target"]))
         self._home = (np.array(self.camera.local.position), np.array(self.camera.local.rotation))
 
     def reset_camera(self):

@@ -9,7 +9,6 @@ inside ``renderer.render()``.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pygfx as gfx
@@ -19,7 +18,7 @@ from pygfx.utils import array_from_shadertype
 
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
-from ..core.frame_data import collider_grid, sim_uniform_values
+from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
 from ..errors import WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
@@ -31,7 +30,7 @@ from .wgsl import GrassComputeShader, naga_error_parts, overrides_error, workgro
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 
 #: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
-MAX_BLADE_STEPS_PER_DISPATCH = 1 << 30
+MAX_BLADE_STEPS_PER_DISPATCH = BLADE_STEPS_PER_DISPATCH  # core.frame_data's, both engines
 
 #: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.SIM_LAYOUT``).
 SIM_UNIFORM = shadertype(SIM_LAYOUT)
@@ -198,14 +197,11 @@ class Simulation:
             self.compile_now(field.params.wind_wgsl)
         sync_buffer(field.blade_buffer)
         sync_buffer(field.collision_buffer)
-        per_dispatch = max(1, MAX_BLADE_STEPS_PER_DISPATCH // max(field.count, 1))
+        per_dispatch = steps_per_dispatch(field.count)
         done = 0
         while done < n:
             chunk = min(per_dispatch, n - done)
-            period = wind_period(field.params)
-            t0 = (self.step_count * field.params.dt)
-            if period:
-                t0 = math.fmod(t0, period)
+            t0 = wind_time(self.step_count, field.params.dt, wind_period(field.params))
             self.write_uniform(chunk, t0)
             encoder = device.create_command_encoder()
             writes = field.stats.sim_timestamp_writes() if field.stats is not None else None

@@ -17,6 +17,7 @@ import numpy as np
 import wgpu
 
 from .. import compat
+from ..core.frame_data import counter_layout, read_counters
 from .adapter import ensure_device
 
 __all__ = ["FrameStats"]
@@ -144,12 +145,12 @@ class FrameStats:
 
     def _apply(self, raw):
         nargs = 16 * self.n_classes
-        args = raw[:nargs].view(np.uint32).reshape(self.n_classes, 4)
-        second = raw[nargs: nargs + self._second].view(np.uint32).reshape(self.n_classes + 2, 4)
-        self.visible_per_class = [int(x) + int(y) for x, y in zip(args[:, 1], second[:-2, 1])]
-        self.rastered = int(second[-1, 0])
+        layout = counter_layout(self.n_classes)  # the staging layout above, both engines' (core.frame_data)
+        counts = read_counters(raw[: 4 * layout["words"]].view(np.uint32), layout)
+        self.visible_per_class = counts["visible_per_class"]
+        self.rastered = counts["rastered"]
         self.visible = int(sum(self.visible_per_class)) + self.rastered
-        self.occluded = int(second[-2, 0])
+        self.occluded = counts["occluded"]
         if self.timestamps:
             ts = raw[nargs + self._second:].view(np.uint64).astype(np.float64)
             for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):

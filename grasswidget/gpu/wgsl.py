@@ -24,6 +24,7 @@ import re
 import jinja2
 from pygfx.renderers.wgpu import BaseShader, register_wgsl_loader
 
+from ..core.frame_data import MAX_WORKGROUPS_X
 from ..core.shader_files import WORKGROUP_SIZE, shader_dir, template_vars
 from ..core.uniform_layouts import wgsl_struct
 from ..errors import ExerciseShaderError
@@ -37,7 +38,7 @@ WORKGROUP = WORKGROUP_SIZE
 register_wgsl_loader("grasswidget", jinja2.FileSystemLoader(str(shader_dir())))
 
 
-def workgroups(n_items, limit=65535):
+def workgroups(n_items, limit=MAX_WORKGROUPS_X):
     """Dispatch size for ``n_items`` threads in groups of WORKGROUP, folded into y past ``limit``."""
     groups = max(1, -(-int(n_items) // WORKGROUP))
     x = min(groups, limit)

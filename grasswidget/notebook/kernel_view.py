@@ -66,7 +66,7 @@ import numpy as np
 
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
-from ..core.frame_data import SLOW_MOTION_BELOW
+from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS
 from ..core.blades import Blades
 from ..core.view_api import GrassView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -79,7 +79,7 @@ CPU_MAX_BLADES = 1 << 18
 #: Largest blade count the slider offers on a GPU.
 GPU_MAX_BLADES = 1 << 22
 #: How often (seconds) the stats line is refreshed (it does one small GPU readback).
-STATS_INTERVAL = 0.5
+STATS_INTERVAL = STATS_INTERVAL_MS / 1000.0  # s; core.frame_data's, both engines
 #: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
 MAX_BUFFERED_FRAMES = 3
 

@@ -20,6 +20,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.browser import uniforms
+from grasswidget.browser.esm import engine_module_text
 from grasswidget.browser.page import PAGE_MAX_BLADES, page_html
 from grasswidget.browser.view import BrowserView
 from grasswidget.core.colliders import SphereCollider
@@ -70,8 +71,7 @@ def test_page_is_self_contained(page_data):
     # nothing fetched: no src/href to anything but data: URLs, no http(s) URL in the markup
     refs = re.findall(r'(?:src|href)\s*=\s*"([^"]*)"', text.split('id="gw-data"')[0])
     assert refs and all(r.startswith("data:") for r in refs), refs
-    engine_js = Path(gw.__file__).parent / "browser" / "engine.js"
-    assert data["engine"] == engine_js.read_text(encoding="utf-8")
+    assert data["engine"] == engine_module_text()  # the one module text, as the anywidget's
     assert "</script" not in text.split('id="gw-data">')[1].split("</script>")[0]
     assert "<title>a &lt;test&gt; page</title>" in text
     # the state is every synced trait of the engine; binary traits round-trip
@@ -175,10 +175,14 @@ def test_widget_save_html_carries_its_view(tmp_path):
 
 
 def test_front_end_modules_import_nothing():
-    """engine.js and page.js are self-contained: no import of JupyterLab (or of anything),
-    so they run in Notebook 7, Voila, VS Code, Colab and the live page alike."""
+    """The browser engine's one module text and page.js are self-contained: no import of
+    JupyterLab (or of anything), so they run in Notebook 7, Voila, VS Code, Colab and the live
+    page alike; the engine's modules import only each other (relative paths)."""
     folder = Path(gw.__file__).parent / "browser"
-    for name in ("engine.js", "page.js"):
-        source = (folder / name).read_text(encoding="utf-8")
+    sources = {"the engine's module text": engine_module_text(), "page.js": (folder / "page.js").read_text(encoding="utf-8")}
+    for name, source in sources.items():
         assert not re.search(r"^\s*import\s|\brequire\(|@jupyter", source, re.M), name
         assert "http://" not in source and "https://" not in source, name
+    for path in [folder / "engine.js", *(folder / "js").glob("*.js")]:
+        imports = re.findall(r"^\s*(?:import|export)\b[^;]*\bfrom\s*\"([^\"]+)\"", path.read_text(encoding="utf-8"), re.M)
+        assert all(i.startswith("./") or i.startswith("../") for i in imports), (path.name, imports)

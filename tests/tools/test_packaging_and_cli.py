@@ -38,7 +38,7 @@ def test_wheel_contains_shaders(tmp_path):
     for f in _shader_files():
         assert f"grasswidget/shaders/{f}" in names
     # The browser engine's ES module and its own WGSL ship too (nothing is fetched at run time).
-    for f in ("engine.js", "std.wgsl", "balls.wgsl"):
+    for f in ("engine.js", "esm.py", "std.wgsl", "balls.wgsl", "js/rules.js", "js/canvas_view.js"):
         assert f"grasswidget/browser/{f}" in names
     # an installed copy (outside the checkout) finds them
     target = tmp_path / "site"

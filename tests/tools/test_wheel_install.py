@@ -52,8 +52,13 @@ def test_wheel_metadata(wheel):
     core = {re.split(r"[<>=!~ ;\[]", r)[0] for r in meta.get_all("Requires-Dist") if "extra ==" not in r}
     assert {"pygfx", "wgpu", "jupyter-rfb", "anywidget", "ipywidgets", "numpy"} <= core, core  # no extra needed
     # the live page's parts ship inside the package
-    for f in ("engine.js", "page.js", "page.html", "page.py"):
+    for f in ("engine.js", "esm.py", "page.js", "page.html", "page.py"):
         assert f"grasswidget/browser/{f}" in names
+    # every module of the browser engine (what engine_module_text assembles)
+    from grasswidget.browser.esm import module_order
+
+    for f in module_order():
+        assert f"grasswidget/browser/{f}" in names, f
     # the lab bench's chart: its module and the vendored uPlot (nothing is fetched at run time), with its licence
     for f in ("trace_chart.js", "trace_chart.py", "vendor/uplot/uPlot.iife.min.js", "vendor/uplot/uPlot.min.css",
               "vendor/uplot/LICENSE"):
