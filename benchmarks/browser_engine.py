@@ -376,7 +376,7 @@ def main(argv=None):
             result["fps"][str(n)] = {"frames_per_s": round(fps, 2), "visible": visible}
             print(f"{n:>8} blades: {fps:6.2f} frames/s presented, {visible} visible")
         # The same 2^16 blades with a quarter of the pixels (GrassWidget(pixel_ratio=0.5)).
-        kernel_execute(page, "w.view.browser_view.pixel_ratio = 0.5")
+        kernel_execute(page, "w.view.engine_widget.pixel_ratio = 0.5")
         poll(lambda: engine_info(page)["canvas"] == [320, 240], "the canvas to render 320 x 240", 30, 0.3, page=page)
         page.wait_for_timeout(1500)
         fps = presented_fps(page, WINDOW_S)

@@ -10,7 +10,7 @@ attributes too, loaded on first use: ``gw.reference``, ``gw.teaching``,
 ``gw.bench``, ...
 """
 
-from .gpu.runtime_dir import ensure_runtime_dir
+from .core.runtime_dir import ensure_runtime_dir
 
 ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from complaining (see runtime_dir)
 
@@ -18,7 +18,7 @@ from .core.blades import Blades  # noqa: E402
 from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
-    GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, UnknownNameError, UpstreamChangedError,
+    GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, ReadOnlyAttributeError, UnknownNameError, UpstreamChangedError,
     WidgetClosedError, WindShaderError, ExerciseShaderError,
 )
 from .core.params import GrassParams  # noqa: E402
@@ -39,34 +39,55 @@ _LAZY = {
     "load_traces": ("grasswidget.core.traces", "load_traces"),
 }
 
-#: Modules reachable as attributes of the package (``gw.reference``), loaded on first use.
+#: Modules reachable as attributes of the package (``gw.reference``), loaded on first use (full names
+#: written out, so tests/test_architecture.py's import graph sees these lazy imports).
 _MODULES = {
-    **{name: f"grasswidget.core.{name}" for name in (
-        "blades", "params", "enums", "colliders", "reference", "memory", "uniform_layouts", "shader_files",
-        "teaching", "framing", "traces", "exercises")},
-    "scene": "grasswidget.gpu.scene",
-    **{name: f"grasswidget.notebook.{name}" for name in (
-        "widget", "kernel_view", "panel", "control_link", "clock", "adaptive", "orbit")},
-    "ball": "grasswidget.notebook.ball",
+    "blades": "grasswidget.core.blades", "params": "grasswidget.core.params", "enums": "grasswidget.core.enums",
+    "colliders": "grasswidget.core.colliders", "reference": "grasswidget.core.reference",
+    "memory": "grasswidget.core.memory", "uniform_layouts": "grasswidget.core.uniform_layouts",
+    "shader_files": "grasswidget.core.shader_files", "teaching": "grasswidget.core.teaching",
+    "framing": "grasswidget.core.framing", "traces": "grasswidget.core.traces",
+    "exercises": "grasswidget.core.exercises", "scene": "grasswidget.gpu.scene",
+    "widget": "grasswidget.notebook.widget", "kernel_view": "grasswidget.notebook.kernel_view",
+    "panel": "grasswidget.notebook.panel", "control_link": "grasswidget.notebook.control_link",
+    "clock": "grasswidget.notebook.clock", "adaptive": "grasswidget.notebook.adaptive",
+    "orbit": "grasswidget.notebook.orbit", "ball": "grasswidget.notebook.ball",
     "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
-    **{name: f"grasswidget.tools.{name}" for name in ("cli", "bench", "export", "sweep", "grading")},
+    "cli": "grasswidget.tools.cli", "bench": "grasswidget.tools.bench",
+    "export": "grasswidget.tools.export", "sweep": "grasswidget.tools.sweep",
+    "grading": "grasswidget.tools.grading",
 }
 
 
 
+#: Modules renamed inside a subpackage: old full name -> new full name (one meaning per name:
+#: "shaders" is the WGSL folder, "wgsl" no longer names two modules, runtime_dir is stdlib only).
+_RENAMED = {
+    "grasswidget.gpu.shaders": "grasswidget.gpu.shader_classes",
+    "grasswidget.gpu.wgsl": "grasswidget.gpu.wgsl_templates",
+    "grasswidget.gpu.runtime_dir": "grasswidget.core.runtime_dir",
+    "grasswidget.browser.wgsl": "grasswidget.browser.browser_wgsl",
+}
+
+
 class _OldPathFinder:
-    """Keeps the import paths of before the layout working: ``import grasswidget.reference``
-    or ``from grasswidget.scene import GrassScene`` give the module under its new path
-    (``grasswidget.core.reference``, ``grasswidget.gpu.scene``; the same module object)."""
+    """Keeps the import paths of before working: ``import grasswidget.reference``,
+    ``from grasswidget.scene import GrassScene`` (before the subpackages) or
+    ``import grasswidget.gpu.shaders`` (before a rename, :data:`_RENAMED`) give the
+    module under its new path (``grasswidget.core.reference``, ``grasswidget.gpu.scene``,
+    ``grasswidget.gpu.shader_classes``; the same module object)."""
 
     @staticmethod
     def find_spec(fullname, path=None, target=None):
         prefix, _, name = fullname.partition(".")
-        if prefix != "grasswidget" or name not in _MODULES:
+        if prefix != "grasswidget":
+            return None
+        new = _RENAMED.get(fullname) or _MODULES.get(name)
+        if new is None:
             return None
         import importlib.machinery
 
-        return importlib.machinery.ModuleSpec(fullname, _OldPathFinder, origin=_MODULES[name])
+        return importlib.machinery.ModuleSpec(fullname, _OldPathFinder, origin=new)
 
     @staticmethod
     def create_module(spec):
@@ -87,7 +108,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
-    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
+    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
     *_LAZY,

@@ -48,11 +48,12 @@ __all__ = [
     "observe_view_visibility",
     "fixed_rfb_esm",
     "widget_registry",
+    "marimo_anywidget_element",
 ]
 
 #: The versions every use below was written and tested against.
 CHECKED = {"pygfx": "0.17.0", "wgpu": "0.32.0", "jupyter_rfb": "1.0.2", "rendercanvas": "2.7.2", "ipykernel": "7.4.0",
-           "ipywidgets": "8.1.9"}
+           "ipywidgets": "8.1.9", "marimo": "0.25.2"}
 
 #: (package, what is used, why): the table ``tests/test_compat.py`` walks.
 PRIVATE_USES = (
@@ -94,6 +95,9 @@ PRIVATE_USES = (
     ("ipywidgets", "widgets.widget._instances",
      "the registry of open widgets (model id -> widget): not a holder when a re-run cell decides whether to close "
      "its earlier widget (cell_rerun.holder_of)"),
+    ("marimo", "runtime context per thread (_runtime.context.types._THREAD_LOCAL_CONTEXT, a threading.local)",
+     "marimo's element of an anywidget made where no cell runs (a widget message's handler): made in a helper "
+     "thread, which has no marimo context, as marimo makes it outside a notebook (marimo_anywidget_element)"),
     ("ipykernel", "Kernel._parent_ident",
      "the routing identity of the running cell's request, to hand deferred shell messages back (browser.kernel_pump)"),
     ("ipykernel", "Kernel.shell_channel_thread.manager.get_shell_channel_to_subshell_pair(None).to_socket",
@@ -426,3 +430,39 @@ def widget_registry() -> dict:
 
     registry = getattr(widget, "_instances", None)
     return registry if isinstance(registry, dict) else {}
+
+
+def marimo_anywidget_element(widget):
+    """marimo's element of an anywidget (``mo.ui.anywidget(widget)``) and its markup, also where no
+    cell runs: ``(element, html)``.
+
+    marimo 0.25 registers a UI element with the running cell and asserts that one runs, so in a
+    widget message's handler (a browser without WebGPU: the kernel engine's view is made there)
+    ``mo.ui.anywidget`` raises AssertionError. Its runtime context is per thread: a helper thread,
+    which has none, makes the element as marimo does outside a notebook, with a random id and
+    registered nowhere. The page draws it all the same: the anywidget syncs through its own comm.
+    """
+    import threading
+
+    import marimo as mo
+
+    try:
+        element = mo.ui.anywidget(widget)
+        return element, element.text
+    except AssertionError:  # no cell runs
+        pass
+    made = {}
+
+    def make():
+        try:
+            element = mo.ui.anywidget(widget)
+            made["element"], made["html"] = element, element.text
+        except BaseException as err:  # handed to the caller below
+            made["error"] = err
+
+    helper = threading.Thread(target=make, name="grasswidget-marimo-element", daemon=True)
+    helper.start()
+    helper.join()
+    if "error" in made:
+        raise made["error"]
+    return made["element"], made["html"]

@@ -13,6 +13,7 @@ error                           also a                              raised for
 ``GrassTypeError``              ``TypeError``                       an argument of the wrong kind
 ``ParameterError``              ``GrassValueError``, ``TraitError``  a trait value outside its range or choices
 ``UnknownNameError``            ``AttributeError``                  an unknown trait/attribute name (with a hint)
+``ReadOnlyAttributeError``      ``AttributeError``                  assigning an attribute that can only be read
 ``MissingLimitError``           ``KeyError``                        device limits without the buffer-size keys
 ``BladeCountError``             ``GrassValueError``                 more blades than memory holds
 ``BladeLimitError``             ``BladeCountError``                 more blades than one GPU buffer binding holds
@@ -33,7 +34,8 @@ from __future__ import annotations
 from traitlets import TraitError
 
 __all__ = [
-    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "MissingLimitError",
+    "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError",
+    "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
     "PageBuildError",
@@ -65,6 +67,10 @@ class ParameterError(GrassValueError, TraitError):
 class UnknownNameError(GrassError, AttributeError):
     """An unknown attribute name, e.g. a misspelt trait (``params.wind_strenght``);
     the message suggests the closest name."""
+
+
+class ReadOnlyAttributeError(GrassError, AttributeError):
+    """Assigning an attribute that can only be read (e.g. ``w.stats = ...`` on a GrassWidget)."""
 
 
 class MissingLimitError(GrassError, KeyError):

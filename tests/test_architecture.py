@@ -1,8 +1,10 @@
 """The package's architecture: the layers and what each may import, the public names.
 
 Structural contracts: the pure core loads no GPU code; each subpackage imports
-only the layers below it (core < gpu, browser < notebook, tools); the render
-function is registered by pygfx's decorator whenever a GPU module is imported;
+only the layers below it (core < gpu, browser < notebook, tools); no module of
+the package imports itself back through others (no import circle, lazy imports
+included); the render function is registered at package level (grasswidget.gpu)
+whenever a GPU module is imported;
 the top level keeps the public entry points and the import paths of before the
 subpackages; every error raised on purpose derives from GrassError.
 """
@@ -21,25 +23,37 @@ def _run(code):
 
 
 @pytest.mark.parametrize("module", ["grasswidget.gpu.field", "grasswidget.gpu.material", "grasswidget.gpu.simulation",
-                                    "grasswidget.gpu.shaders", "grasswidget.gpu.scene"])
-def test_importing_any_gpu_module_registers_the_render_function(module):
-    """Whichever module a user imports first, pygfx knows how to render a GrassField (no lazy registration)."""
+                                    "grasswidget.gpu.shader_classes", "grasswidget.gpu.scene", "grasswidget.gpu.frame",
+                                    "grasswidget.gpu", "grasswidget", "grasswidget.gpu.shaders"])
+def test_a_grass_field_renders_whichever_entry_point_is_imported(module):
+    """Whichever module a user imports first (then ``gw.GrassField``), pygfx knows how to render a
+    GrassField: the package ``grasswidget.gpu`` registers the render function (pygfx's pattern),
+    and any GPU module's import runs it first."""
     code = (f"import importlib; importlib.import_module({module!r})\n"
-            "from pygfx.renderers.wgpu.engine.utils import registry\n"
             "import grasswidget as gw\n"
-            "from grasswidget.gpu.shaders import grass_render_function\n"
             "field = gw.GrassField(gw.Blades.on_plane(64))\n"
+            "from pygfx.renderers.wgpu.engine.utils import registry\n"
+            "from grasswidget.gpu.shader_classes import grass_render_function\n"
             "assert registry.get_render_function(field) is grass_render_function\n")
     r = _run(code)
     assert r.returncode == 0, r.stderr
 
 
+def test_the_frame_entry_point_lives_in_its_own_module():
+    """``render_frame`` is defined in gpu/frame.py; its old path (gpu.occlusion) and the package give it too."""
+    from grasswidget.gpu import frame, occlusion
+    import grasswidget.gpu as gpu
+
+    assert frame.render_frame.__module__ == "grasswidget.gpu.frame"
+    assert occlusion.render_frame is frame.render_frame is gpu.render_frame
+
+
 def test_pure_core_imports_no_gpu_code():
     """Importing the package and every core module loads neither pygfx/wgpu nor a GPU module
-    (``grasswidget.gpu`` itself is a lazy package; its runtime_dir helper is stdlib only)."""
+    (the Vulkan loader's directory is set by core/runtime_dir.py, stdlib only)."""
     code = ("import sys, pkgutil, importlib, grasswidget, grasswidget.core as core, grasswidget.errors\n"
             "for m in pkgutil.iter_modules(core.__path__): importlib.import_module('grasswidget.core.' + m.name)\n"
-            "allowed = {'grasswidget.gpu', 'grasswidget.gpu.runtime_dir'}\n"
+            "allowed = set()\n"
             "bad = [m for m in sys.modules if m.split('.')[0] in ('pygfx', 'wgpu', 'ipywidgets', 'anywidget')\n"
             "       or m.startswith(('grasswidget.gpu', 'grasswidget.browser', 'grasswidget.notebook', 'grasswidget.tools'))\n"
             "       and m not in allowed]\n"
@@ -49,7 +63,7 @@ def test_pure_core_imports_no_gpu_code():
 
 
 PACKAGE = Path(__file__).resolve().parents[1] / "grasswidget"
-NOTEBOOK_LIBS = ("ipywidgets", "anywidget", "jupyter_rfb", "jupyter_ui_poll", "IPython")
+NOTEBOOK_LIBS = ("ipywidgets", "anywidget", "jupyter_rfb", "jupyter_ui_poll", "IPython", "marimo")
 GPU_LIBS = ("pygfx", "wgpu", "rendercanvas", "pylinalg")
 #: What each layer may not import (anywhere in its source, lazy imports included). The core is pure;
 #: the GPU layer knows no widgets and no browser; the browser engine runs in the page and needs no
@@ -152,3 +166,178 @@ def test_import_paths_of_before_the_layout_still_work():
             "    raise AssertionError('grasswidget.nonsense imported')\n")
     r = _run(code)
     assert r.returncode == 0, r.stderr
+
+
+def package_modules(package: Path = None) -> dict:
+    """Every module of the package: dotted name -> file (a package is its ``__init__.py``)."""
+    package = package or PACKAGE
+    out = {}
+    for path in sorted(package.rglob("*.py")):
+        parts = list(path.relative_to(package.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def import_graph(package: Path = None) -> dict:
+    """The package's module import graph: module -> the package modules it imports, at the top or
+    inside a function (lazy), by an import statement or by full dotted name in a string (the lazy
+    tables of ``grasswidget/__init__.py``, ``importlib.import_module("grasswidget.x.y")``; the bare
+    package name in ``importlib.resources.files("grasswidget")`` reads files, it is no import). ``from a.b import c``
+    counts as an edge to ``a.b.c`` when that is a module, else to ``a.b``. Importing a submodule also
+    runs its parents' ``__init__``; that implicit edge is not counted (it would make every package a circle)."""
+    modules = package_modules(package)
+    graph = {}
+    for name, path in modules.items():
+        targets = set(imported_modules(path))
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and "." in node.value \
+                    and node.value in modules:
+                targets.add(node.value)
+        edges = set()
+        for target in targets:
+            while target and target not in modules:
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                edges.add(target)
+        graph[name] = edges
+    return graph
+
+
+def import_cycles(graph: dict) -> list[list[str]]:
+    """One circle (as a path a -> b -> ... -> a) per strongly connected group of modules, found with
+    Tarjan's algorithm (iterative); [] when the graph has none."""
+    index, low, on_stack, stack, groups, counter = {}, {}, set(), [], [], [0]
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]; counter[0] += 1
+        stack.append(root); on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = counter[0]; counter[0] += 1
+                    stack.append(child); on_stack.add(child)
+                    work.append((child, iter(sorted(graph[child]))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                group = []
+                while True:
+                    member = stack.pop(); on_stack.discard(member); group.append(member)
+                    if member == node:
+                        break
+                if len(group) > 1:
+                    groups.append(sorted(group))
+    cycles = []
+    for group in groups:  # a path through the group back to its first module, to name the circle
+        members, start = set(group), group[0]
+        path, seen = [start], {start}
+        node = start
+        while True:
+            nxt = sorted(n for n in graph[node] if n in members)
+            if start in nxt and len(path) > 1:
+                break
+            node = next((n for n in nxt if n not in seen), start)
+            if node == start:
+                break
+            path.append(node); seen.add(node)
+        cycles.append(path + [start])
+    return cycles
+
+
+def test_no_import_circle_in_the_package():
+    """No module imports itself back through others, top-level or lazy imports alike (pygfx's pattern:
+    objects never import their shaders; the shader classes register themselves, and the package
+    ``grasswidget.gpu`` imports them). A failure names each circle."""
+    graph = import_graph()
+    assert "grasswidget.gpu.shader_classes" in graph["grasswidget.gpu"]  # the graph sees package-level imports
+    assert "grasswidget.notebook.widget" in graph["grasswidget"]  # ... and the lazy tables' names
+    cycles = import_cycles(graph)
+    assert not cycles, "import circles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_cycle_check_finds_a_lazy_circle(tmp_path, monkeypatch):
+    """A circle closed by a function-level import (a.py imports b at the top, b imports a inside a
+    function) is found and named; the check can fail."""
+    fake = tmp_path / "grasswidget"
+    (fake / "gpu").mkdir(parents=True)
+    (fake / "__init__.py").write_text("")
+    (fake / "gpu" / "__init__.py").write_text("")
+    (fake / "gpu" / "a.py").write_text("from .b import thing\n")
+    (fake / "gpu" / "b.py").write_text("thing = 1\ndef f():\n    from . import a\n")
+    (fake / "gpu" / "c.py").write_text("from .a import thing\n")
+    monkeypatch.setattr(sys.modules[__name__], "PACKAGE", fake)
+    cycles = import_cycles(import_graph(fake))
+    assert cycles == [["grasswidget.gpu.a", "grasswidget.gpu.b", "grasswidget.gpu.a"]]
+
+
+def test_modules_renamed_for_one_meaning_keep_their_old_paths():
+    """gpu/shaders.py -> gpu/shader_classes.py ("shaders" is the WGSL folder), the two wgsl.py ->
+    gpu/wgsl_templates.py and browser/browser_wgsl.py, gpu/runtime_dir.py -> core/runtime_dir.py:
+    the old import paths give the very module under its new name."""
+    code = ("import importlib\n"
+            "pairs = [('grasswidget.gpu.shaders', 'grasswidget.gpu.shader_classes'),\n"
+            "         ('grasswidget.gpu.wgsl', 'grasswidget.gpu.wgsl_templates'),\n"
+            "         ('grasswidget.gpu.runtime_dir', 'grasswidget.core.runtime_dir'),\n"
+            "         ('grasswidget.browser.wgsl', 'grasswidget.browser.browser_wgsl')]\n"
+            "for old, new in pairs:\n"
+            "    assert importlib.import_module(old) is importlib.import_module(new), old\n"
+            "from grasswidget.gpu.shaders import grass_render_function, CullShader\n"
+            "from grasswidget.browser.wgsl import BrowserShaders\n"
+            "from grasswidget.gpu.occlusion import render_frame\n")
+    r = _run(code)
+    assert r.returncode == 0, r.stderr
+
+
+TESTS = Path(__file__).resolve().parent
+#: What the tests of a layer may not use: tests are grouped like the layers they test, so a test of
+#: the pure core runs no GPU, browser or widget code (a test of both engines lives with the browser's
+#: tests, which may compare against the kernel's GPU layer).
+TEST_FORBIDDEN = {"core": FORBIDDEN["core"]}
+#: The package's lazy entry points and the layer each loads (``gw.GrassWidget`` is an import too).
+ENTRY_POINT_LAYERS = {"GrassField": "gpu", "GrassMaterial": "gpu", "GrassScene": "gpu", "GrassWidget": "notebook",
+                      "compare": "notebook", "exercise": "notebook", "sweep": "tools"}
+
+
+def _test_layer_violations(layer: str, tests: Path = TESTS) -> list[str]:
+    bad = []
+    for path in sorted((tests / layer).rglob("*.py")):
+        tree = ast.parse(path.read_text(), filename=str(path))
+        names = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names |= {node.module} | {f"{node.module}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id in ("gw", "grasswidget") and node.attr in ENTRY_POINT_LAYERS:
+                names.add(f"grasswidget.{ENTRY_POINT_LAYERS[node.attr]}")
+        for name in sorted(names):
+            if any(name == f or name.startswith(f + ".") for f in TEST_FORBIDDEN[layer]):
+                bad.append(f"{path.relative_to(tests).as_posix()} uses {name}")
+    return sorted(set(bad))
+
+
+def test_the_core_tests_use_only_the_core():
+    """tests/core imports nothing of the GPU, browser, notebook or tools layers (nor their GPU and
+    widget libraries), directly or through ``gw.GrassWidget`` / ``gw.GrassScene``-style entry points."""
+    bad = _test_layer_violations("core")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_test_layer_check_can_fail(tmp_path):
+    (tmp_path / "core").mkdir()
+    (tmp_path / "core" / "test_x.py").write_text("import grasswidget as gw\nfrom grasswidget.browser import view\n"
+                                                 "def test():\n    gw.GrassWidget(64)\n")
+    assert _test_layer_violations("core", tmp_path) == ["core/test_x.py uses grasswidget.browser",
+                                                        "core/test_x.py uses grasswidget.browser.view",
+                                                        "core/test_x.py uses grasswidget.notebook"]

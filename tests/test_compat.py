@@ -326,3 +326,22 @@ def test_jupyter_rfb_reports_whether_a_view_is_on_screen():
     rfb.set_trait("_has_visible_views", True)
     assert seen == [True, False]
     rfb.close()
+
+
+def test_marimo_context_is_per_thread():
+    """compat.marimo_anywidget_element makes marimo's element of a widget in a helper thread where no
+    cell runs: that thread must see no marimo runtime context."""
+    import threading
+
+    pytest.importorskip("marimo")
+    from marimo._runtime.context import types as context_types
+
+    assert isinstance(context_types._THREAD_LOCAL_CONTEXT, threading.local)
+    from grasswidget.browser.trace_chart import TraceChart
+
+    chart = TraceChart()
+    try:
+        element, html = compat.marimo_anywidget_element(chart)
+        assert html.startswith("<marimo-ui-element") and chart.model_id in html
+    finally:
+        chart.close()

@@ -84,7 +84,7 @@ def test_every_named_error_class_is_a_grass_error_and_raised_somewhere():
 def test_each_error_is_also_its_builtin():
     expect = {
         "GrassValueError": ValueError, "GrassTypeError": TypeError, "ParameterError": ValueError,
-        "UnknownNameError": AttributeError, "MissingLimitError": KeyError, "BladeCountError": ValueError,
+        "UnknownNameError": AttributeError, "ReadOnlyAttributeError": AttributeError, "MissingLimitError": KeyError, "BladeCountError": ValueError,
         "BladeLimitError": ValueError, "WindShaderError": ValueError, "ExerciseShaderError": ValueError,
         "MissingFileError": FileNotFoundError,
         "MissingDependencyError": ImportError, "NoGPUAdapterError": RuntimeError, "WidgetClosedError": RuntimeError,

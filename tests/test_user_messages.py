@@ -77,7 +77,7 @@ def test_no_vulkan_loader_noise_without_xdg_runtime_dir(tmp_path):
 
 
 def test_runtime_dir_never_uses_a_dir_open_to_others(tmp_path, monkeypatch):
-    from grasswidget.gpu.runtime_dir import ensure_runtime_dir
+    from grasswidget.core.runtime_dir import ensure_runtime_dir
 
     monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
     monkeypatch.setenv("TMPDIR", str(tmp_path))

@@ -1,22 +1,22 @@
 """The browser engine: the project's WGSL simulation, culling and ribbons in the
 notebook's browser through WebGPU (an anywidget; see :mod:`grasswidget.browser.view`).
 
-:mod:`grasswidget.browser.wgsl` renders the shader files for the browser's
+:mod:`grasswidget.browser.browser_wgsl` renders the shader files for the browser's
 bindings and :mod:`grasswidget.browser.uniforms` packs the uniforms; neither
 imports GPU code.
 
-The widget (:class:`BrowserView`, which needs anywidget) loads on first use, so the pure
+The widget (:class:`BrowserEngineWidget`, which needs anywidget) loads on first use, so the pure
 parts (``wgsl``, ``uniforms``, ``page``'s limits) import without the notebook packages.
 """
 
-__all__ = ["BrowserView", "BrowserTimeoutError"]
+__all__ = ["BrowserEngineWidget", "BrowserTimeoutError"]
 
 
 def __getattr__(name):
-    if name == "BrowserView":
-        from .view import BrowserView
+    if name == "BrowserEngineWidget":
+        from .view import BrowserEngineWidget
 
-        return BrowserView
+        return BrowserEngineWidget
     if name == "BrowserTimeoutError":
         from ..errors import BrowserTimeoutError
 

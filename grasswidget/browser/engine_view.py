@@ -1,6 +1,6 @@
-"""The browser engine's view for GrassWidget: a :class:`~grasswidget.core.view_api.GrassView`.
+"""The browser engine's view for GrassWidget: a :class:`~grasswidget.core.view_api.EngineView`.
 
-:class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.view.BrowserView`
+:class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.view.BrowserEngineWidget`
 (the anywidget that simulates and draws in the browser) so that
 :class:`grasswidget.GrassWidget` drives it through the same interface as the
 kernel view (:mod:`grasswidget.core.view_api`): ``set_playing``, ``step``,
@@ -38,9 +38,9 @@ import numpy as np
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
 from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW
-from ..core.view_api import GrassView
+from ..core.view_api import EngineView
 from ..errors import GrassValueError
-from .view import BrowserView
+from .view import BrowserEngineWidget
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
 
@@ -55,7 +55,7 @@ class _BallScene:
         def __init__(self, blades):
             self.blades = blades
 
-    def __init__(self, view: BrowserView):
+    def __init__(self, view: BrowserEngineWidget):
         self._view = view
         self.field = self._Field(view.blades)
 
@@ -64,26 +64,29 @@ class _BallScene:
         return self._view.colliders
 
 
-class BrowserEngineView(GrassView):
+class BrowserEngineView(EngineView):
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
     Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
-    preset, clock, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
+    preset, playback, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
     ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
     and ``target_fps`` (kept and reported; the browser draws at its own rate).
     ``on_inspect(blades)`` gets the inspected blades' numbers at each stats message.
 
-    Attributes: ``browser_view`` (the :class:`~grasswidget.browser.view.BrowserView`).
+    Attributes: ``engine_widget`` (the :class:`~grasswidget.browser.view.BrowserEngineWidget`).
     """
 
     backend = "browser"
+    #: The attribute's name of before (when the anywidget was "BrowserView"): the same object.
+    browser_view = property(lambda self: self.engine_widget,
+                            doc="The name of before of ``engine_widget`` (the BrowserEngineWidget).")
 
-    def __init__(self, blades, size, params, *, preset=None, clock, actions, on_error, on_stats,
+    def __init__(self, blades, size, params, *, preset=None, playback, actions, on_error, on_stats,
                  on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None):
         from ..core.framing import preset_field
 
-        super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
+        super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)
         self._on_unavailable = on_unavailable
         self._target_fps = float(target_fps)
@@ -97,34 +100,34 @@ class BrowserEngineView(GrassView):
                       "fov_deg": float(view["fov_deg"]), "near": float(view["near"]), "far": float(view["far"])}
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.browser_view = BrowserView(blades, params=params, size=self.size, camera=camera,
+        self.engine_widget = BrowserEngineWidget(blades, params=params, size=self.size, camera=camera,
                                         pixel_ratio=float(pixel_ratio or 0.0), function_overrides=function_overrides)
-        self.browser_view.playing = bool(clock.playing)
-        self.browser_view.time_scale = float(clock.time_scale)
-        self._ball_scene = _BallScene(self.browser_view)
+        self.engine_widget.playing = bool(playback.playing)
+        self.engine_widget.time_scale = float(playback.time_scale)
+        self._ball_scene = _BallScene(self.engine_widget)
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None}
-        self.browser_view.on("stats", self._on_browser_stats)
-        self.browser_view.on("error", self.report_error)
-        self.browser_view.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
-        self.browser_view.on("ball", self._on_ball_msg)
-        self.browser_view.on("key", self._on_key_msg)
-        self.browser_view.on("steps", self._on_steps_msg)
-        self.browser_view.on("pick", self._on_pick_msg)
-        self.browser_view.observe(self._on_gpu_status, names="gpu_status")
-        self.browser_view.observe(self._on_browser_playing, names="playing")
-        self.browser_view.observe(lambda _change: self.report_camera_moved(), names="camera")
+        self.engine_widget.on("stats", self._on_browser_stats)
+        self.engine_widget.on("error", self.report_error)
+        self.engine_widget.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
+        self.engine_widget.on("ball", self._on_ball_msg)
+        self.engine_widget.on("key", self._on_key_msg)
+        self.engine_widget.on("steps", self._on_steps_msg)
+        self.engine_widget.on("pick", self._on_pick_msg)
+        self.engine_widget.observe(self._on_gpu_status, names="gpu_status")
+        self.engine_widget.observe(self._on_browser_playing, names="playing")
+        self.engine_widget.observe(lambda _change: self.report_camera_moved(), names="camera")
 
     @property
     def widget(self):
-        """The :class:`~grasswidget.browser.view.BrowserView` anywidget (the ipywidget to show)."""
-        return self.browser_view
+        # The :class:`~grasswidget.browser.view.BrowserEngineWidget` anywidget (the ipywidget to show).
+        return self.engine_widget
 
     # ------------------------------------------------------------------ status
 
     @property
     def gpu_status(self) -> dict:
-        return dict(self.browser_view.gpu_status)
+        return dict(self.engine_widget.gpu_status)
 
     def _on_gpu_status(self, change):
         state = (change["new"] or {}).get("state")
@@ -137,14 +140,14 @@ class BrowserEngineView(GrassView):
 
     def _on_browser_playing(self, change):
         # Space in the browser view toggles the view's playing: tell the widget.
-        if bool(change["new"]) != bool(self.clock_source.playing):
-            self.clock_source.playing = bool(change["new"])
+        if bool(change["new"]) != bool(self.playback.playing):
+            self.playback.playing = bool(change["new"])
 
     # ------------------------------------------------------------------ the ball
 
     @property
     def ball_scene(self):
-        """A stand-in scene for the ball: the field's blades and the browser view's colliders."""
+        # A stand-in scene for the ball: the field's blades and the browser view's colliders.
         return self._ball_scene
 
     def attach_ball(self, ball):
@@ -152,8 +155,8 @@ class BrowserEngineView(GrassView):
         ball.collider.observe(self._on_ball_changed, names=["center", "radius"])
         ball.observe(self._on_ball_changed, names="enabled")
         ball.observe(self._on_rolling, names="rolling")
-        self.browser_view.colliders_changed()
-        self.browser_view.report_steps = bool(ball.rolling)
+        self.engine_widget.colliders_changed()
+        self.engine_widget.report_steps = bool(ball.rolling)
 
     def _detach_ball(self):
         ball, self.ball = self.ball, None
@@ -168,10 +171,10 @@ class BrowserEngineView(GrassView):
 
     def _on_ball_changed(self, _change):
         if not self.closed:
-            self.browser_view.colliders_changed()
+            self.engine_widget.colliders_changed()
 
     def _on_rolling(self, change):
-        self.browser_view.report_steps = bool(change["new"])
+        self.engine_widget.report_steps = bool(change["new"])
 
     def _on_ball_msg(self, msg):
         if self.ball is None:
@@ -198,7 +201,7 @@ class BrowserEngineView(GrassView):
         """Ctrl + click in the browser: inspect the blade on the pointer's ray (none: nothing)."""
         from ..core.teaching import pick_blade_on_ray
 
-        b = self.browser_view.blades
+        b = self.engine_widget.blades
         try:
             blade = pick_blade_on_ray(b.v0, b.up, b.height, b.width, msg["origin"], msg["direction"])
             if blade is not None:
@@ -217,18 +220,18 @@ class BrowserEngineView(GrassView):
 
     @property
     def blades(self) -> Blades:
-        """The field's rest pose (what the browser was sent)."""
-        return self.browser_view.blades
+        # The field's rest pose (what the browser was sent).
+        return self.engine_widget.blades
 
     @property
     def colliders(self) -> ColliderList:
-        """The sphere colliders sent to the browser."""
-        return self.browser_view.colliders
+        # The sphere colliders sent to the browser.
+        return self.engine_widget.colliders
 
     def set_blades(self, blades):
         if not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.browser_view.set_blades(blades)
+        self.engine_widget.set_blades(blades)
         self._ball_scene.field.blades = blades
         if self.ball is not None:
             self.ball.attach(self.ball_scene)
@@ -236,13 +239,13 @@ class BrowserEngineView(GrassView):
 
     @property
     def max_fps(self) -> float:
-        """The browser presents up to its display rate; 60 is the nominal figure."""
+        # The browser presents up to its display rate; 60 is the nominal figure.
         return 60.0
 
     @property
     def steps_per_frame(self) -> int:
-        """Average fixed steps per presented frame, as the browser last reported it (it follows
-        the wall clock); before any report, :meth:`nominal_steps`."""
+        # Average fixed steps per presented frame, as the browser last reported it (it follows
+        # the wall clock); before any report, :meth:`nominal_steps`.
         s = self._stats.get("steps_per_frame")
         if s is not None:
             return int(s)
@@ -250,14 +253,14 @@ class BrowserEngineView(GrassView):
 
     @property
     def sim_time(self) -> float | None:
-        """Simulated seconds since the last reset as of the browser's last stats message (about
-        every 0.5 s): its step count times ``params.dt``; None before the first one."""
+        # Simulated seconds since the last reset as of the browser's last stats message (about
+        # every 0.5 s): its step count times ``params.dt``; None before the first one.
         count = self._stats.get("step_count")
         return None if count is None else int(count) * float(self.params.dt)
 
     @property
     def target_fps(self) -> float:
-        """Kept and reported only: the browser presents at its display's rate (no adaptive resolution)."""
+        # Kept and reported only: the browser presents at its display's rate (no adaptive resolution).
         return self._target_fps
 
     @target_fps.setter
@@ -266,72 +269,73 @@ class BrowserEngineView(GrassView):
 
     @property
     def render_scale(self) -> float:
-        """Always 1: the browser renders at full resolution."""
+        # Always 1: the browser renders at full resolution.
         return 1.0
 
     def set_playing(self, playing: bool):
         self._last_stats_t = None  # the speed of time is measured afresh
         if not self.closed:
-            self.browser_view.playing = bool(playing)
+            self.engine_widget.playing = bool(playing)
 
     def set_time_scale(self, time_scale: float):
         self._last_stats_t = None
         if not self.closed:
-            self.browser_view.time_scale = float(time_scale)
+            self.engine_widget.time_scale = float(time_scale)
 
     def step(self, n: int):
-        self.browser_view.step(n)
+        self.engine_widget.step(n)
 
     def reset_blades(self):
-        self.browser_view.reset()
+        self.engine_widget.reset()
 
     def reset_camera(self):
-        self.browser_view.reset_camera()
+        self.engine_widget.reset_camera()
 
     def set_camera_floor(self, floor: str):
-        """The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``)."""
-        self.browser_view.camera_floor = floor
+        # The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``).
+        self.engine_widget.camera_floor = floor
 
     @property
     def orbit_limits(self):
-        return self.browser_view.orbit_limits
+        return self.engine_widget.orbit_limits
 
     def request_draw(self):
-        """The browser draws every animation frame; parameter changes arrive as traits."""
+        # The browser draws every animation frame; parameter changes arrive as traits.
+        pass
 
     # ------------------------------------------------------------------ camera
 
     def current_camera(self) -> dict:
-        cam = self.browser_view.camera
+        cam = self.engine_widget.camera
         return {"position": tuple(float(x) for x in cam["position"]),
                 "target": tuple(float(x) for x in cam["target"]),
                 "fov_deg": float(cam["fov_deg"])}
 
     @property
     def depth_range(self) -> tuple:
-        cam = self.browser_view.camera
+        cam = self.engine_widget.camera
         return float(cam.get("near", 0.1)), float(cam.get("far", 100.0))
 
     def look(self, position, target, fov_deg):
-        """Send the browser the new camera (near and far planes kept)."""
-        self.browser_view.camera = dict(self.browser_view.camera, position=[float(x) for x in position],
+        # Send the browser the new camera (near and far planes kept).
+        self.engine_widget.camera = dict(self.engine_widget.camera, position=[float(x) for x in position],
                                         target=[float(x) for x in target], fov_deg=float(fov_deg))
 
     # ------------------------------------------------------------------ pictures and state
 
     def save_png(self, path, size):
-        """Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
-        (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
-        browser's answer)."""
+        # Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
+        # (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
+        # browser's answer).
         import imageio.v3 as iio
 
-        img = self.browser_view.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
+        img = self.engine_widget.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
         iio.imwrite(path, img, extension=".png")
         return path
 
     def save_png_later(self, path, size, done):
-        """Ask the browser for a picture; write it and call ``done(path)`` when it arrives
-        (used by the Save PNG button, which runs inside a comm message and cannot wait)."""
+        # Ask the browser for a picture; write it and call ``done(path)`` when it arrives
+        # (used by the Save PNG button, which runs inside a comm message and cannot wait).
         import imageio.v3 as iio
 
         def write(msg, buffers):
@@ -343,58 +347,58 @@ class BrowserEngineView(GrassView):
             except Exception as err:  # noqa: BLE001
                 self.report_error(err)
 
-        self.browser_view.request_async(self.browser_view.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
+        self.engine_widget.request_async(self.engine_widget.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
 
     @property
     def function_overrides(self):
         """The user WGSL the browser compiled in place of stock blade-math functions, or None."""
-        return self.browser_view.function_overrides
+        return self.engine_widget.function_overrides
 
     def set_function_overrides(self, overrides):
-        """The browser compiles user functions when its engine starts: only the ones it has are accepted."""
-        if overrides != self.browser_view.function_overrides:
+        # The browser compiles user functions when its engine starts: only the ones it has are accepted.
+        if overrides != self.engine_widget.function_overrides:
             raise GrassValueError("the browser engine takes user functions when the widget is made "
                                   "(GrassWidget(function_overrides=...), or gw.exercise(...).widget(code)); "
                                   "make a new widget, or use backend='kernel' to change them live")
 
     def set_wind_wgsl(self, body, select=True):
-        """Compiled by the browser; waits for its answer (see BrowserView.set_wind_wgsl)."""
-        self.browser_view.set_wind_wgsl(body, select=select)
+        # Compiled by the browser; waits for its answer (see BrowserEngineWidget.set_wind_wgsl).
+        self.engine_widget.set_wind_wgsl(body, select=select)
 
     def read_state(self, timeout=None) -> dict:
-        state = self.browser_view.read_state() if timeout is None else self.browser_view.read_state(timeout=timeout)
+        state = self.engine_widget.read_state() if timeout is None else self.engine_widget.read_state(timeout=timeout)
         state.pop("step_count", None)
         return state
 
     # ------------------------------------------------------------------ teaching views
 
     def set_culling_frozen(self, frozen: bool):
-        """Freeze culling at the browser's current camera (True) or cull against it again (False)."""
+        # Freeze culling at the browser's current camera (True) or cull against it again (False).
         if frozen:
-            self.browser_view.freeze_culling()
+            self.engine_widget.freeze_culling()
         else:
-            self.browser_view.unfreeze_culling()
+            self.engine_widget.unfreeze_culling()
 
     @property
     def frozen_camera(self):
         """The :class:`~grasswidget.core.teaching.FrozenView` culled against, or None."""
-        return self.browser_view.frozen_camera
+        return self.engine_widget.frozen_camera
 
     def inspect(self, ids):
-        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
-        self.browser_view.inspect(ids)
-        if not self.browser_view.inspected:
+        # Inspect these blade ids (at most 64; [] clears); ValueError names the limit.
+        self.engine_widget.inspect(ids)
+        if not self.engine_widget.inspected:
             self._report_inspected([])
         else:
             self._request_inspected()
 
     @property
     def inspected(self) -> tuple:
-        return tuple(self.browser_view.inspected)
+        return tuple(self.engine_widget.inspected)
 
     def read_inspected(self, timeout=None) -> list:
-        """The inspected blades' numbers (GrassScene.read_inspected's format), from the browser."""
-        return self.browser_view.read_inspected() if timeout is None else self.browser_view.read_inspected(timeout=timeout)
+        # The inspected blades' numbers (GrassScene.read_inspected's format), from the browser.
+        return self.engine_widget.read_inspected() if timeout is None else self.engine_widget.read_inspected(timeout=timeout)
 
     def _report_inspected(self, rows):
         self.report_inspected(rows)
@@ -403,19 +407,19 @@ class BrowserEngineView(GrassView):
         """Ask the browser for the inspected numbers; the panel shows them when they come."""
         if self._inspect_request_pending or self.closed:
             return
-        ids = list(self.browser_view.inspected)
+        ids = list(self.engine_widget.inspected)
 
         def done(msg, buffers):
             self._inspect_request_pending = False
             try:
                 if msg.get("type") != "inspected":
                     return
-                self._report_inspected(self.browser_view.inspected_from_answer(msg, buffers, ids))
+                self._report_inspected(self.engine_widget.inspected_from_answer(msg, buffers, ids))
             except Exception as err:  # noqa: BLE001
                 self.report_error(err)
 
         self._inspect_request_pending = True
-        self.browser_view.request_async({"type": "read_inspected"}, done)
+        self.engine_widget.request_async({"type": "read_inspected"}, done)
 
     # ------------------------------------------------------------------ stats
 
@@ -437,8 +441,8 @@ class BrowserEngineView(GrassView):
 
         now, last = time.perf_counter(), getattr(self, "_last_stats_t", None)
         self._last_stats_t = now
-        scale = float(self.clock_source.time_scale)
-        if last is None or not self.clock_source.playing or scale <= 0 or now - last <= 0:
+        scale = float(self.playback.time_scale)
+        if last is None or not self.playback.playing or scale <= 0 or now - last <= 0:
             return None
         return steps * float(self.params.dt) / ((now - last) * scale)
 
@@ -446,7 +450,7 @@ class BrowserEngineView(GrassView):
         per_class = msg.get("visible")
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)
-        frames = max(1, round((fps or 0) * self.browser_view.stats_interval_ms / 1000.0))  # in this message
+        frames = max(1, round((fps or 0) * self.engine_widget.stats_interval_ms / 1000.0))  # in this message
         sim_speed = self._sim_speed(steps)
         rastered = msg.get("rastered")
         rastered = int(rastered) if rastered is not None else None
@@ -460,7 +464,7 @@ class BrowserEngineView(GrassView):
             occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
-            steps_per_frame=int(round(steps / frames)) if self.clock_source.playing else 0,
+            steps_per_frame=int(round(steps / frames)) if self.playback.playing else 0,
             frame_size=tuple(msg.get("frame_size") or ()) or None,
             adapter=msg.get("adapter"),
             step_count=msg.get("step_count"),
@@ -468,7 +472,7 @@ class BrowserEngineView(GrassView):
             slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
         )
         self.report_stats(self.current_stats())
-        if self.browser_view.inspected:
+        if self.engine_widget.inspected:
             self._request_inspected()
         self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
 
@@ -479,4 +483,4 @@ class BrowserEngineView(GrassView):
             return
         self.closed = True
         self._detach_ball()
-        self.browser_view.close()
+        self.engine_widget.close()

@@ -97,7 +97,7 @@ def assemble(entry: str = ENTRY) -> str:
 
 
 def engine_module_text() -> str:
-    """The browser engine as one ES module text (what ``BrowserView._esm``, the live page and the
+    """The browser engine as one ES module text (what ``BrowserEngineWidget._esm``, the live page and the
     HTML export load): every module of :func:`module_order` once, dependencies first, relative
     imports taken out; the entry's ``export default`` and the rules' exports kept."""
     return _engine_module_text()

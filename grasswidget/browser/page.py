@@ -1,7 +1,7 @@
 """A live page with no kernel: one self-contained HTML file that runs the browser engine.
 
 :func:`page_html` writes the browser engine (its one module text, :func:`grasswidget.browser.esm.engine_module_text`), the synced
-state of a :class:`~grasswidget.browser.view.BrowserView` (every synced trait of
+state of a :class:`~grasswidget.browser.view.BrowserEngineWidget` (every synced trait of
 the engine; binary ones base64), a small page script (``page.js``: a model shim
 with ``get/set/on/off/send/save_changes`` that answers the engine locally, and a
 plain-HTML control panel) and an optional still picture (PNG) into one file.
@@ -254,7 +254,7 @@ def _nearest(values, v):
 def page_controls(view, ball_radius=None, ball_enabled=False) -> dict:
     """The control panel of the page, described as state patches (see the module docstring).
 
-    ``view`` is a scratch :class:`BrowserView` (its params and colliders are changed
+    ``view`` is a scratch :class:`BrowserEngineWidget` (its params and colliders are changed
     and put back; give one nobody shows). ``ball_radius`` (metres; default a tenth of
     the field's extent, at least 0.1), ``ball_enabled``: the ball shown at the start.
     """

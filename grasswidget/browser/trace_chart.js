@@ -68,11 +68,16 @@ function render({ model, el }) {
     }, data, box);
   }
 
+  // "hidden": a front end that ignores the widget's layout (marimo) hides the chart by this trait.
+  const showHidden = () => { box.style.display = model.get("hidden") ? "none" : ""; };
   model.on("change:data", draw);
   model.on("change:width", draw);
   model.on("change:height", draw);
+  model.on("change:hidden", showHidden);
+  showHidden();
   draw();
   return () => {
+    model.off("change:hidden", showHidden);
     model.off("change:data", draw);
     model.off("change:width", draw);
     model.off("change:height", draw);

@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import anywidget
-from traitlets import Dict, Int
+from traitlets import Bool, Dict, Int
 
 __all__ = ["TraceChart", "UPLOT_VERSION"]
 
@@ -35,10 +35,10 @@ class TraceChart(anywidget.AnyWidget):
     """A line chart drawn by uPlot in the browser.
 
     Traits: ``data`` ({"x": [...], "x_label", "y_label", "y_zero", "series": [{"label", "color",
-    "values", "fill"}]}; None values are gaps), ``width`` and ``height`` (CSS pixels).
+    "values", "fill"}]}; None values are gaps), ``width`` and ``height`` (CSS pixels), ``hidden``.
     """
 
-    # The text, not a path (a path keeps every instance alive in anywidget 0.11; see BrowserView).
+    # The text, not a path (a path keeps every instance alive in anywidget 0.11; see BrowserEngineWidget).
     _esm = _module_text()
     _css = (VENDOR / "uPlot.min.css").read_text(encoding="utf-8") + \
         "\n.gw-trace-chart { font: 11px sans-serif; }\n.gw-trace-chart .u-legend { font-size: 11px; }\n"
@@ -46,3 +46,5 @@ class TraceChart(anywidget.AnyWidget):
     data = Dict().tag(sync=True)
     width = Int(640).tag(sync=True)
     height = Int(180).tag(sync=True)
+    #: Hide the chart (for front ends that ignore ``layout.display``, e.g. marimo); the owner sets both.
+    hidden = Bool(False).tag(sync=True)

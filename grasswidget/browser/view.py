@@ -1,26 +1,26 @@
-"""BrowserView: the grass simulated, culled and drawn in the notebook's browser (WebGPU).
+"""BrowserEngineWidget: the grass simulated, culled and drawn in the notebook's browser (WebGPU).
 
 An anywidget whose ES module (``engine.js`` and its modules under ``js/``, shipped in the
 package and assembled into one module text by :func:`grasswidget.browser.esm.engine_module_text`) asks the
 browser for a WebGPU adapter, receives the rest pose of the blades as one binary
 buffer and the parameters as packed uniforms (synced traits), compiles the
-project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.wgsl`)
+project's own WGSL (rendered for its bindings by :mod:`grasswidget.browser.browser_wgsl`)
 and runs the simulation, culling, LOD binning and the ribbon draws every frame.
 The kernel needs no GPU for it.
 
 It knows nothing of panels: :class:`grasswidget.GrassWidget` composes it with the
 control panel. Alone it is usable too::
 
-    from grasswidget.browser import BrowserView
-    v = BrowserView(Blades.on_plane(4096))
+    from grasswidget.browser import BrowserEngineWidget
+    v = BrowserEngineWidget(Blades.on_plane(4096))
     v                              # show it
     v.step(120); v.read_state()    # exact fixed steps; the state read back from the browser
 
-Teaching views, as in the kernel engine: :meth:`BrowserView.freeze_culling`
+Teaching views, as in the kernel engine: :meth:`BrowserEngineWidget.freeze_culling`
 (the frozen camera's values go to the browser in ``u_cull``, its view volume as
-line data computed here), :meth:`BrowserView.inspect` (the browser runs the
+line data computed here), :meth:`BrowserEngineWidget.inspect` (the browser runs the
 project's ``inspect.wgsl`` and draws its lines and points) and
-:meth:`BrowserView.read_inspected` (the numbers GrassScene.read_inspected gives).
+:meth:`BrowserEngineWidget.read_inspected` (the numbers GrassScene.read_inspected gives).
 
 Requests that need the browser's answer (:meth:`read_state`, :meth:`snapshot`,
 :meth:`read_inspected`, :meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
@@ -51,9 +51,9 @@ from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
 from .esm import engine_module_text
 from .kernel_pump import BrowserTimeoutError, wait_for
-from .wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
+from .browser_wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
 
-__all__ = ["BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
+__all__ = ["BrowserEngineWidget", "BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
 
 HERE = Path(__file__).resolve().parent
 #: Seconds a request waits for the browser's answer by default.
@@ -84,7 +84,7 @@ def wind_error_from_messages(messages, wgsl, body, reason=""):
     )
 
 
-class BrowserView(anywidget.AnyWidget):
+class BrowserEngineWidget(anywidget.AnyWidget):
     """The browser engine's view (see the module docstring).
 
     Args:
@@ -99,7 +99,7 @@ class BrowserView(anywidget.AnyWidget):
 
     # The module's text, not its path: anywidget 0.11 connects every instance of a
     # widget whose _esm is a file path to that file's class-wide change signal with a
-    # strong closure, which keeps every BrowserView (and its GrassWidget) alive forever.
+    # strong closure, which keeps every BrowserEngineWidget (and its GrassWidget) alive forever.
     _esm = engine_module_text()
 
     # ---- state sent to the browser
@@ -522,3 +522,7 @@ def default_camera(blades: Blades, aspect: float) -> dict:
     """GrassScene's default view of a field (:func:`grasswidget.core.camera_rules.default_camera`;
     ``aspect`` is not used: the view is the same at every aspect)."""
     return camera_rules.default_camera(blades.v0)
+
+
+#: The anywidget's name of before (when "view" also named the interface and both engines' views): the same class.
+BrowserView = BrowserEngineWidget

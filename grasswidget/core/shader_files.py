@@ -9,7 +9,7 @@ Templates
 The WGSL files are jinja2 templates in pygfx's dialect: ``{{ name }}`` inserts a
 value, ``$$ if ...`` / ``$$ for ...`` lines are statements, and
 ``{$ include 'grasswidget.<file>' $}`` includes another file of this folder. The
-pygfx shader classes (:mod:`grasswidget.gpu.shaders`, :mod:`grasswidget.gpu.simulation`)
+pygfx shader classes (:mod:`grasswidget.gpu.shader_classes`, :mod:`grasswidget.gpu.simulation`)
 render them with :func:`template_vars` plus their own variables; any other engine
 (e.g. a browser WebGPU engine) renders the same files with :func:`render_wgsl`.
 

@@ -3,7 +3,7 @@
 A layout is a tuple of ``(field, wgsl_type)`` in the order the struct declares
 its fields. The kernel engine (pygfx) takes it as a shadertype dict through
 :func:`shadertype` (and binds ``u_cull`` as a read-only storage buffer declared
-with :func:`wgsl_struct`: see ``grasswidget.gpu.wgsl`` for why); the browser engine packs bytes and writes the WGSL struct
+with :func:`wgsl_struct`: see ``grasswidget.gpu.wgsl_templates`` for why); the browser engine packs bytes and writes the WGSL struct
 from it (``grasswidget.browser.uniforms``). The order is the one pygfx lays a
 struct out in (16-byte-aligned fields first, then the 4-byte ones, each group in
 the order given), so both engines put every field at the same byte offset;

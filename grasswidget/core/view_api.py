@@ -8,27 +8,40 @@ draws and shows the meadow. There are two, one per engine:
 * :class:`grasswidget.browser.engine_view.BrowserEngineView` ("browser"): the
   same WGSL run in the notebook's browser through WebGPU.
 
-Both subclass :class:`GrassView` and implement every abstract member; the widget
+Both subclass :class:`EngineView` and implement every abstract member; the widget
 talks to a view through this interface only (no attribute probing, no reaching
-into a view's parts). What the two views share is written here once:
+into a view's parts). Every member is documented here, once: the two views'
+definitions say (in comments) how their engine does it, not what it is. Where the
+widget adds nothing to a member (``w.read_inspected``, ``w.camera_state``, ``w.stats``,
+...), its attribute is a :class:`ViewMember`: the one generic forwarding, whose help
+is this module's text, instead of a hand-written method per member.
 
-* the keys (:meth:`GrassView.on_key`): space = play/pause, ``s`` = step one
+Names: a *view* is one engine's view of a widget (this interface and its two
+implementations). The anywidget that runs engine.js in the page is
+:class:`~grasswidget.browser.view.BrowserEngineWidget` (``BrowserEngineView.engine_widget``);
+the kernel engine's clock is :class:`~grasswidget.notebook.clock.SimClock`; what a view
+reads of the widget's play state is its ``playback`` (:class:`PlaybackState`). The
+names of before (``GrassView``, ``ViewClock``, ``clock_source``) are aliases.
+
+What the two views share is written here once:
+
+* the keys (:meth:`EngineView.on_key`): space = play/pause, ``s`` = step one
   frame, ``r`` = reset the camera, nothing with a modifier held;
-* the camera setter (:attr:`GrassView.camera_state`): validation by
+* the camera setter (:attr:`EngineView.camera_state`): validation by
   :func:`check_camera_state`, merging with the current camera, position and
-  target apart; the view only aims its camera (:meth:`GrassView.look`);
-* the nominal steps per frame (:meth:`GrassView.nominal_steps`):
+  target apart; the view only aims its camera (:meth:`EngineView.look`);
+* the nominal steps per frame (:meth:`EngineView.nominal_steps`):
   ``round(time_scale * frame_interval / dt)``, capped to
   :data:`MAX_STEPS_PER_FRAME`.
 
 Both engines have every feature of the interface (the teaching views included).
 
-Camera listeners (:meth:`GrassView.add_camera_listener`): a view tells them when its camera
-moved, and :meth:`GrassView.accept_camera` moves it without telling them, so views can
+Camera listeners (:meth:`EngineView.add_camera_listener`): a view tells them when its camera
+moved, and :meth:`EngineView.accept_camera` moves it without telling them, so views can
 follow each other's camera without echoes (a comparison, :mod:`grasswidget.notebook.compare`).
 
 The view is told what to do by the widget and reports back through callbacks
-given at construction: ``clock`` (:class:`ViewClock`), ``actions``
+given at construction: ``playback`` (:class:`PlaybackState`, the widget's play state), ``actions``
 (:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and
 ``on_inspect(blades)``.
 """
@@ -36,14 +49,15 @@ given at construction: ``clock`` (:class:`ViewClock`), ``actions``
 from __future__ import annotations
 
 import abc
+import inspect
 from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import GrassTypeError, GrassValueError
+from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from .frame_data import MAX_STEPS_PER_FRAME
 
-__all__ = ["GrassView", "ViewClock", "ViewActions", "check_camera_state",
+__all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state", "GrassView", "ViewClock",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -52,8 +66,10 @@ CAMERA_KEYS = ("position", "target", "fov_deg")
 FOV_RANGE_DEG = (1.0, 179.0)
 
 
-class ViewClock(Protocol):
-    """What a view reads (and, for ``playing``, may set) on its clock: the widget's traits."""
+class PlaybackState(Protocol):
+    """The widget's play state, as a view reads it (and, for ``playing``, may set it): two of the
+    widget's traits. Not a clock: the kernel engine's clock, which turns wall time into fixed steps,
+    is :class:`grasswidget.notebook.clock.SimClock` (``KernelView.clock``)."""
 
     #: Animate (True) or stand still (False).
     playing: bool
@@ -102,7 +118,7 @@ def check_camera_state(state) -> dict:
     return out
 
 
-class GrassView(abc.ABC):
+class EngineView(abc.ABC):
     """A GrassWidget's view (see the module docstring); both engines implement all of it.
 
     Every abstract member below is implemented by both views; concrete members
@@ -111,7 +127,7 @@ class GrassView(abc.ABC):
 
     Constructor arguments every view takes (stored by :meth:`__init__`):
     ``size`` ((w, h) CSS pixels), ``params`` (the shared GrassParams),
-    ``clock`` (:class:`ViewClock`), ``actions`` (:class:`ViewActions`),
+    ``playback`` (:class:`PlaybackState`), ``actions`` (:class:`ViewActions`),
     ``on_error(err)`` (an exception or a text to show), ``on_stats(dict)``
     (called whenever the stats are refreshed) and ``on_inspect(blades)`` (the
     inspected blades' numbers, a list of dicts; ``[]`` when none).
@@ -120,11 +136,11 @@ class GrassView(abc.ABC):
     #: The engine: "kernel" or "browser".
     backend: str = ""
 
-    def __init__(self, size, params, *, clock: ViewClock, actions: ViewActions, on_error: Callable,
+    def __init__(self, size, params, *, playback: PlaybackState, actions: ViewActions, on_error: Callable,
                  on_stats: Callable, on_inspect: Callable | None = None):
         self.size = (int(size[0]), int(size[1]))
         self.params = params
-        self.clock_source = clock
+        self.playback = playback
         self.actions = actions
         self.report_error = on_error
         self.report_stats = on_stats
@@ -155,19 +171,23 @@ class GrassView(abc.ABC):
 
     @property
     def scene(self):
-        """The kernel's :class:`~grasswidget.gpu.scene.GrassScene`, or None (the browser engine keeps its state in
-        the browser; None after close)."""
+        """The kernel engine's :class:`~grasswidget.gpu.scene.GrassScene` (None in the browser engine, which
+        keeps its state in the browser, and after close)."""
         return None
 
     @property
     def canvas(self):
-        """The jupyter-rfb canvas of the kernel engine, or None."""
+        """The kernel engine's jupyter-rfb canvas widget (None in the browser engine)."""
         return None
 
     @property
     def controller(self):
-        """The kernel engine's pygfx ``OrbitController``, or None (the browser orbits in the page)."""
+        """The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine, which orbits
+        in the page)."""
         return None
+
+    # The attribute's name of before ("clock" also meant the SimClock): the same object.
+    clock_source = property(lambda self: self.playback, doc="The name of before of :attr:`playback`.")
 
     # ------------------------------------------------------------------ the field
 
@@ -203,13 +223,19 @@ class GrassView(abc.ABC):
 
     @abc.abstractmethod
     def read_state(self, timeout: float | None = None) -> dict:
-        """The blade state as ``GrassField.read_state()`` returns it. The browser engine waits up to
-        ``timeout`` seconds (None: its default, 30) for the browser's answer (BrowserTimeoutError)."""
+        """The blade state of the live engine, as ``GrassField.read_state()`` returns it.
+
+        The browser engine asks the browser and waits for its answer (processing widget messages
+        meanwhile, so it works inside a running cell); no answer within ``timeout`` seconds (None: 30)
+        raises BrowserTimeoutError (a TimeoutError) naming the browser view."""
 
     @abc.abstractmethod
     def set_wind_wgsl(self, body: str, select: bool = True) -> None:
-        """Compile ``body`` as the custom wind (WindShaderError with the line on failure; the old wind
-        stays); with ``select``, ``params.wind_field`` becomes "custom"."""
+        """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``), in the
+        live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the line inside ``body``
+        when it does not compile (in the browser engine: compiled by the browser; this waits for its
+        answer); the old wind stays in force. With ``select``, ``params.wind_field`` becomes "custom".
+        Assigning ``params.wind_wgsl`` does the same, reporting an error on the message line."""
 
     @abc.abstractmethod
     def set_function_overrides(self, overrides) -> None:
@@ -223,29 +249,33 @@ class GrassView(abc.ABC):
     @property
     @abc.abstractmethod
     def max_fps(self) -> float:
-        """Nominal frames per second (the kernel's stream cap; the browser's nominal display rate, 60)."""
+        """Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream
+        cap; the browser's nominal display rate, 60)."""
 
     @property
     def frame_interval(self) -> float:
-        """Nominal seconds between frames, 1 / max_fps."""
+        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
         return 1.0 / self.max_fps
 
     def nominal_steps(self) -> int:
         """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
         [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
-        wanted = int(round(float(self.clock_source.time_scale) * self.frame_interval / float(self.params.dt)))
+        wanted = int(round(float(self.playback.time_scale) * self.frame_interval / float(self.params.dt)))
         return max(0, min(wanted, MAX_STEPS_PER_FRAME))
 
     @property
     def steps_per_frame(self) -> int:
-        """Fixed steps per frame: what ``GrassWidget.step()`` advances by default
-        (default :meth:`nominal_steps`; a view may report what it measured instead)."""
+        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped: what
+        ``step()`` advances by default. While playing the real-time clock decides each frame's steps
+        (``stats["steps_per_frame"]``); the browser engine reports the average of its last frames."""
         return self.nominal_steps()
 
     @property
     @abc.abstractmethod
     def sim_time(self) -> float | None:
-        """Simulated seconds since the last reset (None when not known yet)."""
+        """Simulated seconds since the last ``reset_blades()`` (read-only): every fixed step taken while
+        playing or by ``step()`` adds ``params.dt``. None before the browser engine's first stats message;
+        there it is as of the last one (about every 0.5 s; its clock runs in the browser)."""
 
     @property
     @abc.abstractmethod
@@ -260,7 +290,8 @@ class GrassView(abc.ABC):
     @property
     @abc.abstractmethod
     def render_scale(self) -> float:
-        """Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused)."""
+        """Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused). Save PNG
+        and exports always render at full resolution."""
 
     @abc.abstractmethod
     def set_playing(self, playing: bool) -> None:
@@ -286,10 +317,10 @@ class GrassView(abc.ABC):
 
     @property
     def camera_state(self) -> dict:
-        """The camera: ``position`` and ``target`` (3-tuples of metres, world space; the target is the
-        orbit centre) and ``fov_deg`` (vertical field of view, degrees). Assigning a dict with any of the
-        three keys moves the camera (validated by :func:`check_camera_state`; the keys left out keep
-        their values; position and target must differ)."""
+        """The camera as a dict: ``position`` and ``target`` (3-tuples of metres, world space; the target
+        is the orbit centre) and ``fov_deg`` (vertical field of view, degrees). A drag in the view updates
+        it; assigning a dict with any of the three keys moves the camera, in both engines (validated by
+        :func:`check_camera_state`; the keys left out keep their values; position and target must differ)."""
         return self.current_camera()
 
     @camera_state.setter
@@ -375,19 +406,25 @@ class GrassView(abc.ABC):
 
     @abc.abstractmethod
     def inspect(self, ids) -> None:
-        """Show these blade ids in the inspector (at most 64 ids in [0, blade_count - 1]; ``[]`` clears;
-        GrassValueError names the limit, nothing changes then)."""
+        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows); ``[]`` clears.
+        At most 64 ids in [0, blade_count - 1], integers; anything else raises GrassValueError naming
+        the limit (nothing changes then)."""
 
     @property
     @abc.abstractmethod
     def inspected(self) -> tuple:
-        """Ids of the inspected blades (``()`` when none)."""
+        """Ids of the inspected blades (ctrl + click or :meth:`inspect`; ``()`` when none)."""
 
     @abc.abstractmethod
     def read_inspected(self, timeout: float | None = None) -> list:
-        """The inspected blades' numbers for the current state and parameters, as
-        ``GrassScene.read_inspected()`` returns them (``[]`` when none). The browser engine
-        waits up to ``timeout`` seconds (None: its default, 30) for the browser's answer."""
+        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them: one dict
+        per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times ``params.stiffness_scale``),
+        ``v0``, ``v1``, ``v2`` and the forces on v2 of the next step (gravity, recovery, wind in m/s^2;
+        collision: the push of one step in m), for the current state and parameters; ``[]`` when none
+        is inspected.
+
+        In the browser engine the browser computes them (the same inspect.wgsl) and this waits for its
+        answer, up to ``timeout`` seconds (None: 30; BrowserTimeoutError naming the browser view)."""
 
     # ------------------------------------------------------------------ pictures and stats
 
@@ -404,7 +441,12 @@ class GrassView(abc.ABC):
 
     @property
     def stats(self) -> dict:
-        """The last stats (see ``GrassWidget.stats`` for the keys)."""
+        """The last stats shown: fps (frames/s delivered to the browser, confirmed by it; frames drawn
+        when there is no browser), target_fps, visible, blades, render_ms / readback_ms / encode_send_ms /
+        ack_ms (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls
+        of the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
+        frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall
+        seconds while playing)."""
         return self.current_stats()
 
     @abc.abstractmethod
@@ -435,3 +477,59 @@ class GrassView(abc.ABC):
     def close(self) -> None:
         """Release the view's resources (GPU buffers, the canvas or the browser model); idempotent.
         :attr:`closed` is True afterwards."""
+
+
+
+_NO_DEFAULT = object()
+
+
+class ViewMember:
+    """The one forwarding between an object that owns a view (GrassWidget, ``view`` attribute) and its
+    :class:`EngineView`: a class attribute ``name = ViewMember()`` of the owner *is* the view's member
+    of the same name, written and documented once, in :class:`EngineView` (``help()`` shows that text).
+
+    Reading gives ``owner.view.<name>``: a property's value, or the view's bound method (called as the
+    owner's). Assigning sets it on the view (only where ``settable``). A method, or an assignment, on an
+    owner whose view is closed raises :class:`~grasswidget.errors.WidgetClosedError`. A property read
+    with no view (a half-built owner) gives ``no_view`` (None unless given).
+
+    Use it where the owner adds nothing; a member with behaviour of its own (validation, a default
+    path, state the owner keeps) stays a method of the owner.
+    """
+
+    def __init__(self, *, settable: bool = False, no_view=None):
+        self.settable = bool(settable)
+        self.no_view = no_view
+        self.name = None
+
+    def __set_name__(self, owner, name):
+        if not hasattr(EngineView, name):
+            raise GrassValueError(f"ViewMember {owner.__name__}.{name}: EngineView has no member {name!r}")
+        self.name = name
+        self.interface_member = inspect.getattr_static(EngineView, name)
+        self.is_method = callable(self.interface_member) and not isinstance(self.interface_member, property)
+        self.__doc__ = inspect.getdoc(self.interface_member)
+
+    def _open_view(self, owner):
+        view = owner.view
+        if view is None or view.closed:
+            raise WidgetClosedError(f"this {type(owner).__name__} is closed; create a new one")
+        return view
+
+    def __get__(self, owner, owner_type=None):
+        if owner is None:
+            return self
+        if self.is_method:
+            return getattr(self._open_view(owner), self.name)
+        view = owner.view
+        return self.no_view if view is None else getattr(view, self.name)
+
+    def __set__(self, owner, value):
+        if not self.settable:
+            raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
+        setattr(self._open_view(owner), self.name, value)
+
+
+#: The names of before (issue 26: "view" and "clock" had several meanings): the same objects.
+GrassView = EngineView
+ViewClock = PlaybackState

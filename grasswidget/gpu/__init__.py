@@ -2,29 +2,32 @@
 
 Laid out like pygfx: :mod:`.field` (the GrassField WorldObject and its buffers),
 :mod:`.material` (GrassMaterial and its uniforms), :mod:`.simulation` (the
-compute program, uniform writer and fixed steps), :mod:`.shaders` (the shader
-classes registered for (GrassField, GrassMaterial) when imported here),
-:mod:`.wgsl` (templating helpers), :mod:`.compute`, :mod:`.indirect`,
-:mod:`.stats`, :mod:`.adapter`, :mod:`.collider_view`, :mod:`.scene` (GrassScene),
-:mod:`.occlusion` (occlusion culling and ``render_frame``, which draws a frame with it)
-and :mod:`.runtime_dir`.
+compute program, uniform writer and fixed steps), :mod:`.shader_classes` (the
+pygfx shader classes that fill ``grasswidget/shaders/*.wgsl``, registered for
+(GrassField, GrassMaterial)), :mod:`.wgsl_templates` (templating helpers),
+:mod:`.compute`, :mod:`.indirect`, :mod:`.stats`, :mod:`.adapter`,
+:mod:`.collider_view`, :mod:`.occlusion` (occlusion culling's state and passes),
+:mod:`.frame` (``render_frame``: the kernel engine's frame entry point) and
+:mod:`.scene` (GrassScene).
 
-Importing this package loads no pygfx/wgpu (``import grasswidget`` uses
-:mod:`.runtime_dir` before any Vulkan instance exists); ``GrassField``,
-``GrassMaterial``, ``GrassScene`` and ``render_frame`` load on first use. Importing :mod:`.field`
-registers the render function (its last line imports :mod:`.shaders`).
+Registration at package level, as pygfx does it: this package imports the
+objects, then :mod:`.shader_classes`, which registers the render functions with
+pygfx's decorator (objects never import their shaders). Importing any module
+of the layer (``grasswidget.gpu.field``, say) runs this first, so a GrassField
+renders whichever entry point a user imports. ``import grasswidget`` does not
+import this package (it loads no pygfx/wgpu; :mod:`grasswidget.core.runtime_dir`
+sets the Vulkan loader's directory).
 """
 
-from ..errors import UnknownNameError
+from . import occlusion
+from .field import GrassField
+from .material import GrassMaterial
+from . import shader_classes  # noqa: F401  (registers the render functions of (GrassField, GrassMaterial))
+from .frame import render_frame
+from .scene import GrassScene
 
-_LAZY = {"GrassField": ".field", "GrassMaterial": ".material", "GrassScene": ".scene", "render_frame": ".occlusion"}
+#: The frame entry point at its path of before (``grasswidget.gpu.occlusion.render_frame``); set
+#: here because occlusion.py may not import frame.py (frame.py imports it).
+occlusion.render_frame = render_frame
 
-__all__ = list(_LAZY)
-
-
-def __getattr__(name):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(_LAZY[name], __name__), name)
-    raise UnknownNameError(f"module {__name__!r} has no attribute {name!r}")
+__all__ = ["GrassField", "GrassMaterial", "GrassScene", "render_frame"]

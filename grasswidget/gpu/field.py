@@ -3,7 +3,7 @@
 It works in any pygfx scene: add it, render with any camera, and call
 ``field.step(n)`` to advance the physics by n fixed steps. Rendering never
 advances time; it culls for the camera of that render and draws the survivors
-with indirect draws (see :mod:`grasswidget.gpu.shaders`).
+with indirect draws (see :mod:`grasswidget.gpu.shader_classes`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
 from .occlusion import OcclusionCulling
 from .simulation import Simulation
-from .wgsl import WORKGROUP, workgroups
+from .wgsl_templates import WORKGROUP, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
@@ -125,7 +125,7 @@ class GrassField(gfx.WorldObject):
             nbytes=8 * N_CLASSES * DISTANCE_BANDS, nitems=2 * N_CLASSES * DISTANCE_BANDS, format="u4",
             usage=usage.STORAGE,
         )
-        # u_cull is bound as read-only storage, not as a uniform (see gpu/wgsl.py: lavapipe's leak).
+        # u_cull is bound as read-only storage, not as a uniform (see gpu/wgsl_templates.py: lavapipe's leak).
         self._store.cull_uniform = gfx.Buffer(array_from_shadertype(CULL_UNIFORM), force_contiguous=True,
                                               usage=usage.STORAGE)
         # The draw of the culled blades (color_by "cull"): args, and the list of
@@ -352,16 +352,17 @@ class GrassField(gfx.WorldObject):
         :meth:`prepare_compute_raster`)."""
         return self._store.raster_size != (0, 0)
 
-    def prepare_compute_raster(self, size):
+    def prepare_compute_raster(self, size, on=None):
         """Set up the compute rasterizer for renders of ``size`` = (width, height) physical
         pixels (``renderer.physical_size``), or switch it off when ``params.compute_raster``
         is off (or ``compute_raster_max_px`` is 0). :func:`grasswidget.gpu.render_frame`
         calls it before every frame; a plain ``renderer.render()`` of another size draws
         every blade with the hardware rasterizer. Fields of more than 2^24 blades draw
         every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
+        ``on``: the view's decision for ``compute_raster`` "auto" (None: off).
         """
         p = self.params
-        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count) else (0, 0)
+        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count, on) else (0, 0)
         if width <= 0 or height <= 0:
             width = height = 0
         usage = wgpu.BufferUsage
@@ -402,7 +403,7 @@ class GrassField(gfx.WorldObject):
         render the field: the same blades stay culled, and the copy's view volume
         is drawn as white lines (:attr:`frustum_lines`, a child of the field).
         Freezing again replaces the copy. Occlusion culling freezes too: the next
-        :func:`~grasswidget.gpu.occlusion.render_frame` first renders the frozen view
+        :func:`~grasswidget.gpu.frame.render_frame` first renders the frozen view
         once (same target) to find the blades it hides; those stay culled (and the
         ones it sees stay kept) until unfrozen (a frozen view without a pygfx camera,
         e.g. the browser engine's, freezes no occlusion). ``camera`` may also be a
@@ -660,5 +661,3 @@ class GrassField(gfx.WorldObject):
         bits = np.unpackbits(raw.view(np.uint8), bitorder="little").astype(bool)
         return bits[: self.count]
 
-
-from . import shaders  # noqa: E402,F401  (registers the render function of (GrassField, GrassMaterial))

@@ -36,7 +36,7 @@ from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSP
 from ..core.uniform_layouts import INSPECT_LAYOUT, shadertype
 from .compute import sync_buffer
 from .adapter import ensure_device
-from .wgsl import GrassComputeShader
+from .wgsl_templates import GrassComputeShader
 from ..core.shader_files import wgsl_float
 
 __all__ = ["BladeInspector", "BladeInspectorMaterial", "InspectShader", "SEGMENT_VERTICES"]

@@ -1,7 +1,7 @@
 """Occlusion culling in the kernel engine: two phases around a max-depth pyramid.
 
 The guarantee: a blade that would show is never culled, however the camera, the
-wind or a ball move between frames. :func:`render_frame` draws one frame as
+wind or a ball move between frames. :func:`grasswidget.gpu.frame.render_frame` draws one frame as
 
 1. ``renderer.render(scene)`` with every armed field's culling in its *first phase*
    (``u_cull.occlusion_phase = 1``): of the blades that pass the orientation,
@@ -44,16 +44,31 @@ from ..errors import GrassValueError
 from ..core.reference import HZB_MAX_LEVELS, hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
+from .wgsl_templates import workgroups
 
-__all__ = ["OcclusionDraws", "OcclusionCulling", "render_frame", "MAX_HZB_LEVELS"]
+__all__ = ["OcclusionDraws", "OcclusionCulling", "MAX_HZB_LEVELS", "register_second_phase_shaders"]
 
 #: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
 MAX_HZB_LEVELS = HZB_MAX_LEVELS
 
 
+#: The compute shader classes the second phase dispatches ("cull", "hzb_level", "raster"), registered
+#: by :mod:`grasswidget.gpu.shader_classes` when the package is imported: objects never import their
+#: shaders (the shader classes import the objects, as pygfx's do), so there is no import circle.
+_SECOND_PHASE_SHADERS: dict = {}
+
+
+def register_second_phase_shaders(*, cull, hzb_level, raster) -> None:
+    """Register the shader classes :meth:`OcclusionCulling.second_phase` dispatches: ``cull`` (the
+    culling pass, built as ``cull(field, "scatter", occlusion=2)``), ``hzb_level`` (one pyramid level,
+    ``hzb_level(field, k)``) and ``raster`` (the compute rasterizer, ``raster(field, stage, second=True)``).
+    Called once by :mod:`grasswidget.gpu.shader_classes`, as pygfx's decorator registers render functions."""
+    _SECOND_PHASE_SHADERS.update(cull=cull, hzb_level=hzb_level, raster=raster)
+
+
 class OcclusionDraws(gfx.WorldObject):
     """The second occlusion phase's draws of a GrassField: a child of the field (same
-    transform, same material), hidden except while :func:`render_frame` renders it."""
+    transform, same material), hidden except while :func:`~grasswidget.gpu.frame.render_frame` renders it."""
 
     def __init__(self, field):
         super().__init__(field.geometry, field.material)
@@ -146,8 +161,7 @@ class OcclusionCulling:
         self._level_programs = self._cull_programs = None
 
     def _programs(self):
-        from .shaders import CullShader, HzbLevelShader, RasterShader
-
+        CullShader, HzbLevelShader, RasterShader = (_SECOND_PHASE_SHADERS[k] for k in ("cull", "hzb_level", "raster"))
         field = self.field
         if self._level_programs is None:
             self._level_programs = [ComputeProgram(HzbLevelShader(field, k), field) for k in range(1, len(self.layout))]
@@ -163,8 +177,6 @@ class OcclusionCulling:
     def second_phase(self, renderer) -> bool:
         """Build the pyramid from ``renderer``'s depth buffer and run the second
         culling phase (one submission). False when the renderer has no depth yet."""
-        from .wgsl import workgroups
-
         depth = compat.renderer_depth_texture(renderer)
         if depth is None:
             return False
@@ -205,75 +217,3 @@ class OcclusionCulling:
     def release(self):
         destroy_buffers([self.hzb_buffer, self.levels_buffer])
         self._level_programs = self._cull_programs = None
-
-
-def _fields(scene):
-    out = []
-    scene.traverse(lambda ob: out.append(ob) if isinstance(getattr(ob, "occlusion", None), OcclusionCulling) else None,
-                   skip_invisible=True)
-    return out
-
-
-def _draws_something(ob) -> bool:
-    """True when ``ob`` or a visible descendant has a material (e.g. not GrassScene's
-    collider-ball group while there are no colliders): a late render of nothing is skipped."""
-    return any(o.material is not None for o in ob.iter(skip_invisible=True))
-
-
-def render_frame(renderer, scene, camera, late=()):
-    """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
-    occlusion culling for every visible GrassField of the scene whose
-    ``params.cull_occlusion`` is on (see the module docstring for the phases).
-
-    ``late``: direct children of ``scene`` drawn after the second phase (translucent
-    objects that write no depth, e.g. collider balls), with the scene's lights. With
-    no armed field this is one plain ``renderer.render(scene, camera)``.
-
-    Every visible GrassField is first set up for the renderer's size
-    (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
-    when ``params.compute_raster`` is on).
-    """
-    all_fields = _fields(scene)
-    for field in all_fields:
-        field.prepare_compute_raster(renderer.physical_size)
-    fields = [f for f in all_fields if f.params.cull_occlusion]
-    if not fields:
-        renderer.render(scene, camera)
-        return
-    capturing = [f for f in fields if f.occlusion.capture_camera is not None]
-    for field in capturing:
-        field.occlusion.capture(renderer, scene)
-    late = [ob for ob in late if ob.visible]
-    for ob in late:
-        if ob.parent is not scene:
-            raise GrassValueError("render_frame: the late objects must be direct children of the scene")
-    late = [ob for ob in late if _draws_something(ob)]
-    try:
-        for ob in late:
-            ob.visible = False
-        for field in fields:
-            field.occlusion.arm(1)
-        renderer.render(scene, camera, clear=True, flush=False)
-    finally:
-        for ob in late:
-            ob.visible = True
-        for field in fields:
-            field.occlusion.arm(0)
-    for field in fields:
-        if field.occlusion.second_phase(renderer):
-            draws = field.occlusion.draws
-            draws.visible = True
-            try:
-                renderer.render(draws, camera, clear=False, flush=False)
-            finally:
-                draws.visible = False
-    if late:
-        hidden = [ob for ob in scene.children if ob not in late and not isinstance(ob, gfx.Light) and ob.visible]
-        try:
-            for ob in hidden:
-                ob.visible = False
-            renderer.render(scene, camera, clear=False, flush=False)
-        finally:
-            for ob in hidden:
-                ob.visible = True
-    renderer.flush()

@@ -18,7 +18,7 @@ from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .field import GrassField, GrassMaterial, check_blade_count_fits
-from .occlusion import render_frame
+from .frame import render_frame
 from ..core import frame_data
 from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
 from ..core.frame_data import LIGHT_DIRECTION, ground_square, sky_ground_values
@@ -44,11 +44,11 @@ GPU_COMPUTE_RASTER_MAX_PX = 4.0
 
 def adapter_params(**values) -> GrassParams:
     """GrassParams with this adapter's defaults for what GrassScene makes itself: the
-    compute rasterizer of thin blades on a GPU adapter (``compute_raster`` True,
-    ``compute_raster_max_px`` :data:`GPU_COMPUTE_RASTER_MAX_PX`), off on a CPU adapter
-    (lavapipe, where it is slower); ``values`` set any params besides."""
+    compute rasterizer's width limit on a GPU adapter (``compute_raster_max_px``
+    :data:`GPU_COMPUTE_RASTER_MAX_PX`; whether it runs is ``compute_raster`` "auto", decided
+    by measuring, :mod:`grasswidget.core.pays`); ``values`` set any params besides."""
     gpu = not is_cpu_adapter()
-    defaults = dict(compute_raster=True, compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
+    defaults = dict(compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
     return GrassParams(**{**defaults, **values})
 
 
@@ -321,7 +321,7 @@ class GrassScene:
     def draw_into(self, renderer):
         """Render the scene with its camera through ``renderer`` (any pygfx WgpuRenderer:
         the scene's own, an offscreen one), occlusion culling included
-        (:func:`grasswidget.gpu.occlusion.render_frame`). Never advances time."""
+        (:func:`grasswidget.gpu.frame.render_frame`). Never advances time."""
         self.collider_balls.sync()
         render_frame(renderer, self.scene, self.camera, late=[self.collider_balls])
 

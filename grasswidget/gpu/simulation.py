@@ -25,7 +25,7 @@ from ..core.shader_files import NO_WIND_BODY
 from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
-from .wgsl import GrassComputeShader, naga_error_parts, overrides_error, workgroups
+from .wgsl_templates import GrassComputeShader, naga_error_parts, overrides_error, workgroups
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 

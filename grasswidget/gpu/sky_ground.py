@@ -26,7 +26,7 @@ from ..errors import GrassValueError
 from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
 from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
-from .wgsl import shader_vars  # (also registers the 'grasswidget' WGSL loader)
+from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
 __all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
 

@@ -22,10 +22,10 @@ the views).
 
 **One camera.** Orbit, pan or zoom any view and every other view takes the same
 camera (position, orbit target, field of view): each view reports a moved camera to
-its camera listeners (:meth:`~grasswidget.core.view_api.GrassView.add_camera_listener`;
+its camera listeners (:meth:`~grasswidget.core.view_api.EngineView.add_camera_listener`;
 the kernel engine after each frame it draws, the browser engine when the browser's
 camera arrives) and the comparison hands it to the others with
-:meth:`~grasswidget.core.view_api.GrassView.accept_camera`, which does not report back,
+:meth:`~grasswidget.core.view_api.EngineView.accept_camera`, which does not report back,
 so there is no echo; a non-blocking lock keeps two views that move at the same moment
 from waiting on each other (the later move is then taken at its next frame).
 
@@ -210,7 +210,7 @@ class Comparison(ipw.VBox):
             w.params.observe(self._on_view_param, names=list(self.differing) or All)
 
     def _link_view(self, label, view):
-        """Make ``view`` (the GrassView of view ``label``) follow the shared camera and clock."""
+        """Make ``view`` (the EngineView of view ``label``) follow the shared camera and clock."""
         from .clock import MAX_STEPS_PER_FRAME, SharedClock
 
         if view.backend == "kernel":
@@ -245,6 +245,7 @@ class Comparison(ipw.VBox):
                                   max_blades=min(w.max_blades for w in self.views.values()),
                                   view_size=self.size)
         controls = {**self.panel.sliders, **self.panel.look_sliders, **self.panel.checkboxes,
+                    **{n: c.dropdown for n, c in self.panel.switch_choices.items()},
                     "wind_field": self.panel.wind_field_dropdown, "color_by": self.panel.color_by_dropdown}
         # The details (a frame's timings) are each view's own: the panel's toggle would show nothing.
         self.panel.details_button.layout.display = "none"

@@ -68,7 +68,7 @@ from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS
 from ..core.blades import Blades
-from ..core.view_api import GrassView
+from ..core.view_api import EngineView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
@@ -155,7 +155,17 @@ def _canvas_class():
             if self.on_sent is not None:
                 self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
 
+    from .marimo_face import esm_for_front_end
+
+    GrassCanvas._esm = esm_for_front_end(str(GrassCanvas._esm))  # marimo: made also outside a running cell
     return GrassCanvas
+
+
+def _switch_texts(field) -> dict:
+    """What the field's "auto" switches decided, in words (grasswidget.gpu.auto_switches.switch_texts)."""
+    from ..gpu.auto_switches import switch_texts
+
+    return switch_texts(field)
 
 
 class EventsWithoutPicking:
@@ -205,9 +215,9 @@ def orbit_target(scene):
     return pos + forward * d
 
 
-class KernelView(GrassView):
+class KernelView(EngineView):
     """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock
-    (the kernel engine's :class:`~grasswidget.core.view_api.GrassView`).
+    (the kernel engine's :class:`~grasswidget.core.view_api.EngineView`).
 
     Args:
         blades: a blade count or a :class:`Blades` for the first scene.
@@ -215,7 +225,7 @@ class KernelView(GrassView):
         params: the :class:`GrassParams` the scene simulates with.
         preset: None or a ``GrassScene.preset`` name.
         streaming: a :func:`streaming_defaults` dict (possibly overridden).
-        clock: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
+        playback: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
         actions: called by keys: ``toggle_play()``, ``step()``, ``reset_camera()``.
         on_error: called with an exception or a text to show.
         on_stats: called with the stats dict whenever it is refreshed.
@@ -233,9 +243,9 @@ class KernelView(GrassView):
     canvas = None
     _inspect_stale = True  # read_inspected renders first when something changed since the last frame
 
-    def __init__(self, blades, size, params, *, preset=None, streaming, clock, actions, on_error, on_stats,
+    def __init__(self, blades, size, params, *, preset=None, streaming, playback, actions, on_error, on_stats,
                  on_inspect=None):
-        super().__init__(size, params, clock=clock, actions=actions, on_error=on_error, on_stats=on_stats,
+        super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
                          on_inspect=on_inspect)
         #: Re-entrant lock held by every frame and every operation on the scene (see
         #: the module docstring, "Threads": controls may run on a comm subshell's thread).
@@ -298,8 +308,8 @@ class KernelView(GrassView):
 
     @_exclusive
     def set_blades(self, blades):
-        """Build the scene for ``blades`` on this canvas, replacing and releasing
-        the previous one (the camera view, the orbit target and the ball are kept)."""
+        # Build the scene for ``blades`` on this canvas, replacing and releasing
+        # the previous one (the camera view, the orbit target and the ball are kept).
         from .orbit import GroundOrbitController, OrbitLimits
 
         old = self.scene
@@ -339,21 +349,21 @@ class KernelView(GrassView):
 
     @property
     def widget(self):
-        """The jupyter-rfb canvas (the ipywidget to show)."""
+        # The jupyter-rfb canvas (the ipywidget to show).
         return self.canvas
 
     def attach_ball(self, ball):
-        """The :class:`~grasswidget.notebook.ball.BallControl` to move with shift + drag and roll."""
+        # The :class:`~grasswidget.notebook.ball.BallControl` to move with shift + drag and roll.
         self.ball = ball
 
     @property
     def ball_scene(self):
-        """The GrassScene (the ball lives in its colliders)."""
+        # The GrassScene (the ball lives in its colliders).
         return self.scene
 
     @property
     def blades(self):
-        """The field's :class:`Blades` (rest pose)."""
+        # The field's :class:`Blades` (rest pose).
         return self.scene.field.blades
 
     @property
@@ -362,34 +372,34 @@ class KernelView(GrassView):
 
     @property
     def colliders(self):
-        """The scene's sphere colliders."""
+        # The scene's sphere colliders.
         return self.scene.colliders
 
     @_exclusive
     def read_state(self, timeout=None) -> dict:
-        """The field's state (a GPU readback; ``timeout`` is not needed here)."""
+        # The field's state (a GPU readback; ``timeout`` is not needed here).
         return self.scene.field.read_state()
 
     @_exclusive
     def set_wind_wgsl(self, body, select=True):
-        """Compile ``body`` as the custom wind in the kernel (see GrassField.set_wind_wgsl)."""
+        # Compile ``body`` as the custom wind in the kernel (see GrassField.set_wind_wgsl).
         self.scene.field.set_wind_wgsl(body, select=select)
 
     # ------------------------------------------------------------------ time
 
     @property
     def max_fps(self) -> float:
-        """The stream cap: frames per second asked of the canvas scheduler."""
+        # The stream cap: frames per second asked of the canvas scheduler.
         return float(self._streaming["max_fps"])
 
     @property
     def sim_time(self) -> float:
-        """Simulated seconds since the last reset_blades()."""
+        # Simulated seconds since the last reset_blades().
         return self.clock.sim_time
 
     @property
     def target_fps(self) -> float:
-        """Frames per second adaptive resolution aims for while playing."""
+        # Frames per second adaptive resolution aims for while playing.
         return self.governor.target_fps
 
     @target_fps.setter
@@ -399,13 +409,13 @@ class KernelView(GrassView):
 
     @property
     def render_scale(self) -> float:
-        """Fraction of the full pixel ratio the live frames render at (1 when paused)."""
+        # Fraction of the full pixel ratio the live frames render at (1 when paused).
         return float(self.canvas.render_scale)
 
     @_exclusive
     def set_playing(self, playing: bool):
-        """Draw continuously (playing) or on demand (paused). Pausing stops the clock
-        at once and puts the render scale back to 1, so the still frame is sharp."""
+        # Draw continuously (playing) or on demand (paused). Pausing stops the clock
+        # at once and puts the render scale back to 1, so the still frame is sharp.
         if not playing:
             self.clock.stop()
             self.governor.restart()
@@ -415,11 +425,12 @@ class KernelView(GrassView):
             self.canvas.request_draw()
 
     def set_time_scale(self, time_scale: float):
-        """Nothing to do: each frame reads ``time_scale`` from the clock."""
+        # Nothing to do: each frame reads ``time_scale`` from ``playback``.
+        pass
 
     @_exclusive
     def step(self, n: int):
-        """Advance exactly ``n`` fixed steps and redraw."""
+        # Advance exactly ``n`` fixed steps and redraw.
         self._simulate(n)
         self.request_draw()
 
@@ -438,21 +449,21 @@ class KernelView(GrassView):
 
     @_exclusive
     def set_function_overrides(self, overrides):
-        """Replace blade-math functions with user WGSL (GrassField.set_function_overrides), now
-        and in every scene built for a new blade count; None: the stock functions."""
+        # Replace blade-math functions with user WGSL (GrassField.set_function_overrides), now
+        # and in every scene built for a new blade count; None: the stock functions.
         self.scene.field.set_function_overrides(overrides)
         self.function_overrides = overrides
 
     @_exclusive
     def reset_blades(self):
-        """Every blade back to its rest pose; the step counter and sim_time back to 0."""
+        # Every blade back to its rest pose; the step counter and sim_time back to 0.
         self.scene.field.reset()
         self.clock.reset()
         self.request_draw()
 
     @_exclusive
     def reset_camera(self):
-        """Back to the scene's starting view (position, rotation, fov, orbit target)."""
+        # Back to the scene's starting view (position, rotation, fov, orbit target).
         self.scene.reset_camera()
         self.scene.camera.set_state(self._home_state)
         if self.controller is not None:
@@ -462,7 +473,7 @@ class KernelView(GrassView):
 
     @_exclusive
     def set_camera_floor(self, floor: str):
-        """New orbit limits for the controller: above the grass's tips or above the ground."""
+        # New orbit limits for the controller: above the grass's tips or above the ground.
         from .orbit import OrbitLimits
 
         self._camera_floor = floor
@@ -474,7 +485,7 @@ class KernelView(GrassView):
         return self.controller.limits if self.controller is not None else None
 
     def current_camera(self) -> dict:
-        """position, target (the orbit centre) and fov_deg (vertical) of the camera."""
+        # position, target (the orbit centre) and fov_deg (vertical) of the camera.
         cam = self.scene.camera
         target = self.controller.target if self.controller is not None else orbit_target(self.scene)
         return {"position": tuple(float(x) for x in cam.world.position),
@@ -487,7 +498,7 @@ class KernelView(GrassView):
 
     @_exclusive
     def look(self, position, target, fov_deg):
-        """Aim the scene's camera; the controller orbits around ``target`` from now on."""
+        # Aim the scene's camera; the controller orbits around ``target`` from now on.
         self.scene.look(position, target, fov_deg)
         if self.controller is not None:
             self.controller.target = np.asarray(target, np.float64)
@@ -501,7 +512,7 @@ class KernelView(GrassView):
 
     @_exclusive
     def set_culling_frozen(self, frozen: bool):
-        """Freeze culling at the current camera (True) or cull against it again (False)."""
+        # Freeze culling at the current camera (True) or cull against it again (False).
         if frozen:
             self.scene.freeze_culling()
             self._frozen_camera = self.scene.field.frozen_camera
@@ -512,7 +523,7 @@ class KernelView(GrassView):
 
     @_exclusive
     def inspect(self, ids):
-        """Inspect these blade ids (at most 64; [] clears); ValueError names the limit."""
+        # Inspect these blade ids (at most 64; [] clears); ValueError names the limit.
         self.scene.inspect(ids)
         self._inspected = tuple(self.scene.inspected)
         if not self._inspected:
@@ -526,10 +537,10 @@ class KernelView(GrassView):
 
     @_exclusive
     def read_inspected(self, timeout=None) -> list:
-        """The inspected blades' numbers (GrassScene.read_inspected) for the current state:
-        when the state, the ids or the parameters changed since the last drawn frame, a
-        frame of the view's size is rendered offscreen first (the inspector runs in renders).
-        ``timeout`` is unused (the kernel answers at once)."""
+        # The inspected blades' numbers (GrassScene.read_inspected) for the current state:
+        # when the state, the ids or the parameters changed since the last drawn frame, a
+        # frame of the view's size is rendered offscreen first (the inspector runs in renders).
+        # ``timeout`` is unused (the kernel answers at once).
         if not self._inspected:
             return []
         if self._inspect_stale:
@@ -554,11 +565,11 @@ class KernelView(GrassView):
 
     @_exclusive
     def save_png(self, path, size):
-        """Write a PNG of the current view at ``size`` (w, h) pixels."""
+        # Write a PNG of the current view at ``size`` (w, h) pixels.
         return self.scene.save_png(path, size=size)  # offscreen and anti-aliased, whatever the canvas
 
     def save_png_later(self, path, size, done):
-        """The kernel renders at once: write the PNG now and call ``done(path)``."""
+        # The kernel renders at once: write the PNG now and call ``done(path)``.
         done(self.save_png(path, size))
 
     @_exclusive
@@ -568,11 +579,11 @@ class KernelView(GrassView):
         if scene is None or scene.renderer is None:
             return
         t0 = time.perf_counter()
-        playing = bool(self.clock_source.playing)
+        playing = bool(self.playback.playing)
         if playing:
             if not self.clock.running:
                 self.clock.start()
-            self._simulate(self.clock.frame_steps(self.params.dt, self.clock_source.time_scale))
+            self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
         scene.draw_frame()
         self._inspect_stale = False
         if self.camera_listeners:  # a linked view (a comparison) follows this camera
@@ -610,12 +621,12 @@ class KernelView(GrassView):
     # ------------------------------------------------------------------ stats
 
     def current_stats(self) -> dict:
-        """The stats dict for the stats line, with what is known now (no readback)."""
+        # The stats dict for the stats line, with what is known now (no readback).
         s = dict(self._stats)
         s["blades"] = self.blade_count
         s["scale"] = self.render_scale
         s["target_fps"] = self.target_fps
-        playing = bool(self.clock_source.playing)
+        playing = bool(self.playback.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
@@ -623,9 +634,9 @@ class KernelView(GrassView):
 
     @_exclusive
     def refresh_stats(self):
-        """Measure frames/s delivered (confirmed by the browser) and the time of each
-        stage of a frame, read the visible count and GPU times, and pass the stats to
-        ``on_stats``."""
+        # Measure frames/s delivered (confirmed by the browser) and the time of each
+        # stage of a frame, read the visible count and GPU times, and pass the stats to
+        # ``on_stats``.
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
         ack_ms = None
@@ -661,6 +672,7 @@ class KernelView(GrassView):
         self._stats.update(
             fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            switches=_switch_texts(scene.field),
             **self.timing.averages(),
         )
         self.report_stats(self.current_stats())
@@ -702,7 +714,7 @@ class KernelView(GrassView):
 
     @_exclusive
     def close(self):
-        """Close the canvas and release the scene's GPU resources."""
+        # Close the canvas and release the scene's GPU resources.
         if self.closed:
             return
         self.closed = True

@@ -1,6 +1,6 @@
 """The lab bench of a live view: its traces and the live chart under it.
 
-:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.GrassView`:
+:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.EngineView`:
 
 * a :class:`~grasswidget.core.traces.TraceRecorder` (the rolling window of samples),
 * the feed that fills it for the view's engine (:mod:`grasswidget.notebook.trace_feed`),
@@ -54,7 +54,7 @@ class LabBench:
     """Traces and the live chart of one view (see the module docstring).
 
     Args:
-        view: the GrassView to sample.
+        view: the EngineView to sample.
         width: the chart's width (CSS pixels; the view's).
         window_s: the traces' rolling window (simulated seconds, 0.1..3600; default 60).
         owner, name: a HasTraits object and the name of its chart trait (None or a chart
@@ -76,7 +76,7 @@ class LabBench:
         #: Pushes sent to the chart and the kernel's seconds spent making them (the chart's cost in the kernel).
         self.pushes = 0
         self.push_seconds = 0.0
-        self.chart = TraceChart(width=int(width), height=CHART_HEIGHT)
+        self.chart = TraceChart(width=int(width), height=CHART_HEIGHT, hidden=True)
         self.chart.layout.display = "none"
         # Option values are strings ("none" for None: a Dropdown whose value is None shows no selection).
         self.dropdown = ipw.Dropdown(options=[(label, kind or "none") for kind, label in CHART_LABELS.items()],
@@ -155,6 +155,7 @@ class LabBench:
         self.kind = check_chart(kind)
         self.feed.set_charting(kind is not None)
         self.chart.layout.display = "none" if kind is None else None
+        self.chart.hidden = kind is None
         self._pushed_version = -1
         self.push()
 

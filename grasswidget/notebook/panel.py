@@ -33,6 +33,7 @@ import ipywidgets as ipw
 
 from .blade_control import BladeCountControl
 from .control_link import ControlLink
+from .switch_choice import SWITCH_CHOICES, SwitchChoice
 from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import INSPECTED_BLADE_COLORS, legend
@@ -104,7 +105,6 @@ CULL_CHECKBOXES = (
     ("orientation culling", "cull_orientation"),
     ("frustum culling", "cull_frustum"),
     ("distance culling", "cull_distance"),
-    ("occlusion culling", "cull_occlusion"),
     ("LOD", "lod"),
 )
 
@@ -129,9 +129,13 @@ NO_FRAMES_BELOW = 0.05
 
 def format_speed(speed: float) -> str:
     """Simulated seconds per wall second as the status writes it: ``"0.6x"``, and two
-    significant digits below 0.1 (``"0.03x"``), never ``"0.0x"``."""
+    significant digits below 0.1 (``"0.03x"``), never ``"0.0x"``; a speed just under
+    real time keeps two decimals (``"0.96x"``), never rounding up to ``"1.0x"``."""
     if speed >= 0.1:
-        return f"{speed:.1f}x"
+        text = f"{speed:.1f}"
+        if speed < 1.0 and float(text) >= 1.0:
+            text = f"{min(speed, 0.99):.2f}"
+        return f"{text}x"
     return f"{speed:.1g}x" if speed >= 0.01 else "under 0.01x"
 
 
@@ -258,7 +262,7 @@ class ControlPanel:
 
     Args:
         params: the :class:`GrassParams` the sliders, dropdown and checkboxes edit.
-        clock: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
+        playback: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
             widget) for the ``time_scale`` slider and the "freeze culling" checkbox.
         actions: the object whose methods the buttons call: ``toggle_play()``,
             ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``,
@@ -281,7 +285,7 @@ class ControlPanel:
     (the list of ipywidgets to put under the view).
     """
 
-    def __init__(self, params, clock, actions, *, blade_count, max_blades, view_size, ball_row=None):
+    def __init__(self, params, playback, actions, *, blade_count, max_blades, view_size, ball_row=None):
         self.params = params
         self._actions = actions
         self.view_size = tuple(view_size)
@@ -298,8 +302,8 @@ class ControlPanel:
         for name, step, fmt in PARAM_SLIDERS:
             self.sliders[name] = s = _slider(name, params, step, fmt, column)
             self._links.append(ControlLink(s, params, name, err))
-        self.sliders["time_scale"] = ts = _slider("time_scale", clock, 0.05, ".2f", column)
-        self._links.append(ControlLink(ts, clock, "time_scale", err))
+        self.sliders["time_scale"] = ts = _slider("time_scale", playback, 0.05, ".2f", column)
+        self._links.append(ControlLink(ts, playback, "time_scale", err))
         #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog.
         self.look_sliders = {}
         for name, step, fmt in LOOK_SLIDERS:
@@ -320,17 +324,22 @@ class ControlPanel:
                               layout=ipw.Layout(width="auto", margin="2px 12px 2px 2px"))
             self._links.append(ControlLink(cb, params, name, err))
             self.checkboxes[name] = cb
+        #: The three-way choices (auto / on / off) of the switches decided by measuring, with the decision.
+        self.switch_choices = {}
+        for label, name in SWITCH_CHOICES:
+            self.switch_choices[name] = choice = SwitchChoice(label, params, name, err)
+            self._links.append(choice.link)
 
         # teaching views
         self.color_by_dropdown = ipw.Dropdown(options=COLOR_BY, value=params.color_by, description=control_label("color_by"),
                                               style=_DESC, layout=ipw.Layout(width="240px"),
                                               tooltip=params.traits()["color_by"].help)
         self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
-        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(clock, "culling_frozen", False)),
+        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(playback, "culling_frozen", False)),
                                             description="freeze culling", indent=False,
                                             layout=ipw.Layout(width="auto", margin="2px 12px 2px 8px"))
-        if clock.has_trait("culling_frozen"):
-            self._links.append(ControlLink(self.freeze_checkbox, clock, "culling_frozen", err))
+        if playback.has_trait("culling_frozen"):
+            self._links.append(ControlLink(self.freeze_checkbox, playback, "culling_frozen", err))
         self.legend_line = ipw.HTML(value=legend_html(params.color_by),
                                     layout=ipw.Layout(min_height="20px", max_width="100%"))
         params.observe(self._on_color_by, names="color_by")
@@ -376,7 +385,7 @@ class ControlPanel:
         self.looks_row = _wrapping_row([ipw.HTML("<b>looks</b>", layout=ipw.Layout(width="100%"))]
                                        + list(self.look_sliders.values()))
         status = _wrapping_row([self.stats_line, self.details_button], justify_content="space-between")
-        checkboxes = _wrapping_row(list(self.checkboxes.values()))
+        checkboxes = _wrapping_row(list(self.checkboxes.values()) + [c.box for c in self.switch_choices.values()])
         buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,
                                  self.reset_camera_button])
         save = _wrapping_row([self.save_button, self.png_scale, self.file_line])
@@ -408,6 +417,9 @@ class ControlPanel:
         self.blade_control.note_stats(stats)  # the frame rate its estimate scales
         self.stats_line.value = "<small>" + html.escape(format_status(stats)) + "</small>"
         self.details_line.value = "<small><code>" + html.escape(format_details(stats)) + "</code></small>"
+        decided = stats.get("switches") or {}
+        for name, choice in self.switch_choices.items():
+            choice.show(decided.get(name))
 
     def _on_details(self, change):
         self.details_line.layout.display = "" if change["new"] else "none"
@@ -424,6 +436,10 @@ class ControlPanel:
     def show_error(self, err):
         """Show an error (an exception or a text) on the message line, in red."""
         self.message_line.value = f"<span style='color:#b00'>{html.escape(str(err))}</span>"
+
+    def show_note(self, text):
+        """Show a line of information (not an error) on the message line, e.g. which engine runs and why."""
+        self.message_line.value = f"<span style='color:#335'>{html.escape(str(text))}</span>"
 
     def show_file(self, path, size):
         """Say where a file was written (a link when it is under the working directory)."""

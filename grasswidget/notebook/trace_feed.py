@@ -129,7 +129,7 @@ class KernelTraceFeed(_Feed):
             if view.inspected:  # the ring is full: the frame is skipped
                 return
             self._record(*tag, rows=[])
-        elif not view.clock_source.playing:
+        elif not view.playback.playing:
             self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
     def set_charting(self, charting: bool):
@@ -160,7 +160,7 @@ class BrowserTraceFeed(_Feed):
 
     def set_charting(self, charting: bool):
         """A chart is shown: ask the browser for a stats message (a sample) every 200 ms instead of 500."""
-        self.view.browser_view.stats_interval_ms = CHART_STATS_INTERVAL_MS if charting else STATS_INTERVAL_MS
+        self.view.engine_widget.stats_interval_ms = CHART_STATS_INTERVAL_MS if charting else STATS_INTERVAL_MS
 
     def after_frame(self):
         self._check_blades()
@@ -179,7 +179,7 @@ class BrowserTraceFeed(_Feed):
         stats = dict(view.stats)
         kept, drawn = self._counts(stats)
         frame_ms = self._frame_ms(stats)
-        bview = view.browser_view
+        bview = view.engine_widget
 
         def answered(msg, buffers):
             self._request_pending = False

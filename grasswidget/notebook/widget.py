@@ -3,7 +3,7 @@
 ``GrassWidget`` is an ipywidgets ``VBox`` that composes two parts, each in its
 own module:
 
-* a view (a :class:`grasswidget.core.view_api.GrassView`; the widget talks to it
+* a view (a :class:`grasswidget.core.view_api.EngineView`; the widget talks to it
   through that interface only): :class:`grasswidget.notebook.kernel_view.KernelView`,
   the jupyter-rfb canvas streaming a :class:`~grasswidget.gpu.scene.GrassScene`
   rendered in the kernel, or :class:`grasswidget.browser.engine_view.BrowserEngineView`,
@@ -24,12 +24,15 @@ own module:
     w.save_animation("wind.gif", seconds=3, fps=15)
     w.close()                     # frees the GPU buffers
 
-Two engines (``backend=``): "kernel" (the default) renders in the kernel and
-streams frames (:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL
-simulation, culling and ribbons in the notebook's browser through WebGPU
-(:mod:`grasswidget.browser`), as fast as the student's own GPU; "auto" picks the
-browser when it offers a WebGPU adapter. A browser without WebGPU makes a
-"browser" or "auto" widget fall back to kernel streaming with one line saying so.
+Two engines (``backend=``): "kernel" renders in the kernel and streams frames
+(:mod:`grasswidget.notebook.kernel_view`); "browser" runs the same WGSL simulation,
+culling and ribbons in the notebook's browser through WebGPU (:mod:`grasswidget.browser`),
+as fast as the student's own GPU; "auto" (the default) runs the kernel engine, except
+where the kernel renders on a CPU adapter and the page's browser offers a hardware
+WebGPU adapter: there the browser engine takes over when the widget is first shown
+(:mod:`grasswidget.notebook.engine_auto`, the rule in :mod:`grasswidget.core.engine_choice`).
+A browser without WebGPU makes a "browser" widget fall back to kernel streaming with one
+line saying so.
 
 Streaming and time: see :mod:`grasswidget.notebook.kernel_view`. Mouse: drag to orbit,
 right-drag to pan, wheel to zoom (the camera stays above the grass, or the
@@ -61,7 +64,7 @@ from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
 from ..core.framing import preset_params
-from ..core.view_api import MAX_STEPS_PER_FRAME, GrassView
+from ..core.view_api import MAX_STEPS_PER_FRAME, EngineView, ViewMember
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
@@ -113,9 +116,11 @@ class GrassWidget(ipw.VBox):
             (a 1280 x 720 view unless ``size`` is given, the panel folded to one
             line: play/pause, camera presets, "more"). ``w.layout_mode`` says which;
             ``w.layout`` is ipywidgets' Layout as on every widget.
-        backend: "kernel" (default: render in the kernel, stream frames),
-            "browser" (simulate and draw in the browser with WebGPU) or "auto"
-            (the browser when it offers WebGPU). ``w.backend`` says which is live.
+        backend: "auto" (default: the kernel engine, unless the kernel renders on a CPU
+            adapter and the browser offers a hardware WebGPU adapter: then the browser
+            engine, decided when the widget is first shown; ``w.engine_reason`` says
+            why), "kernel" (render in the kernel, stream frames) or "browser" (simulate
+            and draw in the browser with WebGPU). ``w.backend`` says which is live.
         function_overrides: user WGSL run in place of stock blade-math functions (a
             :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g.
             ``gw.exercise("forces").overrides(code)``; default None: the stock ones), in
@@ -124,7 +129,7 @@ class GrassWidget(ipw.VBox):
     Attributes:
         params: the :class:`GrassParams` (the same object the scene simulates
             with; link or observe its traits, set them from code).
-        view: the :class:`~grasswidget.core.view_api.GrassView` of the live engine (None after close).
+        view: the :class:`~grasswidget.core.view_api.EngineView` of the live engine (None after close).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` (None after close).
         scene: the :class:`GrassScene` (None after :meth:`close`).
         canvas: the jupyter-rfb canvas widget.
@@ -134,9 +139,10 @@ class GrassWidget(ipw.VBox):
             ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
         sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
         step_button, reset_blades_button, reset_camera_button, save_button,
-        png_scale, file_line, stats_line, message_line: the panel's controls
+        png_scale, file_line, stats_line, message_line, switch_choices: the panel's controls
             (``blade_slider``: the blade count control's slider, in powers of two, see
-            :mod:`grasswidget.notebook.blade_control`).
+            :mod:`grasswidget.notebook.blade_control`; ``switch_choices``: {trait: SwitchChoice}, the
+            auto / on / off choices of cull_occlusion and compute_raster, :mod:`grasswidget.notebook.switch_choice`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
     ``culling_frozen`` (cull against a copy of the camera taken when it was set),
@@ -166,23 +172,39 @@ class GrassWidget(ipw.VBox):
                         "view; True from the start with layout='lecture'.")
     camera_bar = None
     _layout = None
+    _mirror = None
+    _marimo_stage = None
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a
     # half-built widget whose __init__ raised.
     _closed = False
-    view: GrassView | None = None
+    _auto = None
+    view: EngineView | None = None
     panel = None
     ball = None
     bench = None
 
-    scene = property(lambda self: self.view.scene if self.view is not None else None,
-                     doc="The kernel engine's :class:`GrassScene` (None in the browser engine and after close).")
-    canvas = property(lambda self: self.view.canvas if self.view is not None else None,
-                      doc="The kernel engine's jupyter-rfb canvas widget (None in the browser engine).")
-    controller = property(lambda self: self.view.controller if self.view is not None else None,
-                          doc="The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine).")
+    # The view's members the widget adds nothing to: each *is* the live view's member of that name
+    # (grasswidget.core.view_api.ViewMember, documented once in EngineView; help() shows that text).
+    scene = ViewMember()
+    canvas = ViewMember()
+    controller = ViewMember()
+    camera_state = ViewMember(settable=True)
+    max_fps = ViewMember()
+    frame_interval = ViewMember()
+    steps_per_frame = ViewMember()
+    sim_time = ViewMember()
+    render_scale = ViewMember(no_view=1.0)
+    stats = ViewMember()
+    read_state = ViewMember()
+    set_wind_wgsl = ViewMember()
+    inspect = ViewMember()
+    inspected = ViewMember(no_view=())
+    read_inspected = ViewMember()
+    reset_blades = ViewMember()
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
+    switch_choices = _panel_property("switch_choices")
     blade_slider = _panel_property("blade_slider")
     wind_field_dropdown = _panel_property("wind_field_dropdown")
     play_button = _panel_property("play_button")
@@ -196,7 +218,7 @@ class GrassWidget(ipw.VBox):
     message_line = _panel_property("message_line")
 
     def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
-                 pixel_ratio=None, backend="kernel", target_fps=None, layout="default",
+                 pixel_ratio=None, backend="auto", target_fps=None, layout="default",
                  function_overrides=None):
         from ..core.framing import PRESETS, parse_size
         from ..core.wgsl_overrides import FunctionOverrides
@@ -210,6 +232,12 @@ class GrassWidget(ipw.VBox):
         if not isinstance(backend, str) or backend not in BACKENDS:
             raise GrassValueError(f"backend must be one of {', '.join(map(repr, BACKENDS))}; got {backend!r}")
         self._requested_backend = backend
+        self._auto = None
+        if backend == "auto":  # the kernel's adapter decides now where it can; else the page's, when shown
+            from .engine_auto import AutoEngine, kernel_adapter
+
+            self._auto = AutoEngine(*kernel_adapter(), on_choice=self._on_engine_choice)
+            backend = self._auto.engine
         if function_overrides is not None and not isinstance(function_overrides, FunctionOverrides):
             raise GrassTypeError("function_overrides must be a FunctionOverrides (e.g. gw.exercise(name).overrides(code)) "
                                  f"or None; got {type(function_overrides).__name__}")
@@ -262,14 +290,7 @@ class GrassWidget(ipw.VBox):
             if backend == "kernel":
                 self.view = self._kernel_view()
             else:
-                from ..browser.engine_view import BrowserEngineView
-
-                self.view = BrowserEngineView(self._blades, self.size, self.params, preset=preset, clock=self,
-                                              actions=self, on_error=self._show_error, on_stats=self._show_stats,
-                                              on_inspect=self._show_inspected,
-                                              on_unavailable=self._on_browser_unavailable,
-                                              pixel_ratio=pixel_ratio, target_fps=streaming["target_fps"],
-                                              function_overrides=function_overrides)
+                self.view = self._browser_view()
             self._make_ball()
             self.panel = ControlPanel(self.params, self, self, blade_count=self.blade_count,
                                       max_blades=self.max_blades, view_size=(min(self.size[0], PANEL_WIDTH),
@@ -290,7 +311,8 @@ class GrassWidget(ipw.VBox):
         self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.bench.control], self.size[0])
         self._layout.fold(self.panel_folded)
         # The view with the lab bench's live chart right under it.
-        self._stage = ipw.VBox([self.view.widget, self.bench.widget], layout=ipw.Layout(max_width="100%"))
+        probe = [self._auto.probe] if self._auto is not None and self._auto.probe is not None else []
+        self._stage = ipw.VBox([self.view.widget, self.bench.widget, *probe], layout=ipw.Layout(max_width="100%"))
         super().__init__(children=[self._stage, self._layout.column], layout=self._layout.root_layout)
         self.add_class("grasswidget")
         self.observe(self._on_camera_floor, names="camera_floor")
@@ -301,6 +323,8 @@ class GrassWidget(ipw.VBox):
         self.observe(self._on_culling_frozen, names="culling_frozen")
         self.observe(self._on_chart, names="chart")
         self._show_stats(self.view.current_stats())
+        if self._auto is not None:
+            self._show_note(self._auto.choice.reason)
 
         # Re-running the cell that made a widget closes the previous one (JupyterLab
         # sends the cell id with each execution), so its GPU buffers are freed; one
@@ -336,7 +360,7 @@ class GrassWidget(ipw.VBox):
             self._streaming = dict(streaming_defaults(self._cpu), **self._streaming_overrides)
             self._streaming["max_blades"] = blades
         view = KernelView(self._blades, self.size, self.params, preset=self._preset, streaming=self._streaming,
-                          clock=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                          playback=self, actions=self, on_error=self._show_error, on_stats=self._show_stats,
                           on_inspect=self._show_inspected)
         if self._function_overrides is not None:
             try:
@@ -345,6 +369,16 @@ class GrassWidget(ipw.VBox):
                 view.close()
                 raise
         return view
+
+    def _browser_view(self):
+        from ..browser.engine_view import BrowserEngineView
+
+        return BrowserEngineView(self._blades, self.size, self.params, preset=self._preset, playback=self,
+                                 actions=self, on_error=self._show_error, on_stats=self._show_stats,
+                                 on_inspect=self._show_inspected, on_unavailable=self._on_browser_unavailable,
+                                 pixel_ratio=self._streaming_overrides.get("max_pixel_ratio"),
+                                 target_fps=self._streaming["target_fps"],
+                                 function_overrides=self._function_overrides)
 
     def _make_ball(self):
         from .ball import BallControl
@@ -384,55 +418,24 @@ class GrassWidget(ipw.VBox):
 
     @property
     def backend(self) -> str:
-        """The engine that is live: "kernel" or "browser" (a "browser" or "auto" widget
-        whose browser has no WebGPU adapter turns "kernel")."""
+        """The engine that is live: "kernel" or "browser" (a "browser" widget whose browser
+        has no WebGPU adapter turns "kernel"). An "auto" widget says "kernel" until the page
+        has reported its adapter, then the engine the rule chose (see :attr:`engine_reason`)."""
         return self.view.backend if self.view is not None else self._requested_backend
 
     @property
-    def camera_state(self) -> dict:
-        """The camera as a dict: position and target (metres, world space) and fov_deg
-        (vertical field of view). A drag in the view updates it; assigning a dict
-        (any of the three keys) moves the camera, in both engines."""
-        return self.view.camera_state
-
-    @camera_state.setter
-    def camera_state(self, state):
-        self._check_open()
-        self.view.camera_state = state
-
-    def read_state(self, timeout: float = 30.0) -> dict:
-        """The blade state of the live engine, as ``GrassField.read_state()`` returns it.
-
-        In browser mode it asks the browser and waits for its answer (processing
-        widget messages meanwhile, so it works inside a running cell); no answer
-        within ``timeout`` seconds raises TimeoutError naming the browser view."""
-        self._check_open()
-        return self.view.read_state(timeout=timeout)
+    def engine_reason(self) -> str | None:
+        """For ``backend="auto"``: one sentence saying which engine runs and why (also shown on
+        the message line), e.g. "browser engine: the kernel renders on a CPU adapter (llvmpipe)
+        and this browser offers a GPU (nvidia ampere)"; None for "kernel" and "browser"."""
+        return self._auto.choice.reason if self._auto is not None else None
 
     @property
-    def max_fps(self) -> float:
-        """Frames per second asked of the canvas scheduler (the nominal frame rate)."""
-        return self.view.max_fps
-
-    @property
-    def frame_interval(self) -> float:
-        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
-        return self.view.frame_interval
-
-    @property
-    def steps_per_frame(self) -> int:
-        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt),
-        capped: what ``step()`` advances by default. While playing the real-time
-        clock decides each frame's steps (``stats["steps_per_frame"]``)."""
-        return self.view.steps_per_frame
-
-    @property
-    def sim_time(self) -> float:
-        """Simulated seconds since the last :meth:`reset_blades` (read-only): every
-        fixed step taken while playing or by :meth:`step` adds ``params.dt``. None
-        before the browser engine's first stats message; there it is as of the last one
-        (about every 0.5 s; its clock runs in the browser)."""
-        return self.view.sim_time if self.view is not None else None
+    def adapter_probe(self):
+        """For ``backend="auto"`` with the kernel on a CPU adapter: the
+        :class:`~grasswidget.browser.adapter_probe.AdapterProbe` shown with the view, whose
+        ``report`` (the page's WebGPU adapter) decides the engine once; else None."""
+        return self._auto.probe if self._auto is not None else None
 
     @property
     def target_fps(self) -> float:
@@ -451,23 +454,6 @@ class GrassWidget(ipw.VBox):
             self.view.target_fps = value
         self._streaming["target_fps"] = value
         self._streaming_overrides["target_fps"] = value
-
-    @property
-    def render_scale(self) -> float:
-        """Fraction of the full pixel ratio live frames render at now (0.5..1;
-        1 while paused). Save PNG and exports always render at full resolution."""
-        return float(self.view.render_scale) if self.view is not None else 1.0
-
-    @property
-    def stats(self) -> dict:
-        """The last stats shown: fps (frames/s delivered to the browser, confirmed
-        by it; frames drawn when there is no browser), target_fps, visible, blades,
-        render_ms / readback_ms / encode_send_ms / ack_ms (where a frame's time
-        goes, averaged since the last refresh), draw_ms (step + render calls of the
-        last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame
-        (of the last frame), frame_size (rendered pixels), scale (render scale),
-        sim_speed (simulated / scaled wall seconds while playing)."""
-        return self.view.stats
 
     # ------------------------------------------------------------------ actions
 
@@ -494,11 +480,6 @@ class GrassWidget(ipw.VBox):
         self.playing = False
         self.view.step(n)
         self.bench.after_step()
-
-    def reset_blades(self):
-        """Every blade back to its rest pose; the simulation clock back to 0."""
-        self._check_open()
-        self.view.reset_blades()
 
     def reset_camera(self):
         """Back to the scene's starting view (``look_from("home")``)."""
@@ -547,30 +528,6 @@ class GrassWidget(ipw.VBox):
         position, target = clamp_orbit(cam["position"], cam["target"], self.view.orbit_limits)
         if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):
             self.view.camera_state = {"position": tuple(position), "target": tuple(target)}
-
-    def inspect(self, ids):
-        """Show blades in the inspector (v0, v1, v2, control polygon, force arrows);
-        ``[]`` clears. At most 64 ids in [0, blade_count - 1], integers; anything
-        else raises ValueError naming the limit (nothing changes then)."""
-        self._check_open()
-        self.view.inspect(ids)
-
-    @property
-    def inspected(self) -> tuple:
-        """Ids of the inspected blades (ctrl + click or :meth:`inspect`)."""
-        return tuple(self.view.inspected) if self.view is not None else ()
-
-    def read_inspected(self, timeout: float = 30.0) -> list:
-        """The inspected blades' numbers, as :meth:`GrassScene.read_inspected` returns them:
-        one dict per blade with ``id``, ``height`` (m), ``stiffness`` (1/s^2, times
-        ``params.stiffness_scale``), ``v0``, ``v1``, ``v2`` and the forces on v2 of the
-        next step (gravity, recovery, wind in m/s^2; collision: the push of one step in m),
-        for the current state and parameters; ``[]`` when none is inspected.
-
-        In browser mode the browser computes them (the same inspect.wgsl) and this waits for
-        its answer, up to ``timeout`` seconds (TimeoutError naming the browser view)."""
-        self._check_open()
-        return self.view.read_inspected(timeout=timeout)
 
     def traces(self) -> dict:
         """What simulated time did, sampled while it advances (the lab bench; see
@@ -669,16 +626,6 @@ class GrassWidget(ipw.VBox):
                          playing=bool(self.playing), time_scale=float(self.time_scale), still=still, title=title,
                          camera_floor=self.camera_floor)
 
-    def set_wind_wgsl(self, body: str, select: bool = True):
-        """Use a WGSL snippet as the wind (the body of ``fn user_wind(p, t) -> vec3<f32>``),
-        in the live engine. Raises :class:`~grasswidget.errors.WindShaderError` with the
-        line inside ``body`` when it does not compile (in browser mode: compiled by the
-        browser; this waits for its answer); the old wind stays in force. With
-        ``select``, ``params.wind_field`` becomes "custom". Assigning
-        ``params.wind_wgsl`` does the same, reporting an error on the message line."""
-        self._check_open()
-        self.view.set_wind_wgsl(body, select=select)
-
     def set_function_overrides(self, overrides):
         """Run user WGSL in place of stock blade-math functions (a
         :class:`~grasswidget.core.wgsl_overrides.FunctionOverrides`, e.g. an exercise's
@@ -745,6 +692,38 @@ class GrassWidget(ipw.VBox):
         finally:
             scene.release()
 
+    def _display_(self):
+        """What marimo shows for this widget (only marimo asks for ``_display_``; Jupyter front
+        ends draw the ipywidgets as always): the view, the chart and the panel as anywidgets
+        (see :mod:`grasswidget.notebook.marimo_face`)."""
+        from .marimo_face import marimo_display
+
+        if self._closed:
+            return repr(self)  # "<GrassWidget ... closed>", as Jupyter shows a closed widget's text
+        return marimo_display(self)
+
+    def control_mirror(self):
+        """The panel column (camera bar and rows) as one anywidget of plain HTML controls, for
+        front ends without ipywidgets (marimo); made on first use, then the same one
+        (:class:`~grasswidget.notebook.control_mirror.ControlMirror`)."""
+        from .control_mirror import ControlMirror
+
+        self._check_open()
+        if self._mirror is None:
+            self._mirror = ControlMirror(self._layout.column, on_error=self._show_error)
+        return self._mirror
+
+    def marimo_parts(self) -> tuple:
+        """What marimo shows: the stage (view and chart, following an engine switch; a
+        :class:`~grasswidget.notebook.marimo_face.MarimoStage`) and :meth:`control_mirror`.
+        Made on first use (needs marimo), then the same ones."""
+        from .marimo_face import MarimoStage
+
+        self._check_open()
+        if self._marimo_stage is None:
+            self._marimo_stage = MarimoStage(self._stage)
+        return self._marimo_stage, self.control_mirror()
+
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
         scene and camera controller, the control panel, the ball, the camera bar, the lab
@@ -752,7 +731,8 @@ class GrassWidget(ipw.VBox):
         Something holding one of them holds the widget (see :mod:`grasswidget.notebook.cell_rerun`)."""
         view = self.view
         found = (view, self.panel, self.ball, getattr(self, "camera_bar", None), getattr(self, "bench", None),
-                 getattr(self, "_layout", None), getattr(self, "_stage", None))
+                 getattr(self, "_layout", None), getattr(self, "_stage", None), self._mirror,
+                 self._marimo_stage)
         if view is not None:
             found += (view.widget, view.scene, view.controller, view.canvas)
         return tuple(p for p in found if p is not None)
@@ -775,12 +755,18 @@ class GrassWidget(ipw.VBox):
                 pass
         if self.bench is not None:
             self.bench.close()
+        if self._mirror is not None:
+            self._mirror.close()
+        if self._marimo_stage is not None:
+            self._marimo_stage.close()
         if self.panel is not None:
             self.panel.close()
         if self.camera_bar is not None:
             self.camera_bar.close()
         if self.view is not None:
             self.view.close()
+        if self._auto is not None:
+            self._auto.close()
         if self.ball is not None:
             self.ball.detach()
         layout, stage = getattr(self, "_layout", None), getattr(self, "_stage", None)
@@ -839,22 +825,15 @@ class GrassWidget(ipw.VBox):
         if not self._closed:
             self.bench.show(change["new"])
 
-    def _on_browser_unavailable(self, reason):
-        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
-        if self._closed or self.view is None or self.view.backend != "browser":
-            return
+    def _replace_view(self, new):
+        """Put ``new`` (the other engine's view) in place of the live view, with the camera, floor,
+        ball, play state, frozen culling and inspected blades carried over; the old view closes."""
         old = self.view
-        camera = old.camera_state
-        try:
-            new = self._kernel_view()
-        except Exception as err:  # no adapter in the kernel either
-            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
-                             f"render either: {err}")
-            return
+        camera, inspected = old.camera_state, tuple(old.inspected)
         self.view = new
         new.set_camera_floor(self.camera_floor)
+        self.ball.attach(new.ball_scene)  # into the new engine's colliders first, then the view sends them
         new.attach_ball(self.ball)
-        self.ball.attach(new.ball_scene)
         try:
             new.camera_state = camera
         except Exception:
@@ -862,7 +841,43 @@ class GrassWidget(ipw.VBox):
         self._stage.children = [new.widget, *self._stage.children[1:]]
         self.bench.attach(new)
         old.close()
+        new.set_time_scale(self.time_scale)
         new.set_playing(self.playing)
+        if self.culling_frozen:
+            new.set_culling_frozen(True)
+        if inspected:
+            try:
+                new.inspect(list(inspected))
+            except Exception:
+                pass
+
+    def _on_engine_choice(self, choice):
+        """The page reported its adapter ("auto"): run the engine the rule chose, say which and why."""
+        if self._closed or self.view is None:
+            return
+        try:
+            if choice.engine == "browser" and self.view.backend != "browser":
+                self._replace_view(self._browser_view())
+        except Exception as err:  # noqa: BLE001 - never raise into the comm handler; the kernel view stays
+            self._show_error(f"{choice.reason}; starting the browser engine failed ({err}): the kernel engine stays")
+            return
+        self._show_note(choice.reason)
+
+    def _show_note(self, text):
+        if self.panel is not None:
+            self.panel.show_note(text)
+
+    def _on_browser_unavailable(self, reason):
+        """The browser has no WebGPU adapter: switch to kernel streaming, keep every control."""
+        if self._closed or self.view is None or self.view.backend != "browser":
+            return
+        try:
+            new = self._kernel_view()
+        except Exception as err:  # no adapter in the kernel either
+            self._show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
+                             f"render either: {err}")
+            return
+        self._replace_view(new)
         self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
                          "and streams it instead (use Chrome or Edge, or enable WebGPU, for backend='browser')")
 

@@ -3,8 +3,8 @@
 // (s_visible[class * n_blades + slot]) with one global atomicAdd per workgroup
 // and class; the instance counts in s_args feed draw_indirect.
 //
-// Draw order (template variable bands > 0; the kernel engine): with LOD on, each
-// class's list runs through `bands` log-spaced bands of the distance to the
+// Draw order (template variable bands > 0; both engines' first phase): whatever
+// the switches (LOD, culling tests on or off), each class's list runs through `bands` log-spaced bands of the distance to the
 // camera, nearest first, so the draws go roughly front to back and the depth
 // test rejects hidden fragments before they are written (on a CPU adapter most
 // of the near overdraw's cost). The pass then runs twice (template variable
@@ -191,9 +191,7 @@ fn main(
         }
         key = cls * BANDS;
         $$ if bands
-        if (u_cull.lod != 0) {
-            key += distance_band(v0, cam_pos);  // LOD: nearest band first
-        }
+        key += distance_band(v0, cam_pos);  // nearest band first, with or without LOD
         $$ endif
         if (!visible) {
             cls = CULLED;

@@ -86,7 +86,7 @@ class _Timer:
 
     def __init__(self, scene):
         from ..gpu.compute import ComputeProgram
-        from ..gpu.shaders import CullShader, PrefixBandsShader, ResetArgsShader
+        from ..gpu.shader_classes import CullShader, PrefixBandsShader, ResetArgsShader
 
         self.scene = scene
         self.device = scene.field.stats.device
@@ -104,7 +104,7 @@ class _Timer:
 
     def cull_ms(self):
         """GPU ms of reset + cull (count, prefix, scatter) for the current camera (uniforms of the last render)."""
-        from ..gpu.shaders import workgroups
+        from ..gpu.wgsl_templates import workgroups
 
         enc = self.device.create_command_encoder()
         cp = enc.begin_compute_pass(

@@ -68,7 +68,7 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
         camera_floor: what the page's orbit keeps the camera above, "grass" or "ground"
             (default: "grass" unless the camera is lower than the grass, as the cis565 view).
     """
-    from ..browser.view import BrowserView
+    from ..browser.view import BrowserEngineWidget
     from ..core.camera_presets import floor_for
     from ..core.orbit_limits import check_floor
 
@@ -84,7 +84,7 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
     colliders = list(colliders)
     if ball_radius is None and colliders:
         ball_radius = float(colliders[0].radius)
-    view = BrowserView(blades, params=params, size=tuple(size), camera=camera)
+    view = BrowserEngineWidget(blades, params=params, size=tuple(size), camera=camera)
     try:
         view.camera_floor = (check_floor(camera_floor) if camera_floor is not None
                              else floor_for(blades, view.camera, view.camera.get("far")))

@@ -651,6 +651,101 @@ class StaticServer:
         self.stop()
 
 
+class MarimoServer:
+    """``marimo run`` (or ``edit``) of one notebook file: a token-less server on 127.0.0.1 at a free
+    port, headless, its output in a log file beside the notebook. Each page opened on it starts
+    a session that runs the notebook in a kernel of marimo's own (a child process)::
+
+        with MarimoServer(tmp_path / "app.py") as marimo:
+            page.goto(marimo.base_url)
+
+    :meth:`stop` ends the server and what it started, by PID (as :class:`JupyterLabServer`).
+    """
+
+    def __init__(self, notebook, mode: str = "run", startup_timeout: float = 90.0):
+        if mode not in ("run", "edit"):
+            raise HarnessError(f"mode must be 'run' or 'edit'; got {mode!r}")
+        self.notebook = Path(notebook).resolve()
+        self.mode = mode
+        self.startup_timeout = startup_timeout
+        self.port = None
+        self.proc = None
+        self.log_path = self.notebook.with_suffix(".marimo.log")
+        self._log_file = None
+
+    @property
+    def base_url(self) -> str:
+        return f"http://127.0.0.1:{self.port}/"
+
+    def log_text(self, tail: int = 0) -> str:
+        try:
+            text = self.log_path.read_text(errors="replace")
+        except OSError:
+            return ""
+        return text[-tail:] if tail else text
+
+    def start(self) -> "MarimoServer":
+        marimo = Path(sys.executable).with_name("marimo")
+        command = [str(marimo) if marimo.exists() else "marimo", "-q", self.mode, str(self.notebook), "--headless",
+                   "--host", "127.0.0.1", "--no-token"]
+        if self.mode == "edit":
+            command.append("--skip-update-check")
+        self.port = _free_port()
+        command += ["--port", str(self.port)]
+        env = dict(os.environ, PYTHONUNBUFFERED="1", MARIMO_SKIP_UPDATE_CHECK="1")
+        self._log_file = open(self.log_path, "w")
+        self.proc = subprocess.Popen(command, cwd=str(self.notebook.parent), env=env, stdout=self._log_file,
+                                     stderr=subprocess.STDOUT)
+
+        def up():
+            if self.proc.poll() is not None:
+                raise HarnessError(f"marimo exited with {self.proc.returncode}:\n{self.log_text(3000)}")
+            try:
+                socket.create_connection(("127.0.0.1", self.port), 0.5).close()
+                return True
+            except OSError:
+                return False
+
+        try:
+            _poll_raising(up, f"marimo {self.mode} to listen on port {self.port}", self.startup_timeout, 0.2)
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def stop(self) -> None:
+        """Stop the server and its kernels (SIGTERM, then SIGKILL), by PID. Safe to call twice."""
+        proc, self.proc = self.proc, None
+        if proc is not None:
+            children = _children_of(proc.pid) if proc.poll() is None else []
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+                try:
+                    proc.wait(15)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait(5)
+            for sig in (signal.SIGTERM, signal.SIGKILL):
+                alive = [c for c in children if _pid_alive(c)]
+                for c in alive:
+                    try:
+                        os.kill(c, sig)
+                    except ProcessLookupError:
+                        pass
+                deadline = time.monotonic() + 3.0
+                while time.monotonic() < deadline and any(_pid_alive(c) for c in alive):
+                    time.sleep(0.05)
+        if self._log_file is not None:
+            self._log_file.close()
+            self._log_file = None
+
+    def __enter__(self) -> "MarimoServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
 def _poll_raising(check, what, timeout, interval):
     """Like :func:`poll`, but a HarnessError raised by ``check`` ends it at once."""
 
@@ -1395,6 +1490,21 @@ def toggle_checkbox(page, description: str, value: Optional[bool] = None, timeou
     else:
         inp.set_checked(bool(value))
     return inp.is_checked()
+
+
+def choose_option(page, description: str, option: str, timeout: float = 10.0) -> str:
+    """Choose ``option`` (its text) in the ipywidgets Dropdown labelled ``description``,
+    e.g. a panel's auto / on / off switch. Returns the chosen option's text."""
+    box = page.locator(".widget-dropdown").filter(
+        has=page.locator("label.widget-label", has_text=_exact(description))
+    )
+    js = ("() => Array.from(document.querySelectorAll('.widget-dropdown label.widget-label'))"
+          ".map((s) => s.textContent)")
+    select = _one(box, f"exactly one dropdown labelled {description!r}", js, page, timeout).locator("select")
+    select.select_option(label=option)
+    poll(lambda: (select.evaluate("(s) => s.options[s.selectedIndex].text") == option, None),
+         f"dropdown {description!r} to show {option!r}", timeout, 0.1, page=page)
+    return option
 
 
 # --------------------------------------------------------------------------

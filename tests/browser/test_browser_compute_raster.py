@@ -1,7 +1,7 @@
 """The compute rasterizer of thin blades in the browser engine, in a real JupyterLab + Chromium (WebGPU on SwiftShader).
 
 The browser engine runs the kernel engine's compute rasterizer of thin blades (the same
-``raster.wgsl`` and ``raster_resolve.wgsl``, composed by :mod:`grasswidget.browser.wgsl`):
+``raster.wgsl`` and ``raster_resolve.wgsl``, composed by :mod:`grasswidget.browser.browser_wgsl`):
 
 * its picture with ``params.compute_raster`` on against off (same state and camera): no holes
   (per row, never less grass), mean difference of 4 x 4-pixel block means small;
@@ -81,7 +81,7 @@ from grasswidget.gpu.scene import GrassScene
 p = m.params.copy()
 p.compute_raster = True
 p.cull_occlusion = False
-scene = GrassScene.preset('meadow', blades=m.view.browser_view.blades, size=({w}, {h}), params=p)
+scene = GrassScene.preset('meadow', blades=m.view.engine_widget.blades, size=({w}, {h}), params=p)
 scene.step(30)
 cam = m.camera_state
 scene.look(cam['position'], cam['target'], cam['fov_deg'])

@@ -18,10 +18,9 @@ and the kernel:
 * a lost WebGPU device is recovered with a message, and a request to a view
   that is not shown raises TimeoutError naming the browser view.
 
-``backend="auto"`` in a Chromium without the WebGPU flags (requestAdapter() gives null there) falls
-back to kernel streaming with one line saying WebGPU is not available: the tour's Run All checks it
-in JupyterLab (``tour_checks.py``), ``test_front_ends.py`` in Notebook 7 and Voila with the
-controls.
+A second notebook in a Chromium without the WebGPU flags (requestAdapter() gives
+null there) checks that ``backend="auto"`` falls back to kernel streaming with
+one line saying WebGPU is not available, and that the controls keep working.
 """
 
 from __future__ import annotations
@@ -32,6 +31,8 @@ import numpy as np
 import pytest
 
 from .harness import (
+    choose_option,
+    panel_label,
     click_button,
     drag,
     kernel_eval,
@@ -39,8 +40,11 @@ from .harness import (
     open_notebook,
     poll,
     run_all_cells,
+    set_slider,
     toggle_checkbox,
+    wait_for_frames,
     wait_for_kernel,
+    wait_for_view,
     write_notebook,
 )
 
@@ -74,7 +78,6 @@ def _canvas_pixels(page):
     import imageio.v3 as iio
 
     return iio.imread(_show_view(page).screenshot(), extension=".png")
-
 
 
 def test_browser_engine(webgpu_browser, lab_server, browser_root):
@@ -135,13 +138,13 @@ w.step(100)
 mine = w.read_state()
 kernel_params = w.params.copy()
 kernel_params.wind_field = 'wave'
-field = GrassField(w.view.browser_view.blades, params=kernel_params)
+field = GrassField(w.view.engine_widget.blades, params=kernel_params)
 field.step(200)
 kernel_params.wind_field = 'vortex'
 field.step(100)
 theirs = field.read_state()
 field.release()
-b = w.view.browser_view.blades
+b = w.view.engine_widget.blades
 err = float((np.abs(mine['v2'] - theirs['v2']).max(axis=1) / b.height).max())
 err1 = float((np.abs(mine['v1'] - theirs['v1']).max(axis=1) / b.height).max())
 bent = float((np.linalg.norm(theirs['v2'] - b.v0 - b.up * b.height[:, None], axis=1) / b.height).mean())
@@ -161,7 +164,7 @@ w.reset_blades()
 rng = np.random.default_rng(4)
 r = rng.uniform(0.3, 0.8, 60)
 crowd = np.column_stack([rng.uniform(-8, 8, 60), r + 0.05, rng.uniform(-8, 8, 60), r])  # resting on the grass
-view = w.view.browser_view
+view = w.view.engine_widget
 view.colliders.set_array(crowd)
 view.colliders_changed()
 w.step(100)
@@ -190,14 +193,16 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
     # 3. Culling checkboxes change the browser's visible count; all off: every blade (none occluded).
     kernel_execute(page, "w.play()")
     visible_on = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v is not None, timeout=20)
-    culling = ("orientation culling", "frustum culling", "distance culling", "occlusion culling")
+    culling = ("orientation culling", "frustum culling", "distance culling")
     for label in culling:
         toggle_checkbox(page, label, False)
+    choose_option(page, "occlusion culling", "off")  # auto / on / off
     _show_view(page)
     wait_for_kernel(page, "w.stats['visible']", N_BLADES, timeout=30)
     assert kernel_eval(page, "w.stats['occluded']") is None  # occlusion culling off: no count
     for label in culling:
         toggle_checkbox(page, label, True)
+    choose_option(page, "occlusion culling", "auto")  # the browser engine runs "auto" as on
     _show_view(page)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")
@@ -251,8 +256,8 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
 import imageio.v3 as iio, numpy as np
 png = iio.imread({str(next(iter(new)))!r})[..., :3].astype(int)
 size = (png.shape[1], png.shape[0])
-aa = w.view.browser_view.snapshot(size, supersample=2)[..., :3].astype(int)
-plain = w.view.browser_view.snapshot(size)[..., :3].astype(int)
+aa = w.view.engine_widget.snapshot(size, supersample=2)[..., :3].astype(int)
+plain = w.view.engine_widget.snapshot(size)[..., :3].astype(int)
 print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
 """, timeout=120)
     to_aa, to_plain = map(float, out.stdout.split("DIFF")[1].split())
@@ -283,14 +288,14 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
 
     # 7. A lost device is recovered with a message; a view that is not shown times out.
     _show_view(page)
-    kernel_execute(page, "w.play(); w.view.browser_view.lose_device()")
+    kernel_execute(page, "w.play(); w.view.engine_widget.lose_device()")
     wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")
     wait_for_kernel(page, "w.stats['step_count']", predicate=lambda s: s != steps, timeout=60)
     assert kernel_eval(page, "w.view.gpu_status['state']") == "ok"
     out = kernel_execute(page, """
-from grasswidget.browser import BrowserView
-hidden = BrowserView(16)
+from grasswidget.browser import BrowserEngineWidget
+hidden = BrowserEngineWidget(16)
 try:
     hidden.read_state(timeout=1.0)
 except TimeoutError as e:
@@ -298,3 +303,31 @@ except TimeoutError as e:
 """, timeout=30)
     assert "TIMEOUT" in out.stdout and "browser view" in out.stdout, out.stdout
     kernel_execute(page, "w.close()")
+
+
+def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
+    """Chromium without the WebGPU flags: requestAdapter() gives null -> kernel streaming + one line."""
+    page = browser.page
+    write_notebook(browser_root / "browser_fallback.ipynb", [
+        "import grasswidget as gw\nw = gw.GrassWidget(1024, backend='auto', size=(320, 240))\nw",
+    ])
+    try:
+        open_notebook(page, lab_server, "browser_fallback.ipynb")
+        run_all_cells(page, timeout=120)
+        wait_for_kernel(page, "w.backend", "kernel", timeout=60)
+        msg = kernel_eval(page, "w.message_line.value")
+        print(f"\n[fallback] {msg}")
+        assert "WebGPU is not available in this browser" in msg
+        wait_for_view(page, 0, timeout=60)
+        wait_for_frames(page, 3, timeout=60, index=0)
+        set_slider(page, panel_label("wind_strength"), 21.5)
+        wait_for_kernel(page, "w.params.wind_strength", 21.5, timeout=20)
+        kernel_execute(page, "w.step(5)")
+        assert kernel_eval(page, "w.scene.field.step_count") >= 5
+        assert kernel_eval(page, "sorted(w.camera_state)") == ["fov_deg", "position", "target"]
+    finally:
+        try:
+            page.goto("about:blank")
+            lab_server.shutdown_kernels()
+        except Exception:
+            pass

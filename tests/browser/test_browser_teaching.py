@@ -100,7 +100,7 @@ def _stats_after(page, n=3):
     """The visible counts of ``n`` stats messages from the browser (about 0.5 s apart), after
     two more (whose counts may have been read back before the last change reached the browser)."""
     kernel_execute(page, "if '_seen' not in globals():\n    _seen = []\n"
-                         "    w.view.browser_view.on('stats', lambda m: _seen.append(sum(m['visible'] or [-1])))")
+                         "    w.view.engine_widget.on('stats', lambda m: _seen.append(sum(m['visible'] or [-1])))")
     start = kernel_eval(page, "len(_seen)")
     wait_for_kernel(page, "len(_seen)", predicate=lambda k: k >= start + n + 2, timeout=30)
     return kernel_eval(page, "_seen[-%d:]" % n)
@@ -120,7 +120,7 @@ w.culling_frozen = True
 frozen = w.view.frozen_camera
 state = w.read_state()
 reason = ref.cull_reason(state, w.params, frozen.view_proj, frozen.position)
-scene = GrassScene(w.view.browser_view.blades, size={SIZE}, params=w.params.copy())
+scene = GrassScene(w.view.engine_widget.blades, size={SIZE}, params=w.params.copy())
 scene.field.write_state(state)
 scene.field.freeze_culling(frozen)
 scene.look({ABOVE['position']!r}, {ABOVE['target']!r})
@@ -141,7 +141,7 @@ scene.release()
         assert abs(count - reference) <= 2 and abs(count - kernel) <= 2, (count, reference, kernel)
 
     # The frozen frustum: white lines from the frozen camera's position across the field.
-    camera = kernel_eval(page, "dict(w.view.browser_view.camera)")
+    camera = kernel_eval(page, "dict(w.view.engine_widget.camera)")
     frozen_lines = poll(lambda: (lambda px: (bool((px >= 245).all(axis=-1).sum() > 150), px))(_canvas(page)),
                         "the frozen frustum to show as white lines", 20, 0.3, page=page)
     white = (frozen_lines >= 245).all(axis=-1)
@@ -175,7 +175,7 @@ w.culling_frozen = False
 w.reset_blades()
 w.camera_state = {{'position': (0.0, 2.6, 6.0), 'target': (0.0, 0.8, 0.0)}}
 w.params.wind_field, w.params.wind_strength = 'wave', 8.0
-b = w.view.browser_view.blades
+b = w.view.engine_widget.blades
 near = np.flatnonzero((np.abs(b.v0[:, 0]) < 1.5) & (np.abs(b.v0[:, 2] - 1.0) < 1.5))
 ids = [int(i) for i in near[:6]]
 w.step(41)
@@ -188,17 +188,17 @@ w.ball.move_to(float(b.v0[ids[0], 0]) + 0.2, float(b.v0[ids[0], 2]))
 rng = np.random.default_rng(7)
 crowd = np.column_stack([rng.uniform(-9, 9, 30), np.full(30, 0.45), rng.uniform(-9, 9, 30), np.full(30, 0.5)])
 crowd[:2, 0], crowd[:2, 2] = b.v0[ids[2:4], 0] + 0.1, b.v0[ids[2:4], 2]
-view = w.view.browser_view
+view = w.view.engine_widget
 view.colliders.set_array(crowd)
 view.colliders_changed()
 grid_cells = int(np.prod(np.frombuffer(view.collider_grid, np.uint32)[:2]))
 w.inspect(ids)
 mine = w.read_inspected()
-raw = w.view.browser_view.read_state()
+raw = w.view.engine_widget.read_state()
 scene = GrassScene(b, size={SIZE}, params=w.params.copy())
 scene.field.write_state(raw)
 scene.field.step_count = raw['step_count']
-scene.colliders = list(w.view.browser_view.colliders)
+scene.colliders = list(w.view.engine_widget.colliders)
 scene.colliders.set_array(crowd)
 scene.inspect(ids)
 scene.render()

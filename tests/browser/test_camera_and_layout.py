@@ -195,7 +195,7 @@ def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_ro
         # the orbit floor reaches the browser as numbers: "low" stays above the grass there too
         click_button(page, "low")
         wait_for_kernel(page, "w.camera_state['position'][1]", predicate=lambda y: 2.7 < y < 3.5, timeout=30)
-        limits = kernel_eval(page, "w.view.browser_view.frame_rules['orbit']")
+        limits = kernel_eval(page, "w.view.engine_widget.frame_rules['orbit']")
         assert limits["clearance"] > 2.5  # above the tallest tip (2.5 m) + 0.3
         assert top[0] < 0.01
     except BaseException:

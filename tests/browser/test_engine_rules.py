@@ -1,6 +1,6 @@
 """The browser engine's modules and the rules it still computes per frame, without a browser.
 
-* The one module text (grasswidget.browser.esm.engine_module_text, what BrowserView._esm, the
+* The one module text (grasswidget.browser.esm.engine_module_text, what BrowserEngineWidget._esm, the
   live page and the HTML export load) holds every module under browser/js once, no relative
   import is left in it, each top-level name is declared once, and node loads it with the
   entry's exports.
@@ -26,7 +26,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.browser import esm
-from grasswidget.browser.view import BrowserView
+from grasswidget.browser.view import BrowserEngineWidget
 from grasswidget.core import camera_rules, frame_data
 from grasswidget.errors import PageBuildError
 from conftest import node_executable
@@ -109,7 +109,7 @@ console.log(JSON.stringify(out));
 
 
 def test_rules_js_computes_what_its_python_twins_decide():
-    from grasswidget.gpu.wgsl import workgroups
+    from grasswidget.gpu.wgsl_templates import workgroups
 
     rng = np.random.default_rng(11)
     blades = gw.Blades.on_plane(300, size=6.0)
@@ -170,7 +170,7 @@ def test_rules_js_computes_what_its_python_twins_decide():
 def test_counter_layout_is_where_both_engines_copy_their_counts():
     """frame_rules.counters places the browser's copies (the occlusion args and the compute
     rasterizer's counters, sized by Python's shaders) and the kernel's staging (gpu.stats) alike."""
-    from grasswidget.browser.wgsl import BrowserShaders
+    from grasswidget.browser.browser_wgsl import BrowserShaders
     from grasswidget.core.reference import LOD_SEGMENTS
 
     layout = frame_data.counter_layout()
@@ -199,7 +199,7 @@ def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
     from grasswidget.gpu.simulation import MAX_BLADE_STEPS_PER_DISPATCH
 
     blades = gw.Blades.on_plane(64)
-    view = BrowserView(blades, size=(160, 120))
+    view = BrowserEngineWidget(blades, size=(160, 120))
     try:
         rules = view.frame_rules
         assert rules["dispatch"] == {"workgroup_size": WORKGROUP_SIZE, "max_groups_x": 65535,

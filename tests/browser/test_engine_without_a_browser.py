@@ -15,8 +15,8 @@ import pytest
 import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
-from grasswidget.browser.view import BrowserView, wind_error_from_messages
-from grasswidget.browser.wgsl import BrowserShaders, binding_map
+from grasswidget.browser.view import BrowserEngineWidget, wind_error_from_messages
+from grasswidget.browser.browser_wgsl import BrowserShaders, binding_map
 from grasswidget.core.shader_files import shader_dir
 from conftest import node_executable
 
@@ -175,7 +175,7 @@ def test_the_browser_gets_the_kernels_collider_arrays():
     from grasswidget.core.collider_grid import build_collider_grid, root_bounds
 
     blades = gw.Blades.on_plane(512, size=10.0, seed=2)
-    view = BrowserView(blades)
+    view = BrowserEngineWidget(blades)
     ball = gw.SphereCollider(center=(1, 0.5, 2), radius=0.5)
     view.colliders.append(ball)
     rows = np.random.default_rng(0).uniform(0.1, 4.0, (300, 4))
@@ -194,7 +194,7 @@ def test_the_browser_gets_the_kernels_collider_arrays():
 def test_requests_outside_a_notebook_raise_timeout_naming_the_browser_view():
     with pytest.raises(BrowserTimeoutError, match="browser view"):
         wait_for(lambda: None, 1.0, "read_state() from the browser view")
-    view = BrowserView(gw.Blades.on_plane(64))
+    view = BrowserEngineWidget(gw.Blades.on_plane(64))
     with pytest.raises(TimeoutError, match="browser view"):
         view.read_state(timeout=0.5)
     view.close()
@@ -219,9 +219,9 @@ def test_backend_argument_and_browser_widget_api():
         # Parameters reach the browser as packed uniforms.
         w.params.wind_strength = 33.0
         off = uniforms.offsets(uniforms.SIM_LAYOUT)["wind_strength"][0]
-        assert np.frombuffer(w.view.browser_view.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
+        assert np.frombuffer(w.view.engine_widget.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
-        assert w.view.browser_view.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        assert w.view.engine_widget.balls == [list(map(float, w.ball.collider.as_vec4()))]
         with pytest.raises(ValueError, match="number of steps"):
             w.step(-1)
     finally:
@@ -232,7 +232,7 @@ def test_browser_messages_move_the_ball_and_never_raise():
     """What the page sends (shift + drag, the steps simulated while rolling, junk) reaches
     the ball, and a malformed message shows on the message line instead of raising."""
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
-    view = w.view.browser_view
+    view = w.view.engine_widget
     try:
         center = w.ball.collider.center
         view.handle_message({"type": "ball", "phase": "move", "x": None, "z": None})  # on the sky, not pressed
@@ -271,7 +271,7 @@ def test_browser_stats_measure_the_speed_of_time(monkeypatch):
     wall = [100.0]
     monkeypatch.setattr(time, "perf_counter", lambda: wall[0])
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))
-    view = w.view.browser_view
+    view = w.view.engine_widget
     try:
         view.handle_message({"type": "stats", "fps": 30.0, "visible": [10], "steps": 60, "step_count": 60})
         assert w.stats["sim_speed"] is None and "real time" not in w.stats_line.value  # first message

@@ -83,8 +83,8 @@ cam = {{'position': {CAMERA['position']!r}, 'target': {CAMERA['target']!r}, 'fov
 w.camera_state = cam
 w.save_png({os.path.join(out_dir, 'engine_browser.png')!r}, size={SIZE})
 import imageio.v3 as iio
-iio.imwrite({os.path.join(out_dir, 'engine_browser_plain.png')!r}, w.view.browser_view.snapshot({SIZE}))
-scene = GrassScene(w.view.browser_view.blades, size={SIZE}, params=w.params.copy())
+iio.imwrite({os.path.join(out_dir, 'engine_browser_plain.png')!r}, w.view.engine_widget.snapshot({SIZE}))
+scene = GrassScene(w.view.engine_widget.blades, size={SIZE}, params=w.params.copy())
 scene.step(90)
 scene.look(cam['position'], cam['target'], cam['fov_deg'])
 scene.save_png({os.path.join(out_dir, 'engine_kernel.png')!r})
@@ -193,9 +193,9 @@ def test_one_simulation_per_widget_and_the_engines_draw_alike(webgpu_browser, la
         print(f"[displayed twice] paused: the two canvases are identical ({a0.shape[1]}x{a0.shape[0]})")
         # step and read_state: one simulation answers
         out = kernel_execute(page, """
-s0 = w.view.browser_view.read_state()['step_count']
+s0 = w.view.engine_widget.read_state()['step_count']
 w.step(37)
-s1 = w.view.browser_view.read_state()['step_count']
+s1 = w.view.engine_widget.read_state()['step_count']
 print('STEPS', s0, s1)
 """, timeout=60)
         s0, s1 = map(int, out.stdout.split("STEPS")[1].split())
@@ -251,7 +251,7 @@ o.save_png({os.path.join(out_dir, 'occlusion_on.png')!r}, size={OCCLUSION_SIZE})
 o.params.cull_occlusion = False
 o.save_png({os.path.join(out_dir, 'occlusion_off.png')!r}, size={OCCLUSION_SIZE})
 o.params.cull_occlusion = True
-scene = GrassScene.preset('cis565', blades=o.view.browser_view.blades, size=({w}, {h}), params=o.params.copy())
+scene = GrassScene.preset('cis565', blades=o.view.engine_widget.blades, size=({w}, {h}), params=o.params.copy())
 cam = o.camera_state
 scene.look(cam['position'], cam['target'], cam['fov_deg'])
 scene.render(); scene.render()

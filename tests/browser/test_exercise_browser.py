@@ -36,7 +36,7 @@ w.params.wind_strength = 0.0
 w.reset_blades()
 w.step(120)
 mine = w.read_state()
-b = w.view.browser_view.blades
+b = w.view.engine_widget.blades
 def run(overrides):
     field = GrassField(b, params=w.params.copy())
     field.set_function_overrides(overrides)

@@ -10,8 +10,8 @@ The engine in a real page is tested with the rest of the browser engine (tests/b
 import pytest
 
 import grasswidget as gw
-from grasswidget.browser.view import BrowserView
-from grasswidget.browser.wgsl import BrowserShaders
+from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.browser_wgsl import BrowserShaders
 from grasswidget.core.wgsl_overrides import OVERRIDE_MARKER
 
 
@@ -28,7 +28,7 @@ def test_browser_shaders_carry_the_students_functions_and_compile(name):
 
     ex = gw.exercise(name)
     overrides = ex.overrides(ex.solution())
-    view = BrowserView(gw.Blades.on_plane(64), size=(96, 72), function_overrides=overrides)
+    view = BrowserEngineWidget(gw.Blades.on_plane(64), size=(96, 72), function_overrides=overrides)
     stock = _codes(BrowserShaders.all())
     mine = _codes(view.shaders)
     device = ensure_device()

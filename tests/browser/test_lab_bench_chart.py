@@ -148,7 +148,7 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
         # 500, and the chart moves. (How many samples come a second depends on the browser's frame rate
         # and one read_inspected round trip each: SwiftShader on 2 loaded cores drew 2.4 frames/s and
         # gave 0.7 samples/s; the figure is printed, not asserted.)
-        assert kernel_eval(page, "w.view.browser_view.stats_interval_ms") == 200
+        assert kernel_eval(page, "w.view.engine_widget.stats_interval_ms") == 200
         kernel_execute(page, "import time\nw.play()\ntime.sleep(0)\n_t0 = None")
         wait_for_kernel(page, "len(w.traces()['t']) > 3", True, timeout=30)
         kernel_execute(page, "_n0, _t0 = len(w.traces()['t']), time.time()")
@@ -159,7 +159,7 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
               f"{fps:.1f} frames/s presented")
         assert rate > 0 and updates > 0, (rate, updates, fps)
         kernel_execute(page, "w.chart = None")
-        assert kernel_eval(page, "w.view.browser_view.stats_interval_ms") == 500
+        assert kernel_eval(page, "w.view.engine_widget.stats_interval_ms") == 500
     finally:
         try:
             page.goto("about:blank")

@@ -1,4 +1,4 @@
-"""What a lecture meets first, in JupyterLab and Chromium (issue 31): a fresh page, the
+"""What a lecture meets first, in JupyterLab and Chromium: a fresh page, the
 status line, shift + drag and the blade count control.
 
 * ``test_fresh_page_status_and_shift_drag``: from a freshly opened notebook, every text

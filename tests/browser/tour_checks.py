@@ -5,7 +5,7 @@
 that Run All left, once that test has checked the notebook's outputs and that every widget draws;
 so the tour runs once in the suite. Through the page and the kernel it checks:
 
-* the tour's ``backend="auto"`` widget fell back to kernel streaming in a Chromium without
+* the tour's ``backend="browser"`` widget fell back to kernel streaming in a Chromium without
   WebGPU, said so, steps and has a ``camera_state`` (its panel's slider reaching the kernel after the
   fall-back: ``test_front_ends.py::test_fallback_in_front_end``);
 * frames stream and show grass (green-dominant pixels in the lower part);
@@ -139,7 +139,7 @@ def _live_figures(page, seconds):
 def check_tour(page, folder):
     """The tour's checks (see the module's docstring) on ``page``, where the tour notebook has
     just run (Run All) with its kernel still up; ``folder`` is the folder the notebook is in."""
-    # The tour's browser-engine section made a second widget with backend="auto": this Chromium
+    # The tour's browser-engine section made a second widget with backend="browser": this Chromium
     # has no WebGPU, so it fell back to kernel streaming and said so. Then it is closed, so the
     # checks below find each control of the first widget by its label alone.
     # Run All checked that its view streams new frames; here it also steps and keeps its camera_state.

@@ -20,11 +20,14 @@ def _field(size=15.0, n=2000, height=(1.3, 2.5)):
 
 
 def _home(blades):
-    """The browser engine's default view (as GrassScene's)."""
-    from grasswidget.browser.view import default_camera
-
-    cam = default_camera(blades, ASPECT)
-    return {k: cam[k] for k in ("position", "target", "fov_deg")}
+    """A start camera for the presets to go back to: from above one edge of the field, looking at its
+    middle (the pose the engines start from; the presets take any home pose, so the core's tests
+    need no engine)."""
+    lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
+    d = 0.95 * float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
+    c = 0.5 * (lo + hi)
+    return {"position": [float(c[0]), 0.28 * d + 1.0, float(c[2]) + d], "target": [float(c[0]), 0.6, float(c[2])],
+            "fov_deg": 45.0}
 
 
 def _project(cam, points, aspect=ASPECT):

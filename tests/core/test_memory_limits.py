@@ -98,16 +98,11 @@ def test_every_generator_checks_the_count(tmp_path, monkeypatch):
 
 
 def test_gpu_limit_arithmetic():
-    # the constants are the GPU layer's real sizes
+    """How many blades an adapter's buffer limits allow (the GPU layer's real sizes per blade are
+    checked in tests/gpu/test_gpu_memory_limits.py)."""
     from grasswidget.core.blades import BLADE_BYTES
 
     assert memory.GPU_STATE_BYTES_PER_BLADE == BLADE_BYTES
-    field = gw.GrassField(gw.Blades.on_plane(64))
-    try:
-        assert field.bytes_per_blade == (memory.GPU_STATE_BYTES_PER_BLADE + memory.GPU_INDEX_BYTES_PER_BLADE
-                                         + memory.GPU_COLLISION_BYTES_PER_BLADE)
-    finally:
-        field.release()
     limits = {"max-storage-buffer-binding-size": 128 << 20, "max-buffer-size": 1 << 31}
     assert memory.max_blades_for_gpu(limits) == (128 << 20) // 64 == 2_097_152
     assert memory.check_gpu_blade_count(2_097_152, limits) == 2_097_152
@@ -119,48 +114,3 @@ def test_gpu_limit_arithmetic():
     # max_buffer_size binds when it is the smaller one
     assert memory.max_blades_for_gpu({"max-storage-buffer-binding-size": 1 << 30, "max-buffer-size": 64 << 20}) \
         == (64 << 20) // 64
-
-
-def test_scene_checks_the_adapter_before_making_blades():
-    from grasswidget.gpu.adapter import ensure_device
-
-    device = ensure_device()
-    limit = memory.max_blades_for_gpu(device.limits)
-    too_many = limit + 1
-    if too_many * memory.NUMPY_BYTES_PER_BLADE > (memory.available_memory()[0] or 0):
-        pytest.skip("this machine's memory is smaller than the adapter's buffer limit")
-    scene_class = gw.GrassScene  # (imports the module before measuring)
-    t0 = time.perf_counter()
-    tracemalloc.start()
-    with pytest.raises(gw.BladeLimitError) as info:
-        scene_class(too_many)
-    peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
-    assert time.perf_counter() - t0 < 1.0
-    assert peak < 4 << 20  # refused before the blades were made (they would take ~288 bytes each)
-    assert isinstance(info.value, ValueError) and info.value.limit == limit
-    assert f"count={too_many:,}" in str(info.value) and f"at most {limit:,}" in str(info.value)
-    with pytest.raises(gw.BladeLimitError):
-        gw.GrassScene.preset("cis565", blades=too_many)
-
-
-def test_widget_blade_count_uses_the_same_check(widget):
-    old = widget.blade_count
-    with pytest.raises(gw.BladeCountError, match=r"blades: count=1,000,000,000,000 .* at most"):
-        widget.set_blades(10**12)
-    assert widget.blade_count == old and widget.scene is not None
-    # the blade control: the error shows in the message line and the control goes back
-    control = widget.panel.blade_control
-    control.choose(10**12)  # as if the control offered it: more blades than measured for, so it asks
-    assert control.pending == 10**12 and widget.blade_count == old
-    control.confirm()  # Apply
-    assert "count=1,000,000,000,000" in widget.message_line.value
-    assert widget.blade_slider.value == old and widget.blade_count == old
-    # the slider never offers more than fits
-    from grasswidget.gpu.field import max_blade_count
-
-    fresh = gw.GrassWidget(blades=64, size=(160, 120))
-    try:
-        assert max(v for _label, v in fresh.blade_slider.options) <= max_blade_count()
-    finally:
-        fresh.close()

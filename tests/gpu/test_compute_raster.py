@@ -12,7 +12,7 @@ from grasswidget import teaching
 from grasswidget.core.enums import BladeShape
 from grasswidget.gpu.adapter import ensure_device
 from grasswidget.gpu.compute import sync_buffer
-from conftest import grass_mask
+from conftest import grass_mask, sky_mask
 
 SIZE = (192, 108)
 
@@ -155,9 +155,41 @@ def test_picture_at_rest_is_the_hardware_one(meadow):
     assert -0.01 < grass_mask(on).mean() - grass_mask(off).mean() < 0.08
 
 
+def _coverage_change(a, b, block=4):
+    """Mean over the pictures' 4 x 4-pixel blocks of |grass coverage of a - grass coverage of b|
+    (fractions, 0..1): how much of each block one path covers with grass and the other does not."""
+    h, w = a.shape[0] // block * block, a.shape[1] // block * block
+
+    def coverage(x):
+        return grass_mask(x)[:h, :w].astype(float).reshape(h // block, block, w // block, block).mean(axis=(1, 3))
+
+    return float(np.abs(coverage(a) - coverage(b)).mean())
+
+
+def _grass_ground_contrast(img):
+    """|mean grass colour - mean ground colour| of a picture (0..255, the channels averaged): what a
+    pixel changes by when a blade covers the ground behind it."""
+    rgb = img[..., :3].astype(float)
+    grass = grass_mask(img)
+    ground = ~grass & ~sky_mask(img)
+    return float(np.abs(rgb[grass].mean(axis=0) - rgb[ground].mean(axis=0)).mean())
+
+
 def test_picture_while_the_camera_moves(meadow):
     """The camera moves each frame with occlusion culling on (compute-drawn blades go
-    through both phases and into the depth pyramid) and the wind blows."""
+    through both phases and into the depth pyramid) and the wind blows.
+
+    The bound on the look (mean block difference, on vs off) comes from what the two paths may
+    differ in. Both draw the same blades at the same depths with the same shading; they differ in
+    sub-pixel coverage only: which blade wins a pixel, and grass where the LOD ribbons leave gaps
+    (their 1-segment blades are narrower at the top) that the compute path, which covers a blade's
+    area, fills. The first is the difference at the home camera in the same wind (frame 0:
+    ``base``; the wind bends blades over each other, so it is larger than at rest: 3.7 against 3.3
+    on lavapipe). For the second, a block whose grass coverage grows by a fraction f changes by
+    f x the contrast C between grass and the ground behind it. So a frame whose camera moved differs
+    by at most ``base + max(0, its coverage change - frame 0's) x C`` (coverage changes per 4 x 4
+    block, C from the picture without the compute path). Measured on lavapipe: 4.2-4.6 against
+    bounds of 4.7-5.9."""
     meadow.reset_camera()
     meadow.params.wind_strength = 12.0
     home = np.array(meadow.camera.local.position)
@@ -168,9 +200,11 @@ def test_picture_while_the_camera_moves(meadow):
             meadow.step(4)
             on, off, rastered = _on_off(meadow)
             assert rastered > 0
-            # 5.0, not 3.5: the soil under dense grass is dark (the looks), so the few more
-            # pixels the compute path covers (the LOD ribbons' gaps) weigh more: 3.7-4.6 measured
-            assert _mean_difference(on, off) < 5.0
+            difference, coverage = _mean_difference(on, off), _coverage_change(on, off)
+            if k == 0:  # the home camera: the baseline of the frames that moved
+                base, base_coverage = difference, coverage
+            bound = base + max(0.0, coverage - base_coverage) * _grass_ground_contrast(off)
+            assert difference <= bound, (k, difference, base, bound)
             # no holes: never less grass; a little more (the LOD ribbons' 1-segment blades are narrower at the top)
             assert -0.01 < grass_mask(on).mean() - grass_mask(off).mean() < 0.08
     finally:

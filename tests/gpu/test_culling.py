@@ -269,12 +269,20 @@ def test_bad_culling_params(name, value):
         setattr(p, name, value)
 
 
-def test_lod_draws_each_class_nearest_first():
-    """With LOD on, every class's list runs through the distance bands nearest first
-    (front-to-back draws); the set of drawn blades is the same either way."""
-    from grasswidget.gpu.shaders import BAND_RANGE, DISTANCE_BANDS
+@pytest.mark.parametrize("switches", ["culling and LOD on", "LOD off", "culling and LOD off"])
+def test_draws_run_nearest_first_whatever_the_switches(switches):
+    """Every class's list runs through the distance bands nearest first (front-to-back
+    draws, so the depth test rejects hidden fragments before they are shaded), with LOD
+    and culling on, with LOD off, and with every culling test off; the set of drawn
+    blades is the one the culling tests keep, whatever the order."""
+    from grasswidget.gpu.shader_classes import BAND_RANGE, DISTANCE_BANDS
 
     scene = gw.GrassScene.preset("cis565", blades=4096)
+    if switches != "culling and LOD on":
+        scene.params.lod = False
+    if switches == "culling and LOD off":
+        for name in ("cull_orientation", "cull_frustum", "cull_distance", "cull_occlusion"):
+            setattr(scene.params, name, False)
     scene.render()
     lists = scene.field.read_visible(draw_order=True)
     cam = np.asarray(scene.camera.world.position, np.float64)
@@ -291,3 +299,5 @@ def test_lod_draws_each_class_nearest_first():
         drawn += len(ids)
     assert drawn > 500 and len({int(x) for ids in lists for x in band[ids]}) > 3
     assert np.array_equal(np.sort(np.concatenate(lists)), scene.field.read_visible())
+    if switches == "culling and LOD off":
+        assert drawn == scene.field.count, "with every test off every blade is drawn"

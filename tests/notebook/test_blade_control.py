@@ -113,6 +113,10 @@ def test_a_count_from_code_is_shown_exactly_and_a_refused_count_goes_back():
     ({"fps": 0.1, "blades": 434281, "playing": True, "slow_motion": True, "sim_speed": 0.001},
      "slow motion under 0.01x", "0.0x"),
     ({"fps": 0.1, "blades": 256, "playing": True, "sim_speed": None}, "0.1 frames/s · 256 blades", "real time"),
+    ({"fps": 11.9, "blades": 1024, "playing": True, "slow_motion": True, "sim_speed": 0.958},
+     "slow motion 0.96x", "1.0x"),
+    ({"fps": 11.9, "blades": 1024, "playing": True, "slow_motion": True, "sim_speed": 0.9999},
+     "slow motion 0.99x", "1.0x"),
 ])
 def test_status_says_only_what_it_knows(stats, want, never):
     line = format_status(stats)

@@ -185,14 +185,14 @@ def test_browser_engine_views_follow_the_camera_the_browser_sends():
         soft, stiff = c.views["soft"].view, c.views["stiff"].view
         heard = []
         soft.add_camera_listener(lambda view: heard.append(view))
-        soft.browser_view.camera = dict(soft.browser_view.camera, position=[3.0, 4.0, 9.0], target=[0.5, 0.5, 0.0])
+        soft.engine_widget.camera = dict(soft.engine_widget.camera, position=[3.0, 4.0, 9.0], target=[0.5, 0.5, 0.0])
         assert np.allclose(stiff.current_camera()["position"], (3.0, 4.0, 9.0))
         assert np.allclose(stiff.current_camera()["target"], (0.5, 0.5, 0.0))
         assert len(heard) == 1  # the drag itself; the follower's copy did not come back
         c.pause()
-        assert [w.view.browser_view.playing for w in c.views.values()] == [False, False]
+        assert [w.view.engine_widget.playing for w in c.views.values()] == [False, False]
         c.play()
-        assert [w.view.browser_view.playing for w in c.views.values()] == [True, True]
+        assert [w.view.engine_widget.playing for w in c.views.values()] == [True, True]
     finally:
         c.close()
 
@@ -228,7 +228,7 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
     try:
         c.camera_state = {"position": (2.0, 5.0, 11.0)}
         for w in c.views.values():  # what a page without WebGPU reports
-            w.view.browser_view.gpu_status = {"state": "unavailable", "detail": "no adapter (test)"}
+            w.view.engine_widget.gpu_status = {"state": "unavailable", "detail": "no adapter (test)"}
         assert c.backend == "kernel" and c.clock is not None
         assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.views.values())
         soft, stiff = c.views["soft"].view, c.views["stiff"].view

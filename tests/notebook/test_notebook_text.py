@@ -291,7 +291,7 @@ def test_panel_labels_are_read_from_the_panel():
     assert not {"wind_speed", "wind_field", "stiffness_scale", "stiffness x"} & labels
 
 
-# What the tour said before issue 31 (verbatim lines): trait names where the panel has words.
+# What the tour said before its controls were named in words (verbatim lines): trait names where the panel has words.
 OLD_TOUR = """| control | what it does |
 | --- | --- |
 | **blades** | number of blades; rebuilds the field when you let go of the slider |

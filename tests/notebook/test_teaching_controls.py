@@ -159,7 +159,7 @@ def test_browser_widget_teaching_views_without_a_browser():
 
     w = gw.GrassWidget(256, backend="browser", size=SIZE, pixel_ratio=1)
     try:
-        bv = w.view.browser_view
+        bv = w.view.engine_widget
         w.culling_frozen = True
         frozen = w.view.frozen_camera
         assert frozen.viewport_size == (float(SIZE[0]), float(SIZE[1]))

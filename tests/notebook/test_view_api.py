@@ -1,8 +1,9 @@
-"""One view interface (grasswidget.core.view_api.GrassView) that the kernel
+"""One view interface (grasswidget.core.view_api.EngineView) that the kernel
 and the browser views implement in full; the widget talks to it only."""
 
 import ast
 import inspect
+import re
 from pathlib import Path
 
 import numpy as np
@@ -13,26 +14,26 @@ pytest.importorskip("ipywidgets")
 import grasswidget as gw  # noqa: E402
 from grasswidget.browser.engine_view import BrowserEngineView  # noqa: E402
 from grasswidget.notebook.kernel_view import KernelView  # noqa: E402
-from grasswidget.core.view_api import MAX_STEPS_PER_FRAME, GrassView, check_camera_state  # noqa: E402
+from grasswidget.core.view_api import MAX_STEPS_PER_FRAME, EngineView, check_camera_state  # noqa: E402
 
 SIZE = (160, 120)
 
 
 def _interface_members():
-    return {name for name in dir(GrassView) if not name.startswith("_")}
+    return {name for name in dir(EngineView) if not name.startswith("_")}
 
 
 @pytest.mark.parametrize("view_class", [KernelView, BrowserEngineView])
 def test_both_views_implement_the_whole_interface(view_class):
-    assert issubclass(view_class, GrassView)
+    assert issubclass(view_class, EngineView)
     assert not view_class.__abstractmethods__, f"{view_class.__name__} leaves {sorted(view_class.__abstractmethods__)}"
     for name in _interface_members():
         assert hasattr(view_class, name), name
     # and documented: every member of the interface says what it is
     for name in _interface_members():
-        member = inspect.getattr_static(GrassView, name)
+        member = inspect.getattr_static(EngineView, name)
         doc = getattr(member, "__doc__", None) if not isinstance(member, str) else "constant"
-        assert name in ("backend",) or (doc and doc.strip()), f"GrassView.{name} has no docstring"
+        assert name in ("backend",) or (doc and doc.strip()), f"EngineView.{name} has no docstring"
 
 
 def test_the_widget_does_not_probe_or_reach_through_its_view():
@@ -97,7 +98,7 @@ def test_shared_keys(both):
 
     def press(key, modifiers=()):
         if w.backend == "browser":
-            w.view.browser_view.handle_message({"type": "key", "key": key, "modifiers": list(modifiers)})
+            w.view.engine_widget.handle_message({"type": "key", "key": key, "modifiers": list(modifiers)})
         else:
             w.view.on_key({"type": "key_down", "key": key, "modifiers": modifiers})
 
@@ -113,3 +114,81 @@ def test_shared_keys(both):
     w.camera_state = {"position": (2.0, 4.0, 9.0)}
     press("r")
     assert np.allclose(w.camera_state["position"], home["position"], atol=1e-5)
+
+
+def _hand_written_pass_throughs(source: str, class_name: str) -> list[str]:
+    """Members of ``class_name`` whose whole body (a docstring and ``self._check_open()`` aside) is
+    ``self.view.<same name>``: read, called with the same arguments, or assigned."""
+    found = []
+    for cls in ast.walk(ast.parse(source)):
+        if not (isinstance(cls, ast.ClassDef) and cls.name == class_name):
+            continue
+        for fn in cls.body:
+            if not isinstance(fn, ast.FunctionDef):
+                continue
+            body = [st for st in fn.body
+                    if not (isinstance(st, ast.Expr) and isinstance(st.value, ast.Constant))
+                    and "_check_open" not in ast.unparse(st)]
+            if len(body) != 1:
+                continue
+            text = ast.unparse(body[0])
+            if re.fullmatch(rf"(return )?self\.view\.{fn.name}(\(.*\))?|self\.view\.{fn.name} = \w+", text):
+                found.append(f"{class_name}.{fn.name}: {text}")
+    return found
+
+
+def test_the_widget_forwards_to_its_view_in_one_way_documented_once():
+    """GrassWidget has no hand-written member that only passes to its view's member of the same name;
+    those are ``ViewMember``s, whose help is the interface's text. Each interface member is documented
+    in EngineView only: the kernel and browser views' own definitions carry no docstring."""
+    import grasswidget.notebook.widget as widget_module
+    from grasswidget.core.view_api import ViewMember
+
+    assert _hand_written_pass_throughs(Path(widget_module.__file__).read_text(), "GrassWidget") == []
+    forwarded = {name for name, member in vars(gw.GrassWidget).items() if isinstance(member, ViewMember)}
+    assert {"read_inspected", "read_state", "inspect", "camera_state", "stats"} <= forwarded
+    for name in forwarded:
+        assert inspect.getdoc(vars(gw.GrassWidget)[name]) == inspect.getdoc(inspect.getattr_static(EngineView, name))
+    redocumented = []
+    for view_class in (KernelView, BrowserEngineView):
+        for name in _interface_members():
+            own = vars(view_class).get(name)
+            if (inspect.isfunction(own) or isinstance(own, property)) and own.__doc__:
+                redocumented.append(f"{view_class.__name__}.{name}")
+    assert not redocumented, redocumented
+
+
+def test_the_pass_through_check_can_fail():
+    source = ("class GrassWidget:\n"
+              "    def read_inspected(self, timeout=30.0):\n"
+              "        '''doc'''\n"
+              "        self._check_open()\n"
+              "        return self.view.read_inspected(timeout=timeout)\n"
+              "    def save_png(self, path):\n"
+              "        path = str(path)\n"
+              "        return self.view.save_png(path)\n")
+    assert _hand_written_pass_throughs(source, "GrassWidget") == [
+        "GrassWidget.read_inspected: return self.view.read_inspected(timeout=timeout)"]
+
+
+def test_a_view_member_of_a_closed_widget_raises_and_old_names_are_the_same_objects():
+    """After close, a forwarded method raises WidgetClosedError (as the widget's own do); the interface's,
+    the anywidget's and the clock's names of before import as the very same objects."""
+    from grasswidget.browser import view as browser_view_module
+    from grasswidget.core import view_api
+
+    w = gw.GrassWidget(64, size=SIZE, backend="browser")
+    with pytest.raises(gw.ReadOnlyAttributeError, match="GrassWidget.stats can only be read"):
+        w.stats = {}
+    assert isinstance(w.stats, dict) and w.inspected == ()
+    assert w.view.browser_view is w.view.engine_widget and w.view.clock_source is w.view.playback is w
+    w.close()
+    for call in (lambda: w.read_inspected(), lambda: w.inspect([0]), lambda: w.read_state()):
+        with pytest.raises(gw.WidgetClosedError, match="GrassWidget is closed"):
+            call()
+    with pytest.raises(gw.WidgetClosedError):
+        w.camera_state = {"fov_deg": 40.0}
+    assert view_api.GrassView is view_api.EngineView and view_api.ViewClock is view_api.PlaybackState
+    assert browser_view_module.BrowserView is browser_view_module.BrowserEngineWidget
+    assert isinstance(BrowserEngineView.browser_view, property)  # the attribute's name of before
+    assert isinstance(view_api.EngineView.clock_source, property)

@@ -22,7 +22,7 @@ import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.esm import engine_module_text
 from grasswidget.browser.page import PAGE_MAX_BLADES, page_html
-from grasswidget.browser.view import BrowserView
+from grasswidget.browser.view import BrowserEngineWidget
 from grasswidget.core.colliders import SphereCollider
 
 
@@ -60,7 +60,7 @@ def _place(state, ball, x, z):
 @pytest.fixture(scope="module")
 def page_data():
     params = gw.GrassParams(wind_strength=7.0)
-    view = BrowserView(gw.Blades.on_plane(256, seed=3), params=params, size=(320, 240))
+    view = BrowserEngineWidget(gw.Blades.on_plane(256, seed=3), params=params, size=(320, 240))
     text = page_html(view, title="a <test> page")
     yield view, text, _data(text)
     view.close()

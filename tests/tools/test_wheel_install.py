@@ -63,6 +63,10 @@ def test_wheel_metadata(wheel):
     for f in ("trace_chart.js", "trace_chart.py", "vendor/uplot/uPlot.iife.min.js", "vendor/uplot/uPlot.min.css",
               "vendor/uplot/LICENSE"):
         assert f"grasswidget/browser/{f}" in names, f
+    # marimo's rendering of the panel and the stage (marimo itself stays optional)
+    for f in ("control_mirror.py", "control_mirror.js", "control_mirror.css", "marimo_face.py", "marimo_stage.js"):
+        assert f"grasswidget/notebook/{f}" in names, f
+    assert "marimo" not in core
 
 
 def test_sdist_metadata_and_files(tmp_path):

@@ -1,8 +1,13 @@
 """pygfx shader classes of the grass field, registered for (GrassField, GrassMaterial).
 
-Importing this module registers :func:`grass_render_function` with pygfx's
-``register_wgpu_render_function`` decorator (``grasswidget.gpu`` imports it, so
-any use of the GPU layer has it registered). It composes the passes pygfx runs in
+The Python classes that fill the WGSL templates of ``grasswidget/shaders/`` (the
+folder of ``.wgsl`` files) for pygfx. As in pygfx, the shaders import the objects
+they draw, never the other way round: importing this module registers
+:func:`grass_render_function` with pygfx's ``register_wgpu_render_function``
+decorator, and the occlusion culling's second-phase classes with
+:func:`grasswidget.gpu.occlusion.register_second_phase_shaders`. The package
+``grasswidget.gpu`` imports it, so any use of the GPU layer has them registered.
+(Its name before: ``grasswidget.gpu.shaders``, still importable.) It composes the passes pygfx runs in
 every ``renderer.render()``:
 
 1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts and
@@ -11,7 +16,7 @@ every ``renderer.render()``:
    bands, count survivors per (class, band).
 3. ``PrefixBandsShader`` (compute): each band's first slot, instance counts.
 4. ``CullShader("scatter")`` (compute): the same tests again; survivors written
-   to their class's list, with LOD on nearest band first (front-to-back draws:
+   to their class's list, nearest band first whatever the switches (front-to-back draws:
    the depth test rejects hidden fragments before they are written).
 5. ``BladeRenderShader`` x LOD classes (render): one indirect draw per class,
    then one more for the culled blades (instances only with ``color_by = "cull"``).
@@ -22,7 +27,7 @@ the culling lists thin blades for it, ``RasterShader("depth")`` and
 ``RasterShader("payload")`` walk them after step 4, and ``RasterResolveShader``
 (render, after the ribbons) writes their colour and depth.
 
-Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.occlusion.render_frame`)
+Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.frame.render_frame`)
 arms steps 2-4 as its first phase (only blades seen last frame), then runs the
 pyramid (``HzbLevelShader``) and the second phase (``CullShader("scatter", occlusion=2)``,
 one pass without distance bands)
@@ -43,10 +48,11 @@ from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
 from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
-from .field import BAND_RANGE, DISTANCE_BANDS, GrassField
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS
+from .field import GrassField
 from .material import GrassMaterial
-from .occlusion import OcclusionDraws
-from .wgsl import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
+from .occlusion import OcclusionDraws, register_second_phase_shaders
+from .wgsl_templates import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
            "grass_render_function", "occlusion_render_function",
@@ -55,7 +61,7 @@ __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader
 
 #: Binding slot of ``u_cull`` in the culling and ribbon shaders. It is a read-only
 #: storage buffer, not a uniform: the shaders branch on its switches, and lavapipe
-#: leaks a recompiled shader per pass for branches on uniforms (see gpu/wgsl.py).
+#: leaks a recompiled shader per pass for branches on uniforms (see gpu/wgsl_templates.py).
 U_CULL_SLOT = 2
 #: Its WGSL declaration (struct ``CullParams`` of ``uniform_layouts.CULL_LAYOUT``).
 U_CULL_CODE = storage_struct_code(0, U_CULL_SLOT, "u_cull", "CullParams", CULL_LAYOUT)
@@ -357,3 +363,6 @@ def grass_render_function(wobject):
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
         RasterResolveShader(wobject),
     ]
+
+
+register_second_phase_shaders(cull=CullShader, hzb_level=HzbLevelShader, raster=RasterShader)

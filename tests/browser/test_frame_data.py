@@ -231,7 +231,7 @@ def test_engine_js_lays_out_the_depth_pyramid_as_reference_hzb_layout():
     """The browser engine sizes its occlusion pyramid per canvas with engine.js's hzbLayout
     (the canvas size is only known there): the same layout as reference.hzb_layout for the
     row alignment Python sends (BrowserShaders.occlusion's row_align)."""
-    from grasswidget.browser.wgsl import BrowserShaders
+    from grasswidget.browser.browser_wgsl import BrowserShaders
     from grasswidget.core.reference import HZB_MAX_LEVELS, hzb_layout
 
     node = node_executable()

@@ -193,7 +193,7 @@ def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, *
         if name in _WRITTEN_WHERE_STORED and not re.search(rf"\b{name}{_INDEX}\s*=(?!=)", body):
             decl = decl.replace("read_write", "read")
         lines.append(f"@group(0) @binding({take()}) {decl};")
-    header = "// ---- browser engine bindings (grasswidget.browser.wgsl)\n" + "\n".join(structs + lines) + "\n"
+    header = "// ---- browser engine bindings (grasswidget.browser.browser_wgsl)\n" + "\n".join(structs + lines) + "\n"
     if _MARK in body:
         code = body.replace(_MARK, header, 1)
     else:

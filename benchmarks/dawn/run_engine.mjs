@@ -1,0 +1,388 @@
+// The browser engine's ES module run on Dawn (dawn.node, the npm package `webgpu`) without a browser.
+//
+//   node benchmarks/dawn/run_engine.mjs --manifest STATES/manifest.json --out result.json \
+//        --dawn path/to/unpacked/webgpu/package [--seconds 5] [--profile-frames 30]
+//
+// STATES is written by benchmarks/browser_engine_dawn.py: engine.mjs (BrowserView._esm), and per
+// case the synced traits a BrowserView sends (traits.json, *.bin for the byte traits) and the kernel
+// engine's picture of the same state (kernel.rgba). For each case this script shows the widget once
+// through a small shim (an `el`, a canvas whose WebGPU context draws into a device texture,
+// requestAnimationFrame driven by this loop, the model's get/set/on/send), then
+//   1. plays it: frames the GPU completed per second over --seconds (after a warm-up second);
+//   2. GPU ms per pass per frame with timestamp queries around every pass (where the adapter has
+//      timestamp-query; pass disable-dawn-features=timestamp_quantization is always given);
+//   3. resets, pauses, runs the case's steps, draws one frame, reads it back and compares it with
+//      the kernel's picture (mean |diff| over RGB in 0..255, share of pixels off by > 40).
+// It prints one line per case and writes all figures as JSON (--out); the frames as .rgba beside it.
+
+import { mkdirSync, readFileSync, writeFileSync } from "node:fs";
+import { dirname, join, resolve } from "node:path";
+import { pathToFileURL } from "node:url";
+import { performance } from "node:perf_hooks";
+
+function parseArgs(argv) {
+  const args = { seconds: 5, profileFrames: 30, warmup: 1 };
+  for (let k = 0; k < argv.length; k += 2) {
+    const [key, value] = [argv[k].replace(/^--/, ""), argv[k + 1]];
+    if (key === "manifest") args.manifest = value;
+    else if (key === "out") args.out = value;
+    else if (key === "dawn") args.dawn = value;
+    else if (key === "seconds") args.seconds = Number(value);
+    else if (key === "profile-frames") args.profileFrames = Number(value);
+    else if (key === "warmup") args.warmup = Number(value);
+    else throw new Error(`unknown argument --${key}`);
+  }
+  if (!args.manifest || !args.out || !args.dawn) throw new Error("need --manifest, --out and --dawn");
+  return args;
+}
+
+const args = parseArgs(process.argv.slice(2));
+const { create, globals } = await import(pathToFileURL(join(resolve(args.dawn), "index.js")).href);
+Object.assign(globalThis, globals);
+const gpu = create(["disable-dawn-features=timestamp_quantization"]);
+
+// ------------------------------------------------------------------ the shim: what a page gives the module
+
+const rafQueue = [];
+let rafId = 0;
+globalThis.requestAnimationFrame = (cb) => { rafQueue.push([++rafId, cb]); return rafId; };
+globalThis.cancelAnimationFrame = (id) => {
+  const at = rafQueue.findIndex(([k]) => k === id);
+  if (at >= 0) rafQueue.splice(at, 1);
+};
+globalThis.IntersectionObserver = class {
+  constructor(cb) { this.cb = cb; }
+  observe(target) { queueMicrotask(() => this.cb([{ isIntersecting: true, target }])); }
+  unobserve() {}
+  disconnect() {}
+};
+class FakeElement {
+  constructor(tag) { this.tagName = tag; this.style = {}; this.children = []; this.className = ""; this.textContent = ""; }
+  append(...nodes) { this.children.push(...nodes); }
+  appendChild(node) { this.children.push(node); return node; }
+  remove() {}
+  addEventListener() {}
+  removeEventListener() {}
+  setAttribute() {}
+  focus() {}
+  get isConnected() { return true; }
+  getBoundingClientRect() { return { left: 0, top: 0, width: this.width || 0, height: this.height || 0 }; }
+}
+let lastDevice = null;  // the device the engine configured its canvas with
+class FakeCanvas extends FakeElement {
+  constructor() { super("canvas"); this.width = 300; this.height = 150; this.context = null; }
+  getContext(kind) {
+    if (kind !== "webgpu") return null;
+    if (!this.context) this.context = new CanvasContext(this);
+    return this.context;
+  }
+}
+// configure()/getCurrentTexture() backed by a device texture (COPY_SRC: the last frame is read back).
+class CanvasContext {
+  constructor(canvas) { this.canvas = canvas; this.texture = null; }
+  configure(config) { this.config = config; lastDevice = config.device; this.texture = null; }
+  unconfigure() { this.config = null; }
+  getCurrentTexture() {
+    const { width, height } = this.canvas;
+    if (!this.texture || this.texture.width !== width || this.texture.height !== height) {
+      if (this.texture) this.texture.destroy();
+      this.texture = this.config.device.createTexture({
+        size: [width, height], format: this.config.format,
+        usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC, label: "canvas" });
+    }
+    return this.texture;
+  }
+}
+globalThis.document = {
+  visibilityState: "visible",
+  createElement: (tag) => (tag === "canvas" ? new FakeCanvas() : new FakeElement(tag)),
+  addEventListener() {}, removeEventListener() {},
+};
+globalThis.window = globalThis;
+globalThis.devicePixelRatio = 1;
+Object.defineProperty(globalThis, "navigator", { value: { gpu }, configurable: true, writable: true });
+
+// The anywidget model: get/set/save_changes/on/off/send, with Python's traits.
+class Model {
+  constructor(state) { this.state = state; this.listeners = new Map(); this.sent = []; }
+  get(name) { return this.state[name]; }
+  set(name, value) { this.state[name] = value; this.fire(`change:${name}`, value); }
+  save_changes() {}
+  on(event, fn) { if (!this.listeners.has(event)) this.listeners.set(event, []); this.listeners.get(event).push(fn); }
+  off(event, fn) { const l = this.listeners.get(event) || []; const k = l.indexOf(fn); if (k >= 0) l.splice(k, 1); }
+  fire(event, ...a) { for (const fn of [...(this.listeners.get(event) || [])]) fn(...a); }
+  send(msg, _callbacks, buffers) { this.sent.push({ msg, buffers }); }
+  custom(msg, buffers = []) { this.fire("msg:custom", msg, buffers); }  // Python -> page
+}
+
+function loadState(root, c) {
+  const state = JSON.parse(readFileSync(join(root, c.traits), "utf8"));
+  for (const [trait, file] of Object.entries(c.byte_traits)) {
+    const b = readFileSync(join(root, file));
+    state[trait] = new DataView(b.buffer, b.byteOffset, b.byteLength);
+  }
+  state.gpu_status = { state: "", detail: "" };
+  return state;
+}
+
+// ------------------------------------------------------------------ timestamp queries around every pass
+
+const QUERIES = 512;
+const profiler = { on: false, device: null, querySet: null, next: 0, passes: [] };
+const AdapterProto = globalThis.GPUAdapter.prototype;
+const requestDevice = AdapterProto.requestDevice;
+AdapterProto.requestDevice = async function (descriptor = {}) {
+  const features = [...(descriptor.requiredFeatures || [])];
+  if (this.features.has("timestamp-query") && !features.includes("timestamp-query")) features.push("timestamp-query");
+  const device = await requestDevice.call(this, { ...descriptor, requiredFeatures: features });
+  if (device.features.has("timestamp-query")) {  // a new engine (the next case): its own query set
+    profiler.device = device;
+    profiler.querySet = null;
+  }
+  return device;
+};
+function wrapPass(begin, kind) {
+  return function (descriptor = {}) {
+    if (!profiler.on || !profiler.device || descriptor.timestampWrites || profiler.next + 2 > QUERIES) {
+      return begin.call(this, descriptor);
+    }
+    if (!profiler.querySet) profiler.querySet = profiler.device.createQuerySet({ type: "timestamp", count: QUERIES });
+    const at = profiler.next;
+    profiler.next += 2;
+    const record = { kind, at, labels: [] };
+    profiler.passes.push(record);
+    const pass = begin.call(this, { ...descriptor, timestampWrites: { querySet: profiler.querySet,
+      beginningOfPassWriteIndex: at, endOfPassWriteIndex: at + 1 } });
+    const setPipeline = pass.setPipeline;
+    pass.setPipeline = function (pipeline) {
+      const label = (pipeline.label || "?").replace(/\.wgsl/g, "").replace(/\s*\(.*\)$/, "");
+      if (!record.labels.includes(label)) record.labels.push(label);
+      return setPipeline.call(this, pipeline);
+    };
+    return pass;
+  };
+}
+// Pipelines without a label take their shader module's (the engine labels every module), so a
+// pass can be named by what it runs.
+const DeviceProto = globalThis.GPUDevice.prototype;
+for (const method of ["createRenderPipeline", "createRenderPipelineAsync", "createComputePipeline",
+  "createComputePipelineAsync"]) {
+  const original = DeviceProto[method];
+  DeviceProto[method] = function (descriptor) {
+    const stage = descriptor.vertex || descriptor.compute || {};
+    const label = descriptor.label || (stage.module && stage.module.label) || "";
+    return original.call(this, label ? { ...descriptor, label } : descriptor);
+  };
+}
+const EncoderProto = globalThis.GPUCommandEncoder.prototype;
+EncoderProto.beginComputePass = wrapPass(EncoderProto.beginComputePass, "compute");
+EncoderProto.beginRenderPass = wrapPass(EncoderProto.beginRenderPass, "render");
+
+// A pass's name: what it runs (its pipelines' labels, shortened, in order).
+function passName(p) {
+  return `${p.kind}: ${p.labels.join(" + ") || "(no pipeline)"}`;
+}
+
+async function readTimestamps(device) {
+  const n = profiler.next;
+  if (!n) return [];
+  const bytes = 8 * n;
+  const resolveBuf = device.createBuffer({ size: bytes, usage: GPUBufferUsage.QUERY_RESOLVE | GPUBufferUsage.COPY_SRC });
+  const readBuf = device.createBuffer({ size: bytes, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
+  const enc = device.createCommandEncoder();
+  enc.resolveQuerySet(profiler.querySet, 0, n, resolveBuf, 0);
+  enc.copyBufferToBuffer(resolveBuf, 0, readBuf, 0, bytes);
+  device.queue.submit([enc.finish()]);
+  await readBuf.mapAsync(GPUMapMode.READ);
+  const t = new BigInt64Array(readBuf.getMappedRange().slice(0));
+  readBuf.unmap(); readBuf.destroy(); resolveBuf.destroy();
+  return profiler.passes.map((p) => ({ name: passName(p), ms: Number(t[p.at + 1] - t[p.at]) / 1e6 }));
+}
+
+// ------------------------------------------------------------------ driving the loop
+
+const tick = () => new Promise((r) => setImmediate(r));
+
+// One turn of the page's event loop: run the animation-frame callbacks asked for so far.
+function runAnimationFrames() {
+  const due = rafQueue.splice(0);
+  const now = performance.now();
+  for (const [, cb] of due) cb(now);
+  return due.length;
+}
+
+// The loop: animation frames as fast as the engine takes them. When a turn submitted nothing (the
+// engine has its most frames in flight) it waits for the GPU queue instead of spinning, so the
+// loop leaves the CPU to the GPU work (SwiftShader runs on the CPU).
+let currentCanvas = null;
+async function until(what, check, seconds = 120) {
+  const end = performance.now() + seconds * 1000;
+  while (performance.now() < end) {
+    const v = check();
+    if (v) return v;
+    const before = currentCanvas ? currentCanvas.grasswidgetFramesDrawn || 0 : 0;
+    runAnimationFrames();
+    const submitted = currentCanvas && (currentCanvas.grasswidgetFramesDrawn || 0) > before;
+    if (!submitted && lastDevice && currentCanvas && currentCanvas.context) await lastDevice.queue.onSubmittedWorkDone();
+    await tick();
+  }
+  throw new Error(`timed out waiting for ${what}`);
+}
+
+async function readCanvas(device, canvas) {
+  const tex = canvas.context.getCurrentTexture();
+  const w = tex.width, h = tex.height, row = Math.ceil((4 * w) / 256) * 256;
+  const buf = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
+  const enc = device.createCommandEncoder();
+  enc.copyTextureToBuffer({ texture: tex }, { buffer: buf, bytesPerRow: row }, [w, h]);
+  device.queue.submit([enc.finish()]);
+  await buf.mapAsync(GPUMapMode.READ);
+  const src = new Uint8Array(buf.getMappedRange());
+  const out = new Uint8Array(4 * w * h);
+  const bgra = tex.format.startsWith("bgra");
+  for (let y = 0; y < h; y++) {
+    for (let x = 0; x < w; x++) {
+      const s = y * row + 4 * x, d = 4 * (y * w + x);
+      out[d] = src[s + (bgra ? 2 : 0)]; out[d + 1] = src[s + 1]; out[d + 2] = src[s + (bgra ? 0 : 2)]; out[d + 3] = src[s + 3];
+    }
+  }
+  buf.unmap(); buf.destroy();
+  return { w, h, rgba: out };
+}
+
+// Mean |a - b| over RGB (0..255) and the share of pixels off by more than 40 in some channel
+// (benchmarks/browser_engine_dawn.py's frame_difference computes the same in NumPy).
+function difference(a, b) {
+  let sum = 0, over = 0;
+  const n = a.length / 4;
+  for (let k = 0; k < n; k++) {
+    let worst = 0;
+    for (let c = 0; c < 3; c++) {
+      const d = Math.abs(a[4 * k + c] - b[4 * k + c]);
+      sum += d;
+      if (d > worst) worst = d;
+    }
+    if (worst > 40) over += 1;
+  }
+  return { mean_abs: sum / (3 * n), share_over_40: over / n };
+}
+
+async function runCase(root, c, tolerance, module) {
+  const model = new Model(loadState(root, c));
+  const el = new FakeElement("div");
+  const cleanup = module.default.initialize ? module.default.initialize({ model }) : null;
+  const t0 = performance.now();
+  const removeView = module.default.render({ model, el });
+  const canvas = (function find(node) {
+    if (node instanceof FakeCanvas) return node;
+    for (const child of node.children || []) { const f = find(child); if (f) return f; }
+    return null;
+  })(el);
+  if (!canvas) throw new Error("the engine made no canvas");
+  currentCanvas = canvas;
+  const status = await until("the engine to start", () => {
+    const s = model.get("gpu_status");
+    return s && s.state ? s : null;
+  }, 600);
+  if (status.state !== "ok") throw new Error(`engine did not start: ${JSON.stringify(status)}`);
+  const startMs = performance.now() - t0;
+  const device = lastDevice;
+
+  // 1. playing: frames completed per second (the engine counts one per completed submission, so
+  // the canvas's count after the queue drains is the frames completed).
+  const frames = () => canvas.grasswidgetFramesDrawn || 0;
+  const warmEnd = performance.now() + 1000 * args.warmup;
+  await until("the warm-up", () => performance.now() > warmEnd, args.warmup + 60);
+  await device.queue.onSubmittedWorkDone();
+  const f0 = frames(), s0 = performance.now();
+  const end = s0 + 1000 * args.seconds;
+  await until("the measured seconds", () => performance.now() > end, args.seconds + 60);
+  await device.queue.onSubmittedWorkDone();
+  const fps = (frames() - f0) / ((performance.now() - s0) / 1000);
+  const playingStats = model.sent.filter((m) => m.msg.type === "stats").map((m) => m.msg);  // the engine's own
+
+  // 2. GPU time per pass, one frame at a time.
+  const perFrame = [];
+  let profiled = false;
+  if (profiler.device === device) {
+    for (let k = 0; k < args.profileFrames; k++) {
+      await device.queue.onSubmittedWorkDone();
+      profiler.on = true; profiler.next = 0; profiler.passes = [];
+      const before = frames();
+      await until("a profiled frame", () => frames() > before || null, 60);
+      profiler.on = false;
+      await device.queue.onSubmittedWorkDone();
+      perFrame.push(await readTimestamps(device));
+      profiled = true;
+    }
+  }
+  const gpuMs = {};
+  for (const passes of perFrame) {
+    const seen = {};
+    for (const p of passes) seen[p.name] = (seen[p.name] || 0) + p.ms;
+    for (const [name, ms] of Object.entries(seen)) gpuMs[name] = (gpuMs[name] || 0) + ms / perFrame.length;
+  }
+  const gpuTotal = Object.values(gpuMs).reduce((a, b) => a + b, 0);
+
+  // 3. the picture: reset, paused, the case's steps, one frame, read back.
+  model.set("playing", false);
+  model.custom({ type: "reset" });
+  model.custom({ type: "step", n: c.steps });
+  model.custom({ type: "sync", id: 1 });
+  await until("the steps", () => model.sent.some((s) => s.msg.type === "synced" && s.msg.id === 1), 120);
+  for (let k = 0; k < 2; k++) {  // two frames drawn after the steps: the last one is the state's
+    const before = frames();
+    await until("a frame of the stepped state", () => frames() > before || null, 60);
+  }
+  await device.queue.onSubmittedWorkDone();
+  const frame = await readCanvas(device, canvas);
+  const frameFile = resolve(dirname(args.out), `${c.name}_dawn.rgba`);
+  writeFileSync(frameFile, frame.rgba);
+  let picture = null;
+  if (c.kernel_picture) {
+    const kernel = readFileSync(join(root, c.kernel_picture));
+    if (kernel.length !== frame.rgba.length) throw new Error(`kernel picture ${kernel.length} bytes, frame ${frame.rgba.length}`);
+    const d = difference(frame.rgba, kernel);
+    picture = { ...d, tolerance_mean: tolerance.mean, tolerance_share_over_40: tolerance.share_over_40,
+      pass: d.mean_abs <= tolerance.mean && d.share_over_40 <= tolerance.share_over_40 };
+  }
+  const engineErrors = model.sent.filter((s) => s.msg.type === "error").map((s) => s.msg.message);
+
+  if (removeView) removeView();
+  if (cleanup) cleanup();
+  return {
+    name: c.name, blades: c.blades, width: c.width, height: c.height, steps: c.steps,
+    start_ms: Math.round(startMs), fps: Number(fps.toFixed(2)), seconds: args.seconds,
+    gpu_ms_per_pass: Object.fromEntries(Object.entries(gpuMs).map(([k, v]) => [k, Number(v.toFixed(4))])),
+    gpu_ms_per_frame: profiled ? Number(gpuTotal.toFixed(4)) : null, profiled_frames: perFrame.length,
+    // the engine's last stats message while playing: its frames/s and blades drawn per LOD class
+    engine_fps_reported: playingStats.length ? Number(playingStats[playingStats.length - 1].fps.toFixed(2)) : null,
+    visible_last: playingStats.length ? playingStats[playingStats.length - 1].visible : null,
+    frame_file: frameFile, picture, errors: engineErrors,
+  };
+}
+
+mkdirSync(dirname(resolve(args.out)), { recursive: true });
+const manifestPath = resolve(args.manifest);
+const root = dirname(manifestPath);
+const manifest = JSON.parse(readFileSync(manifestPath, "utf8"));
+const module = await import(pathToFileURL(join(root, manifest.engine)).href);
+const adapter = await gpu.requestAdapter();
+const info = adapter.info;
+const result = {
+  what: "the browser engine (BrowserView._esm) on Dawn in node, meadow preset, playing",
+  dawn: "webgpu (npm) 0.6.2",
+  adapter: { vendor: info.vendor, architecture: info.architecture, device: info.device, description: info.description,
+    timestamp_query: adapter.features.has("timestamp-query") },
+  node: process.version,
+  cases: [],
+};
+for (const c of manifest.cases) {
+  const r = await runCase(root, c, manifest.tolerance, module);
+  result.cases.push(r);
+  const pic = r.picture ? `picture mean |diff| ${r.picture.mean_abs.toFixed(2)}/255, ${(100 * r.picture.share_over_40).toFixed(2)}% off by > 40: ${r.picture.pass ? "pass" : "FAIL"}` : "no kernel picture";
+  console.log(`${r.name}: ${r.fps} frames/s, GPU ${r.gpu_ms_per_frame ?? "n/a"} ms/frame, start ${r.start_ms} ms; ${pic}` +
+    (r.errors.length ? `; errors: ${r.errors.slice(0, 3).join(" | ")}` : ""));
+}
+writeFileSync(args.out, JSON.stringify(result, null, 1));
+process.exit(0);

@@ -1,0 +1,100 @@
+"""The kernel engine's frame entry point: :func:`render_frame` draws one frame of a scene.
+
+``GrassScene.render``, the widget's kernel view and the exports all draw through it. It is a
+plain ``renderer.render(scene, camera)`` unless a visible GrassField has occlusion culling on;
+then the frame runs in the phases of :mod:`grasswidget.gpu.occlusion` (the first phase inside
+``render()``, the depth pyramid and the second culling phase outside it, the second draws, then
+the translucent ``late`` objects). Every visible GrassField is first set up for the renderer's
+size (``GrassField.prepare_compute_raster``).
+"""
+
+from __future__ import annotations
+
+import pygfx as gfx
+
+from ..errors import GrassValueError
+from .auto_switches import begin_frame
+from .occlusion import OcclusionCulling
+
+__all__ = ["render_frame"]
+
+
+def _fields(scene):
+    out = []
+    scene.traverse(lambda ob: out.append(ob) if isinstance(getattr(ob, "occlusion", None), OcclusionCulling) else None,
+                   skip_invisible=True)
+    return out
+
+
+def _draws_something(ob) -> bool:
+    """True when ``ob`` or a visible descendant has a material (e.g. not GrassScene's
+    collider-ball group while there are no colliders): a late render of nothing is skipped."""
+    return any(o.material is not None for o in ob.iter(skip_invisible=True))
+
+
+def render_frame(renderer, scene, camera, late=()):
+    """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
+    occlusion culling for every visible GrassField of the scene whose
+    ``params.cull_occlusion`` is on: True, or "auto" and the field's measured decision on
+    (:mod:`grasswidget.gpu.auto_switches`; :mod:`grasswidget.gpu.occlusion` describes the phases).
+
+    ``late``: direct children of ``scene`` drawn after the second phase (translucent
+    objects that write no depth, e.g. collider balls), with the scene's lights. With
+    no armed field this is one plain ``renderer.render(scene, camera)``.
+
+    Every visible GrassField is first set up for the renderer's size
+    (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
+    when ``params.compute_raster`` is on).
+    """
+    all_fields = _fields(scene)
+    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    try:
+        _render_frame(renderer, scene, camera, late, all_fields, switches)
+    finally:
+        switches.end()
+
+
+def _render_frame(renderer, scene, camera, late, all_fields, switches):
+    for field in all_fields:
+        field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
+    fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
+    if not fields:
+        renderer.render(scene, camera)
+        return
+    capturing = [f for f in fields if f.occlusion.capture_camera is not None]
+    for field in capturing:
+        field.occlusion.capture(renderer, scene)
+    late = [ob for ob in late if ob.visible]
+    for ob in late:
+        if ob.parent is not scene:
+            raise GrassValueError("render_frame: the late objects must be direct children of the scene")
+    late = [ob for ob in late if _draws_something(ob)]
+    try:
+        for ob in late:
+            ob.visible = False
+        for field in fields:
+            field.occlusion.arm(1)
+        renderer.render(scene, camera, clear=True, flush=False)
+    finally:
+        for ob in late:
+            ob.visible = True
+        for field in fields:
+            field.occlusion.arm(0)
+    for field in fields:
+        if field.occlusion.second_phase(renderer):
+            draws = field.occlusion.draws
+            draws.visible = True
+            try:
+                renderer.render(draws, camera, clear=False, flush=False)
+            finally:
+                draws.visible = False
+    if late:
+        hidden = [ob for ob in scene.children if ob not in late and not isinstance(ob, gfx.Light) and ob.visible]
+        try:
+            for ob in hidden:
+                ob.visible = False
+            renderer.render(scene, camera, clear=False, flush=False)
+        finally:
+            for ob in hidden:
+                ob.visible = True
+    renderer.flush()

@@ -1,0 +1,132 @@
+"""A GrassWidget shown in marimo.
+
+marimo draws anywidgets but no ipywidgets containers and no ``ipywidgets.Output``
+(it shows "Jupyter widgets are not supported in marimo" for a GrassWidget, an
+ipywidgets ``VBox``). marimo asks an object for ``_display_()`` before anything else,
+and only marimo does, so :meth:`GrassWidget._display_` is where marimo is detected:
+at display time, never at import (marimo stays optional and is imported here, lazily).
+
+What marimo then shows is made of anywidgets only, each drawn by marimo itself:
+
+* :class:`MarimoStage`: the widget's stage (the live view, then the lab bench's chart),
+  as marimo's anywidget elements: the browser engine's
+  :class:`~grasswidget.browser.view.BrowserEngineWidget` or the kernel engine's jupyter-rfb
+  canvas (jupyter-rfb 1.0's ``RemoteFrameBuffer`` is an anywidget; shown directly,
+  without its Output context), and the :class:`~grasswidget.browser.trace_chart.TraceChart`
+  (hidden while no chart is chosen). When the widget changes its view (a browser without
+  WebGPU: the kernel engine takes over) the stage shows the new one;
+* the panel column (camera bar, then the panel's rows) through a
+  :class:`~grasswidget.notebook.control_mirror.ControlMirror`: the same ipywidgets Jupyter
+  shows, drawn as HTML controls.
+
+They stand in one flex box that wraps: the panel beside the view where the page is
+wide enough, under it otherwise (as in Jupyter, :mod:`grasswidget.notebook.layout`).
+"""
+
+from __future__ import annotations
+
+import base64
+import sys
+from pathlib import Path
+
+import anywidget
+import ipywidgets as ipw
+from traitlets import Unicode
+
+from ..compat import marimo_anywidget_element
+from .layout import PANEL_WIDTH
+
+__all__ = ["marimo_display", "MarimoStage", "running_in_marimo", "esm_for_front_end"]
+
+HERE = Path(__file__).resolve().parent
+
+
+def running_in_marimo() -> bool:
+    """True in the kernel of a marimo notebook (``marimo edit`` or ``marimo run``). Never imports
+    marimo: where nothing has loaded it, this is not marimo."""
+    mo = sys.modules.get("marimo")
+    if mo is None:
+        return False
+    try:
+        return bool(mo.running_in_notebook())
+    except Exception:  # an older or half-initialised marimo: not a notebook we can serve
+        return False
+
+
+def esm_for_front_end(esm: str) -> str:
+    """An anywidget's ES module text as the front end running now takes it: unchanged in Jupyter; in
+    marimo as a ``data:text/javascript;base64,`` URL. marimo 0.25 turns module text into a file of
+    the running cell, so a widget made outside a cell (the kernel engine's view made when a browser
+    turns out to have no WebGPU, in a widget message's handler) fails with an AssertionError; a
+    JavaScript data URL it loads as it is. Jupyter's anywidget would take a data URL for module
+    text, hence only in marimo."""
+    if not running_in_marimo() or esm.startswith("data:"):
+        return esm
+    return "data:text/javascript;base64," + base64.b64encode(esm.encode("utf-8")).decode("ascii")
+
+
+class MarimoStage(anywidget.AnyWidget):
+    """The anywidgets of an ipywidgets box (a GrassWidget's stage: view and chart), shown in
+    marimo and kept in step with the box's children.
+
+    Args:
+        box: the ipywidgets box whose anywidgets (at any depth, in order) are shown; a change
+            of its (or a nested box's) ``children`` shows the new ones.
+
+    ``html`` (synced) is the markup of marimo's elements for them; ``shown`` the anywidgets
+    shown now. The elements are kept here (marimo holds them weakly) until the next change.
+    """
+
+    _esm = (HERE / "marimo_stage.js").read_text(encoding="utf-8")
+    html = Unicode("").tag(sync=True)
+
+    def __init__(self, box, **kwargs):
+        super().__init__(**kwargs)
+        self._box = box
+        self._boxes = []
+        self._elements = []
+        self.shown = ()
+        self._refresh()
+
+    def _walk(self, widget, found, boxes):
+        if isinstance(widget, anywidget.AnyWidget):
+            found.append(widget)
+        elif isinstance(widget, ipw.Box):
+            boxes.append(widget)
+            for child in widget.children:
+                self._walk(child, found, boxes)
+
+    def _refresh(self, _change=None):
+        for box in self._boxes:
+            box.unobserve(self._refresh, names="children")
+        found, self._boxes = [], []
+        self._walk(self._box, found, self._boxes)
+        for box in self._boxes:
+            box.observe(self._refresh, names="children")
+        made = [marimo_anywidget_element(w) for w in found]  # also where no cell runs (an engine switch)
+        self._elements = [element for element, _html in made]
+        self.shown = tuple(found)
+        self.html = "".join(html for _element, html in made)
+
+    def close(self):
+        """Stop following the box and close this anywidget (the shown ones stay)."""
+        for box in self._boxes:
+            box.unobserve(self._refresh, names="children")
+        self._boxes, self._elements = [], []
+        super().close()
+
+
+def marimo_display(widget):
+    """What marimo shows for ``widget`` (a GrassWidget): the stage (view and chart) and,
+    beside it, the panel column. Both anywidgets are made once per widget and kept
+    (``widget.parts()`` lists them), so a cell shown again draws the same ones."""
+    import marimo as mo
+
+    stage, mirror = widget.marimo_parts()
+    stage_element, panel_element = mo.ui.anywidget(stage), mo.ui.anywidget(mirror)
+    return mo.Html(
+        f"<div class='grasswidget grasswidget-marimo' style='display:flex;flex-flow:row wrap;"
+        f"align-items:flex-start;gap:8px;max-width:100%'>"
+        f"<div class='grasswidget-stage-column' style='flex:none;max-width:100%'>{stage_element.text}</div>"
+        f"<div class='grasswidget-panel-column' style='flex:0 1 {PANEL_WIDTH}px;min-width:0'>{panel_element.text}</div>"
+        f"</div>")

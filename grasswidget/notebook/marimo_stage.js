@@ -1,0 +1,14 @@
+// The stage of a GrassWidget in marimo (see marimo_face.py): the kernel sends the HTML of
+// marimo's own anywidget elements (the live view, the chart) and this puts them in the page;
+// marimo draws each one. New HTML (the engine switched) replaces the old elements.
+function render({ model, el }) {
+  const box = document.createElement("div");
+  box.className = "grasswidget-stage";
+  el.appendChild(box);
+  const show = () => { box.innerHTML = model.get("html") || ""; };
+  model.on("change:html", show);
+  show();
+  return () => model.off("change:html", show);
+}
+
+export default { render };
