@@ -16,6 +16,12 @@ And in a Chromium without WebGPU (a notebook of its own): a ``backend="browser"`
 over to the kernel engine in marimo too (the stage shows jupyter-rfb's view with grass, the message
 line says why, the stats line counts frames).
 
+And ``backend="auto"`` (the default; a notebook and a server of its own, one page per outcome): with
+SwiftShader's fallback adapter the kernel engine stays (frames stream, the message line says why, a
+later cell reads ``w.backend == "kernel"``); with a hardware adapter simulated before the page loads
+the widget switches to the browser engine in marimo (the stage shows its canvas, which draws grass,
+and the later cell reads ``"browser"``).
+
 Screenshots of both widgets go to ``$GW_ARTIFACTS_DIR`` (or a temporary folder, printed).
 """
 
