@@ -90,11 +90,13 @@ fn vs_main(in: VertexInput) -> Varyings {
     varyings.position = vec4<f32>(clip);
     // The whole shading per vertex (blade_shade of the looks: the blade's patch colour, its
     // hash, diffuse and translucency, the tips' glow against the sun, the fog), handed to the
-    // fragments as one linear colour. Every term is smooth along the blade and constant across
-    // it (the normal is the row's), so the rows' colours interpolate to within a fraction of a
-    // level of the per-fragment result; on a CPU adapter each fragment's work and each
-    // interpolated float cost more than a vertex's work (benchmarks/README.md, "The looks'
-    // fragment cost"): 4 floats a vertex with the position instead of 15.
+    // fragments as one sRGB colour, interpolated in sRGB like the base colour was (in linear
+    // light the blades came out a level brighter). Every term is smooth along the blade and
+    // constant across it (the normal is the row's), so the rows' colours interpolate to within
+    // a fraction of a level of the per-fragment result. On a CPU adapter the fragments' work and
+    // each interpolated float cost more than the vertices' work (benchmarks/README.md, "The
+    // looks' fragment cost on lavapipe"): 4 floats a vertex with the position instead of 15.
+    // A fragment's light term (e.g. a shadow) multiplies the colour here or in fs_main.
     let eye = u_stdinfo.cam_transform_inv[3].xyz - world_pos.xyz / world_pos.w;
     let eye_distance = max(length(eye), 1e-12);
     let to_eye = eye / eye_distance;
@@ -107,16 +109,17 @@ fn vs_main(in: VertexInput) -> Varyings {
     $$ if teaching_views
     if (flat_color.a > 0.5) { rgb = flat_color.rgb; }
     $$ endif
-    varyings.color = vec3<f32>(srgb2physical(rgb));
+    varyings.color = vec3<f32>(rgb);
     varyings.pick_idx = u32(blade);
     return varyings;
 }
 
 @fragment
 fn fs_main(varyings: Varyings) -> FragmentOutput {
-    // The vertices' shading, interpolated (linear colour, see vs_main).
+    // The vertices' shading (sRGB, see vs_main), interpolated.
+    let rgb = varyings.color;
     var out: FragmentOutput;
-    out.color = vec4<f32>(varyings.color, u_material.opacity);
+    out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);
     $$ if write_pick
     out.pick = (
         pick_pack(u32(u_wobject.global_id), 20) +
