@@ -5,8 +5,10 @@ This module subclasses it: when the shader carries ``indirect_args`` (a pygfx
 Buffer with usage INDIRECT) and ``indirect_offset`` (bytes), the draw becomes
 ``render_pass.draw_indirect(buffer, offset)``; other shaders draw as before. The
 subclass is installed as the module global that pygfx's pipeline module
-instantiates. tests/test_compat.py (the engine internals) and tests/gpu/test_culling.py (the live patch)
-fail loudly if an upgrade breaks it.
+instantiates. A shader with a ``defer_draw(container, renderstate)`` method that returns
+True draws nothing now (the occlusion culling's second-phase draws, replayed by
+:meth:`grasswidget.gpu.occlusion.OcclusionCulling.second_phase`). tests/test_compat.py (the
+engine internals) and tests/gpu/test_culling.py (the live patch) fail loudly if an upgrade breaks it.
 """
 
 from __future__ import annotations
@@ -28,6 +30,9 @@ class IndirectRenderPipelineContainer(_Original):
     """A RenderPipelineContainer that can issue ``draw_indirect``."""
 
     def draw(self, render_pass, renderstate):
+        defer = getattr(self.shader, "defer_draw", None)  # the occlusion draws: replayed after the second phase
+        if defer is not None and defer(self, renderstate):
+            return
         args = getattr(self.shader, "indirect_args", None)
         if args is None:
             return super().draw(render_pass, renderstate)
