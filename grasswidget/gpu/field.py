@@ -298,6 +298,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
+        self.simulation.forget_uniform_values()
         if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by", "compute_raster_max_px"):
             self._write_cull_uniform()
             self._store.flat_colors = self.params.color_by != "natural"
