@@ -26,7 +26,8 @@ preset's) into an offscreen texture with a renderer made as ``grasswidget bench`
   frames: ``renderer.render`` / ``flush`` calls, command encoders, submits,
   ``queue.write_buffer`` calls and bytes, bind groups, pipelines, shader modules, buffers,
   textures and texture views created, render and compute passes, draws and dispatches,
-  ``map_async`` requests and blocking reads (``queue.read_buffer``, ``map_sync``).
+  ``map_async`` requests and blocking reads (``queue.read_buffer``, ``map_sync``), render bundles
+  executed and the calls recorded into them (only when one is recorded), and their sum.
 
 Prints a table and writes JSON (``--json``). Imports no browser or notebook package: it runs
 on a headless GPU machine.
@@ -56,7 +57,9 @@ COUNTED = (
     ("GPUQueue", ("submit", "read_buffer", "write_texture")),
     ("GPUCommandEncoder", ("begin_render_pass", "begin_compute_pass", "copy_buffer_to_buffer",
                            "copy_texture_to_buffer", "resolve_query_set", "clear_buffer")),
-    ("GPURenderPassEncoder", ("draw", "draw_indirect", "draw_indexed", "set_pipeline", "set_bind_group")),
+    ("GPURenderPassEncoder", ("draw", "draw_indirect", "draw_indexed", "set_pipeline", "set_bind_group",
+                              "set_viewport", "execute_bundles")),
+    ("GPURenderBundleEncoder", ("draw_indirect", "set_pipeline", "set_bind_group")),
     ("GPUComputePassEncoder", ("dispatch_workgroups", "set_pipeline", "set_bind_group")),
     ("GPUBuffer", ("map_async", "map_sync")),
     ("GPUTexture", ("create_view",)),
@@ -143,8 +146,13 @@ def _child(args):
             setattr(owner, name, original)
     per_frame = {k: v / args.count_frames for k, v in sorted(calls.items())}
     per_frame["GPUQueue.read_buffer"] = max(0.0, per_frame.get("GPUQueue.read_buffer", 0.0) - 1.0 / args.count_frames)
+    per_frame["wgpu calls counted (all of the above)"] = sum(
+        v for k, v in per_frame.items() if not k.startswith("renderer."))
     per_frame["GPUQueue.write_buffer bytes"] = nbytes["GPUQueue.write_buffer"] / args.count_frames
+    import grasswidget
+
     return dict(adapter=adapter_info().get("summary", ""), size=f"{w}x{h}", blades=field.count,
+                grasswidget=os.path.dirname(os.path.abspath(grasswidget.__file__)),
                 occlusion=bool(scene.params.cull_occlusion), compute_raster=bool(scene.params.compute_raster),
                 main_thread_cpu_ms=main_ms, process_cpu_ms=cpu_ms, pipelined_ms=wall_ms,
                 pipelined_fps=1e3 / wall_ms, per_frame=per_frame)

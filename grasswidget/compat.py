@@ -35,6 +35,7 @@ __all__ = [
     "renderer_depth_texture",
     "still_directional_light_class",
     "begin_target_render_pass",
+    "render_target_formats",
     "pygfx_event_class",
     "held_orbit_controller_class",
     "pygfx_event_fields",
@@ -71,6 +72,9 @@ PRIVATE_USES = (
     ("pygfx", "WgpuRenderer._blender.get_color_attachments(pass_type) / get_depth_attachment()",
      "a render pass on the renderer's colour, pick and depth targets (loaded), in our own command encoder: the "
      "occlusion culling's second-phase draws, without a second render() call (begin_target_render_pass)"),
+    ("pygfx", "renderstate.blender._texture_info (format of 'color', 'pick', 'depth')",
+     "the formats of the render pass a renderstate draws into: a render bundle of the blade draws must name "
+     "them (render_target_formats, gpu/draw_bundles.py)"),
     ("pygfx", "DirectionalLight._gfx_update_uniform_buffer",
      "overridden by the scene's sun (still_directional_light_class): pygfx calls it for every directional light in "
      "every render and it redoes a look_at each time (0.6 ms of a 4.5 ms host frame on lavapipe's host), though "
@@ -277,6 +281,21 @@ def begin_target_render_pass(renderer, encoder, pass_type="opaque"):
     width, height = renderer.physical_size
     render_pass.set_viewport(0, 0, width, height, 0, 1)
     return render_pass
+
+
+def render_target_formats(renderstate) -> tuple:
+    """((colour formats...), depth format or None) of the render pass pygfx 0.17 draws a
+    non-weighted pass type into with ``renderstate`` (what it hands to pipeline containers'
+    ``draw``): its blender's "color" target, then "pick" where the blender has one, and
+    "depth" (``renderstate.blender._texture_info``), in the pass's attachment order."""
+    info = getattr(getattr(renderstate, "blender", None), "_texture_info", None)
+    if not isinstance(info, dict) or "color" not in info:
+        raise UpstreamChangedError("pygfx internals changed: renderstate.blender._texture_info not found")
+    colors = [info["color"]["format"]]
+    if "pick" in info:
+        colors.append(info["pick"]["format"])
+    depth = info["depth"]["format"] if "depth" in info else None
+    return tuple(colors), depth
 
 
 def renderer_depth_texture(renderer):

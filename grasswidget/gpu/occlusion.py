@@ -41,12 +41,16 @@ import wgpu
 
 from .. import compat
 from ..errors import GrassValueError
-from ..core.reference import HZB_MAX_LEVELS, hzb_layout
+from ..core.reference import HZB_MAX_LEVELS, LOD_SEGMENTS, hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
+from .draw_bundles import DrawBundle
 from .wgsl_templates import workgroups
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "MAX_HZB_LEVELS", "register_second_phase_shaders"]
+
+#: Blade draws per object and render: one per LOD class, one of the culled blades.
+N_CLASSES = len(LOD_SEGMENTS)
 
 #: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
 MAX_HZB_LEVELS = HZB_MAX_LEVELS
@@ -83,6 +87,8 @@ class OcclusionDraws(gfx.WorldObject):
         self._field_ref = weakref.ref(field)
         self.visible = False
         self._deferred = None  # (pipeline container, renderstate) pairs while deferring, else None
+        #: The blade draws of the second phase, replayed from a render bundle (gpu/draw_bundles.py).
+        self.blade_draw_bundle = DrawBundle(N_CLASSES + 1)
 
     @property
     def field(self):

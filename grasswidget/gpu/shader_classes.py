@@ -214,6 +214,11 @@ class BladeRenderShader(BaseShader):
         """The second phase's draws are deferred during the first phase's render (OcclusionDraws.defer)."""
         return _defer(self._draws, container, renderstate)
 
+    def draw_bundle(self):
+        """The :class:`~grasswidget.gpu.draw_bundles.DrawBundle` this draw goes through (its object's)."""
+        owner = self._draws() if self._draws is not None else self._field()
+        return getattr(owner, "blade_draw_bundle", None)
+
     def draw_hook(self, render_pass, when):
         """GPU timestamps around the field's draws (first class: begin, last: end)."""
         field = self._field()

@@ -4,7 +4,8 @@ and that the cuts keep the pictures and the physics.
 - occlusion culling's second-phase draws go in the second phase's submission: a frame is
   one ``renderer.render()`` call (plus one for the late collider balls), and a mesh the
   user adds to the scene is drawn with the grass, in front of and behind it;
-- the scene's sun is re-aimed only when it moved (compat.still_directional_light_class);
+- the blade draws are replayed from a render bundle, recorded again only after a change;
+- (the scene's sun re-aimed only when it moved: tests/test_compat.py);
 - the simulation's uniforms are worked out again only when the params, the field's
   transform or the number of colliders changed.
 """
@@ -126,39 +127,28 @@ def test_late_balls_still_draw_after_the_second_phase(occluded_scene):
         scene.collider_balls.sync()
 
 
-def test_the_sun_is_reaimed_only_when_it_moves():
-    Light = compat.still_directional_light_class()
-    still, plain = Light(intensity=2.0), gfx.DirectionalLight(intensity=2.0)
-    scene = gfx.Scene()
-    for light in (still, plain):
-        light.local.position = (0.3, 1.0, 0.2)
-        scene.add(light)
-
-    def update_both():
-        for light in (still, plain):
-            light._gfx_update_uniform_buffer()
-        assert np.allclose(still.uniform_buffer.data["direction"], plain.uniform_buffer.data["direction"])
-        assert np.allclose(still.world.matrix, plain.world.matrix, atol=1e-6)
-
-    update_both()
-    stamp = still.world.last_modified
-    update_both()
-    assert still.world.last_modified == stamp  # standing still: no look_at, nothing marked changed
-    assert plain.world.last_modified != stamp
-    for light in (still, plain):  # the light moves: re-aimed
-        light.local.position = (-1.0, 0.5, 0.0)
-    update_both()
-    assert still.world.last_modified != stamp
-    for light in (still, plain):  # its target moves: re-aimed
-        light.target.local.position = (0.0, -2.0, 1.0)
-    update_both()
-    camera = gfx.PerspectiveCamera(45)
-    for light in (still, plain):  # on a camera it follows the camera
-        camera.add(light)
-    update_both()
-    camera.local.position = (0.0, 2.0, 3.0)
-    camera.look_at((1.0, 0.0, 0.0))
-    update_both()
+def test_blade_draws_are_recorded_once_and_replayed(occluded_scene):
+    scene = occluded_scene
+    field = scene.field
+    bundles = (field.blade_draw_bundle, field.occlusion.draws.blade_draw_bundle)
+    scene.render()
+    before = [(b.records, b.replays) for b in bundles]
+    for _ in range(3):
+        scene.render()
+    after = [(b.records, b.replays) for b in bundles]
+    assert [a[0] for a in after] == [b[0] for b in before]  # nothing recorded again
+    assert [a[1] - b[1] for a, b in zip(after, before)] == [3, 3]  # both phases replayed every frame
+    natural = scene.render()
+    scene.params.color_by = "lod"  # the ribbon pipelines are rebuilt: recorded again, drawn flat
+    try:
+        lod = scene.render()
+        assert all(b.records > r for b, (r, _) in zip(bundles, after))
+        changed = (np.abs(lod[..., :3].astype(int) - natural[..., :3].astype(int)).max(axis=2) > 40).mean()
+        assert changed > 0.3, changed  # the new bundles draw with the new pipelines
+    finally:
+        scene.params.color_by = "natural"
+    again = scene.render()
+    assert (np.abs(again[..., :3].astype(int) - natural[..., :3].astype(int)).max(axis=2) > 24).mean() < 0.002
 
 
 def test_simulation_uniforms_follow_params_transform_and_colliders():
