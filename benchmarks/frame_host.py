@@ -22,6 +22,7 @@ preset's) into an offscreen texture with a renderer made as ``grasswidget bench`
   adapter that includes the rasterizer's threads) and the **main thread's CPU ms per frame**
   (the host work: Python, pygfx, wgpu-native's recording and submission; a CPU adapter's own
   threads are not in it);
+- synced frames: the same frame followed by a GPU sync, median wall ms (the GPU's work is in it);
 - what a frame asks of wgpu, counted by wrapping wgpu-native's classes for ``--count-frames``
   frames: ``renderer.render`` / ``flush`` calls, command encoders, submits,
   ``queue.write_buffer`` calls and bytes, bind groups, pipelines, shader modules, buffers,
@@ -112,6 +113,13 @@ def _child(args):
     wall_ms = 1e3 * (time.perf_counter() - t0) / frames
     cpu_ms = 1e3 * (time.process_time() - c0) / frames
 
+    synced = []  # each frame followed by a GPU sync: the GPU's work shows here too
+    for _ in range(max(10, frames // 4)):
+        t = time.perf_counter()
+        frame()
+        sync()
+        synced.append(1e3 * (time.perf_counter() - t))
+
     calls, nbytes = collections.Counter(), collections.Counter()
     undo = []
 
@@ -155,7 +163,7 @@ def _child(args):
                 grasswidget=os.path.dirname(os.path.abspath(grasswidget.__file__)),
                 occlusion=bool(scene.params.cull_occlusion), compute_raster=bool(scene.params.compute_raster),
                 main_thread_cpu_ms=main_ms, process_cpu_ms=cpu_ms, pipelined_ms=wall_ms,
-                pipelined_fps=1e3 / wall_ms, per_frame=per_frame)
+                pipelined_fps=1e3 / wall_ms, synced_ms=statistics.median(synced), per_frame=per_frame)
 
 
 def _gpu(buffer):
@@ -191,7 +199,7 @@ def _run_child(tree, args):
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-TIMES = ("main_thread_cpu_ms", "process_cpu_ms", "pipelined_ms", "pipelined_fps")
+TIMES = ("main_thread_cpu_ms", "process_cpu_ms", "pipelined_ms", "pipelined_fps", "synced_ms")
 
 
 def _summary(rows, labels):
