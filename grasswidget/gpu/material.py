@@ -75,6 +75,19 @@ class GrassMaterial(gfx.Material):
         self.blade_shape = blade_shape
         self.tip_threshold = tip_threshold
 
+    def set_sunlight(self, values: dict):
+        """Write the sunlight's values (``core.frame_data.sunlight_values``: ``light_direction``,
+        ``shadow_balls``, ``shadow_field``, ``shadow_depths``, ``shadows``) as they are;
+        ``GrassField.prepare_sunlight`` does it before every frame."""
+        names = {"light_direction", "shadow_balls", "shadow_field", "shadow_depths", "shadows"}
+        unknown = set(values) - names
+        if unknown:
+            raise GrassValueError(f"set_sunlight takes {', '.join(sorted(names))}; got {sorted(unknown)}")
+        data = self.uniform_buffer.data
+        for key, value in values.items():
+            data[key] = value
+        self.uniform_buffer.update_full()
+
     def _set(self, key, value):
         self.uniform_buffer.data[key] = value
         self.uniform_buffer.update_full()
