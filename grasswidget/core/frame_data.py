@@ -428,12 +428,16 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=(
         "beyond_color": srgb(BEYOND_COLOR),
         "ground": (*centre, float(half)),
         "field": (cx, cz, hx, hz),
+        "light_direction": sunlight["light_direction"],
+        "shadow_balls": sunlight["shadow_balls"],
+        "shadow_field": sunlight["shadow_field"],
+        "shadow_depths": sunlight["shadow_depths"],
         "show_ground": int(bool(show_ground)),
         "far_distance": 100.0 if far is None else float(far),
         "fog_density": float(fog),
         "cover": field_cover(blades),
         "field_edge": FIELD_EDGE,
-        **sunlight,
+        "shadows": sunlight["shadows"],
         "ground_sun": ground_sun(sunlight["light_direction"][1]),
     }
 
