@@ -493,6 +493,13 @@ fn grass_transmittance(x: f32, z: f32, height_above: f32, sun: vec3<f32>, c: vec
     return exp(-depth_per_m * h * inside / f32({{ transmittance_taps }}));
 }
 
+// The grass layer (layer_height m deep) above a blade's point at along (0 root .. 1 tip), as metres
+// of layer: (1 - along)^2 layer_height (blades narrow towards the tip: the leaf area above).
+fn grass_above(along: f32, layer_height: f32) -> f32 {
+    let a = 1.0 - clamp(along, 0.0, 1.0);
+    return a * a * layer_height;
+}
+
 // The share of the sky's light reaching ground point (x, z) under height_above metres of grass.
 fn sky_visibility(x: f32, z: f32, height_above: f32, c: vec2<f32>, half: vec2<f32>, edge: f32, depth_per_m: f32) -> f32 {
     return exp(-depth_per_m * max(height_above, 0.0) * field_inside(x, z, c, half, edge));

@@ -24,11 +24,13 @@ fn sun_and_sky(p: vec3<f32>, height_above: f32) -> vec2<f32> {
 }
 
 // A blade's point p at `along` (0 root .. 1 tip): (factor of its unlit colour, factor of its tips'
-// glow); (1, 1) with shadows off.
+// glow); (1, 1) with shadows off. The blades narrow towards their tips: the leaf area above a point
+// at `along` is about (1 - along)^2 of the layer's, so its grass above is that share of the layer's
+// height (reference.sunlight.grass_above).
 fn blade_sunlight(p: vec3<f32>, along: f32, ambient: f32) -> vec2<f32> {
     var light = vec2<f32>(1.0, 1.0);
     if (u_material.shadows > 0.0 || along < -1.0) {
-        let seen = sun_and_sky(p, (1.0 - clamp(along, 0.0, 1.0)) * u_material.shadow_depths.z);
+        let seen = sun_and_sky(p, grass_above(along, u_material.shadow_depths.z));
         light = vec2<f32>(light_share(seen.x, seen.y, ambient, 1.0, u_material.shadows),
                           1.0 + (seen.x - 1.0) * u_material.shadows);
     }

@@ -387,6 +387,7 @@ TWINS = {
                                        _u(r, 0.1, 1.0), _u(r, 0.0, 6.0)], ref.grass_transmittance, 1),
     "sky_visibility": (lambda r: [_u(r, -9, 9), _u(r, -9, 9), _u(r, -0.2, 1.5), r.uniform(-2, 2, (N, 2)),
                                   r.uniform(1, 6, (N, 2)), _u(r, 0.1, 1.0), _u(r, 0.0, 6.0)], ref.sky_visibility, 1),
+    "grass_above": (lambda r: [_u(r, -0.2, 1.2), _u(r, 0.1, 2.0)], ref.grass_above, 1),
     "light_share": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), _u(r, -0.1, 1.1), _u(r, 0.3, 1.2), _u(r, 0, 1)],
                     ref.light_share, 1),
     "blade_shade": (lambda r: [_unit(r), _unit(r), _u(r, 0, 1), r.uniform(0, 1, (N, 3)), _u(r, 0, 1.5), _u(r, 0, 1),

@@ -119,7 +119,7 @@ __all__ = [
     "HZB_ROW_ALIGN",
     "HZB_MAX_LEVELS",
     "blade_shade",
-    "sun_direction", "sun_angles", "ball_shadow", "grass_transmittance", "sky_visibility", "light_share",
+    "sun_direction", "sun_angles", "ball_shadow", "grass_transmittance", "grass_above", "sky_visibility", "light_share",
     "grass_optical_depths", "MAX_SHADOW_BALLS",
     "clip_to_pixel",
     "raster_step",

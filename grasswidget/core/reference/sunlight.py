@@ -37,7 +37,7 @@ from ...errors import GrassValueError
 from .looks import field_inside
 
 __all__ = [
-    "sun_direction", "sun_angles", "ball_shadow", "grass_transmittance", "sky_visibility", "light_share",
+    "sun_direction", "sun_angles", "ball_shadow", "grass_transmittance", "grass_above", "sky_visibility", "light_share",
     "grass_optical_depths", "MAX_SHADOW_BALLS", "SUN_MIN_Y", "SKY_FLOOR", "BALL_PENUMBRA", "LEAF_PROJECTION",
     "SKY_EXTINCTION", "GROUND_AMBIENT", "MAX_LAYER_DEPTH", "MAX_SKY_DEPTH", "TRANSMITTANCE_TAPS",
 ]
@@ -121,6 +121,15 @@ def grass_transmittance(x, z, height_above, sun, c, half, edge, depth_per_m):
         s = (tap + 0.5) / TRANSMITTANCE_TAPS
         inside = inside + field_inside(x + s * reach[..., 0], z + s * reach[..., 1], c, half, edge)
     return np.exp(-k * h * inside / TRANSMITTANCE_TAPS)
+
+
+def grass_above(along, layer_height):
+    """The grass layer above a blade's point at ``along`` (0 root .. 1 tip) of a layer
+    ``layer_height`` metres deep, as metres of layer: ``(1 - along)^2 layer_height``. The blades
+    narrow towards their tips (the triangle-tip shape): the leaf area above a point is about
+    ``(1 - along)^2`` of the whole, so the upper blades are lit and the darkness gathers at the roots."""
+    a = 1.0 - np.clip(np.asarray(along, np.float64), 0.0, 1.0)
+    return a * a * np.asarray(layer_height, np.float64)
 
 
 def sky_visibility(x, z, height_above, c, half, edge, depth_per_m):
