@@ -24,7 +24,7 @@ from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, defa
 from ..core.frame_data import ground_square, sky_ground_values, sun_direction
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
-from ..core.params import GrassParams
+from ..core.params import GrassParams, sunlight_defaults
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
            "EXPORT_SUPERSAMPLE", "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
@@ -46,9 +46,11 @@ def adapter_params(**values) -> GrassParams:
     """GrassParams with this adapter's defaults for what GrassScene makes itself: the
     compute rasterizer of thin blades on a GPU adapter (``compute_raster`` True,
     ``compute_raster_max_px`` :data:`GPU_COMPUTE_RASTER_MAX_PX`), off on a CPU adapter
-    (lavapipe, where it is slower); ``values`` set any params besides."""
+    (lavapipe, where it is slower), and the sunlight's shadows on a GPU adapter, off on a CPU
+    adapter (:func:`grasswidget.core.params.sunlight_defaults`); ``values`` set any params besides."""
     gpu = not is_cpu_adapter()
     defaults = dict(compute_raster=True, compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
+    defaults.update(sunlight_defaults(cpu_adapter=not gpu))  # shadows where affordable (a GPU)
     return GrassParams(**{**defaults, **values})
 
 
