@@ -17,6 +17,8 @@ Views:
 - ``cis565``: the course scene (2^13 blades, 640 x 480; ``GrassScene.preset("cis565")``);
 - ``meadow``: the meadow preset at ``--size`` with each of ``--blades``.
 
+``--parts``: the grass layer with the roots and the balls' shadows apart (see ``measure_parts``).
+
 Writes ``--json`` (every round's numbers, the medians and ratios, the adapter).
 """
 
@@ -78,6 +80,41 @@ def measure(view, blades, size, rounds, frames):
     return out
 
 
+def measure_parts(view, blades, size, rounds, frames):
+    """The balls' share: a second scene whose shaders loop over no ball (the template's
+    ``max_shadow_balls`` 0; the rest of the sunlight as it is), both with shadows on, and the first
+    with them off, interleaved (off, all, no balls, no balls, all, off)."""
+    from grasswidget.gpu import wgsl_templates
+
+    full = _scene(view, blades, size)
+    full.params.shadows = True
+    _frames(full, 3)
+    real = wgsl_templates.template_vars
+    wgsl_templates.template_vars = lambda: {**real(), "max_shadow_balls": 0}
+    try:
+        no_balls = _scene(view, blades, size)
+        no_balls.params.shadows = True
+        _frames(no_balls, 3)  # its pipelines built with the loop over no ball
+    finally:
+        wgsl_templates.template_vars = real
+    out = {"view": view, "blades": len(full.field.blades), "size": list(full.size), "rounds": []}
+    for _ in range(rounds):
+        got = {"off": [], "all": [], "no_balls": []}
+        for name in ("off", "all", "no_balls", "no_balls", "all", "off"):
+            scene = no_balls if name == "no_balls" else full
+            full.params.shadows = name != "off"
+            got[name].append(_frames(scene, frames)[0])
+        row = {k: statistics.mean(v) for k, v in got.items()}
+        row.update(grass_and_roots=(row["no_balls"] - row["off"]) / row["off"],
+                   balls=(row["all"] - row["no_balls"]) / row["off"])
+        out["rounds"].append(row)
+    full.release()
+    no_balls.release()
+    for key in ("off", "all", "no_balls", "grass_and_roots", "balls"):
+        out[key] = statistics.median(r[key] for r in out["rounds"])
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--views", default="live,cis565")
@@ -85,6 +122,8 @@ def main(argv=None):
     ap.add_argument("--size", default="1920x1080", help="meadow: WxH")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--parts", action="store_true",
+                    help="split the cost: the grass layer and roots vs the balls' shadows (wall ms)")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
     from grasswidget.gpu.adapter import ensure_device
@@ -95,6 +134,14 @@ def main(argv=None):
     for view in args.views.split(","):
         counts = [int(b) for b in args.blades.split(",")] if view == "meadow" else [None]
         for n in counts:
+            if args.parts:
+                r = measure_parts(view, n, size, args.rounds, args.frames)
+                results.append(r)
+                print(f"{view:7s} {r['blades']:>9,d} blades {r['size'][0]}x{r['size'][1]}: off {r['off']:7.2f} ms, "
+                      f"all {r['all']:7.2f} ms, without the balls {r['no_balls']:7.2f} ms: grass layer + roots "
+                      f"{100 * r['grass_and_roots']:+.1f} %, balls {100 * r['balls']:+.1f} % of the frame "
+                      f"(median of {args.rounds} rounds)", flush=True)
+                continue
             r = measure(view, n, size, args.rounds, args.frames)
             results.append(r)
             print(f"{view:7s} {r['blades']:>9,d} blades {r['size'][0]}x{r['size'][1]}: off {r['off_wall_ms']:7.2f} ms "
