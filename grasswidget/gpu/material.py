@@ -37,7 +37,9 @@ class GrassMaterial(gfx.Material):
     from behind), ``fog_density`` (1/m) and ``fog_color`` (sRGB), ``ambient``
     (0..1), ``light_direction`` (towards the light, world space),
     ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
-    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
+    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99). The sunlight's uniforms
+    (``set_sunlight``) are written by the field it draws before every frame
+    (``GrassField.prepare_sunlight``), ``light_direction`` with them: the params' sun.
     """
 
     #: pygfx's material uniforms plus ``uniform_layouts.GRASS_MATERIAL_LAYOUT`` (the browser
