@@ -143,3 +143,36 @@ def test_the_first_balls_cast_shadows_into_both_materials():
     assert values["shadows"] == 1.0
     np.testing.assert_allclose(values["shadow_balls"][:, 0], [0, 1, 2, 3])
     np.testing.assert_allclose(values["light_direction"][:3], [0.0, 0.5, np.sqrt(3) / 2], atol=1e-12)
+
+
+def test_compute_rasterized_blades_get_the_same_sunlight():
+    """Blades drawn by the compute rasterizer (its resolve shades them) are lit as the ribbons are:
+    with nearly every blade in compute (max 16 px), the shadows change the picture as much as they
+    change the all-hardware one, and the two rasterizers stay as close with shadows as without."""
+    blades = gw.Blades.on_plane(2048, size=6.0, seed=4, height=(0.5, 0.8), width=(0.02, 0.03))
+    scene = _field_scene(blades, sun_elevation=30.0, compute_raster_max_px=16.0)
+    scene.look(position=(0.0, 5.0, 9.0), target=(0.0, 0.0, 0.0), fov_deg=40.0)
+    pictures, rastered = {}, 0
+    try:
+        for raster in (False, True):
+            scene.params.compute_raster = raster
+            for on in (False, True):
+                scene.params.shadows = on
+                pictures[raster, on] = scene.render()[..., :3].astype(int)
+                if raster:
+                    rastered = scene.field.read_raster_count()
+    finally:
+        scene.release()
+    assert rastered > 1000
+
+    def mean_diff(a, b):
+        return float(np.abs(pictures[a] - pictures[b]).mean())
+
+    apart_off, apart_on = mean_diff((True, False), (False, False)), mean_diff((True, True), (False, True))
+    effect_hw, effect_cr = mean_diff((False, True), (False, False)), mean_diff((True, True), (True, False))
+    print(f"\n[compute raster] {rastered} blades in compute: |compute - hardware| {apart_off:.2f}/255 without "
+          f"shadows, {apart_on:.2f}/255 with; shadows change the hardware picture by {effect_hw:.2f}/255, "
+          f"the compute one by {effect_cr:.2f}/255")
+    assert effect_hw > 10.0
+    assert abs(effect_cr - effect_hw) < 0.15 * effect_hw
+    assert apart_on < apart_off + 1.0
