@@ -81,36 +81,41 @@ def measure(view, blades, size, rounds, frames):
 
 
 def measure_parts(view, blades, size, rounds, frames):
-    """The balls' share: a second scene whose shaders loop over no ball (the template's
-    ``max_shadow_balls`` 0; the rest of the sunlight as it is), both with shadows on, and the first
-    with them off, interleaved (off, all, no balls, no balls, all, off)."""
+    """The balls' share apart: a second scene whose shaders loop over no ball (the template's
+    ``max_shadow_balls`` 0; the rest of the sunlight as it is). Each scene is timed off and on
+    (ABBA) in turns; the grass layer with the roots costs the second scene's on - off, the balls
+    the first's on - off less that (frames of two scenes are not compared with each other)."""
     from grasswidget.gpu import wgsl_templates
 
     full = _scene(view, blades, size)
-    full.params.shadows = True
-    _frames(full, 3)
+    for on in (True, False):
+        full.params.shadows = on
+        _frames(full, 3)
     real = wgsl_templates.template_vars
     wgsl_templates.template_vars = lambda: {**real(), "max_shadow_balls": 0}
     try:
         no_balls = _scene(view, blades, size)
-        no_balls.params.shadows = True
-        _frames(no_balls, 3)  # its pipelines built with the loop over no ball
+        for on in (True, False):
+            no_balls.params.shadows = on
+            _frames(no_balls, 3)  # its pipelines built with the loop over no ball
     finally:
         wgsl_templates.template_vars = real
+    scenes = {"all": full, "no_balls": no_balls}
     out = {"view": view, "blades": len(full.field.blades), "size": list(full.size), "rounds": []}
     for _ in range(rounds):
-        got = {"off": [], "all": [], "no_balls": []}
-        for name in ("off", "all", "no_balls", "no_balls", "all", "off"):
-            scene = no_balls if name == "no_balls" else full
-            full.params.shadows = name != "off"
-            got[name].append(_frames(scene, frames))
         row = {}
-        for k, v in got.items():
-            row[k], row[f"{k}_cpu"] = statistics.mean(x[0] for x in v), statistics.mean(x[1] for x in v)
+        for name, scene in scenes.items():
+            got = {False: [], True: []}
+            for on in (False, True, True, False):
+                scene.params.shadows = on
+                got[on].append(_frames(scene, frames))
+            for k, suffix in ((0, ""), (1, "_cpu")):
+                off, on_ = (statistics.mean(x[k] for x in got[b]) for b in (False, True))
+                row[f"{name}_off{suffix}"], row[f"{name}_on{suffix}"] = off, on_
+                row[f"{name}_share{suffix}"] = (on_ - off) / off
         for suffix in ("", "_cpu"):
-            off, nob, full_ms = row[f"off{suffix}"], row[f"no_balls{suffix}"], row[f"all{suffix}"]
-            row[f"grass_and_roots{suffix}"] = (nob - off) / off
-            row[f"balls{suffix}"] = (full_ms - nob) / off
+            row[f"grass_and_roots{suffix}"] = row[f"no_balls_share{suffix}"]
+            row[f"balls{suffix}"] = row[f"all_share{suffix}"] - row[f"no_balls_share{suffix}"]
         out["rounds"].append(row)
     full.release()
     no_balls.release()
@@ -141,11 +146,11 @@ def main(argv=None):
             if args.parts:
                 r = measure_parts(view, n, size, args.rounds, args.frames)
                 results.append(r)
-                print(f"{view:7s} {r['blades']:>9,d} blades {r['size'][0]}x{r['size'][1]}: off {r['off']:7.2f} ms, "
-                      f"all {r['all']:7.2f} ms, without the balls {r['no_balls']:7.2f} ms: grass layer + roots "
-                      f"{100 * r['grass_and_roots']:+.1f} %, balls {100 * r['balls']:+.1f} % of the frame; in CPU ms: "
-                      f"off {r['off_cpu']:.2f}, grass layer + roots {100 * r['grass_and_roots_cpu']:+.1f} %, balls "
-                      f"{100 * r['balls_cpu']:+.1f} % (median of {args.rounds} rounds)", flush=True)
+                print(f"{view:7s} {r['blades']:>9,d} blades {r['size'][0]}x{r['size'][1]}: sunlight {100 * r['all_share']:+.1f} % "
+                      f"of the frame ({r['all_off']:.1f} ms off), of it the grass layer + roots "
+                      f"{100 * r['grass_and_roots']:+.1f} %, the balls {100 * r['balls']:+.1f} %; in CPU ms: "
+                      f"{100 * r['all_share_cpu']:+.1f} %, grass layer + roots {100 * r['grass_and_roots_cpu']:+.1f} %, "
+                      f"balls {100 * r['balls_cpu']:+.1f} % (median of {args.rounds} rounds)", flush=True)
                 continue
             r = measure(view, n, size, args.rounds, args.frames)
             results.append(r)
