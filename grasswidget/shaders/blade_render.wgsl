@@ -108,8 +108,11 @@ fn vs_main(in: VertexInput) -> Varyings {
     let eye_distance = max(length(eye), 1e-12);
     let to_eye = eye / eye_distance;
     let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), v, u_material.translucency);
-    var rgb = blade_shade(world_normal, to_eye, v, base, glow, fog_amount(eye_distance, u_material.fog_density),
-                          u_material.fog_color.rgb, u_material.light_direction.xyz, u_material.ambient);
+    // The sunlight's shadows and darkened roots (sunlight.wgsl; (1, 1) with shadows off), per vertex too.
+    let sunlit = blade_sunlight(world_pos.xyz / world_pos.w, v, u_material.ambient);
+    var rgb = blade_shade(world_normal, to_eye, v, base * sunlit.x, glow * sunlit.y,
+                          fog_amount(eye_distance, u_material.fog_density), u_material.fog_color.rgb,
+                          u_material.light_direction.xyz, u_material.ambient);
     $$ if teaching_views
     if (flat_color.a > 0.5) { rgb = flat_color.rgb; }
     $$ endif
