@@ -86,11 +86,18 @@ SKY_GROUND_LAYOUT = (
     ("beyond_color", "vec4<f32>"),        # sRGB 0..1: the ground beyond the field
     ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
     ("field", "vec4<f32>"),               # the field's rectangle: xy centre (x, z), zw half sizes (m)
+    ("horizon", "vec4<f32>"),             # a field to the horizon: xy centre (x, z), z reach (m), w 1 (0: none)
+    ("far_blend", "vec4<f32>"),           # x..y: camera distances (m) where the ground becomes far grass; z patch size (m); w along
+    ("far_grass", "vec4<f32>"),           # rgb: the far grass's mean shade over its unlit colour at along far_blend.w
+    ("grass_root", "vec4<f32>"),          # sRGB 0..1: the blades' root colour (their material's)
+    ("grass_tip", "vec4<f32>"),           # sRGB 0..1: the blades' tip colour
     ("show_ground", "i32"),               # 0/1
     ("far_distance", "f32"),              # the camera's far plane (m): the ground fades into the horizon from 0.6 of it
     ("fog_density", "f32"),               # GrassParams.fog_density (1/m, 0 = no fog)
     ("cover", "f32"),                     # how much the grass shades its soil, 0..1 (reference.ground_cover)
     ("field_edge", "f32"),                # width of the soft edge between soil and ground beyond (m)
+    ("color_variation", "f32"),           # GrassParams.color_variation (the far grass's patches)
+    ("dryness", "f32"),                   # GrassParams.dryness
 )
 
 #: ``u_material`` of ``shaders/blade_render.wgsl``: the grass material (kernel:
