@@ -94,6 +94,10 @@ def preset_field(name, blades=None, seed=0, horizon=True):
         reach = MEADOW_REACH_OF_FAR * MEADOW_FAR if horizon else None
         n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0),
                             reach=reach)
-    view = dict(position=(0, 3.0, side / 2 + 2.0), target=(0, 0.0, side / 2 - 30.0), fov_deg=50, near=0.1,
-                far=MEADOW_FAR)
+    position, target = (0.0, 3.0, side / 2 + 2.0), (0.0, 0.0, side / 2 - 30.0)
+    if getattr(n, "horizon", None) is not None and target[2] < -side / 2:
+        # the same view, its target (the orbit's pivot) moved along the ray onto the near disc's edge
+        s = (position[2] + side / 2) / (position[2] - target[2])
+        target = (0.0, position[1] + s * (target[1] - position[1]), -side / 2)
+    view = dict(position=position, target=target, fov_deg=50, near=0.1, far=MEADOW_FAR)
     return n, (1920, 1080), view
