@@ -59,6 +59,7 @@ from .orbit_limits import OrbitLimits
 from .params import LOOK_TRAITS, GrassParams
 from .reference import FAR_ALONG, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
 from .shader_files import WORKGROUP_SIZE
+from .uniform_layouts import SKY_GROUND_LAYOUT
 
 __all__ = [
     "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
@@ -451,7 +452,7 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
     centre, half = ground_square(blades, far)
     (cx, cz), (hx, hz) = field_rectangle(blades)
     fog = (params if params is not None else GrassParams()).fog_density
-    return {
+    values = {
         "horizon_color": srgb(HORIZON_COLOR),
         "zenith_color": srgb(ZENITH_COLOR),
         "soil_color": srgb(SOIL_COLOR),
@@ -465,6 +466,7 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
         "field_edge": FIELD_EDGE,
         **far_ground_values(blades, params),
     }
+    return {name: values[name] for name, _ in SKY_GROUND_LAYOUT}  # in the layout's order
 
 
 def look_values(params) -> dict:

@@ -215,6 +215,8 @@ def build_parser():
     b.add_argument("--raster-max-px", type=float, nargs="+", default=None, metavar="PX",
                    help="run the compute-rasterizer rows once per compute_raster_max_px value (pixels, 0..16; "
                         "default: the params' default)")
+    b.add_argument("--no-horizon", action="store_true",
+                   help="meadow preset: the square field of before (no grass to the horizon)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
     p.subcommands = {"snapshot": s, "bench": b, "html": h, "sweep": w}
@@ -378,7 +380,7 @@ def _bench(args):
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
     report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
                        progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster,
-                       raster_max_px=args.raster_max_px)
+                       raster_max_px=args.raster_max_px, horizon=not args.no_horizon)
     print(format_table(report))
     if args.json:
         save_json(report, args.json)
