@@ -27,7 +27,8 @@ WORKER = r"""
 import json, sys, time
 import grasswidget as gw
 from grasswidget.gpu.scene import GrassScene
-n, size = int(sys.argv[1]), (640, 480)
+n, size = int(sys.argv[1]), tuple(int(v) for v in sys.argv[2].split("x"))
+print("TREE", gw.__file__, flush=True)
 scenes = {"default": GrassScene(gw.Blades.on_plane(n), size=size),
           "meadow": GrassScene.preset("meadow", blades=n, size=size)}
 try:
@@ -36,12 +37,22 @@ except TypeError:
     pass
 for s in scenes.values():
     s.step(1); s.render()
-print(json.dumps(sorted(scenes)), flush=True)
+print("READY " + json.dumps(sorted(scenes)), flush=True)
 for line in sys.stdin:
     s = scenes[line.strip()]
     t0 = time.perf_counter(); s.step(1); s.render(); dt = time.perf_counter() - t0
-    print(dt, flush=True)
+    print("T", dt, flush=True)
 """
+
+
+def _answer(proc, tag):
+    """The rest of the worker's next line starting with ``tag`` (other lines, e.g. the adapter's notice, skipped)."""
+    while True:
+        line = proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the worker ended before answering {tag}")
+        if line.startswith(tag + " "):
+            return line[len(tag) + 1:]
 
 
 def main(argv=None):
@@ -49,22 +60,25 @@ def main(argv=None):
     ap.add_argument("--before", required=True)
     ap.add_argument("--after", default=".")
     ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--size", default="640x480", help="WxH (default 640x480, the live widget's)")
     ap.add_argument("--blades", type=int, default=1 << 16)
     args = ap.parse_args(argv)
     workers, cases = {}, {}
     for tree in ("before", "after"):
         env = dict(os.environ, PYTHONPATH=os.path.abspath(getattr(args, tree)))
-        p = subprocess.Popen([sys.executable, "-c", WORKER, str(args.blades)], stdin=subprocess.PIPE,
-                             stdout=subprocess.PIPE, text=True, env=env)
+        # run in the tree itself: ``python -c`` puts the working directory first on sys.path
+        p = subprocess.Popen([sys.executable, "-c", WORKER, str(args.blades), args.size], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True, env=env, cwd=os.path.abspath(getattr(args, tree)))
         workers[tree] = p
-        cases[tree] = json.loads(p.stdout.readline())
+        print(tree, "imports", _answer(p, "TREE").strip(), flush=True)
+        cases[tree] = json.loads(_answer(p, "READY"))
     times = {(t, c): [] for t in workers for c in cases[t]}
     for _ in range(args.rounds):
         for case in ("default", "meadow", "meadow-square"):
             for tree, p in workers.items():
                 if case in cases[tree]:
                     p.stdin.write(case + "\n"); p.stdin.flush()
-                    times[tree, case].append(float(p.stdout.readline()))
+                    times[tree, case].append(float(_answer(p, "T")))
     for p in workers.values():
         p.stdin.close(); p.wait()
     med = {k: sorted(v)[len(v) // 2] * 1000 for k, v in times.items()}

@@ -1,5 +1,6 @@
 """The meadow before (square field, ``horizon=False``) and after (grass to the horizon) from
-three cameras: the preset's, low near the ground, high looking far. Writes PNGs.
+three cameras: the preset's, low near the ground, high looking far (the same three for both,
+inside the orbit limits of the field to the horizon). Writes PNGs and a side-by-side sheet.
 
     python benchmarks/horizon_shots.py OUT_DIR [--blades N] [--size WxH] [--steps S]
 """
@@ -45,16 +46,25 @@ def main(argv=None):
 
     size = parse_size(args.size)
     os.makedirs(args.out, exist_ok=True)
-    for horizon in (False, True):
+    cams = None
+    for horizon in (True, False):  # the cameras of the field to the horizon (its orbit limits), for both
         scene = GrassScene.preset("meadow", blades=args.blades, size=size, horizon=horizon)
         scene.step(args.steps)
-        cams = cameras(scene)
+        cams = cams or cameras(scene)
         for name, (p, t) in cams.items():
             scene.look(position=p, target=t)
             path = os.path.join(args.out, f"meadow_{'after' if horizon else 'before'}_{name}.png")
             write_image(path, scene.render_at(size))
             print("wrote", path, "camera", np.round(p, 2), "->", np.round(t, 2), flush=True)
-        scene.close() if hasattr(scene, "close") else None
+        scene.release()
+    import imageio.v3 as iio
+
+    rows = []
+    for name in cams:
+        a, b = (iio.imread(os.path.join(args.out, f"meadow_{k}_{name}.png"))[..., :3] for k in ("before", "after"))
+        rows += [np.concatenate([a, np.full((a.shape[0], 8, 3), 255, np.uint8), b], axis=1)]
+        rows += [np.full((8, rows[-1].shape[1], 3), 255, np.uint8)]
+    iio.imwrite(os.path.join(args.out, "meadow_before_after_side_by_side.png"), np.concatenate(rows[:-1], axis=0))
 
 
 if __name__ == "__main__":

@@ -46,13 +46,11 @@ class HorizonLayout:
         center: (x, z) of the field's centre.
         near_radius: radius r0 of the near disc at full density (> 0).
         reach: radius R of the last blades (> near_radius).
-        ground_y: height of the plane (the roots' y).
     """
 
     center: tuple
     near_radius: float
     reach: float
-    ground_y: float = 0.0
 
     def __post_init__(self):
         r0, reach = float(self.near_radius), float(self.reach)
