@@ -42,16 +42,16 @@ fn ground_albedo(hit: vec3<f32>, dist: f32) -> vec3<f32> {
     let m = u_material;
     let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
     var ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover);
-    if (m.horizon.w != 0.0) {
-        let r = length(hit.xz - m.horizon.xy);
-        let far = max(smoothstep(m.far_blend.x, m.far_blend.y, dist),
-                      smoothstep(m.horizon.z - 2.0 * m.field_edge, m.horizon.z, r));
-        if (far > 0.0) {
-            let clump = clump_noise(hit.x, hit.z, m.far_blend.z);
-            let grass = blade_base_color(m.grass_root.rgb, m.grass_tip.rgb, m.far_blend.w, 0.5, clump,
-                                         m.color_variation, m.dryness) * m.far_grass.rgb;
-            ground = mix(ground, grass, far);
-        }
+    // No branch on a uniform alone (lavapipe recompiles such a shader at each draw, see blade_render.wgsl):
+    // horizon.w (0 or 1) scales the share, and the branch reads the pixel's share.
+    let r = length(hit.xz - m.horizon.xy);
+    let far = m.horizon.w * max(smoothstep(m.far_blend.x, m.far_blend.y, dist),
+                                smoothstep(m.horizon.z - 2.0 * m.field_edge, m.horizon.z, r));
+    if (far > 0.0) {
+        let clump = clump_noise(hit.x, hit.z, m.far_blend.z);
+        let grass = blade_base_color(m.grass_root.rgb, m.grass_tip.rgb, m.far_blend.w, 0.5, clump,
+                                     m.color_variation, m.dryness) * m.far_grass.rgb;
+        ground = mix(ground, grass, far);
     }
     return ground;
 }
