@@ -20,7 +20,7 @@ def cameras(scene):
     from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
 
     limits = OrbitLimits.for_scene(scene, "grass")
-    pos = np.asarray(scene.camera.local.position, np.float64)
+    pos = np.array(scene.camera.local.position, np.float64)  # a copy: look() moves the camera later
     home_target = pos + 30.0 * (-np.asarray(scene.camera.world.matrix, np.float64)[:3, 2])
     r0 = 0.5 * (limits.hi[0] - limits.lo[0]) / 1.2
     low_t = np.array([0.0, 0.4, -r0])

@@ -46,7 +46,7 @@ def scene():
 def _cameras(scene):
     limits = OrbitLimits.for_scene(scene, "grass")
     r0 = scene.field.blades.horizon.near_radius
-    home_p = np.asarray(scene.camera.local.position, np.float64)
+    home_p = np.array(scene.camera.local.position, np.float64)  # a copy: look() moves the camera later
     home_t = home_p + 30.0 * (-np.asarray(scene.camera.world.matrix, np.float64)[:3, 2])
     low = (np.array([0.0, limits.ground_y + limits.clearance + 0.05, 0.6 * r0]), np.array([0.0, 0.6, -r0]))
     el = math.radians(20.0)
