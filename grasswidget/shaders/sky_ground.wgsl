@@ -6,10 +6,12 @@
 // rectangle `field`, darker the more the grass covers it), the ground beyond it
 // (flat colours: a noise here cost a third of a lavapipe frame), fading towards the horizon colour near
 // the far plane and with distance fog; else the sky, from the horizon colour up
-// to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks).
+// to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks). With
+// GrassParams.shadows the ground is lit past the balls and the grass (sunlight.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+{$ include 'grasswidget.sunlight.wgsl' $}
 
 struct VertexInput {
     @builtin(vertex_index) index : u32,
@@ -38,10 +40,12 @@ fn vs_main(in: VertexInput) -> Varyings {
 // takes over with the camera's distance (m.far_blend.x..y) and wholly past the last blades
 // (m.horizon.z): the blades' colour at m.far_blend.w of their height, in the same patches
 // (clump_noise of size m.far_blend.z) as the blades, times their mean shade (m.far_grass).
-fn ground_albedo(hit: vec3<f32>, dist: f32) -> vec3<f32> {
+// `sunlight` (sunlight.wgsl's ground_sunlight, 1 with shadows off) lights the soil and the ground
+// beyond; the far grass is the grass's top, lit as the blades are.
+fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
     let m = u_material;
     let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
-    var ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover);
+    var ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover) * sunlight;
     // No branch on a uniform alone (lavapipe recompiles such a shader at each draw, see blade_render.wgsl):
     // horizon.w (0 or 1) scales the share, and the branch reads the pixel's share.
     let r = length(hit.xz - m.horizon.xy);
@@ -74,7 +78,8 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
                 let cam = u_stdinfo.cam_transform_inv[3].xyz;
                 let dist = length(hit - cam);
-                let ground = ground_albedo(hit, dist);
+                // lit by the sun past the balls and the grass (sunlight.wgsl; 1 with shadows off)
+                let ground = ground_albedo(hit, dist, ground_sunlight(hit, m.ground_sun));
                 // the ground fades into the horizon over the last 40 % before the far plane
                 // (view depth clip.w; m.far_distance), and into the fog
                 let fade = max(smoothstep(0.6, 1.0, clip.w / m.far_distance), fog_amount(dist, m.fog_density));

@@ -236,7 +236,7 @@ def far_grass_shade(root, tip, color_variation, dryness, translucency, light_dir
 
 
 def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, horizon, far_blend, far_grass,
-                  root, tip, color_variation, dryness):
+                  root, tip, color_variation, dryness, sunlight=1.0):
     """The ground's colour (sRGB, lit) at ground point (x, z), ``dist`` metres from the camera
     (``sky_ground.wgsl`` ``ground_albedo``): :func:`ground_color` (soil under the field's
     rectangle, ``beyond`` outside); for a field to the horizon (``horizon`` = (cx, cz, reach,
@@ -244,10 +244,11 @@ def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, ho
     (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the
     last ``2 edge`` m): :func:`blade_base_color` at ``far_blend[3]`` along, variation 0.5, of
     the patches :func:`clump_noise` of size ``far_blend[2]`` gives at (x, z), times
-    ``far_grass`` (:func:`far_grass_shade`)."""
+    ``far_grass`` (:func:`far_grass_shade`). ``sunlight`` (0..1, sunlight.wgsl's ``ground_sunlight``;
+    1 with shadows off) lights the soil and the ground beyond, not the far grass (the grass's top)."""
     x, z, dist = (np.asarray(a, np.float64) for a in (x, z, dist))
     inside = field_inside(x, z, field_c, field_half, edge)
-    ground = ground_color(soil, beyond, inside, cover)
+    ground = ground_color(soil, beyond, inside, cover) * np.asarray(sunlight, np.float64)[..., None]
     if horizon[3] == 0:
         return ground
     r = np.hypot(x - horizon[0], z - horizon[1])
