@@ -18,13 +18,24 @@ def _look():  # offscreen at the view's size, without the supersample (the live 
     w.scene.render_at(antialias=False)
     return w.scene.render_at(antialias=False), w.scene.visible_count()
 print(f"LIVE start {_look()[1]}")
+def _flip(_name):  # a checkbox, or occlusion culling's auto / on / off choice between on and off
+    if _name in w.switch_choices:
+        _d = w.switch_choices[_name].dropdown
+        _d.value = "on" if _d.value == "off" else "off"
+    else:
+        w.checkboxes[_name].value = not w.checkboxes[_name].value
+def _is_on(_name):
+    if _name in w.switch_choices:
+        return w.switch_choices[_name].dropdown.value == "on"
+    return w.checkboxes[_name].value
 for _name in ("cull_orientation", "cull_frustum", "cull_distance", "cull_occlusion"):
     _before, _n_before = _look()
-    w.checkboxes[_name].value = not w.checkboxes[_name].value
+    _was_on = _is_on(_name)
+    _flip(_name)
     _after, _n_after = _look()
-    w.checkboxes[_name].value = not w.checkboxes[_name].value
+    _flip(_name)
     _px = int((_np.abs(_before.astype(int) - _after.astype(int)).max(axis=2) > 24).sum())
-    print(f"LIVE {_name} {int(w.checkboxes[_name].value)} {_n_before} {_n_after} {_px}")
+    print(f"LIVE {_name} {int(_was_on)} {_n_before} {_n_after} {_px}")
 """
 
 #: Pictures each notebook writes into ``output/`` beside itself (each must be a real file).

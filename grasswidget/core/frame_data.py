@@ -57,11 +57,12 @@ from .enums import BladeShape
 from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import LOOK_TRAITS, GrassParams
+from .pays import effective
 from .reference import LOD_SEGMENTS, ground_cover, wind_period
 from .shader_files import WORKGROUP_SIZE
 
 __all__ = [
-    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "occlusion_on", "compute_raster_values",
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
@@ -267,7 +268,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         raster_max_px=p.compute_raster_max_px,
     )
     if every_frame_two_phases:
-        values["occlusion_phase"] = int(bool(p.cull_occlusion))
+        values["occlusion_phase"] = int(occlusion_on(p))
     if frozen is not None:
         values.update(
             frozen_view_proj=np.asarray(frozen.view_proj, np.float64).T,  # WGSL matrices are column-major
@@ -282,11 +283,20 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
 MAX_RASTER_BLADES = 1 << 24
 
 
-def compute_raster_on(params, n_blades: int) -> bool:
+def occlusion_on(params, decided=None) -> bool:
+    """Whether occlusion culling runs: ``params.cull_occlusion`` True, or "auto" and
+    ``decided`` (the view's decision, :mod:`grasswidget.core.pays`) True; "auto" without a
+    decision runs it (the browser engine, which does not measure yet)."""
+    return effective(params.cull_occlusion, True if decided is None else decided)
+
+
+def compute_raster_on(params, n_blades: int, decided=None) -> bool:
     """Whether the compute rasterizer draws the thin blades of a field of ``n_blades`` (both
-    engines): ``params.compute_raster`` on, ``compute_raster_max_px`` > 0 and at most
-    :data:`MAX_RASTER_BLADES` blades."""
-    return bool(params.compute_raster) and params.compute_raster_max_px > 0 and int(n_blades) <= MAX_RASTER_BLADES
+    engines): ``params.compute_raster`` True (or "auto" and ``decided`` True, the view's
+    decision, :mod:`grasswidget.core.pays`; "auto" without a decision: off),
+    ``compute_raster_max_px`` > 0 and at most :data:`MAX_RASTER_BLADES` blades."""
+    return (effective(params.compute_raster, decided) and params.compute_raster_max_px > 0
+            and int(n_blades) <= MAX_RASTER_BLADES)
 
 
 def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float) -> dict:

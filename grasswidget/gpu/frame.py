@@ -13,6 +13,7 @@ from __future__ import annotations
 import pygfx as gfx
 
 from ..errors import GrassValueError
+from .auto_switches import begin_frame
 from .occlusion import OcclusionCulling
 
 __all__ = ["render_frame"]
@@ -34,7 +35,8 @@ def _draws_something(ob) -> bool:
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
-    ``params.cull_occlusion`` is on (:mod:`grasswidget.gpu.occlusion` describes the phases).
+    ``params.cull_occlusion`` is on: True, or "auto" and the field's measured decision on
+    (:mod:`grasswidget.gpu.auto_switches`; :mod:`grasswidget.gpu.occlusion` describes the phases).
 
     ``late``: direct children of ``scene`` drawn after the second phase (translucent
     objects that write no depth, e.g. collider balls), with the scene's lights. With
@@ -45,9 +47,17 @@ def render_frame(renderer, scene, camera, late=()):
     when ``params.compute_raster`` is on).
     """
     all_fields = _fields(scene)
+    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    try:
+        _render_frame(renderer, scene, camera, late, all_fields, switches)
+    finally:
+        switches.end()
+
+
+def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
-        field.prepare_compute_raster(renderer.physical_size)
-    fields = [f for f in all_fields if f.params.cull_occlusion]
+        field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
+    fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
     if not fields:
         renderer.render(scene, camera)
         return

@@ -161,6 +161,13 @@ def _canvas_class():
     return GrassCanvas
 
 
+def _switch_texts(field) -> dict:
+    """What the field's "auto" switches decided, in words (grasswidget.gpu.auto_switches.switch_texts)."""
+    from ..gpu.auto_switches import switch_texts
+
+    return switch_texts(field)
+
+
 class EventsWithoutPicking:
     """Forward canvas pointer/wheel/key events to the current pygfx renderer.
 
@@ -665,6 +672,7 @@ class KernelView(EngineView):
         self._stats.update(
             fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            switches=_switch_texts(scene.field),
             **self.timing.averages(),
         )
         self.report_stats(self.current_stats())

@@ -1492,6 +1492,21 @@ def toggle_checkbox(page, description: str, value: Optional[bool] = None, timeou
     return inp.is_checked()
 
 
+def choose_option(page, description: str, option: str, timeout: float = 10.0) -> str:
+    """Choose ``option`` (its text) in the ipywidgets Dropdown labelled ``description``,
+    e.g. a panel's auto / on / off switch. Returns the chosen option's text."""
+    box = page.locator(".widget-dropdown").filter(
+        has=page.locator("label.widget-label", has_text=_exact(description))
+    )
+    js = ("() => Array.from(document.querySelectorAll('.widget-dropdown label.widget-label'))"
+          ".map((s) => s.textContent)")
+    select = _one(box, f"exactly one dropdown labelled {description!r}", js, page, timeout).locator("select")
+    select.select_option(label=option)
+    poll(lambda: (select.evaluate("(s) => s.options[s.selectedIndex].text") == option, None),
+         f"dropdown {description!r} to show {option!r}", timeout, 0.1, page=page)
+    return option
+
+
 # --------------------------------------------------------------------------
 # Reading outputs
 # --------------------------------------------------------------------------

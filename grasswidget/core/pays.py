@@ -1,0 +1,286 @@
+"""Whether occlusion culling and the compute rasterizer pay: the rule, decided by measuring.
+
+``GrassParams.cull_occlusion`` and ``GrassParams.compute_raster`` are three-way switches
+(:class:`AutoSwitch`): ``True`` forces the feature on, ``False`` off, and ``"auto"`` (the
+default of both) lets each view decide from what it measured:
+
+1. a short trial: :data:`TRIAL_SETTLE_FRAMES` frames dropped after the switch flips (a
+   pipeline compiles, buffers grow), then :data:`TRIAL_FRAMES` frames off and as many on,
+   timed by the same measure (the render's wall time, GPU-synchronised, in milliseconds);
+2. :func:`decide_occlusion` / :func:`decide_compute_raster`: the counts the GPU reported
+   first (occlusion that removed under :data:`MIN_OCCLUDED_FRACTION` of the blades it saw,
+   or a compute rasterizer that took over no blade, cannot pay: off), then the frame times
+   (the faster median kept);
+3. the decision holds until the context changes (:class:`DecisionContext`): the camera
+   moves more than :data:`CAMERA_MOVE_FRACTION` of its distance to what it looks at or turns
+   more than :data:`CAMERA_TURN_DEG`, the blade count or preset changes, or any parameter
+   changes but the two switches themselves (forcing a switch and going back to "auto" in
+   the same view keeps the decision).
+
+:class:`AutoSwitches` is the pure state machine an engine drives once per frame: it says
+which value each switch has for the next frame and takes the frame's measurements. No GPU,
+no widgets: the kernel engine runs it in :mod:`grasswidget.gpu.auto_switches`.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass, field
+
+import traitlets
+
+from ..errors import ParameterError
+
+__all__ = [
+    "AUTO", "SWITCHES", "AutoSwitch", "coerce_switch", "Decision", "decide_occlusion", "decide_compute_raster",
+    "DecisionContext", "AutoSwitches", "switch_text", "effective",
+    "TRIAL_FRAMES", "TRIAL_SETTLE_FRAMES", "MIN_OCCLUDED_FRACTION", "CAMERA_MOVE_FRACTION", "CAMERA_TURN_DEG",
+]
+
+#: The third state of a switch: the view decides by measuring.
+AUTO = "auto"
+#: The switches decided by measuring (GrassParams trait names), in the order they are tried.
+SWITCHES = ("cull_occlusion", "compute_raster")
+#: Frames timed with a switch off, then as many on, per trial (3: a median of three).
+TRIAL_FRAMES = 3
+#: Frames dropped after a switch flips, before timing (first use compiles or grows buffers).
+TRIAL_SETTLE_FRAMES = 1
+#: Occlusion culling that removes less than this fraction (0..1) of the blades reaching it cannot pay.
+MIN_OCCLUDED_FRACTION = 0.05
+#: The camera moved when its eye travels more than this fraction of its distance to the target.
+CAMERA_MOVE_FRACTION = 0.1
+#: The camera turned when its view direction changes by more than this (degrees).
+CAMERA_TURN_DEG = 10.0
+
+_WORDS = {"on": True, "off": False, "true": True, "false": False, AUTO: AUTO}
+
+
+def coerce_switch(value, name: str = "switch"):
+    """``value`` as a switch state: ``True``, ``False`` or ``"auto"``. Accepts bools (and
+    NumPy bools), the integers 0 and 1, and the strings "auto", "on", "off", "true", "false"
+    (any case); anything else raises :class:`grasswidget.errors.ParameterError` naming ``name``."""
+    if isinstance(value, str):
+        word = _WORDS.get(value.strip().lower())
+        if word is not None:
+            return word
+    elif value is True or value is False or type(value).__name__ == "bool_":
+        return bool(value)
+    elif isinstance(value, int) and value in (0, 1):
+        return bool(value)
+    raise ParameterError(f"{name} must be True (on), False (off) or 'auto' (decided by measuring); got {value!r}")
+
+
+class AutoSwitch(traitlets.TraitType):
+    """A three-way switch trait: ``True`` (on), ``False`` (off) or ``"auto"`` (decided by
+    measuring, :mod:`grasswidget.core.pays`). Set with a bool as before, or "auto"/"on"/"off";
+    read back as ``True``, ``False`` or ``"auto"``. Syncs to JavaScript as true/false/"auto"."""
+
+    info_text = "True, False or 'auto'"
+
+    def __init__(self, default_value=AUTO, **kwargs):
+        super().__init__(coerce_switch(default_value), **kwargs)
+
+    def validate(self, obj, value):
+        return coerce_switch(value, self.name or "switch")
+
+
+def effective(value, decided) -> bool:
+    """The switch's value for a frame: a forced ``True``/``False`` as is; ``"auto"`` follows
+    ``decided`` (a bool, or None while undecided: off)."""
+    if value == AUTO:
+        return bool(decided)
+    return bool(value)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the rule decided: ``on`` (bool) and ``reason`` (a short sentence for people)."""
+
+    on: bool
+    reason: str
+
+
+def _median(values):
+    return statistics.median(values) if values else None
+
+
+def _compare(on_ms, off_ms, what):
+    """Keep the faster median; ties go to off (nothing to gain)."""
+    t_on, t_off = _median(on_ms), _median(off_ms)
+    if t_on is None or t_off is None:
+        raise ParameterError("frame times: the rule needs at least one frame timed on and one off")
+    if t_on < t_off:
+        return Decision(True, f"{what}, {t_on:.1f} ms a frame against {t_off:.1f} ms off")
+    return Decision(False, f"{what}, but {t_on:.1f} ms a frame against {t_off:.1f} ms off")
+
+
+def decide_occlusion(on_ms, off_ms, occluded: int, reaching: int) -> Decision:
+    """Whether occlusion culling pays. ``on_ms``/``off_ms``: frame times (ms) measured with it
+    on / off, same measure; ``occluded``: blades it removed in a frame with it on (the GPU's
+    count); ``reaching``: the blades that reached it that frame (drawn + occluded). Off when it
+    removed under :data:`MIN_OCCLUDED_FRACTION` (nothing hidden: it cannot pay), else the
+    faster of the two."""
+    occluded, reaching = int(occluded), int(reaching)
+    if reaching <= 0:
+        return Decision(False, "no blade reached occlusion culling")
+    fraction = occluded / reaching
+    what = f"removed {100 * fraction:.0f} % of blades"
+    if fraction < MIN_OCCLUDED_FRACTION:
+        return Decision(False, f"{what}: too few to pay")
+    return _compare(on_ms, off_ms, what)
+
+
+def decide_compute_raster(on_ms, off_ms, rastered: int, drawn: int) -> Decision:
+    """Whether the compute rasterizer pays. ``rastered``: blades it drew in a frame with it on
+    (the GPU's count); ``drawn``: all blades drawn that frame (both paths). Off when it took
+    over no blade (none thinner than compute_raster_max_px), else the faster of the two."""
+    rastered, drawn = int(rastered), int(drawn)
+    if rastered <= 0:
+        return Decision(False, "took over no blade (none thin enough)")
+    what = f"drew {100 * rastered / max(drawn, rastered):.0f} % of blades"
+    return _compare(on_ms, off_ms, what)
+
+
+_RULES = {"cull_occlusion": decide_occlusion, "compute_raster": decide_compute_raster}
+
+
+@dataclass(frozen=True)
+class DecisionContext:
+    """What a decision was made for: the camera's ``eye`` and ``target`` (world units), the
+    blade count, the preset's name (or None) and the other parameters (a hashable summary,
+    e.g. a tuple of (name, value) pairs without the switches)."""
+
+    eye: tuple
+    target: tuple
+    blades: int
+    preset: object = None
+    params: object = None
+
+    def differs(self, other: "DecisionContext") -> str | None:
+        """Why a decision made for ``self`` no longer holds in ``other`` (a short phrase), or None."""
+        if self.blades != other.blades:
+            return "the blade count changed"
+        if self.preset != other.preset:
+            return "the preset changed"
+        if self.params != other.params:
+            return "the parameters changed"
+        d0 = [t - e for e, t in zip(self.eye, self.target)]
+        d1 = [t - e for e, t in zip(other.eye, other.target)]
+        dist = math.sqrt(sum(v * v for v in d0)) or 1.0
+        moved = math.sqrt(sum((a - b) ** 2 for a, b in zip(self.eye, other.eye)))
+        if moved > CAMERA_MOVE_FRACTION * dist:
+            return "the camera moved"
+        n1 = math.sqrt(sum(v * v for v in d1)) or 1.0
+        cos = sum(a * b for a, b in zip(d0, d1)) / (dist * n1)
+        if math.degrees(math.acos(max(-1.0, min(1.0, cos)))) > CAMERA_TURN_DEG:
+            return "the camera turned"
+        return None
+
+
+@dataclass
+class _Trial:
+    name: str
+    phase: str = "off"  # "off", then "on"
+    settle: int = TRIAL_SETTLE_FRAMES
+    times: dict = field(default_factory=lambda: {"off": [], "on": []})
+    counts: list = field(default_factory=list)  # (occluded, reaching) or (rastered, drawn) of on-frames
+
+
+class AutoSwitches:
+    """The per-view state of the "auto" switches: one trial at a time, then decisions.
+
+    Per frame the engine calls :meth:`values` (the switch values for that frame, given the
+    params' settings and the frame's :class:`DecisionContext`), renders, then :meth:`record`
+    with the frame's time (ms) and the latest counts the GPU reported
+    (``{"occluded", "visible", "rastered"}``, any may be None). ``decisions`` maps each
+    decided switch to its :class:`Decision`; ``trial`` is the switch being tried (or None).
+    """
+
+    def __init__(self, trial_frames: int = TRIAL_FRAMES, settle_frames: int = TRIAL_SETTLE_FRAMES):
+        if isinstance(trial_frames, bool) or not isinstance(trial_frames, int) or trial_frames < 1:
+            raise ParameterError(f"trial_frames must be an integer >= 1; got {trial_frames!r}")
+        self.trial_frames = trial_frames
+        self.settle_frames = int(settle_frames)
+        self.decisions: dict = {}
+        self.context: DecisionContext | None = None
+        self.redecided_because: str | None = None
+        self._trial: _Trial | None = None
+
+    @property
+    def trial(self) -> str | None:
+        return self._trial.name if self._trial else None
+
+    @property
+    def measuring(self) -> bool:
+        """True while a trial runs (the engine should time this frame)."""
+        return self._trial is not None
+
+    def values(self, settings: dict, context: DecisionContext) -> dict:
+        """The value (bool) of each switch of ``settings`` ({name: True/False/"auto"}) for the
+        next frame in ``context``; starts a trial where an "auto" switch is undecided."""
+        if self.context is not None:
+            why = self.context.differs(context)
+            if why:
+                self.decisions.clear()
+                self._trial = None
+                self.redecided_because = why
+                self.context = context
+        else:
+            self.context = context
+        if self._trial is not None and settings.get(self._trial.name) != AUTO:
+            self._trial = None  # forced meanwhile: the trial stops, nothing decided
+        if self._trial is None:
+            for name in SWITCHES:
+                if settings.get(name) == AUTO and name not in self.decisions:
+                    self._trial = _Trial(name, settle=self.settle_frames)
+                    break
+        out = {}
+        for name in SWITCHES:
+            if name not in settings:
+                continue
+            if self._trial is not None and self._trial.name == name:
+                out[name] = self._trial.phase == "on"
+            else:
+                d = self.decisions.get(name)
+                out[name] = effective(settings[name], d.on if d else None)
+        return out
+
+    def record(self, frame_ms: float, counts: dict | None = None):
+        """The frame rendered with the last :meth:`values` took ``frame_ms`` milliseconds;
+        ``counts``: the GPU's latest ``occluded``, ``visible`` (drawn, both paths) and
+        ``rastered`` (values may lag a frame; only counts of on-frames are used)."""
+        t = self._trial
+        if t is None:
+            return
+        if t.settle > 0:
+            t.settle -= 1
+            return
+        t.times[t.phase].append(float(frame_ms))
+        if t.phase == "on" and counts:
+            if t.name == "cull_occlusion" and counts.get("occluded") is not None and counts.get("visible") is not None:
+                t.counts.append((int(counts["occluded"]), int(counts["occluded"]) + int(counts["visible"])))
+            if t.name == "compute_raster" and counts.get("rastered") is not None and counts.get("visible") is not None:
+                t.counts.append((int(counts["rastered"]), int(counts["visible"])))
+        if len(t.times[t.phase]) >= self.trial_frames:
+            if t.phase == "off":
+                t.phase, t.settle = "on", self.settle_frames
+                return
+            # The counts of the last on-frame that reported any (earlier ones may be of an off-frame).
+            removed, seen = max(t.counts, key=lambda c: c[0]) if t.counts else (0, 0)
+            self.decisions[t.name] = _RULES[t.name](t.times["on"], t.times["off"], removed, seen)
+            self._trial = None
+
+    def text(self, name: str, setting) -> str:
+        """The panel's words for switch ``name`` set to ``setting``: see :func:`switch_text`."""
+        measuring = self._trial is not None and self._trial.name == name
+        return switch_text(setting, self.decisions.get(name), measuring)
+
+
+def switch_text(setting, decision: Decision | None, measuring: bool = False) -> str:
+    """How a switch reads: "on", "off", "auto (measuring)", "auto (on: removed 41 % of blades, ...)"."""
+    if setting != AUTO:
+        return "on" if setting else "off"
+    if decision is None:
+        return "auto (measuring)" if measuring else "auto (not decided yet)"
+    return f"auto ({'on' if decision.on else 'off'}: {decision.reason})"

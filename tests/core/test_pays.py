@@ -1,0 +1,103 @@
+"""The "auto" switches' rule (grasswidget.core.pays): each outcome of the decision, the
+trial's schedule, re-deciding when the context changes, and the three-way trait."""
+
+import pytest
+
+from grasswidget.core.params import GrassParams
+from grasswidget.core.pays import (AUTO, AutoSwitches, DecisionContext, decide_compute_raster, decide_occlusion,
+                                   MIN_OCCLUDED_FRACTION, switch_text)
+from grasswidget.errors import GrassError
+
+
+def test_occlusion_that_hides_nothing_is_off_whatever_the_times():
+    d = decide_occlusion([1.0], [9.0], occluded=10, reaching=1000)  # 1 %: under MIN_OCCLUDED_FRACTION
+    assert MIN_OCCLUDED_FRACTION > 0.01 and not d.on and "1 %" in d.reason and "too few" in d.reason
+    assert not decide_occlusion([1.0], [9.0], 0, 0).on
+
+
+def test_occlusion_that_hides_many_is_kept_when_faster_dropped_when_slower():
+    on = decide_occlusion([10.0, 11.0, 30.0], [20.0, 21.0, 19.0], occluded=410, reaching=1000)
+    assert on.on and on.reason.startswith("removed 41 % of blades") and "11.0 ms" in on.reason and "20.0 ms off" in on.reason
+    off = decide_occlusion([22.0, 23.0], [20.0, 21.0], occluded=410, reaching=1000)
+    assert not off.on and "but" in off.reason
+    assert not decide_occlusion([20.0], [20.0], 410, 1000).on  # a tie gains nothing: off
+
+
+def test_compute_raster_without_thin_blades_is_off_else_the_faster():
+    assert not decide_compute_raster([1.0], [5.0], rastered=0, drawn=500).on
+    assert decide_compute_raster([4.0], [5.0], rastered=250, drawn=500).on
+    slower = decide_compute_raster([6.0], [5.0], rastered=250, drawn=500)
+    assert not slower.on and "drew 50 % of blades" in slower.reason
+
+
+def _ctx(eye=(0.0, 2.0, 10.0), target=(0.0, 0.0, 0.0), blades=1024, params=("a",)):
+    return DecisionContext(eye, target, blades, None, params)
+
+
+def _run_trial(state, settings, ctx, ms_of, counts_of):
+    """Drive ``state`` until nothing is measured; returns the values of each frame."""
+    seen = []
+    for _ in range(100):
+        values = state.values(settings, ctx)
+        seen.append(values)
+        if not state.measuring:
+            return seen
+        state.record(ms_of(values), counts_of(values))
+    raise AssertionError("the trial never ended")
+
+
+def test_trial_times_off_then_on_and_keeps_the_faster():
+    state = AutoSwitches(trial_frames=2, settle_frames=1)
+    settings = {"cull_occlusion": AUTO, "compute_raster": False}
+    seen = _run_trial(state, settings, _ctx(), lambda v: 5.0 if v["cull_occlusion"] else 9.0,
+                      lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0))
+    occl = [v["cull_occlusion"] for v in seen]
+    assert occl[:6] == [False] * 3 + [True] * 3  # settle + 2 timed, off then on
+    assert all(v["compute_raster"] is False for v in seen)  # forced off: never tried
+    assert state.decisions["cull_occlusion"].on and seen[-1]["cull_occlusion"] is True
+    assert "compute_raster" not in state.decisions
+    assert state.text("cull_occlusion", AUTO).startswith("auto (on: removed 60 % of blades")
+
+
+def test_decision_holds_until_camera_field_or_params_change():
+    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    settings = {"cull_occlusion": AUTO}
+    run = lambda ctx: _run_trial(state, settings, ctx, lambda v: 1.0, lambda v: dict(occluded=0, visible=100))
+    run(_ctx())
+    assert not state.decisions["cull_occlusion"].on
+    state.values(settings, _ctx(eye=(0.0, 2.0, 10.3)))  # 3 % of the distance: same view
+    assert "cull_occlusion" in state.decisions and not state.measuring
+    for ctx, why in ((_ctx(eye=(0.0, 2.0, 14.0)), "the camera moved"), (_ctx(target=(8.0, 0.0, 0.0)), "the camera turned"),
+                     (_ctx(blades=2048), "the blade count changed"), (_ctx(params=("b",)), "the parameters changed")):
+        run(_ctx())
+        state.values(settings, ctx)
+        assert state.measuring and state.redecided_because == why
+        run(ctx)
+
+
+def test_forcing_a_switch_stops_its_trial_and_auto_again_keeps_the_decision():
+    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    ctx = _ctx()
+    state.values({"compute_raster": AUTO}, ctx)
+    assert state.trial == "compute_raster"
+    assert state.values({"compute_raster": True}, ctx) == {"compute_raster": True} and not state.measuring
+    _run_trial(state, {"compute_raster": AUTO}, ctx, lambda v: 1.0, lambda v: dict(rastered=0, visible=10))
+    assert state.values({"compute_raster": False}, ctx) == {"compute_raster": False}
+    assert state.values({"compute_raster": AUTO}, ctx) == {"compute_raster": False} and not state.measuring
+
+
+def test_switch_trait_keeps_bools_and_takes_auto():
+    p = GrassParams()
+    assert p.cull_occlusion == AUTO and p.compute_raster == AUTO  # the defaults
+    p.cull_occlusion = False
+    p.compute_raster = True
+    assert p.cull_occlusion is False and p.compute_raster is True
+    p.cull_occlusion = "on"
+    p.compute_raster = "OFF"
+    assert p.cull_occlusion is True and p.compute_raster is False
+    assert GrassParams(cull_occlusion=0).cull_occlusion is False
+    for bad in ("maybe", 2, None, 0.5):
+        with pytest.raises(GrassError, match="cull_occlusion must be True"):
+            p.cull_occlusion = bad
+    assert p.cull_occlusion is True  # kept
+    assert switch_text(True, None) == "on" and switch_text(AUTO, None, measuring=True) == "auto (measuring)"
