@@ -58,8 +58,17 @@ def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
         field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
     fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
+    # Occlusion off this frame by a measured choice that may turn it on again: after the
+    # frame's render the second phase's draws go through the renderer hidden (nothing drawn),
+    # so that pygfx keeps their pipelines; left out for a few frames it drops them and builds
+    # them again at the next "on" (a CPU adapter JIT-compiles each build: 7 MB a trial).
+    resting = [f for f in all_fields if f not in fields and f.params.cull_occlusion == "auto"]
     if not fields:
-        renderer.render(scene, camera)
+        renderer.render(scene, camera, flush=not resting)
+        for field in resting:
+            renderer.render(field.occlusion.draws, camera, clear=False, flush=False)
+        if resting:
+            renderer.flush()
         return
     capturing = [f for f in fields if f.occlusion.capture_camera is not None]
     for field in capturing:
