@@ -1,0 +1,63 @@
+"""The browser engine decides occlusion culling by measuring, in a real JupyterLab + Chromium
+(WebGPU on SwiftShader): in the cis565 close view (rows of blades behind the front ones) "auto"
+turns it on and the panel shows the decision; from "top" (nothing behind anything) it turns it off.
+
+The rule is Python's (grasswidget.core.pays, the kernel's); engine.js reports its frame times
+and counts and executes the state Python sends (grasswidget.browser.auto_switches).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from .harness import Browser, kernel_eval, kernel_execute, poll, wait_for_kernel
+from .test_engines_alike import _run
+
+pytestmark = pytest.mark.browser
+
+N_BLADES = 1 << 15
+SIZE = (320, 240)
+
+
+@pytest.fixture(scope="module")
+def webgpu_browser():
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+def _decided(page, timeout=180):
+    """The widget's stats' words for the occlusion switch once decided, and the panel's line."""
+    def decided():
+        s = kernel_eval(page, "[(a.stats.get('switches') or {}).get('cull_occlusion'), "
+                              "a.switch_choices['cull_occlusion'].decision_line.value]")
+        return s[0] is not None and s[0].startswith(("auto (on", "auto (off")), s
+
+    return poll(decided, "the browser engine's decision on occlusion culling", timeout, 1.0, page=page)
+
+
+def test_browser_engine_decides_occlusion_by_measuring(webgpu_browser, lab_server, browser_root):
+    page = webgpu_browser.page
+    found = {}
+
+    def check():
+        status = wait_for_kernel(page, "a.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
+        assert status["state"] == "ok", status
+        kernel_execute(page, "a.pause()")
+        found["close"] = _decided(page)
+        kernel_execute(page, "a.look_from('top')")
+        assert kernel_eval(page, "a.view.engine_widget.auto_switches.state.redecided_because") == "the camera moved"
+        found["top"] = _decided(page)
+        found["executed"] = kernel_eval(page, "a.view.engine_widget.auto_switches.values")
+
+    _run(page, lab_server, browser_root, "auto_switches_browser.ipynb", [
+        "import grasswidget as gw\n"
+        f"a = gw.GrassWidget({N_BLADES}, preset='cis565', backend='browser', size={SIZE})\na",
+    ], check, webgpu_browser)
+    close, close_panel = found["close"]
+    top, top_panel = found["top"]
+    print(f"\n[auto, browser] cis565: {close}\n[auto, browser] top: {top}")
+    assert close.startswith("auto (on: removed"), close
+    assert close in close_panel  # the panel shows the same words
+    assert top.startswith("auto (off: removed") and "too few to pay" in top, top
+    assert top in top_panel
+    assert found["executed"]["cull_occlusion"] is False
