@@ -25,14 +25,20 @@ def webgpu_browser():
         yield b
 
 
-def _decided(page, timeout=180):
-    """The widget's stats' words for the occlusion switch once decided, and the panel's line."""
+def _decided(page, timeout=240):
+    """The words of the browser engine's decision on occlusion culling once made (its
+    AutoSwitches' own, not the last stats'), then once the panel shows them: (words, panel line)."""
     def decided():
-        s = kernel_eval(page, "[(a.stats.get('switches') or {}).get('cull_occlusion'), "
-                              "a.switch_choices['cull_occlusion'].decision_line.value]")
-        return s[0] is not None and s[0].startswith(("auto (on", "auto (off")), s
+        words = kernel_eval(page, "a.view.engine_widget.auto_switches.texts()['cull_occlusion']")
+        return words.startswith(("auto (on", "auto (off")), words
 
-    return poll(decided, "the browser engine's decision on occlusion culling", timeout, 1.0, page=page)
+    words = poll(decided, "the browser engine's decision on occlusion culling", timeout, 1.0, page=page)
+
+    def shown():
+        line = kernel_eval(page, "a.switch_choices['cull_occlusion'].decision_line.value")
+        return words in line, line
+
+    return words, poll(shown, f"the panel showing {words!r}", 30, 0.5, page=page)
 
 
 def test_browser_engine_decides_occlusion_by_measuring(webgpu_browser, lab_server, browser_root):
