@@ -26,6 +26,13 @@ Requests that need the browser's answer (:meth:`read_state`, :meth:`snapshot`,
 :meth:`read_inspected`, :meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
 messages (``jupyter-ui-poll``), so they work inside a running cell; with no view
 answering they raise ``TimeoutError`` naming the browser view.
+
+The "auto" switches (``params.cull_occlusion``, ``params.compute_raster``) are decided here, by
+measuring the browser's frames (:mod:`grasswidget.browser.auto_switches`, the kernel's rule): each
+stats message carries ``frame_times`` (ms), ``timed_switches`` and ``counts_switches``
+(``[occlusion, compute raster]`` as the browser executed them; js/messages.js documents the
+message), and Python answers with the state to execute as ``u_cull``'s ``occlusion_phase`` and
+``compute_raster`` words. ``auto_switches.texts()`` says what was decided.
 """
 
 from __future__ import annotations

@@ -3,15 +3,19 @@
 turns it on and the panel shows the decision; from "top" (nothing behind anything) it turns it off.
 
 The rule is Python's (grasswidget.core.pays, the kernel's); engine.js reports its frame times
-and counts and executes the state Python sends (grasswidget.browser.auto_switches).
+and counts and executes the state Python sends (grasswidget.browser.auto_switches). Screenshots of the
+page after each decision: ``auto_switches_browser_close.png`` and ``auto_switches_browser_top.png``
+in ``$GW_ARTIFACTS_DIR`` (else the Lab root's ``artifacts`` folder).
 """
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from .harness import Browser, kernel_eval, kernel_execute, poll, wait_for_kernel
-from .test_engines_alike import _run
+from .test_engines_alike import _artifacts, _run
 
 pytestmark = pytest.mark.browser
 
@@ -50,9 +54,11 @@ def test_browser_engine_decides_occlusion_by_measuring(webgpu_browser, lab_serve
         assert status["state"] == "ok", status
         kernel_execute(page, "a.pause()")
         found["close"] = _decided(page)
+        page.screenshot(path=os.path.join(_artifacts(browser_root), "auto_switches_browser_close.png"), full_page=True)
         kernel_execute(page, "a.look_from('top')")
         assert kernel_eval(page, "a.view.engine_widget.auto_switches.state.redecided_because") == "the camera moved"
         found["top"] = _decided(page)
+        page.screenshot(path=os.path.join(_artifacts(browser_root), "auto_switches_browser_top.png"), full_page=True)
         found["executed"] = kernel_eval(page, "a.view.engine_widget.auto_switches.values")
 
     _run(page, lab_server, browser_root, "auto_switches_browser.ipynb", [
