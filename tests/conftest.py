@@ -11,6 +11,43 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 
+# ---------------------------------------------------------------- test times, as they go
+#
+# Each test's wall time (set-up + call + tear-down) is appended to a file the moment it ends, so
+# a run that is killed part-way still tells where its time went (``--durations`` prints only at
+# the end). The file is ``$GW_TEST_TIMES`` (default: ``.test-times.log`` in the checkout's root),
+# emptied when a run starts; one line per test: total, set-up, call, tear-down seconds, the
+# 1-minute load average when it ended, the outcome and the test's id.
+
+#: The file's path (set when the run is configured) and the phases of the tests still running.
+_TEST_TIMES = {"path": os.devnull, "running": {}}
+
+
+def pytest_configure(config):
+    _TEST_TIMES["path"] = os.environ.get("GW_TEST_TIMES") or os.path.join(str(config.rootpath), ".test-times.log")
+
+
+def pytest_sessionstart(session):
+    with open(_TEST_TIMES["path"], "w") as f:
+        f.write("# total_s setup_s call_s teardown_s load1 outcome test\n")
+
+
+def pytest_runtest_logreport(report):
+    phases = _TEST_TIMES["running"].setdefault(report.nodeid, {"outcome": "passed"})
+    phases[report.when] = report.duration
+    if report.failed:
+        phases["outcome"] = "failed" if report.when == "call" else f"{report.when}-error"
+    elif report.skipped:
+        phases["outcome"] = "skipped"
+    if report.when != "teardown":
+        return
+    del _TEST_TIMES["running"][report.nodeid]
+    setup, call, teardown = (phases.get(w, 0.0) for w in ("setup", "call", "teardown"))
+    with open(_TEST_TIMES["path"], "a") as f:
+        f.write(f"{setup + call + teardown:8.2f} {setup:7.2f} {call:7.2f} {teardown:7.2f} "
+                f"{os.getloadavg()[0]:5.1f} {phases['outcome']:<13} {report.nodeid}\n")
+
+
 def grass_mask(img):
     """Pixels that are grass: green clearly dominates red and blue."""
     rgb = img[..., :3].astype(np.int32)

@@ -7,7 +7,7 @@ switch on (passed into the WGSL templates as ``wind_field_wave``,
 enums) and the names that :class:`~grasswidget.GrassParams` accepts
 (``WindField.NOISE.label == "noise"``, ``BladeShape.TRIANGLE_TIP.label ==
 "triangle-tip"``). To add a wind field: add a member here, its NumPy function in
-``reference.py`` (and a branch in ``reference.wind_field``), its WGSL twin in
+``core/reference/physics.py`` (and a branch in ``reference.wind_field``), its WGSL twin in
 ``shaders/blade_math.wgsl`` and a ``case {{ wind_field_<name> }}`` in
 ``shaders/wind_field.wgsl``; the tests compare the two functions.
 """

@@ -25,7 +25,7 @@ The engine-neutral files and what they need:
     ``blade_occluded(...)``, reads ``s_hzb`` and ``s_hzb_levels``) and one level of the max-depth pyramid
     (entry point ``main``, template variable ``level``); see ``cull.wgsl``.
 ``blade_math.wgsl``
-    The blade math, one function per NumPy twin of ``reference.py`` (same names).
+    The blade math, one function per NumPy twin of ``core/reference/`` (same names).
     Pure functions: no bindings.
 ``wind_field.wgsl``
     ``wind_field(p, t)`` (switch on ``u_sim.wind_field``) and ``user_wind`` (body
@@ -36,7 +36,7 @@ The engine-neutral files and what they need:
     ``collide_spheres(v0, v1, v2, height)`` (the one loop over the colliders: the
     spheres of that list in reach, calling blade_math's ``collide_sphere``) and
     ``collision_passes(v0, v1, v2, up, height)`` (``collision_passes`` times: push,
-    then ``validate_pushed``); twins of the same names in ``reference.py`` and
+    then ``validate_pushed``); twins of the same names in ``core/reference/`` and
     ``collider_grid.py``. Expects ``u_sim`` (``n_colliders``), ``s_colliders:
     array<vec4<f32>>`` and ``s_collider_grid: array<u32>`` (read; the arrays of
     :mod:`grasswidget.core.collider_grid`); included after ``blade_math.wgsl`` by the
@@ -63,7 +63,7 @@ Template variables (:func:`template_vars`): ``wind_field_<name>``,
 ``blade_shape_<name>``, ``gravity_mode_<name>``, ``color_by_<name>`` (the ids of
 :mod:`grasswidget.core.enums`; names in lowercase with underscores, e.g.
 ``blade_shape_triangle_tip``), ``recovery_floor``, ``collision_max``,
-``collision_passes``, ``collider_reach``, ``noise_scale`` (from ``reference.py``),
+``collision_passes``, ``collider_reach``, ``noise_scale`` (from ``core/reference/``),
 ``grid_header_words`` (from ``collider_grid.py``),
 ``workgroup_size`` (threads per workgroup of the per-blade compute shaders),
 ``n_classes``, ``lod_segments``, ``lod_min_pixels`` (level-of-detail classes),

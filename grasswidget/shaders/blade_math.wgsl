@@ -1,13 +1,13 @@
 // Blade math shared by the simulation, culling and drawing shaders.
 //
-// Every function here has a twin of the same name in grasswidget/core/reference.py
+// Every function here has a twin of the same name in grasswidget/core/reference/ (a package)
 // (the NumPy reference, which is the spec). Equation numbers refer to
 // Jahrmann & Wimmer, "Responsive Real-Time Grass Rendering for General 3D
 // Scenes", I3D 2017. Units: metres, seconds, m/s^2.
 //
 // Engine-neutral: pure functions, no bindings. Ids and constants come from the
 // template variables of grasswidget.core.shader_files.template_vars() (the enums of
-// grasswidget/core/enums.py and the constants of reference.py); tests/gpu/test_wgsl_contract.py
+// grasswidget/core/enums.py and the constants of the reference); tests/gpu/test_wgsl_contract.py
 // runs every function here against its NumPy twin.
 
 const PI_F = 3.141592653589793;

@@ -6,6 +6,9 @@ Fixtures:
   write their notebooks into it (use a unique file name per test).
 * ``lab_server``    session-wide :class:`JupyterLabServer` on ``browser_root``.
 * ``browser``       session-wide :class:`Browser` (Chromium, fresh profile).
+* ``webgpu_browser`` a Chromium with WebGPU (SwiftShader) for one test: one browser
+  (``webgpu_chromium``, session-wide) serves every test; after each test its page is
+  back at its first viewport size.
 * ``page``          the browser's page for one test; after the test all
   kernels are shut down and, on failure, a screenshot, the browser console
   and the server log are saved (path printed in the report).
@@ -34,7 +37,7 @@ def pytest_configure(config):
 
 #: Fixtures that start JupyterLab or Chromium: a test of this folder using one is a real-browser test.
 #: The others here (test_engine_without_a_browser.py) check the engine's Python side and run everywhere.
-CHROMIUM_FIXTURES = {"browser", "webgpu_browser", "page", "lab_server", "browser_root"}
+CHROMIUM_FIXTURES = {"browser", "webgpu_browser", "webgpu_chromium", "page", "lab_server", "browser_root"}
 
 
 def pytest_collection_modifyitems(config, items):
@@ -74,6 +77,24 @@ def lab_server(browser_root):
 def browser():
     with Browser() as b:
         yield b
+
+
+@pytest.fixture(scope="session")
+def webgpu_chromium():
+    """Chromium with the WebGPU flags (SwiftShader), started once for the session."""
+    with Browser(webgpu=True) as b:
+        yield b
+
+
+@pytest.fixture
+def webgpu_browser(webgpu_chromium):
+    """The session's WebGPU Chromium for one test; afterwards its page has its first
+    viewport size again (a test may have made it larger)."""
+    yield webgpu_chromium
+    width, height = webgpu_chromium.viewport
+    page = webgpu_chromium.page
+    if page.viewport_size != {"width": width, "height": height}:
+        page.set_viewport_size({"width": width, "height": height})
 
 
 @pytest.fixture

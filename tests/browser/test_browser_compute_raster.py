@@ -23,7 +23,7 @@ import os
 import numpy as np
 import pytest
 
-from .harness import Browser, kernel_eval, kernel_execute, poll, wait_for_kernel
+from .harness import kernel_eval, kernel_execute, poll, wait_for_kernel
 from .test_engines_alike import _artifacts, _run
 
 pytestmark = pytest.mark.browser
@@ -31,11 +31,6 @@ pytestmark = pytest.mark.browser
 N_BLADES = 1 << 14
 SIZE = (320, 180)
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _grass(img):

@@ -33,7 +33,6 @@ import pytest
 from .harness import (
     choose_option,
     panel_label,
-    Browser,
     click_button,
     drag,
     kernel_eval,
@@ -79,12 +78,6 @@ def _canvas_pixels(page):
     import imageio.v3 as iio
 
     return iio.imread(_show_view(page).screenshot(), extension=".png")
-
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def test_browser_engine(webgpu_browser, lab_server, browser_root):

@@ -22,7 +22,7 @@ import os
 import numpy as np
 import pytest
 
-from .harness import Browser, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
+from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
     write_notebook
 
 pytestmark = pytest.mark.browser
@@ -36,29 +36,29 @@ ABOVE = {"position": (0.0, 28.0, 0.5), "target": (0.0, 0.0, 0.0)}
 
 
 @pytest.fixture(scope="module")
-def teaching_page(browser_root, lab_server):
+def teaching_page(browser_root, lab_server, webgpu_chromium):
     write_notebook(browser_root / "browser_teaching.ipynb", [
         "import numpy as np\nimport grasswidget as gw\n"
         f"w = gw.GrassWidget({N_BLADES}, backend='browser', size={SIZE}, pixel_ratio=1)\nw",
     ])
-    with Browser(webgpu=True) as browser:
-        page = browser.page
+    browser = webgpu_chromium
+    page = browser.page
+    try:
+        open_notebook(page, lab_server, "browser_teaching.ipynb")
+        run_all_cells(page, timeout=120)
+        status = wait_for_kernel(page, "w.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
+        assert status["state"] == "ok", status
+        wait_for_kernel(page, "w.stats['visible'] is not None", True, timeout=60)
+        yield page
+    except BaseException:
+        _save_failure(page, browser, lab_server, browser_root)
+        raise
+    finally:
         try:
-            open_notebook(page, lab_server, "browser_teaching.ipynb")
-            run_all_cells(page, timeout=120)
-            status = wait_for_kernel(page, "w.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
-            assert status["state"] == "ok", status
-            wait_for_kernel(page, "w.stats['visible'] is not None", True, timeout=60)
-            yield page
-        except BaseException:
-            _save_failure(page, browser, lab_server, browser_root)
-            raise
-        finally:
-            try:
-                page.goto("about:blank")
-                lab_server.shutdown_kernels()
-            except Exception:
-                pass
+            page.goto("about:blank")
+            lab_server.shutdown_kernels()
+        except Exception:
+            pass
 
 
 def _save_failure(page, browser, server, root):

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import (Browser, click_button, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
+from .harness import (click_button, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
                       wait_for_kernel, wait_for_view, wait_until_quiet, view_pixels, write_notebook)
 
 pytestmark = pytest.mark.browser
@@ -161,11 +161,6 @@ def test_lecture_layout_is_a_large_view_and_one_line(full_hd, lab_server, browse
     wait_for_kernel(page, "w.panel_folded", True, timeout=20)
     assert _settled_boxes(page)["panel"][3] == pytest.approx(folded["panel"][3], abs=2)
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_root):

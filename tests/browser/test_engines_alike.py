@@ -21,7 +21,7 @@ import os
 import numpy as np
 import pytest
 
-from .harness import Browser, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
+from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
     write_notebook
 
 pytestmark = pytest.mark.browser
@@ -29,11 +29,6 @@ pytestmark = pytest.mark.browser
 N_BLADES = 2048
 SIZE = (320, 240)
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _artifacts(root):

@@ -8,17 +8,12 @@ import os
 
 import pytest
 
-from .harness import Browser, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, write_notebook
+from .harness import kernel_execute, open_notebook, run_all_cells, wait_for_kernel, write_notebook
 
 pytestmark = pytest.mark.browser
 
 SIZE = (320, 240)
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def test_the_browser_engine_runs_the_students_gravity(webgpu_browser, lab_server, browser_root):

@@ -25,7 +25,6 @@ import pytest
 
 from .harness import (
     choose_option,
-    Browser,
     JupyterLabServer,
     drag,
     kernel_eval,
@@ -50,11 +49,6 @@ BROWSER_CELL = f"import grasswidget as gw\nw = gw.GrassWidget({N_BLADES}, backen
 FALLBACK_CELL = "import grasswidget as gw\nw = gw.GrassWidget(1024, backend='auto', size=(320, 240))\nw"
 VISIBLE = re.compile(r"([\d,]+) of ([\d,]+) blades drawn")
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 @pytest.fixture(scope="module")

@@ -97,13 +97,6 @@ def test_tip_chart_appears_moves_while_playing_and_follows_a_new_blade(page, lab
     assert not outside, f"fetched from outside the server: {outside[:5]}"
 
 
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    from .harness import Browser
-
-    with Browser(webgpu=True) as b:
-        yield b
-
 
 COMPARE = """
 import numpy as np

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import pytest
 
-from .harness import (Browser, drag, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
+from .harness import (drag, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
                       view_locator, wait_for_kernel, wait_for_view, write_notebook)
 
 pytestmark = pytest.mark.browser
@@ -165,11 +165,6 @@ def test_blade_control_keyboard(page, browser, lab_server, browser_root):
     finally:
         page.set_viewport_size({"width": 1280, "height": 1000})
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def test_blade_control_keyboard_browser_engine(webgpu_browser, lab_server, browser_root):

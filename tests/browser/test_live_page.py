@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import Browser, StaticServer, drag, poll
+from .harness import StaticServer, drag, poll
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -42,11 +42,6 @@ def live_page(tmp_path_factory):
     print(f"\n[live page] {proc.stdout.strip()}")
     return out
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _status(page):

@@ -12,6 +12,9 @@ run "Run All", wait until the kernel is idle with no cell queued, and then check
 * for each visible browser-engine canvas: its screenshot is not blank;
 * where a notebook's last cells set state it then prints (05: the ball's radius and speed), the
   kernel still holds it once the page has drawn every view (checked after the views);
+* for the tour (01), in the run without WebGPU: what its widget does for a user, on the same page
+  and kernel (sliders, checkboxes, drags, keys, Save PNG, real time: ``tour_checks.py``), so the
+  tour runs once for all of it;
 * what the notebook computed: the notebook is saved and its outputs, the pictures it wrote into
   ``output/`` and, for 03, a probe of its live widget's culling checkboxes are checked by
   ``tests/notebook_outputs.py`` (03's count tables against the NumPy reference, 07-09's grade
@@ -41,8 +44,8 @@ from PIL import Image
 
 from notebook_outputs import LIVE_CULLING_PROBE, WRITTEN, check_notebook_outputs
 
+from .tour_checks import check_tour
 from .harness import (
-    Browser,
     kernel_eval,
     kernel_execute,
     open_notebook,
@@ -97,11 +100,6 @@ def _code(path) -> str:
 
 BROWSER_ENGINE_NOTEBOOKS = [p for p in NOTEBOOKS if re.search(r"backend\s*=\s*[\"'](auto|browser)[\"']", _code(p))]
 
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 @pytest.mark.parametrize("path", BROWSER_ENGINE_NOTEBOOKS, ids=[p.stem for p in BROWSER_ENGINE_NOTEBOOKS])
@@ -187,4 +185,6 @@ def _run_all_and_check(page, lab_server, browser_root, path, prefix="runall_", s
     assert drawn_canvases == browser_views, f"{drawn_canvases} browser canvases drew for {browser_views} browser widgets"
     print(f"\n[run all] {path.name}: {len(widgets)} widgets, {n_views} kernel views and {drawn_canvases} "
           f"browser canvases drawing")
+    if check_outputs and path.stem == "01_tour":  # the tour's user-facing checks, on the kernel Run All left
+        check_tour(page, browser_root)
     return drawn_canvases

@@ -1,13 +1,14 @@
 """The reference is the WGSL, enforced.
 
 Every function of ``shaders/blade_math.wgsl`` has a NumPy twin of the same name in
-``grasswidget/core/reference.py``; each one runs here on random inputs on the GPU (a
+``grasswidget/core/reference/``; each one runs here on random inputs on the GPU (a
 small compute harness, lavapipe on CPU machines) and is compared with its twin.
 The blade record of ``shaders/blade.wgsl`` is compared with ``blades.BLADE_LAYOUT``,
 and the ids and constants the WGSL switches on come from one Python source.
 
-Adding a function to blade_math.wgsl: add its NumPy twin to reference.py and a
-line to TWINS below (how to draw inputs, how to call the twin); the name test
+Adding a function to blade_math.wgsl: add its NumPy twin to the module of its
+subject in core/reference/ (named in that module's ``__all__`` and the package's)
+and a line to TWINS below (how to draw inputs, how to call the twin); the name test
 fails until both exist.
 """
 
@@ -58,7 +59,7 @@ STRUCTS = _structs(BLADE_MATH)
 def test_every_wgsl_function_has_a_numpy_twin_of_the_same_name():
     assert len(FUNCTIONS) >= 30
     missing = sorted(n for n in FUNCTIONS if not callable(getattr(ref, n, None)))
-    assert not missing, f"blade_math.wgsl functions without a NumPy twin in reference.py: {missing}"
+    assert not missing, f"blade_math.wgsl functions without a NumPy twin in core/reference: {missing}"
     unexported = sorted(n for n in FUNCTIONS if n not in ref.__all__)
     assert not unexported, f"twins missing from reference.__all__: {unexported}"
     untested = sorted(set(FUNCTIONS) - set(TWINS))

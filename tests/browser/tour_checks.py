@@ -1,17 +1,21 @@
-"""The tour notebook in a real JupyterLab + Chromium: the widget streams grass and answers the user.
+"""What the tour notebook's widget does for a user in a real JupyterLab + Chromium.
 
-The test starts its own JupyterLab (by PID, on 127.0.0.1, in a temporary folder
-holding a copy of notebooks/01_tour.ipynb), runs the notebook in the page and
-checks, through the page and the kernel:
+:func:`check_tour` runs in the Run All test of ``notebooks/01_tour.ipynb``
+(``tests/browser/test_notebooks_run_all.py``, the run without WebGPU), on the page and kernel
+that Run All left, once that test has checked the notebook's outputs and that every widget draws;
+so the tour runs once in the suite. Through the page and the kernel it checks:
 
+* the tour's ``backend="browser"`` widget fell back to kernel streaming in a Chromium without
+  WebGPU, said so, steps and has a ``camera_state`` (its panel's slider reaching the kernel after the
+  fall-back: ``test_front_ends.py::test_fallback_in_front_end``);
 * frames stream and show grass (green-dominant pixels in the lower part);
 * a slider moved in the page reaches Python (``w.params.wind_strength``), and
   junk or out-of-range text typed into a slider readout breaks nothing;
 * toggling a culling checkbox changes the number of visible blades;
-* a mouse drag orbits the camera (its position changes in the kernel);
+* a mouse drag orbits the camera (its position changes in the kernel); shift + drag puts the ball
+  under the pointer;
 * the keyboard works only through the focused view (space = play/pause);
-* "Save PNG" writes a PNG into output/ beside the notebook.
-
+* "Save PNG" writes a PNG into output/ beside the notebook;
 * while playing, simulated time follows the wall clock (``w.sim_time`` against
   the kernel's clock over several seconds, within 10%).
 
@@ -27,25 +31,19 @@ from __future__ import annotations
 import json
 import os
 import platform
-import shutil
 import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from .harness import (
     panel_label,
-    JupyterLabServer,
     click_button,
     drag,
     frames_per_second,
     kernel_eval,
     kernel_execute,
-    open_notebook,
     poll,
-    run_all_cells,
-    save_debug_artifacts,
     set_slider,
     toggle_checkbox,
     view_locator,
@@ -56,10 +54,7 @@ from .harness import (
     wait_for_view,
 )
 
-pytestmark = pytest.mark.browser
-
 ROOT = Path(__file__).resolve().parents[2]
-TOUR = ROOT / "notebooks" / "01_tour.ipynb"
 BENCH_BLADES = 1 << 14
 
 
@@ -87,30 +82,6 @@ def _adapter_tag(summary: str) -> str:
     if "llvmpipe" in s or "lavapipe" in s:
         return "lavapipe"
     return "".join(c if c.isalnum() else "_" for c in s.split("(")[0].strip())[:40] or "unknown"
-
-
-def test_tour_in_browser(browser, tmp_path):
-    t0 = time.monotonic()
-    shutil.copy(TOUR, tmp_path / "01_tour.ipynb")
-    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-    page = browser.page
-    server = JupyterLabServer(tmp_path, env=env)
-    server.start()
-    try:
-        _run_checks(page, server, tmp_path)
-    except BaseException:
-        out = save_debug_artifacts(page, Path(os.environ.get("GW_ARTIFACTS_DIR") or tmp_path / "artifacts"),
-                                   "tour", browser, server)
-        print(f"\n[tour] debug artifacts in {out}\n" + "\n".join(browser.console[-30:]))
-        raise
-    finally:
-        try:
-            page.goto("about:blank")
-        except Exception:
-            pass
-        server.stop()  # by PID: the server, then any kernel it started
-        server.cleanup()
-    print(f"[tour] whole test took {time.monotonic() - t0:.1f} s")
 
 
 # Kernel-side helpers: the render-only rate at the widget's full size, and the clocks.
@@ -165,15 +136,18 @@ def _live_figures(page, seconds):
                 sim_over_wall=round((b[1] - a[1]) / (b[0] - a[0]), 3), render_scale=scale, widget_stats=stats)
 
 
-def _run_checks(page, server, folder):
-    open_notebook(page, server, "01_tour.ipynb")
-    run_all_cells(page, timeout=180)
-
+def check_tour(page, folder):
+    """The tour's checks (see the module's docstring) on ``page``, where the tour notebook has
+    just run (Run All) with its kernel still up; ``folder`` is the folder the notebook is in."""
     # The tour's browser-engine section made a second widget with backend="browser": this Chromium
     # has no WebGPU, so it fell back to kernel streaming and said so. Then it is closed, so the
     # checks below find each control of the first widget by its label alone.
+    # Run All checked that its view streams new frames; here it also steps and keeps its camera_state.
     wait_for_kernel(page, "wb.backend", "kernel", timeout=90)
     assert "WebGPU is not available in this browser" in kernel_eval(page, "wb.message_line.value")
+    kernel_execute(page, "wb.step(5)")
+    assert kernel_eval(page, "wb.scene.field.step_count") >= 5
+    assert kernel_eval(page, "sorted(wb.camera_state)") == ["fov_deg", "position", "target"]
     kernel_execute(page, "wb.close()")
 
     # 1. Frames stream and show grass.
@@ -260,9 +234,10 @@ def _run_checks(page, server, folder):
     wait_for_kernel(page, "w.playing", True, timeout=15)
 
     # 6. Save PNG writes a file into output/ beside the notebook and shows its name.
+    saved_before = set((folder / "output").glob("grass-*.png"))  # the folder is shared with other tests
     click_button(page, "Save PNG")
     text = wait_for_output_text(page, "saved grass-", timeout=60)
-    pngs = sorted((folder / "output").glob("grass-*.png"))
+    pngs = sorted(set((folder / "output").glob("grass-*.png")) - saved_before)
     assert len(pngs) == 1, (pngs, text[-300:])
     import imageio.v3 as iio
 

@@ -1,0 +1,151 @@
+"""The compute rasterizer of thin blades in the reference: spans, coverage, payload
+and the walk along a blade. Twins of the compute-raster shaders
+(see :mod:`grasswidget.core.reference`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..enums import BladeShape, GravityMode
+from ...errors import GrassValueError
+from .looks import blade_shape_t, hash01
+from .vectors import U32_MASK as _M32
+
+__all__ = [
+    "clip_to_pixel",
+    "raster_step",
+    "raster_span",
+    "raster_cover",
+    "raster_payload",
+    "raster_walk",
+    "raster_blades",
+    "RASTER_MAX_SAMPLES",
+    "RASTER_MAX_ACROSS",
+    "RASTER_EMPTY",
+]
+
+
+# --------------------------------------------------------------------------- compute rasterization
+
+#: Most samples the compute walk takes along one blade (raster_step: at least 1 / this).
+RASTER_MAX_SAMPLES = 256.0
+#: Most pixels the walk writes across one cross-section (a blade sent to the compute
+#: rasterizer is under GrassParams.compute_raster_max_px wide; this bounds a blade seen
+#: at a grazing angle).
+RASTER_MAX_ACROSS = 16
+#: The depth word of a pixel no compute-rasterized blade covers (raster.wgsl).
+RASTER_EMPTY = 0xFFFFFFFF
+
+
+def clip_to_pixel(clip, viewport_size):
+    """Clip-space points (..., 4) to (x, y, depth): pixels, x right and y down from the
+    view's top-left corner, depth 0 near .. 1 far (blade_math.wgsl ``clip_to_pixel``)."""
+    clip = np.asarray(clip, np.float64)
+    size = np.asarray(viewport_size, np.float64)
+    ndc = clip[..., :3] / clip[..., 3:4]
+    return np.stack([(ndc[..., 0] * 0.5 + 0.5) * size[..., 0], (0.5 - 0.5 * ndc[..., 1]) * size[..., 1],
+                     ndc[..., 2]], axis=-1)
+
+
+def raster_step(s0, s1, s2, v):
+    """The compute walk's step in v at v: 0.9 / (the curve's screen speed there,
+    ``|2 (1 - v) (s1 - s0) + 2 v (s2 - s1)|`` pixels per unit v), clamped to
+    [1 / RASTER_MAX_SAMPLES, 1]: samples about 0.9 pixels apart along the curve."""
+    s0, s1, s2 = (np.asarray(x, np.float64) for x in (s0, s1, s2))
+    v = np.asarray(v, np.float64)[..., None]
+    speed = np.linalg.norm(2.0 * (1.0 - v) * (s1 - s0) + 2.0 * v * (s2 - s1), axis=-1)
+    return np.clip(0.9 / np.maximum(speed, 1e-6), 1.0 / RASTER_MAX_SAMPLES, 1.0)
+
+
+def raster_span(c0, c1, c2, across, v, shape, tau, viewport_size):
+    """The ribbon's cross-section at v on screen: its two ends (x, y, depth), each (..., 3).
+
+    ``c0, c1, c2`` are the control points in clip space, ``across`` the half-width
+    vector in clip space (``view_proj @ (width * t1, 0)``); the ends are the curve point
+    plus (2 t - 1) across for t = blade_shape_t(0, v) and blade_shape_t(1, v).
+    """
+    c0, c1, c2, across = (np.asarray(x, np.float64) for x in (c0, c1, c2, across))
+    v = np.asarray(v, np.float64)[..., None]
+    a = c0 + v * (c1 - c0)
+    b = c1 + v * (c2 - c1)
+    c = a + v * (b - a)
+    vs = v[..., 0]
+    shape = np.broadcast_to(np.asarray(shape), vs.shape)
+    tau = np.broadcast_to(np.asarray(tau, np.float64), vs.shape)
+    t_left = np.array([blade_shape_t(0.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+    t_right = np.array([blade_shape_t(1.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+    t_left, t_right = t_left.reshape(vs.shape)[..., None], t_right.reshape(vs.shape)[..., None]
+    return (clip_to_pixel(c + (2.0 * t_left - 1.0) * across, viewport_size),
+            clip_to_pixel(c + (2.0 * t_right - 1.0) * across, viewport_size))
+
+
+def raster_cover(blade, sample, span_px):
+    """Points the compute walk writes across a cross-section ``span_px`` pixels wide:
+    ``floor(span_px + hash01(blade * 2654435761 + sample * 40503))`` (u32 arithmetic),
+    clamped to [0, RASTER_MAX_ACROSS]: on average span_px, the same every frame."""
+    blade = np.asarray(blade, np.int64).astype(np.uint64)
+    sample = np.asarray(sample, np.int64).astype(np.uint64)
+    key = (blade * np.uint64(2654435761) + sample * np.uint64(40503)) & _M32
+    h = hash01(key).astype(np.float32)
+    total = (np.asarray(span_px, np.float32) + h).astype(np.float64)
+    return np.clip(np.floor(total), 0, RASTER_MAX_ACROSS).astype(np.int64)
+
+
+def raster_payload(blade, v):
+    """The shading payload of a rasterized pixel: ``blade << 8 | round(v * 255)`` (u32; blade < 2^24)."""
+    blade = np.asarray(blade, np.int64)
+    q = np.round(np.clip(np.asarray(v, np.float64), 0.0, 1.0) * 255.0).astype(np.int64)
+    return ((blade << 8) | q) & 0xFFFFFFFF
+
+
+def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
+    """The compute rasterizer's walk of one blade (raster.wgsl), in float32 like the GPU.
+
+    Samples s = 0, 1, ... at v = 0, then v += raster_step(projected control points, v)
+    (the last sample at v = 1, at most RASTER_MAX_SAMPLES + 1 samples); at each, the cross-section (raster_span) of length L pixels is covered by
+    m = raster_cover(blade, s, L) points at (j + 0.5) / m along it. A point writes pixel floor(x, y) when it is inside the view
+    and 0 < depth <= 1. Returns (x, y, depth, v) arrays, one entry per written pixel
+    (a pixel may repeat)."""
+    f32 = np.float32
+    size = np.asarray(viewport_size, f32)
+    c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
+    s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
+    xs, ys, ds, vs = [], [], [], []
+    v = f32(0.0)
+    for s in range(int(RASTER_MAX_SAMPLES) + 1):
+        a, b = raster_span(c0, c1, c2, across, v, shape, tau, size)
+        a, b = a.astype(f32), b.astype(f32)
+        span_px = np.float32(np.linalg.norm(b[:2] - a[:2]))
+        m = int(raster_cover(blade, s, span_px))
+        for j in range(m):
+            p = a + (b - a) * f32((j + 0.5) / m)
+            x, y = int(np.floor(p[0])), int(np.floor(p[1]))
+            if 0 <= x < size[0] and 0 <= y < size[1] and 0.0 < p[2] <= 1.0:
+                xs.append(x), ys.append(y), ds.append(float(p[2])), vs.append(float(v))
+        if v >= 1.0:
+            break
+        v = f32(min(f32(v + f32(raster_step(s0, s1, s2, v))), f32(1.0)))
+    return np.array(xs, np.int64), np.array(ys, np.int64), np.array(ds), np.array(vs)
+
+
+def raster_blades(blades, viewport_size):
+    """Depth and payload images of the compute rasterizer for a few blades: each item
+    of ``blades`` is (c0, c1, c2, across, blade id, shape, tau) as for :func:`raster_walk`.
+    The nearest depth wins per pixel; among equal depths the largest payload
+    (raster.wgsl: atomicMin of the depth's float bits, then atomicMax of the payload).
+    Returns (depth (H, W) float64, inf where empty; payload (H, W) uint32, 0 where empty)."""
+    w, h = int(viewport_size[0]), int(viewport_size[1])
+    depth = np.full((h, w), np.inf)
+    payload = np.zeros((h, w), np.uint64)
+    for c0, c1, c2, across, blade, shape, tau in blades:
+        xs, ys, ds, vs = raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size)
+        for x, y, d, v in zip(xs, ys, ds, vs):
+            p = int(raster_payload(blade, v))
+            if d < depth[y, x]:
+                depth[y, x], payload[y, x] = d, p
+            elif d == depth[y, x]:
+                payload[y, x] = max(int(payload[y, x]), p)
+    return depth, payload.astype(np.uint32)
+
