@@ -14,19 +14,13 @@ import os
 
 import pytest
 
-from .harness import Browser, kernel_eval, kernel_execute, poll, wait_for_kernel
+from .harness import kernel_eval, kernel_execute, poll, wait_for_kernel
 from .test_engines_alike import _artifacts, _run
 
 pytestmark = pytest.mark.browser
 
 N_BLADES = 1 << 15
 SIZE = (320, 240)
-
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _decided(page, timeout=240):
