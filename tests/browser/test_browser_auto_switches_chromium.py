@@ -1,6 +1,8 @@
 """The browser engine decides occlusion culling by measuring, in a real JupyterLab + Chromium
-
-
+(WebGPU on SwiftShader): in the cis565 close view (rows of blades behind the front ones) "auto"
+measures occlusion culling removing most blades and keeps it where it made frames faster (the
+decision follows the times it reports; usually on), and the panel shows the decision; from "top"
+(nothing behind anything) it turns it off: too few removed to pay.
 
 The rule is Python's (grasswidget.core.pays, the kernel's); engine.js reports its frame times
 and counts and executes the state Python sends (grasswidget.browser.auto_switches). Screenshots of the
