@@ -20,19 +20,25 @@ import pytest  # noqa: E402
 # 1-minute load average when it ended, the outcome and the test's id.
 
 #: The file's path (set when the run is configured) and the phases of the tests still running.
-_TEST_TIMES = {"path": os.devnull, "running": {}}
+_TEST_TIMES = {"path": os.devnull, "running": {}, "writer": True}
 
 
 def pytest_configure(config):
     _TEST_TIMES["path"] = os.environ.get("GW_TEST_TIMES") or os.path.join(str(config.rootpath), ".test-times.log")
+    # With pytest-xdist the workers' reports reach the controller too: only it writes the file.
+    _TEST_TIMES["writer"] = not hasattr(config, "workerinput")
 
 
 def pytest_sessionstart(session):
+    if not _TEST_TIMES["writer"]:
+        return
     with open(_TEST_TIMES["path"], "w") as f:
         f.write("# total_s setup_s call_s teardown_s load1 outcome test\n")
 
 
 def pytest_runtest_logreport(report):
+    if not _TEST_TIMES["writer"]:
+        return
     phases = _TEST_TIMES["running"].setdefault(report.nodeid, {"outcome": "passed"})
     phases[report.when] = report.duration
     if report.failed:

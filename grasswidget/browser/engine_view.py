@@ -40,7 +40,7 @@ from ..core.blades import Blades
 from ..core.colliders import ColliderList
 from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW
 from ..core.view_api import EngineView
-from ..errors import GrassValueError
+from ..errors import GrassTypeError, GrassValueError
 from .view import BrowserEngineWidget
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
@@ -73,6 +73,9 @@ class BrowserEngineView(EngineView):
     called once when the browser has no WebGPU adapter (the widget falls back),
     ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
     and ``target_fps`` (kept and reported; the browser draws at its own rate).
+    ``widget_class``: the anywidget to make, BrowserEngineWidget (default) or a subclass
+    (a front end's: marimo's takes the module as a URL, see
+    :func:`grasswidget.notebook.marimo_face.class_for_front_end`).
     ``on_inspect(blades)`` gets the inspected blades' numbers at each stats message.
 
     Attributes: ``engine_widget`` (the :class:`~grasswidget.browser.view.BrowserEngineWidget`).
@@ -84,7 +87,8 @@ class BrowserEngineView(EngineView):
                             doc="The name of before of ``engine_widget`` (the BrowserEngineWidget).")
 
     def __init__(self, blades, size, params, *, preset=None, playback, actions, on_error, on_stats,
-                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None):
+                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None,
+                 widget_class=None):
         from ..core.framing import preset_field
 
         super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
@@ -101,7 +105,11 @@ class BrowserEngineView(EngineView):
                       "fov_deg": float(view["fov_deg"]), "near": float(view["near"]), "far": float(view["far"])}
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
-        self.engine_widget = BrowserEngineWidget(blades, params=params, size=self.size, camera=camera,
+        # A front end may hand a subclass (marimo: the module as a URL, grasswidget.notebook.marimo_face).
+        widget_class = BrowserEngineWidget if widget_class is None else widget_class
+        if not (isinstance(widget_class, type) and issubclass(widget_class, BrowserEngineWidget)):
+            raise GrassTypeError(f"widget_class must be BrowserEngineWidget or a subclass; got {widget_class!r}")
+        self.engine_widget = widget_class(blades, params=params, size=self.size, camera=camera,
                                         pixel_ratio=float(pixel_ratio or 0.0), function_overrides=function_overrides)
         self.engine_widget.playing = bool(playback.playing)
         self.engine_widget.time_scale = float(playback.time_scale)

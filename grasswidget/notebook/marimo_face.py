@@ -36,7 +36,7 @@ from traitlets import Unicode
 from ..compat import marimo_anywidget_element
 from .layout import PANEL_WIDTH
 
-__all__ = ["marimo_display", "MarimoStage", "running_in_marimo", "esm_for_front_end"]
+__all__ = ["marimo_display", "MarimoStage", "running_in_marimo", "esm_for_front_end", "class_for_front_end"]
 
 HERE = Path(__file__).resolve().parent
 
@@ -63,6 +63,27 @@ def esm_for_front_end(esm: str) -> str:
     if not running_in_marimo() or esm.startswith("data:"):
         return esm
     return "data:text/javascript;base64," + base64.b64encode(esm.encode("utf-8")).decode("ascii")
+
+
+#: The subclasses made by class_for_front_end, one per anywidget class.
+_MARIMO_CLASSES: dict = {}
+
+
+def class_for_front_end(widget_class):
+    """An anywidget class as the front end running now can make it also outside a running cell:
+    ``widget_class`` itself in Jupyter; in marimo a subclass (made once) whose module is
+    :func:`esm_for_front_end`'s URL. For anywidgets that a widget message's handler may make (the
+    browser engine's view when backend="auto" switches engines, after the page reported its adapter)."""
+    if not running_in_marimo():
+        return widget_class
+    subclass = _MARIMO_CLASSES.get(widget_class)
+    if subclass is None:
+        subclass = type(widget_class.__name__, (widget_class,), {"__module__": widget_class.__module__,
+                                                                  "__doc__": widget_class.__doc__})
+        # set after the class is made: anywidget would take a module text at class creation for a path
+        subclass._esm = esm_for_front_end(str(widget_class._esm))
+        _MARIMO_CLASSES[widget_class] = subclass
+    return subclass
 
 
 class MarimoStage(anywidget.AnyWidget):

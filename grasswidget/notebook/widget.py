@@ -372,13 +372,17 @@ class GrassWidget(ipw.VBox):
 
     def _browser_view(self):
         from ..browser.engine_view import BrowserEngineView
+        from ..browser.view import BrowserEngineWidget
+        from .marimo_face import class_for_front_end
 
+        # marimo: also made where no cell runs (the "auto" switch happens in the probe's message handler)
         return BrowserEngineView(self._blades, self.size, self.params, preset=self._preset, playback=self,
                                  actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                  on_inspect=self._show_inspected, on_unavailable=self._on_browser_unavailable,
                                  pixel_ratio=self._streaming_overrides.get("max_pixel_ratio"),
                                  target_fps=self._streaming["target_fps"],
-                                 function_overrides=self._function_overrides)
+                                 function_overrides=self._function_overrides,
+                                 widget_class=class_for_front_end(BrowserEngineWidget))
 
     def _make_ball(self):
         from .ball import BallControl

@@ -49,14 +49,21 @@ def _block_difference(a, b, block=4):
     return float(np.abs(blocks(a) - blocks(b)).mean())
 
 
-def _steady_stats(page, keys):
-    """The widget's stats once three messages in a row agree (paused, still camera)."""
+def _steady_stats(page, keys, compute_on):
+    """The widget's stats once they come from a frame drawn with the compute rasterizer
+    ``compute_on`` (some blades in compute when on, none when off: the stats of frames
+    drawn before the switch reached the page keep coming while the page compiles the
+    rasterizer's pipelines, and three of those agree too) and three messages in a row
+    agree (paused, still camera). A compute path that never draws a blade times out here."""
     seen = []
 
     def steady():
         s = kernel_eval(page, "{k: m.stats.get(k) for k in %r}" % (keys,))
+        if s["visible"] is None or ((s["rastered"] or 0) > 0) != compute_on:
+            seen.clear()
+            return False, s
         seen.append(s)
-        return len(seen) >= 3 and all(x == s for x in seen[-3:]) and s["visible"] is not None, s
+        return len(seen) >= 3 and all(x == s for x in seen[-3:]), s
 
     return poll(steady, "steady browser stats", 120, 1.0, page=page)
 
@@ -66,7 +73,7 @@ def _pictures_and_counts(page, out_dir):
     found = {}
     for mode in (True, False):
         kernel_execute(page, f"m.params.compute_raster = {mode}")
-        stats = _steady_stats(page, ["visible", "rastered", "frame_size", "step_count"])
+        stats = _steady_stats(page, ["visible", "rastered", "frame_size", "step_count"], compute_on=mode)
         found[mode] = stats
         kernel_execute(page, f"m.save_png({os.path.join(out_dir, f'raster_browser_{int(mode)}.png')!r}, size={SIZE})",
                        timeout=60)

@@ -16,6 +16,12 @@ And in a Chromium without WebGPU (a notebook of its own): a ``backend="browser"`
 over to the kernel engine in marimo too (the stage shows jupyter-rfb's view with grass, the message
 line says why, the stats line counts frames).
 
+And ``backend="auto"`` (the default; a notebook and a server of its own, one page per outcome): with
+SwiftShader's fallback adapter the kernel engine stays (frames stream, the message line says why, a
+later cell reads ``w.backend == "kernel"``); with a hardware adapter simulated before the page loads
+the widget switches to the browser engine in marimo (the stage shows its canvas, which draws grass,
+and the later cell reads ``"browser"``).
+
 Screenshots of both widgets go to ``$GW_ARTIFACTS_DIR`` (or a temporary folder, printed).
 """
 
@@ -359,3 +365,137 @@ def test_fallback_to_the_kernel_engine_in_marimo(tmp_path):
         except BaseException:
             print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
             raise
+
+
+# ---------------------------------------------------------------- backend="auto" in marimo
+# The kernel renders on lavapipe (a CPU adapter) here, so the page's adapter decides (as in
+# test_engine_auto_browser.py for JupyterLab). One notebook, one server, a page (a session of its
+# own) per outcome: the simulated hardware adapter must be in place before the page loads.
+
+AUTO_NOTEBOOK = textwrap.dedent('''
+    import marimo
+
+    app = marimo.App(width="full")
+
+
+    @app.cell
+    def _():
+        import marimo as mo
+
+        import grasswidget as gw
+        w = gw.GrassWidget(512, size=(240, 180))
+        w
+        return gw, mo, w
+
+
+    @app.cell
+    def _(mo):
+        asker = mo.ui.run_button(label="which engine runs")
+        asker
+        return (asker,)
+
+
+    @app.cell
+    def _(asker, mo, w):
+        mo.stop(not asker.value)
+        mo.md(f"<code class='auto-backend'>{w.backend}</code>")
+        return
+
+
+    if __name__ == "__main__":
+        app.run()
+''')
+
+SIMULATED_GPU = "globalThis.__grasswidgetTestAdapterInfo = {vendor: 'nvidia', architecture: 'ampere', fallback: false};"
+
+
+@pytest.fixture(scope="module")
+def auto_server(tmp_path_factory):
+    root = tmp_path_factory.mktemp("marimo-auto")
+    (root / "auto.py").write_text(AUTO_NOTEBOOK)
+    with MarimoServer(root / "auto.py") as server, Browser(webgpu=True) as browser:
+        yield server, browser
+
+
+def _backend_from_a_later_cell(page):
+    """Run the later cell (its button) and read what it printed: ``w.backend`` in the kernel."""
+    page.get_by_role("button", name="which engine runs").first.click()
+    shown = page.locator("code.auto-backend").first
+    shown.wait_for(timeout=60_000)
+    return shown.inner_text().strip()
+
+
+def _auto_page(auto_server, simulated_gpu):
+    server, browser = auto_server
+    page = browser.new_page()
+    if simulated_gpu:
+        page.add_init_script(SIMULATED_GPU)
+    page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
+    return server, browser, page
+
+
+def test_auto_with_swiftshader_stays_on_the_kernel_engine_in_marimo(auto_server):
+    server, browser, page = _auto_page(auto_server, simulated_gpu=False)
+    try:
+        root = page.locator(".grasswidget-marimo").first
+        poll(lambda: root.locator("img.renderview-view").count() == 1, "the kernel engine's view", 120, 0.5,
+             page=page)
+        text = root.locator(".gwm-root").first
+        reason = ("kernel engine: the kernel renders on a CPU adapter (llvmpipe) and this browser's WebGPU adapter "
+                  "is a CPU fallback too (google swiftshader)")
+        poll(lambda: reason in text.inner_text(), "the message line to say why the kernel engine stays", 60, 0.3,
+             page=page)
+        poll(lambda: re.search(r"[\d.]+ frames/s", text.inner_text()), "kernel frames to stream", 60, 0.5, page=page)
+        view = root.locator("img.renderview-view").first
+
+        def meadow():
+            import imageio.v3 as iio
+
+            px = iio.imread(view.screenshot(), extension=".png")[..., :3].astype(np.int32)
+            grass, sky = _grass_and_sky(px)
+            return grass > 0.15 and sky > 0.5, (grass, sky)  # 512 blades: a sparser meadow
+        poll(meadow, "grass under a sky in the kernel engine's view", 30, 0.5, page=page)
+        assert root.locator("canvas.grasswidget-canvas").count() == 0  # no browser engine was started
+        assert _backend_from_a_later_cell(page) == "kernel"
+    except BaseException:
+        print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
+        raise
+    finally:
+        page.close()
+
+
+def test_auto_with_a_hardware_adapter_switches_to_the_browser_engine_in_marimo(auto_server):
+    server, browser, page = _auto_page(auto_server, simulated_gpu=True)
+    try:
+        root = page.locator(".grasswidget-marimo").first
+        # The stage follows the switch: the browser engine's canvas replaces jupyter-rfb's view.
+        poll(lambda: root.locator("canvas.grasswidget-canvas").count() == 1 and
+             root.locator("img.renderview-view").count() == 0,
+             "the browser engine's canvas to replace the kernel engine's view", 120, 0.5, page=page)
+        text = root.locator(".gwm-root").first
+        reason = ("browser engine: the kernel renders on a CPU adapter (llvmpipe) and this browser offers a GPU "
+                  "(nvidia ampere)")
+        poll(lambda: reason in text.inner_text(), "the message line to say why the browser engine runs", 60, 0.3,
+             page=page)
+        canvas = root.locator("canvas.grasswidget-canvas").first
+        canvas.scroll_into_view_if_needed()
+        # engine.js counts the frames it drew on the canvas (marimo's shadow DOM: asked through the locator)
+        drawn = lambda: canvas.evaluate("c => c.grasswidgetFramesDrawn || 0")  # noqa: E731
+        first = drawn()
+        poll(lambda: (drawn() >= first + 5, drawn()), "5 browser-engine frames", 90, 0.3, page=page)
+
+        def meadow():
+            import imageio.v3 as iio
+
+            px = iio.imread(canvas.screenshot(), extension=".png")[..., :3].astype(np.int32)
+            grass, sky = _grass_and_sky(px)
+            return grass > 0.15 and sky > 0.5, (grass, sky)
+        grass, sky = poll(meadow, "grass under a sky in the browser engine's canvas", 30, 0.5, page=page)
+        assert _backend_from_a_later_cell(page) == "browser"
+        root.screenshot(path=str(_artifacts() / "marimo-auto-browser.png"))
+        print(f"\n[marimo auto, simulated GPU] grass {grass:.0%}, sky {sky:.0%}; screenshot in {_artifacts()}")
+    except BaseException:
+        print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
+        raise
+    finally:
+        page.close()
