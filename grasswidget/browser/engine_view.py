@@ -22,8 +22,9 @@ Differences, by design:
 * ``fps`` is frames presented per second in the browser and ``visible`` the
   browser's indirect-draw instance counts (both occlusion phases) plus ``rastered``,
   the blades its compute rasterizer drew (``params.compute_raster``), ``occluded`` the
-  blades culled by occlusion (None while ``params.cull_occlusion`` is off), read back
-  asynchronously.
+  blades culled by occlusion (None while occlusion culling is off), read back
+  asynchronously; ``switches`` what the "auto" switches decided, in words, as the kernel
+  view's (:mod:`grasswidget.browser.auto_switches`: the same rule, fed by the browser's frame times).
 * Teaching views: freeze culling copies the browser's camera (its matrices
   computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
   browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
@@ -469,7 +470,7 @@ class BrowserEngineView(EngineView):
             visible_per_class=list(per_class) if per_class else None,
             rastered=rastered,
             # blades culled by occlusion (both phases' draws are in visible); None while it is off
-            occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
+            occluded=int(msg["occluded"]) if msg.get("occluded") is not None else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
             steps_per_frame=int(round(steps / frames)) if self.playback.playing else 0,
@@ -478,6 +479,8 @@ class BrowserEngineView(EngineView):
             step_count=msg.get("step_count"),
             sim_speed=sim_speed,
             slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
+            # what the "auto" switches decided, in words, as the kernel view's (browser.auto_switches)
+            switches=self.engine_widget.auto_switches.texts(),
         )
         self.report_stats(self.current_stats())
         if self.engine_widget.inspected:

@@ -233,7 +233,8 @@ def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
     return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
-def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False) -> dict:
+def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False,
+                        decided=None) -> dict:
     """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
 
     ``every_frame_two_phases``: the engine draws every frame in occlusion culling's two
@@ -242,7 +243,10 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
     second), so ``occlusion_phase`` is written: 1 while ``cull_occlusion`` is on, else
     0 (the browser engine then draws in one phase). False (the kernel engine, default):
     ``occlusion_phase`` is left out, the engine arms it per render
-    (:func:`grasswidget.gpu.frame.render_frame`).
+    (:func:`grasswidget.gpu.frame.render_frame`). ``decided``: the view's values of its
+    "auto" switches for the next frames (``{"cull_occlusion": bool, ...}``, what
+    :meth:`grasswidget.core.pays.AutoSwitches.values` said; a forced switch wins), or None
+    (the fixed defaults of :func:`occlusion_on`).
 
     ``frozen`` is the frozen culling camera or None (cull against each render's
     camera): anything with ``view_proj`` (4x4, world to WebGPU clip space, row-major
@@ -268,7 +272,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         raster_max_px=p.compute_raster_max_px,
     )
     if every_frame_two_phases:
-        values["occlusion_phase"] = int(occlusion_on(p))
+        values["occlusion_phase"] = int(occlusion_on(p, (decided or {}).get("cull_occlusion")))
     if frozen is not None:
         values.update(
             frozen_view_proj=np.asarray(frozen.view_proj, np.float64).T,  # WGSL matrices are column-major
@@ -286,7 +290,7 @@ MAX_RASTER_BLADES = 1 << 24
 def occlusion_on(params, decided=None) -> bool:
     """Whether occlusion culling runs: ``params.cull_occlusion`` True, or "auto" and
     ``decided`` (the view's decision, :mod:`grasswidget.core.pays`) True; "auto" without a
-    decision runs it (the browser engine, which does not measure yet)."""
+    decision runs it (a view that has not measured yet: a BrowserEngineWidget before its first values)."""
     return effective(params.cull_occlusion, True if decided is None else decided)
 
 
@@ -299,12 +303,13 @@ def compute_raster_on(params, n_blades: int, decided=None) -> bool:
             and int(n_blades) <= MAX_RASTER_BLADES)
 
 
-def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float) -> dict:
+def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float, decided=None) -> dict:
     """The compute rasterizer's ``u_cull`` values but the render size (``raster_width`` and
     ``raster_height``, which the engine writes for each render: 0 here): ``compute_raster``
     (1 when :func:`compute_raster_on`), ``raster_blade_shape`` (the material's
-    ``enums.BladeShape`` id) and ``raster_tip_threshold`` (the material's, 0..1)."""
-    return dict(compute_raster=int(compute_raster_on(params, n_blades)), raster_width=0.0, raster_height=0.0,
+    ``enums.BladeShape`` id) and ``raster_tip_threshold`` (the material's, 0..1). ``decided``:
+    as :func:`cull_uniform_values`'s (its ``"compute_raster"``)."""
+    return dict(compute_raster=int(compute_raster_on(params, n_blades, (decided or {}).get("compute_raster"))), raster_width=0.0, raster_height=0.0,
                 raster_blade_shape=int(blade_shape), raster_tip_threshold=float(tip_threshold))
 
 
