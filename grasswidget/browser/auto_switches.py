@@ -19,7 +19,8 @@ when the browser ran them with the state the trial asked for (and its counts are
 frame), one by one until the trial asks for another state; then it writes the new state. The
 decision is made again on the kernel's triggers (:class:`grasswidget.core.pays.DecisionContext`):
 the camera moved or turned, the blade field or any parameter but the two switches changed.
-While culling is frozen the decision holds (as in the kernel engine).
+While culling is frozen the decision holds (as in the kernel engine). A trial starts only on a
+stats message that reports frames drawn: a view at rest (nothing drawn) runs none.
 """
 
 from __future__ import annotations
@@ -65,22 +66,28 @@ class BrowserAutoSwitches:
         return DecisionContext(eye, target, int(len(self._widget.blades)), None,
                                (self._params_version, self._field_version))
 
-    def _next_values(self) -> dict:
+    def _next_values(self, start_trial: bool) -> dict:
         frozen = self._widget.frozen_camera is not None and self.state.context is not None
-        return self.state.values(self.settings(), self.state.context if frozen else self.context())
+        return self.state.values(self.settings(), self.state.context if frozen else self.context(), start_trial)
 
     def refresh(self) -> dict:
-        """Work out the values for the next frames (a trigger may start a trial) and send
-        them if they changed; returns them."""
-        values = self._next_values()
+        """Work out the values for the next frames and send them if they changed; returns
+        them. A trigger (camera, field, parameters) makes the decision stale here, but starts
+        no trial: only frames the browser reports drawn do (:meth:`on_stats`), so that a view
+        at rest is not woken by a trial (a new ``u_cull`` makes the browser draw a frame)."""
+        return self._send(self._next_values(start_trial=False))
+
+    def _send(self, values) -> dict:
         if values != self.values:
             self.values = values
             self._write(values)
         return values
 
     def on_stats(self, msg: dict):
-        """Feed a browser stats message (see the module docstring) to the trial, then refresh."""
-        values = self._next_values()
+        """Feed a browser stats message (see the module docstring) to the trial, then send
+        the values for the next frames; a message with frames drawn may start a trial."""
+        drew = bool(msg.get("frame_times"))
+        values = self._next_values(start_trial=drew)
         if self.state.measuring and self.values == values:
             asked = [bool(values[name]) for name in SWITCHES]
             timed = msg.get("timed_switches")
@@ -94,9 +101,9 @@ class BrowserAutoSwitches:
                           "occluded": msg.get("occluded") if values["cull_occlusion"] else 0}
                 for ms in msg.get("frame_times") or ():
                     self.state.record(float(ms), counts)
-                    if not self.state.measuring or self._next_values() != values:
+                    if not self.state.measuring or self._next_values(start_trial=False) != values:
                         break
-        self.refresh()
+        self._send(self._next_values(start_trial=drew))
 
     def texts(self) -> dict:
         """{switch: words} for the panel: "on", "off", "auto (measuring)", "auto (on: removed

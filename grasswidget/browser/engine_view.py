@@ -115,7 +115,9 @@ class BrowserEngineView(EngineView):
         self.engine_widget.time_scale = float(playback.time_scale)
         self._ball_scene = _BallScene(self.engine_widget)
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
-                       "steps_per_frame": None, "frame_size": None}
+                       "steps_per_frame": None, "frame_size": None, "step_count": None, "switches": None,
+                       "trial": False}  # the keys a stats message fills, known from the start
+        self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats message
         self.engine_widget.on("stats", self._on_browser_stats)
         self.engine_widget.on("error", self.report_error)
         self.engine_widget.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
@@ -481,11 +483,20 @@ class BrowserEngineView(EngineView):
             slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
             # what the "auto" switches decided, in words, as the kernel view's (browser.auto_switches)
             switches=self.engine_widget.auto_switches.texts(),
+            trial=self._trial_window(),
         )
         self.report_stats(self.current_stats())
         if self.engine_widget.inspected:
             self._request_inspected()
         self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
+
+    def _trial_window(self) -> bool:
+        """Whether a trial of the "auto" switches ran over the frames of this stats message."""
+        state = self.engine_widget.auto_switches.state
+        mark = (state.trial_frames_run, state.measuring)
+        ran = mark[1] or mark[0] != self._trial_mark[0]
+        self._trial_mark = mark
+        return ran
 
     # ------------------------------------------------------------------ keys, closing
 

@@ -10,12 +10,21 @@ default of both) lets each view decide from what it measured:
 2. :func:`decide_occlusion` / :func:`decide_compute_raster`: the counts the GPU reported
    first (occlusion that removed under :data:`MIN_OCCLUDED_FRACTION` of the blades it saw,
    or a compute rasterizer that took over no blade, cannot pay: off), then the frame times
-   (the faster median kept);
+   (the faster median kept). Hysteresis: a view that decided before (for another camera,
+   field or parameters) keeps its previous choice unless the other one is faster by more
+   than :data:`HYSTERESIS` (a fraction of the frame time), so noise does not flip it back
+   and forth; while it tries one switch again, the other keeps its previous choice;
 3. the decision holds until the context changes (:class:`DecisionContext`): the camera
    moves more than :data:`CAMERA_MOVE_FRACTION` of its distance to what it looks at or turns
    more than :data:`CAMERA_TURN_DEG`, the blade count or preset changes, or any parameter
    changes but the two switches themselves (forcing a switch and going back to "auto" in
    the same view keeps the decision).
+
+A view at rest draws no frame, so it runs no trial: a trial advances only with the frames
+an engine renders and records (the browser engine starts one only when the browser reports
+frames drawn, :mod:`grasswidget.browser.auto_switches`). ``AutoSwitches.trial_frames_run``
+counts the frames recorded in trials, so that a view can tell its frame rate measurements
+that include a trial's (GPU-synchronised, first-use compiling) frames from the others.
 
 :class:`AutoSwitches` is the pure state machine an engine drives once per frame: it says
 which value each switch has for the next frame and takes the frame's measurements. No GPU,
@@ -36,6 +45,7 @@ __all__ = [
     "AUTO", "SWITCHES", "AutoSwitch", "coerce_switch", "Decision", "decide_occlusion", "decide_compute_raster",
     "DecisionContext", "AutoSwitches", "switch_text", "effective",
     "TRIAL_FRAMES", "TRIAL_SETTLE_FRAMES", "MIN_OCCLUDED_FRACTION", "CAMERA_MOVE_FRACTION", "CAMERA_TURN_DEG",
+    "HYSTERESIS",
 ]
 
 #: The third state of a switch: the view decides by measuring.
@@ -50,6 +60,9 @@ TRIAL_SETTLE_FRAMES = 1
 MIN_OCCLUDED_FRACTION = 0.05
 #: The camera moved when its eye travels more than this fraction of its distance to the target.
 CAMERA_MOVE_FRACTION = 0.1
+#: A view that decided before changes its choice only when the other is faster by more than
+#: this fraction of the frame time (0..1; 0.05: 5 %, the margin the issue allows the defaults).
+HYSTERESIS = 0.05
 #: The camera turned when its view direction changes by more than this (degrees).
 CAMERA_TURN_DEG = 10.0
 
@@ -105,22 +118,33 @@ def _median(values):
     return statistics.median(values) if values else None
 
 
-def _compare(on_ms, off_ms, what):
-    """Keep the faster median; ties go to off (nothing to gain)."""
+def _compare(on_ms, off_ms, what, previous=None):
+    """Keep the faster median; ties go to off (nothing to gain). ``previous``: the view's
+    earlier choice (bool) or None; it is kept unless the other is faster by more than
+    :data:`HYSTERESIS` of its frame time."""
     t_on, t_off = _median(on_ms), _median(off_ms)
     if t_on is None or t_off is None:
         raise ParameterError("frame times: the rule needs at least one frame timed on and one off")
-    if t_on < t_off:
-        return Decision(True, f"{what}, {t_on:.1f} ms a frame against {t_off:.1f} ms off")
-    return Decision(False, f"{what}, but {t_on:.1f} ms a frame against {t_off:.1f} ms off")
+    if previous is None:
+        on = t_on < t_off
+    elif previous:
+        on = not t_off < t_on * (1.0 - HYSTERESIS)
+    else:
+        on = t_on < t_off * (1.0 - HYSTERESIS)
+    close = min(t_on, t_off) >= max(t_on, t_off) * (1.0 - HYSTERESIS)
+    kept = f" (kept: within {100 * HYSTERESIS:g} %)" if previous is not None and on == previous and close else ""
+    if on:
+        return Decision(True, f"{what}, {t_on:.1f} ms a frame against {t_off:.1f} ms off{kept}")
+    return Decision(False, f"{what}, but {t_on:.1f} ms a frame against {t_off:.1f} ms off{kept}")
 
 
-def decide_occlusion(on_ms, off_ms, occluded: int, reaching: int) -> Decision:
+def decide_occlusion(on_ms, off_ms, occluded: int, reaching: int, previous=None) -> Decision:
     """Whether occlusion culling pays. ``on_ms``/``off_ms``: frame times (ms) measured with it
     on / off, same measure; ``occluded``: blades it removed in a frame with it on (the GPU's
     count); ``reaching``: the blades that reached it that frame (drawn + occluded). Off when it
     removed under :data:`MIN_OCCLUDED_FRACTION` (nothing hidden: it cannot pay), else the
-    faster of the two."""
+    faster of the two; ``previous``: the view's earlier choice (bool) or None, kept unless
+    the other is faster by more than :data:`HYSTERESIS`."""
     occluded, reaching = int(occluded), int(reaching)
     if reaching <= 0:
         return Decision(False, "no blade reached occlusion culling")
@@ -128,18 +152,19 @@ def decide_occlusion(on_ms, off_ms, occluded: int, reaching: int) -> Decision:
     what = f"removed {100 * fraction:.0f} % of blades"
     if fraction < MIN_OCCLUDED_FRACTION:
         return Decision(False, f"{what}: too few to pay")
-    return _compare(on_ms, off_ms, what)
+    return _compare(on_ms, off_ms, what, previous)
 
 
-def decide_compute_raster(on_ms, off_ms, rastered: int, drawn: int) -> Decision:
+def decide_compute_raster(on_ms, off_ms, rastered: int, drawn: int, previous=None) -> Decision:
     """Whether the compute rasterizer pays. ``rastered``: blades it drew in a frame with it on
     (the GPU's count); ``drawn``: all blades drawn that frame (both paths). Off when it took
-    over no blade (none thinner than compute_raster_max_px), else the faster of the two."""
+    over no blade (none thinner than compute_raster_max_px), else the faster of the two
+    (``previous``: as :func:`decide_occlusion`'s)."""
     rastered, drawn = int(rastered), int(drawn)
     if rastered <= 0:
         return Decision(False, "took over no blade (none thin enough)")
     what = f"drew {100 * rastered / max(drawn, rastered):.0f} % of blades"
-    return _compare(on_ms, off_ms, what)
+    return _compare(on_ms, off_ms, what, previous)
 
 
 _RULES = {"cull_occlusion": decide_occlusion, "compute_raster": decide_compute_raster}
@@ -195,16 +220,26 @@ class AutoSwitches:
     with the frame's time (ms) and the latest counts the GPU reported
     (``{"occluded", "visible", "rastered"}``, any may be None). ``decisions`` maps each
     decided switch to its :class:`Decision`; ``trial`` is the switch being tried (or None).
+    ``trial_frames``: frames timed with a switch off, then as many on (integer >= 1);
+    ``settle_frames``: frames dropped after each flip (integer >= 0).
     """
 
     def __init__(self, trial_frames: int = TRIAL_FRAMES, settle_frames: int = TRIAL_SETTLE_FRAMES):
         if isinstance(trial_frames, bool) or not isinstance(trial_frames, int) or trial_frames < 1:
             raise ParameterError(f"trial_frames must be an integer >= 1; got {trial_frames!r}")
+        if isinstance(settle_frames, bool) or not isinstance(settle_frames, int) or settle_frames < 0:
+            raise ParameterError(f"settle_frames must be an integer >= 0; got {settle_frames!r}")
         self.trial_frames = trial_frames
-        self.settle_frames = int(settle_frames)
+        self.settle_frames = settle_frames
         self.decisions: dict = {}
+        #: The decisions made for the previous context (kept for hysteresis, and as the
+        #: provisional values while they are made again).
+        self.previous: dict = {}
         self.context: DecisionContext | None = None
         self.redecided_because: str | None = None
+        #: Frames recorded in trials so far (settling frames included): a view compares it
+        #: between two frame rate measurements to tell whether a trial ran in between.
+        self.trial_frames_run = 0
         self._trial: _Trial | None = None
 
     @property
@@ -216,12 +251,16 @@ class AutoSwitches:
         """True while a trial runs (the engine should time this frame)."""
         return self._trial is not None
 
-    def values(self, settings: dict, context: DecisionContext) -> dict:
+    def values(self, settings: dict, context: DecisionContext, start_trial: bool = True) -> dict:
         """The value (bool) of each switch of ``settings`` ({name: True/False/"auto"}) for the
-        next frame in ``context``; starts a trial where an "auto" switch is undecided."""
+        next frame in ``context``; starts a trial where an "auto" switch is undecided, unless
+        ``start_trial`` is False (the caller draws no frame for it: the value is then the
+        previous context's decision, or off). An undecided switch not being tried runs with
+        its previous decision (off when it has none)."""
         if self.context is not None:
             why = self.context.differs(context)
             if why:
+                self.previous.update(self.decisions)
                 self.decisions.clear()
                 self._trial = None
                 self.redecided_because = why
@@ -230,7 +269,7 @@ class AutoSwitches:
             self.context = context
         if self._trial is not None and settings.get(self._trial.name) != AUTO:
             self._trial = None  # forced meanwhile: the trial stops, nothing decided
-        if self._trial is None:
+        if self._trial is None and start_trial:
             for name in SWITCHES:
                 if settings.get(name) == AUTO and name not in self.decisions:
                     self._trial = _Trial(name, settle=self.settle_frames)
@@ -242,7 +281,7 @@ class AutoSwitches:
             if self._trial is not None and self._trial.name == name:
                 out[name] = self._trial.phase == "on"
             else:
-                d = self.decisions.get(name)
+                d = self.decisions.get(name) or self.previous.get(name)
                 out[name] = effective(settings[name], d.on if d else None)
         return out
 
@@ -253,6 +292,7 @@ class AutoSwitches:
         t = self._trial
         if t is None:
             return
+        self.trial_frames_run += 1
         if t.settle > 0:
             t.settle -= 1
             return
@@ -268,19 +308,26 @@ class AutoSwitches:
                 return
             # The counts of the last on-frame that reported any (earlier ones may be of an off-frame).
             removed, seen = max(t.counts, key=lambda c: c[0]) if t.counts else (0, 0)
-            self.decisions[t.name] = _RULES[t.name](t.times["on"], t.times["off"], removed, seen)
+            before = self.previous.get(t.name)
+            self.decisions[t.name] = _RULES[t.name](t.times["on"], t.times["off"], removed, seen,
+                                                    before.on if before else None)
             self._trial = None
 
     def text(self, name: str, setting) -> str:
         """The panel's words for switch ``name`` set to ``setting``: see :func:`switch_text`."""
         measuring = self._trial is not None and self._trial.name == name
-        return switch_text(setting, self.decisions.get(name), measuring)
+        return switch_text(setting, self.decisions.get(name), measuring, self.previous.get(name))
 
 
-def switch_text(setting, decision: Decision | None, measuring: bool = False) -> str:
-    """How a switch reads: "on", "off", "auto (measuring)", "auto (on: removed 41 % of blades, ...)"."""
+def switch_text(setting, decision: Decision | None, measuring: bool = False, previous: Decision | None = None) -> str:
+    """How a switch reads: "on", "off", "auto (measuring)", "auto (on: removed 41 % of blades, ...)";
+    undecided with a ``previous`` decision (the camera, field or parameters changed):
+    "auto (on until measured again)" / "auto (on, measuring again)"."""
     if setting != AUTO:
         return "on" if setting else "off"
     if decision is None:
+        if previous is not None:
+            state = "on" if previous.on else "off"
+            return f"auto ({state}, measuring again)" if measuring else f"auto ({state} until measured again)"
         return "auto (measuring)" if measuring else "auto (not decided yet)"
     return f"auto ({'on' if decision.on else 'off'}: {decision.reason})"

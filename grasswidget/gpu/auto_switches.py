@@ -24,7 +24,7 @@ import wgpu
 from ..core.pays import SWITCHES, AutoSwitches, DecisionContext
 from .adapter import ensure_device
 
-__all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts"]
+__all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts", "trial_mark"]
 
 _STATE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _SYNC = {}
@@ -128,6 +128,14 @@ def switch_texts(field) -> dict:
     "auto (on: removed 41 % of blades, ...)" (:func:`grasswidget.core.pays.switch_text`)."""
     state = switches_of(field)
     return {name: state.text(name, getattr(field.params, name)) for name in SWITCHES}
+
+
+def trial_mark(field) -> tuple:
+    """(frames recorded in trials so far, a trial running now) for ``field``: a view that
+    measures its frame rate compares two marks to tell whether a trial ran in between (its
+    frames are GPU-synchronised and the first after a flip compiles: not the view's rate)."""
+    state = switches_of(field)
+    return state.trial_frames_run, state.measuring
 
 
 def begin_frame(fields, camera) -> FrameSwitches:

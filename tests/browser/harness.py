@@ -1224,6 +1224,16 @@ def frame_count(page, index: Optional[int] = None) -> int:
     return _frame_info(page, index)["count"]
 
 
+def frame_counts(page) -> list:
+    """Frames seen since the counter was installed, per ``img.renderview-view`` in document
+    order, all read at one instant (one evaluation: no frame arrives between two views' reads)."""
+    counts = page.evaluate("() => window.__gwFrames ? [...document.querySelectorAll('img.renderview-view')]"
+                           ".map((img) => img.__gwCount || 0) : null")
+    if counts is None:
+        raise HarnessError("frame counter not installed; call install_frame_counter(page) first")
+    return counts
+
+
 def wait_for_view(page, index: int = 0, timeout: float = 60.0):
     """Wait until the ``index``-th jupyter-rfb view exists, is visible and
     shows a decoded image; returns its locator.

@@ -70,10 +70,16 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         w.params.cull_occlusion = "auto"
         assert _executed(ew) == [True, False]
         # The camera moves far: decided again, from a view where occlusion hides almost nothing: off.
+        # The move itself starts no trial (a view at rest is not woken): the previous choice runs
+        # until the browser reports frames drawn, which start the trial.
         cam = ew.camera
         ew.camera = dict(cam, position=[0.0, 30.0, 0.01])
         assert ew.auto_switches.state.redecided_because == "the camera moved"
-        assert _executed(ew) == [False, False] and ew.auto_switches.state.decisions == {}
+        assert _executed(ew) == [True, False] and ew.auto_switches.state.decisions == {}
+        assert not ew.auto_switches.state.measuring
+        assert ew.auto_switches.texts()["cull_occlusion"] == "auto (on until measured again)"
+        ew.handle_message(_stats([True, False], 6.0, occluded=10))  # frames drawn: the trial starts, off first
+        assert _executed(ew) == [False, False] and ew.auto_switches.state.trial == "cull_occlusion"
         ew.handle_message(_stats([False, False], 5.0))
         ew.handle_message(_stats([True, False], 4.0, occluded=10))
         decision = ew.auto_switches.state.decisions["cull_occlusion"]
@@ -81,6 +87,9 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         # A parameter change decides again too.
         w.params.cull_distance_max = w.params.cull_distance_max * 0.9
         assert ew.auto_switches.state.redecided_because == "the parameters changed"
-        assert "measuring" in ew.auto_switches.texts()["cull_occlusion"]
+        assert ew.auto_switches.texts()["cull_occlusion"] == "auto (off until measured again)"
+        assert _executed(ew) == [False, False]  # the previous choice, until frames are reported
+        ew.handle_message(_stats([False, False], 5.0))
+        assert ew.auto_switches.texts()["cull_occlusion"] == "auto (off, measuring again)"
     finally:
         w.close()

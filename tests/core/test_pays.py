@@ -101,3 +101,61 @@ def test_switch_trait_keeps_bools_and_takes_auto():
             p.cull_occlusion = bad
     assert p.cull_occlusion is True  # kept
     assert switch_text(True, None) == "on" and switch_text(AUTO, None, measuring=True) == "auto (measuring)"
+
+
+def test_a_decision_made_again_changes_only_past_the_hysteresis():
+    from grasswidget.core.pays import HYSTERESIS
+
+    assert 0 < HYSTERESIS <= 0.05
+    # first decision: the faster wins, however close
+    assert decide_occlusion([9.9], [10.0], 500, 1000).on
+    # made again with the previous choice on: kept unless off is faster by more than HYSTERESIS
+    kept = decide_occlusion([10.3], [10.0], 500, 1000, previous=True)
+    assert kept.on and "kept: within 5 %" in kept.reason
+    assert not decide_occlusion([10.0], [10.0 * (1 - HYSTERESIS) - 0.01], 500, 1000, previous=True).on
+    # previous choice off: on only when faster by more than HYSTERESIS
+    assert not decide_compute_raster([9.7], [10.0], 100, 500, previous=False).on
+    assert decide_compute_raster([10.0 * (1 - HYSTERESIS) - 0.01], [10.0], 100, 500, previous=False).on
+    # the counts still rule first: nothing hidden is off whatever was chosen before
+    assert not decide_occlusion([1.0], [10.0], 0, 1000, previous=True).on
+
+
+def test_noise_does_not_flip_a_decision_back_and_forth():
+    """A view whose two choices cost the same (noise of +-3 %) re-decides after every camera
+    move: after the first decision it never flips."""
+    import random
+
+    rng = random.Random(4)
+    state = AutoSwitches(trial_frames=3, settle_frames=1)
+    settings = {"cull_occlusion": AUTO, "compute_raster": False}
+    chosen = []
+    for k in range(40):
+        ctx = _ctx(eye=(0.0, 2.0, 10.0 + 2.0 * (k % 2)))  # each move 20 % of the distance: re-decide
+        _run_trial(state, settings, ctx, lambda v: 10.0 * (1 + rng.uniform(-0.03, 0.03)),
+                   lambda v: dict(occluded=300 if v["cull_occlusion"] else 0, visible=700, rastered=0))
+        chosen.append(state.decisions["cull_occlusion"].on)
+    assert len(set(chosen)) == 1, chosen
+
+
+def test_without_frames_no_trial_starts_and_the_previous_choice_runs():
+    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    settings = {"cull_occlusion": AUTO, "compute_raster": AUTO}
+    # never decided, no frame drawn for it: off, nothing measured
+    assert state.values(settings, _ctx(), start_trial=False) == {"cull_occlusion": False, "compute_raster": False}
+    assert not state.measuring and state.trial_frames_run == 0
+    _run_trial(state, settings, _ctx(), lambda v: 5.0 if v["cull_occlusion"] else 9.0,
+               lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0))
+    assert state.decisions["cull_occlusion"].on and state.trial_frames_run == 4  # 2 switches x (1 off + 1 on)
+    moved = _ctx(eye=(0.0, 2.0, 14.0))
+    assert state.values(settings, moved, start_trial=False)["cull_occlusion"] is True  # the previous choice
+    assert not state.measuring and state.text("cull_occlusion", AUTO) == "auto (on until measured again)"
+    # frames again: the trial of occlusion runs; meanwhile the compute rasterizer keeps its previous choice
+    values = state.values(settings, moved)
+    assert state.trial == "cull_occlusion" and values == {"cull_occlusion": False, "compute_raster": False}
+    assert state.text("cull_occlusion", AUTO) == "auto (on, measuring again)"
+
+
+def test_trial_sizes_are_checked():
+    for bad in (dict(trial_frames=0), dict(trial_frames=True), dict(settle_frames=-1), dict(settle_frames=1.5)):
+        with pytest.raises(GrassError, match="must be an integer"):
+            AutoSwitches(**bad)
