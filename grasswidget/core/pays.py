@@ -5,8 +5,11 @@
 default of both) lets each view decide from what it measured:
 
 1. a short trial: :data:`TRIAL_SETTLE_FRAMES` frames dropped after the switch flips (a
-   pipeline compiles, buffers grow), then :data:`TRIAL_FRAMES` frames off and as many on,
-   timed by the same measure (the render's wall time, GPU-synchronised, in milliseconds);
+   pipeline compiles, buffers grow), then frames off and as many on, timed by the same
+   measure (the render's wall time, GPU-synchronised, in milliseconds): at least
+   :data:`TRIAL_FRAMES` a side and at least :data:`TRIAL_MIN_MS` of frames a side, at most
+   :data:`TRIAL_MAX_FRAMES` (a GPU's 3-10 ms frames jitter more than three of them can
+   average out; a CPU adapter's 100 ms frames need no more than three);
 2. :func:`decide_occlusion` / :func:`decide_compute_raster`: the counts the GPU reported
    first (occlusion that removed under :data:`MIN_OCCLUDED_FRACTION` of the blades it saw,
    or a compute rasterizer that took over no blade, cannot pay: off), then the frame times
@@ -14,6 +17,10 @@ default of both) lets each view decide from what it measured:
    field or parameters) keeps its previous choice unless the other one is faster by more
    than :data:`HYSTERESIS` (a fraction of the frame time), so noise does not flip it back
    and forth; while it tries one switch again, the other keeps its previous choice;
+   The switches are tried one after the other, the other one running with its current
+   value; when the second decision changes the value the first was tried with (the compute
+   rasterizer turned on after occlusion was tried with it off), the first is tried again
+   once with it (the two interact: occlusion hides the far, thin blades the rasterizer takes);
 3. the decision holds until the context changes (:class:`DecisionContext`): the camera
    moves more than :data:`CAMERA_MOVE_FRACTION` of its distance to what it looks at or turns
    more than :data:`CAMERA_TURN_DEG`, the blade count or preset changes, or any parameter
@@ -45,7 +52,7 @@ __all__ = [
     "AUTO", "SWITCHES", "AutoSwitch", "coerce_switch", "Decision", "decide_occlusion", "decide_compute_raster",
     "DecisionContext", "AutoSwitches", "switch_text", "effective",
     "TRIAL_FRAMES", "TRIAL_SETTLE_FRAMES", "MIN_OCCLUDED_FRACTION", "CAMERA_MOVE_FRACTION", "CAMERA_TURN_DEG",
-    "HYSTERESIS",
+    "HYSTERESIS", "TRIAL_MIN_MS", "TRIAL_MAX_FRAMES",
 ]
 
 #: The third state of a switch: the view decides by measuring.
@@ -54,6 +61,10 @@ AUTO = "auto"
 SWITCHES = ("cull_occlusion", "compute_raster")
 #: Frames timed with a switch off, then as many on, per trial (3: a median of three).
 TRIAL_FRAMES = 3
+#: Milliseconds of timed frames each side of a trial lasts at least (more frames where they are fast).
+TRIAL_MIN_MS = 50.0
+#: Timed frames a side at most, whatever TRIAL_MIN_MS asks.
+TRIAL_MAX_FRAMES = 24
 #: Frames dropped after a switch flips, before timing (first use compiles or grows buffers).
 TRIAL_SETTLE_FRAMES = 1
 #: Occlusion culling that removes less than this fraction (0..1) of the blades reaching it cannot pay.
@@ -210,6 +221,7 @@ class _Trial:
     settle: int = TRIAL_SETTLE_FRAMES
     times: dict = field(default_factory=lambda: {"off": [], "on": []})
     counts: list = field(default_factory=list)  # (occluded, reaching) or (rastered, drawn) of on-frames
+    others: dict = field(default_factory=dict)  # the other switches' values while it ran
 
 
 class AutoSwitches:
@@ -221,16 +233,27 @@ class AutoSwitches:
     (``{"occluded", "visible", "rastered"}``, any may be None). ``decisions`` maps each
     decided switch to its :class:`Decision`; ``trial`` is the switch being tried (or None).
     ``trial_frames``: frames timed with a switch off, then as many on (integer >= 1);
-    ``settle_frames``: frames dropped after each flip (integer >= 0).
+    ``settle_frames``: frames dropped after each flip (integer >= 0); ``min_ms``: timed
+    milliseconds a side at least (0..1e6); ``max_frames``: timed frames a side at most
+    (integer >= ``trial_frames``).
     """
 
-    def __init__(self, trial_frames: int = TRIAL_FRAMES, settle_frames: int = TRIAL_SETTLE_FRAMES):
+    def __init__(self, trial_frames: int = TRIAL_FRAMES, settle_frames: int = TRIAL_SETTLE_FRAMES,
+                 min_ms: float = TRIAL_MIN_MS, max_frames: int = TRIAL_MAX_FRAMES):
         if isinstance(trial_frames, bool) or not isinstance(trial_frames, int) or trial_frames < 1:
             raise ParameterError(f"trial_frames must be an integer >= 1; got {trial_frames!r}")
         if isinstance(settle_frames, bool) or not isinstance(settle_frames, int) or settle_frames < 0:
             raise ParameterError(f"settle_frames must be an integer >= 0; got {settle_frames!r}")
+        if not isinstance(min_ms, (int, float)) or isinstance(min_ms, bool) or not 0 <= min_ms < 1e6:
+            raise ParameterError(f"min_ms must be a number of milliseconds in [0, 1e6); got {min_ms!r}")
+        if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < trial_frames:
+            raise ParameterError(f"max_frames must be an integer >= trial_frames ({trial_frames}); got {max_frames!r}")
         self.trial_frames = trial_frames
         self.settle_frames = settle_frames
+        self.min_ms = float(min_ms)
+        self.max_frames = max_frames
+        self._retried: set = set()  # switches tried again in this context (at most once each)
+        self._tried_with: dict = {}  # switch -> the other switches' values during its last trial
         self.decisions: dict = {}
         #: The decisions made for the previous context (kept for hysteresis, and as the
         #: provisional values while they are made again).
@@ -262,6 +285,8 @@ class AutoSwitches:
             if why:
                 self.previous.update(self.decisions)
                 self.decisions.clear()
+                self._retried.clear()
+                self._tried_with.clear()
                 self._trial = None
                 self.redecided_because = why
                 self.context = context
@@ -272,7 +297,8 @@ class AutoSwitches:
         if self._trial is None and start_trial:
             for name in SWITCHES:
                 if settings.get(name) == AUTO and name not in self.decisions:
-                    self._trial = _Trial(name, settle=self.settle_frames)
+                    self._trial = _Trial(name, settle=self.settle_frames,
+                                         others={k: self._value(settings, k) for k in SWITCHES if k != name and k in settings})
                     break
         out = {}
         for name in SWITCHES:
@@ -281,9 +307,13 @@ class AutoSwitches:
             if self._trial is not None and self._trial.name == name:
                 out[name] = self._trial.phase == "on"
             else:
-                d = self.decisions.get(name) or self.previous.get(name)
-                out[name] = effective(settings[name], d.on if d else None)
+                out[name] = self._value(settings, name)
         return out
+
+    def _value(self, settings, name) -> bool:
+        """Switch ``name``'s value outside its trial: forced, decided, previously decided, or off."""
+        d = self.decisions.get(name) or self.previous.get(name)
+        return effective(settings[name], d.on if d else None)
 
     def record(self, frame_ms: float, counts: dict | None = None):
         """The frame rendered with the last :meth:`values` took ``frame_ms`` milliseconds;
@@ -302,16 +332,23 @@ class AutoSwitches:
                 t.counts.append((int(counts["occluded"]), int(counts["occluded"]) + int(counts["visible"])))
             if t.name == "compute_raster" and counts.get("rastered") is not None and counts.get("visible") is not None:
                 t.counts.append((int(counts["rastered"]), int(counts["visible"])))
-        if len(t.times[t.phase]) >= self.trial_frames:
+        done = len(t.times[t.phase]) >= self.trial_frames and sum(t.times[t.phase]) >= self.min_ms
+        if done or len(t.times[t.phase]) >= self.max_frames:
             if t.phase == "off":
                 t.phase, t.settle = "on", self.settle_frames
                 return
             # The counts of the last on-frame that reported any (earlier ones may be of an off-frame).
             removed, seen = max(t.counts, key=lambda c: c[0]) if t.counts else (0, 0)
             before = self.previous.get(t.name)
-            self.decisions[t.name] = _RULES[t.name](t.times["on"], t.times["off"], removed, seen,
-                                                    before.on if before else None)
+            decision = self.decisions[t.name] = _RULES[t.name](t.times["on"], t.times["off"], removed, seen,
+                                                               before.on if before else None)
             self._trial = None
+            # A switch decided with this one at another value is tried again (once per context).
+            for name, trial in list(self._tried_with.items()):
+                if name != t.name and name not in self._retried and trial.get(t.name, decision.on) != decision.on:
+                    self.decisions.pop(name, None)
+                    self._retried.add(name)
+            self._tried_with[t.name] = dict(t.others)
 
     def text(self, name: str, setting) -> str:
         """The panel's words for switch ``name`` set to ``setting``: see :func:`switch_text`."""

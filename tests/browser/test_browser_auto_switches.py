@@ -7,10 +7,12 @@ Not marked ``browser``: the messages are what engine.js sends (js/messages.js's 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.core.pays import TRIAL_FRAMES, TRIAL_SETTLE_FRAMES
+from grasswidget.core.pays import TRIAL_FRAMES, TRIAL_MIN_MS, TRIAL_SETTLE_FRAMES
 from grasswidget.core.uniform_layouts import CULL_LAYOUT, offsets
 
 _AT = offsets(CULL_LAYOUT)
@@ -24,7 +26,7 @@ def _executed(engine_widget) -> list:
 
 def _stats(switches, ms, visible=(600, 200, 100, 100), occluded=None, rastered=0):
     """A stats message as engine.js sends it: frames timed and counted with ``switches``."""
-    n = TRIAL_FRAMES + TRIAL_SETTLE_FRAMES
+    n = max(TRIAL_FRAMES, math.ceil(TRIAL_MIN_MS / ms)) + TRIAL_SETTLE_FRAMES  # enough for one side of a trial
     return {"type": "stats", "fps": 30.0, "visible": list(visible), "occluded": occluded, "rastered": rastered,
             "steps": 15, "step_count": 15, "frame_ms": ms, "frame_size": [320, 240],
             "frame_times": [ms] * n, "timed_switches": list(switches), "counts_switches": list(switches)}

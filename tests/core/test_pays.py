@@ -47,7 +47,7 @@ def _run_trial(state, settings, ctx, ms_of, counts_of):
 
 
 def test_trial_times_off_then_on_and_keeps_the_faster():
-    state = AutoSwitches(trial_frames=2, settle_frames=1)
+    state = AutoSwitches(trial_frames=2, settle_frames=1, min_ms=0)
     settings = {"cull_occlusion": AUTO, "compute_raster": False}
     seen = _run_trial(state, settings, _ctx(), lambda v: 5.0 if v["cull_occlusion"] else 9.0,
                       lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0))
@@ -60,7 +60,7 @@ def test_trial_times_off_then_on_and_keeps_the_faster():
 
 
 def test_decision_holds_until_camera_field_or_params_change():
-    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    state = AutoSwitches(trial_frames=1, settle_frames=0, min_ms=0)
     settings = {"cull_occlusion": AUTO}
     run = lambda ctx: _run_trial(state, settings, ctx, lambda v: 1.0, lambda v: dict(occluded=0, visible=100))
     run(_ctx())
@@ -76,7 +76,7 @@ def test_decision_holds_until_camera_field_or_params_change():
 
 
 def test_forcing_a_switch_stops_its_trial_and_auto_again_keeps_the_decision():
-    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    state = AutoSwitches(trial_frames=1, settle_frames=0, min_ms=0)
     ctx = _ctx()
     state.values({"compute_raster": AUTO}, ctx)
     assert state.trial == "compute_raster"
@@ -126,7 +126,7 @@ def test_noise_does_not_flip_a_decision_back_and_forth():
     import random
 
     rng = random.Random(4)
-    state = AutoSwitches(trial_frames=3, settle_frames=1)
+    state = AutoSwitches(trial_frames=3, settle_frames=1, min_ms=0)
     settings = {"cull_occlusion": AUTO, "compute_raster": False}
     chosen = []
     for k in range(40):
@@ -138,7 +138,7 @@ def test_noise_does_not_flip_a_decision_back_and_forth():
 
 
 def test_without_frames_no_trial_starts_and_the_previous_choice_runs():
-    state = AutoSwitches(trial_frames=1, settle_frames=0)
+    state = AutoSwitches(trial_frames=1, settle_frames=0, min_ms=0)
     settings = {"cull_occlusion": AUTO, "compute_raster": AUTO}
     # never decided, no frame drawn for it: off, nothing measured
     assert state.values(settings, _ctx(), start_trial=False) == {"cull_occlusion": False, "compute_raster": False}
@@ -156,6 +156,36 @@ def test_without_frames_no_trial_starts_and_the_previous_choice_runs():
 
 
 def test_trial_sizes_are_checked():
-    for bad in (dict(trial_frames=0), dict(trial_frames=True), dict(settle_frames=-1), dict(settle_frames=1.5)):
-        with pytest.raises(GrassError, match="must be an integer"):
+    for bad in (dict(trial_frames=0), dict(trial_frames=True), dict(settle_frames=-1), dict(settle_frames=1.5),
+                dict(max_frames=2), dict(min_ms=-1.0), dict(min_ms="5")):
+        with pytest.raises(GrassError, match="must be"):
             AutoSwitches(**bad)
+
+
+def test_fast_frames_are_timed_for_at_least_min_ms_a_side_and_at_most_max_frames():
+    from grasswidget.core.pays import TRIAL_MAX_FRAMES, TRIAL_MIN_MS
+
+    assert TRIAL_MIN_MS >= 3 * 10 and TRIAL_MAX_FRAMES >= 10
+    for ms, frames in ((100.0, 3), (4.0, 13), (0.5, 24)):  # 3 at least; 50 ms a side; 24 at most
+        state = AutoSwitches(trial_frames=3, settle_frames=0, min_ms=50.0, max_frames=24)
+        seen = _run_trial(state, {"cull_occlusion": AUTO}, _ctx(), lambda v: ms,
+                          lambda v: dict(occluded=500 if v["cull_occlusion"] else 0, visible=500))
+        assert [v["cull_occlusion"] for v in seen[:-1]] == [False] * frames + [True] * frames, (ms, len(seen))
+
+
+def test_the_first_switch_is_tried_again_when_the_second_changes_what_it_was_tried_with():
+    """Occlusion tried with the rasterizer off (its provisional value) pays; the rasterizer then
+    pays too, and with it on occlusion no longer does (it hid the far, thin blades the
+    rasterizer now draws cheaply): occlusion is tried again once, with the rasterizer on."""
+    cost = {(False, False): 16.4, (True, False): 13.8, (False, True): 9.1, (True, True): 10.0}  # the H100's meadow 2^22
+    state = AutoSwitches(trial_frames=3, settle_frames=0, min_ms=0)
+    settings = {"cull_occlusion": AUTO, "compute_raster": AUTO}
+    seen = _run_trial(state, settings, _ctx(), lambda v: cost[(v["cull_occlusion"], v["compute_raster"])],
+                      lambda v: dict(occluded=300 if v["cull_occlusion"] else 0, visible=700,
+                                     rastered=200 if v["compute_raster"] else 0))
+    assert seen[-1] == {"cull_occlusion": False, "compute_raster": True}
+    assert not state.decisions["cull_occlusion"].on and state.decisions["compute_raster"].on
+    # occlusion, the rasterizer, occlusion again with it on, the rasterizer again with occlusion off
+    # (each tried again at most once per context): 4 trials of 6 frames, then the choice
+    assert len(seen) == 1 + 4 * 6
+    assert state.values(settings, _ctx()) == seen[-1] and not state.measuring  # settled: no more trials
