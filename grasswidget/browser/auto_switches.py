@@ -19,8 +19,9 @@ when the browser ran them with the state the trial asked for (and its counts are
 frame), one by one until the trial asks for another state; then it writes the new state. The
 decision is made again on the kernel's triggers (:class:`grasswidget.core.pays.DecisionContext`):
 the camera moved or turned, the blade field or any parameter but the two switches changed.
-While culling is frozen the decision holds (as in the kernel engine). A trial starts only on a
-stats message that reports frames drawn: a view at rest (nothing drawn) runs none.
+While culling is frozen the decision holds (as in the kernel engine). A trial starts and advances
+only on stats messages that report frames drawn while the widget plays: a view at rest (off
+screen, nothing drawn; or paused, drawing only on demand) runs none, and is never woken by one.
 """
 
 from __future__ import annotations
@@ -86,9 +87,11 @@ class BrowserAutoSwitches:
     def on_stats(self, msg: dict):
         """Feed a browser stats message (see the module docstring) to the trial, then send
         the values for the next frames; a message with frames drawn may start a trial."""
-        drew = bool(msg.get("frame_times"))
+        # Only a playing view's frames measure: a paused one draws on demand (a camera move, a
+        # new u_cull), and a trial fed by them would wake it with each state it sends.
+        drew = bool(msg.get("frame_times")) and bool(getattr(self._widget, "playing", True))
         values = self._next_values(start_trial=drew)
-        if self.state.measuring and self.values == values:
+        if drew and self.state.measuring and self.values == values:
             asked = [bool(values[name]) for name in SWITCHES]
             timed = msg.get("timed_switches")
             counted = msg.get("counts_switches")

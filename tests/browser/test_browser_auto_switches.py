@@ -95,3 +95,25 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert ew.auto_switches.texts()["cull_occlusion"] == "auto (off, measuring again)"
     finally:
         w.close()
+
+
+def test_a_paused_browser_view_runs_no_trial_and_is_not_woken():
+    """Paused, the browser draws only on demand (a camera move, a new u_cull): the frames it
+    reports start no trial and feed none, and no new switch state is sent (each would draw a
+    frame). Played again, the next frames start the trial."""
+    w = gw.GrassWidget(1024, backend="browser", size=(320, 240))
+    ew = w.view.engine_widget
+    try:
+        w.pause()
+        sent = ew.cull_uniform
+        for _ in range(3):
+            ew.handle_message(_stats([False, False], 10.0))
+        assert not ew.auto_switches.state.measuring and ew.auto_switches.state.decisions == {}
+        assert ew.cull_uniform == sent and _executed(ew) == [False, False]
+        assert ew.auto_switches.state.trial_frames_run == 0 and w.stats["trial"] is False
+        w.play()
+        ew.handle_message(_stats([False, False], 10.0))  # off frames of a playing view: the trial's first half
+        assert ew.auto_switches.state.trial == "cull_occlusion" and _executed(ew) == [True, False]
+        assert w.stats["trial"] is True  # this window's frame rate is a trial's
+    finally:
+        w.close()

@@ -49,7 +49,7 @@ def test_browser_engine_decides_occlusion_by_measuring(webgpu_browser, lab_serve
     def check():
         status = wait_for_kernel(page, "a.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
         assert status["state"] == "ok", status
-        kernel_execute(page, "a.pause()")
+        # The view plays while it decides: a paused view runs no trial (it draws only on demand).
         found["close"] = _decided(page)
         page.screenshot(path=os.path.join(_artifacts(browser_root), "auto_switches_browser_close.png"), full_page=True)
         kernel_execute(page, "a.look_from('top')")
