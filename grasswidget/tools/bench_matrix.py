@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from ..core.pays import AUTO
+from ..core.pays import AUTO, TRIAL_MAX_FRAMES
 from ..errors import GrassValueError
 
 __all__ = ["SETTINGS", "run_matrix", "format_matrix"]
@@ -99,7 +99,8 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
         apply(AUTO, AUTO)
         state = switches_of(field)
         trial_frames = 0
-        while (state.measuring or len(state.decisions) < 2) and trial_frames < 60:
+        # Until both are decided (at most 4 trials of 2 x (settle + TRIAL_MAX_FRAMES) frames).
+        while (state.measuring or len(state.decisions) < 2) and trial_frames < 4 * 2 * (1 + TRIAL_MAX_FRAMES):
             frame()
             trial_frames += 1
         times = {name: [] for name, _, _ in SETTINGS}
