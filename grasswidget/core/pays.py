@@ -4,12 +4,14 @@
 (:class:`AutoSwitch`): ``True`` forces the feature on, ``False`` off, and ``"auto"`` (the
 default of both) lets each view decide from what it measured:
 
-1. a short trial: :data:`TRIAL_SETTLE_FRAMES` frames dropped after the switch flips (a
-   pipeline compiles, buffers grow), then frames off and as many on, timed by the same
-   measure (the render's wall time, GPU-synchronised, in milliseconds): at least
-   :data:`TRIAL_FRAMES` a side and at least :data:`TRIAL_MIN_MS` of frames a side, at most
-   :data:`TRIAL_MAX_FRAMES` (a GPU's 3-10 ms frames jitter more than three of them can
-   average out; a CPU adapter's 100 ms frames need no more than three);
+1. a short trial, interleaved off, on, on, off (a block each; a drift of the machine's
+   load during the trial weighs on both sides alike): :data:`TRIAL_SETTLE_FRAMES` frames
+   dropped after each flip (a pipeline compiles, buffers grow), then the blocks timed by the
+   same measure (the render's wall time, GPU-synchronised, in milliseconds); the first block
+   lasts until it holds half of :data:`TRIAL_FRAMES` (rounded up) and half of
+   :data:`TRIAL_MIN_MS`, or half of :data:`TRIAL_MAX_FRAMES`, and sets the block's length (a
+   GPU's 3-10 ms frames jitter more than a few of them can average out; a CPU adapter's
+   100 ms frames need only a few);
 2. :func:`decide_occlusion` / :func:`decide_compute_raster`: the counts the GPU reported
    first (occlusion that removed under :data:`MIN_OCCLUDED_FRACTION` of the blades it saw,
    or a compute rasterizer that took over no blade, cannot pay: off), then the frame times
@@ -59,11 +61,11 @@ __all__ = [
 AUTO = "auto"
 #: The switches decided by measuring (GrassParams trait names), in the order they are tried.
 SWITCHES = ("cull_occlusion", "compute_raster")
-#: Frames timed with a switch off, then as many on, per trial (3: a median of three).
+#: Frames timed a side of a trial at least (rounded up to even: two blocks a side).
 TRIAL_FRAMES = 3
 #: Milliseconds of timed frames each side of a trial lasts at least (more frames where they are fast).
 TRIAL_MIN_MS = 50.0
-#: Timed frames a side at most, whatever TRIAL_MIN_MS asks.
+#: Timed frames a side at most, whatever TRIAL_MIN_MS asks (two blocks of half).
 TRIAL_MAX_FRAMES = 24
 #: Frames dropped after a switch flips, before timing (first use compiles or grows buffers).
 TRIAL_SETTLE_FRAMES = 1
@@ -217,11 +219,16 @@ class DecisionContext:
 @dataclass
 class _Trial:
     name: str
-    phase: str = "off"  # "off", then "on"
+    stage: int = 0  # 0: off (its length sets the block), 1: on for two blocks, 2: off for one block
     settle: int = TRIAL_SETTLE_FRAMES
+    block: int = 0  # frames of the first block (0 until it ends)
     times: dict = field(default_factory=lambda: {"off": [], "on": []})
     counts: list = field(default_factory=list)  # (occluded, reaching) or (rastered, drawn) of on-frames
     others: dict = field(default_factory=dict)  # the other switches' values while it ran
+
+    @property
+    def phase(self) -> str:
+        return "on" if self.stage == 1 else "off"
 
 
 class AutoSwitches:
@@ -332,11 +339,17 @@ class AutoSwitches:
                 t.counts.append((int(counts["occluded"]), int(counts["occluded"]) + int(counts["visible"])))
             if t.name == "compute_raster" and counts.get("rastered") is not None and counts.get("visible") is not None:
                 t.counts.append((int(counts["rastered"]), int(counts["visible"])))
-        done = len(t.times[t.phase]) >= self.trial_frames and sum(t.times[t.phase]) >= self.min_ms
-        if done or len(t.times[t.phase]) >= self.max_frames:
-            if t.phase == "off":
-                t.phase, t.settle = "on", self.settle_frames
-                return
+        off, on = t.times["off"], t.times["on"]
+        if t.stage == 0:  # the first block: half the frames and half the time a side asks
+            half = -(-self.trial_frames // 2)
+            if (len(off) >= half and sum(off) >= self.min_ms / 2) or len(off) >= -(-self.max_frames // 2):
+                t.block, t.stage, t.settle = len(off), 1, self.settle_frames
+            return
+        if t.stage == 1:
+            if len(on) >= 2 * t.block:
+                t.stage, t.settle = 2, self.settle_frames
+            return
+        if len(off) >= 2 * t.block:
             # The counts of the last on-frame that reported any (earlier ones may be of an off-frame).
             removed, seen = max(t.counts, key=lambda c: c[0]) if t.counts else (0, 0)
             before = self.previous.get(t.name)

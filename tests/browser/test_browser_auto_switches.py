@@ -7,12 +7,10 @@ Not marked ``browser``: the messages are what engine.js sends (js/messages.js's 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.core.pays import TRIAL_FRAMES, TRIAL_MIN_MS, TRIAL_SETTLE_FRAMES
+from grasswidget.core.pays import TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
 from grasswidget.core.uniform_layouts import CULL_LAYOUT, offsets
 
 _AT = offsets(CULL_LAYOUT)
@@ -26,7 +24,7 @@ def _executed(engine_widget) -> list:
 
 def _stats(switches, ms, visible=(600, 200, 100, 100), occluded=None, rastered=0):
     """A stats message as engine.js sends it: frames timed and counted with ``switches``."""
-    n = max(TRIAL_FRAMES, math.ceil(TRIAL_MIN_MS / ms)) + TRIAL_SETTLE_FRAMES  # enough for one side of a trial
+    n = 2 * TRIAL_MAX_FRAMES + TRIAL_SETTLE_FRAMES  # enough for any block of a trial
     return {"type": "stats", "fps": 30.0, "visible": list(visible), "occluded": occluded, "rastered": rastered,
             "steps": 15, "step_count": 15, "frame_ms": ms, "frame_size": [320, 240],
             "frame_times": [ms] * n, "timed_switches": list(switches), "counts_switches": list(switches)}
@@ -51,8 +49,11 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         msg["counts_switches"] = [False, False]
         ew.handle_message(msg)
         assert "cull_occlusion" not in ew.auto_switches.state.decisions
-        # On: 6 ms, 500 of 1500 blades occluded: on, and the compute rasterizer is tried next (off first).
+        # On: 6 ms, 500 of 1500 blades occluded; then off again (the trial runs off, on, on, off).
         ew.handle_message(_stats([True, False], 6.0, occluded=500))
+        assert _executed(ew) == [False, False] and "cull_occlusion" not in ew.auto_switches.state.decisions
+        # Off, 10 ms: on, and the compute rasterizer is tried next (off first).
+        ew.handle_message(_stats([False, False], 10.0))
         decision = ew.auto_switches.state.decisions["cull_occlusion"]
         assert decision.on and "removed 33 % of blades" in decision.reason and "6.0 ms" in decision.reason
         assert _executed(ew) == [True, False]
@@ -61,6 +62,8 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         ew.handle_message(_stats([True, False], 6.0, occluded=500))
         assert _executed(ew) == [True, True]
         ew.handle_message(_stats([True, True], 5.0, occluded=500, rastered=0))
+        assert _executed(ew) == [True, False]
+        ew.handle_message(_stats([True, False], 6.0, occluded=500))
         assert ew.auto_switches.state.decisions["compute_raster"] == gw.core.pays.Decision(
             False, "took over no blade (none thin enough)")
         assert _executed(ew) == [True, False]
@@ -84,6 +87,7 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert _executed(ew) == [False, False] and ew.auto_switches.state.trial == "cull_occlusion"
         ew.handle_message(_stats([False, False], 5.0))
         ew.handle_message(_stats([True, False], 4.0, occluded=10))
+        ew.handle_message(_stats([False, False], 5.0))
         decision = ew.auto_switches.state.decisions["cull_occlusion"]
         assert not decision.on and decision.reason == "removed 1 % of blades: too few to pay"
         # A parameter change decides again too.

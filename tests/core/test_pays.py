@@ -52,7 +52,8 @@ def test_trial_times_off_then_on_and_keeps_the_faster():
     seen = _run_trial(state, settings, _ctx(), lambda v: 5.0 if v["cull_occlusion"] else 9.0,
                       lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0))
     occl = [v["cull_occlusion"] for v in seen]
-    assert occl[:6] == [False] * 3 + [True] * 3  # settle + 2 timed, off then on
+    # off, on, on, off: a settling frame after each flip, then a block of 1 frame (2 timed a side)
+    assert occl[:7] == [False, False] + [True] * 3 + [False, False]
     assert all(v["compute_raster"] is False for v in seen)  # forced off: never tried
     assert state.decisions["cull_occlusion"].on and seen[-1]["cull_occlusion"] is True
     assert "compute_raster" not in state.decisions
@@ -145,7 +146,7 @@ def test_without_frames_no_trial_starts_and_the_previous_choice_runs():
     assert not state.measuring and state.trial_frames_run == 0
     _run_trial(state, settings, _ctx(), lambda v: 5.0 if v["cull_occlusion"] else 9.0,
                lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0))
-    assert state.decisions["cull_occlusion"].on and state.trial_frames_run == 4  # 2 switches x (1 off + 1 on)
+    assert state.decisions["cull_occlusion"].on and state.trial_frames_run == 8  # 2 switches x (off, on, on, off)
     moved = _ctx(eye=(0.0, 2.0, 14.0))
     assert state.values(settings, moved, start_trial=False)["cull_occlusion"] is True  # the previous choice
     assert not state.measuring and state.text("cull_occlusion", AUTO) == "auto (on until measured again)"
@@ -166,11 +167,13 @@ def test_fast_frames_are_timed_for_at_least_min_ms_a_side_and_at_most_max_frames
     from grasswidget.core.pays import TRIAL_MAX_FRAMES, TRIAL_MIN_MS
 
     assert TRIAL_MIN_MS >= 3 * 10 and TRIAL_MAX_FRAMES >= 10
-    for ms, frames in ((100.0, 3), (4.0, 13), (0.5, 24)):  # 3 at least; 50 ms a side; 24 at most
+    # blocks of 2 (3 a side at least, rounded up to two blocks); of 7 (25 ms: half of 50 ms a side); of 12 at most
+    for ms, block in ((100.0, 2), (4.0, 7), (0.5, 12)):
         state = AutoSwitches(trial_frames=3, settle_frames=0, min_ms=50.0, max_frames=24)
         seen = _run_trial(state, {"cull_occlusion": AUTO}, _ctx(), lambda v: ms,
                           lambda v: dict(occluded=500 if v["cull_occlusion"] else 0, visible=500))
-        assert [v["cull_occlusion"] for v in seen[:-1]] == [False] * frames + [True] * frames, (ms, len(seen))
+        assert [v["cull_occlusion"] for v in seen[:-1]] == [False] * block + [True] * 2 * block + [False] * block, \
+            (ms, len(seen))
 
 
 def test_the_first_switch_is_tried_again_when_the_second_changes_what_it_was_tried_with():
@@ -186,6 +189,6 @@ def test_the_first_switch_is_tried_again_when_the_second_changes_what_it_was_tri
     assert seen[-1] == {"cull_occlusion": False, "compute_raster": True}
     assert not state.decisions["cull_occlusion"].on and state.decisions["compute_raster"].on
     # occlusion, the rasterizer, occlusion again with it on, the rasterizer again with occlusion off
-    # (each tried again at most once per context): 4 trials of 6 frames, then the choice
-    assert len(seen) == 1 + 4 * 6
+    # (each tried again at most once per context): 4 trials of 2 + 4 + 2 frames, then the choice
+    assert len(seen) == 1 + 4 * 8
     assert state.values(settings, _ctx()) == seen[-1] and not state.measuring  # settled: no more trials
