@@ -50,11 +50,19 @@ def test_browser_engine_decides_occlusion_by_measuring(webgpu_browser, lab_serve
         status = wait_for_kernel(page, "a.view.gpu_status", predicate=lambda s: s["state"] != "", timeout=60)
         assert status["state"] == "ok", status
         # The view plays while it decides: a paused view runs no trial (it draws only on demand).
+        # Paused for each screenshot (SwiftShader drawing 2^15 blades on two loaded cores holds the page).
         found["close"] = _decided(page)
+        kernel_execute(page, "a.pause()")
         page.screenshot(path=os.path.join(_artifacts(browser_root), "auto_switches_browser_close.png"), full_page=True)
         kernel_execute(page, "a.look_from('top')")
         assert kernel_eval(page, "a.view.engine_widget.auto_switches.state.redecided_because") == "the camera moved"
+        # paused, the move starts no trial: the decision waits for frames of a playing view
+        assert not kernel_eval(page, "a.view.engine_widget.auto_switches.state.measuring")
+        assert kernel_eval(page, "a.view.engine_widget.auto_switches.texts()['cull_occlusion']").endswith(
+            "until measured again)")
+        kernel_execute(page, "a.play()")
         found["top"] = _decided(page)
+        kernel_execute(page, "a.pause()")
         page.screenshot(path=os.path.join(_artifacts(browser_root), "auto_switches_browser_top.png"), full_page=True)
         found["executed"] = kernel_eval(page, "a.view.engine_widget.auto_switches.values")
 
