@@ -7,7 +7,7 @@ default of both) lets each view decide from what it measured:
 1. a short trial, interleaved off, on, on, off (a block each; a drift of the machine's
    load during the trial weighs on both sides alike): :data:`TRIAL_SETTLE_FRAMES` frames
    dropped after each flip (a pipeline compiles, buffers grow), then the blocks timed by the
-   same measure (the render's wall time, GPU-synchronised, in milliseconds); the first block
+   same measure (milliseconds: the engine's, e.g. the kernel's GPU-synchronised render); the first block
    lasts until it holds half of :data:`TRIAL_FRAMES` (rounded up) and half of
    :data:`TRIAL_MIN_MS`, or half of :data:`TRIAL_MAX_FRAMES`, and sets the block's length (a
    GPU's 3-10 ms frames jitter more than a few of them can average out; a CPU adapter's
@@ -18,7 +18,7 @@ default of both) lets each view decide from what it measured:
    (the faster median kept). Hysteresis: a view that decided before (for another camera,
    field or parameters) keeps its previous choice unless the other one is faster by more
    than :data:`HYSTERESIS` (a fraction of the frame time), so noise does not flip it back
-   and forth; while it tries one switch again, the other keeps its previous choice;
+   and forth; while it tries one switch again, the other keeps its previous choice.
    The switches are tried one after the other, the other one running with its current
    value; when the second decision changes the value the first was tried with (the compute
    rasterizer turned on after occlusion was tried with it off), the first is tried again
@@ -31,7 +31,8 @@ default of both) lets each view decide from what it measured:
 
 A view at rest draws no frame, so it runs no trial: a trial advances only with the frames
 an engine renders and records (the browser engine starts one only when the browser reports
-frames drawn, :mod:`grasswidget.browser.auto_switches`). ``AutoSwitches.trial_frames_run``
+frames drawn while the widget plays, :mod:`grasswidget.browser.auto_switches`; ``values(...,
+start_trial=False)`` makes a decision stale without starting one). ``AutoSwitches.trial_frames_run``
 counts the frames recorded in trials, so that a view can tell its frame rate measurements
 that include a trial's (GPU-synchronised, first-use compiling) frames from the others.
 
