@@ -15,6 +15,7 @@ import pygfx as gfx
 from ..errors import GrassValueError
 from .auto_switches import begin_frame
 from .occlusion import OcclusionCulling
+from .sky_ground import SkyGround
 
 __all__ = ["render_frame"]
 
@@ -32,6 +33,18 @@ def _draws_something(ob) -> bool:
     return any(o.material is not None for o in ob.iter(skip_invisible=True))
 
 
+def _prepare_sunlight(scene, fields):
+    """Each visible GrassField's sunlight into its material; the first one's into every visible
+    sky and ground of the scene (its balls' and grass' shadows on the ground)."""
+    values = [field.prepare_sunlight() for field in fields]
+    if not values:
+        return
+    grounds = []
+    scene.traverse(lambda ob: grounds.append(ob) if isinstance(ob, SkyGround) else None, skip_invisible=True)
+    for ob in grounds:
+        ob.material.set_sunlight(values[0])
+
+
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
@@ -44,7 +57,8 @@ def render_frame(renderer, scene, camera, late=()):
 
     Every visible GrassField is first set up for the renderer's size
     (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
-    when ``params.compute_raster`` is on).
+    when ``params.compute_raster`` is on) and gets its sunlight (``GrassField.prepare_sunlight``:
+    the sun, ``params.shadows``, the balls), which every visible SkyGround takes from the first.
     """
     all_fields = _fields(scene)
     switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
@@ -57,6 +71,7 @@ def render_frame(renderer, scene, camera, late=()):
 def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
         field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
+    _prepare_sunlight(scene, all_fields)
     fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
     # Occlusion off this frame by a measured choice that may turn it on again: after the
     # frame's render the second phase's draws go through the renderer hidden (nothing drawn),

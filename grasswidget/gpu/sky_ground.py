@@ -23,7 +23,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
+from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR, ground_sun
 from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
@@ -103,6 +103,16 @@ class SkyGroundMaterial(gfx.Material):
         d["field"] = (float(center_xz[0]), float(center_xz[1]), float(half_xz[0]), float(half_xz[1]))
         d["cover"], d["field_edge"] = cover, edge
         self.uniform_buffer.update_full()
+
+    def set_sunlight(self, values: dict):
+        """The sunlight of the field it is drawn with (``GrassField.sunlight_values``: the sun, the
+        shadows' switch, the balls, the grass layer), with the ground's sunlit share for that sun;
+        written only when it changed."""
+        values = dict(values, ground_sun=ground_sun(values["light_direction"][1]))
+        data = self.uniform_buffer.data
+        if all(np.array_equal(np.asarray(data[k], np.float32), np.asarray(v, np.float32)) for k, v in values.items()):
+            return
+        self.set_values(values)
 
     @property
     def fog_density(self) -> float:
