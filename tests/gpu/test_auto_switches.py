@@ -12,8 +12,10 @@ from grasswidget.gpu.auto_switches import switches_of
 pytestmark = pytest.mark.slow
 
 
-def _decide(scene, max_frames=30):
-    """Render until the field's auto switches decided both; returns its AutoSwitches."""
+def _decide(scene, max_frames=120):
+    """Render until the field's auto switches decided both; returns its AutoSwitches (a trial
+    is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2; at most 4
+    trials when each switch is tried again once)."""
     state = switches_of(scene.field)
     for _ in range(max_frames):
         scene.render()
