@@ -49,7 +49,7 @@ from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core import camera_rules
-from ..core.frame_data import STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
+from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
 from ..core.params import SUN_TRAITS, GrassParams
 from ..core.reference import FORCE_NAMES
@@ -261,7 +261,8 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def _cull_uniform(self) -> bytes:
         """``u_cull`` for the params, the frozen view and the "auto" switches' current values."""
         switches = getattr(self, "auto_switches", None)
-        return uniforms.cull_uniform(self.params, len(self.blades), self._frozen, switches.values if switches else None)
+        return uniforms.cull_uniform(self.params, len(self.blades), self._frozen, switches.values if switches else None,
+                                     thinned=self.blades.horizon is not None)
 
     def _write_switches(self, _values):
         """The "auto" switches' values changed: the browser executes them from ``u_cull``."""
@@ -300,7 +301,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         with self.hold_sync():
             self.auto_switches.refresh()
             self._write_uniforms()
-            if change["name"] in ("fog_density", *SUN_TRAITS) and self.camera:  # the sky/ground's fog and sun too
+            if change["name"] in (*SKY_GROUND_TRAITS, *SUN_TRAITS) and self.camera:  # the sky/ground: fog, sun, far grass
                 self._write_frame_rules()
 
     # ------------------------------------------------------------------ commands

@@ -26,6 +26,7 @@ from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
+from .draw_bundles import DrawBundle
 from ..core.teaching import FrozenView
 from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
@@ -187,6 +188,9 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
         self.stats = None
+        #: The blade draws (one per LOD class and the culled blades), replayed from a render
+        #: bundle (:mod:`grasswidget.gpu.draw_bundles`).
+        self.blade_draw_bundle = DrawBundle(N_CLASSES + 1)
         #: Occlusion culling's pyramid, second phase and draws (see :mod:`grasswidget.gpu.occlusion`).
         self.occlusion = OcclusionCulling(self)
         self._write_cull_uniform()
@@ -302,6 +306,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
+        self.simulation.forget_uniform_values()
         if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by", "compute_raster_max_px"):
             self._write_cull_uniform()
             self._store.flat_colors = self.params.color_by != "natural"
@@ -319,7 +324,8 @@ class GrassField(gfx.WorldObject):
             self._store.culled_buffer = gfx.Buffer(
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
             )
-        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
+        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera,
+                                                                         thinned=self.blades.horizon is not None))
         self.cull_uniform_buffer.update_full()
 
     # ------------------------------------------------------------------ compute rasterizer

@@ -3,9 +3,10 @@
 ``GrassScene.render``, the widget's kernel view and the exports all draw through it. It is a
 plain ``renderer.render(scene, camera)`` unless a visible GrassField has occlusion culling on;
 then the frame runs in the phases of :mod:`grasswidget.gpu.occlusion` (the first phase inside
-``render()``, the depth pyramid and the second culling phase outside it, the second draws, then
-the translucent ``late`` objects). Every visible GrassField is first set up for the renderer's
-size (``GrassField.prepare_compute_raster``).
+``render()``, the depth pyramid, the second culling phase and its draws outside it in one
+submission, then the translucent ``late`` objects): one ``render()`` call, two with late
+objects. Every visible GrassField is first set up for the renderer's size
+(``GrassField.prepare_compute_raster``).
 """
 
 from __future__ import annotations
@@ -98,20 +99,16 @@ def _render_frame(renderer, scene, camera, late, all_fields, switches):
             ob.visible = False
         for field in fields:
             field.occlusion.arm(1)
+            field.occlusion.draws.defer_draws()  # prepared by this render, drawn by second_phase
         renderer.render(scene, camera, clear=True, flush=False)
     finally:
         for ob in late:
             ob.visible = True
         for field in fields:
             field.occlusion.arm(0)
+            field.occlusion.draws.stop_deferring()
     for field in fields:
-        if field.occlusion.second_phase(renderer):
-            draws = field.occlusion.draws
-            draws.visible = True
-            try:
-                renderer.render(draws, camera, clear=False, flush=False)
-            finally:
-                draws.visible = False
+        field.occlusion.second_phase(renderer)
     if late:
         hidden = [ob for ob in scene.children if ob not in late and not isinstance(ob, gfx.Light) and ob.visible]
         try:
