@@ -74,17 +74,20 @@ def _render_frame(renderer, scene, camera, late, all_fields, switches):
         field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
     _prepare_sunlight(scene, all_fields)
     fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
-    # Occlusion off this frame by a measured choice that may turn it on again: after the
-    # frame's render the second phase's draws go through the renderer hidden (nothing drawn),
-    # so that pygfx keeps their pipelines; left out for a few frames it drops them and builds
-    # them again at the next "on" (a CPU adapter JIT-compiles each build: 7 MB a trial).
+    # Occlusion off this frame by a measured choice that may turn it on again: the second
+    # phase's draws are prepared with the frame's render and their draw calls dropped (nothing
+    # drawn), so that pygfx keeps their pipelines; left out for a few frames it drops them and
+    # builds them again at the next "on" (a CPU adapter JIT-compiles each build: 7 MB a trial).
     resting = [f for f in all_fields if f not in fields and f.params.cull_occlusion == "auto"]
     if not fields:
-        renderer.render(scene, camera, flush=not resting)
         for field in resting:
-            renderer.render(field.occlusion.draws, camera, clear=False, flush=False)
-        if resting:
-            renderer.flush()
+            field.occlusion.draws.defer_draws()
+        try:
+            renderer.render(scene, camera)
+        finally:
+            for field in resting:
+                field.occlusion.draws.stop_deferring()
+                field.occlusion.draws.take_deferred()  # prepared, never drawn
         return
     capturing = [f for f in fields if f.occlusion.capture_camera is not None]
     for field in capturing:
