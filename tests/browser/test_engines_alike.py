@@ -300,8 +300,8 @@ def test_one_simulation_per_widget_and_the_engines_draw_alike(webgpu_browser, la
                      "one engine with two views in the page", 30, 0.3, page=page)
         print(f"\n[displayed twice] engines in the page: {found}")
         # while playing, both views show the same meadow moving
-        steps0 = kernel_eval(page, "w.stats['step_count'] or 0")
-        wait_for_kernel(page, "w.stats['step_count'] or 0", predicate=lambda s: s > steps0 + 60, timeout=60)
+        steps0 = kernel_eval(page, "w.stats.get('step_count') or 0")
+        wait_for_kernel(page, "w.stats.get('step_count') or 0", predicate=lambda s: s > steps0 + 60, timeout=60)
         kernel_execute(page, "w.pause()")
         a0, b0 = poll(lambda: (lambda s: (bool(np.abs(s[0] - s[1]).max() == 0), s))(_canvases(page)),
                       "both views to show the same picture once paused", 30, 0.5, page=page)
