@@ -362,16 +362,17 @@ class GrassField(gfx.WorldObject):
         :meth:`prepare_compute_raster`)."""
         return self._store.raster_size != (0, 0)
 
-    def prepare_compute_raster(self, size):
+    def prepare_compute_raster(self, size, on=None):
         """Set up the compute rasterizer for renders of ``size`` = (width, height) physical
         pixels (``renderer.physical_size``), or switch it off when ``params.compute_raster``
         is off (or ``compute_raster_max_px`` is 0). :func:`grasswidget.gpu.render_frame`
         calls it before every frame; a plain ``renderer.render()`` of another size draws
         every blade with the hardware rasterizer. Fields of more than 2^24 blades draw
         every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
+        ``on``: the view's decision for ``compute_raster`` "auto" (None: off).
         """
         p = self.params
-        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count) else (0, 0)
+        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count, on) else (0, 0)
         if width <= 0 or height <= 0:
             width = height = 0
         usage = wgpu.BufferUsage
