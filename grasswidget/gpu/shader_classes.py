@@ -22,7 +22,7 @@ every ``renderer.render()``:
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
 The compute rasterizer (``params.compute_raster``, set up for the render size by
-``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
+``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` and ``RasterShader("rows")`` run before step 2,
 the culling lists thin blades for it, ``RasterShader("depth")`` and
 ``RasterShader("payload")`` walk them after step 4, and ``RasterResolveShader``
 (render, after the ribbons) writes their colour and depth.
@@ -239,13 +239,15 @@ class BladeRenderShader(BaseShader):
 
 class RasterShader(GrassComputeShader):
     """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
-    words and counters, before the culling), "depth" or "payload" (the walks, after it);
+    words of the rows the last frame wrote, and the counters, before the culling), "rows"
+    (the rows written to none, one thread, after the clear), "depth" or "payload" (the
+    walks, after the culling);
     ``second``: the walks of occlusion culling's second phase (run by
     :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
 
     def __init__(self, wobject, step, second=False):
-        if step not in ("clear", "depth", "payload"):
-            raise GrassValueError(f"step must be 'clear', 'depth' or 'payload'; got {step!r}")
+        if step not in ("clear", "rows", "depth", "payload"):
+            raise GrassValueError(f"step must be 'clear', 'rows', 'depth' or 'payload'; got {step!r}")
         super().__init__(wobject, step=step, second=bool(second))
 
     def get_bindings(self, wobject, shared, scene):
@@ -275,14 +277,14 @@ class RasterShader(GrassComputeShader):
 
     def get_render_info(self, wobject, shared):
         width, height = wobject.raster_size
-        if not width:
+        if not width or self["step"] == "rows":
             return {"indices": (1, 1, 1)}  # the clear still zeroes the counters
         return {"indices": workgroups(width * height if self["step"] == "clear" else wobject.count)}
 
 
 class RasterResolveShader(BaseShader):
-    """The compute rasterizer's resolve (raster_resolve.wgsl): one full-screen draw that
-    shades the compute-rasterized pixels and writes their depth; no instance while the
+    """The compute rasterizer's resolve (raster_resolve.wgsl): one draw across the rows the
+    walks wrote that shades the compute-rasterized pixels and writes their depth; no instance while the
     compute rasterizer is off. ``wobject``: the GrassField or its OcclusionDraws."""
 
     type = "render"
@@ -303,7 +305,7 @@ class RasterResolveShader(BaseShader):
             4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
             5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
             6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
-            7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # none listed: no fragment
+            7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # the rows written
         }
         self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
         return {0: bindings}
@@ -355,6 +357,7 @@ def grass_render_function(wobject):
     return [
         ResetArgsShader(wobject),
         RasterShader(wobject, "clear"),
+        RasterShader(wobject, "rows"),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),

@@ -187,12 +187,14 @@ export class EngineCulling extends EngineResources {
   buildRasterBuffers(buffer) {
     const U = GPUBufferUsage;
     this.res.s_raster = buffer(this.n * 4, U.STORAGE, "compute raster list");
-    this.res.s_raster_args = buffer(4 * this.raster.spec.args_words, U.STORAGE | U.COPY_SRC, "compute raster counters");
+    this.res.s_raster_args = buffer(4 * this.raster.spec.args_words, U.STORAGE | U.COPY_SRC | U.COPY_DST,
+      "compute raster counters");
   }
 
   dropRasterTargets() {
     for (const t of this.raster.targets.values()) { t.depth.destroy(); t.payload.destroy(); }
     this.raster.targets.clear();
+    this.raster.lastKey = null;
   }
 
   // The per-pixel words of a (width, height) view and the bind groups that use them; this frame's
@@ -204,6 +206,10 @@ export class EngineCulling extends EngineResources {
     this.device.queue.writeBuffer(this.res.u_cull, r.spec.width_offset, size);
     this.device.queue.writeBuffer(this.res.u_cull, r.spec.height_offset, new Float32Array([height]));
     const key = `${width}x${height}`;
+    if (r.lastKey !== key) {  // the rows written were another size's: Python's spec, zeros clear the whole view
+      this.device.queue.writeBuffer(this.res.s_raster_args, 4 * r.spec.rows_at, new Uint32Array(r.spec.rows_words));
+      r.lastKey = key;
+    }
     let t = r.targets.get(key);
     if (t) { r.targets.delete(key); r.targets.set(key, t); return t; }
     const U = GPUBufferUsage;
