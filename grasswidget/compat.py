@@ -32,6 +32,8 @@ __all__ = [
     "write_timestamp",
     "render_pipeline_container_class",
     "set_render_pipeline_container_class",
+    "compute_pipeline_container_class",
+    "set_compute_pipeline_container_class",
     "renderer_depth_texture",
     "pygfx_event_class",
     "held_orbit_controller_class",
@@ -66,6 +68,8 @@ PRIVATE_USES = (
      "whether pygfx has created its device yet (the adapter choice must come first)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
+    ("pygfx", "renderers.wgpu.engine.pipeline.ComputePipelineContainer",
+     "the class pygfx instantiates per compute shader; replaced to issue dispatch_workgroups_indirect"),
     ("pygfx", "WgpuRenderer._blender.get_texture('depth')",
      "the renderer's depth32float texture (usage COPY_SRC), copied into the occlusion culling's depth pyramid"),
     ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
@@ -210,6 +214,22 @@ def set_render_pipeline_container_class(cls):
     if not hasattr(pipeline, "RenderPipelineContainer"):
         raise UpstreamChangedError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
+
+
+def compute_pipeline_container_class():
+    """The class pygfx's pipeline module instantiates for each compute shader."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    return pipeline.ComputePipelineContainer
+
+
+def set_compute_pipeline_container_class(cls):
+    """Make pygfx instantiate ``cls`` for compute shaders from now on (see gpu/indirect.py)."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    if not hasattr(pipeline, "ComputePipelineContainer"):
+        raise UpstreamChangedError("pygfx internals changed: engine.pipeline.ComputePipelineContainer not found")
+    pipeline.ComputePipelineContainer = cls
 
 
 def renderer_depth_texture(renderer):

@@ -125,6 +125,7 @@ def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
     from .collider_grid import GRID_HEADER_WORDS
+    from .frame_data import MAX_WORKGROUPS_X
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
                             LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
                             RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
@@ -142,6 +143,7 @@ def template_vars() -> dict:
         "noise_scale": wgsl_float(NOISE_SCALE),
         "dry_color": ", ".join(wgsl_float(c) for c in DRY_COLOR),
         "workgroup_size": WORKGROUP_SIZE,
+        "max_groups_x": int(MAX_WORKGROUPS_X),
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),
         "culled_segments": int(CULLED_SEGMENTS),

@@ -160,6 +160,9 @@ class GrassField(gfx.WorldObject):
                                                     usage=usage.STORAGE | usage.COPY_SRC)
         self._store.raster_depth_buffer = gfx.Buffer(**one)
         self._store.raster_payload_buffer = gfx.Buffer(**one)
+        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
+        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
+                                                        usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
@@ -332,6 +335,13 @@ class GrassField(gfx.WorldObject):
         occlusion phase's part ends, the first pixel row the walks wrote and the bitwise
         complement of the last (raster.wgsl; first > last: none)."""
         return self._store.raster_args_buffer
+
+    @property
+    def raster_dispatch_buffer(self):
+        """pygfx Buffer of 4 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
+        written on the GPU after the culling (raster.wgsl, step "args"); the walks are
+        dispatched indirectly from it."""
+        return self._store.raster_dispatch_buffer
 
     @property
     def raster_depth_buffer(self):
@@ -568,7 +578,7 @@ class GrassField(gfx.WorldObject):
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
                  "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
                  "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
-                 "raster_payload_buffer")
+                 "raster_payload_buffer", "raster_dispatch_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.occlusion.release()
         self.simulation.release()

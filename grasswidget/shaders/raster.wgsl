@@ -4,11 +4,14 @@
 // two per-pixel buffers of u_cull.raster_width x raster_height:
 //
 // step "clear": the depth word of every pixel in the rows the last frame's walks wrote
-//   (s_raster_args[2] .. ~s_raster_args[3], see "rows") to RASTER_EMPTY, its payload to
+//   (s_raster_args[2] .. ~s_raster_args[3], see "args") to RASTER_EMPTY, its payload to
 //   0, and the list counters to 0 (before the culling pass of the frame). Words that are
 //   all zero (a new buffer) mean every row: a new pixel buffer is cleared whole.
-// step "rows": the written rows to none (s_raster_args[2] = [3] = 0xffffffff); one thread,
-//   after "clear" and before the walks.
+// step "args": one thread, after the culling and before the walks: the walks' workgroups
+//   (x, y, 1) into s_raster_dispatch (the walks are dispatched indirectly, so only the
+//   listed blades run: a thread per blade of the whole field cost a CPU adapter as much
+//   as the walks themselves); first phase: where its part of the list ends into
+//   s_raster_args[1] and the written rows to none (s_raster_args[2] = [3] = 0xffffffff).
 // step "depth": atomicMin of the depth's float bits (0 < depth <= 1: the bits of a
 //   positive float order like the float, so the full 32-bit depth is kept); each blade
 //   then widens the written rows to its own (atomicMin of the first row into
@@ -23,7 +26,7 @@
 // costs per pixel, while the thin blades are far away, near the horizon).
 //
 // Occlusion culling's second phase (template variable second) appends its blades to
-// the same list: the first phase's payload step records where its part ends
+// the same list: the first phase's args step records where its part ends
 // (s_raster_args[1]) and the second phase's steps walk only the rest.
 //
 // The per-blade walk is reference.raster_walk (its NumPy twin), built from the
@@ -34,7 +37,8 @@
 // (projection_transform, cam_transform, physical_size), u_wobject (world_transform),
 // u_cull (CULL_LAYOUT: raster_width, raster_height, raster_blade_shape,
 // raster_tip_threshold), s_blades (array<vec4<f32>>, read), s_raster (array<u32>, read),
-// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>).
+// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>), and for the
+// args step s_raster_dispatch (array<u32>, 4 words).
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
@@ -108,16 +112,28 @@ fn main(
     }
     let width = u32(u_cull.raster_width);
     let row = i / max(width, 1u);
-    // Only the rows the last frame wrote ("rows" resets them after this pass).
+    // Only the rows the last frame wrote (the args step resets them after this pass).
     if (i < width * u32(u_cull.raster_height) && row >= atomicLoad(&s_raster_args[2])
         && row <= ~atomicLoad(&s_raster_args[3])) {
         atomicStore(&s_raster_depth[i], RASTER_EMPTY);
         atomicStore(&s_raster_payload[i], 0u);
     }
-    $$ elif step == "rows"
+    $$ elif step == "args"
     if (i == 0u) {
-        atomicStore(&s_raster_args[2], RASTER_EMPTY);
+        let end = atomicLoad(&s_raster_args[0]);
+        $$ if second
+        let first = atomicLoad(&s_raster_args[1]);
+        $$ else
+        let first = 0u;
+        atomicStore(&s_raster_args[1], end);  // where the second occlusion phase's blades start
+        atomicStore(&s_raster_args[2], RASTER_EMPTY);  // no row written yet
         atomicStore(&s_raster_args[3], RASTER_EMPTY);
+        $$ endif
+        let groups = (end - first + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+        let x = min(groups, {{ max_groups_x }}u);
+        s_raster_dispatch[0] = x;
+        s_raster_dispatch[1] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+        s_raster_dispatch[2] = 1u;
     }
     $$ else
     let end = atomicLoad(&s_raster_args[0]);
@@ -125,11 +141,6 @@ fn main(
     let first = atomicLoad(&s_raster_args[1]);
     $$ else
     let first = 0u;
-    $$ if step == "payload"
-    if (i == 0u) {
-        atomicStore(&s_raster_args[1], end);  // where the second occlusion phase's blades start
-    }
-    $$ endif
     $$ endif
     if (first + i < end) {
         raster_blade(s_raster[first + i]);
