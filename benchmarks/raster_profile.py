@@ -98,13 +98,15 @@ def _install_hooks(stamps, knockout):
     """Wrap the pipeline containers' dispatch/draw and ComputeProgram.dispatch (this process only)."""
     from pygfx.renderers.wgpu.engine import pipeline
 
-    from grasswidget.gpu import compute
+    from grasswidget.gpu import compute, indirect
     from grasswidget.gpu.indirect import IndirectRenderPipelineContainer
 
-    original_dispatch = pipeline.ComputePipelineContainer.dispatch
+    indirect.install()
+    original_dispatch = pipeline.ComputePipelineContainer.dispatch  # the indirect subclass where installed
     original_draw = IndirectRenderPipelineContainer.draw
     original_program_init = compute.ComputeProgram.__init__
     original_program_dispatch = compute.ComputeProgram.dispatch
+    original_program_indirect = getattr(compute.ComputeProgram, "dispatch_indirect", None)
 
     def dispatch(self, compute_pass):
         k = stamps.write(compute_pass, _label(self.shader))
@@ -128,13 +130,20 @@ def _install_hooks(stamps, knockout):
         original_program_dispatch(self, compute_pass, workgroups)
         stamps.end(compute_pass, k)
 
+    def program_indirect(self, compute_pass, buffer, offset=0):
+        k = stamps.write(compute_pass, getattr(self, "profile_label", "ComputeProgram"))
+        original_program_indirect(self, compute_pass, buffer, offset)
+        stamps.end(compute_pass, k)
+
+    if original_program_indirect is not None:
+        compute.ComputeProgram.dispatch_indirect = program_indirect
     pipeline.ComputePipelineContainer.dispatch = dispatch
     IndirectRenderPipelineContainer.draw = draw
     compute.ComputeProgram.__init__ = program_init
     compute.ComputeProgram.dispatch = program_dispatch
 
 
-def run(frames, views, out_path):
+def run(frames, views, out_path, raster_max_px=None):
     import pygfx as gfx
 
     from grasswidget import compat
@@ -156,6 +165,8 @@ def run(frames, views, out_path):
         if views and not any(v in view for v in views):
             continue
         scene = GrassScene.preset(preset, blades=n, size=size)
+        if raster_max_px is not None:
+            scene.params.compute_raster_max_px = raster_max_px
         w, h = size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
         renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none", enable_events=False)
@@ -195,7 +206,8 @@ def run(frames, views, out_path):
         depth = np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(field.raster_depth_buffer)), np.uint32)
         covered = int((depth != 0xFFFFFFFF).sum())
         drawn = int(field.read_draw_args()[:, 1].sum())
-        entry = dict(preset=preset, blades=n, size=f"{w}x{h}", listed_for_compute=listed, pixels_covered=covered,
+        entry = dict(preset=preset, blades=n, size=f"{w}x{h}", compute_raster_max_px=field.params.compute_raster_max_px,
+                     listed_for_compute=listed, pixels_covered=covered,
                      pixels=w * h, ribbons_drawn_when_on=drawn,
                      wall_ms={m: statistics.median(v) for m, v in wall.items()},
                      gpu_ms={m: {k: statistics.median(v) for k, v in d.items()} for m, d in gpu.items()})
@@ -220,9 +232,10 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", type=int, default=6)
     ap.add_argument("--view", nargs="*", default=None, help="substring(s) of the views to run (default all)")
+    ap.add_argument("--raster-max-px", type=float, default=None, help="compute_raster_max_px (default: the params')")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
-    run(a.frames, a.view, a.json)
+    run(a.frames, a.view, a.json, a.raster_max_px)
 
 
 if __name__ == "__main__":
