@@ -1,4 +1,4 @@
-// The compute rasterizer's resolve (raster.wgsl): one full-screen draw. Each pixel
+// The compute rasterizer's resolve (raster.wgsl): one draw across the pixel rows the walks wrote. Each pixel
 // a compute-rasterized blade covers is shaded like the ribbons shade it
 // (blade_math.blade_shade at the blade's curve point v, with the ribbon's normal and
 // the looks' base colour, glow and fog) and written with that blade's depth (frag_depth), so the
