@@ -58,7 +58,7 @@ from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import LOOK_TRAITS, GrassParams
 from .reference import LOD_SEGMENTS, ground_cover, wind_period
-from .shader_files import WORKGROUP_SIZE
+from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 
 __all__ = [
     "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
@@ -83,8 +83,7 @@ STATS_INTERVAL_MS = 500
 #: The most blade steps (blades x fixed steps) one simulation dispatch takes, both engines: a
 #: longer step(n) is split into dispatches of at most this many (no GPU watchdog trips on a long run).
 BLADE_STEPS_PER_DISPATCH = 1 << 24
-#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit).
-MAX_WORKGROUPS_X = 65535
+#: MAX_WORKGROUPS_X (from shader_files): workgroups along x of one dispatch before it folds into y.
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil

@@ -81,11 +81,14 @@ from pathlib import Path
 
 from ..errors import MissingFileError
 
-__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
+__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "MAX_WORKGROUPS_X", "NO_WIND_BODY",
            "DISTANCE_BANDS", "BAND_RANGE"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
+#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit;
+#: raster.wgsl's args step folds the walks' indirect dispatch the same way).
+MAX_WORKGROUPS_X = 65535
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"
@@ -125,7 +128,6 @@ def template_vars() -> dict:
     """Every value the WGSL templates take from Python: the one source of shared ids and constants."""
     from .enums import BladeShape, ColorBy, GravityMode, WindField
     from .collider_grid import GRID_HEADER_WORDS
-    from .frame_data import MAX_WORKGROUPS_X
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
                             LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
                             RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
