@@ -7,7 +7,8 @@ Each round runs every tree once, in turn (before, after, before, after, ...), ea
 process whose ``grasswidget`` is that tree's (PYTHONPATH). A process draws every view with the compute
 rasterizer off and on, alternating frame by frame after a warm-up: a frame is ``field.step(1)``, a GPU
 sync, ``GrassScene.draw_into`` and a GPU sync (as ``grasswidget bench``'s frame ms; ``draw_ms`` is the
-draw alone). Reported: per tree, view and mode the median over all rounds and frames, and on/off
+draw alone); ``frame_cpu_ms`` is the process's CPU time over the same frame (lavapipe's threads are the
+process's: on a CPU adapter that is the work done, much less sensitive than wall time to a loaded machine). Reported: per tree, view and mode the median over all rounds and frames, and on/off
 (medians of each round's ratio, and the ratio of the medians). On a loaded machine only the ratios
 within one run mean anything.
 
@@ -81,14 +82,15 @@ def worker(frames, views, raster_max_px):
                 field.step(1)
                 scene.draw_into(renderer)  # the switch settles (pygfx swaps pipelines) outside the timing
                 sync()
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 field.step(1)
                 sync()
-                t1 = time.perf_counter()
+                t1, c1 = time.perf_counter(), time.process_time()
                 scene.draw_into(renderer)
                 sync()
-                t2 = time.perf_counter()
-                rows[mode].append({"frame_ms": 1e3 * (t2 - t0), "draw_ms": 1e3 * (t2 - t1)})
+                t2, c2 = time.perf_counter(), time.process_time()
+                rows[mode].append({"frame_ms": 1e3 * (t2 - t0), "draw_ms": 1e3 * (t2 - t1),
+                                   "frame_cpu_ms": 1e3 * (c2 - c0), "draw_cpu_ms": 1e3 * (c2 - c1)})
         listed = field.read_raster_count()
         out["views"][view] = {"rows": rows, "listed_for_compute": listed,
                               "compute_raster_max_px": float(field.params.compute_raster_max_px)}
@@ -123,7 +125,7 @@ def drive(trees, rounds, frames, views, raster_max_px, out_path):
         mine = [x for x in runs if x["tree"] == name]
         for view in mine[0]["views"]:
             s = {}
-            for key in ("frame_ms", "draw_ms"):
+            for key in ("frame_ms", "draw_ms", "frame_cpu_ms", "draw_cpu_ms"):
                 med = {m: _median([f[key] for x in mine for f in x["views"][view]["rows"][m]]) for m in ("off", "on")}
                 per_round = [_median([f[key] for f in x["views"][view]["rows"]["on"]])
                              / _median([f[key] for f in x["views"][view]["rows"]["off"]]) for x in mine]
@@ -135,13 +137,14 @@ def drive(trees, rounds, frames, views, raster_max_px, out_path):
     report = {"date": time.strftime("%Y-%m-%d %H:%M:%S"), "trees": dict(trees), "rounds": rounds, "frames": frames,
               "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_end": os.getloadavg()},
               "summary": summary, "runs": runs}
-    print(f"\n{'view':32s} {'tree':8s} {'off ms':>9s} {'on ms':>9s} {'on/off':>7s} {'rounds':>18s} {'listed':>7s}")
-    for view, by_tree in summary.items():
-        for name, s in by_tree.items():
-            f = s["frame_ms"]
-            rr = ",".join(f"{x:.2f}" for x in f["on_over_off_per_round"])
-            print(f"{view:32s} {name:8s} {f['off']:9.1f} {f['on']:9.1f} {f['on_over_off']:7.2f} {rr:>18s} "
-                  f"{s['listed_for_compute']:7d}")
+    for key in ("frame_ms", "frame_cpu_ms"):
+        print(f"\n{key}\n{'view':32s} {'tree':8s} {'off ms':>9s} {'on ms':>9s} {'on/off':>7s} {'rounds':>18s} {'listed':>7s}")
+        for view, by_tree in summary.items():
+            for name, s in by_tree.items():
+                f = s[key]
+                rr = ",".join(f"{x:.2f}" for x in f["on_over_off_per_round"])
+                print(f"{view:32s} {name:8s} {f['off']:9.1f} {f['on']:9.1f} {f['on_over_off']:7.2f} {rr:>18s} "
+                      f"{s['listed_for_compute']:7d}")
     if out_path:
         with open(out_path, "w") as fh:
             json.dump(report, fh, indent=1)
