@@ -35,6 +35,9 @@ __all__ = [
     "compute_pipeline_container_class",
     "set_compute_pipeline_container_class",
     "renderer_depth_texture",
+    "still_directional_light_class",
+    "begin_target_render_pass",
+    "render_target_formats",
     "pygfx_event_class",
     "held_orbit_controller_class",
     "pygfx_event_fields",
@@ -70,6 +73,16 @@ PRIVATE_USES = (
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
     ("pygfx", "renderers.wgpu.engine.pipeline.ComputePipelineContainer",
      "the class pygfx instantiates per compute shader; replaced to issue dispatch_workgroups_indirect"),
+    ("pygfx", "WgpuRenderer._blender.get_color_attachments(pass_type) / get_depth_attachment()",
+     "a render pass on the renderer's colour, pick and depth targets (loaded), in our own command encoder: the "
+     "occlusion culling's second-phase draws, without a second render() call (begin_target_render_pass)"),
+    ("pygfx", "renderstate.blender._texture_info (format of 'color', 'pick', 'depth')",
+     "the formats of the render pass a renderstate draws into: a render bundle of the blade draws must name "
+     "them (render_target_formats, gpu/draw_bundles.py)"),
+    ("pygfx", "DirectionalLight._gfx_update_uniform_buffer",
+     "overridden by the scene's sun (still_directional_light_class): pygfx calls it for every directional light in "
+     "every render and it redoes a look_at each time (0.6 ms of a 4.5 ms host frame on lavapipe's host), though "
+     "the light rarely moves; the override skips it while neither the light nor its target moved"),
     ("pygfx", "WgpuRenderer._blender.get_texture('depth')",
      "the renderer's depth32float texture (usage COPY_SRC), copied into the occlusion culling's depth pyramid"),
     ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
@@ -230,6 +243,79 @@ def set_compute_pipeline_container_class(cls):
     if not hasattr(pipeline, "ComputePipelineContainer"):
         raise UpstreamChangedError("pygfx internals changed: engine.pipeline.ComputePipelineContainer not found")
     pipeline.ComputePipelineContainer = cls
+
+
+def still_directional_light_class():
+    """A subclass of pygfx's ``DirectionalLight`` that lights exactly like it, but
+    recomputes its direction (and re-aims itself, a ``look_at``) only when it, its target
+    or its parent camera moved since the last render.
+
+    pygfx 0.17 calls ``DirectionalLight._gfx_update_uniform_buffer`` for every directional
+    light in every ``render()``; it always ends in ``look_at``, whose rotation update marks
+    the light's world transform changed, so the light's own uniforms are uploaded again
+    at the next render too. The override compares the ``last_modified`` stamps of the
+    light's, its target's and (when the light rides a camera) the camera's world
+    transforms, taken after the update, and returns early while none advanced.
+    """
+    import pygfx as gfx
+
+    base = gfx.DirectionalLight
+    if not callable(getattr(base, "_gfx_update_uniform_buffer", None)):
+        raise UpstreamChangedError("pygfx internals changed: DirectionalLight._gfx_update_uniform_buffer not found")
+
+    class StillDirectionalLight(base):
+        """A ``pygfx.DirectionalLight`` that skips its per-render update while it stands still."""
+
+        _grass_moved_key = None
+
+        def _moved_key(self):
+            parent = self.parent
+            camera = parent.world.last_modified if isinstance(parent, gfx.Camera) else None
+            return self.world.last_modified, self.target.world.last_modified, camera, id(self.target)
+
+        def _gfx_update_uniform_buffer(self):
+            if self._grass_moved_key is not None and self._moved_key() == self._grass_moved_key:
+                return
+            super()._gfx_update_uniform_buffer()
+            self._grass_moved_key = self._moved_key()
+
+    return StillDirectionalLight
+
+
+def begin_target_render_pass(renderer, encoder, pass_type="opaque"):
+    """Begin a render pass in ``encoder`` on the targets ``renderer``'s last ``render()`` drew
+    into (colour, and pick / depth where pygfx has them; loaded, unless a clear is pending),
+    with the full-size viewport, as pygfx 0.17's ``render()`` begins the pass of one pass type
+    (``renderer._blender.get_color_attachments(pass_type)`` and ``get_depth_attachment()``).
+    Draw into it with pipeline containers' ``draw(render_pass, renderstate)`` of that render.
+    ``pass_type``: the drawn material's ``alpha_method``; "weighted" is refused (its pass
+    needs pygfx's resolve afterwards)."""
+    blender = getattr(renderer, "_blender", None)
+    if blender is None or not hasattr(blender, "get_color_attachments") or not hasattr(blender, "get_depth_attachment"):
+        raise UpstreamChangedError("pygfx internals changed: WgpuRenderer._blender attachments not found")
+    if pass_type == "weighted":
+        raise UpstreamChangedError("begin_target_render_pass: the weighted pass type needs pygfx's own resolve")
+    render_pass = encoder.begin_render_pass(color_attachments=blender.get_color_attachments(pass_type),
+                                            depth_stencil_attachment=blender.get_depth_attachment(),
+                                            occlusion_query_set=None)
+    width, height = renderer.physical_size
+    render_pass.set_viewport(0, 0, width, height, 0, 1)
+    return render_pass
+
+
+def render_target_formats(renderstate) -> tuple:
+    """((colour formats...), depth format or None) of the render pass pygfx 0.17 draws a
+    non-weighted pass type into with ``renderstate`` (what it hands to pipeline containers'
+    ``draw``): its blender's "color" target, then "pick" where the blender has one, and
+    "depth" (``renderstate.blender._texture_info``), in the pass's attachment order."""
+    info = getattr(getattr(renderstate, "blender", None), "_texture_info", None)
+    if not isinstance(info, dict) or "color" not in info:
+        raise UpstreamChangedError("pygfx internals changed: renderstate.blender._texture_info not found")
+    colors = [info["color"]["format"]]
+    if "pick" in info:
+        colors.append(info["pick"]["format"])
+    depth = info["depth"]["format"] if "depth" in info else None
+    return tuple(colors), depth
 
 
 def renderer_depth_texture(renderer):

@@ -348,3 +348,75 @@ def test_marimo_context_is_per_thread():
         assert html.startswith("<marimo-ui-element") and chart.model_id in html
     finally:
         chart.close()
+
+
+def test_the_sun_is_reaimed_only_when_it_moves():
+    """compat.still_directional_light_class: lights like pygfx's DirectionalLight (same direction
+    and pose after every update) but redoes the look_at only after it, its target or its camera moved."""
+    import numpy as np
+    import pygfx as gfx
+
+    Light = compat.still_directional_light_class()
+    still, plain = Light(intensity=2.0), gfx.DirectionalLight(intensity=2.0)
+    scene = gfx.Scene()
+    for light in (still, plain):
+        light.local.position = (0.3, 1.0, 0.2)
+        scene.add(light)
+
+    def update_both():
+        for light in (still, plain):
+            light._gfx_update_uniform_buffer()
+        assert np.allclose(still.uniform_buffer.data["direction"], plain.uniform_buffer.data["direction"])
+        assert np.allclose(still.world.matrix, plain.world.matrix, atol=1e-6)
+
+    update_both()
+    stamp = still.world.last_modified
+    update_both()
+    assert still.world.last_modified == stamp  # standing still: no look_at, nothing marked changed
+    assert plain.world.last_modified != stamp
+    for light in (still, plain):  # the light moves: re-aimed
+        light.local.position = (-1.0, 0.5, 0.0)
+    update_both()
+    assert still.world.last_modified != stamp
+    for light in (still, plain):  # its target moves: re-aimed
+        light.target.local.position = (0.0, -2.0, 1.0)
+    update_both()
+    camera = gfx.PerspectiveCamera(45)
+    for light in (still, plain):  # on a camera it follows the camera
+        camera.add(light)
+    update_both()
+    camera.local.position = (0.0, 2.0, 3.0)
+    camera.look_at((1.0, 0.0, 0.0))
+    update_both()
+
+
+def test_render_targets_of_a_renderstate_and_a_pass_on_them():
+    """compat.render_target_formats names the formats of the pass pygfx draws a renderstate's
+    objects into (a render bundle recorded for them runs in that pass), and
+    compat.begin_target_render_pass opens a pass on the same targets, loading what was drawn."""
+    import numpy as np
+    import pygfx as gfx
+
+    from grasswidget.gpu.adapter import ensure_device
+
+    device = ensure_device()
+    target = gfx.Texture(dim=2, size=(40, 30, 1), format="rgba8unorm")
+    renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none", enable_events=False)
+    scene = gfx.Scene()
+    square = gfx.Mesh(gfx.plane_geometry(1, 1), gfx.MeshBasicMaterial(color="#ff0000"))
+    square.local.position = (0, 0, -5)
+    scene.add(square)
+    renderer.render(scene, gfx.PerspectiveCamera(45), flush=False)
+    renderstate = renderer._renderstates_per_flush[0][-1]
+    colors, depth = compat.render_target_formats(renderstate)
+    assert colors[0] == renderer._blender.get_texture("color").format and depth == "depth32float"
+    bundle = device.create_render_bundle_encoder(color_formats=list(colors), depth_stencil_format=depth).finish()
+    encoder = device.create_command_encoder()
+    render_pass = compat.begin_target_render_pass(renderer, encoder, "opaque")
+    render_pass.execute_bundles([bundle])  # an incompatible bundle is a validation error
+    render_pass.end()
+    device.queue.submit([encoder.finish()])
+    renderer.flush()
+    img = np.asarray(target.data if target.data is not None else renderer.snapshot())
+    red = (img[..., 0] > 150) & (img[..., 1] < 80)
+    assert 0.0 < red.mean() < 0.5  # loaded, not cleared: the square is still there

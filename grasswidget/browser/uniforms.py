@@ -99,7 +99,7 @@ def sky_ground_uniform(style: dict) -> bytes:
 
 def ball_uniform(style: dict) -> bytes:
     """``u_balls`` of balls.wgsl from a :func:`grasswidget.core.frame_data.scene_style` dict."""
-    return pack(BALL_LAYOUT, {"ball_color": style["ball_color"], "light_direction": (*style["light_direction"], 0.0)})
+    return pack(BALL_LAYOUT, {"ball_color": style["ball_color"], "light_direction": (*style["light_direction"][:3], 0.0)})
 
 
 def srgb_color(hex_color: str) -> tuple:
@@ -107,11 +107,12 @@ def srgb_color(hex_color: str) -> tuple:
     return srgb(hex_color)
 
 
-def material_uniform(params: GrassParams, **material) -> bytes:
+def material_uniform(params: GrassParams, blades=None, colliders=(), **material) -> bytes:
     """``u_material`` of blade_render.wgsl packed: :func:`grasswidget.core.frame_data.material_values`
-    (the material's defaults, or ``material``'s overrides of them, and the params' looks),
-    the values the kernel engine's GrassField writes into its GrassMaterial."""
-    return pack(MATERIAL_LAYOUT, material_values(params, **material))
+    (the material's defaults, or ``material``'s overrides of them, the params' looks and sun, the
+    sunlight of ``blades`` and ``colliders``), the values the kernel engine's GrassField writes
+    into its GrassMaterial."""
+    return pack(MATERIAL_LAYOUT, material_values(params, blades, colliders, **material))
 
 
 def clock(params: GrassParams) -> dict:

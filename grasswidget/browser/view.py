@@ -42,9 +42,9 @@ from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core import camera_rules
-from ..core.frame_data import STATS_INTERVAL_MS, export_filter, frame_rules
+from ..core.frame_data import STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
-from ..core.params import GrassParams
+from ..core.params import SUN_TRAITS, GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
@@ -211,8 +211,14 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """The clock's rules, orbit limits and scene style for these blades, params and camera far plane."""
         rules = frame_rules(self.params, self.blades, self.camera.get("far"), check_floor(self.camera_floor))
         self.frame_rules = rules
-        self.sky_ground_uniform = uniforms.sky_ground_uniform(rules["style"])
+        self._write_sky_ground()
         self.ball_uniform = uniforms.ball_uniform(rules["style"])
+
+    def _write_sky_ground(self):
+        """The sky and ground's uniform: the frame rules' style with the balls' shadows (the colliders
+        change often, the frame rules seldom)."""
+        style = scene_style(self.blades, self.camera.get("far"), self.params, self._colliders)
+        self.sky_ground_uniform = uniforms.sky_ground_uniform(style)
 
     @property
     def orbit_limits(self) -> OrbitLimits:
@@ -233,7 +239,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         p, n = self.params, len(self.blades)
         self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
         self.cull_uniform = uniforms.cull_uniform(p, n, self._frozen)
-        self.material_uniform = uniforms.material_uniform(p)
+        self.material_uniform = uniforms.material_uniform(p, self.blades, self._colliders)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
         self._write_colliders()
@@ -257,6 +263,10 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         with self.hold_sync():
             self.sim_uniform = uniforms.sim_uniform(self.params, len(self.blades), self._colliders)
             self._write_colliders()
+            # the balls' shadows (sunlight.wgsl reads them from both materials)
+            self.material_uniform = uniforms.material_uniform(self.params, self.blades, self._colliders)
+            if self.camera:
+                self._write_sky_ground()
 
     def _on_params(self, change):
         if change["name"] == "wind_wgsl":
@@ -265,7 +275,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             return
         with self.hold_sync():
             self._write_uniforms()
-            if change["name"] == "fog_density" and self.camera:  # the sky/ground's fog too
+            if change["name"] in ("fog_density", *SUN_TRAITS) and self.camera:  # the sky/ground's fog and sun too
                 self._write_frame_rules()
 
     # ------------------------------------------------------------------ commands

@@ -56,14 +56,16 @@ from .enums import ColorBy, GravityMode, WindField
 from .enums import BladeShape
 from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
-from .params import LOOK_TRAITS, GrassParams
+from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
 from .reference import LOD_SEGMENTS, ground_cover, wind_period
+from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
+from .reference.sunlight import sun_direction as _sun_direction
 from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 
 __all__ = [
     "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
-    "field_rectangle", "field_cover", "sky_ground_values", "look_values", "material_values", "frame_rules", "srgb",
+    "field_rectangle", "field_cover", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
     "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
     "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
@@ -95,14 +97,16 @@ SOIL_COLOR = "#3b2a1a"
 BEYOND_COLOR = "#787a4e"
 #: Width (m) of the soft edge between the soil under the field and the ground beyond.
 FIELD_EDGE = 0.5
-#: Direction towards the sun (world space, not normalized), both engines: the kernel scene's light
-#: position, the collider balls' shading and the blade material's default light.
-LIGHT_DIRECTION = (4.0, 10.0, 3.0)
+#: Direction towards the sun of the default params (world space, not normalized), both engines:
+#: ``GrassParams.sun_elevation`` and ``sun_azimuth``'s defaults (:func:`sun_direction` of the params
+#: lights the blades, the ground and the balls) and the blade material's default light.
+LIGHT_DIRECTION = DEFAULT_SUN_DIRECTION
 #: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
 #: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
 #: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
 MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=LIGHT_DIRECTION,
                          tip_threshold=0.5, fog_color=HORIZON_COLOR)
+_DEFAULT_SUN_Y = LIGHT_DIRECTION[1] / math.sqrt(sum(x * x for x in LIGHT_DIRECTION))
 #: Collider balls: colour (sRGB hex) and opacity (0..1).
 BALL_COLOR = "#dfe8ff"
 BALL_OPACITY = 0.35
@@ -393,7 +397,7 @@ def field_cover(blades) -> float:
     return ground_cover(blades.height, blades.width, max(2 * hx, 0.1) * max(2 * hz, 0.1))
 
 
-def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
+def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=()) -> dict:
     """The ``u_material`` values of ``shaders/sky_ground.wgsl``
     (``uniform_layouts.SKY_GROUND_LAYOUT``), the same for both engines.
 
@@ -405,13 +409,17 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
         params: the :class:`~grasswidget.core.params.GrassParams` (its ``fog_density``,
             1/m); None: the defaults.
         show_ground: draw the ground (else sky everywhere).
+        colliders: the sphere colliders whose shadows the ground shows (with ``params.shadows``;
+            :func:`sunlight_values`).
 
     Colours are (r, g, b, 1) sRGB 0..1, ``ground`` (x, y, z, half size) and
     ``field`` (x, z, half_x, half_z) in metres.
     """
     centre, half = ground_square(blades, far)
     (cx, cz), (hx, hz) = field_rectangle(blades)
-    fog = (params if params is not None else GrassParams()).fog_density
+    params = params if params is not None else GrassParams()
+    fog = params.fog_density
+    sunlight = sunlight_values(params, blades, colliders)
     return {
         "horizon_color": srgb(HORIZON_COLOR),
         "zenith_color": srgb(ZENITH_COLOR),
@@ -419,12 +427,67 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True) -> dict:
         "beyond_color": srgb(BEYOND_COLOR),
         "ground": (*centre, float(half)),
         "field": (cx, cz, hx, hz),
+        "light_direction": sunlight["light_direction"],
+        "shadow_balls": sunlight["shadow_balls"],
+        "shadow_field": sunlight["shadow_field"],
+        "shadow_depths": sunlight["shadow_depths"],
         "show_ground": int(bool(show_ground)),
         "far_distance": 100.0 if far is None else float(far),
         "fog_density": float(fog),
         "cover": field_cover(blades),
         "field_edge": FIELD_EDGE,
+        "shadows": sunlight["shadows"],
+        "ground_sun": ground_sun(sunlight["light_direction"][1]),
     }
+
+
+def sun_direction(params) -> tuple:
+    """Unit direction towards the sun (x, y, z) of ``params`` (``sun_elevation``, ``sun_azimuth``;
+    :func:`grasswidget.core.reference.sun_direction`), both engines' light."""
+    return tuple(float(x) for x in _sun_direction(params.sun_elevation, params.sun_azimuth))
+
+
+def grass_layer(blades) -> dict:
+    """What the sunlight needs of a field's blades (O(N): engines keep it until the blades change):
+    ``field`` (x, z, half_x, half_z: the roots' rectangle, m), ``leaf_area_index`` (one-sided blade
+    area per m^2 of it, sides of at least 0.1 m) and ``height`` (the mean blade height, m)."""
+    if blades is None or not len(blades):
+        return {"field": (0.0, 0.0, 0.0, 0.0), "leaf_area_index": 0.0, "height": 0.0}
+    (cx, cz), (hx, hz) = field_rectangle(blades)
+    area = max(2 * hx, 0.1) * max(2 * hz, 0.1)
+    leaf = float(np.sum(2.0 * np.asarray(blades.width, np.float64) * np.asarray(blades.height, np.float64))) / area
+    return {"field": (cx, cz, hx, hz), "leaf_area_index": leaf, "height": float(np.mean(blades.height))}
+
+
+def sunlight_values(params, blades, colliders=()) -> dict:
+    """The sunlight's values of both ``u_material`` structs (``uniform_layouts.SUNLIGHT_VECTORS``
+    with ``light_direction`` and ``shadows``; ``shaders/sunlight.wgsl``), the same for both engines.
+
+    Args:
+        params: a :class:`~grasswidget.core.params.GrassParams`: ``shadows`` (1.0 / 0.0), the sun
+            (:func:`sun_direction`).
+        blades: the field's :class:`~grasswidget.core.blades.Blades`, or its :func:`grass_layer`
+            (the rectangle, leaf area and height:
+            :func:`grasswidget.core.reference.grass_optical_depths`), or None (no grass shadow).
+        colliders: the sphere colliders (anything :func:`grasswidget.core.colliders.collider_array`
+            takes); the first :data:`~grasswidget.core.reference.MAX_SHADOW_BALLS` cast shadows.
+    """
+    sun = sun_direction(params)
+    layer = blades if isinstance(blades, dict) else grass_layer(blades)
+    balls = np.zeros((MAX_SHADOW_BALLS, 4), np.float64)
+    spheres = collider_array(colliders)[:MAX_SHADOW_BALLS]
+    balls[: len(spheres)] = spheres
+    sun_depth, sky_depth = grass_optical_depths(layer["leaf_area_index"], layer["height"], sun[1])
+    return {"light_direction": (*sun, 0.0), "shadow_balls": balls, "shadow_field": tuple(layer["field"]),
+            "shadow_depths": (sun_depth, sky_depth, layer["height"], FIELD_EDGE),
+            "shadows": float(bool(params.shadows))}
+
+
+def ground_sun(sun_y: float) -> float:
+    """The ground's sunlit share for a sun whose unit direction has height ``sun_y``, relative to the
+    default sun's (the ground's colours are lit by that one): 1 for the default sun."""
+    ratio = float(sun_y) / _DEFAULT_SUN_Y
+    return 1.0 if abs(ratio - 1.0) < 1e-6 else ratio
 
 
 def look_values(params) -> dict:
@@ -433,14 +496,17 @@ def look_values(params) -> dict:
     return {name: float(getattr(params, name)) for name in LOOK_TRAITS}
 
 
-def material_values(params, **material) -> dict:
+def material_values(params, blades=None, colliders=(), **material) -> dict:
     """The blade material's ``u_material`` values (``uniform_layouts.GRASS_MATERIAL_LAYOUT``):
-    :data:`MATERIAL_DEFAULTS` with ``material``'s overrides (same keys), the looks from
-    :func:`look_values`, the ribbon shape from ``params.blade_shape``, opacity 1."""
+    :data:`MATERIAL_DEFAULTS` with ``material``'s overrides (same keys; the light is the params'
+    sun, :func:`sun_direction`, unless ``light_direction`` is given), the looks from
+    :func:`look_values`, the ribbon shape from ``params.blade_shape``, opacity 1, and the
+    sunlight of ``blades`` and ``colliders`` (:func:`sunlight_values`)."""
     unknown = set(material) - set(MATERIAL_DEFAULTS)
     if unknown:
         raise GrassValueError(f"material_values takes {', '.join(MATERIAL_DEFAULTS)}; got {sorted(unknown)}")
-    m = dict(MATERIAL_DEFAULTS, **material)
+    m = {**MATERIAL_DEFAULTS, "light_direction": sun_direction(params), **material}
+    sunlight = sunlight_values(params, blades, colliders)
     light = np.asarray(m["light_direction"], np.float64).reshape(3)
     norm = float(np.linalg.norm(light))
     if not (np.all(np.isfinite(light)) and norm > 0):
@@ -456,15 +522,17 @@ def material_values(params, **material) -> dict:
         "ambient": float(m["ambient"]),
         "tip_threshold": float(m["tip_threshold"]),
         "blade_shape": int(BladeShape.from_label(params.blade_shape)),
+        **{k: v for k, v in sunlight.items() if k != "light_direction"},
     }
 
 
-def scene_style(blades, far, params=None) -> dict:
-    """Sky, ground and collider-ball style: :func:`sky_ground_values` (lists) plus
-    ``ball_color`` (r, g, b, opacity) and ``light_direction`` (x, y, z, towards the sun)."""
-    style = {k: (list(v) if isinstance(v, tuple) else v) for k, v in sky_ground_values(blades, far, params).items()}
+def scene_style(blades, far, params=None, colliders=()) -> dict:
+    """Sky, ground and collider-ball style: :func:`sky_ground_values` (lists; the shadows of
+    ``colliders``) plus ``ball_color`` (r, g, b, opacity); ``light_direction`` (x, y, z, 0: the
+    unit direction towards the params' sun) lights the balls too."""
+    values = sky_ground_values(blades, far, params, colliders=colliders)
+    style = {k: (np.asarray(v).tolist() if isinstance(v, (tuple, np.ndarray)) else v) for k, v in values.items()}
     style["ball_color"] = list(srgb(BALL_COLOR, BALL_OPACITY))
-    style["light_direction"] = list(LIGHT_DIRECTION)
     return style
 
 

@@ -19,7 +19,7 @@ from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
 __all__ = [
-    "GrassParams", "LOOK_TRAITS", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "GrassParams", "LOOK_TRAITS", "SUN_TRAITS", "DEFAULT_SUN_DIRECTION", "sunlight_defaults", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
     "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
 ]
 
@@ -34,6 +34,21 @@ COLOR_BY = ColorBy.labels()
 
 #: The traits that change only how the meadow looks (blade colour, fog), not the physics.
 LOOK_TRAITS = ("color_variation", "patch_size", "dryness", "translucency", "fog_density")
+#: The traits of the sunlight (drawing only): the shadows' switch and the sun's direction.
+SUN_TRAITS = ("shadows", "sun_elevation", "sun_azimuth")
+#: Direction towards the sun of the default params (world space, not normalized): elevation
+#: 63.4 degrees, azimuth 36.9 degrees (``core.frame_data.LIGHT_DIRECTION``).
+DEFAULT_SUN_DIRECTION = (4.0, 10.0, 3.0)
+_SUN_ELEVATION = math.degrees(math.atan2(DEFAULT_SUN_DIRECTION[1], math.hypot(DEFAULT_SUN_DIRECTION[0], DEFAULT_SUN_DIRECTION[2])))
+_SUN_AZIMUTH = math.degrees(math.atan2(DEFAULT_SUN_DIRECTION[2], DEFAULT_SUN_DIRECTION[0]))
+
+
+def sunlight_defaults(cpu_adapter: bool) -> dict:
+    """The sunlight's defaults on an adapter (GrassScene, GrassWidget): ``shadows`` on where it is
+    affordable, a GPU adapter; off on a CPU adapter (lavapipe, SwiftShader), where every pixel of
+    grass and ground pays for it (benchmarks/sunlight_cost_lavapipe.json: 1.03-1.09x the live
+    view's frame) and the far grass of the meadow to the horizon spends the CPU view's budget."""
+    return {"shadows": not bool(cpu_adapter)}
 
 
 class RangedFloat(traitlets.Float):
@@ -217,6 +232,9 @@ class GrassParams(StrictTraits):
     patch_size = RangedFloat(3.0, 0.1, 100.0, "m", help="Size of the meadow's colour patches (clumps of lighter, darker, drier grass).").tag(sync=True)
     dryness = RangedFloat(0.1, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
     translucency = RangedFloat(0.6, 0.0, 1.0, help="How much the tips light up when the sun is behind them (light through the blade): 0 not at all, 1 strongly.").tag(sync=True)
+    shadows = Bool(False, help="Sunlight with shadows: the balls' shadows on grass and ground, the grass' shadow on the ground beside it and on itself (the blades as a layer that lets exp(-depth) of the light through, depth from their leaf area per m^2 and the sun's height), and the roots darkened by the grass above them, more where the field is denser. Both engines. Off by default in GrassParams (a CPU adapter pays for it in every pixel of grass and ground); GrassScene and GrassWidget turn it on where it is affordable (grasswidget.gpu.scene.adapter_params). Off: the picture without shadows.").tag(sync=True)
+    sun_elevation = RangedFloat(_SUN_ELEVATION, 5.0, 90.0, "degrees", help="The sun's height above the horizon: 90 straight up; lower suns cast longer shadows. Lights the blades, the ground and the balls in both engines.").tag(sync=True)
+    sun_azimuth = RangedFloat(_SUN_AZIMUTH, -360.0, 360.0, "degrees", help="Where the sun stands in the ground plane, seen from the field: 0 = towards +x, 90 = towards +z (as wind_direction).").tag(sync=True)
     fog_density = RangedFloat(0.005, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
 
     # ---- time -----------------------------------------------------------------

@@ -131,6 +131,7 @@ def template_vars() -> dict:
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
                             LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
                             RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
+    from .reference.sunlight import BALL_PENUMBRA, GROUND_AMBIENT, MAX_SHADOW_BALLS, SKY_FLOOR, SUN_MIN_Y, TRANSMITTANCE_TAPS
 
     return {
         **WindField.template_vars("wind_field"),
@@ -158,6 +159,12 @@ def template_vars() -> dict:
         "occlusion_pieces": int(OCCLUSION_PIECES),
         "raster_max_samples": wgsl_float(RASTER_MAX_SAMPLES),
         "raster_max_across": wgsl_float(RASTER_MAX_ACROSS),
+        "sun_min_y": wgsl_float(SUN_MIN_Y),
+        "sky_floor": wgsl_float(SKY_FLOOR),
+        "ground_ambient": wgsl_float(GROUND_AMBIENT),
+        "ball_penumbra": wgsl_float(BALL_PENUMBRA),
+        "transmittance_taps": int(TRANSMITTANCE_TAPS),
+        "max_shadow_balls": int(MAX_SHADOW_BALLS),
         "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "user_wind_body": NO_WIND_BODY,

@@ -21,8 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import GrassValueError
+from .reference.sunlight import MAX_SHADOW_BALLS
 
-__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
+__all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "SUNLIGHT_VECTORS", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
            "wgsl_shadertype", "offsets",
            "struct_size", "pack", "layout_description", "write_values", "wgsl_struct"]
 
@@ -77,6 +78,15 @@ CULL_LAYOUT = (
     ("raster_tip_threshold", "f32"),      # GrassMaterial.tip_threshold
 )
 
+#: The sunlight's vector fields of both ``u_material`` structs (the blades' and the sky/ground's),
+#: read by ``shaders/sunlight.wgsl`` with ``light_direction`` and ``shadows`` (values:
+#: ``frame_data.sunlight_values``).
+SUNLIGHT_VECTORS = (
+    ("shadow_balls", f"array<vec4<f32>, {MAX_SHADOW_BALLS}>"),  # the first reference.MAX_SHADOW_BALLS colliders (x, y, z, r; r 0 unused)
+    ("shadow_field", "vec4<f32>"),        # the field's rectangle for the grass' shadow: xy centre (x, z), zw half sizes (m)
+    ("shadow_depths", "vec4<f32>"),       # sun's, sky's optical depth per m of grass, layer height (m), soft edge (m)
+)
+
 #: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it;
 #: values: ``frame_data.sky_ground_values``).
 SKY_GROUND_LAYOUT = (
@@ -86,11 +96,15 @@ SKY_GROUND_LAYOUT = (
     ("beyond_color", "vec4<f32>"),        # sRGB 0..1: the ground beyond the field
     ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
     ("field", "vec4<f32>"),               # the field's rectangle: xy centre (x, z), zw half sizes (m)
+    ("light_direction", "vec4<f32>"),     # unit vector towards the sun (xyz; GrassParams.sun_elevation, sun_azimuth)
+    *SUNLIGHT_VECTORS,
     ("show_ground", "i32"),               # 0/1
     ("far_distance", "f32"),              # the camera's far plane (m): the ground fades into the horizon from 0.6 of it
     ("fog_density", "f32"),               # GrassParams.fog_density (1/m, 0 = no fog)
     ("cover", "f32"),                     # how much the grass shades its soil, 0..1 (reference.ground_cover)
     ("field_edge", "f32"),                # width of the soft edge between soil and ground beyond (m)
+    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (sunlight.wgsl)
+    ("ground_sun", "f32"),                # the ground's sunlit share relative to the default sun (sun height ratio)
 )
 
 #: ``u_material`` of ``shaders/blade_render.wgsl``: the grass material (kernel:
@@ -101,6 +115,7 @@ GRASS_MATERIAL_LAYOUT = (
     ("tip_color", "vec4<f32>"),           # sRGB 0..1, blade tip
     ("light_direction", "vec4<f32>"),     # unit vector towards the light (xyz)
     ("fog_color", "vec4<f32>"),           # sRGB 0..1: far blades fade to it (the sky's horizon colour)
+    *SUNLIGHT_VECTORS,
     ("opacity", "f32"),                   # pygfx Material.opacity (1)
     ("alpha_test", "f32"),                # pygfx Material.alpha_test (0, unused)
     ("color_variation", "f32"),           # GrassParams.color_variation (0..1)
@@ -111,6 +126,7 @@ GRASS_MATERIAL_LAYOUT = (
     ("ambient", "f32"),                   # ambient light share (0..1)
     ("tip_threshold", "f32"),             # tau of the triangle-tip shape (0..0.99)
     ("blade_shape", "i32"),               # enums.BladeShape
+    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (sunlight.wgsl)
 )
 
 #: ``u_inspect``: the blade inspector's ids (inspect.wgsl): up to ``teaching.MAX_INSPECTED`` (64)

@@ -21,10 +21,12 @@ from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_f
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
 from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
+from ..core.frame_data import grass_layer, sunlight_values
 from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
 from .compute import destroy_buffers, sync_buffer
+from .draw_bundles import DrawBundle
 from ..core.teaching import FrozenView
 from .frozen_camera import FrozenCamera, frustum_line
 from .material import GrassMaterial
@@ -177,6 +179,9 @@ class GrassField(gfx.WorldObject):
             np.zeros(n, np.float32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
         )
         self._colliders = ColliderList()
+        # What the sunlight needs of the blades (their rectangle, leaf area, height: O(N), once).
+        self._grass_layer = grass_layer(blades)
+        self._sunlight_written = None
         if material is not None and self.material.blade_shape != self.params.blade_shape and self.params.blade_shape == "triangle-tip":
             self.params.blade_shape = self.material.blade_shape  # keep a material's explicit shape
         else:
@@ -187,6 +192,9 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
         self.stats = None
+        #: The blade draws (one per LOD class and the culled blades), replayed from a render
+        #: bundle (:mod:`grasswidget.gpu.draw_bundles`).
+        self.blade_draw_bundle = DrawBundle(N_CLASSES + 1)
         #: Occlusion culling's pyramid, second phase and draws (see :mod:`grasswidget.gpu.occlusion`).
         self.occlusion = OcclusionCulling(self)
         self._write_cull_uniform()
@@ -302,6 +310,7 @@ class GrassField(gfx.WorldObject):
     # ------------------------------------------------------------------ params
 
     def _on_params_change(self, change):
+        self.simulation.forget_uniform_values()
         if change["name"].startswith("cull_") or change["name"] in ("lod", "color_by", "compute_raster_max_px"):
             self._write_cull_uniform()
             self._store.flat_colors = self.params.color_by != "natural"
@@ -401,6 +410,24 @@ class GrassField(gfx.WorldObject):
         if any(data[k] != v for k, v in values.items()):
             write_values(data, values)
             self.cull_uniform_buffer.update_full()
+
+    def sunlight_values(self) -> dict:
+        """The sunlight's values of this field's material now (``core.frame_data.sunlight_values``
+        of the params, the blades and the colliders): what :meth:`prepare_sunlight` writes, and
+        what a sky and ground drawn with the field take (``SkyGroundMaterial.set_values``)."""
+        return sunlight_values(self.params, self._grass_layer, self._colliders)
+
+    def prepare_sunlight(self) -> dict:
+        """Write the sunlight (``params.shadows``, the sun's direction, the balls' shadows: the
+        first ``reference.MAX_SHADOW_BALLS`` colliders) into the material when it changed, and
+        return it (:meth:`sunlight_values`). :func:`grasswidget.gpu.render_frame` calls it before
+        every frame. The params' sun is the material's ``light_direction`` from then on."""
+        values = self.sunlight_values()
+        key = tuple(np.asarray(v, np.float64).tobytes() for v in values.values())
+        if key != self._sunlight_written:
+            self.material.set_sunlight(values)
+            self._sunlight_written = key
+        return values
 
     def read_raster_count(self) -> int:
         """Blades the compute rasterizer drew in the last render (both occlusion phases; synchronous)."""

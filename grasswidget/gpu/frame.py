@@ -3,9 +3,10 @@
 ``GrassScene.render``, the widget's kernel view and the exports all draw through it. It is a
 plain ``renderer.render(scene, camera)`` unless a visible GrassField has occlusion culling on;
 then the frame runs in the phases of :mod:`grasswidget.gpu.occlusion` (the first phase inside
-``render()``, the depth pyramid and the second culling phase outside it, the second draws, then
-the translucent ``late`` objects). Every visible GrassField is first set up for the renderer's
-size (``GrassField.prepare_compute_raster``).
+``render()``, the depth pyramid, the second culling phase and its draws outside it in one
+submission, then the translucent ``late`` objects): one ``render()`` call, two with late
+objects. Every visible GrassField is first set up for the renderer's size
+(``GrassField.prepare_compute_raster``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import pygfx as gfx
 
 from ..errors import GrassValueError
 from .occlusion import OcclusionCulling
+from .sky_ground import SkyGround
 
 __all__ = ["render_frame"]
 
@@ -31,6 +33,18 @@ def _draws_something(ob) -> bool:
     return any(o.material is not None for o in ob.iter(skip_invisible=True))
 
 
+def _prepare_sunlight(scene, fields):
+    """Each visible GrassField's sunlight into its material; the first one's into every visible
+    sky and ground of the scene (its balls' and grass' shadows on the ground)."""
+    values = [field.prepare_sunlight() for field in fields]
+    if not values:
+        return
+    grounds = []
+    scene.traverse(lambda ob: grounds.append(ob) if isinstance(ob, SkyGround) else None, skip_invisible=True)
+    for ob in grounds:
+        ob.material.set_sunlight(values[0])
+
+
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
@@ -42,11 +56,13 @@ def render_frame(renderer, scene, camera, late=()):
 
     Every visible GrassField is first set up for the renderer's size
     (``GrassField.prepare_compute_raster``: the compute rasterizer of thin blades
-    when ``params.compute_raster`` is on).
+    when ``params.compute_raster`` is on) and gets its sunlight (``GrassField.prepare_sunlight``:
+    the sun, ``params.shadows``, the balls), which every visible SkyGround takes from the first.
     """
     all_fields = _fields(scene)
     for field in all_fields:
         field.prepare_compute_raster(renderer.physical_size)
+    _prepare_sunlight(scene, all_fields)
     fields = [f for f in all_fields if f.params.cull_occlusion]
     if not fields:
         renderer.render(scene, camera)
@@ -64,20 +80,16 @@ def render_frame(renderer, scene, camera, late=()):
             ob.visible = False
         for field in fields:
             field.occlusion.arm(1)
+            field.occlusion.draws.defer_draws()  # prepared by this render, drawn by second_phase
         renderer.render(scene, camera, clear=True, flush=False)
     finally:
         for ob in late:
             ob.visible = True
         for field in fields:
             field.occlusion.arm(0)
+            field.occlusion.draws.stop_deferring()
     for field in fields:
-        if field.occlusion.second_phase(renderer):
-            draws = field.occlusion.draws
-            draws.visible = True
-            try:
-                renderer.render(draws, camera, clear=False, flush=False)
-            finally:
-                draws.visible = False
+        field.occlusion.second_phase(renderer)
     if late:
         hidden = [ob for ob in scene.children if ob not in late and not isinstance(ob, gfx.Light) and ob.visible]
         try:

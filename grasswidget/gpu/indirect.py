@@ -7,8 +7,12 @@ Buffer with usage INDIRECT) and ``indirect_offset`` (bytes), the draw becomes
 same for ``ComputePipelineContainer.dispatch()``: with ``indirect_args`` it becomes
 ``compute_pass.dispatch_workgroups_indirect(buffer, offset)`` (the compute
 rasterizer's walks, sized on the GPU). The subclasses are installed as the module
-globals that pygfx's pipeline module instantiates. tests/test_compat.py (the engine internals) and tests/gpu/test_culling.py (the live patch)
-fail loudly if an upgrade breaks it.
+globals that pygfx's pipeline module instantiates. A shader with a ``defer_draw(container, renderstate)`` method that returns
+True draws nothing now (the occlusion culling's second-phase draws, replayed by
+:meth:`grasswidget.gpu.occlusion.OcclusionCulling.second_phase`); one with a ``draw_bundle()``
+method that returns a :class:`~grasswidget.gpu.draw_bundles.DrawBundle` hands its draw to it
+(the blade draws of an object, replayed from a render bundle). tests/test_compat.py (the
+engine internals) and tests/gpu/test_culling.py (the live patch) fail loudly if an upgrade breaks it.
 """
 
 from __future__ import annotations
@@ -32,9 +36,17 @@ class IndirectRenderPipelineContainer(_Original):
     """A RenderPipelineContainer that can issue ``draw_indirect``."""
 
     def draw(self, render_pass, renderstate):
+        defer = getattr(self.shader, "defer_draw", None)  # the occlusion draws: replayed after the second phase
+        if defer is not None and defer(self, renderstate):
+            return
         args = getattr(self.shader, "indirect_args", None)
         if args is None:
             return super().draw(render_pass, renderstate)
+        bundle = getattr(self.shader, "draw_bundle", None)  # the blade draws: one render bundle per object
+        bundle = bundle() if bundle is not None else None
+        if bundle is not None:
+            bundle.add(self, render_pass, renderstate)
+            return
         if self.broken:
             return
         render_pass.set_pipeline(self.wgpu_pipeline)

@@ -37,7 +37,9 @@ class GrassMaterial(gfx.Material):
     from behind), ``fog_density`` (1/m) and ``fog_color`` (sRGB), ``ambient``
     (0..1), ``light_direction`` (towards the light, world space),
     ``blade_shape`` (one of quad, triangle, quadratic, triangle-tip, fold) and
-    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99).
+    ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99). The sunlight's uniforms
+    (``set_sunlight``) are written by the field it draws before every frame
+    (``GrassField.prepare_sunlight``), ``light_direction`` with them: the params' sun.
     """
 
     #: pygfx's material uniforms plus ``uniform_layouts.GRASS_MATERIAL_LAYOUT`` (the browser
@@ -74,6 +76,19 @@ class GrassMaterial(gfx.Material):
         self.light_direction = light_direction
         self.blade_shape = blade_shape
         self.tip_threshold = tip_threshold
+
+    def set_sunlight(self, values: dict):
+        """Write the sunlight's values (``core.frame_data.sunlight_values``: ``light_direction``,
+        ``shadow_balls``, ``shadow_field``, ``shadow_depths``, ``shadows``) as they are;
+        ``GrassField.prepare_sunlight`` does it before every frame."""
+        names = {"light_direction", "shadow_balls", "shadow_field", "shadow_depths", "shadows"}
+        unknown = set(values) - names
+        if unknown:
+            raise GrassValueError(f"set_sunlight takes {', '.join(sorted(names))}; got {sorted(unknown)}")
+        data = self.uniform_buffer.data
+        for key, value in values.items():
+            data[key] = value
+        self.uniform_buffer.update_full()
 
     def _set(self, key, value):
         self.uniform_buffer.data[key] = value

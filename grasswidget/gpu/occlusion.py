@@ -41,12 +41,16 @@ import wgpu
 
 from .. import compat
 from ..errors import GrassValueError
-from ..core.reference import HZB_MAX_LEVELS, hzb_layout
+from ..core.reference import HZB_MAX_LEVELS, LOD_SEGMENTS, hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
+from .draw_bundles import DrawBundle
 from .wgsl_templates import workgroups
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "MAX_HZB_LEVELS", "register_second_phase_shaders"]
+
+#: Blade draws per object and render: one per LOD class, one of the culled blades.
+N_CLASSES = len(LOD_SEGMENTS)
 
 #: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
 MAX_HZB_LEVELS = HZB_MAX_LEVELS
@@ -68,17 +72,50 @@ def register_second_phase_shaders(*, cull, hzb_level, raster) -> None:
 
 class OcclusionDraws(gfx.WorldObject):
     """The second occlusion phase's draws of a GrassField: a child of the field (same
-    transform, same material), hidden except while :func:`~grasswidget.gpu.frame.render_frame` renders it."""
+    transform, same material), hidden except during the first phase's render of
+    :func:`~grasswidget.gpu.frame.render_frame`.
+
+    There pygfx prepares them with the rest of the scene (transform uniforms, pipelines for
+    that render's lights, pending uploads) but they draw nothing: each pipeline container's
+    draw is handed to :meth:`defer` instead, and :meth:`OcclusionCulling.second_phase` replays
+    them after the pyramid and the second culling pass, in the same command encoder and
+    submission (no second ``renderer.render()`` call: it cost about 1 ms of host work a frame).
+    """
 
     def __init__(self, field):
         super().__init__(field.geometry, field.material)
         self._field_ref = weakref.ref(field)
         self.visible = False
+        self._deferred = None  # (pipeline container, renderstate) pairs while deferring, else None
+        #: The blade draws of the second phase, replayed from a render bundle (gpu/draw_bundles.py).
+        self.blade_draw_bundle = DrawBundle(N_CLASSES + 1)
 
     @property
     def field(self):
         """The GrassField whose blades these draws show."""
         return self._field_ref()
+
+    def defer_draws(self):
+        """Make the draws visible for the next render and collect their draw calls instead of drawing."""
+        self._deferred = []
+        self.visible = True
+
+    def stop_deferring(self):
+        """Hide the draws again (the collected calls stay for :meth:`take_deferred`)."""
+        self.visible = False
+
+    def defer(self, container, renderstate) -> bool:
+        """Called by a pipeline container's draw (gpu/indirect.py): True (and the call kept)
+        while deferring, False otherwise (then the container draws as usual)."""
+        if self._deferred is None or not self.visible:
+            return False
+        self._deferred.append((container, renderstate))
+        return True
+
+    def take_deferred(self) -> list:
+        """The collected (pipeline container, renderstate) pairs, and stop collecting."""
+        deferred, self._deferred = self._deferred or [], None
+        return deferred
 
 
 class OcclusionCulling:
@@ -176,8 +213,11 @@ class OcclusionCulling:
         return self._level_programs, self._cull_programs
 
     def second_phase(self, renderer) -> bool:
-        """Build the pyramid from ``renderer``'s depth buffer and run the second
-        culling phase (one submission). False when the renderer has no depth yet."""
+        """Build the pyramid from ``renderer``'s depth buffer, run the second culling phase
+        and draw its blades (the draws :attr:`draws` deferred in the first phase's render,
+        in a render pass on ``renderer``'s targets), all in one submission. False when the
+        renderer has no depth yet (nothing done)."""
+        deferred = self.draws.take_deferred()
         depth = compat.renderer_depth_texture(renderer)
         if depth is None:
             return False
@@ -202,6 +242,11 @@ class OcclusionCulling:
             raster_depth.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
             raster_payload.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
         cp.end()
+        if deferred:
+            render_pass = compat.begin_target_render_pass(renderer, enc, self.draws.material.alpha_method)
+            for container, renderstate in deferred:
+                container.draw(render_pass, renderstate)
+            render_pass.end()
         device.queue.submit([enc.finish()])
         return True
 

@@ -13,6 +13,7 @@ import time
 import numpy as np
 import pygfx as gfx
 
+from .. import compat
 from ..core.blades import Blades
 from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
@@ -21,10 +22,10 @@ from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .frame import render_frame
 from ..core import frame_data
 from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
-from ..core.frame_data import LIGHT_DIRECTION, ground_square, sky_ground_values
+from ..core.frame_data import ground_square, sky_ground_values, sun_direction
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
-from ..core.params import GrassParams
+from ..core.params import GrassParams, sunlight_defaults
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
            "EXPORT_SUPERSAMPLE", "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
@@ -46,9 +47,11 @@ def adapter_params(**values) -> GrassParams:
     """GrassParams with this adapter's defaults for what GrassScene makes itself: the
     compute rasterizer of thin blades on a GPU adapter (``compute_raster`` True,
     ``compute_raster_max_px`` :data:`GPU_COMPUTE_RASTER_MAX_PX`), off on a CPU adapter
-    (lavapipe, where it is slower); ``values`` set any params besides."""
+    (lavapipe, where it is slower), and the sunlight's shadows on a GPU adapter, off on a CPU
+    adapter (:func:`grasswidget.core.params.sunlight_defaults`); ``values`` set any params besides."""
     gpu = not is_cpu_adapter()
     defaults = dict(compute_raster=True, compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
+    defaults.update(sunlight_defaults(cpu_adapter=not gpu))  # shadows where affordable (a GPU)
     return GrassParams(**{**defaults, **values})
 
 
@@ -130,10 +133,13 @@ class GrassScene:
         self.collider_balls = ColliderBalls(self.field)
         self.scene.add(self.collider_balls)
         self.scene.add(gfx.AmbientLight(intensity=0.6))
-        sun = gfx.DirectionalLight(intensity=2.0)
-        sun.local.position = LIGHT_DIRECTION  # core.frame_data's, both engines
+        # A pygfx DirectionalLight that skips pygfx's per-render re-aiming while it stands
+        # still (compat.still_directional_light_class: 0.6 ms of host work a frame on lavapipe's host).
+        sun = compat.still_directional_light_class()(intensity=2.0)
         self.scene.add(sun)
         self.light = sun
+        self._aim_sun()  # the params' sun (core.frame_data.sun_direction), both engines
+        self.params.observe(self._aim_sun, names=["sun_elevation", "sun_azimuth"])
 
         self.camera = gfx.PerspectiveCamera(DEFAULT_FOV_DEG, self.size[0] / self.size[1],
                                             depth_range=(DEFAULT_NEAR, DEFAULT_FAR))
@@ -202,6 +208,10 @@ class GrassScene:
         far = float(self.camera.depth_range[1]) if self.camera.depth_range else None
         self.sky_ground.material.set_values(sky_ground_values(self.field.blades, far, self.params,
                                                               show_ground=self.ground.visible))
+
+    def _aim_sun(self, change=None):
+        """The scene's light (it lights the balls) from the params' sun."""
+        self.light.local.position = tuple(10.0 * x for x in sun_direction(self.params))
 
     def look(self, position=None, target=None, fov_deg=None):
         """Aim the camera: from ``position`` at ``target`` (metres, world space) with a

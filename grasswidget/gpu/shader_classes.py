@@ -33,7 +33,8 @@ arms steps 2-4 as its first phase (only blades seen last frame), then runs the
 pyramid (``HzbLevelShader``) and the second phase (``CullShader("scatter", occlusion=2)``,
 one pass without distance bands)
 outside render(), and draws with ``occlusion_render_function`` (the field's
-:class:`~grasswidget.gpu.occlusion.OcclusionDraws` child) in a second render().
+:class:`~grasswidget.gpu.occlusion.OcclusionDraws` child: prepared by pygfx in the first
+render, where their draws are deferred, and replayed in the second phase's submission).
 
 The simulation's shader (``SimulateShader``) lives in :mod:`.simulation`: it is
 dispatched by ``GrassField.step()``, never by ``render()``.
@@ -66,6 +67,11 @@ __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader
 U_CULL_SLOT = 2
 #: Its WGSL declaration (struct ``CullParams`` of ``uniform_layouts.CULL_LAYOUT``).
 U_CULL_CODE = storage_struct_code(0, U_CULL_SLOT, "u_cull", "CullParams", CULL_LAYOUT)
+
+
+def _defer(draws_ref, container, renderstate) -> bool:
+    draws = draws_ref() if draws_ref is not None else None
+    return draws is not None and draws.defer(container, renderstate)
 
 
 def cull_binding(wobject, visibility):
@@ -201,8 +207,18 @@ class BladeRenderShader(BaseShader):
             self.indirect_args = field.occlusion_args_buffer if second else field.args_buffer
         self.indirect_offset = 0 if culled else 16 * lod_class
         self._field = weakref.ref(field)
+        self._draws = weakref.ref(wobject) if second else None
         self._when = ("before",) if lod_class == 0 and not second else ()
         self._when += ("after",) if culled else ()
+
+    def defer_draw(self, container, renderstate) -> bool:
+        """The second phase's draws are deferred during the first phase's render (OcclusionDraws.defer)."""
+        return _defer(self._draws, container, renderstate)
+
+    def draw_bundle(self):
+        """The :class:`~grasswidget.gpu.draw_bundles.DrawBundle` this draw goes through (its object's)."""
+        owner = self._draws() if self._draws is not None else self._field()
+        return getattr(owner, "blade_draw_bundle", None)
 
     def draw_hook(self, render_pass, when):
         """GPU timestamps around the field's draws (first class: begin, last: end)."""
@@ -302,6 +318,11 @@ class RasterResolveShader(BaseShader):
         field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
         super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors))
         self._field = weakref.ref(field)
+        self._draws = weakref.ref(wobject) if field is not wobject else None
+
+    def defer_draw(self, container, renderstate) -> bool:
+        """The second phase's resolve is deferred during the first phase's render (OcclusionDraws.defer)."""
+        return _defer(self._draws, container, renderstate)
 
     def get_bindings(self, wobject, shared, scene):
         rbuffer = "buffer/read_only_storage"

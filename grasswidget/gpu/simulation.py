@@ -115,6 +115,8 @@ class Simulation:
         self.wind_body = None
         self._program = None
         self._reverting_wind = False
+        self._values = None  # the u_sim values but steps and time0 (uniform_values), and what they came from
+        self._values_key = None
 
     # ------------------------------------------------------------------ program
 
@@ -157,10 +159,22 @@ class Simulation:
 
     def uniform_values(self, steps=0, time0=0.0) -> dict:
         """The ``u_sim`` values for a dispatch of ``steps`` steps from ``time0`` s
-        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix)."""
+        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix).
+
+        The values other than ``steps`` and ``time0`` are worked out again only when the params
+        changed (:meth:`forget_uniform_values`, called by the field's params observer), the field
+        moved or the number of colliders changed (about 0.2 ms of host work a step otherwise)."""
         field = self.field
-        return sim_uniform_values(field.params, field.count, field.colliders, world_matrix=field.world.matrix,
-                                  steps=steps, time0=time0)
+        key = (field.world.last_modified, field.colliders.count, field.count)
+        if self._values is None or key != self._values_key:
+            self._values = sim_uniform_values(field.params, field.count, field.colliders,
+                                              world_matrix=field.world.matrix)
+            self._values_key = key
+        return {**self._values, "steps": int(steps), "time0": float(time0)}
+
+    def forget_uniform_values(self):
+        """Work the ``u_sim`` values out again at the next dispatch (the params changed)."""
+        self._values = None
 
     def write_uniform(self, steps, time0):
         """Fill ``u_sim`` from the params and colliders for a dispatch of ``steps`` steps from ``time0`` s."""

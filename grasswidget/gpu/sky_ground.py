@@ -23,7 +23,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR
+from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR, ground_sun
 from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
@@ -56,6 +56,7 @@ class SkyGroundMaterial(gfx.Material):
                  beyond_color=BEYOND_COLOR, ground_center=(0.0, 0.0, 0.0), ground_half_size=10.0,
                  far_distance=100.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
+        self._sunlight_seen = None  # (values, uniform bytes) of the last set_sunlight
         data = self.uniform_buffer.data
         for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
                             ("soil_color", soil_color), ("beyond_color", beyond_color)):
@@ -103,6 +104,21 @@ class SkyGroundMaterial(gfx.Material):
         d["field"] = (float(center_xz[0]), float(center_xz[1]), float(half_xz[0]), float(half_xz[1]))
         d["cover"], d["field_edge"] = cover, edge
         self.uniform_buffer.update_full()
+
+    def set_sunlight(self, values: dict):
+        """The sunlight of the field it is drawn with (``GrassField.sunlight_values``: the sun, the
+        shadows' switch, the balls, the grass layer), with the ground's sunlit share for that sun;
+        written only when it changed. Called every frame: the same values onto the same uniforms
+        as last time return at once (a comparison of their bytes; 0.1 ms a frame otherwise)."""
+        seen = (tuple(np.asarray(v, np.float64).tobytes() for v in values.values()), self.uniform_buffer.data.tobytes())
+        if seen == self._sunlight_seen:
+            return
+        values = dict(values, ground_sun=ground_sun(values["light_direction"][1]))
+        data = self.uniform_buffer.data
+        if not all(np.array_equal(np.asarray(data[k], np.float32), np.asarray(v, np.float32))
+                   for k, v in values.items()):
+            self.set_values(values)
+        self._sunlight_seen = (seen[0], self.uniform_buffer.data.tobytes())
 
     @property
     def fog_density(self) -> float:

@@ -14,7 +14,8 @@ why (see :class:`~grasswidget.notebook.control_link.ControlLink`).
 
 Labels are words with units (:data:`LABELS`, :func:`control_label`), tooltips
 the traits' help and range. The "looks" row: colour variety, patch size, dry
-grass, sunlit tips and fog (:data:`LOOK_SLIDERS`). Under the view, a one-line
+grass, sunlit tips, fog, the sun's height and direction (:data:`LOOK_SLIDERS`) and the shadows'
+switch. Under the view, a one-line
 status (frames/s, blades drawn, real time or slow motion) and a "details" toggle
 for the frame's timings.
 
@@ -56,6 +57,8 @@ LOOK_SLIDERS = (
     ("dryness", 0.05, ".2f"),
     ("translucency", 0.05, ".2f"),
     ("fog_density", 0.001, ".3f"),
+    ("sun_elevation", 1.0, ".0f"),
+    ("sun_azimuth", 1.0, ".0f"),
 )
 
 #: What the panel calls each control, in words a student reads; the unit (from the
@@ -73,6 +76,9 @@ LABELS = {
     "color_variation": "colour variety",
     "patch_size": "patch size",
     "dryness": "dry grass",
+    "sun_elevation": "sun height",
+    "sun_azimuth": "sun direction",
+    "shadows": "shadows",
     "translucency": "sunlit tips",
     "fog_density": "fog",
     "color_by": "colour by",
@@ -304,12 +310,21 @@ class ControlPanel:
             self._links.append(ControlLink(s, params, name, err))
         self.sliders["time_scale"] = ts = _slider("time_scale", playback, 0.05, ".2f", column)
         self._links.append(ControlLink(ts, playback, "time_scale", err))
-        #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog.
+        #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog,
+        #: the sun's height and direction.
         self.look_sliders = {}
         for name, step, fmt in LOOK_SLIDERS:
             if params.has_trait(name):
                 self.look_sliders[name] = s = _slider(name, params, step, fmt, column)
                 self._links.append(ControlLink(s, params, name, err))
+
+        #: The "looks" row's sunlight switch (GrassParams.shadows), or None for params without it.
+        self.shadows_checkbox = None
+        if params.has_trait("shadows"):
+            self.shadows_checkbox = ipw.Checkbox(value=params.shadows, description=control_label("shadows"),
+                                                 indent=False, tooltip=params.traits()["shadows"].help,
+                                                 layout=ipw.Layout(width="auto", margin="2px 12px 2px 2px"))
+            self._links.append(ControlLink(self.shadows_checkbox, params, "shadows", err))
 
         choices = tuple(getattr(params.traits()["wind_field"], "choices", None) or WIND_FIELDS)
         wf = params.traits()["wind_field"]
@@ -378,7 +393,8 @@ class ControlPanel:
         sliders = _wrapping_row(controls + [self.wind_field_dropdown])
         #: The "looks" row: a heading and the look sliders.
         self.looks_row = _wrapping_row([ipw.HTML("<b>looks</b>", layout=ipw.Layout(width="100%"))]
-                                       + list(self.look_sliders.values()))
+                                       + list(self.look_sliders.values())
+                                       + ([self.shadows_checkbox] if self.shadows_checkbox is not None else []))
         status = _wrapping_row([self.stats_line, self.details_button], justify_content="space-between")
         checkboxes = _wrapping_row(list(self.checkboxes.values()))
         buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,

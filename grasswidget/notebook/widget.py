@@ -72,7 +72,7 @@ from .camera_bar import CameraBar
 from .layout import PANEL_WIDTH, WidgetLayout
 from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
-from ..core.params import ChoiceTrait, GrassParams, RangedFloat
+from ..core.params import ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
 
@@ -282,7 +282,13 @@ class GrassWidget(ipw.VBox):
         self._blades = self._check_blades(blades)
         self._closed = False
         # A preset's own values (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them.
-        self.params = params if params is not None else GrassParams(**(preset_params(preset) if preset else {}))
+        # The sunlight's default follows the adapter that draws (core.params.sunlight_defaults): shadows
+        # on when the kernel renders on a GPU, or (below) when "auto" moves to a browser's GPU.
+        self._own_params = params is None
+        if params is None:
+            sun = sunlight_defaults(cpu_adapter=self._cpu is not False)
+            params = GrassParams(**{**sun, **(preset_params(preset) if preset else {})})
+        self.params = params
 
         try:
             if backend == "kernel":
@@ -860,6 +866,8 @@ class GrassWidget(ipw.VBox):
         try:
             if choice.engine == "browser" and self.view.backend != "browser":
                 self._replace_view(self._browser_view())
+                if self._own_params:  # the page's GPU draws now: the sunlight's GPU default
+                    self.params.shadows = sunlight_defaults(cpu_adapter=False)["shadows"]
         except Exception as err:  # noqa: BLE001 - never raise into the comm handler; the kernel view stays
             self._show_error(f"{choice.reason}; starting the browser engine failed ({err}): the kernel engine stays")
             return

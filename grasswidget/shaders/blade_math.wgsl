@@ -462,6 +462,58 @@ fn blade_shade(normal: vec3<f32>, to_eye: vec3<f32>, along: f32, base: vec3<f32>
     return mix(rgb, fog_color, fog);
 }
 
+// ---------------------------------------------------------------- sunlight (reference.sunlight)
+
+// How much of the sun (unit direction `sun`) point p sees past one ball (x, y, z, r), 0 (core of
+// its shadow) .. 1; r <= 0 (an unused slot) casts none. Soft edge: a penumbra of
+// BALL_PENUMBRA per metre between ball and point plus 5 % of the radius, faded out as the ball
+// moves behind the point.
+fn ball_shadow(p: vec3<f32>, sun: vec3<f32>, ball: vec4<f32>) -> f32 {
+    let to_c = ball.xyz - p;
+    let t = dot(to_c, sun);
+    let d = length(to_c - t * sun);
+    let w = max({{ ball_penumbra }} * max(t, 0.0) + 0.05 * ball.w, 1e-5);
+    let vis = clamp((d - ball.w) / (2.0 * w) + 0.5, 0.0, 1.0);
+    let ahead = clamp(t / max(ball.w, 1e-6) + 1.0, 0.0, 1.0);
+    return select(1.0 - (1.0 - vis) * ahead, 1.0, ball.w <= 0.0);
+}
+
+// The share of the sun's light reaching ground point (x, z) through height_above metres of the
+// grass layer: exp(-depth_per_m * height_above * f), f the share of the sun ray's way through
+// the layer that lies over the field's rectangle (c, half, edge: field_inside), sampled at
+// TRANSMITTANCE_TAPS points.
+fn grass_transmittance(x: f32, z: f32, height_above: f32, sun: vec3<f32>, c: vec2<f32>, half: vec2<f32>, edge: f32, depth_per_m: f32) -> f32 {
+    let h = max(height_above, 0.0);
+    let reach = sun.xz / max(sun.y, {{ sun_min_y }}) * h;
+    var inside = 0.0;
+    for (var tap = 0; tap < {{ transmittance_taps }}; tap++) {
+        let s = (f32(tap) + 0.5) / f32({{ transmittance_taps }});
+        inside += field_inside(x + s * reach.x, z + s * reach.y, c, half, edge);
+    }
+    return exp(-depth_per_m * h * inside / f32({{ transmittance_taps }}));
+}
+
+// The grass layer (layer_height m deep) above a blade's point at along (0 root .. 1 tip), as metres
+// of layer: (1 - along)^2 layer_height (blades narrow towards the tip: the leaf area above).
+fn grass_above(along: f32, layer_height: f32) -> f32 {
+    let a = 1.0 - clamp(along, 0.0, 1.0);
+    return a * a * layer_height;
+}
+
+// The share of the sky's light reaching ground point (x, z) under height_above metres of grass.
+fn sky_visibility(x: f32, z: f32, height_above: f32, c: vec2<f32>, half: vec2<f32>, edge: f32, depth_per_m: f32) -> f32 {
+    return exp(-depth_per_m * max(height_above, 0.0) * field_inside(x, z, c, half, edge));
+}
+
+// The factor of a surface's lit colour: the ambient share lit by the sky (at least SKY_FLOOR
+// of it), the rest by the sun times sun_scale; strength 0 gives 1 (no shadows).
+fn light_share(sun_visible: f32, sky_visible: f32, ambient: f32, sun_scale: f32, strength: f32) -> f32 {
+    let a = clamp(ambient, 0.0, 1.0);
+    let sky = {{ sky_floor }} + (1.0 - {{ sky_floor }}) * sky_visible;
+    let lit = a * sky + (1.0 - a) * sun_visible * sun_scale;
+    return 1.0 + (lit - 1.0) * strength;
+}
+
 // ---------------------------------------------------------------- compute rasterization
 
 // A clip-space point in pixels (x right, y down from the view's top-left corner) and

@@ -11,6 +11,7 @@
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+{$ include 'grasswidget.sunlight.wgsl' $}
 
 const SEGMENTS: u32 = {{ segments }}u;
 const LOD_CLASS: u32 = {{ lod_class }}u;
@@ -113,9 +114,11 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
     let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), varyings.along, u_material.translucency);
+    // The sunlight's shadows and darkened roots (sunlight.wgsl; (1, 1) with shadows off).
+    let sunlit = blade_sunlight(varyings.world_pos, varyings.along, u_material.ambient);
     // Two-sided diffuse and translucency, the tips' glow against the sun and the fog
     // (blade_math.blade_shade; base colour and fog from the vertices).
-    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.base_color, glow,
+    var rgb = blade_shade(varyings.normal, to_eye, varyings.along, varyings.base_color * sunlit.x, glow * sunlit.y,
                           varyings.fog, u_material.fog_color.rgb, u_material.light_direction.xyz,
                           u_material.ambient);
     $$ if teaching_views

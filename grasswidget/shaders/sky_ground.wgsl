@@ -6,10 +6,12 @@
 // rectangle `field`, darker the more the grass covers it), the ground beyond it
 // (flat colours: a noise here cost a third of a lavapipe frame), fading towards the horizon colour near
 // the far plane and with distance fog; else the sky, from the horizon colour up
-// to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks).
+// to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks). With
+// GrassParams.shadows the ground is lit past the balls and the grass (sunlight.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+{$ include 'grasswidget.sunlight.wgsl' $}
 
 struct VertexInput {
     @builtin(vertex_index) index : u32,
@@ -49,7 +51,8 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
             let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * vec4<f32>(hit, 1.0);
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
                 let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
-                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover);
+                // lit by the sun past the balls and the grass (sunlight.wgsl; 1 with shadows off)
+                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover) * ground_sunlight(hit, m.ground_sun);
                 let cam = u_stdinfo.cam_transform_inv[3].xyz;
                 let dist = length(hit - cam);
                 // the ground fades into the horizon over the last 40 % before the far plane

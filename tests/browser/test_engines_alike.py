@@ -8,6 +8,8 @@
   matches the NumPy twins in both; both pictures are written side by side (kernel left, browser right)
   to ``engines_side_by_side.png`` in ``$GW_ARTIFACTS_DIR`` (else the Lab root's
   ``artifacts`` folder).
+* The same with the sunlight on (GrassParams.shadows, a low sun, a ball's shadow):
+  ``sunlit_side_by_side.png``.
 * One simulation per widget: a widget displayed twice has one engine in the page
   with two views; while it plays and after it pauses, both canvases show the same
   meadow, and ``step`` / ``read_state`` have one answer.
@@ -92,6 +94,55 @@ scene.release()
 print('SAVED')
 """, timeout=180)
     assert "SAVED" in out.stdout, out
+
+
+#: The sunlight's comparison: shadows on, a low sun from the side and a ball in the field (hidden in
+#: both engines: the ball's own translucent drawing differs, its shadow must not).
+SUNLIGHT = {"shadows": True, "sun_elevation": 35.0, "sun_azimuth": -60.0}
+BALL = ((1.5, 1.5, 4.0), 1.5)
+
+
+def _save_both_engines_sunlit(page, out_dir):
+    """As :func:`_save_both_engines`, with the sunlight on and a ball, into ``sunlit_*.png``."""
+    out = kernel_execute(page, f"""
+import grasswidget as gw
+from grasswidget.gpu.scene import GrassScene
+for name, value in {SUNLIGHT!r}.items():
+    setattr(w.params, name, value)
+ew = w.view.engine_widget
+ew.show_colliders = False
+ew.colliders = [gw.SphereCollider(center={BALL[0]!r}, radius={BALL[1]!r})]
+w.reset_blades()
+w.step(90)
+w.save_png({os.path.join(out_dir, 'sunlit_browser.png')!r}, size={SIZE})
+scene = GrassScene(ew.blades, size={SIZE}, params=w.params.copy())
+scene.show_colliders = False
+scene.colliders = [gw.SphereCollider(center={BALL[0]!r}, radius={BALL[1]!r})]
+scene.step(90)
+scene.look(cam['position'], cam['target'], cam['fov_deg'])
+scene.save_png({os.path.join(out_dir, 'sunlit_kernel.png')!r})
+scene.release()
+print('SAVED')
+""", timeout=180)
+    assert "SAVED" in out.stdout, out
+
+
+def _compare_sunlit(out_dir):
+    """The two engines draw the sunlight alike (the balls' and the grass' shadows, the roots), and it
+    changes the picture (against the same view without it)."""
+    import imageio.v3 as iio
+
+    browser = iio.imread(os.path.join(out_dir, "sunlit_browser.png"))[..., :3].astype(int)
+    kernel = iio.imread(os.path.join(out_dir, "sunlit_kernel.png"))[..., :3].astype(int)
+    plain = iio.imread(os.path.join(out_dir, "engine_kernel.png"))[..., :3].astype(int)
+    iio.imwrite(os.path.join(out_dir, "sunlit_side_by_side.png"),
+                np.concatenate([kernel, np.full((SIZE[1], 4, 3), 255), browser], axis=1).astype(np.uint8))
+    mean = float(np.abs(browser - kernel).mean())
+    changed = float(np.abs(kernel - plain).mean())
+    print(f"[engines alike, sunlight] mean |browser - kernel| = {mean:.2f}/255; the sunlight changes the kernel's "
+          f"picture by {changed:.1f}/255 on average; side by side: {os.path.join(out_dir, 'sunlit_side_by_side.png')}")
+    assert changed > 5.0
+    assert mean < 2.5
 
 
 CAMERA = {"position": (5.0, 4.5, 15.0), "target": (0.0, 0.0, 0.0), "fov_deg": 50.0, "far": 100.0}
@@ -207,12 +258,14 @@ print('STEPS', s0, s1)
         print(f"[displayed twice] step(37): {s0} -> {s1} steps, {moved:.1%} of the pixels changed, in both views")
         assert moved > 0.002
         _save_both_engines(page, out_dir)
+        _save_both_engines_sunlit(page, out_dir)
 
     _run(page, lab_server, browser_root, "displayed_twice.ipynb", [
         f"import grasswidget as gw\nw = gw.GrassWidget({N_BLADES}, backend='browser', size={SIZE})\nw",
         "w",
     ], check, webgpu_browser)
     _compare_engines(out_dir)
+    _compare_sunlit(out_dir)
 
 
 # ---------------------------------------------------------------------- occlusion culling ----------

@@ -147,12 +147,20 @@ def test_kernel_grass_material_holds_the_bytes_the_browser_is_sent():
     params = gw.GrassParams(color_variation=0.8, patch_size=7.5, dryness=0.45, translucency=0.2,
                             fog_density=0.03, blade_shape="quad")
     field = GrassField(gw.Blades.on_plane(64, seed=1), params=params)
+    sent = lambda: uniforms.material_uniform(params, field.blades, field.colliders)  # noqa: E731
     try:
-        assert field.material.uniform_buffer.data.tobytes() == uniforms.material_uniform(params)
+        field.prepare_sunlight()  # render_frame's, before every frame
+        assert field.material.uniform_buffer.data.tobytes() == sent()
         params.dryness = 0.9
         params.fog_density = 0.0
-        assert field.material.uniform_buffer.data.tobytes() == uniforms.material_uniform(params)
+        assert field.material.uniform_buffer.data.tobytes() == sent()
         assert field.material.dryness == pytest.approx(0.9)
+        # the sunlight: the sun, the switch and a ball's shadow
+        params.shadows, params.sun_elevation, params.sun_azimuth = True, 30.0, -120.0
+        field.colliders = [gw.SphereCollider(center=(0.5, 0.3, -0.2), radius=0.3)]
+        field.prepare_sunlight()
+        assert field.material.uniform_buffer.data.tobytes() == sent()
+        assert field.material.uniform_buffer.data.tobytes() != uniforms.material_uniform(params, field.blades)
     finally:
         field.release()
 

@@ -54,12 +54,16 @@ def run_in_own_loop(coroutine_function):
 pytestmark = pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc/self/statm (Linux)")
 
 
-@pytest.mark.parametrize("setup", ["default", "teaching"])
+@pytest.mark.parametrize("setup", ["default", "teaching", "sunlight"])
 def test_field_render_and_step_keep_memory_flat(setup):
     """200 frames of step + render of a GrassScene: resident memory grows < 12 MB
     after 40 warm-up frames (default view; or colour by cull test with frozen
-    culling, a sphere collider and three inspected blades: every compute pass)."""
+    culling, a sphere collider and three inspected blades: every compute pass; or the
+    sunlight's shadows on with a ball, whose shaders test ``u_material.shadows``)."""
     scene = gw.GrassScene(2048, size=(96, 72))
+    if setup == "sunlight":
+        scene.colliders = [gw.SphereCollider(center=(0.0, 0.8, 0.0), radius=0.8)]
+        scene.params.shadows = True
     if setup == "teaching":
         scene.colliders = [gw.SphereCollider(center=(0.0, 0.3, 0.0), radius=0.8)]
         scene.params.color_by = "cull"

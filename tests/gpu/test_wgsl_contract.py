@@ -378,6 +378,18 @@ TWINS = {
     "hzb_level": (lambda r: (lambda x, y: [np.stack([x, y, x + r.exponential(40.0, N), y + r.exponential(20.0, N)],
                                                     axis=1)])(_u(r, 0, 800), _u(r, 0, 600)),
                   ref.hzb_level, 0),
+    "ball_shadow": (lambda r: (lambda p, sun: [p, sun, np.concatenate(
+        [p + sun * _u(r, -1.0, 4.0)[:, None] + r.normal(scale=0.6, size=(N, 3)),
+         np.where(_u(r, 0, 1) < 0.15, 0.0, _u(r, 0.1, 1.0))[:, None]], axis=1)])(_pts(r, 3.0), _unit(r)),
+        ref.ball_shadow, 1),
+    "grass_transmittance": (lambda r: [_u(r, -9, 9), _u(r, -9, 9), _u(r, -0.2, 1.5), _unit(r) * [1, 0, 1] + [0, 1, 0]
+                                       * _u(r, 0.02, 1.0)[:, None], r.uniform(-2, 2, (N, 2)), r.uniform(1, 6, (N, 2)),
+                                       _u(r, 0.1, 1.0), _u(r, 0.0, 6.0)], ref.grass_transmittance, 1),
+    "sky_visibility": (lambda r: [_u(r, -9, 9), _u(r, -9, 9), _u(r, -0.2, 1.5), r.uniform(-2, 2, (N, 2)),
+                                  r.uniform(1, 6, (N, 2)), _u(r, 0.1, 1.0), _u(r, 0.0, 6.0)], ref.sky_visibility, 1),
+    "grass_above": (lambda r: [_u(r, -0.2, 1.2), _u(r, 0.1, 2.0)], ref.grass_above, 1),
+    "light_share": (lambda r: [_u(r, 0, 1), _u(r, 0, 1), _u(r, -0.1, 1.1), _u(r, 0.3, 1.2), _u(r, 0, 1)],
+                    ref.light_share, 1),
     "blade_shade": (lambda r: [_unit(r), _unit(r), _u(r, 0, 1), r.uniform(0, 1, (N, 3)), _u(r, 0, 1.5), _u(r, 0, 1),
                                r.uniform(0, 1, (N, 3)), _unit(r), _u(r, 0, 1)], ref.blade_shade, 1),
     "clip_to_pixel": (lambda r: [_clip_points(r), _viewports(r)], ref.clip_to_pixel, 2000),

@@ -49,8 +49,15 @@ def test_a_hardware_adapter_report_switches_to_the_browser_engine_keeping_the_st
         w.params.wind_strength = 17.0
         w.ball.enabled = True
         w.inspect([3, 5])
+        assert w.params.shadows is False  # the kernel's CPU adapter: the sunlight's shadows off
         w.adapter_probe.report = NVIDIA  # what the probe's first view would say on a laptop with a GPU
         assert w.backend == "browser" and isinstance(w.view, BrowserEngineView)
+        # the page's GPU draws now: shadows on (core.params.sunlight_defaults), sent to the browser
+        from grasswidget.core.uniform_layouts import GRASS_MATERIAL_LAYOUT, offsets
+
+        at = offsets(GRASS_MATERIAL_LAYOUT)["shadows"][0]
+        assert w.params.shadows is True
+        assert np.frombuffer(w.view.browser_view.material_uniform[at: at + 4], "<f4")[0] == 1.0
         assert w.engine_reason == ("browser engine: the kernel renders on a CPU adapter (llvmpipe) and this "
                                    "browser offers a GPU (nvidia ampere)")
         assert w.engine_reason in html.unescape(w.message_line.value)
@@ -71,7 +78,7 @@ def test_a_fallback_adapter_report_keeps_the_kernel_engine():
     try:
         view = w.view
         w.adapter_probe.report = SWIFTSHADER
-        assert w.backend == "kernel" and w.view is view
+        assert w.backend == "kernel" and w.view is view and w.params.shadows is False
         assert "CPU fallback too (google swiftshader)" in w.engine_reason
         assert w.engine_reason in html.unescape(w.message_line.value)
     finally:

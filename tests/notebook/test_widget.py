@@ -36,7 +36,8 @@ def test_layout_and_labels(widget):
     assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
                       "stiffness ×", "time (× real time)"}
     looks = {s.description for s in widget.panel.look_sliders.values()}
-    assert looks == {"colour variety", "patch size (m)", "dry grass", "sunlit tips", "fog (1/m)"}
+    assert looks == {"colour variety", "patch size (m)", "dry grass", "sunlit tips", "fog (1/m)", "sun height (°)",
+                     "sun direction (°)"}
     tip = widget.sliders["wind_strength"].tooltip
     assert tip.startswith(gw.GrassParams.class_traits()["wind_strength"].help) and "0 to 200 m/s²" in tip
     assert [c.description for c in widget.checkboxes.values()] == [
@@ -104,6 +105,43 @@ def test_controls_change_params_and_back(widget):
     p.wind_speed = 4.0
     assert other.value == 4.0
     link.unlink()
+
+
+def test_sun_controls_in_the_looks_row(widget):
+    """The looks row's sun height and direction sliders and the shadows checkbox drive the params
+    both ways; a bad value raises the project's error naming the parameter and its range, the
+    control snaps back and the message line says why; the picture follows the sun."""
+    panel, p = widget.panel, widget.params
+    height, direction, shadows = panel.look_sliders["sun_elevation"], panel.look_sliders["sun_azimuth"], \
+        panel.shadows_checkbox
+    assert "sun height" in height.description and "sun direction" in direction.description
+    assert shadows in panel.looks_row.children and height in panel.looks_row.children
+    assert (height.min, height.max) == (5.0, 90.0) and (direction.min, direction.max) == (-360.0, 360.0)
+    assert shadows.value is p.shadows is False  # the test machine's CPU adapter: off by default
+    shadows.value = True
+    assert p.shadows is True
+    p.shadows = False
+    assert shadows.value is False
+    height.value = 30.0
+    assert p.sun_elevation == 30.0
+    p.sun_azimuth = -45.0
+    assert direction.value == -45.0
+    with pytest.raises(gw.ParameterError, match=r"sun_elevation must be a finite number in \[5, 90\] degrees"):
+        p.sun_elevation = 95.0
+    with pytest.raises(TraitError, match="sun_azimuth"):
+        p.sun_azimuth = float("nan")
+    assert p.sun_elevation == 30.0 and p.sun_azimuth == -45.0
+    height.max = 120  # a value the control allows but the trait refuses
+    height.value = 100
+    assert p.sun_elevation == 30.0 and height.value == 30.0
+    assert "sun_elevation" in widget.message_line.value
+    height.max = 90
+    # the picture follows: a low sun from the other side lights the field differently
+    p.shadows = True
+    a = widget.scene.render_at(SIZE, antialias=False)
+    p.sun_azimuth, p.sun_elevation = 135.0, 10.0
+    b = widget.scene.render_at(SIZE, antialias=False)
+    assert np.abs(a[..., :3].astype(int) - b[..., :3].astype(int)).mean() > 2.0
 
 
 def test_time_scale_steps_per_frame_capped(widget):

@@ -18,13 +18,14 @@ the tangent basis vector ``e1`` rotated by theta towards ``e2 = cross(e1, up)``,
 on a y-up plane ``t1 = (cos theta, 0, sin theta)``; the front direction is
 ``f = normalize(cross(up, t1))``.
 
-The reference is a package of four modules by subject, all re-exported here (read
+The reference is a package of modules by subject, all re-exported here (read
 ``reference.simulate_step`` or ``from grasswidget.core.reference import cull``):
 :mod:`~grasswidget.core.reference.physics` (geometry, forces, wind, validation,
 collisions, one step, the inspector's forces), :mod:`~grasswidget.core.reference.culling`
 (the culling tests, level of detail, occlusion and the depth pyramid),
 :mod:`~grasswidget.core.reference.looks` (blade shapes, colours, fog, sky and ground,
-shading) and :mod:`~grasswidget.core.reference.raster` (the compute rasterizer), with
+shading), :mod:`~grasswidget.core.reference.raster` (the compute rasterizer) and
+:mod:`~grasswidget.core.reference.sunlight` (the sun, the balls' and the grass' shadows), with
 :mod:`~grasswidget.core.reference.vectors` (two vector helpers they share).
 """
 
@@ -34,8 +35,9 @@ from .physics import *  # noqa: F401,F403
 from .culling import *  # noqa: F401,F403
 from .looks import *  # noqa: F401,F403
 from .raster import *  # noqa: F401,F403
+from .sunlight import *  # noqa: F401,F403
 from .vectors import safe_normalize  # noqa: F401
-from . import culling, looks, physics, raster, vectors  # noqa: F401
+from . import culling, looks, physics, raster, sunlight, vectors  # noqa: F401
 
 __all__ = [
     "safe_normalize",
@@ -117,6 +119,8 @@ __all__ = [
     "HZB_ROW_ALIGN",
     "HZB_MAX_LEVELS",
     "blade_shade",
+    "sun_direction", "sun_angles", "ball_shadow", "grass_transmittance", "grass_above", "sky_visibility", "light_share",
+    "grass_optical_depths", "MAX_SHADOW_BALLS",
     "clip_to_pixel",
     "raster_step",
     "raster_span",
