@@ -16,7 +16,10 @@ needs to know which file declares what. Nothing here imports pygfx or wgpu.
 
 from __future__ import annotations
 
+import copy
+import functools
 import re
+from collections import OrderedDict
 from functools import lru_cache
 from pathlib import Path
 
@@ -146,6 +149,38 @@ def _uses(code: str, name: str) -> bool:
     return re.search(rf"\b{name}\b", re.sub(r"//[^\n]*", "", code)) is not None
 
 
+#: Shaders already rendered (see :func:`_memoized`), oldest first; at most ``_RENDERED_MAX`` kept.
+_RENDERED: OrderedDict = OrderedDict()
+_RENDERED_MAX = 512
+
+
+def _shader_files_stamp() -> tuple:
+    """Name, modification time and size of every WGSL file of the shader folder."""
+    return tuple((p.name, p.stat().st_mtime_ns, p.stat().st_size) for p in sorted(shader_dir().glob("*.wgsl")))
+
+
+def _memoized(render):
+    """Remember what ``render`` (:func:`render_shader`) returned for the same arguments, the same
+    template values and the same shader files (name, time, size), and hand out copies: every
+    browser-engine widget asks for the same few dozen shaders, and compiling their templates
+    took most of the time to make one (about 0.3 s each on 2 busy cores)."""
+
+    @functools.wraps(render)
+    def cached(filename, stage, *, uniforms=None, resources=None, **variables):
+        key = (filename, stage, repr(uniforms), repr(resources), repr(sorted(variables.items())),
+               repr(sorted(template_vars().items())), _shader_files_stamp())
+        if key in _RENDERED:
+            _RENDERED.move_to_end(key)
+        else:
+            _RENDERED[key] = render(filename, stage, uniforms=uniforms, resources=resources, **variables)
+            while len(_RENDERED) > _RENDERED_MAX:
+                _RENDERED.popitem(last=False)
+        return copy.deepcopy(_RENDERED[key])
+
+    return cached
+
+
+@_memoized
 def render_shader(filename: str, stage: str, *, uniforms=None, resources=None, **variables) -> dict:
     """Render one of the project's WGSL files for the browser.
 

@@ -98,6 +98,7 @@ class BrowserEngineView(EngineView):
         self._unavailable_sent = False
         self.ball = None
         camera = None
+        self._preset = preset
         if preset is not None:
             blades, _size, view = preset_field(preset, blades)
             camera = {"position": list(map(float, view["position"])), "target": list(map(float, view["target"])),
@@ -237,8 +238,13 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.colliders
 
     def set_blades(self, blades):
-        if not isinstance(blades, Blades):
-            blades = Blades.on_plane(int(blades))
+        if not isinstance(blades, Blades):  # a count: the preset's field of that many blades (as the kernel's)
+            if self._preset is not None:
+                from ..core.framing import preset_field
+
+                blades = preset_field(self._preset, int(blades))[0]
+            else:
+                blades = Blades.on_plane(int(blades))
         self.engine_widget.set_blades(blades)
         self._ball_scene.field.blades = blades
         if self.ball is not None:

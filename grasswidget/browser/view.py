@@ -42,7 +42,7 @@ from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core import camera_rules
-from ..core.frame_data import STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
+from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
 from ..core.params import SUN_TRAITS, GrassParams
 from ..core.reference import FORCE_NAMES
@@ -238,7 +238,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def _write_uniforms(self):
         p, n = self.params, len(self.blades)
         self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
-        self.cull_uniform = uniforms.cull_uniform(p, n, self._frozen)
+        self.cull_uniform = uniforms.cull_uniform(p, n, self._frozen, thinned=self.blades.horizon is not None)
         self.material_uniform = uniforms.material_uniform(p, self.blades, self._colliders)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
@@ -275,7 +275,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             return
         with self.hold_sync():
             self._write_uniforms()
-            if change["name"] in ("fog_density", *SUN_TRAITS) and self.camera:  # the sky/ground's fog and sun too
+            if change["name"] in (*SKY_GROUND_TRAITS, *SUN_TRAITS) and self.camera:  # the sky/ground: fog, sun, far grass
                 self._write_frame_rules()
 
     # ------------------------------------------------------------------ commands
@@ -326,7 +326,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             raise GrassTypeError(f"frozen must be a FrozenView or None, not {type(frozen).__name__}")
         self._frozen = frozen
         with self.hold_sync():
-            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), frozen)
+            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), frozen, thinned=self.blades.horizon is not None)
             self.frustum_lines = np.ascontiguousarray(frozen.segments(), np.float32).tobytes()
         return frozen
 
@@ -334,7 +334,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """Cull against the camera of each frame again (and remove the frustum lines)."""
         self._frozen = None
         with self.hold_sync():
-            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades))
+            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), thinned=self.blades.horizon is not None)
             self.frustum_lines = b""
 
     @property

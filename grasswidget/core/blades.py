@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError
+from .horizon import HorizonLayout
 from .memory import BladeCountError, check_blade_count
 
 __all__ = ["Blades", "BladeCountError"]
@@ -47,6 +48,8 @@ class Blades:
         height: (N,) blade heights h, metres.
         width: (N,) blade widths w, metres.
         stiffness: (N,) stiffness s of the recovery force, 1/s^2.
+        horizon: a :class:`~grasswidget.core.horizon.HorizonLayout` for a field to the
+            horizon (``on_plane(..., reach=R)``), else None.
     """
 
     v0: np.ndarray
@@ -55,6 +58,7 @@ class Blades:
     height: np.ndarray
     width: np.ndarray
     stiffness: np.ndarray
+    horizon: HorizonLayout | None = None
 
     def __post_init__(self):
         n = len(self.v0)
@@ -91,8 +95,10 @@ class Blades:
         height=(1.3, 2.5),
         width=(0.1, 0.14),
         stiffness=(7.0, 13.0),
+        reach=None,
     ) -> "Blades":
-        """Blades on a ``size`` x ``size`` plane centred at the origin, y up.
+        """Blades on a ``size`` x ``size`` plane centred at the origin, y up, or, with
+        ``reach``, on a disc that reaches the horizon.
 
         Roots are uniform on the plane (jittered-stratified, so the meadow has no
         bald patches), each blade has a uniform random orientation in [0, 2 pi) and
@@ -108,6 +114,16 @@ class Blades:
             size: side of the square plane in metres, > 0 (default 15, the course scene).
             seed: random seed (int).
             height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2.
+            reach: None (default: the square field) or the radius in metres (> size / 2) of
+                a field to the horizon: a near disc of diameter ``size`` at full density,
+                beyond it out to ``reach`` the density falls as 1/r (half per doubling of
+                the distance from the centre) and each blade's width grows as r (double
+                per doubling; ``width`` is the near blades'), so the leaf area per square
+                metre, hence the covered ground and its colour from afar, stays the same
+                (:mod:`grasswidget.core.horizon`; ``Blades.horizon`` holds the layout).
+                The count stays ``count``: the memory does not grow with the reach.
+                Distance culling (``GrassParams.cull_distance``) is not applied to such a
+                field, which is thinned with distance already.
         """
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
@@ -117,15 +133,30 @@ class Blades:
         h = _check_range("height", height)
         w = _check_range("width", width)
         s = _check_range("stiffness", stiffness)
+        horizon = None
+        if reach is not None:
+            if isinstance(reach, bool) or not isinstance(reach, (int, float, np.number)) or not np.isfinite(reach) \
+                    or not reach > 0.5 * size:
+                raise GrassValueError(f"reach must be None or a finite number > size / 2 = {0.5 * size:g} metres; "
+                                      f"got {reach!r}")
+            horizon = HorizonLayout(center=(0.0, 0.0), near_radius=0.5 * float(size), reach=float(reach))
         rng = np.random.default_rng(seed)
-        # Jittered stratified sampling on a k x k grid (k*k >= count): a random subset
-        # of the cells, in patches in Z order (see _jittered_unit_square).
-        x, z = _jittered_unit_square(rng, count)
         v0 = np.zeros((count, 3), np.float32)
-        v0[:, 0] = (x - 0.5) * size
-        v0[:, 2] = (z - 0.5) * size
+        if horizon is None:
+            # Jittered stratified sampling on a k x k grid (k*k >= count): a random subset
+            # of the cells, in patches in Z order (see _jittered_unit_square).
+            x, z = _jittered_unit_square(rng, count)
+            v0[:, 0] = (x - 0.5) * size
+            v0[:, 2] = (z - 0.5) * size
+        else:
+            x, z, widen = horizon.place(rng, count, _jittered_unit_square)
+            v0[:, 0], v0[:, 2] = x, z
         up = np.tile(np.float32([0, 1, 0]), (count, 1))
-        return cls._with_random_traits(rng, v0, up, h, w, s)
+        blades = cls._with_random_traits(rng, v0, up, h, w, s)
+        if horizon is not None:
+            blades.width = (blades.width * widen).astype(np.float32)
+            blades.horizon = horizon
+        return blades
 
     @classmethod
     def on_mesh(

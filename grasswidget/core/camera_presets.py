@@ -51,13 +51,19 @@ def check_camera_preset(name) -> str:
     return name
 
 
-def field_box(v0, height) -> dict:
+def field_box(v0, height, horizon=None) -> dict:
     """The field's extent at rest: ``lo``, ``hi`` (x, z of the outermost roots, m),
-    ``center`` (x, z), ``ground`` (lowest root y) and ``top`` (highest tip y)."""
+    ``center`` (x, z), ``ground`` (lowest root y) and ``top`` (highest tip y). For a field
+    to the horizon (``horizon``, a :class:`~grasswidget.core.horizon.HorizonLayout`), its
+    near disc's square is the extent (the part the cameras look at)."""
     v0 = np.asarray(v0, np.float64).reshape(-1, 3)
     if not len(v0):
         raise GrassValueError("blades: a camera preset needs at least one blade")
     lo, hi = v0.min(axis=0), v0.max(axis=0)
+    if horizon is not None:
+        r0, (cx, cz) = float(horizon.near_radius), horizon.center
+        lo = np.array([cx - r0, lo[1], cz - r0])
+        hi = np.array([cx + r0, hi[1], cz + r0])
     return {"lo": (float(lo[0]), float(lo[2])), "hi": (float(hi[0]), float(hi[2])),
             "center": (float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[2] + hi[2]))),
             "ground": float(lo[1]), "top": grass_top(v0, height)}
@@ -71,7 +77,8 @@ def _home_direction(home) -> np.ndarray:
     return h / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])
 
 
-def camera_preset(name, v0, height, *, home, aspect, fov_deg=None, limits: OrbitLimits | None = None) -> dict:
+def camera_preset(name, v0, height, *, home, aspect, fov_deg=None, limits: OrbitLimits | None = None,
+                  horizon=None) -> dict:
     """The camera of preset ``name`` (:data:`CAMERA_PRESETS`) for a field.
 
     Args:
@@ -85,6 +92,8 @@ def camera_preset(name, v0, height, *, home, aspect, fov_deg=None, limits: Orbit
             the home one).
         limits: when given, the camera is put inside these orbit limits
             (:func:`clamp_orbit`), so that the next drag does not jump.
+        horizon: ``Blades.horizon`` of a field to the horizon (its near disc is the
+            field the presets frame), else None.
 
     Returns ``{"position": (x, y, z), "target": (x, y, z), "fov_deg": f}`` (floats).
     """
@@ -99,7 +108,7 @@ def camera_preset(name, v0, height, *, home, aspect, fov_deg=None, limits: Orbit
         target = np.asarray(home["target"], np.float64)
         fov = float(home["fov_deg"])
     else:
-        box = field_box(v0, height)
+        box = field_box(v0, height, horizon)
         cx, cz = box["center"]
         half_x = 0.5 * (box["hi"][0] - box["lo"][0])
         half_z = 0.5 * (box["hi"][1] - box["lo"][1])
@@ -145,5 +154,5 @@ def floor_for(blades, camera: dict, far) -> str:
     the "grass" orbit limits of ``blades`` (a :class:`~grasswidget.core.blades.Blades`; far plane
     ``far`` m), else ``"ground"`` (it is lower than the grass floor allows, e.g. the cis565 course
     view 1 m above the ground, and would jump up at the first drag)."""
-    grass = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor="grass")
+    grass = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor="grass", horizon=blades.horizon)
     return "grass" if grass.allows(camera["position"], camera["target"], tol=1e-4) else "ground"

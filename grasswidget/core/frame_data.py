@@ -57,16 +57,17 @@ from .enums import BladeShape
 from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
-from .reference import LOD_SEGMENTS, ground_cover, wind_period
+from .reference import FAR_ALONG, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
 from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
 from .reference.sunlight import sun_direction as _sun_direction
 from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
+from .uniform_layouts import SKY_GROUND_LAYOUT
 
 __all__ = [
     "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
-    "field_rectangle", "field_cover", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
-    "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
+    "field_rectangle", "field_cover", "far_ground_values", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
+    "SKY_GROUND_TRAITS", "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
     "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
     "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
     "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
@@ -95,6 +96,10 @@ HORIZON_COLOR = "#e4edf5"
 ZENITH_COLOR = "#8db8e3"
 SOIL_COLOR = "#3b2a1a"
 BEYOND_COLOR = "#787a4e"
+#: The GrassParams traits the sky and ground's values depend on (both engines rewrite them when one
+#: changes): the fog, and the looks of the far grass a field to the horizon shows on its ground.
+SKY_GROUND_TRAITS = ("fog_density", "color_variation", "patch_size", "dryness", "translucency", "sun_elevation",
+                     "sun_azimuth")
 #: Width (m) of the soft edge between the soil under the field and the ground beyond.
 FIELD_EDGE = 0.5
 #: Direction towards the sun of the default params (world space, not normalized), both engines:
@@ -235,8 +240,14 @@ def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
     return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
-def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False) -> dict:
+def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False,
+                        thinned: bool = False) -> dict:
     """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
+
+    ``thinned``: the field thins itself with distance (a field to the horizon,
+    ``Blades.horizon``: fewer, wider blades far away), so distance culling is off
+    (``cull_distance`` 0) whatever ``params.cull_distance`` says: culling those blades by
+    distance too would thin them twice and undo their widening (bare ground far away).
 
     ``every_frame_two_phases``: the engine draws every frame in occlusion culling's two
     phases while ``params.cull_occlusion`` is on (the browser engine: its culling
@@ -259,7 +270,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         buckets=p.cull_buckets,
         cull_orientation=int(p.cull_orientation),
         cull_frustum=int(p.cull_frustum),
-        cull_distance=int(p.cull_distance),
+        cull_distance=int(p.cull_distance and not thinned),
         lod=int(p.lod),
         n_blades=int(n_blades),
         color_by=int(ColorBy.from_label(p.color_by)),
@@ -366,7 +377,7 @@ def orbit_rules(blades, far, floor="grass") -> dict:
     of ``far`` metres and a camera floor (``"grass"``: above the tallest tip, or ``"ground"``),
     as a JSON-able dict (tuples as lists; ``ground_y`` None = no ground). The browser clamps
     with these numbers (``browser/js/rules.js`` ``clampOrbit``); the floor only changes them."""
-    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
+    limits = OrbitLimits.for_field(blades.v0, blades.up, blades.height, far, floor=floor, horizon=blades.horizon)
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(limits).items()}
 
 
@@ -392,9 +403,38 @@ def field_rectangle(blades) -> tuple:
 
 def field_cover(blades) -> float:
     """How much the blades shade the soil of their rectangle, 0..1
-    (:func:`grasswidget.core.reference.ground_cover`; sides of at least 0.1 m)."""
+    (:func:`grasswidget.core.reference.ground_cover`; sides of at least 0.1 m); a field to
+    the horizon: of its disc (the leaf area per square metre is the same all over it)."""
+    if blades.horizon is not None:
+        return ground_cover(blades.height, blades.width, math.pi * float(blades.horizon.reach) ** 2)
     _centre, (hx, hz) = field_rectangle(blades)
     return ground_cover(blades.height, blades.width, max(2 * hx, 0.1) * max(2 * hz, 0.1))
+
+
+def far_ground_values(blades, params=None) -> dict:
+    """The far ground's values of ``u_material`` (sky_ground.wgsl ``ground_albedo``): for a field
+    to the horizon (``blades.horizon``) ``horizon`` (x, z of its centre, its reach, 1), ``far_blend``
+    (the camera distances over which the soil between the blades gives way to the grass seen from
+    afar, :meth:`~grasswidget.core.horizon.HorizonLayout.ground_blend`; the params' patch size;
+    :data:`~grasswidget.core.reference.FAR_ALONG`), ``far_grass``
+    (:func:`~grasswidget.core.reference.far_grass_shade` of the default blade material, the params'
+    looks and sun), the blades' root and tip colours and the params' colour variation and dryness;
+    for any other field ``horizon`` is all 0 (no far grass)."""
+    p = params if params is not None else GrassParams()
+    m = MATERIAL_DEFAULTS
+    root, tip = srgb(m["root_color"]), srgb(m["tip_color"])
+    values = {"grass_root": root, "grass_tip": tip, "color_variation": float(p.color_variation),
+              "dryness": float(p.dryness)}
+    h = blades.horizon
+    if h is None:
+        return dict(values, horizon=(0.0, 0.0, 0.0, 0.0), far_blend=(0.0, 1.0, float(p.patch_size), FAR_ALONG),
+                    far_grass=(1.0, 1.0, 1.0, 0.0))
+    shade = far_grass_shade(root[:3], tip[:3], p.color_variation, p.dryness, p.translucency, sun_direction(p),
+                            m["ambient"])
+    start, end = h.ground_blend()
+    return dict(values, horizon=(float(h.center[0]), float(h.center[1]), float(h.reach), 1.0),
+                far_blend=(float(start), float(end), float(p.patch_size), FAR_ALONG),
+                far_grass=(*(float(c) for c in shade), 0.0))
 
 
 def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=()) -> dict:
@@ -420,7 +460,7 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=(
     params = params if params is not None else GrassParams()
     fog = params.fog_density
     sunlight = sunlight_values(params, blades, colliders)
-    return {
+    values = {
         "horizon_color": srgb(HORIZON_COLOR),
         "zenith_color": srgb(ZENITH_COLOR),
         "soil_color": srgb(SOIL_COLOR),
@@ -436,9 +476,11 @@ def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=(
         "fog_density": float(fog),
         "cover": field_cover(blades),
         "field_edge": FIELD_EDGE,
+        **far_ground_values(blades, params),
         "shadows": sunlight["shadows"],
         "ground_sun": ground_sun(sunlight["light_direction"][1]),
     }
+    return {name: values[name] for name, _ in SKY_GROUND_LAYOUT}  # in the layout's order
 
 
 def sun_direction(params) -> tuple:

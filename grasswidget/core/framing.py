@@ -53,8 +53,31 @@ def parse_size(size, name="size"):
     return w, h
 
 
-def preset_field(name, blades=None, seed=0):
+#: The meadow preset's reach (radius of its last blades) as a share of its camera's far plane
+#: (80 m of 400): every blade is drawn before the ground's fade into the horizon (from 0.6 of
+#: the far plane, sky_ground.wgsl) starts, and beyond them the ground has the grass's colour.
+#: The blade count is the user's, so the reach sets the near density: with the near disc of
+#: radius r0 the disc keeps r0 / (r0 + 2 (R - r0)) of the blades (2^20 blades, r0 = 16 m:
+#: 11 % at R = 80 m, about 110 per m^2; at R = 200 m 4 %, and the soil showed between the near
+#: blades). Past the reach the far ground carries the look.
+MEADOW_REACH_OF_FAR = 0.2
+#: The meadow's camera far plane (m).
+MEADOW_FAR = 400.0
+
+
+def meadow_side(count) -> float:
+    """Side (m) of the meadow's square field of ``count`` blades (about 1000 per m^2, 15..250 m);
+    with the horizon on, the diameter of its near disc."""
+    return float(np.clip(math.sqrt(count / 1000.0), 15.0, 250.0))
+
+
+def preset_field(name, blades=None, seed=0, horizon=True):
     """The blades, default size and camera of a named scene (see :meth:`GrassScene.preset`).
+
+    ``horizon`` (the meadow only; default True): the meadow reaches the horizon
+    (``Blades.on_plane(..., reach=...)``: a near disc of the square field's side as
+    diameter, then thinner, wider blades out to :data:`MEADOW_REACH_OF_FAR` of the far
+    plane, and grass-coloured ground beyond); False: the square field of before.
 
     Returns ``(Blades, (w, h), view)`` with view a dict of position, target
     (metres), fov_deg (vertical), near, far. Pure: no GPU work (the browser
@@ -62,14 +85,23 @@ def preset_field(name, blades=None, seed=0):
     """
     if name not in PRESETS:
         raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+    if not isinstance(horizon, (bool, np.bool_)):
+        raise GrassValueError(f"horizon must be True or False; got {horizon!r}")
     if name == "cis565":
         n = 1 << 13 if blades is None else blades
         b = Blades.on_plane(n, 15.0, seed=seed) if not isinstance(n, Blades) else n
         view = dict(position=(0, 1, 10), target=(0, 1, 0), fov_deg=45, near=0.1, far=100)
         return b, (640, 480), view
     n = 1 << 20 if blades is None else blades
-    side = float(np.clip(math.sqrt((n if not isinstance(n, Blades) else len(n)) / 1000.0), 15.0, 250.0))
+    side = meadow_side(n if not isinstance(n, Blades) else len(n))
     if not isinstance(n, Blades):
-        n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0))
-    view = dict(position=(0, 3.0, side / 2 + 2.0), target=(0, 0.0, side / 2 - 30.0), fov_deg=50, near=0.1, far=400)
+        reach = MEADOW_REACH_OF_FAR * MEADOW_FAR if horizon else None
+        n = Blades.on_plane(n, side, seed=seed, height=(0.5, 1.0), width=(0.02, 0.04), stiffness=(7.0, 13.0),
+                            reach=reach)
+    position, target = (0.0, 3.0, side / 2 + 2.0), (0.0, 0.0, side / 2 - 30.0)
+    if getattr(n, "horizon", None) is not None and target[2] < -side / 2:
+        # the same view, its target (the orbit's pivot) moved along the ray onto the near disc's edge
+        s = (position[2] + side / 2) / (position[2] - target[2])
+        target = (0.0, position[1] + s * (target[1] - position[1]), -side / 2)
+    view = dict(position=position, target=target, fov_deg=50, near=0.1, far=MEADOW_FAR)
     return n, (1920, 1080), view

@@ -23,6 +23,12 @@ The limits, for a field on a y-up ground plane:
 - the camera is ``min_distance`` .. ``max_distance`` from the target (zoom);
 - the target stays over the field (its x/z bounds, plus ``margin``) and between
   the ground and ``top_y`` (a pan cannot carry the view off the field).
+
+A field to the horizon (``Blades.on_plane(..., reach=R)``, a
+:class:`~grasswidget.core.horizon.HorizonLayout`) keeps the target over its near disc
+(full density) and the camera within :meth:`HorizonLayout.max_camera_offset` (half the
+reach) of its centre: the edge of its blades is then at least half the reach away,
+where the ground already has the grass's colour.
 """
 
 from __future__ import annotations
@@ -89,7 +95,7 @@ class OrbitLimits:
     max_elevation_deg: float = MAX_ELEVATION_DEG
 
     @classmethod
-    def for_field(cls, v0, up, height, far=None, floor="grass"):
+    def for_field(cls, v0, up, height, far=None, floor="grass", horizon=None):
         """Limits for blades with roots ``v0`` (N, 3), normals ``up`` (N, 3) and
         heights (N,), seen by a camera whose far plane is ``far`` (or None).
 
@@ -104,10 +110,19 @@ class OrbitLimits:
         to ``clearance / sin(max_elevation)``, so a wheel flick towards a target on
         the ground stops above the grass; "ground" keeps it :data:`GROUND_CLEARANCE`
         above the ground.
+
+        ``horizon``: the :class:`~grasswidget.core.horizon.HorizonLayout` of a field to the
+        horizon (``Blades.horizon``), else None. Its target box is the near disc's square
+        (plus the margin), and the zoom stops where a camera could be farther than
+        ``horizon.max_camera_offset()`` from the centre.
         """
         check_floor(floor, "floor")
         v0 = np.asarray(v0, np.float64)
         lo, hi = v0.min(axis=0), v0.max(axis=0)
+        if horizon is not None:  # the near disc is the field the camera looks at
+            r0, (cx, cz) = float(horizon.near_radius), horizon.center
+            lo = np.array([cx - r0, lo[1], cz - r0])
+            hi = np.array([cx + r0, hi[1], cz + r0])
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         margin = 0.1 * extent
         tallest = float(np.max(height)) if len(height) else 1.0
@@ -115,6 +130,8 @@ class OrbitLimits:
         max_distance = 3.0 * extent
         if far:
             max_distance = min(max_distance, 0.7 * float(far))
+        if horizon is not None:  # the farthest target corner plus the zoom stays within the offset
+            max_distance = min(max_distance, horizon.max_camera_offset() - math.sqrt(2.0) * (0.5 * extent + margin))
         min_distance = max(0.5, tallest)
         ground_y = float(lo[1]) if flat else None
         clearance = GROUND_CLEARANCE
@@ -137,7 +154,7 @@ class OrbitLimits:
         """Limits for a :class:`~grasswidget.gpu.scene.GrassScene`'s field and camera."""
         blades = scene.field.blades
         far = scene.camera.depth_range[1] if scene.camera.depth_range else None
-        return cls.for_field(blades.v0, blades.up, blades.height, far, floor=floor)
+        return cls.for_field(blades.v0, blades.up, blades.height, far, floor=floor, horizon=blades.horizon)
 
     def allows(self, position, target, tol=1e-6) -> bool:
         """Whether ``(position, target)`` is inside these limits (:func:`clamp_orbit` leaves it)."""

@@ -96,6 +96,11 @@ SKY_GROUND_LAYOUT = (
     ("beyond_color", "vec4<f32>"),        # sRGB 0..1: the ground beyond the field
     ("ground", "vec4<f32>"),              # xyz centre of the ground square (m), w half size (m)
     ("field", "vec4<f32>"),               # the field's rectangle: xy centre (x, z), zw half sizes (m)
+    ("horizon", "vec4<f32>"),             # a field to the horizon: xy centre (x, z), z reach (m), w 1 (0: none)
+    ("far_blend", "vec4<f32>"),           # x..y: camera distances (m) where the ground becomes far grass; z patch size (m); w along
+    ("far_grass", "vec4<f32>"),           # rgb: the far grass's mean shade over its unlit colour at along far_blend.w
+    ("grass_root", "vec4<f32>"),          # sRGB 0..1: the blades' root colour (their material's)
+    ("grass_tip", "vec4<f32>"),           # sRGB 0..1: the blades' tip colour
     ("light_direction", "vec4<f32>"),     # unit vector towards the sun (xyz; GrassParams.sun_elevation, sun_azimuth)
     *SUNLIGHT_VECTORS,
     ("show_ground", "i32"),               # 0/1
@@ -103,6 +108,8 @@ SKY_GROUND_LAYOUT = (
     ("fog_density", "f32"),               # GrassParams.fog_density (1/m, 0 = no fog)
     ("cover", "f32"),                     # how much the grass shades its soil, 0..1 (reference.ground_cover)
     ("field_edge", "f32"),                # width of the soft edge between soil and ground beyond (m)
+    ("color_variation", "f32"),           # GrassParams.color_variation (the far grass's patches)
+    ("dryness", "f32"),                   # GrassParams.dryness
     ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (sunlight.wgsl)
     ("ground_sun", "f32"),                # the ground's sunlit share relative to the default sun (sun height ratio)
 )

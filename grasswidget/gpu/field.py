@@ -328,7 +328,8 @@ class GrassField(gfx.WorldObject):
             self._store.culled_buffer = gfx.Buffer(
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
             )
-        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera))
+        write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera,
+                                                                         thinned=self.blades.horizon is not None))
         self.cull_uniform_buffer.update_full()
 
     # ------------------------------------------------------------------ compute rasterizer

@@ -22,7 +22,7 @@ from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .frame import render_frame
 from ..core import frame_data
 from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
-from ..core.frame_data import ground_square, sky_ground_values, sun_direction
+from ..core.frame_data import SKY_GROUND_TRAITS, ground_square, sky_ground_values, sun_direction
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams, sunlight_defaults
@@ -124,7 +124,7 @@ class GrassScene:
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
         self.ground = GroundSwitch(self.sky_ground.material)
         self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
-        self.params.observe(self._write_sky_ground, names=["fog_density"])
+        self.params.observe(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         # Colliders live in the field's local space: the balls follow the field's transform
@@ -158,7 +158,7 @@ class GrassScene:
         canvas.request_draw(self.draw_frame)
 
     @classmethod
-    def preset(cls, name, blades=None, size=None, params=None, seed=0, **kwargs):
+    def preset(cls, name, blades=None, size=None, params=None, seed=0, horizon=True, **kwargs):
         """A named scene.
 
         - ``"cis565"``: the CIS 565 course scene, to compare with the seed projects:
@@ -171,7 +171,12 @@ class GrassScene:
           (0.2% of the pixels of the 2^16 view change, all in the gaps at the top).
         - ``"meadow"``: a wide field of meadow grass (h 0.5-1.0 m, w 0.02-0.04 m)
           at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
-          3 m above its edge, 1920 x 1080. Default 2^20 blades.
+          3 m above its edge, 1920 x 1080. Default 2^20 blades. With ``horizon`` (the
+          default) it reaches the horizon: the square's side is the diameter of a near
+          disc at full density, beyond it thinner, wider blades out to 80 m (a fifth of
+          the far plane; ``Blades.on_plane(..., reach=80)``, the same blade count) and ground
+          coloured like the grass seen from afar beyond them; ``horizon=False`` gives the
+          square field alone on a bare ground, as before.
         """
         if name not in PRESETS:
             raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
@@ -181,7 +186,7 @@ class GrassScene:
             blades = check_blade_count_fits(blades, "blades")  # before any blade is made
         if params is None:
             params = adapter_params(**preset_params(name))
-        b, default_size, view = preset_field(name, blades, seed)
+        b, default_size, view = preset_field(name, blades, seed, horizon=horizon)
         scene = cls(b, size=size or default_size, params=params, **kwargs)
         scene._set_view(view["position"], view["target"], fov=view["fov_deg"], near=view["near"], far=view["far"])
         scene.preset_name = name
@@ -372,7 +377,7 @@ class GrassScene:
         """Free the field's GPU memory now and drop the renderer and canvas; the
         scene cannot be drawn or stepped afterwards."""
         try:  # the params may outlive the scene (a widget's next scene shares them)
-            self.params.unobserve(self._write_sky_ground, names=["fog_density"])
+            self.params.unobserve(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
         except ValueError:  # released before
             pass
         self.field.release()

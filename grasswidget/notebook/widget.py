@@ -515,7 +515,7 @@ class GrassWidget(ipw.VBox):
             blades = self.view.blades
             cam = camera_preset(name, blades.v0, blades.height, home=self._home_camera,
                                 aspect=self.size[0] / self.size[1], fov_deg=self.view.camera_state["fov_deg"],
-                                limits=self.view.orbit_limits)
+                                limits=self.view.orbit_limits, horizon=blades.horizon)
             self.view.camera_state = cam
         if self.camera_floor == "grass" and floor_for(self.view.blades, self.view.camera_state,
                                                       self.view.depth_range[1]) == "ground":

@@ -34,6 +34,32 @@ fn vs_main(in: VertexInput) -> Varyings {
     return varyings;
 }
 
+// The ground's colour (sRGB, already lit) at ground point `hit`, `dist` metres from the camera
+// (twin: reference.ground_albedo): soil under the field (darker the more the grass covers it),
+// the ground beyond it; for a field to the horizon (m.horizon.w != 0) the grass seen from afar
+// takes over with the camera's distance (m.far_blend.x..y) and wholly past the last blades
+// (m.horizon.z): the blades' colour at m.far_blend.w of their height, in the same patches
+// (clump_noise of size m.far_blend.z) as the blades, times their mean shade (m.far_grass).
+// `sunlight` (sunlight.wgsl's ground_sunlight, 1 with shadows off) lights the soil and the ground
+// beyond; the far grass is the grass's top, lit as the blades are.
+fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
+    let m = u_material;
+    let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
+    var ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover) * sunlight;
+    // No branch on a uniform alone (lavapipe recompiles such a shader at each draw, see blade_render.wgsl):
+    // horizon.w (0 or 1) scales the share, and the branch reads the pixel's share.
+    let r = length(hit.xz - m.horizon.xy);
+    let far = m.horizon.w * max(smoothstep(m.far_blend.x, m.far_blend.y, dist),
+                                smoothstep(m.horizon.z - 2.0 * m.field_edge, m.horizon.z, r));
+    if (far > 0.0) {
+        let clump = clump_noise(hit.x, hit.z, m.far_blend.z);
+        let grass = blade_base_color(m.grass_root.rgb, m.grass_tip.rgb, m.far_blend.w, 0.5, clump,
+                                     m.color_variation, m.dryness) * m.far_grass.rgb;
+        ground = mix(ground, grass, far);
+    }
+    return ground;
+}
+
 @fragment
 fn fs_main(varyings: Varyings) -> FragmentOutput {
     let near = ndc_to_world_pos(vec4<f32>(varyings.ndc, 0.0, 1.0));
@@ -50,11 +76,10 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
             // inside the square, and nearer than the far plane (where a mesh would be clipped)
             let clip = u_stdinfo.projection_transform * u_stdinfo.cam_transform * vec4<f32>(hit, 1.0);
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
-                let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
-                // lit by the sun past the balls and the grass (sunlight.wgsl; 1 with shadows off)
-                let ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover) * ground_sunlight(hit, m.ground_sun);
                 let cam = u_stdinfo.cam_transform_inv[3].xyz;
                 let dist = length(hit - cam);
+                // lit by the sun past the balls and the grass (sunlight.wgsl; 1 with shadows off)
+                let ground = ground_albedo(hit, dist, ground_sunlight(hit, m.ground_sun));
                 // the ground fades into the horizon over the last 40 % before the far plane
                 // (view depth clip.w; m.far_distance), and into the fog
                 let fade = max(smoothstep(0.6, 1.0, clip.w / m.far_distance), fog_amount(dist, m.fog_density));

@@ -184,14 +184,16 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
 
 def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, size=None, cull="on",
               steps_per_frame=1, progress=True, seed=0, occlusion="on", compute_raster="on",
-              raster_max_px=None) -> dict:
+              raster_max_px=None, horizon=True) -> dict:
     """Run the sweep; returns a JSON-ready dict (see module docstring). ``occlusion``
     ("on", "off", "both": off then on, same scene and renderer) applies to the culling
     modes that cull; each row says ``occlusion`` True/False. ``compute_raster`` ("on",
     "off", "both") likewise for ``GrassParams.compute_raster`` (row key ``compute_raster``);
     ``raster_max_px``: None (the params' default) or a sequence of
     ``GrassParams.compute_raster_max_px`` values (pixels, 0..16), each run in turn on the
-    rows with the compute rasterizer on (row key ``compute_raster_max_px``)."""
+    rows with the compute rasterizer on (row key ``compute_raster_max_px``). ``horizon``: the
+    meadow preset to the horizon (default) or, False, its square field of before (report key
+    ``horizon``)."""
     import pygfx as gfx
     import tqdm
 
@@ -225,7 +227,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     results = []
     bar = tqdm.tqdm(total=len(counts) * len(modes), desc="bench", disable=not progress)
     for n in counts:
-        scene = GrassScene.preset(preset, blades=n, size=size, seed=seed)
+        scene = GrassScene.preset(preset, blades=n, size=size, seed=seed, horizon=horizon)
         w, h = scene.size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
         cpu = is_cpu_adapter()
@@ -247,6 +249,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     bar.close()
     return dict(
         preset=preset,
+        horizon=bool(horizon),
         frames=frames,
         steps_per_frame=steps_per_frame,
         adapter=info,

@@ -170,6 +170,8 @@ def build_parser():
     s.add_argument("--wind", type=_param("wind_strength"), default=None,
                    help="wind strength in m/s^2, 0..200 (default: GrassParams default)")
     s.add_argument("--seed", type=_non_negative, default=0, help="random seed, an integer >= 0")
+    s.add_argument("--no-horizon", action="store_true",
+                   help="meadow preset: the square field on bare ground (no grass to the horizon)")
 
     h = sub.add_parser("html", help="write a live page: one self-contained HTML file that runs the meadow "
                                     "in any browser with WebGPU (a still picture and a line without it)")
@@ -213,6 +215,8 @@ def build_parser():
     b.add_argument("--raster-max-px", type=float, nargs="+", default=None, metavar="PX",
                    help="run the compute-rasterizer rows once per compute_raster_max_px value (pixels, 0..16; "
                         "default: the params' default)")
+    b.add_argument("--no-horizon", action="store_true",
+                   help="meadow preset: the square field of before (no grass to the horizon)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
     b.add_argument("--no-progress", action="store_true")
     p.subcommands = {"snapshot": s, "bench": b, "html": h, "sweep": w}
@@ -303,7 +307,8 @@ def _snapshot(args):
     if args.preset == "default":
         scene = _default_scene(args, params)
     else:
-        scene = GrassScene.preset(args.preset, blades=args.blades, size=args.size, params=params, seed=args.seed)
+        scene = GrassScene.preset(args.preset, blades=args.blades, size=args.size, params=params, seed=args.seed,
+                                  horizon=not args.no_horizon)
     scene.step(args.steps)
     path = write_image(args.out, scene.render_at(args.size))  # anti-aliased (see GrassScene.render_at)
     print(f"wrote {path} ({args.size[0]}x{args.size[1]}, {args.blades} blades, {args.steps} steps, "
@@ -375,7 +380,7 @@ def _bench(args):
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
     report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
                        progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster,
-                       raster_max_px=args.raster_max_px)
+                       raster_max_px=args.raster_max_px, horizon=not args.no_horizon)
     print(format_table(report))
     if args.json:
         save_json(report, args.json)

@@ -9,9 +9,11 @@ Fixtures:
 * ``webgpu_browser`` a Chromium with WebGPU (SwiftShader) for one test: one browser
   (``webgpu_chromium``, session-wide) serves every test; after each test its page is
   back at its first viewport size.
-* ``page``          the browser's page for one test; after the test all
-  kernels are shut down and, on failure, a screenshot, the browser console
-  and the server log are saved (path printed in the report).
+* ``page``          the browser's page for one test; after the test the page
+  leaves Lab, its kernel is reset and kept for the next test's notebook (every
+  other kernel is shut down: ``JupyterLabServer.shutdown_kernels``) and, on
+  failure, a screenshot, the browser console and the server log are saved (path
+  printed in the report); a failed test's kernel is not kept.
 
 Tests in this folder that use one of these fixtures are marked ``browser`` automatically and are skipped
 with a reason when Chromium or a needed package is missing. Deselect them
@@ -63,7 +65,7 @@ def browser_root(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def lab_server(browser_root):
-    server = JupyterLabServer(browser_root)
+    server = JupyterLabServer(browser_root, reuse_kernels=True)
     server.start()
     try:
         yield server
@@ -71,6 +73,28 @@ def lab_server(browser_root):
         server.stop()
         if os.environ.get("GW_KEEP_LAB_STATE") != "1":
             server.cleanup()
+
+
+@pytest.fixture(autouse=True)
+def _kernel_reuse(request):
+    """The session's JupyterLab keeps the last test's kernel, reset, for the next notebook
+    (``JupyterLabServer.shutdown_kernels``); a module with ``FRESH_KERNELS = True`` opens
+    each notebook on a new kernel, and after a failed test the kept kernel is shut down."""
+    if "lab_server" not in request.fixturenames:
+        yield
+        return
+    server = request.getfixturevalue("lab_server")
+    fresh = bool(getattr(request.module, "FRESH_KERNELS", False))
+    if fresh:
+        server.drop_warm_kernel()
+        server.reuse_kernels = False
+    try:
+        yield
+    finally:
+        server.reuse_kernels = True
+        if any(getattr(getattr(request.node, f"gw_report_{when}", None), "failed", False)
+               for when in ("setup", "call")):
+            server.drop_warm_kernel()
 
 
 @pytest.fixture(scope="session")
@@ -108,7 +132,7 @@ def page(browser, lab_server, request):
         save_debug_artifacts(page, out, request.node.name, browser, lab_server)
         tail = "\n".join(browser.console[n_console:][-40:])
         print(f"\n[browser harness] debug artifacts in {out}\n[browser console tail]\n{tail}")
-    # Leave a clean server for the next test: shut down every session/kernel.
+    # Leave a clean server for the next test: every kernel shut down but one, reset and kept.
     try:
         page.goto("about:blank")
         lab_server.shutdown_kernels()

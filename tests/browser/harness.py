@@ -304,6 +304,31 @@ DEFAULT_LAB_SETTINGS = {
 DEFAULT_DISABLED_PLUGINS = ("@jupyterlab/apputils-extension:announcements",)
 
 
+#: Kernel code that makes a used kernel like a new one for the next notebook (see
+#: :meth:`JupyterLabServer.shutdown_kernels`): every grasswidget widget is closed (its view,
+#: loops and GPU resources), then every other widget; the user namespace, ``Out`` and the
+#: history are emptied (``reset(new_session=True)``: execution counts start at 1 again).
+#: Imported modules stay imported and the GPU device stays open, as after a notebook's
+#: first cell. It prints ``GW-KERNEL-RESET-OK`` only when no widget is left open.
+KERNEL_RESET = r"""
+def __gw_reset():
+    import gc
+    import ipywidgets
+    shell = get_ipython()
+    mine = [o for o in gc.get_objects()
+            if isinstance(o, ipywidgets.Widget) and type(o).__module__.startswith('grasswidget')]
+    for widget in mine:
+        widget.close()
+    ipywidgets.Widget.close_all()
+    shell.reset(new_session=True)
+    gc.collect()
+    from ipywidgets.widgets.widget import _instances
+    if not _instances:
+        print('GW-KERNEL-RESET-OK')
+__gw_reset()
+"""
+
+
 class JupyterLabServer:
     """Start JupyterLab for ``root_dir`` on 127.0.0.1, a free port and a random
     token, with private config/runtime/data/IPython/XDG runtime directories.
@@ -343,6 +368,7 @@ class JupyterLabServer:
         lab_settings: Optional[dict] = None,
         disabled_plugins: Iterable[str] = DEFAULT_DISABLED_PLUGINS,
         app: str = "lab",
+        reuse_kernels: bool = False,
     ):
         if app not in SERVER_APPS:
             raise HarnessError(f"app must be one of {', '.join(SERVER_APPS)}; got {app!r}")
@@ -362,6 +388,11 @@ class JupyterLabServer:
         self.log_path: Optional[Path] = None
         self._log_file = None
         self.startup_seconds: Optional[float] = None
+        self.reuse_kernels = reuse_kernels
+        #: The session kept by :meth:`shutdown_kernels` (reset, no page connected), or None.
+        self.warm_session: Optional[dict] = None
+        #: How many notebooks :func:`open_notebook` opened on a kept kernel / kernels reset to keep.
+        self.kernels_reused = 0
 
     # -- public API --------------------------------------------------------
 
@@ -391,24 +422,94 @@ class JupyterLabServer:
         # earlier test are not reopened (each would start its own kernel).
         return f"{self.base_url}{path}?reset&token={self.token}"
 
-    def api(self, path: str, method: str = "GET", timeout: float = 5.0) -> Any:
-        """Call the server's REST API (``path`` like ``"api/kernels"``) and
-        return the decoded JSON (None for an empty body)."""
+    def api(self, path: str, method: str = "GET", timeout: float = 5.0, body: Any = None) -> Any:
+        """Call the server's REST API (``path`` like ``"api/kernels"``, ``body`` sent as
+        JSON) and return the decoded JSON (None for an empty body)."""
         sep = "&" if "?" in path else "?"
         url = f"{self.base_url}{path.lstrip('/')}{sep}token={self.token}"
-        req = urllib.request.Request(url, method=method)
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(url, method=method, data=data,
+                                     headers={"Content-Type": "application/json"} if data else {})
         with urllib.request.urlopen(req, timeout=timeout) as resp:
             body = resp.read()
         return json.loads(body) if body else None
 
-    def shutdown_kernels(self, timeout: float = 15.0) -> int:
-        """Delete every session (and so its kernel) through the REST API;
-        returns how many there were. Navigating to another notebook does
-        *not* stop the previous notebook's kernel; call this in between."""
+    def shutdown_kernels(self, timeout: float = 15.0, keep_one: Optional[bool] = None) -> int:
+        """End every notebook session through the REST API; returns how many there were.
+        Navigating to another notebook does *not* stop the previous notebook's kernel;
+        call this in between (after the page left the notebook).
+
+        With ``keep_one`` (default: the server's ``reuse_kernels``), one kernel that no
+        page is connected to any more is not shut down but reset (:data:`KERNEL_RESET`:
+        every widget closed, the user namespace and history emptied) and kept; the next
+        :func:`open_notebook` opens its notebook on it, which spares starting a kernel
+        and importing the package again (about 7 s on 2 busy cores). A kernel whose
+        reset fails, times out or finds a widget still open is shut down like the rest."""
+        keep_one = self.reuse_kernels if keep_one is None else keep_one
         sessions = self.api("api/sessions")
+        self.warm_session = None
         for s in sessions:
+            if keep_one and self.warm_session is None and self._reset_for_reuse(s):
+                self.warm_session = s
+                continue
             self.api(f"api/sessions/{s['id']}", method="DELETE", timeout=timeout)
         return len(sessions)
+
+    def drop_warm_kernel(self, timeout: float = 15.0) -> None:
+        """Shut down the kernel :meth:`shutdown_kernels` kept, if any (after a failed
+        test, so the next test starts on a new kernel)."""
+        s, self.warm_session = self.warm_session, None
+        if s is not None:
+            try:
+                self.api(f"api/sessions/{s['id']}", method="DELETE", timeout=timeout)
+            except urllib.error.HTTPError:
+                pass  # already gone
+
+    def take_warm_session(self, relpath: str) -> Optional[dict]:
+        """Hand the kept kernel to the notebook ``relpath`` (its session is renamed to that
+        path, so Lab opening the notebook connects to it); None when none is kept."""
+        s, self.warm_session = self.warm_session, None
+        if s is None:
+            return None
+        try:
+            moved = self.api(f"api/sessions/{s['id']}", method="PATCH",
+                             body={"path": relpath, "name": Path(relpath).name, "type": "notebook"})
+        except urllib.error.HTTPError:
+            return None  # the kernel died meanwhile: Lab starts a new one
+        self.kernels_reused += 1
+        return moved
+
+    def _reset_for_reuse(self, session: dict, timeout: float = 15.0) -> bool:
+        kernel = session.get("kernel") or {}
+        if kernel.get("name") != "python3":
+            return False
+        # the page that used it must have let go (it navigated away): wait for its socket to close
+        def released():
+            k = self.api(f"api/kernels/{kernel['id']}")
+            return k.get("connections", 0) == 0 and k.get("execution_state") == "idle", k
+        try:
+            poll(released, "the kernel to have no page connected and be idle", 5.0, 0.1)
+        except (HarnessTimeout, urllib.error.URLError, OSError):
+            return False
+        connection_file = self.state_dir / "runtime" / f"kernel-{kernel['id']}.json"
+        if not connection_file.exists():
+            return False
+        from jupyter_client import BlockingKernelClient
+
+        client = BlockingKernelClient(connection_file=str(connection_file))
+        client.load_connection_file()
+        client.start_channels()
+        printed = []
+        try:
+            reply = client.execute_interactive(
+                KERNEL_RESET, store_history=False, timeout=timeout,
+                output_hook=lambda msg: printed.append(msg["content"].get("text", ""))
+                if msg["header"]["msg_type"] == "stream" else None)
+            return reply["content"]["status"] == "ok" and "GW-KERNEL-RESET-OK" in "".join(printed)
+        except Exception:  # a busy or broken kernel is not reused
+            return False
+        finally:
+            client.stop_channels()
 
     def log_text(self, tail: int = 0) -> str:
         """The server's combined stdout/stderr so far (last ``tail`` chars)."""
@@ -962,7 +1063,11 @@ def _notebook_state(page, path: Optional[str]):
 
 def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0) -> None:
     """Navigate to ``relpath`` in Lab and wait until the notebook panel is
-    open, its kernel is connected and idle; installs the frame counter."""
+    open, its kernel is connected and idle; installs the frame counter.
+    A kernel the server kept (:meth:`JupyterLabServer.shutdown_kernels`) is
+    handed to the notebook first, so Lab connects to it instead of starting one."""
+    if getattr(server, "warm_session", None) is not None:
+        server.take_warm_session(relpath)
     page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
 
     def check():

@@ -23,7 +23,6 @@ import numpy as np
 import pytest
 
 from .harness import (
-    Browser,
     kernel_eval,
     kernel_execute,
     open_notebook,
@@ -39,12 +38,6 @@ pytestmark = pytest.mark.browser
 
 CELL = "import grasswidget as gw\nw = gw.GrassWidget(1024, size=(320, 240))\nw"
 SIMULATED_GPU = "globalThis.__grasswidgetTestAdapterInfo = {vendor: 'nvidia', architecture: 'ampere', fallback: false};"
-
-
-@pytest.fixture(scope="module")
-def webgpu_browser():
-    with Browser(webgpu=True) as b:
-        yield b
 
 
 def _grass_fraction(px):

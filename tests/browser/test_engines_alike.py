@@ -10,6 +10,10 @@
   ``artifacts`` folder).
 * The same with the sunlight on (GrassParams.shadows, a low sun, a ball's shadow):
   ``sunlit_side_by_side.png``.
+* The meadow to the horizon (``Blades.on_plane(..., reach=R)``: thinned, widened far blades and
+  the far ground coloured like them) is drawn alike too: the same blades, steps and a camera
+  looking far give pictures within the same bound, and the band under the horizon is grass in
+  both (``engines_horizon_side_by_side.png``).
 * One simulation per widget: a widget displayed twice has one engine in the page
   with two views; while it plays and after it pauses, both canvases show the same
   meadow, and ``step`` / ``read_state`` have one answer.
@@ -180,6 +184,66 @@ def _expected_ground(x_pixels):
     return out
 
 
+HORIZON_BLADES = 4096
+HORIZON_SIZE, HORIZON_REACH = 6.0, 40.0  # near disc 3 m, blades out to 40 m (the camera's far plane: 100 m)
+
+
+def _horizon_camera():
+    """A camera 2.5 m up looking across the field to the horizon, inside its orbit limits."""
+    import grasswidget as gw
+    from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
+
+    b = gw.Blades.on_plane(HORIZON_BLADES, size=HORIZON_SIZE, reach=HORIZON_REACH, seed=2)
+    limits = OrbitLimits.for_field(b.v0, b.up, b.height, 100.0, horizon=b.horizon)
+    p, t = clamp_orbit((0.0, 2.5, 8.0), (0.0, 0.3, -3.0), limits)
+    return {"position": tuple(map(float, p)), "target": tuple(map(float, t)), "fov_deg": 50.0}
+
+
+def _save_both_engines_horizon(page, out_dir):
+    """The field to the horizon in both engines: browser save_png and the kernel's, same blades, steps, camera."""
+    cam = _horizon_camera()
+    out = kernel_execute(page, f"""
+import grasswidget as gw
+from grasswidget.gpu.scene import GrassScene
+w.pause()
+w.set_blades(gw.Blades.on_plane({HORIZON_BLADES}, size={HORIZON_SIZE}, reach={HORIZON_REACH}, seed=2))
+w.reset_blades()
+w.step(30)
+cam = {cam!r}
+w.camera_state = cam
+w.save_png({os.path.join(out_dir, 'horizon_browser.png')!r}, size={SIZE})
+scene = GrassScene(w.view.engine_widget.blades, size={SIZE}, params=w.params.copy())
+scene.step(30)
+scene.look(cam['position'], cam['target'], cam['fov_deg'])
+scene.save_png({os.path.join(out_dir, 'horizon_kernel.png')!r})
+scene.release()
+print('SAVED')
+""", timeout=180)
+    assert "SAVED" in out.stdout, out
+
+
+def _compare_engines_horizon(out_dir):
+    import imageio.v3 as iio
+
+    browser = iio.imread(os.path.join(out_dir, "horizon_browser.png"))[..., :3].astype(int)
+    kernel = iio.imread(os.path.join(out_dir, "horizon_kernel.png"))[..., :3].astype(int)
+    assert browser.shape == kernel.shape == (SIZE[1], SIZE[0], 3)
+    iio.imwrite(os.path.join(out_dir, "engines_horizon_side_by_side.png"),
+                np.concatenate([kernel, np.full((SIZE[1], 4, 3), 255), browser], axis=1).astype(np.uint8))
+    mean = float(np.abs(browser - kernel).mean())
+    # the band under the horizon: the rows below the sky down to a fifth of the picture
+    sky = np.flatnonzero(((kernel[..., 2] > kernel[..., 1]) & (kernel[..., 2] > kernel[..., 0])).mean(1) > 0.9)
+    top = int(sky.max()) + 2 if sky.size else SIZE[1] // 2
+    band = slice(top, top + SIZE[1] // 5)
+    shares = [float(((img[band, :, 1] > img[band, :, 0]) & (img[band, :, 1] > img[band, :, 2])).mean())
+              for img in (kernel, browser)]
+    print(f"[engines alike, to the horizon] mean |browser - kernel| = {mean:.2f}/255; the band under the horizon "
+          f"(rows {band.start}..{band.stop}) is grass in {shares[0]:.1%} (kernel) and {shares[1]:.1%} (browser); "
+          f"side by side: {os.path.join(out_dir, 'engines_horizon_side_by_side.png')}")
+    assert min(shares) > 0.97
+    assert mean < 2.0
+
+
 def _compare_engines(out_dir):
     """The browser's save_png (anti-aliased in the browser) and the kernel's, with the
     looks on: nearly the same picture; the browser's plain snapshot is farther off."""
@@ -236,8 +300,8 @@ def test_one_simulation_per_widget_and_the_engines_draw_alike(webgpu_browser, la
                      "one engine with two views in the page", 30, 0.3, page=page)
         print(f"\n[displayed twice] engines in the page: {found}")
         # while playing, both views show the same meadow moving
-        steps0 = kernel_eval(page, "w.stats['step_count'] or 0")
-        wait_for_kernel(page, "w.stats['step_count'] or 0", predicate=lambda s: s > steps0 + 60, timeout=60)
+        steps0 = kernel_eval(page, "w.stats.get('step_count') or 0")
+        wait_for_kernel(page, "w.stats.get('step_count') or 0", predicate=lambda s: s > steps0 + 60, timeout=60)
         kernel_execute(page, "w.pause()")
         a0, b0 = poll(lambda: (lambda s: (bool(np.abs(s[0] - s[1]).max() == 0), s))(_canvases(page)),
                       "both views to show the same picture once paused", 30, 0.5, page=page)
@@ -259,6 +323,7 @@ print('STEPS', s0, s1)
         assert moved > 0.002
         _save_both_engines(page, out_dir)
         _save_both_engines_sunlit(page, out_dir)
+        _save_both_engines_horizon(page, out_dir)
 
     _run(page, lab_server, browser_root, "displayed_twice.ipynb", [
         f"import grasswidget as gw\nw = gw.GrassWidget({N_BLADES}, backend='browser', size={SIZE})\nw",
@@ -266,6 +331,7 @@ print('STEPS', s0, s1)
     ], check, webgpu_browser)
     _compare_engines(out_dir)
     _compare_sunlit(out_dir)
+    _compare_engines_horizon(out_dir)
 
 
 # ---------------------------------------------------------------------- occlusion culling ----------

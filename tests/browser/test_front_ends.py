@@ -60,7 +60,8 @@ def front_end_root(tmp_path_factory):
 
 @pytest.fixture(scope="module", params=["notebook", "voila"])
 def server(request, front_end_root):
-    with JupyterLabServer(front_end_root, app=request.param) as s:
+    # Notebook 7's kernel is reset and kept for the module's next notebook (JupyterLabServer.shutdown_kernels)
+    with JupyterLabServer(front_end_root, app=request.param, reuse_kernels=request.param == "notebook") as s:
         yield s
     s.cleanup()
 

@@ -141,9 +141,17 @@ w.VBox([button, status, check, n, note])
 
 def test_harness_widget_helpers(page, lab_server, browser_root):
     """Buttons, checkboxes, IntSlider and output text, without a canvas;
-    also checks that the previous test's notebook and kernel are gone."""
+    also checks that the previous test's notebook is gone and that its kernel, when
+    kept for this notebook (``reuse_kernels``), holds nothing of it: no name, no widget."""
     write_notebook(browser_root / "widgets.ipynb", [WIDGETS_CELL])
+    reused = lab_server.kernels_reused
     open_notebook(page, lab_server, "widgets.ipynb")
+    left = kernel_eval(page, "[n for n in ('s', 'canvas', 'pointer_events', 'Out') if n in globals() and "
+                             "(n != 'Out' or globals()['Out'])] + "
+                             "list(__import__('ipywidgets').widgets.widget._instances)")
+    print(f"\n[widget helpers] kernel {'kept from the test before' if lab_server.kernels_reused > reused else 'new'};"
+          f" left from before: {left}")
+    assert left == [], left
     run_all_cells(page)
     assert len(lab_server.api("api/sessions")) == 1, lab_server.api("api/sessions")
 

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import Browser, MarimoServer, drag, panel_label, poll
+from .harness import MarimoServer, drag, panel_label, poll
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 pytest.importorskip("marimo")
@@ -132,17 +132,21 @@ def marimo_root(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def marimo_page(marimo_root):
-    with MarimoServer(marimo_root / "meadows.py") as server, Browser(webgpu=True) as browser:
-        page = browser.page
-        page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
+def marimo_page(marimo_root, webgpu_chromium):
+    """A tab of the session's WebGPU Chromium on the module's marimo server, closed after the module."""
+    browser = webgpu_chromium
+    with MarimoServer(marimo_root / "meadows.py") as server:
+        page = browser.new_page()
         try:
+            page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
             poll(lambda: page.locator(".grasswidget-marimo").count() == 2, "marimo to show both widgets", 120, 0.5,
                  page=page)
             yield page
         except BaseException:
             print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
             raise
+        finally:
+            page.close()
 
 
 def _root(page, engine):
@@ -337,12 +341,12 @@ FALLBACK_NOTEBOOK = textwrap.dedent('''
 ''')
 
 
-def test_fallback_to_the_kernel_engine_in_marimo(tmp_path):
+def test_fallback_to_the_kernel_engine_in_marimo(tmp_path, browser):
     (tmp_path / "fallback.py").write_text(FALLBACK_NOTEBOOK)
-    with MarimoServer(tmp_path / "fallback.py") as server, Browser(webgpu=False) as browser:
-        page = browser.page
-        page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
+    with MarimoServer(tmp_path / "fallback.py") as server:
+        page = browser.new_page()  # a tab of the session's Chromium without WebGPU
         try:
+            page.goto(server.base_url, wait_until="domcontentloaded", timeout=60_000)
             root = page.locator(".grasswidget-marimo").first
             poll(lambda: root.locator("img.renderview-view").count() == 1 and
                  root.locator("canvas.grasswidget-canvas").count() == 0,
@@ -365,6 +369,8 @@ def test_fallback_to_the_kernel_engine_in_marimo(tmp_path):
         except BaseException:
             print("\n[marimo log]\n" + server.log_text(4000) + "\n[console]\n" + "\n".join(browser.console[-40:]))
             raise
+        finally:
+            page.close()
 
 
 # ---------------------------------------------------------------- backend="auto" in marimo
@@ -410,11 +416,11 @@ SIMULATED_GPU = "globalThis.__grasswidgetTestAdapterInfo = {vendor: 'nvidia', ar
 
 
 @pytest.fixture(scope="module")
-def auto_server(tmp_path_factory):
+def auto_server(tmp_path_factory, webgpu_chromium):
     root = tmp_path_factory.mktemp("marimo-auto")
     (root / "auto.py").write_text(AUTO_NOTEBOOK)
-    with MarimoServer(root / "auto.py") as server, Browser(webgpu=True) as browser:
-        yield server, browser
+    with MarimoServer(root / "auto.py") as server:
+        yield server, webgpu_chromium  # each test opens its own tab
 
 
 def _backend_from_a_later_cell(page):

@@ -60,6 +60,9 @@ from .harness import (
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
+#: Each notebook runs on a new kernel, as a reader's Run All would (conftest.py: the others reuse one, reset).
+FRESH_KERNELS = True
+
 #: What a notebook's last cells set and say, checked in the kernel after Run All (a control drawn late
 #: by a busy page must not send an older value over it): notebook stem -> (expression, expected value).
 STATE_AFTER_RUN_ALL = {

@@ -19,7 +19,8 @@ SIZE = (192, 108)
 
 @pytest.fixture(scope="module")
 def meadow():
-    sc = gw.GrassScene.preset("meadow", blades=1 << 14, size=SIZE, seed=2)
+    sc = gw.GrassScene.preset("meadow", blades=1 << 14, size=SIZE, seed=2,
+                              horizon=False)  # the dense square meadow (not the sparser field to the horizon)
     sc.params.compute_raster = True  # GrassScene's default is off on a CPU adapter (lavapipe here)
     yield sc
     sc.release()

@@ -17,6 +17,10 @@ than 40/255 (one blade edge moved by a pixel in a few places). A changed rule
 moves blades or shades and fails it: measured on the default preset, the picture
 one simulation step later (a wind time off by 1/60 s) is 0.58/255 off on average,
 and a wind of 6 instead of 5 m/s^2 gives 5.1/255 with 3.3 % of pixels off by > 40.
+
+The meadow reaches the horizon since issue 29 (a picture changed on purpose,
+tests/gpu/test_horizon_pictures.py checks it); its stored picture is the square field on
+bare ground, which ``--no-horizon`` still makes: that is what is compared here.
 """
 
 from __future__ import annotations
@@ -44,8 +48,9 @@ def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 @pytest.mark.parametrize("preset", ["default", "cis565", "meadow"])
 def test_preset_picture_is_the_one_from_before(preset, tmp_path):
     out = tmp_path / f"{preset}.png"
+    extra = ["--no-horizon"] if preset == "meadow" else []  # the meadow's look of before (see above)
     assert cli_main(["snapshot", str(out), "--preset", preset, "--blades", "16384", "--size", "320x240",
-                     "--steps", "60", "--seed", "3"]) == 0
+                     "--steps", "60", "--seed", "3", *extra]) == 0
     now = iio.imread(out)
     before = iio.imread(BEFORE / f"{preset}.png")
     assert now.shape == before.shape

@@ -28,6 +28,9 @@ __all__ = [
     "ground_color",
     "ground_cover",
     "blade_shade",
+    "FAR_ALONG",
+    "far_grass_shade",
+    "ground_albedo",
 ]
 
 
@@ -191,3 +194,71 @@ def blade_shade(normal, to_eye, along, base, glow, fog, fog_color, light_directi
     return rgb + (np.asarray(fog_color, np.float64) - rgb) * fog
 
 
+
+
+# --------------------------------------------------------------------------- grass seen from afar
+
+#: Height fraction whose unlit blade colour stands for a blade seen from afar (the far ground's base).
+FAR_ALONG = 0.75
+
+
+def far_grass_shade(root, tip, color_variation, dryness, translucency, light_direction, ambient,
+                    samples: int = 4096, seed: int = 7):
+    """The mean lit colour of blades seen from afar over their unlit colour at :data:`FAR_ALONG`
+    (rgb, per channel): what the far ground multiplies its grass colour by (:func:`ground_albedo`).
+
+    The mean is over blades at rest (upright, horizontal normals) of every orientation, seen
+    from every azimuth 2..15 degrees above the ground (a view across a meadow), over the
+    upper three quarters of their height (what shows over the blades in front; this share
+    matches the lavapipe renders of the meadow at 150-200 m within 2/255), each with its own
+    colour variation, through :func:`blade_base_color`, :func:`backlight` and
+    :func:`blade_shade` without fog. A fixed stratified sample (``samples``, ``seed``), so
+    the same inputs give the same numbers."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(samples)
+    theta = 2.0 * np.pi * (k + rng.random(samples)) / samples
+    azimuth = rng.permutation(2.0 * np.pi * (k + rng.random(samples)) / samples)
+    elevation = np.radians(2.0 + 13.0 * rng.random(samples))
+    along = 0.25 + 0.75 * rng.permutation((k + rng.random(samples)) / samples)
+    variation = rng.random(samples)
+    normal = np.stack([-np.sin(theta), np.zeros(samples), np.cos(theta)], axis=1)
+    to_eye = np.stack([np.cos(elevation) * np.cos(azimuth), np.sin(elevation), np.cos(elevation) * np.sin(azimuth)],
+                      axis=1)
+    light = safe_normalize(np.asarray(light_direction, np.float64).reshape(1, 3))
+    clump = np.zeros((samples, 2))
+    row = np.asarray(root, np.float64).reshape(1, 3), np.asarray(tip, np.float64).reshape(1, 3)
+    base = blade_base_color(row[0], row[1], along, variation, clump, color_variation, dryness)
+    glow = backlight(to_eye, light, along, translucency)
+    lit = blade_shade(normal, to_eye, along, base, glow, np.zeros(samples), np.zeros(3), light.ravel(),
+                      np.full(samples, float(ambient)))
+    unlit = blade_base_color(root, tip, FAR_ALONG, 0.5, np.zeros(2), color_variation, dryness)
+    return lit.mean(axis=0) / np.maximum(unlit, 1e-6)
+
+
+def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, horizon, far_blend, far_grass,
+                  root, tip, color_variation, dryness, sunlight=1.0):
+    """The ground's colour (sRGB, lit) at ground point (x, z), ``dist`` metres from the camera
+    (``sky_ground.wgsl`` ``ground_albedo``): :func:`ground_color` (soil under the field's
+    rectangle, ``beyond`` outside); for a field to the horizon (``horizon`` = (cx, cz, reach,
+    on), on != 0) it gives way to the grass seen from afar by the camera's distance
+    (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the
+    last ``2 edge`` m): :func:`blade_base_color` at ``far_blend[3]`` along, variation 0.5, of
+    the patches :func:`clump_noise` of size ``far_blend[2]`` gives at (x, z), times
+    ``far_grass`` (:func:`far_grass_shade`). ``sunlight`` (0..1, sunlight.wgsl's ``ground_sunlight``;
+    1 with shadows off) lights the soil and the ground beyond, not the far grass (the grass's top)."""
+    x, z, dist = (np.asarray(a, np.float64) for a in (x, z, dist))
+    inside = field_inside(x, z, field_c, field_half, edge)
+    ground = ground_color(soil, beyond, inside, cover) * np.asarray(sunlight, np.float64)[..., None]
+    if horizon[3] == 0:
+        return ground
+    r = np.hypot(x - horizon[0], z - horizon[1])
+    far = np.maximum(_smoothstep(far_blend[0], far_blend[1], dist),
+                     _smoothstep(horizon[2] - 2.0 * edge, horizon[2], r))
+    clump = clump_noise(x, z, far_blend[2])
+    grass = blade_base_color(root, tip, far_blend[3], 0.5, clump, color_variation, dryness) * np.asarray(far_grass)
+    return _mix(ground, grass, far)
+
+
+def _smoothstep(a, b, x):
+    t = np.clip((np.asarray(x, np.float64) - a) / (b - a), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)

@@ -1,0 +1,142 @@
+"""The meadow to the horizon in real renders (lavapipe here): from the preset's camera, a low
+camera just above the grass (through a 12-degree lens, so that the band is more than 3 rows)
+and a high one looking far, the band of the picture between the
+near grass and the horizon's haze is grass-coloured (no khaki ground) and shows no ring where
+the last blades give way to the far ground; the drawn blade count is bounded by the field's,
+whatever the view.
+
+How the band is found: each row's centre ray meets the ground at a distance d (m, from the
+camera geometry); the band is the rows with 0.35 R <= d <= 1.2 R (R, the reach: the last
+blades; 1.2 R = 240 m is where the ground fades into the horizon, 0.6 of the
+400 m far plane). "Grass-coloured": a pixel's hue (HSV, degrees) is over 68 (khaki, the bare
+ground's #787a4e, is 62; the meadow's blades and far ground 75..100) and green is its
+largest channel. "No ring" (measured with the fog off, which could only hide one): the mean colour (RGB, 0..255) of the rows with d in
+[0.8 R, R) and of those in (R, 1.2 R] differ by at most RING_TOLERANCE, and no two
+neighbouring rows' means differ by more than STEP_TOLERANCE; the same scene with the far
+ground off (khaki beyond the square inside the reach's circle, as the ground of before) must fail
+both, so the check can fail.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import grasswidget as gw
+from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
+
+W, H = 320, 180
+N_BLADES = 1 << 16
+#: Largest difference (0..255, any channel) between the mean colours just inside and just outside the reach.
+RING_TOLERANCE = 10.0
+#: Largest difference (0..255, any channel) between neighbouring rows' mean colours in the band.
+STEP_TOLERANCE = 12.0
+KHAKI_HUE_MAX = 68.0
+
+
+@pytest.fixture(scope="module")
+def scene():
+    s = gw.GrassScene.preset("meadow", blades=N_BLADES, size=(W, H))
+    s.step(30)
+    return s
+
+
+def _cameras(scene):
+    limits = OrbitLimits.for_scene(scene, "grass")
+    r0 = scene.field.blades.horizon.near_radius
+    home_p = np.array(scene.camera.local.position, np.float64)  # a copy: look() moves the camera later
+    home_t = home_p + 30.0 * (-np.asarray(scene.camera.world.matrix, np.float64)[:3, 2])
+    low = (np.array([0.0, limits.ground_y + limits.clearance + 0.05, 0.6 * r0]), np.array([0.0, 0.6, -r0]))
+    el = math.radians(20.0)
+    high_t = np.array([0.0, 0.0, -r0])
+    high = (high_t + 0.98 * limits.max_distance * np.array([0.0, math.sin(el), math.cos(el)]), high_t)
+    fov = scene.vertical_fov()
+    # the low camera looks through a long lens (12 degrees): the band it sees is 3 rows at 50 degrees
+    return {"preset": (home_p, home_t, fov), "low": (*clamp_orbit(*low, limits), 12.0),
+            "high": (*clamp_orbit(*high, limits), fov)}
+
+
+def _row_distances(scene):
+    """Distance (m) from the camera at which each row's centre ray meets the ground (inf: none)."""
+    cam = scene.camera
+    inv = np.linalg.inv(np.asarray(cam.projection_matrix, np.float64) @ np.asarray(cam.view_matrix, np.float64))
+    eye = np.asarray(cam.world.position, np.float64)
+    ground_y = scene.sky_ground.material.uniform_buffer.data["ground"][1]
+    out = np.full(H, np.inf)
+    for row in range(H):
+        ndc_y = 1.0 - 2.0 * (row + 0.5) / H
+        far = inv @ np.array([0.0, ndc_y, 1.0, 1.0])
+        d = far[:3] / far[3] - eye
+        if d[1] < -1e-9:
+            out[row] = np.linalg.norm(d * (ground_y - eye[1]) / d[1])
+    return out
+
+
+def _hue(img):
+    rgb = img.astype(np.float64) / 255.0
+    mx, mn = rgb.max(-1), rgb.min(-1)
+    c = np.maximum(mx - mn, 1e-9)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    hue = np.where(mx == r, ((g - b) / c) % 6, np.where(mx == g, (b - r) / c + 2, (r - g) / c + 4)) * 60.0
+    return hue
+
+
+def _band_measures(img, dist, reach):
+    band = (dist >= 0.35 * reach) & (dist <= 1.2 * reach)
+    rows = img[band].astype(np.float64)
+    hue = _hue(rows)
+    grass = (hue > KHAKI_HUE_MAX) & (rows[..., 1] >= rows[..., 0]) & (rows[..., 1] >= rows[..., 2])
+    means = img.astype(np.float64).mean(axis=1)
+    inside = means[(dist >= 0.8 * reach) & (dist < reach)]
+    outside = means[(dist > reach) & (dist <= 1.2 * reach)]
+    # None: the reach falls inside one row (a camera near the ground at this height): the steps cover it
+    ring = float(np.abs(inside.mean(0) - outside.mean(0)).max()) if len(inside) and len(outside) else None
+    steps = np.abs(np.diff(means[band], axis=0)).max() if band.sum() > 1 else 0.0
+    return int(band.sum()), float(grass.mean()), ring, float(steps)
+
+
+@pytest.mark.slow
+def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
+    reach = scene.field.blades.horizon.reach
+    drawn = []
+    for name, (position, target, fov) in _cameras(scene).items():
+        scene.look(position=position, target=target, fov_deg=fov)
+        img = scene.render_at((W, H), antialias=False)[..., :3]
+        dist = _row_distances(scene)
+        rows, grass, _ring, _steps = _band_measures(img, dist, reach)
+        # the ring and the steps without the fog (which would hide them: it only blends towards one colour)
+        scene.params.fog_density = 0.0
+        try:
+            clear = scene.render_at((W, H), antialias=False)[..., :3]
+        finally:
+            scene.params.fog_density = gw.GrassParams().fog_density
+        _rows, clear_grass, ring, steps = _band_measures(clear, dist, reach)
+        drawn.append(scene.visible_count())
+        print(f"[horizon] {name}: {rows} band rows, {grass:.1%} grass-coloured, ring {ring}/255, "
+              f"largest row step {steps:.1f}/255, {drawn[-1]} blades drawn")
+        assert rows >= 2, name
+        assert grass > 0.98 and clear_grass > 0.98, (name, grass, clear_grass)
+        assert ring is None or ring <= RING_TOLERANCE, (name, ring)
+        assert steps <= STEP_TOLERANCE, (name, steps)
+        # the control: the far ground off (khaki beyond the reach, the look of before) fails the checks
+        values = scene.sky_ground.material.uniform_buffer.data
+        saved, saved_field = values["horizon"].copy(), values["field"].copy()
+        half = reach / math.sqrt(2.0)  # soil on the square inside the reach's circle, khaki beyond it
+        scene.params.fog_density = 0.0  # (rewrites the sky/ground's values: first)
+        scene.sky_ground.material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0), "field": (0.0, 0.0, half, half)})
+        try:
+            bare = scene.render_at((W, H), antialias=False)[..., :3]
+        finally:
+            scene.params.fog_density = gw.GrassParams().fog_density
+            scene.sky_ground.material.set_values({"horizon": tuple(float(x) for x in saved),
+                                                  "field": tuple(float(x) for x in saved_field)})
+        _rows, bare_grass, bare_ring, bare_steps = _band_measures(bare, dist, reach)
+        print(f"[horizon] {name}, the control (khaki beyond the blades, no far grass): {bare_grass:.1%} "
+              f"grass-coloured, ring {bare_ring}/255, largest row step {bare_steps:.1f}/255")
+        if name != "low":  # just over the grass, the tips short of the reach hide the ground past it (93 % grass)
+            assert bare_grass < grass - 0.03, (name, bare_grass)
+            assert bare_ring > RING_TOLERANCE and bare_steps > STEP_TOLERANCE, (name, bare_ring, bare_steps)
+    # memory and work bounded by the field, not by the view
+    assert scene.field.count == N_BLADES and max(drawn) <= N_BLADES
