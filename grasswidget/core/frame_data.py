@@ -61,7 +61,7 @@ from .pays import effective
 from .reference import FAR_ALONG, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
 from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
 from .reference.sunlight import sun_direction as _sun_direction
-from .shader_files import WORKGROUP_SIZE
+from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 from .uniform_layouts import SKY_GROUND_LAYOUT
 
 __all__ = [
@@ -87,8 +87,7 @@ STATS_INTERVAL_MS = 500
 #: The most blade steps (blades x fixed steps) one simulation dispatch takes, both engines: a
 #: longer step(n) is split into dispatches of at most this many (no GPU watchdog trips on a long run).
 BLADE_STEPS_PER_DISPATCH = 1 << 24
-#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit).
-MAX_WORKGROUPS_X = 65535
+#: MAX_WORKGROUPS_X (from shader_files): workgroups along x of one dispatch before it folds into y.
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil

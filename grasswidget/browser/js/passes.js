@@ -99,6 +99,7 @@ export class EnginePasses extends EngineCulling {
       cpass.setBindGroup(0, p.sized ? raster.groups.get(p.name) : p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
       else if (p.dispatch === "pixels") cpass.dispatchWorkgroups(pixels[0], pixels[1]);
+      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, 0);
       else cpass.dispatchWorkgroups(1);
     }
     cpass.end();
