@@ -21,11 +21,18 @@ WebGPU on the CPU), shows ``GrassWidget(backend="browser")`` at 640 x 480 and
   rate of the live loop (the rest is presentation and the page) (``--compute-raster-only``
   runs just this part and writes ``browser_compute_raster_swiftshader.json``).
 
+* ``--matrix``: issue 28's matrix in the browser engine: per preset and blade count
+  (:data:`MATRIX_ROWS`), playing, the defaults (occlusion culling and compute rasterizer
+  "auto", decided by Python from the browser's frame times) against the four fixed
+  combinations, windows interleaved in one run (the order rotated each round), frames/s
+  presented; the decision in the panel's words (writes ``browser_matrix_swiftshader.json``).
+
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/browser_engine.py [--out benchmarks/browser_engine_swiftshader.json]
     .venv/bin/python benchmarks/browser_engine.py --occlusion-only [--out benchmarks/browser_occlusion_swiftshader.json]
     .venv/bin/python benchmarks/browser_engine.py --compute-raster-only [--out benchmarks/browser_compute_raster_swiftshader.json]
+    .venv/bin/python benchmarks/browser_engine.py --matrix [--out benchmarks/browser_matrix_swiftshader.json]
 
 Prints a table and writes the JSON (machine, browser, adapter and figures).
 """
@@ -64,6 +71,13 @@ OCCLUSION_ROUNDS = 2
 #: (preset, blades, profile): the default view has no blade under 2 px at 640 x 480; the meadow's far field has many.
 RASTER_ROWS = ((None, 4096, True), (None, 1 << 14, True), ("meadow", 1 << 14, False))
 RASTER_ROUNDS = 2
+#: --matrix: (preset, blades, size) rows; rounds over the five settings; seconds a window lasts at least.
+MATRIX_ROWS = (("cis565", 1 << 13, (320, 240)), ("meadow", 1 << 14, (320, 240)))
+MATRIX_ROUNDS = 2
+MATRIX_WINDOW_S = 2.0
+#: --matrix: (name, cull_occlusion, compute_raster): the defaults, then every fixed combination (bench --matrix's).
+MATRIX_SETTINGS = (("defaults", "auto", "auto"), ("occl on, cr on", True, True), ("occl on, cr off", True, False),
+                   ("occl off, cr on", False, True), ("occl off, cr off", False, False))
 PROFILE_FRAMES = 4
 PROFILE_ROUNDS = 3
 
@@ -310,6 +324,70 @@ def compute_raster_on_off(page, server, root):
     return out
 
 
+def _apply(page, occlusion, raster):
+    kernel_execute(page, f"w.params.cull_occlusion = {occlusion!r}\nw.params.compute_raster = {raster!r}")
+
+
+def _auto_decided(page):
+    """Both "auto" switches decided (no trial running): their words, else None."""
+    texts = kernel_eval(page, "[w.view.engine_widget.auto_switches.state.measuring, "
+                              "w.view.engine_widget.auto_switches.texts()]")
+    measuring, words = texts
+    done = not measuring and all(t.startswith(("auto (on:", "auto (off:")) for t in words.values())
+    return words if done else None
+
+
+def matrix(page, server, root):
+    """The defaults against every fixed combination per MATRIX_ROWS row, interleaved (see the module docstring)."""
+    out = {"rounds": MATRIX_ROUNDS, "window": f"at least 3 frames and {MATRIX_WINDOW_S} s after 1 warm-up frame",
+           "playing": True, "rows": []}
+    for preset, n, (w, h) in MATRIX_ROWS:
+        name = f"matrix_{preset}_{n}.ipynb"
+        write_notebook(root / name, [
+            f"import grasswidget as gw\nw = gw.GrassWidget({n}, preset={preset!r}, backend='browser', size=({w}, {h}))\nw",
+        ])
+        open_notebook(page, server, name)
+        run_all_cells(page, timeout=120)
+        wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=120)
+        for _label, occlusion, raster in MATRIX_SETTINGS[1:]:  # every path compiled once
+            _apply(page, occlusion, raster)
+            frames_per_s_after(page, 2, 2, 0.5)
+        _apply(page, "auto", "auto")
+        t0 = time.monotonic()
+        decided = poll(lambda: _auto_decided(page), "the defaults' decisions", 600, 0.5, page=page)
+        trial_s = time.monotonic() - t0
+        fps = {label: [] for label, _o, _r in MATRIX_SETTINGS}
+        counts = {label: [] for label, _o, _r in MATRIX_SETTINGS}
+        for r in range(MATRIX_ROUNDS):
+            k = r % len(MATRIX_SETTINGS)
+            for label, occlusion, raster in MATRIX_SETTINGS[k:] + MATRIX_SETTINGS[:k]:
+                _apply(page, occlusion, raster)
+                fps[label].append(round(frames_per_s_after(page, 1, 3, MATRIX_WINDOW_S), 3))
+                # the counts of a frame drawn in this window (the stats' last read-back, its state with it)
+                c = page.evaluate(f"() => {{ const e = {_ENGINE}; return {{visible: e.visible, occluded: e.occluded, "
+                                  "rastered: e.rastered, switches: e.countsSwitches}; }")
+                counts[label].append({"drawn": sum(c["visible"] or []) + (c["rastered"] or 0), "occluded": c["occluded"],
+                                      "rastered": c["rastered"], "switches": c["switches"]})
+                print(f"{preset:>7} {n:>7} blades, {label:>16}: {fps[label][-1]:6.2f} frames/s presented, "
+                      f"counts {counts[label][-1]}")
+        still = _auto_decided(page)  # the defaults' decisions after the run (the same context: kept)
+        med = {label: sorted(v)[len(v) // 2] if len(v) % 2 else sum(sorted(v)[len(v) // 2 - 1:len(v) // 2 + 1]) / 2
+               for label, v in fps.items()}
+        best = max((label for label, _o, _r in MATRIX_SETTINGS[1:]), key=lambda k: med[k])
+        row = {"preset": preset, "blades": n, "size": f"{w}x{h}", "frames_per_s": fps, "median_frames_per_s": med,
+               "counts": counts,
+               "best_fixed": best, "defaults_over_best": round(med["defaults"] / med[best], 3),
+               "decided": decided, "decided_after_run": still, "trial_s": round(trial_s, 1)}
+        print(f"{preset:>7} {n:>7} blades: defaults {med['defaults']:.2f} frames/s, best fixed {best} "
+              f"{med[best]:.2f}: defaults / best {row['defaults_over_best']:.2f}; decided {decided}")
+        out["rows"].append(row)
+        out["adapter"] = engine_info(page)["adapter"]
+        kernel_execute(page, "w.close()")
+        page.goto("about:blank")
+        server.shutdown_kernels()
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=None, help="JSON path (default benchmarks/browser_engine_swiftshader.json, "
@@ -317,9 +395,13 @@ def main(argv=None):
     ap.add_argument("--occlusion-only", action="store_true", help="only occlusion culling off vs on (cis565 view)")
     ap.add_argument("--compute-raster-only", action="store_true",
                     help="only the compute rasterizer off vs on, and where a frame's time goes (default view)")
+    ap.add_argument("--matrix", action="store_true",
+                    help="only the defaults ('auto') against every fixed combination of occlusion culling and the "
+                         "compute rasterizer, per preset and blade count, interleaved")
     args = ap.parse_args(argv)
     if args.out is None:
         name = ("browser_occlusion_swiftshader.json" if args.occlusion_only else
+                "browser_matrix_swiftshader.json" if args.matrix else
                 "browser_compute_raster_swiftshader.json" if args.compute_raster_only else
                 "browser_engine_swiftshader.json")
         args.out = str(ROOT / "benchmarks" / name)
@@ -331,6 +413,18 @@ def main(argv=None):
         with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
             result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
             result["compute_raster"] = compute_raster_on_off(browser.page, server, root)
+        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+        print(f"wrote {args.out}")
+        return
+    if args.matrix:
+        env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+        result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
+                              "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d %H:%M"),
+                  "load_average_before": list(os.getloadavg())}
+        with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
+            result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+            result["matrix"] = matrix(browser.page, server, root)
+        result["load_average_after"] = list(os.getloadavg())
         Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.out}")
         return

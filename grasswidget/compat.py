@@ -32,6 +32,8 @@ __all__ = [
     "write_timestamp",
     "render_pipeline_container_class",
     "set_render_pipeline_container_class",
+    "compute_pipeline_container_class",
+    "set_compute_pipeline_container_class",
     "renderer_depth_texture",
     "still_directional_light_class",
     "begin_target_render_pass",
@@ -69,6 +71,8 @@ PRIVATE_USES = (
      "whether pygfx has created its device yet (the adapter choice must come first)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
+    ("pygfx", "renderers.wgpu.engine.pipeline.ComputePipelineContainer",
+     "the class pygfx instantiates per compute shader; replaced to issue dispatch_workgroups_indirect"),
     ("pygfx", "WgpuRenderer._blender.get_color_attachments(pass_type) / get_depth_attachment()",
      "a render pass on the renderer's colour, pick and depth targets (loaded), in our own command encoder: the "
      "occlusion culling's second-phase draws, without a second render() call (begin_target_render_pass)"),
@@ -223,6 +227,22 @@ def set_render_pipeline_container_class(cls):
     if not hasattr(pipeline, "RenderPipelineContainer"):
         raise UpstreamChangedError("pygfx internals changed: engine.pipeline.RenderPipelineContainer not found")
     pipeline.RenderPipelineContainer = cls
+
+
+def compute_pipeline_container_class():
+    """The class pygfx's pipeline module instantiates for each compute shader."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    return pipeline.ComputePipelineContainer
+
+
+def set_compute_pipeline_container_class(cls):
+    """Make pygfx instantiate ``cls`` for compute shaders from now on (see gpu/indirect.py)."""
+    from pygfx.renderers.wgpu.engine import pipeline
+
+    if not hasattr(pipeline, "ComputePipelineContainer"):
+        raise UpstreamChangedError("pygfx internals changed: engine.pipeline.ComputePipelineContainer not found")
+    pipeline.ComputePipelineContainer = cls
 
 
 def still_directional_light_class():

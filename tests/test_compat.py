@@ -58,8 +58,11 @@ def test_pygfx_engine_internals():
     for name in ("self.broken", "self.wgpu_pipeline", "self.wgpu_bind_groups", "renderstate.wgpu_bind_group",
                  "render_pass.draw("):  # what the indirect draw (gpu/indirect.py) relies on
         assert name in source, name
+    for name in ("compute_pass.dispatch_workgroups(", 'self.render_info["indices"]'):  # the indirect dispatch's
+        assert name in source, name
     indirect.install()
     assert indirect.is_installed() and compat.render_pipeline_container_class() is indirect.IndirectRenderPipelineContainer
+    assert compat.compute_pipeline_container_class() is indirect.IndirectComputePipelineContainer
     event_class = compat.pygfx_event_class("pointer_down")
     assert event_class is not None and compat.pygfx_event_class("no_such_event") is None
     ev = event_class(type="pointer_down", **compat.pygfx_event_fields(

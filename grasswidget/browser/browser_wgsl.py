@@ -77,6 +77,7 @@ _STORAGE = {
         # (read_write only where written), counters and per-pixel depth and payload words.
         "s_raster": "var<storage, read_write> s_raster: array<u32>",
         "s_raster_args": "var<storage, read_write> s_raster_args: array<atomic<u32>>",
+        "s_raster_dispatch": "var<storage, read_write> s_raster_dispatch: array<u32>",
         "s_raster_depth": "var<storage, read_write> s_raster_depth: array<atomic<u32>>",
         "s_raster_payload": "var<storage, read_write> s_raster_payload: array<atomic<u32>>",
     },
@@ -291,13 +292,16 @@ class BrowserShaders:
     @staticmethod
     def raster(step: str, second: bool = False) -> dict:
         """``raster.wgsl``, the compute rasterizer of thin blades: step "clear" (per-pixel words
-        and counters), "depth" or "payload" (the walks); ``second``: the walks of occlusion
+        of the rows the last frame wrote, and counters), "args" (the walks' workgroups into
+        ``s_raster_dispatch``, the rows written to none), "depth" or "payload" (the walks,
+        dispatched indirectly from ``s_raster_dispatch``); ``second``: the walks of occlusion
         culling's second phase (only the blades it listed)."""
         return render_shader("raster.wgsl", "compute", step=step, second=bool(second))
 
     @staticmethod
     def raster_resolve(flat_colors: bool = False) -> dict:
-        """``raster_resolve.wgsl``: one full-screen draw (4 vertices, triangle strip) shading the
+        """``raster_resolve.wgsl``: one draw (4 vertices, triangle strip) across the rows the walks
+        wrote, shading the
         compute-rasterized pixels like the ribbons and writing their depth; ``flat_colors``:
         the colour-by views' variant (colour by LOD: "drawn in compute" in its teaching colour)."""
         return render_shader("raster_resolve.wgsl", "render", **raster_resolve_vars(), teaching_views=flat_colors,
@@ -313,14 +317,19 @@ class BrowserShaders:
           before each frame's passes the engine writes w and h (f32) at ``width_offset`` and
           ``height_offset`` of ``u_cull`` (cull.wgsl lists thin blades only in renders of that size);
         * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the clear
-          dispatched over the pixels, ``dispatch: "pixels"``; the walks over the blades), bound to
-          that size's buffers;
+          dispatched over the pixels, ``dispatch: "pixels"``; the args step, one thread; the walks
+          with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch, 0)``),
+          bound to that size's buffers;
         * ``resolve`` / ``resolve_flat`` (the natural and the colour-by views' variant, as the
           ribbons') drawn after the ribbons in the same render pass, before sky and ground; with
-          occlusion culling the second phase's walks (``second_depth``, ``second_payload``) run
-          after the second culling pass and the resolve is drawn again after its ribbons;
-        * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, 0, 0);
-          the stats read ``s_raster_args[0]`` (blades drawn in compute).
+          occlusion culling the second phase's args step and walks (``second_args`` dispatched
+          once, ``second_depth``, ``second_payload`` indirectly) run after the second culling pass and the resolve is drawn again after its ribbons;
+        * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT);
+        * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, the
+          first row written and the complement of the last); the stats read ``s_raster_args[0]``
+          (blades drawn in compute). The clear clears only the rows the last frame wrote: when a
+          frame is drawn at another size than the frame before, the engine first writes zeros to
+          the ``rows_words`` words at word ``rows_at`` (zeros: every row, the whole view cleared).
         """
         at = offsets(CULL_LAYOUT)
         return {
@@ -328,6 +337,10 @@ class BrowserShaders:
             "width_offset": int(at["raster_width"][0]),
             "height_offset": int(at["raster_height"][0]),
             "args_words": 4,
+            "rows_at": 2,
+            "rows_words": 2,
+            "dispatch_words": 4,
+            "second_args": cls.raster("args", second=True),
             "second_depth": cls.raster("depth", second=True),
             "second_payload": cls.raster("payload", second=True),
             "resolve": cls.raster_resolve(False),
@@ -465,10 +478,14 @@ class BrowserShaders:
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
-                # the compute rasterizer's walks of the thin blades the culling listed
-                {"shader": "raster_depth", "dispatch": "blades", "label": "raster.wgsl (depth)",
+                # the compute rasterizer's walks of the thin blades the culling listed: one thread
+                # writes their workgroups into s_raster_dispatch, the walks are dispatched from it
+                # ("raster_listed": dispatchWorkgroupsIndirect, a thread per listed blade)
+                {"shader": "raster_args", "dispatch": "one", "label": "raster.wgsl (args)",
                  "only_if": "compute_raster", "sized": True},
-                {"shader": "raster_payload", "dispatch": "blades", "label": "raster.wgsl (payload)",
+                {"shader": "raster_depth", "dispatch": "raster_listed", "label": "raster.wgsl (depth)",
+                 "only_if": "compute_raster", "sized": True},
+                {"shader": "raster_payload", "dispatch": "raster_listed", "label": "raster.wgsl (payload)",
                  "only_if": "compute_raster", "sized": True},
                 # the blade inspector's forces, polygon and points, while blades are inspected
                 # (u_sim for "now": the current parameters and colliders at the time of the next step)
@@ -486,6 +503,7 @@ class BrowserShaders:
             "prefix_bands": cls.prefix_bands(),
             "cull": cls.cull("scatter"),
             "raster_clear": cls.raster("clear"),
+            "raster_args": cls.raster("args"),
             "raster_depth": cls.raster("depth"),
             "raster_payload": cls.raster("payload"),
             "compute_raster": cls.compute_raster(),

@@ -22,8 +22,9 @@ Differences, by design:
 * ``fps`` is frames presented per second in the browser and ``visible`` the
   browser's indirect-draw instance counts (both occlusion phases) plus ``rastered``,
   the blades its compute rasterizer drew (``params.compute_raster``), ``occluded`` the
-  blades culled by occlusion (None while ``params.cull_occlusion`` is off), read back
-  asynchronously.
+  blades culled by occlusion (None while occlusion culling is off), read back
+  asynchronously; ``switches`` what the "auto" switches decided, in words, as the kernel
+  view's (:mod:`grasswidget.browser.auto_switches`: the same rule, fed by the browser's frame times).
 * Teaching views: freeze culling copies the browser's camera (its matrices
   computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
   browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
@@ -115,7 +116,9 @@ class BrowserEngineView(EngineView):
         self.engine_widget.time_scale = float(playback.time_scale)
         self._ball_scene = _BallScene(self.engine_widget)
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
-                       "steps_per_frame": None, "frame_size": None}
+                       "steps_per_frame": None, "frame_size": None, "step_count": None, "switches": None,
+                       "trial": False}  # the keys a stats message fills, known from the start
+        self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats message
         self.engine_widget.on("stats", self._on_browser_stats)
         self.engine_widget.on("error", self.report_error)
         self.engine_widget.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
@@ -475,7 +478,7 @@ class BrowserEngineView(EngineView):
             visible_per_class=list(per_class) if per_class else None,
             rastered=rastered,
             # blades culled by occlusion (both phases' draws are in visible); None while it is off
-            occluded=int(msg["occluded"]) if msg.get("occluded") is not None and self.params.cull_occlusion else None,
+            occluded=int(msg["occluded"]) if msg.get("occluded") is not None else None,
             blades=self.blade_count,
             draw_ms=msg.get("frame_ms"),
             steps_per_frame=int(round(steps / frames)) if self.playback.playing else 0,
@@ -484,11 +487,22 @@ class BrowserEngineView(EngineView):
             step_count=msg.get("step_count"),
             sim_speed=sim_speed,
             slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
+            # what the "auto" switches decided, in words, as the kernel view's (browser.auto_switches)
+            switches=self.engine_widget.auto_switches.texts(),
+            trial=self._trial_window(),
         )
         self.report_stats(self.current_stats())
         if self.engine_widget.inspected:
             self._request_inspected()
         self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
+
+    def _trial_window(self) -> bool:
+        """Whether a trial of the "auto" switches ran over the frames of this stats message."""
+        state = self.engine_widget.auto_switches.state
+        mark = (state.trial_frames_run, state.measuring)
+        ran = mark[1] or mark[0] != self._trial_mark[0]
+        self._trial_mark = mark
+        return ran
 
     # ------------------------------------------------------------------ keys, closing
 

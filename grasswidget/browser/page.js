@@ -174,7 +174,7 @@ function buildPanel() {
     } else if (c.kind === "select") {
       const sel = document.createElement("select");
       sel.setAttribute("aria-label", c.label);
-      c.values.forEach((v, i) => { const o = document.createElement("option"); o.value = i; o.textContent = v; sel.append(o); });
+      c.values.forEach((v, i) => { const o = document.createElement("option"); o.value = i; o.textContent = c.labels ? c.labels[i] : v; sel.append(o); });
       sel.addEventListener("change", () => choose(c, Number(sel.value)));
       refreshers.push(() => { const i = currentIndex(c); if (i >= 0) sel.value = i; });
       label.append(text, sel);

@@ -299,9 +299,11 @@ def page_controls(view, ball_radius=None, ball_enabled=False) -> dict:
         fields.append(p.wind_field)
     param_control("wind_field", "wind field", "select", "wind_field", fields)
     for cid, label in (("cull_orientation", "orientation culling"), ("cull_frustum", "frustum culling"),
-                       ("cull_distance", "distance culling"), ("cull_occlusion", "occlusion culling"),
-                       ("lod", "LOD")):
+                       ("cull_distance", "distance culling"), ("lod", "LOD")):
         param_control(cid, label, "checkbox", cid, [False, True])
+    # a three-way switch (core.pays.AutoSwitch): "auto" is the browser engine's own choice
+    param_control("cull_occlusion", "occlusion culling", "select", "cull_occlusion", ["auto", True, False],
+                  labels=["auto", "on", "off"])
     colour = [label for label in ColorBy.labels()]
     param_control("color_by", "colour by", "select", "color_by", colour)
 

@@ -80,16 +80,19 @@ def collider_buffers(colliders, blades) -> tuple:
     return grid.sphere_data().tobytes(), grid.words().tobytes()
 
 
-def cull_uniform(params: GrassParams, n_blades: int, frozen=None, *, thinned: bool = False) -> bytes:
+def cull_uniform(params: GrassParams, n_blades: int, frozen=None, decided=None, *, thinned: bool = False) -> bytes:
     """``u_cull`` packed: :func:`grasswidget.core.frame_data.cull_uniform_values` (the
     browser draws every frame in occlusion culling's two phases while
     ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then), with the compute
     rasterizer's switch and material values (:func:`grasswidget.core.frame_data.compute_raster_values`;
     the browser writes the render size, ``raster_width`` and ``raster_height``, for each view).
-    ``thinned``: a field to the horizon (no distance culling; see ``cull_uniform_values``)."""
-    values = cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True, thinned=thinned)
+    ``decided``: the values of the "auto" switches Python chose for the browser's next frames
+    (:mod:`grasswidget.browser.auto_switches`), or None (the fixed defaults). ``thinned``: a
+    field to the horizon (no distance culling; see ``cull_uniform_values``)."""
+    values = cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True, decided=decided,
+                                 thinned=thinned)
     material = material_values(params)  # the material the ribbons get (material_uniform)
-    values.update(compute_raster_values(params, n_blades, material["blade_shape"], material["tip_threshold"]))
+    values.update(compute_raster_values(params, n_blades, material["blade_shape"], material["tip_threshold"], decided))
     return pack(CULL_LAYOUT, values)
 
 

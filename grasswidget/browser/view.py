@@ -26,6 +26,13 @@ Requests that need the browser's answer (:meth:`read_state`, :meth:`snapshot`,
 :meth:`read_inspected`, :meth:`set_wind_wgsl`) wait for it while still processing the notebook's widget
 messages (``jupyter-ui-poll``), so they work inside a running cell; with no view
 answering they raise ``TimeoutError`` naming the browser view.
+
+The "auto" switches (``params.cull_occlusion``, ``params.compute_raster``) are decided here, by
+measuring the browser's frames (:mod:`grasswidget.browser.auto_switches`, the kernel's rule): each
+stats message carries ``frame_times`` (ms), ``timed_switches`` and ``counts_switches``
+(``[occlusion, compute raster]`` as the browser executed them; js/messages.js documents the
+message), and Python answers with the state to execute as ``u_cull``'s ``occlusion_phase`` and
+``compute_raster`` words. ``auto_switches.texts()`` says what was decided.
 """
 
 from __future__ import annotations
@@ -49,6 +56,7 @@ from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from . import uniforms
+from .auto_switches import BrowserAutoSwitches
 from .esm import engine_module_text
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .browser_wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
@@ -187,6 +195,10 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         self.observe(self._on_camera_far, names="camera")
         self.observe(self._on_camera_floor, names="camera_floor")
         self.params.observe(self._on_params)
+        #: The "auto" switches, decided by measuring the browser's frames (grasswidget.browser.auto_switches).
+        self.auto_switches = BrowserAutoSwitches(self, self._write_switches)
+        self.auto_switches.refresh()
+        self.observe(lambda _change: self.auto_switches.refresh(), names="camera")  # moved far: decide again
         self.on_msg(self._on_browser_msg)
 
     # ------------------------------------------------------------------ data
@@ -206,6 +218,8 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def set_blades(self, blades: Blades):
         """Replace the field (the camera is kept); the browser restarts from this rest pose."""
         self._set_blades(blades)
+        self.auto_switches.field_changed()
+        self.auto_switches.refresh()
 
     def _write_frame_rules(self):
         """The clock's rules, orbit limits and scene style for these blades, params and camera far plane."""
@@ -238,11 +252,21 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def _write_uniforms(self):
         p, n = self.params, len(self.blades)
         self.sim_uniform = uniforms.sim_uniform(p, n, self._colliders)
-        self.cull_uniform = uniforms.cull_uniform(p, n, self._frozen, thinned=self.blades.horizon is not None)
+        self.cull_uniform = self._cull_uniform()
         self.material_uniform = uniforms.material_uniform(p, self.blades, self._colliders)
         if self.camera:
             self.frame_rules = dict(self.frame_rules, clock=uniforms.clock(p))
         self._write_colliders()
+
+    def _cull_uniform(self) -> bytes:
+        """``u_cull`` for the params, the frozen view and the "auto" switches' current values."""
+        switches = getattr(self, "auto_switches", None)
+        return uniforms.cull_uniform(self.params, len(self.blades), self._frozen, switches.values if switches else None,
+                                     thinned=self.blades.horizon is not None)
+
+    def _write_switches(self, _values):
+        """The "auto" switches' values changed: the browser executes them from ``u_cull``."""
+        self.cull_uniform = self._cull_uniform()
 
     def _write_colliders(self):
         self.balls = [list(map(float, row)) for row in collider_array(self._colliders)]
@@ -273,7 +297,9 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             if not self._reverting_wind:
                 self._request_wind(change["new"], change["old"], wait=False)
             return
+        self.auto_switches.params_changed(change["name"])
         with self.hold_sync():
+            self.auto_switches.refresh()
             self._write_uniforms()
             if change["name"] in (*SKY_GROUND_TRAITS, *SUN_TRAITS) and self.camera:  # the sky/ground: fog, sun, far grass
                 self._write_frame_rules()
@@ -326,7 +352,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             raise GrassTypeError(f"frozen must be a FrozenView or None, not {type(frozen).__name__}")
         self._frozen = frozen
         with self.hold_sync():
-            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), frozen, thinned=self.blades.horizon is not None)
+            self.cull_uniform = self._cull_uniform()
             self.frustum_lines = np.ascontiguousarray(frozen.segments(), np.float32).tobytes()
         return frozen
 
@@ -334,7 +360,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """Cull against the camera of each frame again (and remove the frustum lines)."""
         self._frozen = None
         with self.hold_sync():
-            self.cull_uniform = uniforms.cull_uniform(self.params, len(self.blades), thinned=self.blades.horizon is not None)
+            self.cull_uniform = self._cull_uniform()
             self.frustum_lines = b""
 
     @property
@@ -509,6 +535,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             if kind == "stats":
                 self.last_stats = dict(content)
                 self.step_count_hint = int(content.get("step_count") or 0)
+                self.auto_switches.on_stats(content)
             if kind == "error":
                 self._emit_error(RuntimeError(content.get("message", "browser error")))
                 return

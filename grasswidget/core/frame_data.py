@@ -57,14 +57,15 @@ from .enums import BladeShape
 from .camera_rules import drag_rules
 from .orbit_limits import OrbitLimits
 from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
+from .pays import effective
 from .reference import FAR_ALONG, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
 from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
 from .reference.sunlight import sun_direction as _sun_direction
-from .shader_files import WORKGROUP_SIZE
+from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 from .uniform_layouts import SKY_GROUND_LAYOUT
 
 __all__ = [
-    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "compute_raster_values",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "occlusion_on", "compute_raster_values",
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "far_ground_values", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
     "SKY_GROUND_TRAITS", "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
@@ -86,8 +87,7 @@ STATS_INTERVAL_MS = 500
 #: The most blade steps (blades x fixed steps) one simulation dispatch takes, both engines: a
 #: longer step(n) is split into dispatches of at most this many (no GPU watchdog trips on a long run).
 BLADE_STEPS_PER_DISPATCH = 1 << 24
-#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit).
-MAX_WORKGROUPS_X = 65535
+#: MAX_WORKGROUPS_X (from shader_files): workgroups along x of one dispatch before it folds into y.
 
 #: The backdrop's colours (sRGB hex), both engines: the sky at the horizon (also the
 #: distance fog's colour and the far ground's), the sky straight up, the bare soil
@@ -242,7 +242,7 @@ def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
 
 
 def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False,
-                        thinned: bool = False) -> dict:
+                        decided=None, thinned: bool = False) -> dict:
     """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
 
     ``thinned``: the field thins itself with distance (a field to the horizon,
@@ -256,7 +256,10 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
     second), so ``occlusion_phase`` is written: 1 while ``cull_occlusion`` is on, else
     0 (the browser engine then draws in one phase). False (the kernel engine, default):
     ``occlusion_phase`` is left out, the engine arms it per render
-    (:func:`grasswidget.gpu.frame.render_frame`).
+    (:func:`grasswidget.gpu.frame.render_frame`). ``decided``: the view's values of its
+    "auto" switches for the next frames (``{"cull_occlusion": bool, ...}``, what
+    :meth:`grasswidget.core.pays.AutoSwitches.values` said; a forced switch wins), or None
+    (the fixed defaults of :func:`occlusion_on`).
 
     ``frozen`` is the frozen culling camera or None (cull against each render's
     camera): anything with ``view_proj`` (4x4, world to WebGPU clip space, row-major
@@ -282,7 +285,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         raster_max_px=p.compute_raster_max_px,
     )
     if every_frame_two_phases:
-        values["occlusion_phase"] = int(bool(p.cull_occlusion))
+        values["occlusion_phase"] = int(occlusion_on(p, (decided or {}).get("cull_occlusion")))
     if frozen is not None:
         values.update(
             frozen_view_proj=np.asarray(frozen.view_proj, np.float64).T,  # WGSL matrices are column-major
@@ -297,19 +300,29 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
 MAX_RASTER_BLADES = 1 << 24
 
 
-def compute_raster_on(params, n_blades: int) -> bool:
+def occlusion_on(params, decided=None) -> bool:
+    """Whether occlusion culling runs: ``params.cull_occlusion`` True, or "auto" and
+    ``decided`` (the view's decision, :mod:`grasswidget.core.pays`) True; "auto" without a
+    decision runs it (a view that has not measured yet: a BrowserEngineWidget before its first values)."""
+    return effective(params.cull_occlusion, True if decided is None else decided)
+
+
+def compute_raster_on(params, n_blades: int, decided=None) -> bool:
     """Whether the compute rasterizer draws the thin blades of a field of ``n_blades`` (both
-    engines): ``params.compute_raster`` on, ``compute_raster_max_px`` > 0 and at most
-    :data:`MAX_RASTER_BLADES` blades."""
-    return bool(params.compute_raster) and params.compute_raster_max_px > 0 and int(n_blades) <= MAX_RASTER_BLADES
+    engines): ``params.compute_raster`` True (or "auto" and ``decided`` True, the view's
+    decision, :mod:`grasswidget.core.pays`; "auto" without a decision: off),
+    ``compute_raster_max_px`` > 0 and at most :data:`MAX_RASTER_BLADES` blades."""
+    return (effective(params.compute_raster, decided) and params.compute_raster_max_px > 0
+            and int(n_blades) <= MAX_RASTER_BLADES)
 
 
-def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float) -> dict:
+def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold: float, decided=None) -> dict:
     """The compute rasterizer's ``u_cull`` values but the render size (``raster_width`` and
     ``raster_height``, which the engine writes for each render: 0 here): ``compute_raster``
     (1 when :func:`compute_raster_on`), ``raster_blade_shape`` (the material's
-    ``enums.BladeShape`` id) and ``raster_tip_threshold`` (the material's, 0..1)."""
-    return dict(compute_raster=int(compute_raster_on(params, n_blades)), raster_width=0.0, raster_height=0.0,
+    ``enums.BladeShape`` id) and ``raster_tip_threshold`` (the material's, 0..1). ``decided``:
+    as :func:`cull_uniform_values`'s (its ``"compute_raster"``)."""
+    return dict(compute_raster=int(compute_raster_on(params, n_blades, (decided or {}).get("compute_raster"))), raster_width=0.0, raster_height=0.0,
                 raster_blade_shape=int(blade_shape), raster_tip_threshold=float(tip_threshold))
 
 

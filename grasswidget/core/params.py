@@ -15,6 +15,7 @@ import math
 import traitlets
 from traitlets import Bool, HasTraits, Unicode
 
+from .pays import AutoSwitch
 from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
@@ -248,9 +249,9 @@ class GrassParams(StrictTraits):
     cull_distance = Bool(True, help="Thin the field with distance on the ground.").tag(sync=True)
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
-    cull_occlusion = Bool(True, help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
+    cull_occlusion = AutoSwitch("auto", help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
     lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
-    compute_raster = Bool(False, help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve, 32-bit atomic depth test, then a full-screen resolve that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. Off by default: slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md); GrassScene turns it on for its own params on a GPU adapter.").tag(sync=True)
+    compute_raster = AutoSwitch("auto", help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve, 32-bit atomic depth test, then a full-screen resolve that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md).").tag(sync=True)
     compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none. GrassScene's own params on a GPU adapter use 4 (measured on an H100: more frames, the same look).").tag(sync=True)
 
     # ---- teaching views -----------------------------------------------------------

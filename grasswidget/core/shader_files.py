@@ -81,12 +81,15 @@ from pathlib import Path
 
 from ..errors import MissingFileError
 
-__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "NO_WIND_BODY",
+__all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "MAX_WORKGROUPS_X", "NO_WIND_BODY",
            "SHADE_PER_VERTEX_MIN_SEGMENTS",
            "DISTANCE_BANDS", "BAND_RANGE"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
+#: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit;
+#: raster.wgsl's args step folds the walks' indirect dispatch the same way).
+MAX_WORKGROUPS_X = 65535
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"
@@ -144,6 +147,7 @@ def template_vars() -> dict:
         "noise_scale": wgsl_float(NOISE_SCALE),
         "dry_color": ", ".join(wgsl_float(c) for c in DRY_COLOR),
         "workgroup_size": WORKGROUP_SIZE,
+        "max_groups_x": int(MAX_WORKGROUPS_X),
         "n_classes": len(LOD_SEGMENTS),
         "lod_segments": list(LOD_SEGMENTS),
         "culled_segments": int(CULLED_SEGMENTS),

@@ -446,7 +446,11 @@ class EngineView(abc.ABC):
         ack_ms (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls
         of the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
         frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall
-        seconds while playing)."""
+        seconds while playing), step_count (simulation steps so far; None until the browser engine's
+        first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
+        decided, in words; None before the first window) and trial (True when a trial of the "auto"
+        switches ran in the window measured: its frame rate is not the view's). Every key is there
+        from the start."""
         return self.current_stats()
 
     @abc.abstractmethod

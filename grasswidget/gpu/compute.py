@@ -93,3 +93,10 @@ class ComputeProgram:
         compute_pass.set_pipeline(self.pipeline)
         compute_pass.set_bind_group(0, self.bind_group)
         compute_pass.dispatch_workgroups(*workgroups)
+
+    def dispatch_indirect(self, compute_pass, buffer, offset=0):
+        """Dispatch the workgroups (x, y, z u32) the GPU wrote at ``offset`` bytes of the pygfx
+        Buffer ``buffer`` (usage INDIRECT)."""
+        compute_pass.set_pipeline(self.pipeline)
+        compute_pass.set_bind_group(0, self.bind_group)
+        compute_pass.dispatch_workgroups_indirect(sync_buffer(buffer), offset)

@@ -153,14 +153,18 @@ class GrassField(gfx.WorldObject):
         # pygfx: a change builds the culling pipelines again).
         self._store.function_overrides = None
         # The compute rasterizer of thin blades (raster.wgsl): its list and counters
-        # (listed, first occlusion phase's part), and per-pixel depth and payload words,
-        # allocated by prepare_compute_raster (one item each until then).
+        # (listed, first occlusion phase's part, the rows written: first, ~last), and
+        # per-pixel depth and payload words, allocated by prepare_compute_raster (one item
+        # each until then).
         one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
         self._store.raster_list_buffer = gfx.Buffer(**one)
         self._store.raster_args_buffer = gfx.Buffer(nbytes=16, nitems=4, format="u4",
                                                     usage=usage.STORAGE | usage.COPY_SRC)
         self._store.raster_depth_buffer = gfx.Buffer(**one)
         self._store.raster_payload_buffer = gfx.Buffer(**one)
+        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
+        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
+                                                        usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
@@ -338,8 +342,16 @@ class GrassField(gfx.WorldObject):
     @property
     def raster_args_buffer(self):
         """pygfx Buffer of 4 u32: blades listed for the compute rasterizer, where the first
-        occlusion phase's part ends, 0, 0."""
+        occlusion phase's part ends, the first pixel row the walks wrote and the bitwise
+        complement of the last (raster.wgsl; first > last: none)."""
         return self._store.raster_args_buffer
+
+    @property
+    def raster_dispatch_buffer(self):
+        """pygfx Buffer of 4 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
+        written on the GPU after the culling (raster.wgsl, step "args"); the walks are
+        dispatched indirectly from it."""
+        return self._store.raster_dispatch_buffer
 
     @property
     def raster_depth_buffer(self):
@@ -362,16 +374,17 @@ class GrassField(gfx.WorldObject):
         :meth:`prepare_compute_raster`)."""
         return self._store.raster_size != (0, 0)
 
-    def prepare_compute_raster(self, size):
+    def prepare_compute_raster(self, size, on=None):
         """Set up the compute rasterizer for renders of ``size`` = (width, height) physical
         pixels (``renderer.physical_size``), or switch it off when ``params.compute_raster``
         is off (or ``compute_raster_max_px`` is 0). :func:`grasswidget.gpu.render_frame`
         calls it before every frame; a plain ``renderer.render()`` of another size draws
         every blade with the hardware rasterizer. Fields of more than 2^24 blades draw
         every blade with the hardware rasterizer (the payload holds 24 bits of blade id).
+        ``on``: the view's decision for ``compute_raster`` "auto" (None: off).
         """
         p = self.params
-        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count) else (0, 0)
+        width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count, on) else (0, 0)
         if width <= 0 or height <= 0:
             width = height = 0
         usage = wgpu.BufferUsage
@@ -380,7 +393,11 @@ class GrassField(gfx.WorldObject):
                                                         usage=usage.STORAGE | usage.COPY_SRC)
         if (width, height) != self._store.raster_size:
             pixels = max(width * height, 1)
-            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer]
+            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer, self._store.raster_args_buffer]
+            # Counters all zero: the rows written read "every row", so the first clear of the
+            # new pixel words (raster.wgsl, which clears only the rows the last frame wrote)
+            # clears them whole.
+            self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
             self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
                                                          usage=usage.STORAGE | usage.COPY_SRC)
             self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
@@ -590,7 +607,7 @@ class GrassField(gfx.WorldObject):
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
                  "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
                  "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
-                 "raster_payload_buffer")
+                 "raster_payload_buffer", "raster_dispatch_buffer")
         destroy_buffers([self._store[name] for name in names])
         self.occlusion.release()
         self.simulation.release()

@@ -14,6 +14,7 @@ from __future__ import annotations
 import pygfx as gfx
 
 from ..errors import GrassValueError
+from .auto_switches import begin_frame
 from .occlusion import OcclusionCulling
 from .sky_ground import SkyGround
 
@@ -48,7 +49,8 @@ def _prepare_sunlight(scene, fields):
 def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
-    ``params.cull_occlusion`` is on (:mod:`grasswidget.gpu.occlusion` describes the phases).
+    ``params.cull_occlusion`` is on: True, or "auto" and the field's measured decision on
+    (:mod:`grasswidget.gpu.auto_switches`; :mod:`grasswidget.gpu.occlusion` describes the phases).
 
     ``late``: direct children of ``scene`` drawn after the second phase (translucent
     objects that write no depth, e.g. collider balls), with the scene's lights. With
@@ -60,12 +62,32 @@ def render_frame(renderer, scene, camera, late=()):
     the sun, ``params.shadows``, the balls), which every visible SkyGround takes from the first.
     """
     all_fields = _fields(scene)
+    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    try:
+        _render_frame(renderer, scene, camera, late, all_fields, switches)
+    finally:
+        switches.end()
+
+
+def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
-        field.prepare_compute_raster(renderer.physical_size)
+        field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
     _prepare_sunlight(scene, all_fields)
-    fields = [f for f in all_fields if f.params.cull_occlusion]
+    fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
+    # Occlusion off this frame by a measured choice that may turn it on again: the second
+    # phase's draws are prepared with the frame's render and their draw calls dropped (nothing
+    # drawn), so that pygfx keeps their pipelines; left out for a few frames it drops them and
+    # builds them again at the next "on" (a CPU adapter JIT-compiles each build: 7 MB a trial).
+    resting = [f for f in all_fields if f not in fields and f.params.cull_occlusion == "auto"]
     if not fields:
-        renderer.render(scene, camera)
+        for field in resting:
+            field.occlusion.draws.defer_draws()
+        try:
+            renderer.render(scene, camera)
+        finally:
+            for field in resting:
+                field.occlusion.draws.stop_deferring()
+                field.occlusion.draws.take_deferred()  # prepared, never drawn
         return
     capturing = [f for f in fields if f.occlusion.capture_camera is not None]
     for field in capturing:

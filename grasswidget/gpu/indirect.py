@@ -1,11 +1,13 @@
-"""Indirect draws for pygfx 0.17 (the one patch on pygfx internals).
+"""Indirect draws and dispatches for pygfx 0.17 (the one patch on pygfx internals).
 
 pygfx's ``RenderPipelineContainer.draw()`` always ends in ``render_pass.draw()``.
 This module subclasses it: when the shader carries ``indirect_args`` (a pygfx
 Buffer with usage INDIRECT) and ``indirect_offset`` (bytes), the draw becomes
 ``render_pass.draw_indirect(buffer, offset)``; other shaders draw as before. The
-subclass is installed as the module global that pygfx's pipeline module
-instantiates. A shader with a ``defer_draw(container, renderstate)`` method that returns
+same for ``ComputePipelineContainer.dispatch()``: with ``indirect_args`` it becomes
+``compute_pass.dispatch_workgroups_indirect(buffer, offset)`` (the compute
+rasterizer's walks, sized on the GPU). The subclasses are installed as the module
+globals that pygfx's pipeline module instantiates. A shader with a ``defer_draw(container, renderstate)`` method that returns
 True draws nothing now (the occlusion culling's second-phase draws, replayed by
 :meth:`grasswidget.gpu.occlusion.OcclusionCulling.second_phase`); one with a ``draw_bundle()``
 method that returns a :class:`~grasswidget.gpu.draw_bundles.DrawBundle` hands its draw to it
@@ -20,12 +22,14 @@ import pygfx
 from .. import compat
 from ..errors import UpstreamChangedError
 
-__all__ = ["IndirectRenderPipelineContainer", "install", "is_installed", "SUPPORTED_PYGFX"]
+__all__ = ["IndirectRenderPipelineContainer", "IndirectComputePipelineContainer", "install", "is_installed",
+           "SUPPORTED_PYGFX"]
 
 #: pygfx versions this patch was written and tested against.
 SUPPORTED_PYGFX = ("0.17",)
 
 _Original = compat.render_pipeline_container_class()
+_OriginalCompute = compat.compute_pipeline_container_class()
 
 
 class IndirectRenderPipelineContainer(_Original):
@@ -58,6 +62,21 @@ class IndirectRenderPipelineContainer(_Original):
             hook(render_pass, "after")
 
 
+class IndirectComputePipelineContainer(_OriginalCompute):
+    """A ComputePipelineContainer that can issue ``dispatch_workgroups_indirect``."""
+
+    def dispatch(self, compute_pass):
+        args = getattr(self.shader, "indirect_args", None)
+        if args is None:
+            return super().dispatch(compute_pass)
+        if self.broken:
+            return
+        compute_pass.set_pipeline(self.wgpu_pipeline)
+        for index, bind_group in enumerate(self.wgpu_bind_groups):
+            compute_pass.set_bind_group(index, bind_group, [], 0, 999999)
+        compute_pass.dispatch_workgroups_indirect(compat.sync_buffer(args), self.shader.indirect_offset)
+
+
 def install():
     """Install the subclass (idempotent). Raises if pygfx is not a supported version."""
     if not pygfx.__version__.startswith(SUPPORTED_PYGFX):
@@ -66,8 +85,12 @@ def install():
         )
     if not hasattr(_Original, "draw"):
         raise UpstreamChangedError("pygfx internals changed: RenderPipelineContainer.draw not found")
+    if not hasattr(_OriginalCompute, "dispatch"):
+        raise UpstreamChangedError("pygfx internals changed: ComputePipelineContainer.dispatch not found")
     compat.set_render_pipeline_container_class(IndirectRenderPipelineContainer)
+    compat.set_compute_pipeline_container_class(IndirectComputePipelineContainer)
 
 
 def is_installed() -> bool:
-    return compat.render_pipeline_container_class() is IndirectRenderPipelineContainer
+    return (compat.render_pipeline_container_class() is IndirectRenderPipelineContainer
+            and compat.compute_pipeline_container_class() is IndirectComputePipelineContainer)

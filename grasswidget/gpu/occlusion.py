@@ -206,6 +206,7 @@ class OcclusionCulling:
                id(field.raster_depth_buffer))
         if self._cull_programs is None or key != self._cull_key:
             self._cull_programs = [ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
+                                   ComputeProgram(RasterShader(field, "args", second=True), field),
                                    ComputeProgram(RasterShader(field, "depth", second=True), field),
                                    ComputeProgram(RasterShader(field, "payload", second=True), field)]
             self._cull_key = key
@@ -222,7 +223,7 @@ class OcclusionCulling:
             return False
         width, height = int(depth.size[0]), int(depth.size[1])
         self._ensure_size(width, height)
-        levels, (cull, raster_depth, raster_payload) = self._programs()
+        levels, (cull, raster_args, raster_depth, raster_payload) = self._programs()
         device = ensure_device()
         hzb = sync_buffer(self.hzb_buffer)
         sync_buffer(self.levels_buffer)
@@ -237,8 +238,9 @@ class OcclusionCulling:
             program.dispatch(cp, (-(-w // 8), -(-h // 8), 1))
         cull.dispatch(cp, workgroups(self.field.count))
         if self.field.compute_raster_active:  # the thin blades this phase found (cull.wgsl, raster.wgsl)
-            raster_depth.dispatch(cp, workgroups(self.field.count))
-            raster_payload.dispatch(cp, workgroups(self.field.count))
+            raster_args.dispatch(cp, (1, 1, 1))  # a thread per blade this phase listed
+            raster_depth.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
+            raster_payload.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
         cp.end()
         if deferred:
             render_pass = compat.begin_target_render_pass(renderer, enc, self.draws.material.alpha_method)

@@ -45,12 +45,13 @@ GPU_COMPUTE_RASTER_MAX_PX = 4.0
 
 def adapter_params(**values) -> GrassParams:
     """GrassParams with this adapter's defaults for what GrassScene makes itself: the
-    compute rasterizer of thin blades on a GPU adapter (``compute_raster`` True,
-    ``compute_raster_max_px`` :data:`GPU_COMPUTE_RASTER_MAX_PX`), off on a CPU adapter
-    (lavapipe, where it is slower), and the sunlight's shadows on a GPU adapter, off on a CPU
-    adapter (:func:`grasswidget.core.params.sunlight_defaults`); ``values`` set any params besides."""
+    compute rasterizer's width limit on a GPU adapter (``compute_raster_max_px``
+    :data:`GPU_COMPUTE_RASTER_MAX_PX`; whether it runs is ``compute_raster`` "auto", decided
+    by measuring, :mod:`grasswidget.core.pays`), and the sunlight's shadows on a GPU adapter,
+    off on a CPU adapter (:func:`grasswidget.core.params.sunlight_defaults`); ``values`` set
+    any params besides."""
     gpu = not is_cpu_adapter()
-    defaults = dict(compute_raster=True, compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
+    defaults = dict(compute_raster_max_px=GPU_COMPUTE_RASTER_MAX_PX) if gpu else {}
     defaults.update(sunlight_defaults(cpu_adapter=not gpu))  # shadows where affordable (a GPU)
     return GrassParams(**{**defaults, **values})
 

@@ -23,8 +23,9 @@ every ``renderer.render()``:
 
 The compute rasterizer (``params.compute_raster``, set up for the render size by
 ``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
-the culling lists thin blades for it, ``RasterShader("depth")`` and
-``RasterShader("payload")`` walk them after step 4, and ``RasterResolveShader``
+the culling lists thin blades for it, ``RasterShader("args")`` sizes the walks and
+``RasterShader("depth")`` and ``RasterShader("payload")`` walk them after step 4
+(dispatched indirectly: a thread per listed blade), and ``RasterResolveShader``
 (render, after the ribbons) writes their colour and depth.
 
 Occlusion culling (``params.cull_occlusion``, with :func:`grasswidget.gpu.frame.render_frame`)
@@ -255,14 +256,20 @@ class BladeRenderShader(BaseShader):
 
 class RasterShader(GrassComputeShader):
     """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
-    words and counters, before the culling), "depth" or "payload" (the walks, after it);
+    words of the rows the last frame wrote, and the counters, before the culling), "args"
+    (one thread after the culling: the walks' workgroups into
+    ``GrassField.raster_dispatch_buffer``, the rows written to none), "depth" or "payload"
+    (the walks, dispatched indirectly from those workgroups);
     ``second``: the walks of occlusion culling's second phase (run by
     :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
 
     def __init__(self, wobject, step, second=False):
-        if step not in ("clear", "depth", "payload"):
-            raise GrassValueError(f"step must be 'clear', 'depth' or 'payload'; got {step!r}")
+        if step not in ("clear", "args", "depth", "payload"):
+            raise GrassValueError(f"step must be 'clear', 'args', 'depth' or 'payload'; got {step!r}")
         super().__init__(wobject, step=step, second=bool(second))
+        if step in ("depth", "payload"):  # gpu/indirect.py: dispatch_workgroups_indirect
+            self.indirect_args = wobject.raster_dispatch_buffer
+            self.indirect_offset = 0
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -275,6 +282,8 @@ class RasterShader(GrassComputeShader):
             13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
             14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
         }
+        if self["step"] == "args":  # only there: the walks read it as their indirect arguments
+            bindings[15] = Binding("s_raster_dispatch", "buffer/storage", wobject.raster_dispatch_buffer, "COMPUTE")
         for slot in (0, 1, 10, 11):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
@@ -286,19 +295,21 @@ class RasterShader(GrassComputeShader):
             "@group(0) @binding(12) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
             "@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<u32>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
-            "{$ include 'grasswidget.raster.wgsl' $}\n"
+            + ("@group(0) @binding(15) var<storage, read_write> s_raster_dispatch: array<u32>;\n"
+               if self["step"] == "args" else "")
+            + "{$ include 'grasswidget.raster.wgsl' $}\n"
         )
 
     def get_render_info(self, wobject, shared):
         width, height = wobject.raster_size
-        if not width:
-            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters
-        return {"indices": workgroups(width * height if self["step"] == "clear" else wobject.count)}
+        if not width or self["step"] != "clear":
+            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters; the walks: indirect
+        return {"indices": workgroups(width * height)}
 
 
 class RasterResolveShader(BaseShader):
-    """The compute rasterizer's resolve (raster_resolve.wgsl): one full-screen draw that
-    shades the compute-rasterized pixels and writes their depth; no instance while the
+    """The compute rasterizer's resolve (raster_resolve.wgsl): one draw across the rows the
+    walks wrote that shades the compute-rasterized pixels and writes their depth; no instance while the
     compute rasterizer is off. ``wobject``: the GrassField or its OcclusionDraws."""
 
     type = "render"
@@ -324,7 +335,7 @@ class RasterResolveShader(BaseShader):
             4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
             5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
             6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
-            7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # none listed: no fragment
+            7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # the rows written
         }
         self.define_bindings(0, {slot: b for slot, b in bindings.items() if slot != U_CULL_SLOT})
         return {0: bindings}
@@ -379,6 +390,7 @@ def grass_render_function(wobject):
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
+        RasterShader(wobject, "args"),
         RasterShader(wobject, "depth"),
         RasterShader(wobject, "payload"),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),

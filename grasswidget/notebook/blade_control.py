@@ -143,12 +143,15 @@ class BladeCountControl:
         self._move_slider(self.count)
 
     def note_stats(self, stats: dict):
-        """Remember the frame rate measured while playing (``fps`` with ``blades``) and the
-        view's ``target_fps``, for the estimate."""
+        """Remember the frame rate measured while playing (``fps`` with ``blades``; not of a
+        window where ``trial`` says the "auto" switches ran a trial) and the view's
+        ``target_fps``, for the estimate."""
         if stats.get("target_fps"):
             self._stats_target = float(stats["target_fps"])
         fps, blades = stats.get("fps"), stats.get("blades")
-        if stats.get("playing") is not False and fps and fps > 0 and blades:
+        # A window in which the "auto" switches ran a trial (``trial``: its frames GPU-synchronised,
+        # the first after a flip compiling) is not the view's frame rate: not kept.
+        if stats.get("playing") is not False and not stats.get("trial") and fps and fps > 0 and blades:
             self.measured = (float(fps), int(blades))
 
     # ------------------------------------------------------------------ the control

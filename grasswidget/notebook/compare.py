@@ -245,6 +245,7 @@ class Comparison(ipw.VBox):
                                   max_blades=min(w.max_blades for w in self.views.values()),
                                   view_size=self.size)
         controls = {**self.panel.sliders, **self.panel.look_sliders, **self.panel.checkboxes,
+                    **{n: c.dropdown for n, c in self.panel.switch_choices.items()},
                     "wind_field": self.panel.wind_field_dropdown, "color_by": self.panel.color_by_dropdown,
                     "shadows": self.panel.shadows_checkbox}
         # The details (a frame's timings) are each view's own: the panel's toggle would show nothing.

@@ -161,6 +161,20 @@ def _canvas_class():
     return GrassCanvas
 
 
+def _switch_texts(field) -> dict:
+    """What the field's "auto" switches decided, in words (grasswidget.gpu.auto_switches.switch_texts)."""
+    from ..gpu.auto_switches import switch_texts
+
+    return switch_texts(field)
+
+
+def _trial_mark(field) -> tuple:
+    """(trial frames so far, a trial running) of the field's "auto" switches (grasswidget.gpu.auto_switches.trial_mark)."""
+    from ..gpu.auto_switches import trial_mark
+
+    return trial_mark(field)
+
+
 class EventsWithoutPicking:
     """Forward canvas pointer/wheel/key events to the current pygfx renderer.
 
@@ -279,10 +293,11 @@ class KernelView(EngineView):
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
-                       "target_fps": self.target_fps,
+                       "target_fps": self.target_fps, "step_count": 0, "switches": None, "trial": False,
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
+        self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats window
         self._stats_confirmed = 0
         #: User WGSL replacing blade-math functions (an exercise's), kept across blade changes; None: stock.
         self.function_overrides = None
@@ -621,6 +636,7 @@ class KernelView(EngineView):
         s["target_fps"] = self.target_fps
         playing = bool(self.playback.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
+        s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
         return s
@@ -630,6 +646,11 @@ class KernelView(EngineView):
         # Measure frames/s delivered (confirmed by the browser) and the time of each
         # stage of a frame, read the visible count and GPU times, and pass the stats to
         # ``on_stats``.
+        if self._frames == self._stats_frames and self._stats["fps"] is not None:
+            # No frame since the last window (a refresh right after the one a frame made):
+            # nothing new to measure; the last window's figures stand.
+            self.report_stats(self.current_stats())
+            return
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
         ack_ms = None
@@ -665,11 +686,19 @@ class KernelView(EngineView):
         self._stats.update(
             fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            switches=_switch_texts(scene.field), trial=self._trial_window(scene.field),
             **self.timing.averages(),
         )
         self.report_stats(self.current_stats())
         if self._inspected:
             self._report_inspected()
+
+    def _trial_window(self, field) -> bool:
+        """Whether a trial of the "auto" switches ran in the stats window ending now."""
+        mark = _trial_mark(field)
+        ran = mark[1] or mark[0] != self._trial_mark[0]
+        self._trial_mark = mark
+        return ran
 
     # ------------------------------------------------------------------ events
 

@@ -34,6 +34,7 @@ import ipywidgets as ipw
 
 from .blade_control import BladeCountControl
 from .control_link import ControlLink
+from .switch_choice import SWITCH_CHOICES, SwitchChoice
 from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import INSPECTED_BLADE_COLORS, legend
@@ -110,7 +111,6 @@ CULL_CHECKBOXES = (
     ("orientation culling", "cull_orientation"),
     ("frustum culling", "cull_frustum"),
     ("distance culling", "cull_distance"),
-    ("occlusion culling", "cull_occlusion"),
     ("LOD", "lod"),
 )
 
@@ -339,6 +339,11 @@ class ControlPanel:
                               layout=ipw.Layout(width="auto", margin="2px 12px 2px 2px"))
             self._links.append(ControlLink(cb, params, name, err))
             self.checkboxes[name] = cb
+        #: The three-way choices (auto / on / off) of the switches decided by measuring, with the decision.
+        self.switch_choices = {}
+        for label, name in SWITCH_CHOICES:
+            self.switch_choices[name] = choice = SwitchChoice(label, params, name, err)
+            self._links.append(choice.link)
 
         # teaching views
         self.color_by_dropdown = ipw.Dropdown(options=COLOR_BY, value=params.color_by, description=control_label("color_by"),
@@ -396,7 +401,7 @@ class ControlPanel:
                                        + list(self.look_sliders.values())
                                        + ([self.shadows_checkbox] if self.shadows_checkbox is not None else []))
         status = _wrapping_row([self.stats_line, self.details_button], justify_content="space-between")
-        checkboxes = _wrapping_row(list(self.checkboxes.values()))
+        checkboxes = _wrapping_row(list(self.checkboxes.values()) + [c.box for c in self.switch_choices.values()])
         buttons = _wrapping_row([self.play_button, self.step_button, self.reset_blades_button,
                                  self.reset_camera_button])
         save = _wrapping_row([self.save_button, self.png_scale, self.file_line])
@@ -428,6 +433,9 @@ class ControlPanel:
         self.blade_control.note_stats(stats)  # the frame rate its estimate scales
         self.stats_line.value = "<small>" + html.escape(format_status(stats)) + "</small>"
         self.details_line.value = "<small><code>" + html.escape(format_details(stats)) + "</code></small>"
+        decided = stats.get("switches") or {}
+        for name, choice in self.switch_choices.items():
+            choice.show(decided.get(name))
 
     def _on_details(self, change):
         self.details_line.layout.display = "" if change["new"] else "none"

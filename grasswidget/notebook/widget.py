@@ -139,9 +139,10 @@ class GrassWidget(ipw.VBox):
             ``ball.roll_speed``, ``ball.move_to(x, z)``, ``ball.set_radius(r)``.
         sliders, checkboxes, blade_slider, wind_field_dropdown, play_button,
         step_button, reset_blades_button, reset_camera_button, save_button,
-        png_scale, file_line, stats_line, message_line: the panel's controls
+        png_scale, file_line, stats_line, message_line, switch_choices: the panel's controls
             (``blade_slider``: the blade count control's slider, in powers of two, see
-            :mod:`grasswidget.notebook.blade_control`).
+            :mod:`grasswidget.notebook.blade_control`; ``switch_choices``: {trait: SwitchChoice}, the
+            auto / on / off choices of cull_occlusion and compute_raster, :mod:`grasswidget.notebook.switch_choice`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
     ``culling_frozen`` (cull against a copy of the camera taken when it was set),
@@ -203,6 +204,7 @@ class GrassWidget(ipw.VBox):
     reset_blades = ViewMember()
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
+    switch_choices = _panel_property("switch_choices")
     blade_slider = _panel_property("blade_slider")
     wind_field_dropdown = _panel_property("wind_field_dropdown")
     play_button = _panel_property("play_button")

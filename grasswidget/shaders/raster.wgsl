@@ -3,36 +3,49 @@
 // on screen with its tapered width and depth-tests each pixel with 32-bit atomics into
 // two per-pixel buffers of u_cull.raster_width x raster_height:
 //
-// step "clear": every pixel's depth word to RASTER_EMPTY, its payload to 0, and the
-//   list counters to 0 (before the culling pass of the frame).
+// step "clear": the depth word of every pixel in the rows the last frame's walks wrote
+//   (s_raster_args[2] .. ~s_raster_args[3], see "args") to RASTER_EMPTY, its payload to
+//   0, and the list counters to 0 (before the culling pass of the frame). Words that are
+//   all zero (a new buffer) mean every row: a new pixel buffer is cleared whole.
+// step "args": one thread, after the culling and before the walks: the walks' workgroups
+//   (x, y, 1) into s_raster_dispatch (the walks are dispatched indirectly, so only the
+//   listed blades run: a thread per blade of the whole field cost a CPU adapter as much
+//   as the walks themselves); first phase: where its part of the list ends into
+//   s_raster_args[1] and the written rows to none (s_raster_args[2] = [3] = 0xffffffff).
 // step "depth": atomicMin of the depth's float bits (0 < depth <= 1: the bits of a
-//   positive float order like the float, so the full 32-bit depth is kept).
+//   positive float order like the float, so the full 32-bit depth is kept); each blade
+//   then widens the written rows to its own (atomicMin of the first row into
+//   s_raster_args[2], of the bitwise complement of the last into [3]).
 // step "payload": the same walk again; where the pixel's depth word is this blade's
 //   depth, atomicMax of raster_payload(blade, v) (the nearest blade wins; equal depths:
 //   the larger payload, so the result never depends on thread order).
 // A resolve pass (raster_resolve.wgsl) then shades each covered pixel with the
 // ribbons' shading (blade_shade) and writes its depth, so everything else in the
-// scene composites with the ordinary depth test.
+// scene composites with the ordinary depth test; it draws only the written rows, and
+// the next frame's clear touches only those rows (on a CPU adapter a full-screen pass
+// costs per pixel, while the thin blades are far away, near the horizon).
 //
 // Occlusion culling's second phase (template variable second) appends its blades to
-// the same list: the first phase's payload step records where its part ends
+// the same list: the first phase's args step records where its part ends
 // (s_raster_args[1]) and the second phase's steps walk only the rest.
 //
 // The per-blade walk is reference.raster_walk (its NumPy twin), built from the
-// blade_math functions raster_step, raster_span, raster_cover, raster_payload.
+// blade_math functions raster_step, raster_span, raster_cover, raster_payload;
+// reference.raster_rows is the written rows' twin.
 //
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, physical_size), u_wobject (world_transform),
 // u_cull (CULL_LAYOUT: raster_width, raster_height, raster_blade_shape,
 // raster_tip_threshold), s_blades (array<vec4<f32>>, read), s_raster (array<u32>, read),
-// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>).
+// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>), and for the
+// args step s_raster_dispatch (array<u32>, 4 words).
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 const RASTER_EMPTY: u32 = 0xffffffffu;
 
-$$ if step != "clear"
+$$ if step == "depth" or step == "payload"
 fn raster_blade(blade_id: u32) {
     let rec = load_blade(blade_id);
     let mvp = u_stdinfo.projection_transform * u_stdinfo.cam_transform * u_wobject.world_transform;
@@ -46,6 +59,10 @@ fn raster_blade(blade_id: u32) {
     let s1 = clip_to_pixel(c1, size).xy;
     let s2 = clip_to_pixel(c2, size).xy;
     var v = 0.0;
+    $$ if step == "depth"
+    var first_row = RASTER_EMPTY;
+    var last_row = 0u;
+    $$ endif
     for (var s = 0u; s <= u32({{ raster_max_samples }}); s += 1u) {
         let span = raster_span(c0, c1, c2, across, v, u_cull.raster_blade_shape, u_cull.raster_tip_threshold, size);
         let m = raster_cover(blade_id, s, length(span.b.xy - span.a.xy));
@@ -59,6 +76,8 @@ fn raster_blade(blade_id: u32) {
             let depth = bitcast<u32>(p.z);
             $$ if step == "depth"
             atomicMin(&s_raster_depth[index], depth);
+            first_row = min(first_row, u32(px.y));
+            last_row = max(last_row, u32(px.y));
             $$ else
             if (atomicLoad(&s_raster_depth[index]) == depth) {
                 atomicMax(&s_raster_payload[index], raster_payload(blade_id, v));
@@ -70,6 +89,12 @@ fn raster_blade(blade_id: u32) {
         }
         v = min(v + raster_step(s0, s1, s2, v), 1.0);
     }
+    $$ if step == "depth"
+    if (first_row <= last_row) {
+        atomicMin(&s_raster_args[2], first_row);
+        atomicMin(&s_raster_args[3], ~last_row);
+    }
+    $$ endif
 }
 $$ endif
 
@@ -85,9 +110,30 @@ fn main(
         atomicStore(&s_raster_args[0], 0u);
         atomicStore(&s_raster_args[1], 0u);
     }
-    if (i < u32(u_cull.raster_width) * u32(u_cull.raster_height)) {
+    let width = u32(u_cull.raster_width);
+    let row = i / max(width, 1u);
+    // Only the rows the last frame wrote (the args step resets them after this pass).
+    if (i < width * u32(u_cull.raster_height) && row >= atomicLoad(&s_raster_args[2])
+        && row <= ~atomicLoad(&s_raster_args[3])) {
         atomicStore(&s_raster_depth[i], RASTER_EMPTY);
         atomicStore(&s_raster_payload[i], 0u);
+    }
+    $$ elif step == "args"
+    if (i == 0u) {
+        let end = atomicLoad(&s_raster_args[0]);
+        $$ if second
+        let first = atomicLoad(&s_raster_args[1]);
+        $$ else
+        let first = 0u;
+        atomicStore(&s_raster_args[1], end);  // where the second occlusion phase's blades start
+        atomicStore(&s_raster_args[2], RASTER_EMPTY);  // no row written yet
+        atomicStore(&s_raster_args[3], RASTER_EMPTY);
+        $$ endif
+        let groups = (end - first + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+        let x = min(groups, {{ max_groups_x }}u);
+        s_raster_dispatch[0] = x;
+        s_raster_dispatch[1] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+        s_raster_dispatch[2] = 1u;
     }
     $$ else
     let end = atomicLoad(&s_raster_args[0]);
@@ -95,11 +141,6 @@ fn main(
     let first = atomicLoad(&s_raster_args[1]);
     $$ else
     let first = 0u;
-    $$ if step == "payload"
-    if (i == 0u) {
-        atomicStore(&s_raster_args[1], end);  // where the second occlusion phase's blades start
-    }
-    $$ endif
     $$ endif
     if (first + i < end) {
         raster_blade(s_raster[first + i]);

@@ -1,4 +1,4 @@
-// The compute rasterizer's resolve (raster.wgsl): one full-screen draw. Each pixel
+// The compute rasterizer's resolve (raster.wgsl): one draw across the pixel rows the walks wrote. Each pixel
 // a compute-rasterized blade covers is shaded like the ribbons shade it
 // (blade_math.blade_shade at the blade's curve point v, with the ribbon's normal and
 // the looks' base colour, glow and fog) and written with that blade's depth (frag_depth), so the
@@ -10,7 +10,7 @@
 //
 // Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material,
 // s_blades, s_raster_depth and s_raster_payload (array<u32>, read), s_raster_args
-// (array<u32>, read: blades listed, raster.wgsl).
+// (array<u32>, read: blades listed and rows written, raster.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
@@ -27,18 +27,25 @@ struct VertexInput {
 
 @vertex
 fn vs_main(in: VertexInput) -> Varyings {
+    // The rows the compute rasterizer wrote this frame (raster.wgsl, s_raster_args[2] ..
+    // ~s_raster_args[3], pixel rows from the top): a quad across the view over those rows
+    // only, so no other pixel runs the fragment shader (on a CPU adapter a full-screen pass
+    // that writes frag_depth costs as much as the whole sky and ground). None written (no
+    // blade listed, or all outside the view): a quad of zero area.
+    let first_row = f32(s_raster_args[2]);
+    let last_row = f32(~s_raster_args[3]);
+    let height = u_stdinfo.physical_size.y;
+    let top = 1.0 - 2.0 * clamp(first_row, 0.0, height) / height;
+    let bottom = 1.0 - 2.0 * clamp(last_row + 1.0, 0.0, height) / height;
+    let written = select(0.0, 1.0, s_raster_args[2] <= ~s_raster_args[3]);
     var positions = array<vec2<f32>, 4>(
-        vec2<f32>(-1.0, -1.0),
-        vec2<f32>( 1.0, -1.0),
-        vec2<f32>(-1.0,  1.0),
-        vec2<f32>( 1.0,  1.0),
+        vec2<f32>(-1.0, bottom),
+        vec2<f32>( 1.0, bottom),
+        vec2<f32>(-1.0, top),
+        vec2<f32>( 1.0, top),
     );
-    // No blade listed for the compute rasterizer this frame (none thin enough): a quad of
-    // zero area, so no pixel runs the fragment shader (on a CPU adapter a full-screen pass
-    // that writes frag_depth costs as much as the whole sky and ground).
-    let listed = select(0.0, 1.0, s_raster_args[0] > 0u);
     var varyings: Varyings;
-    varyings.position = vec4<f32>(positions[i32(in.index)] * listed, 0.5, 1.0);
+    varyings.position = vec4<f32>(positions[i32(in.index)] * written, 0.5, 1.0);
     return varyings;
 }
 

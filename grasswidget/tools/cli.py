@@ -215,6 +215,12 @@ def build_parser():
     b.add_argument("--raster-max-px", type=float, nargs="+", default=None, metavar="PX",
                    help="run the compute-rasterizer rows once per compute_raster_max_px value (pixels, 0..16; "
                         "default: the params' default)")
+    b.add_argument("--matrix", action="store_true",
+                   help="the defaults (occlusion culling and compute rasterizer 'auto') against every fixed "
+                        "combination, interleaved in one run (ignores --cull, --occlusion, --compute-raster, --frames); "
+                        "writes JSON (--json, default bench-matrix-PRESET.json)")
+    b.add_argument("--rounds", type=_positive, default=3, help="--matrix: rounds over the five settings")
+    b.add_argument("--block", type=_positive, default=3, help="--matrix: timed frames per setting per round")
     b.add_argument("--no-horizon", action="store_true",
                    help="meadow preset: the square field of before (no grass to the horizon)")
     b.add_argument("--json", default=None, help="write the report to this JSON file (a missing folder is created)")
@@ -378,6 +384,16 @@ def _bench(args):
     blades = args.blades
     if blades is None:
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
+    if args.matrix:
+        from .bench_matrix import format_matrix, run_matrix
+
+        report = run_matrix(args.preset, blades, size=args.size, rounds=args.rounds, block=args.block,
+                            progress=not args.no_progress)
+        print(format_matrix(report))
+        path = args.json or f"bench-matrix-{args.preset}.json"
+        save_json(report, path)
+        print(f"wrote {path}")
+        return 0
     report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
                        progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster,
                        raster_max_px=args.raster_max_px, horizon=not args.no_horizon)

@@ -1329,6 +1329,16 @@ def frame_count(page, index: Optional[int] = None) -> int:
     return _frame_info(page, index)["count"]
 
 
+def frame_counts(page) -> list:
+    """Frames seen since the counter was installed, per ``img.renderview-view`` in document
+    order, all read at one instant (one evaluation: no frame arrives between two views' reads)."""
+    counts = page.evaluate("() => window.__gwFrames ? [...document.querySelectorAll('img.renderview-view')]"
+                           ".map((img) => img.__gwCount || 0) : null")
+    if counts is None:
+        raise HarnessError("frame counter not installed; call install_frame_counter(page) first")
+    return counts
+
+
 def wait_for_view(page, index: int = 0, timeout: float = 60.0):
     """Wait until the ``index``-th jupyter-rfb view exists, is visible and
     shows a decoded image; returns its locator.
@@ -1595,6 +1605,21 @@ def toggle_checkbox(page, description: str, value: Optional[bool] = None, timeou
     else:
         inp.set_checked(bool(value))
     return inp.is_checked()
+
+
+def choose_option(page, description: str, option: str, timeout: float = 10.0) -> str:
+    """Choose ``option`` (its text) in the ipywidgets Dropdown labelled ``description``,
+    e.g. a panel's auto / on / off switch. Returns the chosen option's text."""
+    box = page.locator(".widget-dropdown").filter(
+        has=page.locator("label.widget-label", has_text=_exact(description))
+    )
+    js = ("() => Array.from(document.querySelectorAll('.widget-dropdown label.widget-label'))"
+          ".map((s) => s.textContent)")
+    select = _one(box, f"exactly one dropdown labelled {description!r}", js, page, timeout).locator("select")
+    select.select_option(label=option)
+    poll(lambda: (select.evaluate("(s) => s.options[s.selectedIndex].text") == option, None),
+         f"dropdown {description!r} to show {option!r}", timeout, 0.1, page=page)
+    return option
 
 
 # --------------------------------------------------------------------------

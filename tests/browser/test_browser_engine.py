@@ -31,6 +31,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    choose_option,
     panel_label,
     click_button,
     drag,
@@ -192,14 +193,16 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
     # 3. Culling checkboxes change the browser's visible count; all off: every blade (none occluded).
     kernel_execute(page, "w.play()")
     visible_on = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v is not None, timeout=20)
-    culling = ("orientation culling", "frustum culling", "distance culling", "occlusion culling")
+    culling = ("orientation culling", "frustum culling", "distance culling")
     for label in culling:
         toggle_checkbox(page, label, False)
+    choose_option(page, "occlusion culling", "off")  # auto / on / off
     _show_view(page)
     wait_for_kernel(page, "w.stats['visible']", N_BLADES, timeout=30)
     assert kernel_eval(page, "w.stats['occluded']") is None  # occlusion culling off: no count
     for label in culling:
         toggle_checkbox(page, label, True)
+    choose_option(page, "occlusion culling", "auto")  # the browser engine runs "auto" as on
     _show_view(page)
     visible_again = wait_for_kernel(page, "w.stats['visible']", predicate=lambda v: v < N_BLADES, timeout=30)
     print(f"[browser engine] visible with culling: {visible_on} then {visible_again}; without: {N_BLADES}")

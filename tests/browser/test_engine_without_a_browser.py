@@ -68,7 +68,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
     assert [p["shader"] for p in shaders["compute_passes"]] == [
-        "reset_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_depth", "raster_payload", "inspect"]
+        "reset_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
+        "inspect"]
     # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
     # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
     assert shaders["compute_passes"][-1]["only_if"] == "inspecting"
@@ -102,9 +103,19 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     # tests; the resolve writes frag_depth and reads the words; its colour-by variant has the
     # "drawn in compute" colour; the device must allow the most storage buffers one shader binds.
     sized = [p for p in shaders["compute_passes"] if p.get("sized")]
+    # The walks run a thread per listed blade: dispatched indirectly from what the args step wrote.
     assert [(p["shader"], p["dispatch"], p["only_if"]) for p in sized] == [
-        ("raster_clear", "pixels", "compute_raster"), ("raster_depth", "blades", "compute_raster"),
-        ("raster_payload", "blades", "compute_raster")]
+        ("raster_clear", "pixels", "compute_raster"), ("raster_args", "one", "compute_raster"),
+        ("raster_depth", "raster_listed", "compute_raster"), ("raster_payload", "raster_listed", "compute_raster")]
+    names = [p["shader"] for p in shaders["compute_passes"]]
+    assert names.index("raster_clear") < names.index("cull_count") < names.index("cull") < names.index("raster_args")
+    for sh in (shaders["raster_args"], raster["second_args"]):
+        kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
+        assert kinds["s_raster_dispatch"] == "storage" and "s_raster_depth" not in kinds
+        assert "s_raster_dispatch[0] = x;" in sh["code"]
+    assert "atomicStore(&s_raster_args[2], RASTER_EMPTY);" in shaders["raster_args"]["code"]  # rows written: none
+    assert "atomicStore(&s_raster_args[2]" not in raster["second_args"]["code"]  # the first phase's rows kept
+    assert raster["dispatch_words"] == 4 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
     for sh in (shaders["cull"], occlusion["cull"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster"] == "storage" and kinds["s_raster_args"] == "storage"
@@ -112,6 +123,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     for sh in (shaders["raster_depth"], shaders["raster_payload"], raster["second_depth"], raster["second_payload"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster"] == "read-only-storage" and kinds["s_raster_depth"] == "storage"
+        assert "s_raster_dispatch" not in kinds  # their indirect arguments: no storage use in the same dispatch
         assert "var<storage, read_write> s_raster_depth: array<atomic<u32>>" in sh["code"]
     assert "atomicMin(&s_raster_depth[index], depth);" in shaders["raster_depth"]["code"]
     assert "let first = atomicLoad(&s_raster_args[1]);" in raster["second_depth"]["code"]
@@ -119,7 +131,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         sh = raster[name]
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster_depth"] == kinds["s_raster_payload"] == kinds["s_raster_args"] == "read-only-storage"
-        assert "select(0.0, 1.0, s_raster_args[0] > 0u)" in sh["code"]  # nothing listed: no fragment shaded
+        # only the rows the walks wrote run the fragment shader; none written: no fragment shaded
+        assert "select(0.0, 1.0, s_raster_args[2] <= ~s_raster_args[3])" in sh["code"]
         assert "@builtin(frag_depth) depth: f32" in sh["code"] and "blade_shade(" in sh["code"]
         assert ("const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]) == flat
     assert all("@builtin(frag_depth)" not in b["code"] for b in shaders["blades"])

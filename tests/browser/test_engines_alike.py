@@ -343,7 +343,10 @@ def _occlusion_counts_and_pictures(page, out_dir):
     """The cis565 widget at rest, paused: the browser's stats with occlusion culling on, its
     picture on and off (save_png), and the kernel engine's counts for the same blades,
     parameters and camera at the browser's frame size."""
-    kernel_execute(page, "o.pause()\no.reset_blades()\no.params.cull_occlusion = True", timeout=60)
+    # The compute rasterizer forced off: "auto" may try or choose it in the browser, and the
+    # counts compared here are those of the ribbons' two occlusion phases.
+    kernel_execute(page, "o.pause()\no.reset_blades()\no.params.compute_raster = False\no.params.cull_occlusion = True",
+                   timeout=60)
 
     def settled():
         s = kernel_eval(page, "{k: o.stats.get(k) for k in ('visible', 'occluded', 'visible_per_class', 'frame_size', "

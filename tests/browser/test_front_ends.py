@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from .harness import (
+    choose_option,
     JupyterLabServer,
     drag,
     kernel_eval,
@@ -130,8 +131,9 @@ def test_browser_engine_in_front_end(server, webgpu_browser):
             assert kernel_eval(page, "w.backend") == "browser"
             assert kernel_eval(page, "w.view.gpu_status['state']") == "ok"
         # culling off in the panel: every blade is drawn
-        for label in ("orientation culling", "frustum culling", "distance culling", "occlusion culling"):
+        for label in ("orientation culling", "frustum culling", "distance culling"):
             toggle_checkbox(page, label, False)
+        choose_option(page, "occlusion culling", "off")  # the panel's auto / on / off choice
         # back in sight: a view scrolled away (by the clicks under it) rests and sends no stats
         page.locator("canvas.grasswidget-canvas").first.scroll_into_view_if_needed()
         poll(lambda: (_visible(page) or (0,))[0] == N_BLADES, "every blade visible with culling off", 30, 0.3,

@@ -124,8 +124,9 @@ def test_live_page_with_webgpu(live_page, webgpu_browser):
         page.locator("button.gw-play").click()
         _new_stats(page, held, "Play to advance the simulation again")
         # culling off: every blade drawn; colour by LOD: the LOD colours cover the grass
-        for label in ("orientation culling", "frustum culling", "distance culling", "occlusion culling"):
+        for label in ("orientation culling", "frustum culling", "distance culling"):
             _set_checkbox(page, label, False)
+        page.locator("#gw-panel label", has_text="occlusion culling").locator("select").select_option(label="off")
         poll(lambda: (lambda s: (sum(s["visible"] or [0]) == N_BLADES, s["visible"]))(_stats(page)),
              "every blade drawn with culling off", 30, 0.2, page=page)
         from grasswidget.core.teaching import LOD_COLORS, hex_to_rgb

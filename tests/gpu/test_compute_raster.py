@@ -122,6 +122,49 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
         p.cull_occlusion = True
 
 
+def _covered_rows(field):
+    """(first, last) pixel row holding a compute-rasterized word, from the depth words read back."""
+    w, h = field.raster_size
+    rows = np.nonzero((_read_u32(field.raster_depth_buffer).reshape(h, w) != ref.RASTER_EMPTY).any(axis=1))[0]
+    return (int(rows[0]), int(rows[-1])) if len(rows) else None
+
+
+def test_rows_written_bound_the_clear_and_the_resolve(meadow):
+    """The walks record the pixel rows they wrote (s_raster_args[2] and the complement in [3]);
+    the next frame clears only those rows and the resolve draws only them. After the camera
+    tilts (the far, thin blades move up or down the view), the words left are exactly this
+    frame's: the rows recorded are the rows holding words, none left over from the frame before.
+    A new size (new pixel words) is cleared whole."""
+    p = meadow.params
+    p.compute_raster = True
+    p.compute_raster_max_px = 3.0
+    p.cull_occlusion = False
+    home = np.array(meadow.camera.local.position)
+    try:
+        seen = []
+        for lift in (-6.0, 2.0, -6.0):  # the view's centre low, high, low again: the band moves
+            meadow.camera.look_at(tuple(home + (0.0, lift, -30.0)))
+            meadow.render()
+            field = meadow.field
+            args = _read_u32(field.raster_args_buffer)
+            recorded = (int(args[2]), int(~args[3] & 0xFFFFFFFF))
+            assert recorded == _covered_rows(field)
+            assert field.read_raster_count() > 100
+            seen.append(recorded)
+        assert seen[0] != seen[1] and seen[0] == seen[2]
+        assert seen[1][0] > seen[0][1] or seen[1][1] < seen[0][0] or seen[1][0] != seen[0][0]
+        # Another size: new words, cleared whole on their first frame; back: the same again.
+        small = meadow.render_at((SIZE[0] // 2, SIZE[1] // 2), antialias=False)
+        assert small.shape[:2] == (SIZE[1] // 2, SIZE[0] // 2)
+        meadow.render()
+        args = _read_u32(meadow.field.raster_args_buffer)
+        assert (int(args[2]), int(~args[3] & 0xFFFFFFFF)) == _covered_rows(meadow.field) == seen[2]
+    finally:
+        p.compute_raster_max_px = gw.GrassParams().compute_raster_max_px
+        p.cull_occlusion = True
+        meadow.reset_camera()
+
+
 def test_walk_reference_covers_a_curve_without_gaps():
     """Bent blades seen face on: every pixel row between root and tip is written (no
     gaps where the curve is fast or slow on screen), and the pixels written are about

@@ -172,6 +172,7 @@ def test_meadow_preset_picture_is_the_unculled_one():
     sc = gw.GrassScene.preset("meadow", blades=1 << 14, size=(192, 108), seed=2,
                               horizon=False)  # the dense square meadow (not the sparser field to the horizon)
     try:
+        sc.params.cull_occlusion = True  # forced (not "auto"): the frame before _on_off's culls too
         sc.render()
         on, off, drawn_on, drawn_off = _on_off(sc)
         assert _differing(on, off) <= 0.001
@@ -244,8 +245,10 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
 
 
 def test_stats_count_the_occluded_blades(scene):
-    from grasswidget.notebook.panel import CULL_CHECKBOXES, format_details
+    from grasswidget.notebook.panel import format_details
+    from grasswidget.notebook.switch_choice import SWITCH_CHOICES
 
+    scene.params.cull_occlusion = True  # forced on (the default "auto" may decide either way)
     scene.field.reset()
     scene.reset_camera()
     for _ in range(4):
@@ -260,4 +263,4 @@ def test_stats_count_the_occluded_blades(scene):
     assert stats.visible == scene.visible_count()
     line = format_details(dict(visible=stats.visible, blades=6000, occluded=stats.occluded))
     assert f"{stats.occluded:,} occluded" in line
-    assert ("occlusion culling", "cull_occlusion") in CULL_CHECKBOXES
+    assert ("occlusion culling", "cull_occlusion") in SWITCH_CHOICES  # the panel's auto / on / off choice

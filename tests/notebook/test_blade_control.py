@@ -84,6 +84,18 @@ def test_paused_stats_keep_the_last_measurement_and_unknown_rate_asks():
     assert actions.applied == [8192]
 
 
+def test_a_window_with_a_trial_of_the_auto_switches_is_not_the_frame_rate():
+    """The "auto" switches' trial (GPU-synchronised frames, a first use compiling) made the test
+    lecture's 256-blade view measure 1.96 frames/s once: 512 blades then asked (estimate 0.98,
+    target 1) where 9.6 frames/s was the view's rate."""
+    c, actions, _errors = _control()
+    c.note_stats({"fps": 9.6, "blades": 256, "target_fps": 1.0, "playing": True, "trial": False})
+    c.note_stats({"fps": 1.96, "blades": 256, "target_fps": 1.0, "playing": True, "trial": True})  # not kept
+    assert c.measured == (9.6, 256)
+    c.slider.value = 512
+    assert actions.applied == [512] and c.pending is None
+
+
 def test_a_count_from_code_is_shown_exactly_and_a_refused_count_goes_back():
     c, actions, errors = _control(fail_above=4096)
     c.show_count(5000)  # from code: any integer in range

@@ -237,3 +237,34 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     assert "paused" in widget.stats_line.value and "real time" not in widget.stats_line.value
     widget.play()
     assert "paused" not in widget.stats_line.value
+
+
+def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_frame(widget):
+    """Every stats key is there before the first window (a notebook reading w.stats['step_count']
+    at once got a KeyError from the browser engine); a window in which the "auto" switches ran a
+    trial says so; a refresh right after the one a frame made keeps that window's figures
+    (it used to report 0.0 frames/s delivered and no stage times)."""
+    from grasswidget.gpu.auto_switches import switches_of
+
+    _resize(widget)
+    for key in ("step_count", "switches", "trial", "fps", "render_ms"):
+        assert key in widget.stats, key
+    widget.view.draw()  # the first frame starts the trial of the undecided "auto" switches
+    assert switches_of(widget.scene.field).measuring
+    widget.view.refresh_stats()
+    first = widget.stats
+    assert first["trial"] is True and first["step_count"] == widget.scene.field.step_count
+    assert first["switches"]["cull_occlusion"].startswith("auto (")
+    for _ in range(200):  # until both switches are decided
+        if len(switches_of(widget.scene.field).decisions) == 2 and not switches_of(widget.scene.field).measuring:
+            break
+        widget.view.draw()
+    assert len(switches_of(widget.scene.field).decisions) == 2
+    widget.view.refresh_stats()  # the window that saw the trial end
+    widget.view.draw()
+    widget.view.refresh_stats()
+    after = widget.stats
+    assert after["trial"] is False and after["fps"] > 0 and after["render_ms"] is not None
+    widget.view.refresh_stats()  # no frame since: the same figures, not 0.0 frames/s
+    again = widget.stats
+    assert again["fps"] == after["fps"] and again["render_ms"] == after["render_ms"]

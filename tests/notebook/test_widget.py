@@ -41,7 +41,10 @@ def test_layout_and_labels(widget):
     tip = widget.sliders["wind_strength"].tooltip
     assert tip.startswith(gw.GrassParams.class_traits()["wind_strength"].help) and "0 to 200 m/s²" in tip
     assert [c.description for c in widget.checkboxes.values()] == [
-        "orientation culling", "frustum culling", "distance culling", "occlusion culling", "LOD"]
+        "orientation culling", "frustum culling", "distance culling", "LOD"]
+    choices = widget.switch_choices  # the switches decided by measuring: auto / on / off
+    assert [(c.dropdown.description, c.dropdown.value) for c in choices.values()] == [
+        ("occlusion culling", "auto"), ("compute raster", "auto")]
     assert widget.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)
     texts = {b.description for b in (widget.play_button, widget.step_button, widget.reset_blades_button,
                                       widget.reset_camera_button, widget.save_button)}
@@ -92,6 +95,13 @@ def test_controls_change_params_and_back(widget):
         assert getattr(p, name) is False
         setattr(p, name, True)
         assert cb.value is True
+    for name, choice in widget.switch_choices.items():
+        choice.dropdown.value = "off"
+        assert getattr(p, name) is False
+        setattr(p, name, True)
+        assert choice.dropdown.value == "on"
+        setattr(p, name, "auto")
+        assert choice.dropdown.value == "auto"
     widget.time_scale = 0.5
     assert widget.sliders["time_scale"].value == 0.5
     widget.sliders["time_scale"].value = 2.0

@@ -114,10 +114,11 @@ export class EngineCulling extends EngineResources {
     cpass.setBindGroup(0, t.cullGroup);
     cpass.dispatchWorkgroups(blades[0], blades[1]);
     if (raster) {  // the thin blades the second phase listed, walked into the same per-pixel words
-      for (const name of ["second_depth", "second_payload"]) {
+      for (const name of ["second_args", "second_depth", "second_payload"]) {
         cpass.setPipeline(this.raster[name].pipeline);
         cpass.setBindGroup(0, raster.groups.get(name));
-        cpass.dispatchWorkgroups(blades[0], blades[1]);
+        if (name === "second_args") cpass.dispatchWorkgroups(1);  // a thread per blade this phase listed
+        else cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, 0);
       }
     }
     cpass.end();
@@ -166,12 +167,13 @@ export class EngineCulling extends EngineResources {
   // shaders.compute_passes (only_if "compute_raster", "sized").
 
   async buildRasterPipelines(spec, depthStencil) {
+    const second_args = await this.computePipeline(spec.second_args, "raster.wgsl (args, occlusion second phase)");
     const second_depth = await this.computePipeline(spec.second_depth, "raster.wgsl (depth, occlusion second phase)");
     const second_payload = await this.computePipeline(spec.second_payload, "raster.wgsl (payload, occlusion second phase)");
     const resolve = await this.renderPipeline(spec.resolve, "raster_resolve.wgsl", { topology: "triangle-strip", depth: depthStencil });
     const resolveFlat = await this.renderPipeline(spec.resolve_flat, "raster_resolve.wgsl (colour by)",
       { topology: "triangle-strip", depth: depthStencil });
-    return { spec, second_depth, second_payload, resolve, resolveFlat, targets: new Map() };
+    return { spec, second_args, second_depth, second_payload, resolve, resolveFlat, targets: new Map() };
   }
 
   // u_cull.compute_raster of Python's bytes (frame_data.compute_raster_values): 1 = on.
@@ -183,16 +185,21 @@ export class EngineCulling extends EngineResources {
     return new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(at, true) === 1;
   }
 
-  // s_raster (the listed blades) and s_raster_args (counters, read by the stats).
+  // s_raster (the listed blades), s_raster_args (counters, read by the stats) and
+  // s_raster_dispatch (the walks' workgroups, written by the args step).
   buildRasterBuffers(buffer) {
     const U = GPUBufferUsage;
     this.res.s_raster = buffer(this.n * 4, U.STORAGE, "compute raster list");
-    this.res.s_raster_args = buffer(4 * this.raster.spec.args_words, U.STORAGE | U.COPY_SRC, "compute raster counters");
+    this.res.s_raster_args = buffer(4 * this.raster.spec.args_words, U.STORAGE | U.COPY_SRC | U.COPY_DST,
+      "compute raster counters");
+    this.res.s_raster_dispatch = buffer(4 * this.raster.spec.dispatch_words, U.STORAGE | U.INDIRECT,
+      "compute raster walks' workgroups");
   }
 
   dropRasterTargets() {
     for (const t of this.raster.targets.values()) { t.depth.destroy(); t.payload.destroy(); }
     this.raster.targets.clear();
+    this.raster.lastKey = null;
   }
 
   // The per-pixel words of a (width, height) view and the bind groups that use them; this frame's
@@ -204,6 +211,10 @@ export class EngineCulling extends EngineResources {
     this.device.queue.writeBuffer(this.res.u_cull, r.spec.width_offset, size);
     this.device.queue.writeBuffer(this.res.u_cull, r.spec.height_offset, new Float32Array([height]));
     const key = `${width}x${height}`;
+    if (r.lastKey !== key) {  // the rows written were another size's: Python's spec, zeros clear the whole view
+      this.device.queue.writeBuffer(this.res.s_raster_args, 4 * r.spec.rows_at, new Uint32Array(r.spec.rows_words));
+      r.lastKey = key;
+    }
     let t = r.targets.get(key);
     if (t) { r.targets.delete(key); r.targets.set(key, t); return t; }
     const U = GPUBufferUsage;
@@ -217,7 +228,7 @@ export class EngineCulling extends EngineResources {
     });
     const groups = new Map();
     for (const p of this.computePasses.filter((q) => q.sized)) groups.set(p.name, group(p));
-    for (const name of ["second_depth", "second_payload"]) groups.set(name, group(r[name]));
+    for (const name of ["second_args", "second_depth", "second_payload"]) groups.set(name, group(r[name]));
     groups.set("resolve", group(r.resolve));
     groups.set("resolveFlat", group(r.resolveFlat));
     t = { depth, payload, groups };

@@ -7,8 +7,12 @@
 // Answers and reports: state, snapshot, inspected, compiled, synced, stats, steps, pick, ball, key,
 //   error and device_lost messages; the gpu_status trait.
 // Stats {fps, visible (per LOD class), occluded, rastered, step_count, steps, frame_ms, frame_size,
-//   adapter, views}: every stats_interval_ms (Python's trait), decoded in Python by
-//   grasswidget.browser.engine_view.
+//   adapter, views, frame_times, timed_switches, counts_switches}: every stats_interval_ms (Python's
+//   trait), decoded in Python by grasswidget.browser.engine_view. frame_times: the ms (start to
+//   onSubmittedWorkDone) of the frames since the last message drawn with the switch state
+//   timed_switches ([occlusion, compute raster] as executed from u_cull; the list restarts when it
+//   changes); counts_switches: the state of the frame the counts are of. Python's "auto" switches
+//   (grasswidget.browser.auto_switches) measure by them and answer with new u_cull words.
 
 import { EnginePasses } from "./passes.js";
 import { downsample } from "./pictures.js";
@@ -214,6 +218,9 @@ export class EngineMessages extends EnginePasses {
       fps, visible: this.visible, occluded: this.occluded === undefined ? null : this.occluded,
       rastered: this.rastered === undefined ? null : this.rastered, step_count: this.stepCount, steps, frame_ms: this.lastFrameMs,
       frame_size: this.frameSize || null, adapter: this.adapterText, views: this.views.size,
+      frame_times: this.frameTimes || [], timed_switches: this.timedSwitches || null,
+      counts_switches: this.countsSwitches || null,
     });
+    this.frameTimes = [];
   }
 }

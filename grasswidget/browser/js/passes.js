@@ -99,6 +99,7 @@ export class EnginePasses extends EngineCulling {
       cpass.setBindGroup(0, p.sized ? raster.groups.get(p.name) : p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
       else if (p.dispatch === "pixels") cpass.dispatchWorkgroups(pixels[0], pixels[1]);
+      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, 0);
       else cpass.dispatchWorkgroups(1);
     }
     cpass.end();
@@ -184,6 +185,9 @@ export class EnginePasses extends EngineCulling {
         this.clock.stop();
       }
       const device = this.device;
+      // The switch state this frame executes ([occlusion, compute raster], Python's u_cull words):
+      // its time and counts are reported with it (grasswidget.browser.auto_switches measures by them).
+      const switches = [this.occlusionOn(), this.rasterOn()];
       let first = true;
       for (const view of shown) {
         if (!view.context) continue;
@@ -193,7 +197,7 @@ export class EnginePasses extends EngineCulling {
         const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > this.statsInterval() / 2;
         if (readArgs) this.encodeArgsRead(encoder);
         device.queue.submit([encoder.finish()]);
-        if (readArgs) this.readArgs();
+        if (readArgs) this.readArgs(switches);
         if (first) this.frameSize = [w, h];
         first = false;
         view.countFrame();
@@ -204,6 +208,7 @@ export class EnginePasses extends EngineCulling {
         this.frames += 1;
         if (!this.timing.first_frame) this.timing.first_frame = performance.now();
         this.lastFrameMs = performance.now() - t0;
+        this.timeFrame(switches, this.lastFrameMs);
       }, () => { this.inFlight = 0; });
     } catch (err) {
       this.report("error", `browser frame failed: ${err.message || err}`);
@@ -211,7 +216,16 @@ export class EnginePasses extends EngineCulling {
     this.maybeSendStats();
   }
 
-  readArgs() {
+  // The frame times (ms) since the last stats message of frames drawn with the state `switches`;
+  // the list restarts when the state changes (at most 32 kept: the newest).
+  timeFrame(switches, ms) {
+    const same = this.timedSwitches && this.timedSwitches[0] === switches[0] && this.timedSwitches[1] === switches[1];
+    if (!same) { this.timedSwitches = switches; this.frameTimes = []; }
+    this.frameTimes.push(ms);
+    if (this.frameTimes.length > 32) this.frameTimes.shift();
+  }
+
+  readArgs(switches) {
     const buf = this.argsRead;
     this.argsReadPending = true;
     this.lastArgsRead = performance.now();
@@ -220,9 +234,11 @@ export class EnginePasses extends EngineCulling {
       buf.unmap();
       // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
       this.visible = counts.visible_per_class;
-      this.occluded = this.occlusion && this.occlusionOn() ? counts.occluded : null;
+      const [occlusionWasOn, rasterWasOn] = switches || [this.occlusionOn(), this.rasterOn()];
+      this.occluded = this.occlusion && occlusionWasOn ? counts.occluded : null;
       // Blades drawn by the compute rasterizer (both phases); 0 while it is off (as the kernel's stats).
-      this.rastered = this.raster ? (this.rasterOn() ? counts.rastered : 0) : null;
+      this.rastered = this.raster ? (rasterWasOn ? counts.rastered : 0) : null;
+      this.countsSwitches = switches || null;  // the state of the frame counted
       this.visibleAt = performance.now();
       this.argsReadPending = false;
     }, () => { this.argsReadPending = false; });

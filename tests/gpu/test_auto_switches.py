@@ -1,0 +1,66 @@
+"""The "auto" switches in the kernel engine on lavapipe: occlusion culling turns itself on
+where it hides many blades (the cis565 view, rows of blades behind the front ones) and off
+where it hides none (looking straight down), each decision checked against the counts the
+GPU reports for a frame with occlusion on."""
+
+import pytest
+
+import grasswidget as gw
+from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION
+from grasswidget.gpu.auto_switches import switches_of
+
+pytestmark = pytest.mark.slow
+
+
+def _decide(scene, max_frames=120):
+    """Render until the field's auto switches decided both; returns its AutoSwitches (a trial
+    is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2; at most 4
+    trials when each switch is tried again once)."""
+    state = switches_of(scene.field)
+    for _ in range(max_frames):
+        scene.render()
+        if not state.measuring and len(state.decisions) == 2:
+            return state
+    raise AssertionError(f"no decision after {max_frames} frames: {state.decisions}")
+
+
+def _occlusion_counts(scene):
+    """(occluded, drawn) the GPU reports for a frame with occlusion forced on."""
+    p = scene.params
+    p.cull_occlusion = True
+    scene.render()
+    field = scene.field
+    occluded = field.read_occluded_count()
+    drawn = int(field.read_draw_args()[:, 1].sum()) + field.read_raster_count()
+    p.cull_occlusion = AUTO  # back to auto: the decision stands (same view, same params)
+    return occluded, drawn
+
+
+def test_auto_occlusion_on_where_it_hides_and_off_from_above():
+    # 2^16 blades: enough hidden work that occlusion's gain (about 1.5x on lavapipe once draws run
+    # front to back) stands above the noise of a loaded machine; 2^13-2^15 gain under 1.3x there
+    scene = gw.GrassScene.preset("cis565", blades=1 << 16, size=(320, 240), seed=3)
+    try:
+        assert scene.params.cull_occlusion == AUTO and scene.params.compute_raster == AUTO
+        state = _decide(scene)
+        occl = state.decisions["cull_occlusion"]
+        occluded, drawn = _occlusion_counts(scene)
+        assert occluded > 0.3 * (occluded + drawn), "the cis565 view hides many blades"
+        assert occl.on, occl.reason
+        assert f"removed {100 * occluded / (occluded + drawn):.0f} % of blades" in occl.reason
+        assert state.text("cull_occlusion", AUTO).startswith("auto (on: removed")
+        assert not state.measuring and state.decisions["cull_occlusion"] is occl  # forcing kept the decision
+        scene.render()
+        assert scene.field.read_occluded_count() > 0  # executed: the next auto frame culls
+
+        scene.look(position=(0.0, 30.0, 0.01), target=(0.0, 0.0, 0.0))  # straight down: nothing hidden
+        scene.render()
+        assert state.redecided_because == "the camera moved"
+        state = _decide(scene)
+        occl = state.decisions["cull_occlusion"]
+        occluded, drawn = _occlusion_counts(scene)
+        assert occluded < MIN_OCCLUDED_FRACTION * (occluded + drawn)
+        assert not occl.on and "too few to pay" in occl.reason, occl.reason
+        assert state.values({"cull_occlusion": AUTO}, state.context) == {"cull_occlusion": False}
+    finally:
+        scene.release()
