@@ -82,6 +82,7 @@ from pathlib import Path
 from ..errors import MissingFileError
 
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "MAX_WORKGROUPS_X", "NO_WIND_BODY",
+           "SHADE_PER_VERTEX_MIN_SEGMENTS",
            "DISTANCE_BANDS", "BAND_RANGE"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
@@ -167,14 +168,22 @@ def template_vars() -> dict:
         "max_shadow_balls": int(MAX_SHADOW_BALLS),
         "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
+        "shade_per_vertex": False,  # blade_render.wgsl: shading per vertex (ribbon_vars), else per fragment
         "user_wind_body": NO_WIND_BODY,
     }
+
+
+#: Ribbons of at least this many segments are shaded per vertex (``shade_per_vertex`` of
+#: :func:`ribbon_vars`; blade_render.wgsl says why), coarser ones per fragment.
+SHADE_PER_VERTEX_MIN_SEGMENTS = 4
 
 
 def ribbon_vars(lod_class: int) -> dict:
     """The template variables of ``blade_render.wgsl`` for one draw: LOD classes
     ``0 .. len(LOD_SEGMENTS) - 1``, and ``len(LOD_SEGMENTS)`` for the culled blades
-    drawn with ``color_by = "cull"`` (CULLED_SEGMENTS segments, flat in CULL_COLORS)."""
+    drawn with ``color_by = "cull"`` (CULLED_SEGMENTS segments, flat in CULL_COLORS).
+    ``shade_per_vertex``: the class's ribbons have at least SHADE_PER_VERTEX_MIN_SEGMENTS
+    segments and are shaded per vertex."""
     from .reference import CULLED_SEGMENTS, LOD_SEGMENTS
     from .teaching import CULL_COLORS, LOD_COLORS, hex_to_rgb
 
@@ -182,10 +191,12 @@ def ribbon_vars(lod_class: int) -> dict:
         return ", ".join(f"{c / 255:.6f}" for c in hex_to_rgb(color))
 
     culled = lod_class == len(LOD_SEGMENTS)
+    segments = CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class]
     return {
         "lod_class": int(lod_class),
         "culled": culled,
-        "segments": CULLED_SEGMENTS if culled else LOD_SEGMENTS[lod_class],
+        "segments": segments,
+        "shade_per_vertex": segments >= SHADE_PER_VERTEX_MIN_SEGMENTS,
         "lod_color": rgb(LOD_COLORS[0 if culled else lod_class]),
         "cull_colors": [rgb(c) for c in CULL_COLORS.values()],
     }

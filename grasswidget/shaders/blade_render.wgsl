@@ -89,28 +89,57 @@ fn vs_main(in: VertexInput) -> Varyings {
 
     var varyings: Varyings;
     varyings.position = vec4<f32>(clip);
-    varyings.world_pos = vec3<f32>(world_pos.xyz / world_pos.w);
-    varyings.normal = vec3<f32>(world_normal);
-    varyings.along = f32(v);
-    // The blade's unlit colour, per vertex: its patch (clump noise of the root) and its own hash.
+    let eye = u_stdinfo.cam_transform_inv[3].xyz - world_pos.xyz / world_pos.w;
+    // The blade's unlit colour: its patch (clump noise of the root) and its own hash.
     let clump = clump_noise(v0.x, v0.z, u_material.patch_size);
     let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
                                 u_material.color_variation, u_material.dryness);
+    $$ if shade_per_vertex
+    // Ribbons of 4 or more segments (the near blades, every blade without LOD) are shaded per
+    // vertex: blade_shade of the looks (diffuse and translucency, the tips' glow against the
+    // sun, the fog) goes to the fragments as one sRGB colour, interpolated in sRGB like the base
+    // colour (in linear light the blades came out a level brighter). Every term is smooth along
+    // the blade and the same across it (the normal is the row's), so 4+ rows of colour stay
+    // within a fraction of a level of the per-fragment shading. On a CPU adapter these blades'
+    // fragments and each interpolated float cost more than their vertices (benchmarks/README.md,
+    // "The looks' fragment cost on lavapipe"): 8 values a vertex (position, colour, pick id), were
+    // 16. The coarser ribbons (1-2 segments: far, few pixels each) keep the per-fragment shading
+    // below: their colour would be one ramp from root to tip.
+    let eye_distance = max(length(eye), 1e-12);
+    let to_eye = eye / eye_distance;
+    let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), v, u_material.translucency);
+    // The sunlight's shadows and darkened roots (sunlight.wgsl; (1, 1) with shadows off), per vertex too.
+    let sunlit = blade_sunlight(world_pos.xyz / world_pos.w, v, u_material.ambient);
+    var rgb = blade_shade(world_normal, to_eye, v, base * sunlit.x, glow * sunlit.y,
+                          fog_amount(eye_distance, u_material.fog_density), u_material.fog_color.rgb,
+                          u_material.light_direction.xyz, u_material.ambient);
+    $$ if teaching_views
+    if (flat_color.a > 0.5) { rgb = flat_color.rgb; }
+    $$ endif
+    varyings.color = vec3<f32>(rgb);
+    $$ else
+    varyings.world_pos = vec3<f32>(world_pos.xyz / world_pos.w);
+    varyings.normal = vec3<f32>(world_normal);
+    varyings.along = f32(v);
     varyings.base_color = vec3<f32>(base);
     // The distance fog per vertex (an exp per fragment is dear on a CPU adapter). The
     // tips' glow is per fragment: one more varying (17 floats a vertex with the position
     // and the pick id, over 16) made the H100's meadow draw 25 % slower.
-    let eye = u_stdinfo.cam_transform_inv[3].xyz - world_pos.xyz / world_pos.w;
     varyings.fog = f32(fog_amount(length(eye), u_material.fog_density));
-    varyings.pick_idx = u32(blade);
     $$ if teaching_views
     varyings.flat_color = vec4<f32>(flat_color);
     $$ endif
+    $$ endif
+    varyings.pick_idx = u32(blade);
     return varyings;
 }
 
 @fragment
 fn fs_main(varyings: Varyings) -> FragmentOutput {
+    $$ if shade_per_vertex
+    // The vertices' shading (sRGB, see vs_main), interpolated.
+    let rgb = varyings.color;
+    $$ else
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
     let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), varyings.along, u_material.translucency);
@@ -124,7 +153,7 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     $$ if teaching_views
     if (varyings.flat_color.a > 0.5) { rgb = varyings.flat_color.rgb; }
     $$ endif
-
+    $$ endif
     var out: FragmentOutput;
     out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);
     $$ if write_pick

@@ -1,0 +1,108 @@
+"""Interleaved, in-process A/B of blade and sky/ground shader variants on the adapter at hand (lavapipe).
+
+    PYTHONPATH=. python benchmarks/looks_profile/ab.py PRESET BLADES CULL ROUNDS VARIANT [VARIANT ...]
+    e.g. PYTHONPATH=. python benchmarks/looks_profile/ab.py cis565 8192 off 10 main frag_const no_blades
+
+PRESET: cis565, meadow (SIZE=WxH in the environment for another size) or default (Blades.on_plane, 640x480);
+CULL: on (every test and occlusion) or off (no LOD). Each variant (variants.py) is its own GrassScene whose
+shaders get text substitutions, or another blade_render.wgsl (``blade_file``), or a Python ``setup`` (e.g. the
+field hidden); every shader is tagged with its variant so that pygfx compiles each apart. Frames (one step and
+one render, synced) go round the variants in turns, reversed every round; printed: median process CPU ms and
+wall ms per frame, and the median of the per-round ratios to the first variant (quote the CPU ratios on a
+loaded machine). The substitutions were written against the per-fragment shader of main at cad432f
+(``main`` = that file); ``looks`` is the tree's own shader. This is the scratch profiler behind the
+benchmarks/README.md section "The looks' fragment cost on lavapipe".
+"""
+import os, sys, time, statistics, importlib.util
+import numpy as np
+import pygfx as gfx
+preset, n, cull, rounds = sys.argv[1], int(sys.argv[2]), sys.argv[3], int(sys.argv[4])
+names = sys.argv[5:]
+spec = importlib.util.spec_from_file_location("variants", os.environ.get("VARIANTS", os.path.join(os.path.dirname(os.path.abspath(__file__)), "variants.py")))
+V = importlib.util.module_from_spec(spec); spec.loader.exec_module(V)
+from grasswidget.gpu.adapter import ensure_device
+from grasswidget.gpu.scene import GrassScene
+from grasswidget.gpu import shader_classes, sky_ground
+from grasswidget.core.shader_files import read_shader
+from grasswidget.tools.bench import _apply_mode
+from grasswidget import compat
+ensure_device()
+import wgpu
+from grasswidget.gpu.adapter import ensure_device as _ed
+_dev = _ed() if _ed() is not None else None
+INC = "{$ include 'grasswidget.blade_math.wgsl' $}"
+current = {"name": "base"}
+from pygfx.renderers.wgpu import BaseShader
+_bs_init = BaseShader.__init__
+def _init(self, wobject, **kwargs):
+    _bs_init(self, wobject, **kwargs)
+    self["variant_tag"] = current["name"]
+BaseShader.__init__ = _init
+def patch(cls):
+    orig = cls.get_code
+    def get_code(self):
+        name = self["variant_tag"]
+        code = orig(self)
+        if "blade_file" in V.VARIANTS[name]:
+            code = code.replace(read_shader("blade_render.wgsl"), open(V.VARIANTS[name]["blade_file"]).read())
+        code = code.replace(INC, read_shader("blade_math.wgsl"))
+        kind = "sky" if "sky_ground" in cls.__qualname__.lower() or "SkyGround" in cls.__qualname__ else "blade"
+        for old, new in V.VARIANTS[name].get(kind, []):
+            if old == "<<APPEND>>":
+                code += new
+            elif old in code:
+                code = code.replace(old, new)
+            elif (kind, old) not in V.OPTIONAL:
+                raise SystemExit(f"variant {name}: {kind} text not found: {old[:60]!r}")
+        return code
+    cls.get_code = get_code
+patch(shader_classes.BladeRenderShader)
+_orig_rs = sky_ground.read_shader
+def _sky_read(name):
+    code = _orig_rs(name).replace(INC, read_shader("blade_math.wgsl"))
+    for old, new in V.VARIANTS[current["name"]].get("sky", []):
+        if old == "<<APPEND>>":
+            code += new; continue
+        if old not in code: raise SystemExit(f"sky text not found {old[:50]!r}")
+        code = code.replace(old, new)
+    return code
+sky_ground.read_shader = _sky_read
+scenes = {}
+_sb = {}
+def sync():
+    dev = _sb.get("dev")
+    if dev is None:
+        dev = _sb["dev"] = scenes_dev[0]
+        _sb["buf"] = dev.create_buffer(size=16, usage=wgpu.BufferUsage.COPY_SRC | wgpu.BufferUsage.STORAGE)
+    dev.queue.read_buffer(_sb["buf"])
+scenes_dev = []
+for name in names:
+    current["name"] = name
+    import grasswidget as gw
+    s = GrassScene(gw.Blades.on_plane(n, seed=0), size=(640, 480)) if preset == 'default' else GrassScene.preset(preset, blades=n, seed=0, size=tuple(map(int, os.environ['SIZE'].split('x'))) if os.environ.get('SIZE') else None)
+    w, h = s.size
+    scenes_dev.append(s.field.stats.device)
+    r = gfx.WgpuRenderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm"), pixel_ratio=1, ppaa="none", enable_events=False)
+    _apply_mode(s.params, cull, cull == "on", False, None)
+    if "setup" in V.VARIANTS[name]:
+        V.VARIANTS[name]["setup"](s)
+    for _ in range(3):
+        s.field.step(1); s.draw_into(r); sync()
+    scenes[name] = (s, r)
+cpu = {k: [] for k in names}; wall = {k: [] for k in names}
+for i in range(rounds):
+    order = names if i % 2 == 0 else names[::-1]
+    for name in order:
+        s, r = scenes[name]
+        current["name"] = name
+        t0, c0 = time.perf_counter(), time.process_time()
+        if not V.VARIANTS[name].get("nostep"): s.field.step(1)
+        if not V.VARIANTS[name].get("nodraw"): s.draw_into(r)
+        sync()
+        cpu[name].append((time.process_time() - c0) * 1e3); wall[name].append((time.perf_counter() - t0) * 1e3)
+b = names[0]
+print(f"{preset} {n} cull={cull} rounds={rounds}  (median cpu ms, wall ms; ratio = median of per-round ratios to {b})")
+for name in names:
+    rc = statistics.median(x / y for x, y in zip(cpu[name], cpu[b]))
+    rw = statistics.median(x / y for x, y in zip(wall[name], wall[b]))
+    print(f"{name:>22} cpu {statistics.median(cpu[name]):7.1f} wall {statistics.median(wall[name]):7.1f}  ratio cpu {rc:.3f} wall {rw:.3f}", flush=True)
