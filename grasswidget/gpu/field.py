@@ -158,14 +158,16 @@ class GrassField(gfx.WorldObject):
         # each until then).
         one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
         self._store.raster_list_buffer = gfx.Buffer(**one)
-        self._store.raster_args_buffer = gfx.Buffer(nbytes=16, nitems=4, format="u4",
-                                                    usage=usage.STORAGE | usage.COPY_SRC)
+        self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
         self._store.raster_depth_buffer = gfx.Buffer(**one)
         self._store.raster_payload_buffer = gfx.Buffer(**one)
         # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
         self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
                                                         usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
+        # Raster buffers replaced by a size change, destroyed at the next prepare: the frame
+        # that replaced them may already hold encoded, unsubmitted passes that use them.
+        self._store.raster_retired = []
         self._frozen_camera = None
         #: The frozen culling camera's view volume (a pygfx Line child); None until frozen.
         self.frustum_lines = None
@@ -384,6 +386,9 @@ class GrassField(gfx.WorldObject):
         ``on``: the view's decision for ``compute_raster`` "auto" (None: off).
         """
         p = self.params
+        if self._store.raster_retired:  # the frame that replaced them has been submitted since
+            destroy_buffers(self._store.raster_retired)
+            self._store.raster_retired = []
         width, height = (int(size[0]), int(size[1])) if compute_raster_on(p, self.count, on) else (0, 0)
         if width <= 0 or height <= 0:
             width = height = 0
@@ -393,17 +398,20 @@ class GrassField(gfx.WorldObject):
                                                         usage=usage.STORAGE | usage.COPY_SRC)
         if (width, height) != self._store.raster_size:
             pixels = max(width * height, 1)
-            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer, self._store.raster_args_buffer]
+            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer]
             # Counters all zero: the rows written read "every row", so the first clear of the
             # new pixel words (raster.wgsl, which clears only the rows the last frame wrote)
-            # clears them whole.
-            self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
+            # clears them whole. Zeroed in place: the culling passes keep the buffer bound
+            # (a replaced one stayed bound there and was destroyed under them).
+            args = self._store.raster_args_buffer
+            args.data[:] = 0
+            args.update_full()
             self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
                                                          usage=usage.STORAGE | usage.COPY_SRC)
             self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
                                                            usage=usage.STORAGE | usage.COPY_SRC)
             self._store.raster_size = (width, height)
-            destroy_buffers(old)
+            self._store.raster_retired = old
         data = self.cull_uniform_buffer.data
         shape = int(self.material.uniform_buffer.data["blade_shape"])
         tau = float(self.material.uniform_buffer.data["tip_threshold"])
@@ -608,7 +616,8 @@ class GrassField(gfx.WorldObject):
                  "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
                  "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
                  "raster_payload_buffer", "raster_dispatch_buffer")
-        destroy_buffers([self._store[name] for name in names])
+        destroy_buffers([self._store[name] for name in names] + list(self._store.raster_retired))
+        self._store.raster_retired = []
         self.occlusion.release()
         self.simulation.release()
 

@@ -27,3 +27,14 @@ def test_raster_max_px_sweep_rows():
 def test_raster_max_px_out_of_range_names_the_parameter():
     with pytest.raises(GrassValueError, match="compute_raster_max_px"):
         run_bench("meadow", [64], frames=1, size=(32, 24), progress=False, raster_max_px=[40])
+
+
+def test_compute_raster_on_from_the_first_frame():
+    """The bench's GPU timer binds the field's buffers in compute programs of its own before the
+    first frame; the compute rasterizer's first frame sizes its buffers then. Its counters' buffer
+    is zeroed in place, not replaced (a replaced one was destroyed while still bound there, and
+    the next submit aborted the process: 'Buffer has been destroyed')."""
+    report = run_bench("meadow", [2048], frames=2, size=(96, 54), progress=False, compute_raster="on",
+                       occlusion="off", horizon=False)
+    (row,) = report["results"]
+    assert row["compute_raster"] is True and 0 < row["rastered"] <= row["visible"]
