@@ -339,3 +339,4 @@ def test_teaching_colour_and_counts(meadow):
         p.color_by = "natural"
         p.compute_raster = True
         p.cull_occlusion = True
+
