@@ -53,14 +53,10 @@ def parse_size(size, name="size"):
     return w, h
 
 
-#: The meadow preset's reach (radius of its last blades) as a share of its camera's far plane
-#: (80 m of 400): every blade is drawn before the ground's fade into the horizon (from 0.6 of
-#: the far plane, sky_ground.wgsl) starts, and beyond them the ground has the grass's colour.
-#: The blade count is the user's, so the reach sets the near density: with the near disc of
-#: radius r0 the disc keeps r0 / (r0 + 2 (R - r0)) of the blades (2^20 blades, r0 = 16 m:
-#: 11 % at R = 80 m, about 110 per m^2; at R = 200 m 4 %, and the soil showed between the near
-#: blades). Past the reach the far ground carries the look.
-MEADOW_REACH_OF_FAR = 0.2
+#: The meadow preset's reach (radius of its last blades) as a share of its camera's far plane:
+#: the ground fades into the horizon from 0.6 of the far plane (sky_ground.wgsl), so every
+#: blade is drawn before that fade starts, and beyond them the ground has the grass's colour.
+MEADOW_REACH_OF_FAR = 0.5
 #: The meadow's camera far plane (m).
 MEADOW_FAR = 400.0
 

@@ -174,8 +174,8 @@ class GrassScene:
           at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
           3 m above its edge, 1920 x 1080. Default 2^20 blades. With ``horizon`` (the
           default) it reaches the horizon: the square's side is the diameter of a near
-          disc at full density, beyond it thinner, wider blades out to 80 m (a fifth of
-          the far plane; ``Blades.on_plane(..., reach=80)``, the same blade count) and ground
+          disc at full density, beyond it thinner, wider blades out to 200 m (half the far
+          plane; ``Blades.on_plane(..., reach=200)``, the same blade count) and ground
           coloured like the grass seen from afar beyond them; ``horizon=False`` gives the
           square field alone on a bare ground, as before.
         """

@@ -11,7 +11,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.core import frame_data
 from grasswidget.core.camera_presets import camera_preset, field_box
-from grasswidget.core.framing import MEADOW_REACH_OF_FAR, preset_field
+from grasswidget.core.framing import preset_field
 from grasswidget.core.horizon import HorizonLayout, concentric_disc
 from grasswidget.core.orbit_limits import OrbitLimits
 
@@ -138,7 +138,7 @@ def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed():
     blades, size, view = preset_field("meadow", 1 << 14)
     flat, _, flat_view = preset_field("meadow", 1 << 14, horizon=False)
     assert len(blades) == len(flat) == 1 << 14 and flat.horizon is None
-    assert blades.horizon.reach == MEADOW_REACH_OF_FAR * view["far"] == 80.0
+    assert blades.horizon.reach == 0.5 * view["far"]
     assert view["position"] == flat_view["position"]
     # the same view: the target moved along the ray onto the near disc (the orbit's pivot stays over it)
     ray = np.subtract(view["target"], view["position"])
