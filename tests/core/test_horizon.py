@@ -134,10 +134,11 @@ def test_orbit_keeps_the_camera_near_the_middle(field):
     assert 0 < start < end <= REACH - field.horizon.max_camera_offset()
 
 
-def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed():
-    blades, size, view = preset_field("meadow", 1 << 14)
-    flat, _, flat_view = preset_field("meadow", 1 << 14, horizon=False)
-    assert len(blades) == len(flat) == 1 << 14 and flat.horizon is None
+@pytest.mark.parametrize("count", [1 << 14, 1 << 20])  # 2^20: the preset's default, a near disc of 32 m
+def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed(count):
+    blades, size, view = preset_field("meadow", count)
+    flat, _, flat_view = preset_field("meadow", count, horizon=False)
+    assert len(blades) == len(flat) == count and flat.horizon is None
     assert blades.horizon.reach == 0.5 * view["far"]
     assert view["position"] == flat_view["position"]
     # the same view: the target moved along the ray onto the near disc (the orbit's pivot stays over it)
