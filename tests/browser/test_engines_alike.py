@@ -206,6 +206,7 @@ def _save_both_engines_horizon(page, out_dir):
 import grasswidget as gw
 from grasswidget.gpu.scene import GrassScene
 w.pause()
+w.view.engine_widget.colliders = []  # the sunlit pictures' ball: the kernel scene below has none
 w.set_blades(gw.Blades.on_plane({HORIZON_BLADES}, size={HORIZON_SIZE}, reach={HORIZON_REACH}, seed=2))
 w.reset_blades()
 w.step(30)
