@@ -203,8 +203,8 @@ def run(frames, views, out_path, raster_max_px=None):
         scene.draw_into(renderer)
         sync()
         listed = field.read_raster_count()
-        depth = np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(field.raster_depth_buffer)), np.uint32)
-        covered = int((depth != 0xFFFFFFFF).sum())
+        pixels = field.read_raster_pixels()  # (depth, payload) whatever the layout (one walk or two)
+        covered = int((pixels[0] != 0xFFFFFFFF).sum()) if pixels is not None else 0
         drawn = int(field.read_draw_args()[:, 1].sum())
         entry = dict(preset=preset, blades=n, size=f"{w}x{h}", compute_raster_max_px=field.params.compute_raster_max_px,
                      listed_for_compute=listed, pixels_covered=covered,

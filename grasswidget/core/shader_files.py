@@ -166,6 +166,7 @@ def template_vars() -> dict:
         "ball_penumbra": wgsl_float(BALL_PENUMBRA),
         "transmittance_taps": int(TRANSMITTANCE_TAPS),
         "max_shadow_balls": int(MAX_SHADOW_BALLS),
+        "raster_packed": False,  # raster.wgsl / raster_resolve.wgsl: one walk with 64-bit atomics (gpu/raster_walks.py)
         "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "shade_per_vertex": False,  # blade_render.wgsl: shading per vertex (ribbon_vars), else per fragment

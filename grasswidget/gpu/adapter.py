@@ -63,6 +63,7 @@ def ensure_device():
     from pygfx.renderers.wgpu import get_shared
 
     from .. import compat
+    from .raster_walks import ONE_WALK_FEATURES
 
     if not compat.default_device_exists() and not _state["configured"]:
         adapter = select_adapter()
@@ -75,7 +76,8 @@ def ensure_device():
         features = {"float32-filterable"}
         if "timestamp-query" in adapter.features:
             features.add("timestamp-query")
-        preferred = {"timestamp-query-inside-passes", "timestamp-query-inside-encoders"}
+        # 64-bit atomics: the compute rasterizer's one walk (gpu/raster_walks.py) where offered.
+        preferred = {"timestamp-query-inside-passes", "timestamp-query-inside-encoders", *ONE_WALK_FEATURES}
         wgpu.preconfigure_default_device(
             "grasswidget",
             adapter=adapter,

@@ -24,6 +24,7 @@ every ``renderer.render()``:
 The compute rasterizer (``params.compute_raster``, set up for the render size by
 ``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
 the culling lists thin blades for it, ``RasterShader("args")`` sizes the walks and
+``RasterShader("packed")`` (one walk, 64-bit atomics: ``GrassField.raster_packed``) or
 ``RasterShader("depth")`` and ``RasterShader("payload")`` walk them after step 4
 (dispatched indirectly: a thread per listed blade), and ``RasterResolveShader``
 (render, after the ribbons) writes their colour and depth.
@@ -54,6 +55,7 @@ from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS
 from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
+from .raster_walks import raster_walk_steps
 from .wgsl_templates import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
@@ -258,16 +260,19 @@ class RasterShader(GrassComputeShader):
     """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
     words of the rows the last frame wrote, and the counters, before the culling), "args"
     (one thread after the culling: the walks' workgroups into
-    ``GrassField.raster_dispatch_buffer``, the rows written to none), "depth" or "payload"
-    (the walks, dispatched indirectly from those workgroups);
+    ``GrassField.raster_dispatch_buffer``, the rows written to none), "packed" (the one walk
+    with 64-bit atomics, ``wobject.raster_packed``) or "depth" and "payload" (the two walks),
+    dispatched indirectly from those workgroups;
     ``second``: the walks of occlusion culling's second phase (run by
     :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
 
     def __init__(self, wobject, step, second=False):
-        if step not in ("clear", "args", "depth", "payload"):
-            raise GrassValueError(f"step must be 'clear', 'args', 'depth' or 'payload'; got {step!r}")
-        super().__init__(wobject, step=step, second=bool(second))
-        if step in ("depth", "payload"):  # gpu/indirect.py: dispatch_workgroups_indirect
+        walks = raster_walk_steps(wobject)
+        if step not in ("clear", "args", *walks):
+            raise GrassValueError(f"step must be 'clear', 'args' or {' or '.join(map(repr, walks))} "
+                                  f"(this field's walks, GrassField.raster_packed); got {step!r}")
+        super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed))
+        if step in walks:  # gpu/indirect.py: dispatch_workgroups_indirect
             self.indirect_args = wobject.raster_dispatch_buffer
             self.indirect_offset = 0
 
@@ -289,11 +294,12 @@ class RasterShader(GrassComputeShader):
         return {0: bindings}
 
     def get_code(self):
+        word = "u64" if self["step"] == "packed" else "u32"  # the one walk's pixels: a u64 each
         return (
             "{{ bindings_code }}\n"
             + U_CULL_CODE +
             "@group(0) @binding(12) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
-            "@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<u32>>;\n"
+            f"@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<{word}>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
             + ("@group(0) @binding(15) var<storage, read_write> s_raster_dispatch: array<u32>;\n"
                if self["step"] == "args" else "")
@@ -316,7 +322,8 @@ class RasterResolveShader(BaseShader):
 
     def __init__(self, wobject):
         field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
-        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors))
+        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors,
+                                                raster_packed=bool(field.raster_packed)))
         self._field = weakref.ref(field)
         self._draws = weakref.ref(wobject) if field is not wobject else None
 
@@ -391,8 +398,7 @@ def grass_render_function(wobject):
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
         RasterShader(wobject, "args"),
-        RasterShader(wobject, "depth"),
-        RasterShader(wobject, "payload"),
+        *(RasterShader(wobject, step) for step in raster_walk_steps(wobject)),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
         RasterResolveShader(wobject),
     ]

@@ -69,8 +69,7 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
         assert len(ids) > 1000
         w, h = field.raster_size
         assert (w, h) == SIZE
-        depth = _read_u32(field.raster_depth_buffer).reshape(h, w)
-        payload = _read_u32(field.raster_payload_buffer).reshape(h, w)
+        depth, payload = field.read_raster_pixels()
         state = field.read_state()
         cam = meadow.camera
         mvp = (np.asarray(cam.projection_matrix, np.float64) @ np.asarray(cam.view_matrix, np.float64)
@@ -124,8 +123,7 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
 
 def _covered_rows(field):
     """(first, last) pixel row holding a compute-rasterized word, from the depth words read back."""
-    w, h = field.raster_size
-    rows = np.nonzero((_read_u32(field.raster_depth_buffer).reshape(h, w) != ref.RASTER_EMPTY).any(axis=1))[0]
+    rows = np.nonzero((field.read_raster_pixels()[0] != ref.RASTER_EMPTY).any(axis=1))[0]
     return (int(rows[0]), int(rows[-1])) if len(rows) else None
 
 

@@ -126,7 +126,7 @@ __all__ = [
     "grass_optical_depths", "MAX_SHADOW_BALLS",
     "clip_to_pixel",
     "raster_step",
-    "raster_span",
+    "raster_section",
     "raster_cover",
     "raster_payload",
     "raster_walk",
