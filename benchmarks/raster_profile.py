@@ -13,8 +13,10 @@ For each view (the default view: cis565 preset, 2^16 blades, 640x480; the meadow
    pass's draws are binned and rasterized when the pass ends, so the per-draw figures of a
    render pass are only where the binning happened: its ``render pass`` total (first draw's
    begin to the last's end plus the pass end, taken by the next timestamp) is the figure.
-2. Wall milliseconds per frame (step excluded; render + one GPU sync): on, off, and on with the
-   resolve draws skipped (knock-out), interleaved frame by frame, medians.
+2. Wall and process CPU milliseconds per frame (step excluded; render + one GPU sync): on, off,
+   and on with the resolve draws, the walks or the clear skipped, and off with the ribbons skipped
+   (knock-outs: what each costs; the last one is the frame's floor, what neither path draws),
+   interleaved frame by frame, medians.
 3. What the walks did: blades listed, pixels covered (depth words read back).
 
 Writes JSON and prints a table. CPU adapters only make sense here (the issue is lavapipe's).
@@ -109,7 +111,10 @@ def _install_hooks(stamps, knockout):
     original_program_indirect = getattr(compute.ComputeProgram, "dispatch_indirect", None)
 
     def dispatch(self, compute_pass):
-        k = stamps.write(compute_pass, _label(self.shader))
+        label = _label(self.shader)
+        if any(label.startswith(skip) for skip in knockout["skip"]):
+            return
+        k = stamps.write(compute_pass, label)
         original_dispatch(self, compute_pass)
         stamps.end(compute_pass, k)
 
@@ -131,6 +136,8 @@ def _install_hooks(stamps, knockout):
         stamps.end(compute_pass, k)
 
     def program_indirect(self, compute_pass, buffer, offset=0):
+        if any(self.profile_label.startswith(skip) for skip in knockout["skip"]):
+            return
         k = stamps.write(compute_pass, getattr(self, "profile_label", "ComputeProgram"))
         original_program_indirect(self, compute_pass, buffer, offset)
         stamps.end(compute_pass, k)
@@ -175,7 +182,10 @@ def run(frames, views, out_path, raster_max_px=None):
         def sync():
             device.queue.read_buffer(compat.gpu_buffer(field.args_buffer))
 
-        modes = {"on": (True, set()), "off": (False, set()), "on, resolve skipped": (True, {"RasterResolveShader"})}
+        walks = ("RasterShader step=packed", "RasterShader step=depth", "RasterShader step=payload")
+        modes = {"on": (True, set()), "off": (False, set()), "on, resolve skipped": (True, {"RasterResolveShader"}),
+                 "on, walks skipped": (True, set(walks)), "on, clear skipped": (True, {"RasterShader step=clear"}),
+                 "off, ribbons skipped": (False, {"BladeRenderShader"})}
         for raster, skip in modes.values():  # warm-up: compile every pipeline
             field.params.compute_raster = raster
             knockout["skip"] = skip
@@ -184,6 +194,7 @@ def run(frames, views, out_path, raster_max_px=None):
                 sync()
         stamps.collect()
         wall = {m: [] for m in modes}
+        cpu = {m: [] for m in modes}
         gpu = {m: collections.defaultdict(list) for m in modes}
         for _ in range(frames):
             for mode, (raster, skip) in modes.items():
@@ -192,10 +203,11 @@ def run(frames, views, out_path, raster_max_px=None):
                 scene.draw_into(renderer)  # settle the switch (pygfx rebuilds nothing after the warm-up)
                 sync()
                 stamps.collect()
-                t = time.perf_counter()
+                t, c = time.perf_counter(), time.process_time()
                 scene.draw_into(renderer)
                 sync()
                 wall[mode].append(1e3 * (time.perf_counter() - t))
+                cpu[mode].append(1e3 * (time.process_time() - c))
                 for label, values in stamps.collect().items():
                     gpu[mode][label].append(sum(values))
         field.params.compute_raster = True
@@ -210,12 +222,16 @@ def run(frames, views, out_path, raster_max_px=None):
                      listed_for_compute=listed, pixels_covered=covered,
                      pixels=w * h, ribbons_drawn_when_on=drawn,
                      wall_ms={m: statistics.median(v) for m, v in wall.items()},
+                     cpu_ms={m: statistics.median(v) for m, v in cpu.items()},
                      gpu_ms={m: {k: statistics.median(v) for k, v in d.items()} for m, d in gpu.items()})
         entry["wall_on_over_off"] = entry["wall_ms"]["on"] / entry["wall_ms"]["off"]
+        entry["cpu_on_over_off"] = entry["cpu_ms"]["on"] / entry["cpu_ms"]["off"]
         report["views"][view] = entry
         print(f"\n== {view}: listed {listed} blades, {covered} px covered of {w * h}; ribbons drawn {drawn}")
         print("wall ms: " + ", ".join(f"{m} {v:.1f}" for m, v in entry["wall_ms"].items())
               + f"; on/off {entry['wall_on_over_off']:.2f}")
+        print("CPU ms: " + ", ".join(f"{m} {v:.1f}" for m, v in entry["cpu_ms"].items())
+              + f"; on/off {entry['cpu_on_over_off']:.2f}")
         labels = sorted(set().union(*(d.keys() for d in entry["gpu_ms"].values())))
         print(f"{'pass':58s} " + " ".join(f"{m[:12]:>12s}" for m in modes))
         for label in labels:

@@ -162,7 +162,7 @@ class GrassField(gfx.WorldObject):
         one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
         self._store.raster_list_buffer = gfx.Buffer(**one)
         self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
-        self._store.raster_depth_buffer = gfx.Buffer(**one)
+        self._store.raster_depth_buffer = gfx.Buffer(**(dict(one, nbytes=8, nitems=2) if self.raster_packed else one))
         self._store.raster_payload_buffer = gfx.Buffer(**one)
         # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
         self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
