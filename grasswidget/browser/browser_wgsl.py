@@ -26,7 +26,8 @@ from pathlib import Path
 import jinja2
 
 from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
-from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, WORKGROUP_SIZE, raster_resolve_vars,
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTER_CLEAR_OFFSET, WORKGROUP_SIZE,
+                                 raster_resolve_vars,
                                  ribbon_vars, shader_dir, template_vars, wgsl_environment, wgsl_float)
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
                              MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
@@ -316,15 +317,17 @@ class BrowserShaders:
         * per view size (w, h): ``s_raster_depth`` and ``s_raster_payload`` of w * h u32 each;
           before each frame's passes the engine writes w and h (f32) at ``width_offset`` and
           ``height_offset`` of ``u_cull`` (cull.wgsl lists thin blades only in renders of that size);
-        * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the clear
-          dispatched over the pixels, ``dispatch: "pixels"``; the args step, one thread; the walks
-          with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch, 0)``),
-          bound to that size's buffers;
+        * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the
+          clear's args step, one thread; the clear over the rows the last frame wrote and the walks
+          with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch,
+          indirect_offset)``, offset 0 unless given; the args step, one thread), bound to that
+          size's buffers;
         * ``resolve`` / ``resolve_flat`` (the natural and the colour-by views' variant, as the
           ribbons') drawn after the ribbons in the same render pass, before sky and ground; with
           occlusion culling the second phase's args step and walks (``second_args`` dispatched
           once, ``second_depth``, ``second_payload`` indirectly) run after the second culling pass and the resolve is drawn again after its ribbons;
-        * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT);
+        * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT): the walks'
+          workgroups at byte 0, the clear's at byte ``RASTER_CLEAR_OFFSET``;
         * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, the
           first row written and the complement of the last); the stats read ``s_raster_args[0]``
           (blades drawn in compute). The clear clears only the rows the last frame wrote: when a
@@ -339,7 +342,7 @@ class BrowserShaders:
             "args_words": 4,
             "rows_at": 2,
             "rows_words": 2,
-            "dispatch_words": 4,
+            "dispatch_words": 8,
             "second_args": cls.raster("args", second=True),
             "second_depth": cls.raster("depth", second=True),
             "second_payload": cls.raster("payload", second=True),
@@ -472,9 +475,13 @@ class BrowserShaders:
             # turn counts into slots, cull and scatter the lists nearest band first.
             "compute_passes": [
                 {"shader": "reset_args", "dispatch": "one", "label": "reset_args.wgsl"},
-                # the compute rasterizer's per-pixel words and counters (per view size: "sized")
-                {"shader": "raster_clear", "dispatch": "pixels", "label": "raster.wgsl (clear)",
+                # the compute rasterizer's counters and per-pixel words (per view size: "sized"): one
+                # thread writes the clear's workgroups for the rows the last frame wrote into
+                # s_raster_dispatch at byte RASTER_CLEAR_OFFSET, the clear is dispatched from there
+                {"shader": "raster_clear_args", "dispatch": "one", "label": "raster.wgsl (clear_args)",
                  "only_if": "compute_raster", "sized": True},
+                {"shader": "raster_clear", "dispatch": "raster_listed", "indirect_offset": RASTER_CLEAR_OFFSET,
+                 "label": "raster.wgsl (clear)", "only_if": "compute_raster", "sized": True},
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
@@ -502,6 +509,7 @@ class BrowserShaders:
             "cull_count": cls.cull("count"),
             "prefix_bands": cls.prefix_bands(),
             "cull": cls.cull("scatter"),
+            "raster_clear_args": cls.raster("clear_args"),
             "raster_clear": cls.raster("clear"),
             "raster_args": cls.raster("args"),
             "raster_depth": cls.raster("depth"),

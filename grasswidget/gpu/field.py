@@ -164,8 +164,9 @@ class GrassField(gfx.WorldObject):
         self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
         self._store.raster_depth_buffer = gfx.Buffer(**(dict(one, nbytes=8, nitems=2) if self.raster_packed else one))
         self._store.raster_payload_buffer = gfx.Buffer(**one)
-        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
-        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
+        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step, then the
+        # clear's (x, y, z, 0), written by its clear_args step.
+        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(8, np.uint32),
                                                         usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
         # Raster buffers replaced by a size change, destroyed at the next prepare: the frame
@@ -353,9 +354,10 @@ class GrassField(gfx.WorldObject):
 
     @property
     def raster_dispatch_buffer(self):
-        """pygfx Buffer of 4 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
-        written on the GPU after the culling (raster.wgsl, step "args"); the walks are
-        dispatched indirectly from it."""
+        """pygfx Buffer of 8 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
+        written on the GPU after the culling (raster.wgsl, step "args"), then its clear's
+        (x, y, z, 0) for the rows the last frame wrote (step "clear_args", before the
+        culling); the walks and the clear are dispatched indirectly from it."""
         return self._store.raster_dispatch_buffer
 
     @property

@@ -22,7 +22,8 @@ every ``renderer.render()``:
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
 The compute rasterizer (``params.compute_raster``, set up for the render size by
-``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
+``GrassField.prepare_compute_raster``): ``RasterShader("clear_args")`` and
+``RasterShader("clear")`` (indirect: the rows the last frame wrote) run before step 2,
 the culling lists thin blades for it, ``RasterShader("args")`` sizes the walks and
 ``RasterShader("packed")`` (one walk, 64-bit atomics: ``GrassField.raster_packed``) or
 ``RasterShader("depth")`` and ``RasterShader("payload")`` walk them after step 4
@@ -51,7 +52,7 @@ from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
 from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
-from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_CLEAR_OFFSET
 from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
@@ -257,10 +258,11 @@ class BladeRenderShader(BaseShader):
 
 
 class RasterShader(GrassComputeShader):
-    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
-    words of the rows the last frame wrote, and the counters, before the culling), "args"
-    (one thread after the culling: the walks' workgroups into
-    ``GrassField.raster_dispatch_buffer``, the rows written to none), "packed" (the one walk
+    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear_args" (one thread
+    before the culling: the counters to zero, the clear's workgroups for the rows the last
+    frame wrote into ``GrassField.raster_dispatch_buffer`` at word 4), "clear" (those rows'
+    per-pixel words, dispatched indirectly from there), "args" (one thread after the culling:
+    the walks' workgroups into words 0..2, the rows written to none), "packed" (the one walk
     with 64-bit atomics, ``wobject.raster_packed``) or "depth" and "payload" (the two walks),
     dispatched indirectly from those workgroups;
     ``second``: the walks of occlusion culling's second phase (run by
@@ -268,13 +270,13 @@ class RasterShader(GrassComputeShader):
 
     def __init__(self, wobject, step, second=False):
         walks = raster_walk_steps(wobject)
-        if step not in ("clear", "args", *walks):
-            raise GrassValueError(f"step must be 'clear', 'args' or {' or '.join(map(repr, walks))} "
+        if step not in ("clear_args", "clear", "args", *walks):
+            raise GrassValueError(f"step must be 'clear_args', 'clear', 'args' or {' or '.join(map(repr, walks))} "
                                   f"(this field's walks, GrassField.raster_packed); got {step!r}")
         super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed))
-        if step in walks:  # gpu/indirect.py: dispatch_workgroups_indirect
+        if step in walks or step == "clear":  # gpu/indirect.py: dispatch_workgroups_indirect
             self.indirect_args = wobject.raster_dispatch_buffer
-            self.indirect_offset = 0
+            self.indirect_offset = RASTER_CLEAR_OFFSET if step == "clear" else 0  # bytes: the clear's words
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -287,7 +289,7 @@ class RasterShader(GrassComputeShader):
             13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
             14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
         }
-        if self["step"] == "args":  # only there: the walks read it as their indirect arguments
+        if self["step"] in ("args", "clear_args"):  # only there: the others read it as indirect arguments
             bindings[15] = Binding("s_raster_dispatch", "buffer/storage", wobject.raster_dispatch_buffer, "COMPUTE")
         for slot in (0, 1, 10, 11):
             self.define_binding(0, slot, bindings[slot])
@@ -302,15 +304,12 @@ class RasterShader(GrassComputeShader):
             f"@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<{word}>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
             + ("@group(0) @binding(15) var<storage, read_write> s_raster_dispatch: array<u32>;\n"
-               if self["step"] == "args" else "")
+               if self["step"] in ("args", "clear_args") else "")
             + "{$ include 'grasswidget.raster.wgsl' $}\n"
         )
 
     def get_render_info(self, wobject, shared):
-        width, height = wobject.raster_size
-        if not width or self["step"] != "clear":
-            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters; the walks: indirect
-        return {"indices": workgroups(width * height)}
+        return {"indices": (1, 1, 1)}  # clear_args and args: one thread; the clear and the walks: indirect
 
 
 class RasterResolveShader(BaseShader):
@@ -393,6 +392,7 @@ def grass_render_function(wobject):
     draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
+        RasterShader(wobject, "clear_args"),
         RasterShader(wobject, "clear"),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),

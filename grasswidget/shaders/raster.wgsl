@@ -15,11 +15,14 @@
 //   "payload" walks again and, where the pixel's depth word is this blade's depth,
 //   atomicMax of raster_payload(blade, v) (the same winner as the one walk).
 //
-// step "clear": the words of every pixel in the rows the last frame's walks wrote
-//   (s_raster_args[2] .. ~s_raster_args[3], see "args") to empty (depth RASTER_EMPTY,
-//   payload 0; packed: both words all ones), and the list counters to 0 (before the
-//   culling pass of the frame). Counters that are all zero (a new buffer) mean every
-//   row: a new pixel buffer is cleared whole.
+// step "clear_args": one thread at the start of the frame (before the culling): the list
+//   counters to 0, and the clear's workgroups into s_raster_dispatch[4..6] for the pixels
+//   of the rows the last frame's walks wrote (s_raster_args[2] .. ~s_raster_args[3], see
+//   "args"; none written: no workgroup). Counters that are all zero (a new buffer) mean
+//   every row: a new pixel buffer is cleared whole.
+// step "clear" (dispatched indirectly from those workgroups): thread i empties pixel
+//   first_row * width + i of those rows (depth RASTER_EMPTY, payload 0; packed: both words
+//   all ones). A view where no blade was walked pays for no pixel.
 // step "args": one thread, after the culling and before the walks: the walks' workgroups
 //   (x, y, 1) into s_raster_dispatch (the walks are dispatched indirectly, so only the
 //   listed blades run: a thread per blade of the whole field cost a CPU adapter as much
@@ -52,7 +55,8 @@
 // raster_tip_threshold), s_blades (array<vec4<f32>>, read), s_raster (array<u32>, read),
 // s_raster_args (array<atomic<u32>>), s_raster_depth (array<atomic<u64>> in step "packed",
 // else array<atomic<u32>>) and, unless packed, s_raster_payload (array<atomic<u32>>), and
-// for the args step s_raster_dispatch (array<u32>, 4 words).
+// for the args and clear_args steps s_raster_dispatch (array<u32>, 8 words: the walks'
+// workgroups at 0, the clear's at 4).
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
@@ -133,22 +137,33 @@ fn main(
     @builtin(local_invocation_index) lid: u32,
 ) {
     let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
-    $$ if step == "clear"
+    $$ if step == "clear_args"
     if (i == 0u) {
         atomicStore(&s_raster_args[0], 0u);
         atomicStore(&s_raster_args[1], 0u);
+        let width = u32(u_cull.raster_width);
+        let height = u32(u_cull.raster_height);
+        let first_row = atomicLoad(&s_raster_args[2]);
+        let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);  // all zero: every row
+        let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
+        let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+        let x = min(groups, {{ max_groups_x }}u);
+        s_raster_dispatch[4] = x;
+        s_raster_dispatch[5] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+        s_raster_dispatch[6] = 1u;
     }
+    $$ elif step == "clear"
     let width = u32(u_cull.raster_width);
-    let row = i / max(width, 1u);
-    // Only the rows the last frame wrote (the args step resets them after this pass).
-    if (i < width * u32(u_cull.raster_height) && row >= atomicLoad(&s_raster_args[2])
-        && row <= ~atomicLoad(&s_raster_args[3])) {
+    let first = atomicLoad(&s_raster_args[2]) * width;  // the first row written, from its start
+    let last_row = min(~atomicLoad(&s_raster_args[3]), u32(u_cull.raster_height) - 1u);
+    let pixel = first + i;
+    if (pixel < (last_row + 1u) * width) {
         $$ if raster_packed
-        atomicStore(&s_raster_depth[2u * i], RASTER_EMPTY);
-        atomicStore(&s_raster_depth[2u * i + 1u], RASTER_EMPTY);
+        atomicStore(&s_raster_depth[2u * pixel], RASTER_EMPTY);
+        atomicStore(&s_raster_depth[2u * pixel + 1u], RASTER_EMPTY);
         $$ else
-        atomicStore(&s_raster_depth[i], RASTER_EMPTY);
-        atomicStore(&s_raster_payload[i], 0u);
+        atomicStore(&s_raster_depth[pixel], RASTER_EMPTY);
+        atomicStore(&s_raster_payload[pixel], 0u);
         $$ endif
     }
     $$ elif step == "args"

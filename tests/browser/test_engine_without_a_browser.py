@@ -68,7 +68,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
     assert [p["shader"] for p in shaders["compute_passes"]] == [
-        "reset_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
+        "reset_args", "raster_clear_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
         "inspect"]
     # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
     # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
@@ -98,15 +98,19 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert all("n_blades - 1u - in.instance_index" in b["code"] for b in occlusion["blades"] + occlusion["blades_flat"])
     assert occlusion["phase_offset"] == offsets(CULL_LAYOUT)["occlusion_phase"][0]
     # The compute rasterizer: the kernel's raster.wgsl and raster_resolve.wgsl; its passes run
-    # only while u_cull.compute_raster is on, bound per view size (the clear over the pixels); the culling
+    # only while u_cull.compute_raster is on, bound per view size (the clear over the rows written); the culling
     # lists thin blades into s_raster (written there, read by the walks); the walks do atomic depth
     # tests; the resolve writes frag_depth and reads the words; its colour-by variant has the
     # "drawn in compute" colour; the device must allow the most storage buffers one shader binds.
     sized = [p for p in shaders["compute_passes"] if p.get("sized")]
     # The walks run a thread per listed blade: dispatched indirectly from what the args step wrote.
     assert [(p["shader"], p["dispatch"], p["only_if"]) for p in sized] == [
-        ("raster_clear", "pixels", "compute_raster"), ("raster_args", "one", "compute_raster"),
+        ("raster_clear_args", "one", "compute_raster"), ("raster_clear", "raster_listed", "compute_raster"),
+        ("raster_args", "one", "compute_raster"),
         ("raster_depth", "raster_listed", "compute_raster"), ("raster_payload", "raster_listed", "compute_raster")]
+    # The clear runs over the rows the last frame wrote: its workgroups at their own offset.
+    assert [p.get("indirect_offset", 0) for p in sized] == [0, 16, 0, 0, 0]
+    assert "s_raster_dispatch[4] = x;" in shaders["raster_clear_args"]["code"]
     names = [p["shader"] for p in shaders["compute_passes"]]
     assert names.index("raster_clear") < names.index("cull_count") < names.index("cull") < names.index("raster_args")
     for sh in (shaders["raster_args"], raster["second_args"]):

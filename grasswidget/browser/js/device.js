@@ -233,7 +233,8 @@ export class EngineDevice {
     for (const pass of shaders.compute_passes) {
       const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
       this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
-        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now", sized: !!pass.sized });
+        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now", sized: !!pass.sized,
+        indirectOffset: pass.indirect_offset || 0 });
     }
     this.depthFormat = (shaders.occlusion && shaders.occlusion.depth_format) || "depth24plus";
     const depthStencil = { format: this.depthFormat, depthWriteEnabled: true, depthCompare: "less" };
