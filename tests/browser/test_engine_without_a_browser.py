@@ -119,7 +119,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert "s_raster_dispatch[0] = x;" in sh["code"]
     assert "atomicStore(&s_raster_args[2], RASTER_EMPTY);" in shaders["raster_args"]["code"]  # rows written: none
     assert "atomicStore(&s_raster_args[2]" not in raster["second_args"]["code"]  # the first phase's rows kept
-    assert raster["dispatch_words"] == 4 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
+    assert raster["dispatch_words"] == 8 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
     for sh in (shaders["cull"], occlusion["cull"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster"] == "storage" and kinds["s_raster_args"] == "storage"
