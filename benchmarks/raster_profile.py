@@ -215,8 +215,12 @@ def run(frames, views, out_path, raster_max_px=None):
         scene.draw_into(renderer)
         sync()
         listed = field.read_raster_count()
-        pixels = field.read_raster_pixels()  # (depth, payload) whatever the layout (one walk or two)
-        covered = int((pixels[0] != 0xFFFFFFFF).sum()) if pixels is not None else 0
+        if hasattr(field, "read_raster_pixels"):  # (depth, payload) whatever the layout (one walk or two)
+            pixels = field.read_raster_pixels()
+            covered = int((pixels[0] != 0xFFFFFFFF).sum()) if pixels is not None else 0
+        else:  # a tree from before the one walk: a u32 depth word per pixel
+            depth = np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(field.raster_depth_buffer)), np.uint32)
+            covered = int((depth != 0xFFFFFFFF).sum())
         drawn = int(field.read_draw_args()[:, 1].sum())
         entry = dict(preset=preset, blades=n, size=f"{w}x{h}", compute_raster_max_px=field.params.compute_raster_max_px,
                      listed_for_compute=listed, pixels_covered=covered,
