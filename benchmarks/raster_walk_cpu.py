@@ -1,8 +1,11 @@
 """The compute rasterizer's walks alone: CPU and wall time of walking one frame's listed blades again,
 trees interleaved (issue 28 item 2: the walk written like the thin-blade probe's).
 
-``python benchmarks/raster_walk_cpu.py --tree before=/path/to/old/checkout --tree after=. --rounds 2
---json benchmarks/raster_walk_cpu_lavapipe.json``
+``python benchmarks/raster_walk_cpu.py --tree before=/path/to/old/checkout --tree after=. --tree two=.:two
+--rounds 2 --json benchmarks/raster_walk_cpu_lavapipe.json``
+
+A tree given as ``NAME=PATH:two`` runs with ``raster_walks.prefer_two_walks(True)``: the two walks (the
+browser engine's layout) of a tree that would walk once.
 
 Per round, each tree in turn in a fresh process (its ``grasswidget`` on PYTHONPATH): the meadow preset
 at 2^18 blades, 1280x720, ``compute_raster_max_px`` ``--raster-max-px`` (default 8: most visible blades
@@ -25,7 +28,7 @@ import sys
 import time
 
 
-def worker(raster_max_px, repeats, samples):
+def worker(raster_max_px, repeats, samples, two_walks=False):
     import pygfx as gfx
 
     import grasswidget
@@ -35,6 +38,10 @@ def worker(raster_max_px, repeats, samples):
     from grasswidget.gpu.scene import GrassScene
     from grasswidget.gpu.shader_classes import RasterShader
 
+    if two_walks:
+        from grasswidget.gpu import raster_walks
+
+        raster_walks.prefer_two_walks(True)
     scene = GrassScene.preset("meadow", blades=1 << 18, size=(1280, 720))
     p = scene.params
     p.compute_raster, p.compute_raster_max_px, p.cull_occlusion = True, raster_max_px, False
@@ -78,17 +85,19 @@ def main(argv=None):
     ap.add_argument("--samples", type=int, default=5)
     ap.add_argument("--json", default=None)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--two-walks", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
-        worker(args.raster_max_px, args.repeats, args.samples)
+        worker(args.raster_max_px, args.repeats, args.samples, args.two_walks)
         return 0
     trees = [t.split("=", 1) for t in args.tree] or [["this", os.getcwd()]]
     runs = []
     for r in range(args.rounds):
-        for name, path in trees:
+        for name, spec in trees:
+            path, two = (spec[:-4], True) if spec.endswith(":two") else (spec, False)
             env = dict(os.environ, PYTHONPATH=os.path.abspath(path))
             cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--raster-max-px", str(args.raster_max_px),
-                   "--repeats", str(args.repeats), "--samples", str(args.samples)]
+                   "--repeats", str(args.repeats), "--samples", str(args.samples)] + (["--two-walks"] if two else [])
             proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=os.path.abspath(path))
             line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
             if proc.returncode or not line:
