@@ -4,9 +4,9 @@
     python benchmarks/frame_profile.py --blades 4096 --size 320x240 --frames 20                     # lavapipe
 
 Per blade count, one GrassScene of ``--preset`` (its defaults: the "auto" switches, unless
-``--occlusion`` / ``--compute-raster`` force them) rendered offscreen with a renderer made as
-``grasswidget bench`` makes it (``--ppaa``: pygfx's default post-process anti-aliasing on a GPU,
-none on a CPU adapter), after ``--warmup`` GPU-synchronised frames (the "auto" trials settle there):
+``--occlusion`` / ``--compute-raster`` force them) rendered offscreen with the live view's renderer
+(``make_renderer``, as ``grasswidget bench`` uses it; ``--ppaa`` other than auto: a plain pygfx
+renderer with that post-process anti-aliasing instead), after ``--warmup`` GPU-synchronised frames (the "auto" trials settle there):
 
 1. **pipelined**: ``field.step(1)`` + ``GrassScene.draw_into`` back to back for ``--frames``
    frames, one GPU sync at the end (the bench's "pipelined frames/s"): wall ms per frame and the
@@ -93,16 +93,16 @@ def run(args):
     import pygfx as gfx
 
     from grasswidget import compat
-    from grasswidget.gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
+    from grasswidget.gpu.adapter import adapter_info, ensure_device
     from grasswidget.gpu.auto_switches import switch_texts
-    from grasswidget.gpu.scene import GrassScene, parse_size
+    from grasswidget.gpu.scene import GrassScene, make_renderer, parse_size
 
     device = ensure_device()
     stamps = _Stamps(device, count=4096)
     stamps.enabled = False
     install_draw_hooks(stamps, {"skip": set()})
     install_pass_hooks(stamps)
-    ppaa = args.ppaa if args.ppaa != "auto" else ("none" if is_cpu_adapter() else "default")
+    ppaa = args.ppaa
     report = dict(what="benchmarks/frame_profile.py", adapter=adapter_info(), preset=args.preset, ppaa=ppaa,
                   date=time.strftime("%Y-%m-%d %H:%M:%S"),
                   machine=dict(platform=platform.platform(), cpus=os.cpu_count()), rows=[])
@@ -115,7 +115,10 @@ def run(args):
             scene.params.compute_raster = args.compute_raster == "on"
         w, h = scene.size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
-        renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa=ppaa, enable_events=False)
+        if args.ppaa == "auto":
+            renderer = make_renderer(target)
+        else:
+            renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa=ppaa, enable_events=False)
         field = scene.field
         frame = _frame_fn(scene)
 
@@ -125,7 +128,8 @@ def run(args):
         for _ in range(args.warmup):
             frame(renderer)
             sync()
-        row = dict(blades=n, size=f"{w}x{h}", switches=switch_texts(field))
+        row = dict(blades=n, size=f"{w}x{h}", switches=switch_texts(field),
+                   effect_passes=[f"{type(p).__module__}.{type(p).__name__}" for p in renderer.effect_passes])
         row["pipelined"] = _pipelined(frame, renderer, sync, args.frames)
 
         stamps.enabled = True
@@ -175,7 +179,8 @@ def run(args):
 
 def _print_row(row):
     p = row["pipelined"]
-    print(f"\n== {row['blades']} blades {row['size']}; switches: {row['switches']}")
+    print(f"\n== {row['blades']} blades {row['size']}; switches: {row['switches']}; effect passes "
+          f"{row['effect_passes']}")
     print(f"pipelined: {p['wall_ms']:.3f} ms/frame ({p['fps']:.1f} frames/s), main thread CPU "
           f"{p['main_thread_cpu_ms']:.3f} ms/frame")
     if "gpu_pipelined" in row:
