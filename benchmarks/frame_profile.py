@@ -19,7 +19,8 @@ renderer with that post-process anti-aliasing instead), after ``--warmup`` GPU-s
    the time between the ends of consecutive frames' last passes on the GPU, against its busy
    time; a period well above the busy time means the GPU waited for the host.
 4. **host profile** (``--cprofile``): cProfile over ``--frames`` pipelined frames, the
-   functions with the most own time and cumulative time.
+   functions with the most own time and cumulative time. ``--host-only``: 1 and 4 alone, with no
+   timestamp hooks installed (their wrappers would be in the profile).
 
 Writes JSON (``--json``) and prints tables. Imports no notebook or browser package.
 """
@@ -100,8 +101,9 @@ def run(args):
     device = ensure_device()
     stamps = _Stamps(device, count=4096)
     stamps.enabled = False
-    install_draw_hooks(stamps, {"skip": set()})
-    install_pass_hooks(stamps)
+    if not args.host_only:
+        install_draw_hooks(stamps, {"skip": set()})
+        install_pass_hooks(stamps)
     ppaa = args.ppaa
     report = dict(what="benchmarks/frame_profile.py", adapter=adapter_info(), preset=args.preset, ppaa=ppaa,
                   date=time.strftime("%Y-%m-%d %H:%M:%S"),
@@ -132,6 +134,11 @@ def run(args):
                    effect_passes=[f"{type(p).__module__}.{type(p).__name__}" for p in renderer.effect_passes])
         row["pipelined"] = _pipelined(frame, renderer, sync, args.frames)
 
+        if args.host_only:
+            row["host_profile"] = _host_profile(frame, renderer, sync, args.frames, args.top)
+            report["rows"].append(row)
+            _print_row(row)
+            continue
         stamps.enabled = True
         stamps.collect_raw()
         per_label = collections.defaultdict(list)
@@ -187,9 +194,10 @@ def _print_row(row):
         g = row["gpu_pipelined"]
         print(f"GPU while pipelined: period {g['period_ms']:.3f} ms, busy {g['busy_ms']:.3f} ms "
               f"(idle {100 * g['idle_share']:.0f} %) over {g['frames']} frames")
-    print(f"GPU busy per synced frame (sum of passes): {row['gpu_busy_ms']:.3f} ms")
-    for label, ms in sorted(row["gpu_ms"].items(), key=lambda kv: -kv[1]):
-        print(f"  {ms:8.3f}  {label}")
+    if "gpu_busy_ms" in row:
+        print(f"GPU busy per synced frame (sum of passes): {row['gpu_busy_ms']:.3f} ms")
+        for label, ms in sorted(row["gpu_ms"].items(), key=lambda kv: -kv[1]):
+            print(f"  {ms:8.3f}  {label}")
     if "host_profile" in row:
         print(row["host_profile"]["tottime"])
         print(row["host_profile"]["cumulative"])
@@ -208,6 +216,8 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=200, help="pipelined frames (default 200)")
     ap.add_argument("--gpu-frames", type=int, default=20, help="synced frames with every pass timed (default 20)")
     ap.add_argument("--cprofile", action="store_true", help="profile the host over --frames pipelined frames")
+    ap.add_argument("--host-only", action="store_true",
+                    help="no GPU timestamps (no hooks installed): pipelined frames and the host profile only")
     ap.add_argument("--top", type=int, default=30, help="functions listed by the host profile (default 30)")
     ap.add_argument("--json", default=None)
     run(ap.parse_args(argv))

@@ -56,7 +56,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {{
 }}
 """
 
-#: (device id, WGSL) -> compute pipeline.
+#: (device id, max_edge_iters) -> compute pipeline (templating the WGSL costs more than a frame's host work).
 _PIPELINES: dict = {}
 
 
@@ -87,11 +87,10 @@ class DDAAPass(PygfxDDAAPass):
         self._sampler = None
 
     def _pipeline(self, device):
-        wgsl = compute_wgsl(self)
-        key = (id(device), wgsl)
+        key = (id(device), self.max_edge_iters)  # the only setting pygfx's DDAAPass templates
         pipeline = _PIPELINES.get(key)
         if pipeline is None:
-            module = device.create_shader_module(code=wgsl)
+            module = device.create_shader_module(code=compute_wgsl(self))
             pipeline = _PIPELINES[key] = device.create_compute_pipeline(
                 layout="auto", compute={"module": module, "entry_point": "main"})
         return pipeline
