@@ -9,7 +9,9 @@ pixel work, all of them run compute) that pass took 1.4 ms of a 4.6 ms frame at 
 thread per pixel, into a half-float texture of its own, and then copies that texture into the
 renderer's target with a one-texel-per-pixel fragment pass (pygfx's effect chain writes into its
 sRGB colour textures, which a compute shader cannot write). The colour goes through a 16-bit
-float between the two: pictures agree with pygfx's pass within one level of 255.
+float between the two: pictures agree with pygfx's pass within one level of 255, but for a few
+pixels in ten thousand where DDAA's edge search takes its other branch (a texel coordinate that
+the rasterizer's interpolation and this shader compute a last bit apart; tests/gpu/test_compute_ddaa.py).
 
 It is a pygfx effect pass like any other: ``renderer.effect_passes`` lists it, ``renderer.ppaa``
 reads "ddaa" (the class keeps pygfx's name, so code that saves and restores ``ppaa`` works), and

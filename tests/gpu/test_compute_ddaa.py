@@ -3,11 +3,12 @@ pygfx's picture, and sits in the renderer like pygfx's own pass.
 
 The pictures: one meadow frame (1,024 blades, 160x120 and, with the same pass, 200x100: its own
 texture follows the size) rendered through pygfx's fragment DDAA, through the compute one and
-with no anti-aliasing. Measured on lavapipe: 0.4 % of pixels one level of 255 apart (the colour
-goes through a half float between the compute and the copy) and a few hundredths of a percent
-further (up to 9 levels: DDAA's thresholds flip where a texel coordinate differs in its last bit
-between the rasterizer's interpolation and the shader's computation); DDAA itself changes 4-5 %
-of pixels by up to 48 levels, so a pass that did nothing, or anti-aliased elsewhere, fails.
+with no anti-aliasing. Measured on lavapipe (320x240): 0.4 % of pixels one level of 255 apart (the
+colour goes through a half float between the compute and the copy) and 0.02 % further, up to 9
+levels: DDAA's thresholds flip where a texel coordinate differs in its last bit between the
+rasterizer's interpolation and the shader's computation (on the H100 at 1920x1080, 0.22 % and
+0.004 %, the flips up to 88 levels: benchmarks/compute_ddaa_pixels_h100.json). DDAA itself changes
+3-5 % of these pixels, so a pass that did nothing, or anti-aliased elsewhere, fails.
 """
 
 from __future__ import annotations
@@ -49,11 +50,11 @@ def test_compute_ddaa_gives_pygfx_ddaa_picture(scene):
         computed = _render(scene, size, [ours])
         assert computed.shape == (size[1], size[0], 3)
         aa = np.abs(fragment - plain).max(axis=-1)
-        assert (aa > 0).mean() > 0.01 and aa.max() >= 16, "DDAA changed too little for this test to mean anything"
+        assert (aa > 0).mean() > 0.01 and aa.max() >= 8, "DDAA changed too little for this test to mean anything"
         d = np.abs(computed - fragment).max(axis=-1)
         assert np.abs(computed - fragment).mean() < 0.05, size
-        assert (d > 1).mean() < 0.001, (size, np.bincount(d.ravel()))
-        assert d.max() <= 16, size
+        assert (d > 1).mean() < 0.001, (size, np.bincount(d.ravel()))  # DDAA's branches flipped
+        assert (d == 1).mean() < 0.02, size  # the half float's rounding
         assert np.abs(computed - plain).max(axis=-1).mean() > 0.5 * aa.mean()  # it anti-aliased
 
 
