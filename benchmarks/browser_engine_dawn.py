@@ -98,13 +98,17 @@ def run_matrix(rows, dawn: Path, out: Path, rounds: int, window_s: float, env=No
     result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
                           "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d %H:%M"),
               "load_average_before": list(os.getloadavg())}
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    def save(matrix):  # after each row: what was measured survives a later row's failure
+        result["matrix"] = matrix
+        result["load_average_after"] = list(os.getloadavg())
+        out.write_text(json.dumps(result, indent=2) + "\n")
+
     with DawnPage(dawn, env=env, node=node) as page:
         result["dawn"] = {"package": DAWN_PACKAGE, "node": page.ready.get("node"), "adapter": page.ready["adapter"]}
         print(f"Dawn adapter: {page.ready['adapter']}", flush=True)
-        result["matrix"] = browser_matrix.run_matrix(page, rows, rounds=rounds, window_s=window_s)
-    result["load_average_after"] = list(os.getloadavg())
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
+        save(browser_matrix.run_matrix(page, rows, rounds=rounds, window_s=window_s, on_row=save))
     print(browser_matrix.markdown_table(result["matrix"]))
     print(f"wrote {out}")
     return result

@@ -108,15 +108,18 @@ def matrix_row(page, preset, n, size, rounds=MATRIX_ROUNDS, window_s=MATRIX_WIND
     return row
 
 
-def run_matrix(page, rows, rounds=MATRIX_ROUNDS, window_s=MATRIX_WINDOW_S, label=""):
+def run_matrix(page, rows, rounds=MATRIX_ROUNDS, window_s=MATRIX_WINDOW_S, label="", on_row=None):
     """The matrix over ``rows`` ((preset, blades, (width, height)) each) on ``page``: the JSON's
-    "matrix" part (rounds, window, rows, adapter)."""
+    "matrix" part (rounds, window, rows, adapter); ``on_row(matrix so far)`` after each row (e.g. to
+    save what was measured before a later row fails)."""
     out = {"rounds": rounds, "window": f"at least 3 frames and {window_s} s after 1 warm-up frame",
            "playing": True, "settings": [list(s) for s in MATRIX_SETTINGS], "rows": []}
     for preset, n, size in rows:
         row = matrix_row(page, preset, n, size, rounds, window_s, label)
         out["rows"].append(row)
         out["adapter"] = row["adapter"]
+        if on_row is not None:
+            on_row(out)
     return out
 
 
