@@ -94,7 +94,8 @@ def matrix_row(page, preset, n, size, rounds=MATRIX_ROUNDS, window_s=MATRIX_WIND
                                      "switches": c["counts_switches"]})
                 print(f"{label}{preset:>7} {n:>7} blades, {name:>16}: {fps[name][-1]:7.2f} frames/s, "
                       f"counts {counts[name][-1]}", flush=True)
-        still = auto_decided(page)  # the defaults' decisions after the run (the same context: kept)
+        page.apply("auto", "auto")  # the defaults again: the decisions kept (the same context, no new trial)
+        still = auto_decided(page)
         adapter = page.engine().get("adapter")
     finally:
         page.hide()
