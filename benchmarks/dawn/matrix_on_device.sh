@@ -27,7 +27,7 @@ export PYTHONPATH=/tmp/site-dawn:$TREE PYTHONUNBUFFERED=1 XDG_RUNTIME_DIR=/tmp
 export LD_LIBRARY_PATH=$U/vulkan/usr/lib/x86_64-linux-gnu:/usr/local/nvidia/lib64${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 printf '{"file_format_version":"1.0.1","ICD":{"library_path":"/usr/local/nvidia/lib64/libEGL_nvidia.so.0","api_version":"1.3"}}\n' > /tmp/nvidia_icd.json
 export VK_ICD_FILENAMES=/tmp/nvidia_icd.json
-python3 -c "import grasswidget, sys; print(sys.version.split()[0], grasswidget.__file__)"
+(cd /tmp && python3 -c "import grasswidget, sys; print(sys.version.split()[0], grasswidget.__file__)")
 # shellcheck disable=SC2086
 python3 "$TREE/benchmarks/browser_engine_dawn.py" --matrix --node "$U/node/node" --dawn "$U/webgpu" \
   ${ROWS:+--rows $ROWS} ${ROUNDS:+--rounds $ROUNDS} ${WINDOW:+--window $WINDOW} \
