@@ -76,14 +76,14 @@ class DawnPage:
     """
 
     def __init__(self, dawn, env=None, node=None, start_timeout_s: float = 120.0):
-        from grasswidget.browser.view import BrowserEngineWidget
+        from grasswidget.browser.esm import engine_module_text
 
         node = node or shutil.which("node") or shutil.which("nodejs")
         if node is None:
             raise SystemExit("node is needed (Debian's nodejs, or a carried binary: --node)")
         self._folder = Path(tempfile.mkdtemp(prefix="gw-dawn-page-"))
         engine = self._folder / "engine.mjs"
-        engine.write_text(BrowserEngineWidget._esm, encoding="utf-8")  # the module the anywidget loads
+        engine.write_text(engine_module_text(), encoding="utf-8")  # the module the anywidget loads (its _esm)
         self._incoming: queue.Queue = queue.Queue()
         self._stderr: list = []
         self._comms: dict = {}
