@@ -323,6 +323,11 @@ def main(argv=None):
     if args.matrix:
         from benchmarks import browser_matrix
 
+        if args.rounds is not None and args.rounds < 1:
+            ap.error(f"--rounds must be an integer >= 1; got {args.rounds}")
+        if args.window is not None and not args.window > 0:
+            ap.error(f"--window must be seconds > 0; got {args.window}")
+
         dawn = Path(args.dawn) if args.dawn else fetch_dawn()
         out = Path(args.out if args.out != ap.get_default("out") else "benchmarks/browser_matrix_dawn.json")
         run_matrix([parse_row(r) for r in args.rows], dawn, out,
