@@ -19,8 +19,8 @@ renderer with that post-process anti-aliasing instead), after ``--warmup`` GPU-s
    the time between the ends of consecutive frames' last passes on the GPU, against its busy
    time; a period well above the busy time means the GPU waited for the host.
 4. **host profile** (``--cprofile``): cProfile over ``--frames`` pipelined frames, the
-   functions with the most own time and cumulative time. ``--host-only``: 1 and 4 alone, with no
-   timestamp hooks installed (their wrappers would be in the profile).
+   functions with the most own time and cumulative time. ``--host-only``: 1 (and 4 with
+   ``--cprofile``) alone, with no timestamp hooks installed (their wrappers would be in the profile).
 
 Writes JSON (``--json``) and prints tables. Imports no notebook or browser package.
 """
@@ -135,7 +135,8 @@ def run(args):
         row["pipelined"] = _pipelined(frame, renderer, sync, args.frames)
 
         if args.host_only:
-            row["host_profile"] = _host_profile(frame, renderer, sync, args.frames, args.top)
+            if args.cprofile:
+                row["host_profile"] = _host_profile(frame, renderer, sync, args.frames, args.top)
             report["rows"].append(row)
             _print_row(row)
             continue
