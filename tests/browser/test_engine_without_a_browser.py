@@ -243,8 +243,13 @@ def test_backend_argument_and_browser_widget_api():
         assert np.frombuffer(w.view.engine_widget.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
         assert w.view.engine_widget.balls == [list(map(float, w.ball.collider.as_vec4()))]
-        # The sunlight's switch selects the draws' shaders (its maths compiled in only while on).
+        # An explicit backend="browser" gets the sunlight's default from its engine's adapter report
+        # (gpu_status "ok" and the adapter in words), as the kernel's adapter sets it: a GPU, on.
         ew = w.view.engine_widget
+        assert w.params.shadows is False  # no report yet: a CPU's default
+        ew.gpu_status = {"state": "ok", "detail": "nvidia ampere NVIDIA GeForce RTX 4090"}
+        assert w.params.shadows is True
+        # The sunlight's switch selects the draws' shaders (its maths compiled in only while on).
         for on in (True, False):
             w.params.shadows = on
             draws = ew.shaders["blades"] + ew.shaders["occlusion"]["blades_flat"] + [ew.shaders["sky_ground"]]
