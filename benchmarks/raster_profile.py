@@ -53,11 +53,12 @@ class _Stamps:
         self.buf = device.create_buffer(size=8 * count, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
         self.labels = []  # (label, index of begin) per wrapped call
         self.used = 0
+        self.enabled = True  # False: write nothing (frames timed without the stamps' own cost)
 
     def write(self, pass_, label):
         from grasswidget import compat
 
-        if self.used + 2 > self.count:
+        if not self.enabled or self.used + 2 > self.count:
             return None
         i = self.used
         self.used += 2
@@ -71,18 +72,72 @@ class _Stamps:
         if index is not None:
             compat.write_timestamp(pass_, self.qs, index)
 
-    def collect(self):
-        """{label: [ms, ...]} of the calls since the last collect."""
-        out = collections.defaultdict(list)
+    def pass_writes(self, label):
+        """``timestamp_writes`` for a whole pass (begin and end), or None when full or disabled."""
+        if not self.enabled or self.used + 2 > self.count:
+            return None
+        i = self.used
+        self.used += 2
+        self.labels.append((label, i))
+        return {"query_set": self.qs, "beginning_of_pass_write_index": i, "end_of_pass_write_index": i + 1}
+
+    def collect_raw(self):
+        """[(label, begin ns, end ns), ...] in the order written since the last collect."""
+        out = []
         if self.used:
             enc = self.device.create_command_encoder()
             enc.resolve_query_set(self.qs, 0, self.used, self.buf, 0)
             self.device.queue.submit([enc.finish()])
             ts = np.frombuffer(self.device.queue.read_buffer(self.buf, 0, 8 * self.used), np.uint64).astype(np.int64)
-            for label, i in self.labels:
-                out[label].append((ts[i + 1] - ts[i]) / 1e6)
+            out = [(label, int(ts[i]), int(ts[i + 1])) for label, i in self.labels]
         self.labels, self.used = [], 0
         return out
+
+    def collect(self):
+        """{label: [ms, ...]} of the calls since the last collect."""
+        out = collections.defaultdict(list)
+        for label, begin, end in self.collect_raw():
+            out[label].append((end - begin) / 1e6)
+        return out
+
+
+def _caller_label(skip_files=("raster_profile.py",)):
+    """'module.function' of the nearest caller outside this script and wgpu (names a pass)."""
+    frame = sys._getframe(2)
+    while frame is not None:
+        path = frame.f_code.co_filename
+        in_wgpu = f"{os.sep}wgpu{os.sep}" in path and "pygfx" not in path
+        if not any(path.endswith(s) for s in skip_files) and not in_wgpu:
+            module = os.path.splitext(os.path.basename(path))[0]
+            owner = frame.f_locals.get("self")
+            owner = f"{type(owner).__name__}." if owner is not None else ""
+            return f"{module}:{owner}{frame.f_code.co_name}"
+        frame = frame.f_back
+    return "?"
+
+
+def install_pass_hooks(stamps):
+    """Time every compute and render pass begun from now on (wgpu-native's command encoder
+    wrapped; a pass's own timestamp_writes, e.g. FrameStats', are replaced by the stamps').
+    Labels: 'render pass <caller>' / 'compute pass <caller>'."""
+    from wgpu.backends import wgpu_native
+
+    cls = wgpu_native.GPUCommandEncoder
+    originals = {name: getattr(cls, name) for name in ("begin_render_pass", "begin_compute_pass")}
+
+    def wrap(name, kind):
+        original = originals[name]
+
+        def begin(self, *a, **k):
+            writes = stamps.pass_writes(f"{kind} pass {_caller_label()}")
+            if writes is not None:
+                k["timestamp_writes"] = writes
+            return original(self, *a, **k)
+
+        setattr(cls, name, begin)
+
+    wrap("begin_render_pass", "render")
+    wrap("begin_compute_pass", "compute")
 
 
 def _label(shader):
@@ -96,7 +151,7 @@ def _label(shader):
     return name
 
 
-def _install_hooks(stamps, knockout):
+def install_draw_hooks(stamps, knockout):
     """Wrap the pipeline containers' dispatch/draw and ComputeProgram.dispatch (this process only)."""
     from pygfx.renderers.wgpu.engine import pipeline
 
@@ -164,7 +219,7 @@ def run(frames, views, out_path, raster_max_px=None):
     device = get_shared().device
     stamps = _Stamps(device)
     knockout = {"skip": set()}
-    _install_hooks(stamps, knockout)
+    install_draw_hooks(stamps, knockout)
     report = dict(adapter=adapter_info(), date=time.strftime("%Y-%m-%d %H:%M:%S"),
                   machine=dict(platform=platform.platform(), cpus=os.cpu_count(), load=os.getloadavg()),
                   frames=frames, views={})

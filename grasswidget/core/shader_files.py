@@ -157,6 +157,7 @@ def template_vars() -> dict:
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
+        "sunlight": False,  # sunlight.wgsl: the shadows' maths compiled in (GrassParams.shadows on)
         "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),

@@ -58,7 +58,11 @@ def select_adapter():
 
 
 def ensure_device():
-    """Configure (once) and return the shared wgpu device that pygfx uses."""
+    """Configure (once) and return the shared wgpu device that pygfx uses (pygfx keeps one
+    device for the process: once found, it is returned at once; frames ask for it several times)."""
+    device = _state.get("device")
+    if device is not None:
+        return device
     import wgpu
     from pygfx.renderers.wgpu import get_shared
 
@@ -104,6 +108,7 @@ def ensure_device():
             )
             print(msg, file=sys.stderr)
             warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    _state["device"] = device
     return device
 
 

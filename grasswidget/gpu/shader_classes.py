@@ -202,8 +202,9 @@ class BladeRenderShader(BaseShader):
         second = field is not wobject
         # The flat teaching colours only while they are shown (GrassField.flat_colors is
         # tracked by pygfx: a change rebuilds these pipelines).
+        # The sunlight's maths only while shadows are on (GrassMaterial.sunlight, tracked the same way).
         super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=field.flat_colors,
-                                                from_end=second and not culled))
+                                                sunlight=wobject.material.sunlight, from_end=second and not culled))
         if culled:
             self.indirect_args = field.culled_args_buffer
         else:
@@ -322,7 +323,8 @@ class RasterResolveShader(BaseShader):
     def __init__(self, wobject):
         field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
         super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors,
-                                                raster_packed=bool(field.raster_packed)))
+                                                raster_packed=bool(field.raster_packed),
+                                                sunlight=wobject.material.sunlight))
         self._field = weakref.ref(field)
         self._draws = weakref.ref(wobject) if field is not wobject else None
 

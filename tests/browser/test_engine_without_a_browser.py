@@ -40,6 +40,14 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     raster = shaders["compute_raster"]
     texts += [shaders[k] for k in ("raster_clear", "raster_depth", "raster_payload")]
     texts += [raster[k] for k in ("second_depth", "second_payload", "resolve", "resolve_flat")]
+    # The draws with the sunlight's maths compiled in (GrassParams.shadows on), and without it in the others.
+    sunlit = BrowserShaders.all(sunlight=True)
+    sunlit_draws = (sunlit["blades"] + sunlit["blades_flat"] + sunlit["occlusion"]["blades"]
+                    + sunlit["occlusion"]["blades_flat"] + [sunlit["sky_ground"], sunlit["compute_raster"]["resolve"],
+                                                            sunlit["compute_raster"]["resolve_flat"]])
+    assert all("sun_and_sky(" in sh["code"] for sh in sunlit_draws)
+    assert not any("sun_and_sky(" in sh["code"] for sh in texts)
+    texts += sunlit_draws
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -239,6 +247,18 @@ def test_backend_argument_and_browser_widget_api():
         assert np.frombuffer(w.view.engine_widget.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
         assert w.view.engine_widget.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        # An explicit backend="browser" gets the sunlight's default from its engine's adapter report
+        # (gpu_status "ok" and the adapter in words), as the kernel's adapter sets it: a GPU, on.
+        ew = w.view.engine_widget
+        assert w.params.shadows is False  # no report yet: a CPU's default
+        ew.gpu_status = {"state": "ok", "detail": "nvidia ampere NVIDIA GeForce RTX 4090"}
+        assert w.params.shadows is True
+        # The sunlight's switch selects the draws' shaders (its maths compiled in only while on).
+        for on in (True, False):
+            w.params.shadows = on
+            draws = ew.shaders["blades"] + ew.shaders["occlusion"]["blades_flat"] + [ew.shaders["sky_ground"]]
+            assert all(("sun_and_sky(" in sh["code"]) == on for sh in draws)
+            assert ew.shaders == BrowserShaders.all(sunlight=on)
         with pytest.raises(ValueError, match="number of steps"):
             w.step(-1)
     finally:

@@ -161,6 +161,7 @@ export class EnginePasses extends EngineCulling {
   // until visibilityChanged() finds a view in sight again.
   frame(now) {
     if (!this.ready || this.closed) return;
+    if (this.rebuilding) return;  // rebuildPipelines asks for the next frame when done
     const shown = this.visibleViews();
     if (!shown.length) { this.rest(); return; }
     if (this.resting) {
