@@ -58,6 +58,7 @@ class SkyGroundMaterial(gfx.Material):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
         self._sunlight_seen = None  # (values, uniform bytes) of the last set_sunlight
         self._store.sunlight = False
+        self._store.far_grass = False
         data = self.uniform_buffer.data
         for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
                             ("soil_color", soil_color), ("beyond_color", beyond_color)):
@@ -93,6 +94,8 @@ class SkyGroundMaterial(gfx.Material):
         self.uniform_buffer.update_full()
         if "shadows" in values:  # the shader follows (sunlight)
             self._store.sunlight = bool(float(values["shadows"]) > 0.0)
+        if "horizon" in values:  # the shader follows (far_grass)
+            self._store.far_grass = bool(float(np.asarray(values["horizon"], np.float64).reshape(4)[3]) != 0.0)
 
     def set_field(self, center_xz, half_xz, cover, edge=FIELD_EDGE):
         """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
@@ -129,6 +132,14 @@ class SkyGroundMaterial(gfx.Material):
         shader compiles the ground's shadows in only then (tracked by pygfx: a change rebuilds
         its pipeline; ``shaders/sunlight.wgsl``). False until then."""
         return self._store.sunlight
+
+    @property
+    def far_grass(self) -> bool:
+        """True while the ``horizon`` written last (:meth:`set_values`) has a field to the horizon
+        (``horizon.w`` non-zero): the shader compiles the far grass on the ground in only then (tracked
+        by pygfx: a change rebuilds its pipeline; on lavapipe the far grass's noise costs every ground
+        pixel even where the branch is never taken). False until then (``horizon.w`` starts at 0)."""
+        return self._store.far_grass
 
     @property
     def fog_density(self) -> float:
@@ -212,7 +223,8 @@ def _register():
 
         def __init__(self, wobject, **kwargs):
             # blade_math.wgsl's ids and constants; the shadows' maths only while they are on
-            super().__init__(wobject, **shader_vars(sunlight=wobject.material.sunlight, **kwargs))
+            super().__init__(wobject, **shader_vars(sunlight=wobject.material.sunlight,
+                                                       far_grass=wobject.material.far_grass, **kwargs))
 
         def get_code(self):
             return read_shader("sky_ground.wgsl")

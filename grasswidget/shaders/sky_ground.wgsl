@@ -26,11 +26,14 @@ fn vs_main(in: VertexInput) -> Varyings {
         vec2<f32>( 1.0,  1.0),
     );
     let pos = positions[i32(in.index)];
-    let virtual_pos = pos * u_stdinfo.ndc_offset.xy + u_stdinfo.ndc_offset.zw;
     var varyings: Varyings;
     varyings.position = vec4<f32>(pos, 0.9999999, 1.0);
-    varyings.texcoord = vec3<f32>(virtual_pos * 0.5 + 0.5, 0.0);
-    varyings.ndc = vec2<f32>(pos);
+    // The view ray's ends on the near and far planes: affine in the screen position (the
+    // unprojected w is the same all over a plane of constant depth), and w = 1 here, so the
+    // interpolated varyings are what each fragment would compute (lavapipe: two matrix
+    // products and a division a pixel saved)
+    varyings.ray_near = vec3<f32>(ndc_to_world_pos(vec4<f32>(pos, 0.0, 1.0)));
+    varyings.ray_far = vec3<f32>(ndc_to_world_pos(vec4<f32>(pos, 1.0, 1.0)));
     return varyings;
 }
 
@@ -48,6 +51,10 @@ fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
     var ground = ground_color(m.soil_color.rgb, m.beyond_color.rgb, inside, m.cover) * sunlight;
     // No branch on a uniform alone (lavapipe recompiles such a shader at each draw, see blade_render.wgsl):
     // horizon.w (0 or 1) scales the share, and the branch reads the pixel's share.
+    // Compiled in only for a field to the horizon (template switch `far_grass`: the kernel's
+    // SkyGroundMaterial.far_grass follows horizon.w; the browser engine always compiles it in):
+    // lavapipe runs the branch's noise on every ground pixel even where no pixel takes it.
+    $$ if far_grass
     let r = length(hit.xz - m.horizon.xy);
     let far = m.horizon.w * max(smoothstep(m.far_blend.x, m.far_blend.y, dist),
                                 smoothstep(m.horizon.z - 2.0 * m.field_edge, m.horizon.z, r));
@@ -57,13 +64,14 @@ fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
                                      m.color_variation, m.dryness) * m.far_grass.rgb;
         ground = mix(ground, grass, far);
     }
+    $$ endif
     return ground;
 }
 
 @fragment
 fn fs_main(varyings: Varyings) -> FragmentOutput {
-    let near = ndc_to_world_pos(vec4<f32>(varyings.ndc, 0.0, 1.0));
-    let far = ndc_to_world_pos(vec4<f32>(varyings.ndc, 1.0, 1.0));
+    let near = varyings.ray_near;
+    let far = varyings.ray_far;
     let dir = far - near;
     let m = u_material;
     let g = m.ground;
