@@ -26,14 +26,11 @@ fn vs_main(in: VertexInput) -> Varyings {
         vec2<f32>( 1.0,  1.0),
     );
     let pos = positions[i32(in.index)];
+    let virtual_pos = pos * u_stdinfo.ndc_offset.xy + u_stdinfo.ndc_offset.zw;
     var varyings: Varyings;
     varyings.position = vec4<f32>(pos, 0.9999999, 1.0);
-    // The view ray's ends on the near and far planes: affine in the screen position (the
-    // unprojected w is the same all over a plane of constant depth), and w = 1 here, so the
-    // interpolated varyings are what each fragment would compute (lavapipe: two matrix
-    // products and a division a pixel saved)
-    varyings.ray_near = vec3<f32>(ndc_to_world_pos(vec4<f32>(pos, 0.0, 1.0)));
-    varyings.ray_far = vec3<f32>(ndc_to_world_pos(vec4<f32>(pos, 1.0, 1.0)));
+    varyings.texcoord = vec3<f32>(virtual_pos * 0.5 + 0.5, 0.0);
+    varyings.ndc = vec2<f32>(pos);
     return varyings;
 }
 
@@ -70,8 +67,8 @@ fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
 
 @fragment
 fn fs_main(varyings: Varyings) -> FragmentOutput {
-    let near = varyings.ray_near;
-    let far = varyings.ray_far;
+    let near = ndc_to_world_pos(vec4<f32>(varyings.ndc, 0.0, 1.0));
+    let far = ndc_to_world_pos(vec4<f32>(varyings.ndc, 1.0, 1.0));
     let dir = far - near;
     let m = u_material;
     let g = m.ground;
