@@ -140,3 +140,22 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
             assert bare_ring > RING_TOLERANCE and bare_steps > STEP_TOLERANCE, (name, bare_ring, bare_steps)
     # memory and work bounded by the field, not by the view
     assert scene.field.count == N_BLADES and max(drawn) <= N_BLADES
+
+
+def test_far_grass_is_compiled_in_only_for_a_field_to_the_horizon(scene):
+    """The ground's far grass (sky_ground.wgsl, template switch ``far_grass``) is in the kernel's
+    shader only while the field reaches the horizon (``horizon.w`` non-zero): lavapipe paid its
+    noise on every ground pixel of a square field. Switched off and on again through the values
+    both engines get, the pipeline follows (the far ground goes, then comes back pixel for pixel)."""
+    material = scene.sky_ground.material
+    assert material.far_grass
+    assert not gw.GrassScene.preset("cis565", blades=64, size=(32, 24)).sky_ground.material.far_grass
+    with_far_grass = scene.render().copy()
+    saved = tuple(float(x) for x in material.uniform_buffer.data["horizon"])
+    material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0)})
+    assert not material.far_grass
+    without = scene.render().copy()
+    assert np.abs(without.astype(int) - with_far_grass).max() > 20  # the bare ground where the far grass was
+    material.set_values({"horizon": saved})
+    assert material.far_grass
+    assert np.array_equal(scene.render(), with_far_grass)
