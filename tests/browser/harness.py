@@ -70,6 +70,7 @@ __all__ = [
     "StaticServer",
     "Browser",
     "open_notebook",
+    "leave_notebook",
     "run_all_cells",
     "wait_for_kernel_idle",
     "kernel_execute",
@@ -1061,14 +1062,76 @@ def _notebook_state(page, path: Optional[str]):
     return page.evaluate(_JS_NOTEBOOK_STATE, path)
 
 
-def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0) -> None:
-    """Navigate to ``relpath`` in Lab and wait until the notebook panel is
+#: JS: close every document of Lab's main area without asking (marked saved first, so no
+#: "save your work?" dialog), as navigating away would; returns how many were closed.
+_JS_CLOSE_DOCUMENTS = r"""
+() => {
+  const app = window.jupyterapp;
+  if (!app) return -1;
+  let n = 0;
+  for (const w of [...app.shell.widgets('main')]) {
+    if (w.context && w.context.model) w.context.model.dirty = false;
+    w.dispose();
+    n++;
+  }
+  return n;
+}
+"""
+
+#: JS: the frame counter starts again from 0, as if installed now (a notebook opened in a page
+#: that already ran one counts its own frames only).
+_JS_RESTART_COUNTER = "() => { const st = window.__gwFrames; if (st) { st.total = 0; st.last = performance.now(); } }"
+
+
+def _shows_lab_of(page, server) -> bool:
+    """The page holds ``server``'s JupyterLab app, loaded and with no dialog open."""
+    if getattr(server, "app", None) != "lab" or not page.url.startswith(f"{server.base_url}lab"):
+        return False
+    try:
+        return bool(page.evaluate("() => !!(window.jupyterapp && window.jupyterapp.shell) && "
+                                  "!document.querySelector('.jp-Dialog')"))
+    except Exception:  # navigating, or the page is gone
+        return False
+
+
+def leave_notebook(page, server: JupyterLabServer, reload: bool = False) -> None:
+    """End a test's notebook: close it in the page and end its kernel through the server
+    (:meth:`JupyterLabServer.shutdown_kernels`, which keeps one kernel, reset, when the server
+    reuses kernels). Where the page holds this server's JupyterLab (and ``reload`` is False) the
+    notebook is closed inside Lab and Lab stays loaded, so the next :func:`open_notebook` opens its
+    notebook in the same app without loading Lab again (about 3 s on 2 busy cores); otherwise (or
+    after a failed test: ``reload=True``) the page goes to ``about:blank``, as navigating away."""
+    closed = False
+    if not reload and _shows_lab_of(page, server):
+        try:
+            closed = page.evaluate(_JS_CLOSE_DOCUMENTS) >= 0
+        except Exception:
+            closed = False
+    if not closed:
+        page.goto("about:blank")
+    server.shutdown_kernels()
+
+
+def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0,
+                  reload: bool = False) -> None:
+    """Open ``relpath`` in Lab and wait until the notebook panel is
     open, its kernel is connected and idle; installs the frame counter.
     A kernel the server kept (:meth:`JupyterLabServer.shutdown_kernels`) is
-    handed to the notebook first, so Lab connects to it instead of starting one."""
+    handed to the notebook first, so Lab connects to it instead of starting one.
+
+    Where the page already holds this server's Lab (:func:`leave_notebook` left it loaded) the
+    notebook is opened inside it (``docmanager:open``), after closing any document still open,
+    and the frame counter starts again from 0; otherwise (or with ``reload``) the page navigates
+    to the notebook's URL and Lab loads (with its saved workspace reset)."""
     if getattr(server, "warm_session", None) is not None:
         server.take_warm_session(relpath)
-    page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
+    if not reload and _shows_lab_of(page, server):
+        page.evaluate(_JS_CLOSE_DOCUMENTS)
+        page.evaluate("async (path) => { await window.jupyterapp.commands.execute('docmanager:open', "
+                      "{path, factory: 'Notebook'}); }", relpath)
+        page.evaluate(_JS_RESTART_COUNTER)
+    else:
+        page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
 
     def check():
         st = _notebook_state(page, relpath)
