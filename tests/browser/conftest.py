@@ -80,7 +80,9 @@ def lab_server(browser_root):
 def _kernel_reuse(request):
     """The session's JupyterLab keeps the last test's kernel, reset, for the next notebook
     (``JupyterLabServer.shutdown_kernels``); a module with ``FRESH_KERNELS = True`` opens
-    each notebook on a new kernel, and after a failed test the kept kernel is shut down."""
+    each notebook on a new kernel (one that has run nothing, started while the notebook
+    before ran: ``JupyterLabServer.start_spare_kernel``), and after a failed test the kept
+    kernel is shut down."""
     if "lab_server" not in request.fixturenames:
         yield
         return
@@ -89,10 +91,14 @@ def _kernel_reuse(request):
     if fresh:
         server.drop_warm_kernel()
         server.reuse_kernels = False
+        server.spare_kernels = True  # the next notebook's new kernel starts while this one runs
+    else:
+        server.drop_spare_kernel()
     try:
         yield
     finally:
         server.reuse_kernels = True
+        server.spare_kernels = False
         if any(getattr(getattr(request.node, f"gw_report_{when}", None), "failed", False)
                for when in ("setup", "call")):
             server.drop_warm_kernel()
