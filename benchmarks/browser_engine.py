@@ -51,6 +51,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks import browser_matrix  # noqa: E402
 from tests.browser.harness import (  # noqa: E402
     Browser,
     JupyterLabServer,
@@ -71,13 +72,8 @@ OCCLUSION_ROUNDS = 2
 #: (preset, blades, profile): the default view has no blade under 2 px at 640 x 480; the meadow's far field has many.
 RASTER_ROWS = ((None, 4096, True), (None, 1 << 14, True), ("meadow", 1 << 14, False))
 RASTER_ROUNDS = 2
-#: --matrix: (preset, blades, size) rows; rounds over the five settings; seconds a window lasts at least.
+#: --matrix: (preset, blades, size) rows (the rounds, windows and settings: browser_matrix's).
 MATRIX_ROWS = (("cis565", 1 << 13, (320, 240)), ("meadow", 1 << 14, (320, 240)))
-MATRIX_ROUNDS = 2
-MATRIX_WINDOW_S = 2.0
-#: --matrix: (name, cull_occlusion, compute_raster): the defaults, then every fixed combination (bench --matrix's).
-MATRIX_SETTINGS = (("defaults", "auto", "auto"), ("occl on, cr on", True, True), ("occl on, cr off", True, False),
-                   ("occl off, cr on", False, True), ("occl off, cr off", False, False))
 PROFILE_FRAMES = 4
 PROFILE_ROUNDS = 3
 
@@ -101,14 +97,8 @@ def presented_fps(page, seconds):
 
 def frames_per_s_after(page, warm_frames, min_frames, min_seconds):
     """Frames/s presented over at least ``min_frames`` frames and ``min_seconds``, after
-    ``warm_frames`` frames (a setting's first frames: with occlusion culling the first one
-    after it is switched on still draws every blade in its first phase)."""
-    start = engine_info(page)["frames"]
-    poll(lambda: engine_info(page)["frames"] >= start + warm_frames, "the warm-up frames", 300, 0.2, page=page)
-    a = engine_info(page)
-    b = poll(lambda: (lambda e: (e["frames"] >= a["frames"] + min_frames and e["now"] - a["now"] >= 1000 * min_seconds,
-                                 e))(engine_info(page)), f"{min_frames} frames", 600, 0.2, page=page)
-    return (b["frames"] - a["frames"]) * 1000.0 / (b["now"] - a["now"])
+    ``warm_frames`` frames (:func:`browser_matrix.frames_per_s_after` on the page's newest engine)."""
+    return browser_matrix.frames_per_s_after(ChromiumPage(page), warm_frames, min_frames, min_seconds)
 
 
 def visible_read_back(page, what):
@@ -324,68 +314,42 @@ def compute_raster_on_off(page, server, root):
     return out
 
 
-def _apply(page, occlusion, raster):
-    kernel_execute(page, f"w.params.cull_occlusion = {occlusion!r}\nw.params.compute_raster = {raster!r}")
+class ChromiumPage:
+    """The page :func:`browser_matrix.run_matrix` drives: a notebook in JupyterLab + Chromium whose
+    kernel holds the widget ``w`` (``server`` and ``root``: the lab and its folder; only ``show`` needs them)."""
 
+    def __init__(self, page, server=None, root=None):
+        self.page, self.server, self.root = page, server, root
 
-def _auto_decided(page):
-    """Both "auto" switches decided (no trial running): their words, else None."""
-    texts = kernel_eval(page, "[w.view.engine_widget.auto_switches.state.measuring, "
-                              "w.view.engine_widget.auto_switches.texts()]")
-    measuring, words = texts
-    done = not measuring and all(t.startswith(("auto (on:", "auto (off:")) for t in words.values())
-    return words if done else None
-
-
-def matrix(page, server, root):
-    """The defaults against every fixed combination per MATRIX_ROWS row, interleaved (see the module docstring)."""
-    out = {"rounds": MATRIX_ROUNDS, "window": f"at least 3 frames and {MATRIX_WINDOW_S} s after 1 warm-up frame",
-           "playing": True, "rows": []}
-    for preset, n, (w, h) in MATRIX_ROWS:
+    def show(self, preset, n, size):
         name = f"matrix_{preset}_{n}.ipynb"
-        write_notebook(root / name, [
-            f"import grasswidget as gw\nw = gw.GrassWidget({n}, preset={preset!r}, backend='browser', size=({w}, {h}))\nw",
+        write_notebook(self.root / name, [
+            f"import grasswidget as gw\nw = gw.GrassWidget({n}, preset={preset!r}, backend='browser', size={tuple(size)})\nw",
         ])
-        open_notebook(page, server, name)
-        run_all_cells(page, timeout=120)
-        wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=120)
-        for _label, occlusion, raster in MATRIX_SETTINGS[1:]:  # every path compiled once
-            _apply(page, occlusion, raster)
-            frames_per_s_after(page, 2, 2, 0.5)
-        _apply(page, "auto", "auto")
-        t0 = time.monotonic()
-        decided = poll(lambda: _auto_decided(page), "the defaults' decisions", 600, 0.5, page=page)
-        trial_s = time.monotonic() - t0
-        fps = {label: [] for label, _o, _r in MATRIX_SETTINGS}
-        counts = {label: [] for label, _o, _r in MATRIX_SETTINGS}
-        for r in range(MATRIX_ROUNDS):
-            k = r % len(MATRIX_SETTINGS)
-            for label, occlusion, raster in MATRIX_SETTINGS[k:] + MATRIX_SETTINGS[:k]:
-                _apply(page, occlusion, raster)
-                fps[label].append(round(frames_per_s_after(page, 1, 3, MATRIX_WINDOW_S), 3))
-                # the counts of a frame drawn in this window (the stats' last read-back, its state with it)
-                c = page.evaluate(f"() => {{ const e = {_ENGINE}; return {{visible: e.visible, occluded: e.occluded, "
-                                  "rastered: e.rastered, switches: e.countsSwitches}; }")
-                counts[label].append({"drawn": sum(c["visible"] or []) + (c["rastered"] or 0), "occluded": c["occluded"],
-                                      "rastered": c["rastered"], "switches": c["switches"]})
-                print(f"{preset:>7} {n:>7} blades, {label:>16}: {fps[label][-1]:6.2f} frames/s presented, "
-                      f"counts {counts[label][-1]}")
-        still = _auto_decided(page)  # the defaults' decisions after the run (the same context: kept)
-        med = {label: sorted(v)[len(v) // 2] if len(v) % 2 else sum(sorted(v)[len(v) // 2 - 1:len(v) // 2 + 1]) / 2
-               for label, v in fps.items()}
-        best = max((label for label, _o, _r in MATRIX_SETTINGS[1:]), key=lambda k: med[k])
-        row = {"preset": preset, "blades": n, "size": f"{w}x{h}", "frames_per_s": fps, "median_frames_per_s": med,
-               "counts": counts,
-               "best_fixed": best, "defaults_over_best": round(med["defaults"] / med[best], 3),
-               "decided": decided, "decided_after_run": still, "trial_s": round(trial_s, 1)}
-        print(f"{preset:>7} {n:>7} blades: defaults {med['defaults']:.2f} frames/s, best fixed {best} "
-              f"{med[best]:.2f}: defaults / best {row['defaults_over_best']:.2f}; decided {decided}")
-        out["rows"].append(row)
-        out["adapter"] = engine_info(page)["adapter"]
-        kernel_execute(page, "w.close()")
-        page.goto("about:blank")
-        server.shutdown_kernels()
-    return out
+        open_notebook(self.page, self.server, name)
+        run_all_cells(self.page, timeout=120)
+        wait_for_kernel(self.page, "w.view.gpu_status['state']", "ok", timeout=120)
+
+    def apply(self, occlusion, raster):
+        kernel_execute(self.page, f"w.params.cull_occlusion = {occlusion!r}\nw.params.compute_raster = {raster!r}")
+
+    def auto_state(self):
+        return kernel_eval(self.page, "[w.view.engine_widget.auto_switches.state.measuring, "
+                                      "w.view.engine_widget.auto_switches.texts()]")
+
+    def engine(self):
+        return self.page.evaluate(f"""() => {{ const e = {_ENGINE}; if (!e) return null;
+            return {{frames: e.frames, now: performance.now(), visible: e.visible, occluded: e.occluded === undefined ? null : e.occluded,
+                     rastered: e.rastered === undefined ? null : e.rastered, counts_switches: e.countsSwitches || null,
+                     adapter: e.adapterText}}; }}""")
+
+    def poll(self, check, what, timeout, interval):
+        return poll(check, what, timeout, interval, page=self.page)
+
+    def hide(self):
+        kernel_execute(self.page, "w.close()")
+        self.page.goto("about:blank")
+        self.server.shutdown_kernels()
 
 
 def main(argv=None):
@@ -423,7 +387,7 @@ def main(argv=None):
                   "load_average_before": list(os.getloadavg())}
         with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
             result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
-            result["matrix"] = matrix(browser.page, server, root)
+            result["matrix"] = browser_matrix.run_matrix(ChromiumPage(browser.page, server, root), MATRIX_ROWS)
         result["load_average_after"] = list(os.getloadavg())
         Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
         print(f"wrote {args.out}")

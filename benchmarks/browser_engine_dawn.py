@@ -27,6 +27,16 @@ Usage (from the repository root)::
         --out benchmarks/browser_engine_dawn_swiftshader.json
     # the states alone (for another machine): --prepare-only --states DIR
     # the GPU machine: benchmarks/dawn/prepare_device.sh here, then the command it prints there.
+    # issue 28's matrix (the "auto" defaults against every fixed combination), Python answering the engine:
+    .venv/bin/python benchmarks/browser_engine_dawn.py --matrix --rows meadow:16384:320x240 \
+        --out benchmarks/browser_matrix_dawn_swiftshader.json
+
+``--matrix`` runs no written state: the Python widget itself (``GrassWidget(backend="browser")``) is
+the kernel of a page in node (:class:`benchmarks.dawn_page.DawnPage`, ``benchmarks/dawn/serve_engine.mjs``),
+and :func:`benchmarks.browser_matrix.run_matrix` (the same as ``browser_engine.py --matrix``) runs the
+rows: every fixed setting compiled, "auto" decided by the widget's own code from the engine's frame
+times, then the five settings interleaved in rounds (frames/s of the GPU's completed frames: node's
+loop is not held to a display's refresh).
 
 The npm package is fetched once (``npm pack webgpu@0.6.2``) and unpacked into
 ``benchmarks/.dawn/`` (ignored by git); ``--dawn DIR`` names an unpacked package instead.
@@ -64,6 +74,44 @@ TOLERANCE_MEAN = 3.0
 #: land on slightly different pixels in two rasterizers).
 TOLERANCE_SHARE = 0.03
 DEFAULT_BLADES = (1 << 16, 1 << 18, 1 << 20)
+#: --matrix's rows on the GPU machine (preset:blades:WxH): issue 28's scenes.
+MATRIX_ROWS = ("meadow:65536:1920x1080", "meadow:262144:1920x1080", "meadow:1048576:1920x1080",
+               "cis565:65536:640x480", "cis565:1048576:640x480")
+
+
+def parse_row(text: str):
+    """"preset:blades:WxH" as (preset, blades, (w, h)); a clear error naming --rows otherwise."""
+    from grasswidget.core.framing import parse_size
+
+    parts = text.split(":")
+    if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) < 1:
+        raise SystemExit(f"--rows: each row is preset:blades:WxH (e.g. meadow:65536:1920x1080); got {text!r}")
+    return parts[0], int(parts[1]), tuple(parse_size(parts[2]))
+
+
+def run_matrix(rows, dawn: Path, out: Path, rounds: int, window_s: float, env=None, node=None) -> dict:
+    """Issue 28's matrix through Dawn (see the module docstring): the JSON (also written to ``out``),
+    shaped as ``browser_engine.py --matrix``'s."""
+    from benchmarks import browser_matrix
+    from benchmarks.dawn_page import DawnPage
+
+    result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
+                          "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d %H:%M"),
+              "load_average_before": list(os.getloadavg())}
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    def save(matrix):  # after each row: what was measured survives a later row's failure
+        result["matrix"] = matrix
+        result["load_average_after"] = list(os.getloadavg())
+        out.write_text(json.dumps(result, indent=2) + "\n")
+
+    with DawnPage(dawn, env=env, node=node) as page:
+        result["dawn"] = {"package": DAWN_PACKAGE, "node": page.ready.get("node"), "adapter": page.ready["adapter"]}
+        print(f"Dawn adapter: {page.ready['adapter']}", flush=True)
+        save(browser_matrix.run_matrix(page, rows, rounds=rounds, window_s=window_s, on_row=save))
+    print(browser_matrix.markdown_table(result["matrix"]))
+    print(f"wrote {out}")
+    return result
 
 
 def engine_module() -> str:
@@ -263,8 +311,30 @@ def main(argv=None):
                                                    "(benchmarks/dawn/prepare_device.sh uses it)")
     ap.add_argument("--node", default=shutil.which("node") or "", help="the node binary to carry (--bundle)")
     ap.add_argument("--vulkan", default=None, help="the unpacked libvulkan1 root to carry (--bundle)")
+    ap.add_argument("--matrix", action="store_true",
+                    help="issue 28's matrix: the 'auto' defaults against every fixed combination of occlusion "
+                         "culling and the compute rasterizer, Python's widget answering the engine")
+    ap.add_argument("--rows", nargs="+", default=list(MATRIX_ROWS), help="--matrix's rows, preset:blades:WxH")
+    ap.add_argument("--rounds", type=int, default=None, help="--matrix's rounds (default browser_matrix's)")
+    ap.add_argument("--window", type=float, default=None, help="--matrix's seconds a window lasts at least")
     args = ap.parse_args(argv)
     from grasswidget.core.framing import parse_size
+
+    if args.matrix:
+        from benchmarks import browser_matrix
+
+        if args.rounds is not None and args.rounds < 1:
+            ap.error(f"--rounds must be an integer >= 1; got {args.rounds}")
+        if args.window is not None and not args.window > 0:
+            ap.error(f"--window must be seconds > 0; got {args.window}")
+
+        dawn = Path(args.dawn) if args.dawn else fetch_dawn()
+        out = Path(args.out if args.out != ap.get_default("out") else "benchmarks/browser_matrix_dawn.json")
+        run_matrix([parse_row(r) for r in args.rows], dawn, out,
+                   args.rounds if args.rounds is not None else browser_matrix.MATRIX_ROUNDS,
+                   args.window if args.window is not None else browser_matrix.MATRIX_WINDOW_S,
+                   env=swiftshader_env(), node=args.node or None)
+        return 0
 
     size = parse_size(args.size)
     import tempfile

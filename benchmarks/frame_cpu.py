@@ -189,15 +189,14 @@ def main(argv=None):
 
     import pygfx as gfx
 
-    from grasswidget.gpu.adapter import adapter_info, is_cpu_adapter
-    from grasswidget.gpu.scene import GrassScene, parse_size
+    from grasswidget.gpu.adapter import adapter_info
+    from grasswidget.gpu.scene import GrassScene, make_renderer, parse_size
 
     size = parse_size(args.size) if args.size else None
     scene = GrassScene.preset("meadow", blades=args.blades, size=size)
     w, h = scene.size
     target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
-    renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if is_cpu_adapter() else "default",
-                                enable_events=False)
+    renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
     report = dict(adapter=adapter_info(), blades=args.blades, size=f"{w}x{h}", frames=args.frames,
                   machine=dict(platform=platform.platform(), python=platform.python_version()),
                   date=time.strftime("%Y-%m-%d %H:%M:%S"), cpu={})

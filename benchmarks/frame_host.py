@@ -12,8 +12,9 @@ of the baseline's ``grasswidget`` package, e.g. made with
 without git). Without either, only this tree runs (no ratios).
 
 A child renders the meadow preset (``--preset``) at ``--blades`` and ``--size`` (default: the
-preset's) into an offscreen texture with a renderer made as ``grasswidget bench`` makes it
-(pygfx's default anti-aliasing on a GPU, none on a CPU adapter), with GrassScene's defaults
+preset's) into an offscreen texture with the live view's renderer (its tree's
+``grasswidget.gpu.scene.make_renderer``: pygfx's default anti-aliasing on a GPU, none on a CPU
+adapter), with GrassScene's defaults
 (``--occlusion`` / ``--compute-raster`` force them on or off), and measures:
 
 - pipelined frames: ``field.step(1)`` + ``GrassScene.draw_into`` (+ ``FrameStats.after_render``
@@ -75,8 +76,8 @@ def _child(args):
     import pygfx as gfx
     from wgpu.backends import wgpu_native
 
-    from grasswidget.gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
-    from grasswidget.gpu.scene import GrassScene, parse_size
+    from grasswidget.gpu.adapter import adapter_info, ensure_device
+    from grasswidget.gpu.scene import GrassScene, make_renderer, parse_size
 
     size = parse_size(args.size) if args.size else None
     scene = GrassScene.preset(args.preset, blades=args.blades, size=size)
@@ -86,8 +87,7 @@ def _child(args):
         scene.params.compute_raster = args.compute_raster == "on"
     w, h = scene.size
     target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
-    renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if is_cpu_adapter() else "default",
-                                enable_events=False)
+    renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
     device = ensure_device()
     field = scene.field
     stats = field.stats

@@ -13,8 +13,10 @@ For each view (the default view: cis565 preset, 2^16 blades, 640x480; the meadow
    pass's draws are binned and rasterized when the pass ends, so the per-draw figures of a
    render pass are only where the binning happened: its ``render pass`` total (first draw's
    begin to the last's end plus the pass end, taken by the next timestamp) is the figure.
-2. Wall milliseconds per frame (step excluded; render + one GPU sync): on, off, and on with the
-   resolve draws skipped (knock-out), interleaved frame by frame, medians.
+2. Wall and process CPU milliseconds per frame (step excluded; render + one GPU sync): on, off,
+   and on with the resolve draws, the walks or the clear skipped, and off with the ribbons skipped
+   (knock-outs: what each costs; the last one is the frame's floor, what neither path draws),
+   interleaved frame by frame, medians.
 3. What the walks did: blades listed, pixels covered (depth words read back).
 
 Writes JSON and prints a table. CPU adapters only make sense here (the issue is lavapipe's).
@@ -51,11 +53,12 @@ class _Stamps:
         self.buf = device.create_buffer(size=8 * count, usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
         self.labels = []  # (label, index of begin) per wrapped call
         self.used = 0
+        self.enabled = True  # False: write nothing (frames timed without the stamps' own cost)
 
     def write(self, pass_, label):
         from grasswidget import compat
 
-        if self.used + 2 > self.count:
+        if not self.enabled or self.used + 2 > self.count:
             return None
         i = self.used
         self.used += 2
@@ -69,18 +72,72 @@ class _Stamps:
         if index is not None:
             compat.write_timestamp(pass_, self.qs, index)
 
-    def collect(self):
-        """{label: [ms, ...]} of the calls since the last collect."""
-        out = collections.defaultdict(list)
+    def pass_writes(self, label):
+        """``timestamp_writes`` for a whole pass (begin and end), or None when full or disabled."""
+        if not self.enabled or self.used + 2 > self.count:
+            return None
+        i = self.used
+        self.used += 2
+        self.labels.append((label, i))
+        return {"query_set": self.qs, "beginning_of_pass_write_index": i, "end_of_pass_write_index": i + 1}
+
+    def collect_raw(self):
+        """[(label, begin ns, end ns), ...] in the order written since the last collect."""
+        out = []
         if self.used:
             enc = self.device.create_command_encoder()
             enc.resolve_query_set(self.qs, 0, self.used, self.buf, 0)
             self.device.queue.submit([enc.finish()])
             ts = np.frombuffer(self.device.queue.read_buffer(self.buf, 0, 8 * self.used), np.uint64).astype(np.int64)
-            for label, i in self.labels:
-                out[label].append((ts[i + 1] - ts[i]) / 1e6)
+            out = [(label, int(ts[i]), int(ts[i + 1])) for label, i in self.labels]
         self.labels, self.used = [], 0
         return out
+
+    def collect(self):
+        """{label: [ms, ...]} of the calls since the last collect."""
+        out = collections.defaultdict(list)
+        for label, begin, end in self.collect_raw():
+            out[label].append((end - begin) / 1e6)
+        return out
+
+
+def _caller_label(skip_files=("raster_profile.py",)):
+    """'module.function' of the nearest caller outside this script and wgpu (names a pass)."""
+    frame = sys._getframe(2)
+    while frame is not None:
+        path = frame.f_code.co_filename
+        in_wgpu = f"{os.sep}wgpu{os.sep}" in path and "pygfx" not in path
+        if not any(path.endswith(s) for s in skip_files) and not in_wgpu:
+            module = os.path.splitext(os.path.basename(path))[0]
+            owner = frame.f_locals.get("self")
+            owner = f"{type(owner).__name__}." if owner is not None else ""
+            return f"{module}:{owner}{frame.f_code.co_name}"
+        frame = frame.f_back
+    return "?"
+
+
+def install_pass_hooks(stamps):
+    """Time every compute and render pass begun from now on (wgpu-native's command encoder
+    wrapped; a pass's own timestamp_writes, e.g. FrameStats', are replaced by the stamps').
+    Labels: 'render pass <caller>' / 'compute pass <caller>'."""
+    from wgpu.backends import wgpu_native
+
+    cls = wgpu_native.GPUCommandEncoder
+    originals = {name: getattr(cls, name) for name in ("begin_render_pass", "begin_compute_pass")}
+
+    def wrap(name, kind):
+        original = originals[name]
+
+        def begin(self, *a, **k):
+            writes = stamps.pass_writes(f"{kind} pass {_caller_label()}")
+            if writes is not None:
+                k["timestamp_writes"] = writes
+            return original(self, *a, **k)
+
+        setattr(cls, name, begin)
+
+    wrap("begin_render_pass", "render")
+    wrap("begin_compute_pass", "compute")
 
 
 def _label(shader):
@@ -94,7 +151,7 @@ def _label(shader):
     return name
 
 
-def _install_hooks(stamps, knockout):
+def install_draw_hooks(stamps, knockout):
     """Wrap the pipeline containers' dispatch/draw and ComputeProgram.dispatch (this process only)."""
     from pygfx.renderers.wgpu.engine import pipeline
 
@@ -109,7 +166,10 @@ def _install_hooks(stamps, knockout):
     original_program_indirect = getattr(compute.ComputeProgram, "dispatch_indirect", None)
 
     def dispatch(self, compute_pass):
-        k = stamps.write(compute_pass, _label(self.shader))
+        label = _label(self.shader)
+        if any(label.startswith(skip) for skip in knockout["skip"]):
+            return
+        k = stamps.write(compute_pass, label)
         original_dispatch(self, compute_pass)
         stamps.end(compute_pass, k)
 
@@ -131,6 +191,8 @@ def _install_hooks(stamps, knockout):
         stamps.end(compute_pass, k)
 
     def program_indirect(self, compute_pass, buffer, offset=0):
+        if any(self.profile_label.startswith(skip) for skip in knockout["skip"]):
+            return
         k = stamps.write(compute_pass, getattr(self, "profile_label", "ComputeProgram"))
         original_program_indirect(self, compute_pass, buffer, offset)
         stamps.end(compute_pass, k)
@@ -157,7 +219,7 @@ def run(frames, views, out_path, raster_max_px=None):
     device = get_shared().device
     stamps = _Stamps(device)
     knockout = {"skip": set()}
-    _install_hooks(stamps, knockout)
+    install_draw_hooks(stamps, knockout)
     report = dict(adapter=adapter_info(), date=time.strftime("%Y-%m-%d %H:%M:%S"),
                   machine=dict(platform=platform.platform(), cpus=os.cpu_count(), load=os.getloadavg()),
                   frames=frames, views={})
@@ -175,7 +237,10 @@ def run(frames, views, out_path, raster_max_px=None):
         def sync():
             device.queue.read_buffer(compat.gpu_buffer(field.args_buffer))
 
-        modes = {"on": (True, set()), "off": (False, set()), "on, resolve skipped": (True, {"RasterResolveShader"})}
+        walks = ("RasterShader step=packed", "RasterShader step=depth", "RasterShader step=payload")
+        modes = {"on": (True, set()), "off": (False, set()), "on, resolve skipped": (True, {"RasterResolveShader"}),
+                 "on, walks skipped": (True, set(walks)), "on, clear skipped": (True, {"RasterShader step=clear"}),
+                 "off, ribbons skipped": (False, {"BladeRenderShader"})}
         for raster, skip in modes.values():  # warm-up: compile every pipeline
             field.params.compute_raster = raster
             knockout["skip"] = skip
@@ -184,6 +249,7 @@ def run(frames, views, out_path, raster_max_px=None):
                 sync()
         stamps.collect()
         wall = {m: [] for m in modes}
+        cpu = {m: [] for m in modes}
         gpu = {m: collections.defaultdict(list) for m in modes}
         for _ in range(frames):
             for mode, (raster, skip) in modes.items():
@@ -192,10 +258,11 @@ def run(frames, views, out_path, raster_max_px=None):
                 scene.draw_into(renderer)  # settle the switch (pygfx rebuilds nothing after the warm-up)
                 sync()
                 stamps.collect()
-                t = time.perf_counter()
+                t, c = time.perf_counter(), time.process_time()
                 scene.draw_into(renderer)
                 sync()
                 wall[mode].append(1e3 * (time.perf_counter() - t))
+                cpu[mode].append(1e3 * (time.process_time() - c))
                 for label, values in stamps.collect().items():
                     gpu[mode][label].append(sum(values))
         field.params.compute_raster = True
@@ -203,19 +270,27 @@ def run(frames, views, out_path, raster_max_px=None):
         scene.draw_into(renderer)
         sync()
         listed = field.read_raster_count()
-        depth = np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(field.raster_depth_buffer)), np.uint32)
-        covered = int((depth != 0xFFFFFFFF).sum())
+        if hasattr(field, "read_raster_pixels"):  # (depth, payload) whatever the layout (one walk or two)
+            pixels = field.read_raster_pixels()
+            covered = int((pixels[0] != 0xFFFFFFFF).sum()) if pixels is not None else 0
+        else:  # a tree from before the one walk: a u32 depth word per pixel
+            depth = np.frombuffer(device.queue.read_buffer(compat.gpu_buffer(field.raster_depth_buffer)), np.uint32)
+            covered = int((depth != 0xFFFFFFFF).sum())
         drawn = int(field.read_draw_args()[:, 1].sum())
         entry = dict(preset=preset, blades=n, size=f"{w}x{h}", compute_raster_max_px=field.params.compute_raster_max_px,
                      listed_for_compute=listed, pixels_covered=covered,
                      pixels=w * h, ribbons_drawn_when_on=drawn,
                      wall_ms={m: statistics.median(v) for m, v in wall.items()},
+                     cpu_ms={m: statistics.median(v) for m, v in cpu.items()},
                      gpu_ms={m: {k: statistics.median(v) for k, v in d.items()} for m, d in gpu.items()})
         entry["wall_on_over_off"] = entry["wall_ms"]["on"] / entry["wall_ms"]["off"]
+        entry["cpu_on_over_off"] = entry["cpu_ms"]["on"] / entry["cpu_ms"]["off"]
         report["views"][view] = entry
         print(f"\n== {view}: listed {listed} blades, {covered} px covered of {w * h}; ribbons drawn {drawn}")
         print("wall ms: " + ", ".join(f"{m} {v:.1f}" for m, v in entry["wall_ms"].items())
               + f"; on/off {entry['wall_on_over_off']:.2f}")
+        print("CPU ms: " + ", ".join(f"{m} {v:.1f}" for m, v in entry["cpu_ms"].items())
+              + f"; on/off {entry['cpu_on_over_off']:.2f}")
         labels = sorted(set().union(*(d.keys() for d in entry["gpu_ms"].values())))
         print(f"{'pass':58s} " + " ".join(f"{m[:12]:>12s}" for m in modes))
         for label in labels:

@@ -38,6 +38,7 @@ __all__ = [
     "still_directional_light_class",
     "begin_target_render_pass",
     "render_target_formats",
+    "ddaa_fragment_wgsl",
     "pygfx_event_class",
     "held_orbit_controller_class",
     "pygfx_event_fields",
@@ -79,6 +80,9 @@ PRIVATE_USES = (
     ("pygfx", "renderstate.blender._texture_info (format of 'color', 'pick', 'depth')",
      "the formats of the render pass a renderstate draws into: a render bundle of the blade draws must name "
      "them (render_target_formats, gpu/draw_bundles.py)"),
+    ("pygfx", "DDAAPass._template_vars and shader.templating.apply_templating of 'pygfx.ddaa2.wgsl'",
+     "pygfx's DDAA anti-aliasing shader, templated as a DDAAPass templates it, run in a compute pass "
+     "(gpu/compute_ddaa.py: a full-screen fragment pass cost 1.4 ms of a 4.6 ms frame on the H100)"),
     ("pygfx", "DirectionalLight._gfx_update_uniform_buffer",
      "overridden by the scene's sun (still_directional_light_class): pygfx calls it for every directional light in "
      "every render and it redoes a look_at each time (0.6 ms of a 4.5 ms host frame on lavapipe's host), though "
@@ -211,6 +215,26 @@ def write_timestamp(render_pass, query_set, index):
 
 
 # ------------------------------------------------------------------ pygfx engine
+
+#: The head of the fragment entry point of pygfx 0.17's ddaa2.wgsl (see ddaa_fragment_wgsl).
+DDAA_FRAGMENT_HEAD = "@fragment\nfn fs_main(varyings: Varyings) -> @location(0) vec4<f32> {"
+
+
+def ddaa_fragment_wgsl(effect_pass) -> str:
+    """The WGSL of pygfx's DDAA fragment shader (``pygfx.ddaa2.wgsl``) templated with the
+    settings of ``effect_pass`` (a pygfx ``DDAAPass``: its template variables, e.g. the
+    edge-search steps of ``max_edge_iters``), as pygfx templates it for its full-screen pass.
+    It reads ``colorTex`` / ``texSampler`` at ``varyings.texCoord`` and starts its entry point
+    with :data:`DDAA_FRAGMENT_HEAD`; UpstreamChangedError when that is no longer so."""
+    from pygfx.renderers.wgpu.shader.templating import apply_templating
+
+    variables = dict(effect_pass._template_vars)
+    code = apply_templating("{$ include 'pygfx.ddaa2.wgsl' $}", **variables)
+    if code.count(DDAA_FRAGMENT_HEAD) != 1 or "varyings.texCoord" not in code:
+        raise UpstreamChangedError("pygfx's ddaa2.wgsl no longer has the fragment entry point "
+                                   f"{DDAA_FRAGMENT_HEAD!r} reading varyings.texCoord")
+    return code
+
 
 
 def render_pipeline_container_class():

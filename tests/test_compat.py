@@ -420,3 +420,15 @@ def test_render_targets_of_a_renderstate_and_a_pass_on_them():
     img = np.asarray(target.data if target.data is not None else renderer.snapshot())
     red = (img[..., 0] > 150) & (img[..., 1] < 80)
     assert 0.0 < red.mean() < 0.5  # loaded, not cleared: the square is still there
+
+
+def test_pygfx_ddaa_shader_templated_as_its_pass_templates_it():
+    """compat.ddaa_fragment_wgsl: pygfx's ddaa2.wgsl for a DDAAPass's settings, with the fragment
+    entry point gpu/compute_ddaa.py turns into a function (the edge search unrolled per step)."""
+    from pygfx.renderers.wgpu import DDAAPass
+
+    short, long = (compat.ddaa_fragment_wgsl(DDAAPass(max_edge_iters=n)) for n in (1, 5))
+    for code in (short, long):
+        assert code.count(compat.DDAA_FRAGMENT_HEAD) == 1 and "textureSampleLevel(tex, smp" in code
+    assert "const MAX_EDGE_ITERS = 1;" in short and "const MAX_EDGE_ITERS = 5;" in long
+    assert len(long) > len(short)

@@ -19,6 +19,7 @@ import { mkdirSync, readFileSync, writeFileSync } from "node:fs";
 import { dirname, join, resolve } from "node:path";
 import { pathToFileURL } from "node:url";
 import { performance } from "node:perf_hooks";
+import { FakeElement, Model, findCanvas, installPage, page, pump, readCanvas } from "./shim.mjs";
 
 function parseArgs(argv) {
   const args = { seconds: 5, profileFrames: 30, warmup: 1 };
@@ -41,79 +42,7 @@ const { create, globals } = await import(pathToFileURL(join(resolve(args.dawn), 
 Object.assign(globalThis, globals);
 const gpu = create(["disable-dawn-features=timestamp_quantization"]);
 
-// ------------------------------------------------------------------ the shim: what a page gives the module
-
-const rafQueue = [];
-let rafId = 0;
-globalThis.requestAnimationFrame = (cb) => { rafQueue.push([++rafId, cb]); return rafId; };
-globalThis.cancelAnimationFrame = (id) => {
-  const at = rafQueue.findIndex(([k]) => k === id);
-  if (at >= 0) rafQueue.splice(at, 1);
-};
-globalThis.IntersectionObserver = class {
-  constructor(cb) { this.cb = cb; }
-  observe(target) { queueMicrotask(() => this.cb([{ isIntersecting: true, target }])); }
-  unobserve() {}
-  disconnect() {}
-};
-class FakeElement {
-  constructor(tag) { this.tagName = tag; this.style = {}; this.children = []; this.className = ""; this.textContent = ""; }
-  append(...nodes) { this.children.push(...nodes); }
-  appendChild(node) { this.children.push(node); return node; }
-  remove() {}
-  addEventListener() {}
-  removeEventListener() {}
-  setAttribute() {}
-  focus() {}
-  get isConnected() { return true; }
-  getBoundingClientRect() { return { left: 0, top: 0, width: this.width || 0, height: this.height || 0 }; }
-}
-let lastDevice = null;  // the device the engine configured its canvas with
-class FakeCanvas extends FakeElement {
-  constructor() { super("canvas"); this.width = 300; this.height = 150; this.context = null; }
-  getContext(kind) {
-    if (kind !== "webgpu") return null;
-    if (!this.context) this.context = new CanvasContext(this);
-    return this.context;
-  }
-}
-// configure()/getCurrentTexture() backed by a device texture (COPY_SRC: the last frame is read back).
-class CanvasContext {
-  constructor(canvas) { this.canvas = canvas; this.texture = null; }
-  configure(config) { this.config = config; lastDevice = config.device; this.texture = null; }
-  unconfigure() { this.config = null; }
-  getCurrentTexture() {
-    const { width, height } = this.canvas;
-    if (!this.texture || this.texture.width !== width || this.texture.height !== height) {
-      if (this.texture) this.texture.destroy();
-      this.texture = this.config.device.createTexture({
-        size: [width, height], format: this.config.format,
-        usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC, label: "canvas" });
-    }
-    return this.texture;
-  }
-}
-globalThis.document = {
-  visibilityState: "visible",
-  createElement: (tag) => (tag === "canvas" ? new FakeCanvas() : new FakeElement(tag)),
-  addEventListener() {}, removeEventListener() {},
-};
-globalThis.window = globalThis;
-globalThis.devicePixelRatio = 1;
-Object.defineProperty(globalThis, "navigator", { value: { gpu }, configurable: true, writable: true });
-
-// The anywidget model: get/set/save_changes/on/off/send, with Python's traits.
-class Model {
-  constructor(state) { this.state = state; this.listeners = new Map(); this.sent = []; }
-  get(name) { return this.state[name]; }
-  set(name, value) { this.state[name] = value; this.fire(`change:${name}`, value); }
-  save_changes() {}
-  on(event, fn) { if (!this.listeners.has(event)) this.listeners.set(event, []); this.listeners.get(event).push(fn); }
-  off(event, fn) { const l = this.listeners.get(event) || []; const k = l.indexOf(fn); if (k >= 0) l.splice(k, 1); }
-  fire(event, ...a) { for (const fn of [...(this.listeners.get(event) || [])]) fn(...a); }
-  send(msg, _callbacks, buffers) { this.sent.push({ msg, buffers }); }
-  custom(msg, buffers = []) { this.fire("msg:custom", msg, buffers); }  // Python -> page
-}
+installPage(gpu);
 
 function loadState(root, c) {
   const state = JSON.parse(readFileSync(join(root, c.traits), "utf8"));
@@ -201,53 +130,16 @@ async function readTimestamps(device) {
 
 // ------------------------------------------------------------------ driving the loop
 
-const tick = () => new Promise((r) => setImmediate(r));
-
-// One turn of the page's event loop: run the animation-frame callbacks asked for so far.
-function runAnimationFrames() {
-  const due = rafQueue.splice(0);
-  const now = performance.now();
-  for (const [, cb] of due) cb(now);
-  return due.length;
-}
-
-// The loop: animation frames as fast as the engine takes them. When a turn submitted nothing (the
-// engine has its most frames in flight) it waits for the GPU queue instead of spinning, so the
-// loop leaves the CPU to the GPU work (SwiftShader runs on the CPU).
+// The loop: animation frames as fast as the engine takes them (shim.mjs's pump) until `check` holds.
 let currentCanvas = null;
 async function until(what, check, seconds = 120) {
   const end = performance.now() + seconds * 1000;
   while (performance.now() < end) {
     const v = check();
     if (v) return v;
-    const before = currentCanvas ? currentCanvas.grasswidgetFramesDrawn || 0 : 0;
-    runAnimationFrames();
-    const submitted = currentCanvas && (currentCanvas.grasswidgetFramesDrawn || 0) > before;
-    if (!submitted && lastDevice && currentCanvas && currentCanvas.context) await lastDevice.queue.onSubmittedWorkDone();
-    await tick();
+    await pump(currentCanvas);
   }
   throw new Error(`timed out waiting for ${what}`);
-}
-
-async function readCanvas(device, canvas) {
-  const tex = canvas.context.getCurrentTexture();
-  const w = tex.width, h = tex.height, row = Math.ceil((4 * w) / 256) * 256;
-  const buf = device.createBuffer({ size: row * h, usage: GPUBufferUsage.MAP_READ | GPUBufferUsage.COPY_DST });
-  const enc = device.createCommandEncoder();
-  enc.copyTextureToBuffer({ texture: tex }, { buffer: buf, bytesPerRow: row }, [w, h]);
-  device.queue.submit([enc.finish()]);
-  await buf.mapAsync(GPUMapMode.READ);
-  const src = new Uint8Array(buf.getMappedRange());
-  const out = new Uint8Array(4 * w * h);
-  const bgra = tex.format.startsWith("bgra");
-  for (let y = 0; y < h; y++) {
-    for (let x = 0; x < w; x++) {
-      const s = y * row + 4 * x, d = 4 * (y * w + x);
-      out[d] = src[s + (bgra ? 2 : 0)]; out[d + 1] = src[s + 1]; out[d + 2] = src[s + (bgra ? 0 : 2)]; out[d + 3] = src[s + 3];
-    }
-  }
-  buf.unmap(); buf.destroy();
-  return { w, h, rgba: out };
 }
 
 // Mean |a - b| over RGB (0..255) and the share of pixels off by more than 40 in some channel
@@ -273,11 +165,7 @@ async function runCase(root, c, tolerance, module) {
   const cleanup = module.default.initialize ? module.default.initialize({ model }) : null;
   const t0 = performance.now();
   const removeView = module.default.render({ model, el });
-  const canvas = (function find(node) {
-    if (node instanceof FakeCanvas) return node;
-    for (const child of node.children || []) { const f = find(child); if (f) return f; }
-    return null;
-  })(el);
+  const canvas = findCanvas(el);
   if (!canvas) throw new Error("the engine made no canvas");
   currentCanvas = canvas;
   const status = await until("the engine to start", () => {
@@ -286,7 +174,7 @@ async function runCase(root, c, tolerance, module) {
   }, 600);
   if (status.state !== "ok") throw new Error(`engine did not start: ${JSON.stringify(status)}`);
   const startMs = performance.now() - t0;
-  const device = lastDevice;
+  const device = page.lastDevice;
 
   // 1. playing: frames completed per second (the engine counts one per completed submission, so
   // the canvas's count after the queue drains is the frames completed).

@@ -1,25 +1,45 @@
 """Interleaved, in-process A/B of blade and sky/ground shader variants on the adapter at hand (lavapipe).
 
-    PYTHONPATH=. python benchmarks/looks_profile/ab.py PRESET BLADES CULL ROUNDS VARIANT [VARIANT ...]
-    e.g. PYTHONPATH=. python benchmarks/looks_profile/ab.py cis565 8192 off 10 main frag_const no_blades
+    PYTHONPATH=. python benchmarks/looks_profile/ab.py PRESET BLADES CULL ROUNDS VARIANT [VARIANT ...] [--tree NAME=DIR ...]
+    e.g. git archive cad432f grasswidget | tar -x -C /tmp/trees/cad432f  (in the repository), then
+    PYTHONPATH=. python benchmarks/looks_profile/ab.py cis565 8192 off 10 main frag_const no_blades --tree main=/tmp/trees/cad432f
 
 PRESET: cis565, meadow (SIZE=WxH in the environment for another size) or default (Blades.on_plane, 640x480);
 CULL: on (every test and occlusion) or off (no LOD). Each variant (variants.py) is its own GrassScene whose
-shaders get text substitutions, or another blade_render.wgsl (``blade_file``), or a Python ``setup`` (e.g. the
-field hidden); every shader is tagged with its variant so that pygfx compiles each apart. Frames (one step and
+shaders get text substitutions, or the blade_render.wgsl of another source tree (``blade_tree``: NAME of a
+``--tree NAME=DIR``, a folder holding a ``grasswidget`` package, e.g. from ``git archive REV grasswidget``; it is
+rendered with this tree's includes and template values), or a Python ``setup`` (e.g. the field hidden); every
+shader is tagged with its variant so that pygfx compiles each apart. Frames (one step and
 one render, synced) go round the variants in turns, reversed every round; printed: median process CPU ms and
 wall ms per frame, and the median of the per-round ratios to the first variant (quote the CPU ratios on a
-loaded machine). The substitutions were written against the per-fragment shader of main at cad432f
-(``main`` = that file); ``looks`` is the tree's own shader. This is the scratch profiler behind the
+loaded machine). Most substitutions were written against the per-fragment shader of main at cad432f
+(``main``: ``--tree main=`` a tree of cad432f; ``main_now``: ``--tree main_now=`` one of 4929d74); ``looks`` and
+the per-vertex candidates (``pervertex``, ``pv_nosrgb``, ``pv_noshade``) are this tree's own shader and edits of it. This is the scratch profiler behind the
 benchmarks/README.md section "The looks' fragment cost on lavapipe".
 """
 import os, sys, time, statistics, importlib.util
 import numpy as np
 import pygfx as gfx
-preset, n, cull, rounds = sys.argv[1], int(sys.argv[2]), sys.argv[3], int(sys.argv[4])
-names = sys.argv[5:]
+args, trees = [], {}
+_argv = iter(sys.argv[1:])
+for _a in _argv:
+    if _a == "--tree" or _a.startswith("--tree="):
+        _name, _, _dir = (_a.split("=", 1)[1] if "=" in _a and _a.startswith("--tree=") else next(_argv)).partition("=")
+        trees[_name] = os.path.join(_dir, "grasswidget", "shaders", "blade_render.wgsl")
+        if not _dir or not os.path.isfile(trees[_name]):
+            raise SystemExit(f"--tree {_name}={_dir}: no grasswidget/shaders/blade_render.wgsl there")
+    else:
+        args.append(_a)
+preset, n, cull, rounds = args[0], int(args[1]), args[2], int(args[3])
+names = args[4:]
 spec = importlib.util.spec_from_file_location("variants", os.environ.get("VARIANTS", os.path.join(os.path.dirname(os.path.abspath(__file__)), "variants.py")))
 V = importlib.util.module_from_spec(spec); spec.loader.exec_module(V)
+for _name in names:
+    if _name not in V.VARIANTS:
+        raise SystemExit(f"unknown variant {_name!r}; variants.py has {', '.join(V.VARIANTS)}")
+    _tree = V.VARIANTS[_name].get("blade_tree")
+    if _tree is not None and _tree not in trees:
+        raise SystemExit(f"variant {_name!r} draws with the blade_render.wgsl of tree {_tree!r}: give --tree {_tree}=DIR")
 from grasswidget.gpu.adapter import ensure_device
 from grasswidget.gpu.scene import GrassScene
 from grasswidget.gpu import shader_classes, sky_ground
@@ -43,8 +63,8 @@ def patch(cls):
     def get_code(self):
         name = self["variant_tag"]
         code = orig(self)
-        if "blade_file" in V.VARIANTS[name]:
-            code = code.replace(read_shader("blade_render.wgsl"), open(V.VARIANTS[name]["blade_file"]).read())
+        if "blade_tree" in V.VARIANTS[name]:
+            code = code.replace(read_shader("blade_render.wgsl"), open(trees[V.VARIANTS[name]["blade_tree"]]).read())
         code = code.replace(INC, read_shader("blade_math.wgsl"))
         kind = "sky" if "sky_ground" in cls.__qualname__.lower() or "SkyGround" in cls.__qualname__ else "blade"
         for old, new in V.VARIANTS[name].get(kind, []):

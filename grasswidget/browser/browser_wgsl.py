@@ -26,7 +26,8 @@ from pathlib import Path
 import jinja2
 
 from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
-from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, WORKGROUP_SIZE, raster_resolve_vars,
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTER_CLEAR_OFFSET, WORKGROUP_SIZE,
+                                 raster_resolve_vars,
                                  ribbon_vars, shader_dir, template_vars, wgsl_environment, wgsl_float)
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
                              MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
@@ -254,7 +255,11 @@ def _body_file(name: str) -> str:
 class BrowserShaders:
     """All shader texts the browser engine compiles, rendered from the project's files.
 
-    ``simulate(wind_wgsl)`` depends on the custom wind; the others are fixed.
+    ``simulate(wind_wgsl)`` depends on the custom wind; the draws (ribbons, the compute
+    rasterizer's resolve, sky and ground) on ``sunlight``: ``GrassParams.shadows``, whose maths
+    (``shaders/sunlight.wgsl``) they compile in only while it is on, as the kernel engine's do
+    (a change of the switch sends the other set; the engine compiles what it is sent); the
+    others are fixed.
     ``sky_ground()`` is the kernel engine's sky and ground file (its ``u_material``
     bound to the engine's ``u_sky_ground`` buffer); ``balls()`` the collider balls.
     """
@@ -299,16 +304,17 @@ class BrowserShaders:
         return render_shader("raster.wgsl", "compute", step=step, second=bool(second))
 
     @staticmethod
-    def raster_resolve(flat_colors: bool = False) -> dict:
+    def raster_resolve(flat_colors: bool = False, sunlight: bool = False) -> dict:
         """``raster_resolve.wgsl``: one draw (4 vertices, triangle strip) across the rows the walks
         wrote, shading the
         compute-rasterized pixels like the ribbons and writing their depth; ``flat_colors``:
-        the colour-by views' variant (colour by LOD: "drawn in compute" in its teaching colour)."""
+        the colour-by views' variant (colour by LOD: "drawn in compute" in its teaching colour);
+        ``sunlight``: the shadows' maths compiled in (``GrassParams.shadows`` on)."""
         return render_shader("raster_resolve.wgsl", "render", **raster_resolve_vars(), teaching_views=flat_colors,
-                             frag_depth=True)
+                             sunlight=bool(sunlight), frag_depth=True)
 
     @classmethod
-    def compute_raster(cls) -> dict:
+    def compute_raster(cls, sunlight: bool = False) -> dict:
         """The compute rasterizer of thin blades (``GrassParams.compute_raster``), as the kernel
         engine's ``grasswidget.gpu.render_frame`` runs it, executed by the browser engine while
         ``u_cull.compute_raster`` (Python's bytes at ``switch_offset``, i32) is 1:
@@ -316,15 +322,17 @@ class BrowserShaders:
         * per view size (w, h): ``s_raster_depth`` and ``s_raster_payload`` of w * h u32 each;
           before each frame's passes the engine writes w and h (f32) at ``width_offset`` and
           ``height_offset`` of ``u_cull`` (cull.wgsl lists thin blades only in renders of that size);
-        * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the clear
-          dispatched over the pixels, ``dispatch: "pixels"``; the args step, one thread; the walks
-          with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch, 0)``),
-          bound to that size's buffers;
+        * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the
+          clear's args step, one thread; the clear over the rows the last frame wrote and the walks
+          with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch,
+          indirect_offset)``, offset 0 unless given; the args step, one thread), bound to that
+          size's buffers;
         * ``resolve`` / ``resolve_flat`` (the natural and the colour-by views' variant, as the
           ribbons') drawn after the ribbons in the same render pass, before sky and ground; with
           occlusion culling the second phase's args step and walks (``second_args`` dispatched
           once, ``second_depth``, ``second_payload`` indirectly) run after the second culling pass and the resolve is drawn again after its ribbons;
-        * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT);
+        * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT): the walks'
+          workgroups at byte 0, the clear's at byte ``RASTER_CLEAR_OFFSET``;
         * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, the
           first row written and the complement of the last); the stats read ``s_raster_args[0]``
           (blades drawn in compute). The clear clears only the rows the last frame wrote: when a
@@ -339,12 +347,12 @@ class BrowserShaders:
             "args_words": 4,
             "rows_at": 2,
             "rows_words": 2,
-            "dispatch_words": 4,
+            "dispatch_words": 8,
             "second_args": cls.raster("args", second=True),
             "second_depth": cls.raster("depth", second=True),
             "second_payload": cls.raster("payload", second=True),
-            "resolve": cls.raster_resolve(False),
-            "resolve_flat": cls.raster_resolve(True),
+            "resolve": cls.raster_resolve(False, sunlight),
+            "resolve_flat": cls.raster_resolve(True, sunlight),
         }
 
     @staticmethod
@@ -357,23 +365,24 @@ class BrowserShaders:
         return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def blades(flat_colors: bool = True, from_end: bool = False) -> list:
+    def blades(flat_colors: bool = True, from_end: bool = False, sunlight: bool = False) -> list:
         """One ribbon shader per level-of-detail class (segments along the blade); with
         ``flat_colors`` (the colour-by views) also one for the culled blades drawn flat
         when ``color_by`` is "cull" (``culled``: True). The natural view uses the set
         without the flat-colour path, as the kernel engine does (it costs GPU draw time).
         ``from_end``: the second occlusion phase's draws (lists read from the end; no
-        culled draw: the first set's draws it)."""
+        culled draw: the first set's draws it). ``sunlight``: the shadows' maths compiled in
+        (``GrassParams.shadows`` on)."""
         out = []
         for k in range(len(LOD_SEGMENTS) + (1 if flat_colors and not from_end else 0)):
             values = ribbon_vars(k)
             out.append(dict(render_shader("blade_render.wgsl", "render", **values, teaching_views=flat_colors,
-                                          from_end=from_end and not values["culled"]),
+                                          sunlight=bool(sunlight), from_end=from_end and not values["culled"]),
                             culled=bool(values["culled"])))
         return out
 
     @classmethod
-    def occlusion(cls) -> dict:
+    def occlusion(cls, sunlight: bool = False) -> dict:
         """Occlusion culling's second phase, as the browser engine runs it every frame while
         ``u_cull.occlusion_phase`` (its bytes at ``phase_offset``) is 1:
 
@@ -405,15 +414,16 @@ class BrowserShaders:
             "args_words": 4 * (len(LOD_SEGMENTS) + 1),
             "hzb_levels": [cls.hzb_level(k) for k in range(1, HZB_MAX_LEVELS)],
             "cull": cls.cull_occlusion(),
-            "blades": cls.blades(flat_colors=False, from_end=True),
-            "blades_flat": cls.blades(flat_colors=True, from_end=True),
+            "blades": cls.blades(flat_colors=False, from_end=True, sunlight=sunlight),
+            "blades_flat": cls.blades(flat_colors=True, from_end=True, sunlight=sunlight),
         }
 
     @staticmethod
-    def sky_ground() -> dict:
-        """``shaders/sky_ground.wgsl``: sky gradient and ground to the horizon, as in the kernel engine."""
+    def sky_ground(sunlight: bool = False) -> dict:
+        """``shaders/sky_ground.wgsl``: sky gradient and ground to the horizon, as in the kernel engine;
+        ``sunlight``: the ground's shadows compiled in (``GrassParams.shadows`` on)."""
         return render_shader("sky_ground.wgsl", "render", uniforms={"u_material": ("SkyGround", SKY_GROUND_LAYOUT)},
-                             resources={"u_material": "u_sky_ground"})
+                             resources={"u_material": "u_sky_ground"}, sunlight=bool(sunlight))
 
     @staticmethod
     def balls() -> dict:
@@ -465,16 +475,22 @@ class BrowserShaders:
         ]
 
     @classmethod
-    def shaders(cls, wind_wgsl: str = "") -> dict:
+    def shaders(cls, wind_wgsl: str = "", sunlight: bool = False) -> dict:
+        """Every shader of a frame for the wind ``wind_wgsl`` and the sunlight's switch
+        ``sunlight`` (``GrassParams.shadows``: the draws compile its maths in only while on)."""
         return {
             # The compute passes of every frame, in order ("blades": one invocation per blade,
             # "one": one workgroup): reset the draw arguments, count survivors per distance band,
             # turn counts into slots, cull and scatter the lists nearest band first.
             "compute_passes": [
                 {"shader": "reset_args", "dispatch": "one", "label": "reset_args.wgsl"},
-                # the compute rasterizer's per-pixel words and counters (per view size: "sized")
-                {"shader": "raster_clear", "dispatch": "pixels", "label": "raster.wgsl (clear)",
+                # the compute rasterizer's counters and per-pixel words (per view size: "sized"): one
+                # thread writes the clear's workgroups for the rows the last frame wrote into
+                # s_raster_dispatch at byte RASTER_CLEAR_OFFSET, the clear is dispatched from there
+                {"shader": "raster_clear_args", "dispatch": "one", "label": "raster.wgsl (clear_args)",
                  "only_if": "compute_raster", "sized": True},
+                {"shader": "raster_clear", "dispatch": "raster_listed", "indirect_offset": RASTER_CLEAR_OFFSET,
+                 "label": "raster.wgsl (clear)", "only_if": "compute_raster", "sized": True},
                 {"shader": "cull_count", "dispatch": "blades", "label": "cull.wgsl (count)"},
                 {"shader": "prefix_bands", "dispatch": "one", "label": "prefix_bands.wgsl"},
                 {"shader": "cull", "dispatch": "blades", "label": "cull.wgsl"},
@@ -502,29 +518,30 @@ class BrowserShaders:
             "cull_count": cls.cull("count"),
             "prefix_bands": cls.prefix_bands(),
             "cull": cls.cull("scatter"),
+            "raster_clear_args": cls.raster("clear_args"),
             "raster_clear": cls.raster("clear"),
             "raster_args": cls.raster("args"),
             "raster_depth": cls.raster("depth"),
             "raster_payload": cls.raster("payload"),
-            "compute_raster": cls.compute_raster(),
-            "blades": cls.blades(flat_colors=False),
-            "blades_flat": cls.blades(flat_colors=True),
+            "compute_raster": cls.compute_raster(sunlight),
+            "blades": cls.blades(flat_colors=False, sunlight=sunlight),
+            "blades_flat": cls.blades(flat_colors=True, sunlight=sunlight),
             # byte offset of u_cull.color_by: the engine draws "blades_flat" while it is not natural (0)
             "color_by_offset": int(offsets(CULL_LAYOUT)["color_by"][0]),
-            "sky_ground": cls.sky_ground(),
+            "sky_ground": cls.sky_ground(sunlight),
             "balls": cls.balls(),
             "lod_segments": list(LOD_SEGMENTS),
             "bands": DISTANCE_BANDS,
-            "occlusion": cls.occlusion(),
+            "occlusion": cls.occlusion(sunlight),
         }
 
     @classmethod
-    def all(cls, wind_wgsl: str = "") -> dict:
+    def all(cls, wind_wgsl: str = "", sunlight: bool = False) -> dict:
         """Every shader of the engine (:meth:`shaders`), with ``max_storage_buffers``: the most
         storage buffers one of them binds (the engine asks its device for that many per
         shader stage; WebGPU's default is 8, occlusion culling's second pass with the
         compute rasterizer binds 10)."""
-        out = cls.shaders(wind_wgsl)
+        out = cls.shaders(wind_wgsl, sunlight)
         out["max_storage_buffers"] = max(_storage_count(sh) for sh in _all_shader_dicts(out))
         return out
 

@@ -71,6 +71,8 @@ class BrowserEngineView(EngineView):
     Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
     preset, playback, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
     called once when the browser has no WebGPU adapter (the widget falls back),
+    ``on_adapter(text)`` (optional), called once when the browser engine has started on an
+    adapter (its ``gpu_status`` detail: vendor, architecture, description; the sunlight's default),
     ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
     and ``target_fps`` (kept and reported; the browser draws at its own rate).
     ``widget_class``: the anywidget to make, BrowserEngineWidget (default) or a subclass
@@ -87,8 +89,8 @@ class BrowserEngineView(EngineView):
                             doc="The name of before of ``engine_widget`` (the BrowserEngineWidget).")
 
     def __init__(self, blades, size, params, *, preset=None, playback, actions, on_error, on_stats,
-                 on_inspect=None, on_unavailable, pixel_ratio=None, target_fps=60.0, function_overrides=None,
-                 widget_class=None):
+                 on_inspect=None, on_unavailable, on_adapter=None, pixel_ratio=None, target_fps=60.0,
+                 function_overrides=None, widget_class=None):
         from ..core.framing import preset_field
 
         super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
@@ -97,6 +99,8 @@ class BrowserEngineView(EngineView):
         self._target_fps = float(target_fps)
         self._inspect_request_pending = False
         self._unavailable_sent = False
+        self._on_adapter = on_adapter
+        self._adapter_sent = False
         self.ball = None
         camera = None
         self._preset = preset
@@ -143,6 +147,12 @@ class BrowserEngineView(EngineView):
 
     def _on_gpu_status(self, change):
         state = (change["new"] or {}).get("state")
+        if state == "ok" and self._on_adapter is not None and not self._adapter_sent and not self.closed:
+            self._adapter_sent = True
+            try:
+                self._on_adapter((change["new"] or {}).get("detail", ""))
+            except Exception as err:  # noqa: BLE001 - never raise into the comm handler
+                self.report_error(err)
         if state == "unavailable" and not self._unavailable_sent and not self.closed:
             self._unavailable_sent = True
             try:

@@ -186,7 +186,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             self.stdinfo_size = uniforms.struct_size(uniforms.STDINFO_LAYOUT)
             self.stdinfo_layout = uniforms.layout_description(uniforms.STDINFO_LAYOUT)
             self.sim_layout = uniforms.layout_description(uniforms.SIM_LAYOUT)
-            self.shaders = with_function_overrides(BrowserShaders.all(self.params.wind_wgsl), function_overrides)
+            self.shaders = self._shader_tree()
             self.inspect_uniform = pack(INSPECT_LAYOUT, {"n_ids": 0})
             self._set_blades(blades)
             self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
@@ -202,6 +202,12 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         self.on_msg(self._on_browser_msg)
 
     # ------------------------------------------------------------------ data
+
+    def _shader_tree(self) -> dict:
+        """Every shader for the wind compiled last and the sunlight's switch (``params.shadows``:
+        the draws compile its maths in only while it is on), with the function overrides."""
+        tree = BrowserShaders.all(self._wind_body, sunlight=bool(self.params.shadows))
+        return with_function_overrides(tree, self.function_overrides)
 
     def _set_blades(self, blades: Blades):
         self.blades = blades
@@ -301,6 +307,8 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         with self.hold_sync():
             self.auto_switches.refresh()
             self._write_uniforms()
+            if change["name"] == "shadows":  # the draws with or without the sunlight's maths
+                self.shaders = self._shader_tree()
             if change["name"] in (*SKY_GROUND_TRAITS, *SUN_TRAITS) and self.camera:  # the sky/ground: fog, sun, far grass
                 self._write_frame_rules()
 

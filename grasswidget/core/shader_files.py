@@ -83,13 +83,16 @@ from ..errors import MissingFileError
 
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "MAX_WORKGROUPS_X", "NO_WIND_BODY",
            "SHADE_PER_VERTEX_MIN_SEGMENTS",
-           "DISTANCE_BANDS", "BAND_RANGE"]
+           "DISTANCE_BANDS", "BAND_RANGE", "RASTER_CLEAR_OFFSET"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
 #: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit;
 #: raster.wgsl's args step folds the walks' indirect dispatch the same way).
 MAX_WORKGROUPS_X = 65535
+#: Bytes into the compute rasterizer's dispatch words (s_raster_dispatch, 8 u32) where its
+#: clear's workgroups are (raster.wgsl's clear_args step writes words 4..6; the walks' are at 0).
+RASTER_CLEAR_OFFSET = 16
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"
@@ -154,6 +157,7 @@ def template_vars() -> dict:
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
+        "sunlight": False,  # sunlight.wgsl: the shadows' maths compiled in (GrassParams.shadows on)
         "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),
@@ -166,6 +170,7 @@ def template_vars() -> dict:
         "ball_penumbra": wgsl_float(BALL_PENUMBRA),
         "transmittance_taps": int(TRANSMITTANCE_TAPS),
         "max_shadow_balls": int(MAX_SHADOW_BALLS),
+        "raster_packed": False,  # raster.wgsl / raster_resolve.wgsl: one walk with 64-bit atomics (gpu/raster_walks.py)
         "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "shade_per_vertex": False,  # blade_render.wgsl: shading per vertex (ribbon_vars), else per fragment

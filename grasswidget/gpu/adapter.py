@@ -58,11 +58,16 @@ def select_adapter():
 
 
 def ensure_device():
-    """Configure (once) and return the shared wgpu device that pygfx uses."""
+    """Configure (once) and return the shared wgpu device that pygfx uses (pygfx keeps one
+    device for the process: once found, it is returned at once; frames ask for it several times)."""
+    device = _state.get("device")
+    if device is not None:
+        return device
     import wgpu
     from pygfx.renderers.wgpu import get_shared
 
     from .. import compat
+    from .raster_walks import ONE_WALK_FEATURES
 
     if not compat.default_device_exists() and not _state["configured"]:
         adapter = select_adapter()
@@ -75,7 +80,8 @@ def ensure_device():
         features = {"float32-filterable"}
         if "timestamp-query" in adapter.features:
             features.add("timestamp-query")
-        preferred = {"timestamp-query-inside-passes", "timestamp-query-inside-encoders"}
+        # 64-bit atomics: the compute rasterizer's one walk (gpu/raster_walks.py) where offered.
+        preferred = {"timestamp-query-inside-passes", "timestamp-query-inside-encoders", *ONE_WALK_FEATURES}
         wgpu.preconfigure_default_device(
             "grasswidget",
             adapter=adapter,
@@ -102,6 +108,7 @@ def ensure_device():
             )
             print(msg, file=sys.stderr)
             warnings.warn(msg, RuntimeWarning, stacklevel=2)
+    _state["device"] = device
     return device
 
 

@@ -29,6 +29,7 @@ from .compute import destroy_buffers, sync_buffer
 from .draw_bundles import DrawBundle
 from ..core.teaching import FrozenView
 from .frozen_camera import FrozenCamera, frustum_line
+from .raster_walks import raster_packed
 from .material import GrassMaterial
 from .occlusion import OcclusionCulling
 from .simulation import Simulation
@@ -155,14 +156,17 @@ class GrassField(gfx.WorldObject):
         # The compute rasterizer of thin blades (raster.wgsl): its list and counters
         # (listed, first occlusion phase's part, the rows written: first, ~last), and
         # per-pixel depth and payload words, allocated by prepare_compute_raster (one item
-        # each until then).
+        # each until then). Its layout (raster_walks.py): one walk of packed u64 words
+        # where the device has 64-bit atomics (the payload buffer then stays one item).
+        self._store.raster_packed = raster_packed(device)
         one = dict(nbytes=4, nitems=1, format="u4", usage=usage.STORAGE)
         self._store.raster_list_buffer = gfx.Buffer(**one)
         self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
-        self._store.raster_depth_buffer = gfx.Buffer(**one)
+        self._store.raster_depth_buffer = gfx.Buffer(**(dict(one, nbytes=8, nitems=2) if self.raster_packed else one))
         self._store.raster_payload_buffer = gfx.Buffer(**one)
-        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step.
-        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(4, np.uint32),
+        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step, then the
+        # clear's (x, y, z, 0), written by its clear_args step.
+        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(8, np.uint32),
                                                         usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
         # Raster buffers replaced by a size change, destroyed at the next prepare: the frame
@@ -350,20 +354,50 @@ class GrassField(gfx.WorldObject):
 
     @property
     def raster_dispatch_buffer(self):
-        """pygfx Buffer of 4 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
-        written on the GPU after the culling (raster.wgsl, step "args"); the walks are
-        dispatched indirectly from it."""
+        """pygfx Buffer of 8 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
+        written on the GPU after the culling (raster.wgsl, step "args"), then its clear's
+        (x, y, z, 0) for the rows the last frame wrote (step "clear_args", before the
+        culling); the walks and the clear are dispatched indirectly from it."""
         return self._store.raster_dispatch_buffer
 
     @property
     def raster_depth_buffer(self):
-        """pygfx Buffer of u32 per pixel: the compute rasterizer's depth words (float bits)."""
+        """pygfx Buffer of the compute rasterizer's depth words (float bits): a u32 per pixel, or
+        with :attr:`raster_packed` a u64 per pixel (depth and payload; :meth:`read_raster_pixels`)."""
         return self._store.raster_depth_buffer
 
     @property
     def raster_payload_buffer(self):
-        """pygfx Buffer of u32 per pixel: the compute rasterizer's payload (blade << 8 | v)."""
+        """pygfx Buffer of u32 per pixel: the compute rasterizer's payload (blade << 8 | v); one
+        unused item with :attr:`raster_packed` (the payload is in :attr:`raster_depth_buffer`)."""
         return self._store.raster_payload_buffer
+
+    @property
+    def raster_packed(self) -> bool:
+        """True when this field's compute rasterizer walks once with 64-bit atomics: a u64 per
+        pixel in :attr:`raster_depth_buffer` (u32 words 2 i + 1: depth bits, 2 i: the
+        complement of the payload) and :attr:`raster_payload_buffer` unused; False: two walks,
+        a u32 per pixel in each (as the browser engine). Fixed when the field is created
+        (:mod:`grasswidget.gpu.raster_walks`)."""
+        return self._store.raster_packed
+
+    def read_raster_pixels(self):
+        """The compute rasterizer's words of the last render, whatever the layout
+        (synchronous): (depth, payload), each a (height, width) uint32 array; depth is the
+        float bits of the pixel's depth (``reference.RASTER_EMPTY`` where no blade was
+        written), payload ``blade << 8 | round(v * 255)`` (0 where empty). None while off."""
+        width, height = self.raster_size
+        if not width:
+            return None
+        device = ensure_device()
+        words = np.frombuffer(device.queue.read_buffer(sync_buffer(self.raster_depth_buffer)), np.uint32)
+        if self.raster_packed:
+            pairs = words[: 2 * width * height].reshape(height, width, 2)
+            depth = pairs[..., 1].copy()
+            payload = np.where(depth == 0xFFFFFFFF, np.uint32(0), ~pairs[..., 0]).astype(np.uint32)
+            return depth, payload
+        payload = np.frombuffer(device.queue.read_buffer(sync_buffer(self.raster_payload_buffer)), np.uint32)
+        return words[: width * height].reshape(height, width).copy(), payload[: width * height].reshape(height, width).copy()
 
     @property
     def raster_size(self) -> tuple:
@@ -406,9 +440,11 @@ class GrassField(gfx.WorldObject):
             args = self._store.raster_args_buffer
             args.data[:] = 0
             args.update_full()
-            self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+            words = 2 * pixels if self.raster_packed else pixels  # packed: a u64 per pixel
+            self._store.raster_depth_buffer = gfx.Buffer(nbytes=4 * words, nitems=words, format="u4",
                                                          usage=usage.STORAGE | usage.COPY_SRC)
-            self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * pixels, nitems=pixels, format="u4",
+            payload = 1 if self.raster_packed else pixels
+            self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * payload, nitems=payload, format="u4",
                                                            usage=usage.STORAGE | usage.COPY_SRC)
             self._store.raster_size = (width, height)
             self._store.raster_retired = old

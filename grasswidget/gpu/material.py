@@ -76,6 +76,14 @@ class GrassMaterial(gfx.Material):
         self.light_direction = light_direction
         self.blade_shape = blade_shape
         self.tip_threshold = tip_threshold
+        self._store.sunlight = False
+
+    @property
+    def sunlight(self) -> bool:
+        """True while the sunlight written last (:meth:`set_sunlight`) has ``shadows`` on: the
+        ribbon and resolve shaders compile the shadows' maths in only then (tracked by pygfx:
+        a change rebuilds their pipelines; ``shaders/sunlight.wgsl``). False until then."""
+        return self._store.sunlight
 
     def set_sunlight(self, values: dict):
         """Write the sunlight's values (``core.frame_data.sunlight_values``: ``light_direction``,
@@ -89,6 +97,8 @@ class GrassMaterial(gfx.Material):
         for key, value in values.items():
             data[key] = value
         self.uniform_buffer.update_full()
+        if "shadows" in values:
+            self._store.sunlight = bool(float(values["shadows"]) > 0.0)
 
     def _set(self, key, value):
         self.uniform_buffer.data[key] = value

@@ -45,6 +45,7 @@ from ..core.reference import HZB_MAX_LEVELS, LOD_SEGMENTS, hzb_layout
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .draw_bundles import DrawBundle
+from .raster_walks import raster_walk_steps
 from .wgsl_templates import workgroups
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "MAX_HZB_LEVELS", "register_second_phase_shaders"]
@@ -207,8 +208,8 @@ class OcclusionCulling:
         if self._cull_programs is None or key != self._cull_key:
             self._cull_programs = [ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
                                    ComputeProgram(RasterShader(field, "args", second=True), field),
-                                   ComputeProgram(RasterShader(field, "depth", second=True), field),
-                                   ComputeProgram(RasterShader(field, "payload", second=True), field)]
+                                   *(ComputeProgram(RasterShader(field, step, second=True), field)
+                                     for step in raster_walk_steps(field))]
             self._cull_key = key
         return self._level_programs, self._cull_programs
 
@@ -223,7 +224,7 @@ class OcclusionCulling:
             return False
         width, height = int(depth.size[0]), int(depth.size[1])
         self._ensure_size(width, height)
-        levels, (cull, raster_args, raster_depth, raster_payload) = self._programs()
+        levels, (cull, raster_args, *raster_walks) = self._programs()
         device = ensure_device()
         hzb = sync_buffer(self.hzb_buffer)
         sync_buffer(self.levels_buffer)
@@ -239,8 +240,8 @@ class OcclusionCulling:
         cull.dispatch(cp, workgroups(self.field.count))
         if self.field.compute_raster_active:  # the thin blades this phase found (cull.wgsl, raster.wgsl)
             raster_args.dispatch(cp, (1, 1, 1))  # a thread per blade this phase listed
-            raster_depth.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
-            raster_payload.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
+            for walk in raster_walks:  # one walk (packed) or two (depth, payload): raster_walk_steps
+                walk.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
         cp.end()
         if deferred:
             render_pass = compat.begin_target_render_pass(renderer, enc, self.draws.material.alpha_method)

@@ -18,6 +18,7 @@ from ..core.blades import Blades
 from ..errors import GrassTypeError, GrassValueError
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
+from .compute_ddaa import use_compute_ddaa
 from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .frame import render_frame
 from ..core import frame_data
@@ -80,12 +81,19 @@ def make_renderer(canvas, *, export=False):
     (``export=True``): anti-aliased on every adapter: rendered at
     :data:`EXPORT_SUPERSAMPLE` times the size in each direction and filtered down
     (supersampling), plus pygfx's default post-process anti-aliasing on a GPU.
+    ``canvas``: a rendercanvas canvas or a pygfx Texture (offscreen, as the benchmarks use).
+
+    pygfx's default anti-aliasing (DDAA) runs in a compute pass
+    (:mod:`grasswidget.gpu.compute_ddaa`: the same shader, the same picture within one level
+    of 255, a fraction of its cost on a GPU whose pixel work is narrow).
     """
     cpu = is_cpu_adapter()
     if cpu:
         announce_cpu_defaults()
     ratio = EXPORT_SUPERSAMPLE if export else 1
-    return gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
+    renderer = gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
+    use_compute_ddaa(renderer)
+    return renderer
 
 
 class GrassScene:

@@ -22,8 +22,10 @@ every ``renderer.render()``:
    then one more for the culled blades (instances only with ``color_by = "cull"``).
 
 The compute rasterizer (``params.compute_raster``, set up for the render size by
-``GrassField.prepare_compute_raster``): ``RasterShader("clear")`` runs before step 2,
+``GrassField.prepare_compute_raster``): ``RasterShader("clear_args")`` and
+``RasterShader("clear")`` (indirect: the rows the last frame wrote) run before step 2,
 the culling lists thin blades for it, ``RasterShader("args")`` sizes the walks and
+``RasterShader("packed")`` (one walk, 64-bit atomics: ``GrassField.raster_packed``) or
 ``RasterShader("depth")`` and ``RasterShader("payload")`` walk them after step 4
 (dispatched indirectly: a thread per listed blade), and ``RasterResolveShader``
 (render, after the ribbons) writes their colour and depth.
@@ -50,10 +52,11 @@ from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
 from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
-from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_CLEAR_OFFSET
 from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
+from .raster_walks import raster_walk_steps
 from .wgsl_templates import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
@@ -199,8 +202,9 @@ class BladeRenderShader(BaseShader):
         second = field is not wobject
         # The flat teaching colours only while they are shown (GrassField.flat_colors is
         # tracked by pygfx: a change rebuilds these pipelines).
+        # The sunlight's maths only while shadows are on (GrassMaterial.sunlight, tracked the same way).
         super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=field.flat_colors,
-                                                from_end=second and not culled))
+                                                sunlight=wobject.material.sunlight, from_end=second and not culled))
         if culled:
             self.indirect_args = field.culled_args_buffer
         else:
@@ -255,21 +259,25 @@ class BladeRenderShader(BaseShader):
 
 
 class RasterShader(GrassComputeShader):
-    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear" (per-pixel
-    words of the rows the last frame wrote, and the counters, before the culling), "args"
-    (one thread after the culling: the walks' workgroups into
-    ``GrassField.raster_dispatch_buffer``, the rows written to none), "depth" or "payload"
-    (the walks, dispatched indirectly from those workgroups);
+    """The compute rasterizer of thin blades (raster.wgsl): ``step`` "clear_args" (one thread
+    before the culling: the counters to zero, the clear's workgroups for the rows the last
+    frame wrote into ``GrassField.raster_dispatch_buffer`` at word 4), "clear" (those rows'
+    per-pixel words, dispatched indirectly from there), "args" (one thread after the culling:
+    the walks' workgroups into words 0..2, the rows written to none), "packed" (the one walk
+    with 64-bit atomics, ``wobject.raster_packed``) or "depth" and "payload" (the two walks),
+    dispatched indirectly from those workgroups;
     ``second``: the walks of occlusion culling's second phase (run by
     :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
 
     def __init__(self, wobject, step, second=False):
-        if step not in ("clear", "args", "depth", "payload"):
-            raise GrassValueError(f"step must be 'clear', 'args', 'depth' or 'payload'; got {step!r}")
-        super().__init__(wobject, step=step, second=bool(second))
-        if step in ("depth", "payload"):  # gpu/indirect.py: dispatch_workgroups_indirect
+        walks = raster_walk_steps(wobject)
+        if step not in ("clear_args", "clear", "args", *walks):
+            raise GrassValueError(f"step must be 'clear_args', 'clear', 'args' or {' or '.join(map(repr, walks))} "
+                                  f"(this field's walks, GrassField.raster_packed); got {step!r}")
+        super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed))
+        if step in walks or step == "clear":  # gpu/indirect.py: dispatch_workgroups_indirect
             self.indirect_args = wobject.raster_dispatch_buffer
-            self.indirect_offset = 0
+            self.indirect_offset = RASTER_CLEAR_OFFSET if step == "clear" else 0  # bytes: the clear's words
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -282,29 +290,27 @@ class RasterShader(GrassComputeShader):
             13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
             14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
         }
-        if self["step"] == "args":  # only there: the walks read it as their indirect arguments
+        if self["step"] in ("args", "clear_args"):  # only there: the others read it as indirect arguments
             bindings[15] = Binding("s_raster_dispatch", "buffer/storage", wobject.raster_dispatch_buffer, "COMPUTE")
         for slot in (0, 1, 10, 11):
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
     def get_code(self):
+        word = "u64" if self["step"] == "packed" else "u32"  # the one walk's pixels: a u64 each
         return (
             "{{ bindings_code }}\n"
             + U_CULL_CODE +
             "@group(0) @binding(12) var<storage, read_write> s_raster_args: array<atomic<u32>>;\n"
-            "@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<u32>>;\n"
+            f"@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<{word}>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
             + ("@group(0) @binding(15) var<storage, read_write> s_raster_dispatch: array<u32>;\n"
-               if self["step"] == "args" else "")
+               if self["step"] in ("args", "clear_args") else "")
             + "{$ include 'grasswidget.raster.wgsl' $}\n"
         )
 
     def get_render_info(self, wobject, shared):
-        width, height = wobject.raster_size
-        if not width or self["step"] != "clear":
-            return {"indices": (1, 1, 1)}  # the clear still zeroes the counters; the walks: indirect
-        return {"indices": workgroups(width * height)}
+        return {"indices": (1, 1, 1)}  # clear_args and args: one thread; the clear and the walks: indirect
 
 
 class RasterResolveShader(BaseShader):
@@ -316,7 +322,9 @@ class RasterResolveShader(BaseShader):
 
     def __init__(self, wobject):
         field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
-        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors))
+        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors,
+                                                raster_packed=bool(field.raster_packed),
+                                                sunlight=wobject.material.sunlight))
         self._field = weakref.ref(field)
         self._draws = weakref.ref(wobject) if field is not wobject else None
 
@@ -386,13 +394,13 @@ def grass_render_function(wobject):
     draw per LOD class and one of the culled blades (empty unless ``color_by = "cull"``)."""
     return [
         ResetArgsShader(wobject),
+        RasterShader(wobject, "clear_args"),
         RasterShader(wobject, "clear"),
         CullShader(wobject, "count"),
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
         RasterShader(wobject, "args"),
-        RasterShader(wobject, "depth"),
-        RasterShader(wobject, "payload"),
+        *(RasterShader(wobject, step) for step in raster_walk_steps(wobject)),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
         RasterResolveShader(wobject),
     ]

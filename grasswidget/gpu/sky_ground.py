@@ -57,6 +57,7 @@ class SkyGroundMaterial(gfx.Material):
                  far_distance=100.0, **kwargs):
         super().__init__(depth_test=True, depth_compare="<", depth_write=False, **kwargs)
         self._sunlight_seen = None  # (values, uniform bytes) of the last set_sunlight
+        self._store.sunlight = False
         data = self.uniform_buffer.data
         for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
                             ("soil_color", soil_color), ("beyond_color", beyond_color)):
@@ -90,6 +91,8 @@ class SkyGroundMaterial(gfx.Material):
             raise GrassValueError(f"values name fields the sky/ground lacks: {sorted(unknown)}")
         write_values(self.uniform_buffer.data, values)
         self.uniform_buffer.update_full()
+        if "shadows" in values:  # the shader follows (sunlight)
+            self._store.sunlight = bool(float(values["shadows"]) > 0.0)
 
     def set_field(self, center_xz, half_xz, cover, edge=FIELD_EDGE):
         """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
@@ -119,6 +122,13 @@ class SkyGroundMaterial(gfx.Material):
                    for k, v in values.items()):
             self.set_values(values)
         self._sunlight_seen = (seen[0], self.uniform_buffer.data.tobytes())
+
+    @property
+    def sunlight(self) -> bool:
+        """True while the ``shadows`` written last (:meth:`set_sunlight`, :meth:`set_values`) is on: the
+        shader compiles the ground's shadows in only then (tracked by pygfx: a change rebuilds
+        its pipeline; ``shaders/sunlight.wgsl``). False until then."""
+        return self._store.sunlight
 
     @property
     def fog_density(self) -> float:
@@ -201,7 +211,8 @@ def _register():
             return {"indices": (4, 1)}
 
         def __init__(self, wobject, **kwargs):
-            super().__init__(wobject, **shader_vars(**kwargs))  # blade_math.wgsl's ids and constants
+            # blade_math.wgsl's ids and constants; the shadows' maths only while they are on
+            super().__init__(wobject, **shader_vars(sunlight=wobject.material.sunlight, **kwargs))
 
         def get_code(self):
             return read_shader("sky_ground.wgsl")

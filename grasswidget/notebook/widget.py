@@ -73,6 +73,7 @@ from .layout import PANEL_WIDTH, WidgetLayout
 from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
 from ..core.params import ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
+from .sunlight_default import SunlightDefault
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
 
@@ -291,6 +292,9 @@ class GrassWidget(ipw.VBox):
             sun = sunlight_defaults(cpu_adapter=self._cpu is not False)
             params = GrassParams(**{**sun, **(preset_params(preset) if preset else {})})
         self.params = params
+        # Later adapters (the browser engine's report, a fall back to the kernel) set it the same way,
+        # while it is the widget's own default (notebook/sunlight_default.py).
+        self._sun_default = SunlightDefault(self.params, own=self._own_params)
 
         try:
             if backend == "kernel":
@@ -385,6 +389,7 @@ class GrassWidget(ipw.VBox):
         return BrowserEngineView(self._blades, self.size, self.params, preset=self._preset, playback=self,
                                  actions=self, on_error=self._show_error, on_stats=self._show_stats,
                                  on_inspect=self._show_inspected, on_unavailable=self._on_browser_unavailable,
+                                 on_adapter=self._sun_default.apply_engine_adapter,
                                  pixel_ratio=self._streaming_overrides.get("max_pixel_ratio"),
                                  target_fps=self._streaming["target_fps"],
                                  function_overrides=self._function_overrides,
@@ -868,8 +873,7 @@ class GrassWidget(ipw.VBox):
         try:
             if choice.engine == "browser" and self.view.backend != "browser":
                 self._replace_view(self._browser_view())
-                if self._own_params:  # the page's GPU draws now: the sunlight's GPU default
-                    self.params.shadows = sunlight_defaults(cpu_adapter=False)["shadows"]
+                self._sun_default.apply(cpu_adapter=False)  # the page's GPU draws now: the sunlight's GPU default
         except Exception as err:  # noqa: BLE001 - never raise into the comm handler; the kernel view stays
             self._show_error(f"{choice.reason}; starting the browser engine failed ({err}): the kernel engine stays")
             return
@@ -890,6 +894,7 @@ class GrassWidget(ipw.VBox):
                              f"render either: {err}")
             return
         self._replace_view(new)
+        self._sun_default.apply(cpu_adapter=self._cpu is not False)  # the kernel's adapter draws now
         self._show_error(f"WebGPU is not available in this browser ({reason}): the kernel renders the view "
                          "and streams it instead (use Chrome or Edge, or enable WebGPU, for backend='browser')")
 

@@ -536,18 +536,24 @@ fn raster_step(s0: vec2<f32>, s1: vec2<f32>, s2: vec2<f32>, v: f32) -> f32 {
 // The two ends of a blade's cross-section on screen: pixels x, y and depth.
 struct RasterSpan { a: vec3<f32>, b: vec3<f32> };
 
-// The cross-section of the ribbon at v (0 root .. 1 tip), tapered like the ribbons
-// (blade_shape_t at u = 0 and u = 1), on screen. c0, c1, c2: the control points in
-// clip space; across: the half-width vector in clip space (view_proj * (width t1, 0)).
-// The curve is the quadratic Bezier in clip space (exact: projection is linear there).
-fn raster_span(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, across: vec4<f32>, v: f32, shape: i32, tau: f32, viewport_size: vec2<f32>) -> RasterSpan {
+// The cross-section of the ribbon at v (0 root .. 1 tip) on screen, tapered like the
+// ribbons (blade_shape_t at u = 0 and u = 1). c0, c1, c2: the control points in clip
+// space (the curve is the quadratic Bezier there, exact on screen after the divide);
+// across_px: the blade's half-width vector in clip space (view_proj * (width t1, 0))
+// times (0.5 width, -0.5 height) of the view, once per blade: divided by the curve
+// point's w it is the half width in pixels there. The ends are the projected curve point
+// plus (2 t - 1) times that half width, both at the curve point's depth (a thin blade's
+// depth across its width, and the perspective across it, are left out).
+fn raster_section(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, across_px: vec2<f32>, v: f32, shape: i32, tau: f32, viewport_size: vec2<f32>) -> RasterSpan {
     let a = c0 + v * (c1 - c0);
     let b = c1 + v * (c2 - c1);
     let c = a + v * (b - a);
-    let t_left = blade_shape_t(0.0, v, shape, tau);
-    let t_right = blade_shape_t(1.0, v, shape, tau);
-    return RasterSpan(clip_to_pixel(c + (2.0 * t_left - 1.0) * across, viewport_size),
-                      clip_to_pixel(c + (2.0 * t_right - 1.0) * across, viewport_size));
+    let inv_w = 1.0 / c.w;
+    let centre = vec3<f32>((c.x * inv_w * 0.5 + 0.5) * viewport_size.x, (0.5 - 0.5 * c.y * inv_w) * viewport_size.y, c.z * inv_w);
+    let half = across_px * inv_w;
+    let left = 2.0 * blade_shape_t(0.0, v, shape, tau) - 1.0;
+    let right = 2.0 * blade_shape_t(1.0, v, shape, tau) - 1.0;
+    return RasterSpan(centre + vec3<f32>(left * half, 0.0), centre + vec3<f32>(right * half, 0.0));
 }
 
 // Coverage of a cross-section span_px pixels wide: how many points the walk writes

@@ -1,24 +1,40 @@
 // The compute rasterizer of thin blades (GrassParams.compute_raster): one thread per
 // blade of the list cull.wgsl wrote (s_raster, count s_raster_args[0]) walks its curve
-// on screen with its tapered width and depth-tests each pixel with 32-bit atomics into
-// two per-pixel buffers of u_cull.raster_width x raster_height:
+// on screen with its tapered width and depth-tests each pixel with atomics into
+// per-pixel words of u_cull.raster_width x raster_height. Two layouts, chosen by Python
+// (template variable raster_packed; gpu/raster_walks.py):
 //
-// step "clear": the depth word of every pixel in the rows the last frame's walks wrote
-//   (s_raster_args[2] .. ~s_raster_args[3], see "args") to RASTER_EMPTY, its payload to
-//   0, and the list counters to 0 (before the culling pass of the frame). Words that are
-//   all zero (a new buffer) mean every row: a new pixel buffer is cleared whole.
+// * one walk (raster_packed, where the device has 64-bit atomic min/max: lavapipe, most
+//   Vulkan GPUs): s_raster_depth holds a u64 per pixel, the depth's float bits in the high
+//   word and the bitwise complement of the payload in the low word; the walk (step
+//   "packed") writes atomicMin of that pair: the nearest depth wins, equal depths the
+//   larger payload, in one pass. Read as u32 words: 2 i + 1 the depth, ~(2 i) the payload.
+// * two walks (the browser engine, WebGPU has no 64-bit atomics): s_raster_depth and
+//   s_raster_payload a u32 per pixel each; step "depth" writes atomicMin of the depth's
+//   float bits (0 < depth <= 1: the bits of a positive float order like the float), step
+//   "payload" walks again and, where the pixel's depth word is this blade's depth,
+//   atomicMax of raster_payload(blade, v) (the same winner as the one walk).
+//
+// step "clear_args": one thread at the start of the frame (before the culling): the list
+//   counters to 0, and the clear's workgroups into s_raster_dispatch[4..6] for the pixels
+//   of the rows the last frame's walks wrote (s_raster_args[2] .. ~s_raster_args[3], see
+//   "args"; none written: no workgroup). Counters that are all zero (a new buffer) mean
+//   every row: a new pixel buffer is cleared whole.
+// step "clear" (dispatched indirectly from those workgroups): thread i empties pixel
+//   first_row * width + i of those rows (depth RASTER_EMPTY, payload 0; packed: both words
+//   all ones). A view where no blade was walked pays for no pixel.
 // step "args": one thread, after the culling and before the walks: the walks' workgroups
 //   (x, y, 1) into s_raster_dispatch (the walks are dispatched indirectly, so only the
 //   listed blades run: a thread per blade of the whole field cost a CPU adapter as much
 //   as the walks themselves); first phase: where its part of the list ends into
 //   s_raster_args[1] and the written rows to none (s_raster_args[2] = [3] = 0xffffffff).
-// step "depth": atomicMin of the depth's float bits (0 < depth <= 1: the bits of a
-//   positive float order like the float, so the full 32-bit depth is kept); each blade
-//   then widens the written rows to its own (atomicMin of the first row into
-//   s_raster_args[2], of the bitwise complement of the last into [3]).
-// step "payload": the same walk again; where the pixel's depth word is this blade's
-//   depth, atomicMax of raster_payload(blade, v) (the nearest blade wins; equal depths:
-//   the larger payload, so the result never depends on thread order).
+// The walk ("packed", or "depth" then "payload"), per listed blade: the blade is
+//   projected once (its control points and half-width vector), then sampled about 0.9
+//   pixels apart along its curve on screen (raster_step); at each sample the tapered
+//   cross-section (raster_section: one divide) is covered by raster_cover points one
+//   multiply-add apart. The walk that writes depth ("packed" or "depth") then widens
+//   the written rows to its own (atomicMin of the first row into s_raster_args[2], of
+//   the bitwise complement of the last into [3]).
 // A resolve pass (raster_resolve.wgsl) then shades each covered pixel with the
 // ribbons' shading (blade_shade) and writes its depth, so everything else in the
 // scene composites with the ordinary depth test; it draws only the written rows, and
@@ -30,22 +46,24 @@
 // (s_raster_args[1]) and the second phase's steps walk only the rest.
 //
 // The per-blade walk is reference.raster_walk (its NumPy twin), built from the
-// blade_math functions raster_step, raster_span, raster_cover, raster_payload;
-// reference.raster_rows is the written rows' twin.
+// blade_math functions raster_step, raster_section, raster_cover, raster_payload;
+// tests/gpu/test_compute_raster.py checks the rows written against the words read back.
 //
 // Engine-neutral body: the engine declares (before this file) u_stdinfo
 // (projection_transform, cam_transform, physical_size), u_wobject (world_transform),
 // u_cull (CULL_LAYOUT: raster_width, raster_height, raster_blade_shape,
 // raster_tip_threshold), s_blades (array<vec4<f32>>, read), s_raster (array<u32>, read),
-// s_raster_args, s_raster_depth and s_raster_payload (array<atomic<u32>>), and for the
-// args step s_raster_dispatch (array<u32>, 4 words).
+// s_raster_args (array<atomic<u32>>), s_raster_depth (array<atomic<u64>> in step "packed",
+// else array<atomic<u32>>) and, unless packed, s_raster_payload (array<atomic<u32>>), and
+// for the args and clear_args steps s_raster_dispatch (array<u32>, 8 words: the walks'
+// workgroups at 0, the clear's at 4).
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 
 const RASTER_EMPTY: u32 = 0xffffffffu;
 
-$$ if step == "depth" or step == "payload"
+$$ if step == "depth" or step == "payload" or step == "packed"
 fn raster_blade(blade_id: u32) {
     let rec = load_blade(blade_id);
     let mvp = u_stdinfo.projection_transform * u_stdinfo.cam_transform * u_wobject.world_transform;
@@ -55,41 +73,55 @@ fn raster_blade(blade_id: u32) {
     let across = mvp * vec4<f32>(rec.width * width_direction(rec.up, rec.orientation), 0.0);
     let size = vec2<f32>(u_cull.raster_width, u_cull.raster_height);
     let width = u32(size.x);
+    let across_px = across.xy * vec2<f32>(0.5 * size.x, -0.5 * size.y);
     let s0 = clip_to_pixel(c0, size).xy;
     let s1 = clip_to_pixel(c1, size).xy;
     let s2 = clip_to_pixel(c2, size).xy;
+    let shape = u_cull.raster_blade_shape;
+    let tau = u_cull.raster_tip_threshold;
     var v = 0.0;
-    $$ if step == "depth"
+    $$ if step != "payload"
     var first_row = RASTER_EMPTY;
     var last_row = 0u;
     $$ endif
     for (var s = 0u; s <= u32({{ raster_max_samples }}); s += 1u) {
-        let span = raster_span(c0, c1, c2, across, v, u_cull.raster_blade_shape, u_cull.raster_tip_threshold, size);
+        let span = raster_section(c0, c1, c2, across_px, v, shape, tau, size);
         let m = raster_cover(blade_id, s, length(span.b.xy - span.a.xy));
-        for (var j = 0u; j < m; j += 1u) {
-            let p = span.a + (span.b - span.a) * ((f32(j) + 0.5) / f32(m));
-            let px = floor(p.xy);
-            if (px.x < 0.0 || px.y < 0.0 || px.x >= size.x || px.y >= size.y || !(p.z > 0.0 && p.z <= 1.0)) {
-                continue;
-            }
-            let index = u32(px.y) * width + u32(px.x);
-            let depth = bitcast<u32>(p.z);
-            $$ if step == "depth"
-            atomicMin(&s_raster_depth[index], depth);
-            first_row = min(first_row, u32(px.y));
-            last_row = max(last_row, u32(px.y));
-            $$ else
-            if (atomicLoad(&s_raster_depth[index]) == depth) {
-                atomicMax(&s_raster_payload[index], raster_payload(blade_id, v));
-            }
+        let along = (span.b.xy - span.a.xy) / f32(max(m, 1u));
+        let depth = bitcast<u32>(span.a.z);  // one depth across the section
+        if (m > 0u && span.a.z > 0.0 && span.a.z <= 1.0) {
+            $$ if step == "payload"
+            let payload = raster_payload(blade_id, v);
+            $$ elif step == "packed"
+            let key = (u64(depth) << 32u) | u64(~raster_payload(blade_id, v));
             $$ endif
+            for (var j = 0u; j < m; j += 1u) {
+                let px = floor(span.a.xy + (f32(j) + 0.5) * along);
+                if (px.x < 0.0 || px.y < 0.0 || px.x >= size.x || px.y >= size.y) {
+                    continue;
+                }
+                let index = u32(px.y) * width + u32(px.x);
+                $$ if step == "packed"
+                atomicMin(&s_raster_depth[index], key);
+                $$ elif step == "depth"
+                atomicMin(&s_raster_depth[index], depth);
+                $$ else
+                if (atomicLoad(&s_raster_depth[index]) == depth) {
+                    atomicMax(&s_raster_payload[index], payload);
+                }
+                $$ endif
+                $$ if step != "payload"
+                first_row = min(first_row, u32(px.y));
+                last_row = max(last_row, u32(px.y));
+                $$ endif
+            }
         }
         if (v >= 1.0) {
             break;
         }
         v = min(v + raster_step(s0, s1, s2, v), 1.0);
     }
-    $$ if step == "depth"
+    $$ if step != "payload"
     if (first_row <= last_row) {
         atomicMin(&s_raster_args[2], first_row);
         atomicMin(&s_raster_args[3], ~last_row);
@@ -105,18 +137,34 @@ fn main(
     @builtin(local_invocation_index) lid: u32,
 ) {
     let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
-    $$ if step == "clear"
+    $$ if step == "clear_args"
     if (i == 0u) {
         atomicStore(&s_raster_args[0], 0u);
         atomicStore(&s_raster_args[1], 0u);
+        let width = u32(u_cull.raster_width);
+        let height = u32(u_cull.raster_height);
+        let first_row = atomicLoad(&s_raster_args[2]);
+        let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);  // all zero: every row
+        let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
+        let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+        let x = min(groups, {{ max_groups_x }}u);
+        s_raster_dispatch[4] = x;
+        s_raster_dispatch[5] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+        s_raster_dispatch[6] = 1u;
     }
+    $$ elif step == "clear"
     let width = u32(u_cull.raster_width);
-    let row = i / max(width, 1u);
-    // Only the rows the last frame wrote (the args step resets them after this pass).
-    if (i < width * u32(u_cull.raster_height) && row >= atomicLoad(&s_raster_args[2])
-        && row <= ~atomicLoad(&s_raster_args[3])) {
-        atomicStore(&s_raster_depth[i], RASTER_EMPTY);
-        atomicStore(&s_raster_payload[i], 0u);
+    let first = atomicLoad(&s_raster_args[2]) * width;  // the first row written, from its start
+    let last_row = min(~atomicLoad(&s_raster_args[3]), u32(u_cull.raster_height) - 1u);
+    let pixel = first + i;
+    if (pixel < (last_row + 1u) * width) {
+        $$ if raster_packed
+        atomicStore(&s_raster_depth[2u * pixel], RASTER_EMPTY);
+        atomicStore(&s_raster_depth[2u * pixel + 1u], RASTER_EMPTY);
+        $$ else
+        atomicStore(&s_raster_depth[pixel], RASTER_EMPTY);
+        atomicStore(&s_raster_payload[pixel], 0u);
+        $$ endif
     }
     $$ elif step == "args"
     if (i == 0u) {

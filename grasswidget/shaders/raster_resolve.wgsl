@@ -9,7 +9,8 @@
 // RASTER_COLOR (teaching.COMPUTE_RASTER_COLOR: "drawn in compute").
 //
 // Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material,
-// s_blades, s_raster_depth and s_raster_payload (array<u32>, read), s_raster_args
+// s_blades, s_raster_depth and s_raster_payload (array<u32>, read; with raster_packed
+// s_raster_depth holds both, two words per pixel, raster.wgsl), s_raster_args
 // (array<u32>, read: blades listed and rows written, raster.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
@@ -56,11 +57,17 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
         discard;
     }
     let index = pixel.y * u32(u_cull.raster_width) + pixel.x;
+    $$ if raster_packed
+    // One walk (raster.wgsl): a u64 per pixel, the depth's bits high, the payload's complement low.
+    let depth = s_raster_depth[2u * index + 1u];
+    let payload = ~s_raster_depth[2u * index];
+    $$ else
     let depth = s_raster_depth[index];
+    let payload = s_raster_payload[index];
+    $$ endif
     if (depth == 0xffffffffu) {
         discard;
     }
-    let payload = s_raster_payload[index];
     let blade = payload >> 8u;
     let v = f32(payload & 255u) / 255.0;
     let rec = load_blade(blade);

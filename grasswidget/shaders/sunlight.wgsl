@@ -8,8 +8,15 @@
 // sun's and y the sky's optical depth per metre of grass height, z the layer's height, w the
 // rectangle's soft edge, all m) and shadows (0 off, 1 on). Math: reference.sunlight.
 //
-// Off, nothing is computed: the test reads a uniform together with per-pixel data (a branch
-// on a uniform alone makes Mesa 22.3 lavapipe compile a copy of the shader per draw).
+// Compiled in only while GrassParams.shadows is on (template switch `sunlight`: the kernel's
+// materials set it from the values they write, the browser engine gets the shaders of the params'
+// switch): a CPU adapter (lavapipe) runs the maths of an untaken branch too, so with shadows off
+// blade_sunlight and ground_sunlight are constants and the rest is not compiled. Compiled in, they
+// still test the uniform, together with per-pixel data (a branch on a uniform alone makes Mesa 22.3
+// lavapipe compile a copy of the shader per draw), so the picture is the one without shadows
+// whenever u_material.shadows is 0.
+
+$$ if sunlight
 
 // The sun's and the sky's visibility (0..1) at p (the field's space) under height_above metres of grass.
 fn sun_and_sky(p: vec3<f32>, height_above: f32) -> vec2<f32> {
@@ -48,3 +55,14 @@ fn ground_sunlight(p: vec3<f32>, sun_scale: f32) -> f32 {
     }
     return factor;
 }
+
+$$ else
+// Shadows off: no sunlight (the values the functions above give with u_material.shadows 0).
+fn blade_sunlight(p: vec3<f32>, along: f32, ambient: f32) -> vec2<f32> {
+    return vec2<f32>(1.0, 1.0);
+}
+
+fn ground_sunlight(p: vec3<f32>, sun_scale: f32) -> f32 {
+    return 1.0;
+}
+$$ endif

@@ -197,8 +197,8 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
     import pygfx as gfx
     import tqdm
 
-    from ..gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
-    from ..gpu.scene import GrassScene
+    from ..gpu.adapter import adapter_info, ensure_device
+    from ..gpu.scene import GrassScene, make_renderer
 
     if compute_raster not in OCCLUSION_MODES:
         raise GrassValueError(f"compute_raster must be one of {', '.join(OCCLUSION_MODES)}; got {compute_raster!r}")
@@ -230,8 +230,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
         scene = GrassScene.preset(preset, blades=n, size=size, seed=seed, horizon=horizon)
         w, h = scene.size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
-        cpu = is_cpu_adapter()
-        renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if cpu else "default", enable_events=False)
+        renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
         timer = _Timer(scene)
         for mode, occl, raster, px in modes:
             _apply_mode(scene.params, mode, occl, raster, px)

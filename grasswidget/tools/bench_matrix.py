@@ -59,9 +59,9 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
     import pygfx as gfx
     import tqdm
 
-    from ..gpu.adapter import adapter_info, ensure_device, is_cpu_adapter
+    from ..gpu.adapter import adapter_info, ensure_device
     from ..gpu.auto_switches import switches_of, wait_for_queue
-    from ..gpu.scene import GrassScene
+    from ..gpu.scene import GrassScene, make_renderer
 
     for name, value in (("rounds", rounds), ("block", block)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -78,8 +78,7 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
         scene = GrassScene.preset(preset, blades=n, size=size, seed=seed)
         w, h = scene.size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
-        renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none" if is_cpu_adapter() else "default",
-                                    enable_events=False)
+        renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
         params, field = scene.params, scene.field
 
         def frame():

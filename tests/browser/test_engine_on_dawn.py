@@ -74,3 +74,58 @@ def test_browser_engine_on_dawn_draws_the_kernel_engines_picture(tmp_path):
 
     iio.imwrite(tmp_path / "dawn_vs_kernel.png", np.concatenate([kernel, frame], axis=1))
     print(f"[dawn] kernel | dawn: {tmp_path / 'dawn_vs_kernel.png'}")
+
+
+def test_matrix_through_dawn_auto_decided_by_the_python_widget(tmp_path):
+    """browser_engine_dawn.py --matrix, one small row on SwiftShader: the Python widget (its comm over
+    node's stdin / stdout) runs the "auto" trial from the engine's frame times and decides; the engine
+    executes the decision (the switches of the frames it counted are the values Python sent); every
+    setting's window has frames and counts that agree with each other."""
+    bench = _bench()
+    if not os.path.exists(bench.SWIFTSHADER_ICD):
+        pytest.fail(f"{bench.SWIFTSHADER_ICD} is missing: ./run.sh test installs Debian's chromium, which ships it")
+    from benchmarks import browser_matrix
+    from benchmarks.dawn_page import DawnPage
+
+    dawn = Path(os.environ["GW_DAWN_DIR"]) if os.environ.get("GW_DAWN_DIR") else bench.fetch_dawn()
+    seen = {}
+
+    class RecordingPage(DawnPage):  # what the widget holds when the row closes it
+        def hide(self):
+            switches = self.widget.view.engine_widget.auto_switches
+            seen.update(trial_frames=switches.state.trial_frames_run, values=dict(switches.values))
+            super().hide()
+
+    n = 1024
+    # the cis565 view at 1024 blades: its near grass hides some of the far (about 15 % here), and a few far
+    # blades are thin enough for the compute rasterizer, so both switches are decided by timing frames
+    rows = [("cis565", n, (160, 120))]
+    with RecordingPage(dawn, env=bench.swiftshader_env()) as page:
+        assert page.ready["adapter"]["architecture"] == "swiftshader", page.ready
+        matrix = browser_matrix.run_matrix(page, rows, rounds=1, window_s=0.3)
+        assert page.process.poll() is None  # node still serving after the widget closed
+    row = matrix["rows"][0]
+    print(f"\n[dawn matrix] {row['median_frames_per_s']}, decided {row['decided']}, trial {row['trial_s']} s")
+    # "auto" decided through the harness, by the widget's own trial of the engine's frames
+    assert set(row["decided"]) == {"cull_occlusion", "compute_raster"}
+    assert all(t.startswith(("auto (on:", "auto (off:")) for t in row["decided"].values()), row["decided"]
+    assert seen["trial_frames"] > 0, "no frame time of the engine reached the trial"
+    assert row["decided_after_run"] == row["decided"]  # forcing and going back to "auto" keeps the decision
+    decided = [row["decided"][s].startswith("auto (on:") for s in ("cull_occlusion", "compute_raster")]
+    assert [seen["values"]["cull_occlusion"], seen["values"]["compute_raster"]] == decided
+    # the engine executed what Python sent: the counted frames of the defaults' window ran the decision
+    assert row["counts"]["defaults"][0]["switches"] == decided
+    for name, occlusion, raster in browser_matrix.MATRIX_SETTINGS:
+        fps, counts = row["frames_per_s"][name], row["counts"][name][0]
+        expected = decided if name == "defaults" else [occlusion, raster]
+        assert len(fps) == 1 and fps[0] > 0, (name, fps)
+        assert counts["switches"] == expected, (name, counts)
+        assert 0 < counts["drawn"] <= n, (name, counts)
+        assert (counts["occluded"] is None) == (not expected[0]), (name, counts)
+        assert expected[1] or counts["rastered"] == 0, (name, counts)
+    # occlusion removes blades from those the frustum keeps: drawn + occluded with it on is what is
+    # drawn with it off (the same camera; the grass sways, so within a few %)
+    on, off = row["counts"]["occl on, cr off"][0], row["counts"]["occl off, cr off"][0]
+    assert on["occluded"] > 0.05 * off["drawn"], (on, off)
+    assert abs(on["drawn"] + on["occluded"] - off["drawn"]) <= 0.03 * off["drawn"], (on, off)
+    assert row["best_fixed"] in row["frames_per_s"] and row["defaults_over_best"] > 0

@@ -40,6 +40,14 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     raster = shaders["compute_raster"]
     texts += [shaders[k] for k in ("raster_clear", "raster_depth", "raster_payload")]
     texts += [raster[k] for k in ("second_depth", "second_payload", "resolve", "resolve_flat")]
+    # The draws with the sunlight's maths compiled in (GrassParams.shadows on), and without it in the others.
+    sunlit = BrowserShaders.all(sunlight=True)
+    sunlit_draws = (sunlit["blades"] + sunlit["blades_flat"] + sunlit["occlusion"]["blades"]
+                    + sunlit["occlusion"]["blades_flat"] + [sunlit["sky_ground"], sunlit["compute_raster"]["resolve"],
+                                                            sunlit["compute_raster"]["resolve_flat"]])
+    assert all("sun_and_sky(" in sh["code"] for sh in sunlit_draws)
+    assert not any("sun_and_sky(" in sh["code"] for sh in texts)
+    texts += sunlit_draws
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]
@@ -68,7 +76,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert {b["name"] for b in shaders["cull"]["bindings"]} >= {"s_culled", "s_culled_args"}
     # Every compute pass of a frame names a shader that is sent.
     assert [p["shader"] for p in shaders["compute_passes"]] == [
-        "reset_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
+        "reset_args", "raster_clear_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
         "inspect"]
     # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
     # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
@@ -98,15 +106,19 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert all("n_blades - 1u - in.instance_index" in b["code"] for b in occlusion["blades"] + occlusion["blades_flat"])
     assert occlusion["phase_offset"] == offsets(CULL_LAYOUT)["occlusion_phase"][0]
     # The compute rasterizer: the kernel's raster.wgsl and raster_resolve.wgsl; its passes run
-    # only while u_cull.compute_raster is on, bound per view size (the clear over the pixels); the culling
+    # only while u_cull.compute_raster is on, bound per view size (the clear over the rows written); the culling
     # lists thin blades into s_raster (written there, read by the walks); the walks do atomic depth
     # tests; the resolve writes frag_depth and reads the words; its colour-by variant has the
     # "drawn in compute" colour; the device must allow the most storage buffers one shader binds.
     sized = [p for p in shaders["compute_passes"] if p.get("sized")]
     # The walks run a thread per listed blade: dispatched indirectly from what the args step wrote.
     assert [(p["shader"], p["dispatch"], p["only_if"]) for p in sized] == [
-        ("raster_clear", "pixels", "compute_raster"), ("raster_args", "one", "compute_raster"),
+        ("raster_clear_args", "one", "compute_raster"), ("raster_clear", "raster_listed", "compute_raster"),
+        ("raster_args", "one", "compute_raster"),
         ("raster_depth", "raster_listed", "compute_raster"), ("raster_payload", "raster_listed", "compute_raster")]
+    # The clear runs over the rows the last frame wrote: its workgroups at their own offset.
+    assert [p.get("indirect_offset", 0) for p in sized] == [0, 16, 0, 0, 0]
+    assert "s_raster_dispatch[4] = x;" in shaders["raster_clear_args"]["code"]
     names = [p["shader"] for p in shaders["compute_passes"]]
     assert names.index("raster_clear") < names.index("cull_count") < names.index("cull") < names.index("raster_args")
     for sh in (shaders["raster_args"], raster["second_args"]):
@@ -115,7 +127,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert "s_raster_dispatch[0] = x;" in sh["code"]
     assert "atomicStore(&s_raster_args[2], RASTER_EMPTY);" in shaders["raster_args"]["code"]  # rows written: none
     assert "atomicStore(&s_raster_args[2]" not in raster["second_args"]["code"]  # the first phase's rows kept
-    assert raster["dispatch_words"] == 4 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
+    assert raster["dispatch_words"] == 8 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
     for sh in (shaders["cull"], occlusion["cull"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster"] == "storage" and kinds["s_raster_args"] == "storage"
@@ -235,6 +247,18 @@ def test_backend_argument_and_browser_widget_api():
         assert np.frombuffer(w.view.engine_widget.sim_uniform, "<f4", 1, off)[0] == np.float32(33.0)
         w.ball.enabled = True
         assert w.view.engine_widget.balls == [list(map(float, w.ball.collider.as_vec4()))]
+        # An explicit backend="browser" gets the sunlight's default from its engine's adapter report
+        # (gpu_status "ok" and the adapter in words), as the kernel's adapter sets it: a GPU, on.
+        ew = w.view.engine_widget
+        assert w.params.shadows is False  # no report yet: a CPU's default
+        ew.gpu_status = {"state": "ok", "detail": "nvidia ampere NVIDIA GeForce RTX 4090"}
+        assert w.params.shadows is True
+        # The sunlight's switch selects the draws' shaders (its maths compiled in only while on).
+        for on in (True, False):
+            w.params.shadows = on
+            draws = ew.shaders["blades"] + ew.shaders["occlusion"]["blades_flat"] + [ew.shaders["sky_ground"]]
+            assert all(("sun_and_sky(" in sh["code"]) == on for sh in draws)
+            assert ew.shaders == BrowserShaders.all(sunlight=on)
         with pytest.raises(ValueError, match="number of steps"):
             w.step(-1)
     finally:

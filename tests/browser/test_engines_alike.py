@@ -9,7 +9,8 @@
   to ``engines_side_by_side.png`` in ``$GW_ARTIFACTS_DIR`` (else the Lab root's
   ``artifacts`` folder).
 * The same with the sunlight on (GrassParams.shadows, a low sun, a ball's shadow):
-  ``sunlit_side_by_side.png``.
+  ``sunlit_side_by_side.png``; switched on and off again at run time (each engine builds the draws
+  with or without the sunlight's maths), the pictures without it agree too.
 * The meadow to the horizon (``Blades.on_plane(..., reach=R)``: thinned, widened far blades and
   the far ground coloured like them) is drawn alike too: the same blades, steps and a camera
   looking far give pictures within the same bound, and the band under the horizon is grass in
@@ -125,6 +126,11 @@ scene.colliders = [gw.SphereCollider(center={BALL[0]!r}, radius={BALL[1]!r})]
 scene.step(90)
 scene.look(cam['position'], cam['target'], cam['fov_deg'])
 scene.save_png({os.path.join(out_dir, 'sunlit_kernel.png')!r})
+# switched off again at run time: both engines drop the sunlight's shaders
+w.params.shadows = False
+scene.params.shadows = False
+w.save_png({os.path.join(out_dir, 'sunlit_off_browser.png')!r}, size={SIZE})
+scene.save_png({os.path.join(out_dir, 'sunlit_off_kernel.png')!r})
 scene.release()
 print('SAVED')
 """, timeout=180)
@@ -143,6 +149,12 @@ def _compare_sunlit(out_dir):
                 np.concatenate([kernel, np.full((SIZE[1], 4, 3), 255), browser], axis=1).astype(np.uint8))
     mean = float(np.abs(browser - kernel).mean())
     changed = float(np.abs(kernel - plain).mean())
+    off_browser = iio.imread(os.path.join(out_dir, "sunlit_off_browser.png"))[..., :3].astype(int)
+    off_kernel = iio.imread(os.path.join(out_dir, "sunlit_off_kernel.png"))[..., :3].astype(int)
+    off_apart, off_changed = float(np.abs(off_browser - off_kernel).mean()), float(np.abs(off_browser - browser).mean())
+    print(f"[engines alike, sunlight off again] mean |browser - kernel| = {off_apart:.2f}/255; the browser's picture "
+          f"changed by {off_changed:.1f}/255 when switched off")
+    assert off_apart < 2.5 and off_changed > 5.0
     print(f"[engines alike, sunlight] mean |browser - kernel| = {mean:.2f}/255; the sunlight changes the kernel's "
           f"picture by {changed:.1f}/255 on average; side by side: {os.path.join(out_dir, 'sunlit_side_by_side.png')}")
     assert changed > 5.0

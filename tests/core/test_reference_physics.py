@@ -75,3 +75,18 @@ def test_width_and_front_directions():
     assert np.allclose(t1, [[np.cos(0.3), 0, np.sin(0.3)]])
     f = ref.front_direction(up, t1)
     assert abs(np.sum(f * t1)) < 1e-12 and abs(np.sum(f * up)) < 1e-12
+
+
+def test_the_packages_all_is_its_modules_own():
+    """``reference.__all__`` is derived from its modules' ``__all__``: exactly the package's public
+    names (what its star imports bring, and ``safe_normalize``), each once."""
+    import types
+
+    from grasswidget.core import reference
+
+    public = {name for name, value in vars(reference).items()
+              if not name.startswith("_") and not isinstance(value, types.ModuleType) and name != "annotations"}
+    assert len(reference.__all__) == len(set(reference.__all__))
+    assert set(reference.__all__) == public
+    for module in (reference.physics, reference.culling, reference.looks, reference.raster, reference.sunlight):
+        assert set(module.__all__) <= public

@@ -69,8 +69,7 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
         assert len(ids) > 1000
         w, h = field.raster_size
         assert (w, h) == SIZE
-        depth = _read_u32(field.raster_depth_buffer).reshape(h, w)
-        payload = _read_u32(field.raster_payload_buffer).reshape(h, w)
+        depth, payload = field.read_raster_pixels()
         state = field.read_state()
         cam = meadow.camera
         mvp = (np.asarray(cam.projection_matrix, np.float64) @ np.asarray(cam.view_matrix, np.float64)
@@ -122,10 +121,41 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
         p.cull_occlusion = True
 
 
+def test_one_walk_and_two_walks_write_the_same_pixels(meadow):
+    """The one walk (64-bit atomics, where the device has them: lavapipe does) and the two walks
+    (the browser engine's layout, forced here with raster_walks.prefer_two_walks) keep the same
+    winner in every pixel: the same depth and payload words, and the same picture."""
+    from grasswidget.gpu import raster_walks
+
+    if not meadow.field.raster_packed:
+        pytest.skip("this device has no 64-bit atomics: only the two walks run here")
+    raster_walks.prefer_two_walks(True)
+    try:
+        two = gw.GrassScene.preset("meadow", blades=1 << 14, size=SIZE, seed=2, horizon=False)
+    finally:
+        raster_walks.prefer_two_walks(False)
+    try:
+        assert not two.field.raster_packed and meadow.field.raster_packed
+        meadow.reset_camera()
+        pictures, words = [], []
+        for scene in (meadow, two):
+            p = scene.params
+            p.compute_raster, p.compute_raster_max_px, p.cull_occlusion = True, 3.0, False
+            pictures.append(scene.render())
+            words.append(scene.field.read_raster_pixels())
+            p.compute_raster_max_px, p.cull_occlusion = gw.GrassParams().compute_raster_max_px, True
+        (depth1, payload1), (depth2, payload2) = words
+        assert (depth1 != ref.RASTER_EMPTY).sum() > 2000
+        assert np.array_equal(depth1, depth2)
+        assert np.array_equal(payload1, payload2)
+        assert np.array_equal(pictures[0], pictures[1])
+    finally:
+        two.release()
+
+
 def _covered_rows(field):
     """(first, last) pixel row holding a compute-rasterized word, from the depth words read back."""
-    w, h = field.raster_size
-    rows = np.nonzero((_read_u32(field.raster_depth_buffer).reshape(h, w) != ref.RASTER_EMPTY).any(axis=1))[0]
+    rows = np.nonzero((field.read_raster_pixels()[0] != ref.RASTER_EMPTY).any(axis=1))[0]
     return (int(rows[0]), int(rows[-1])) if len(rows) else None
 
 

@@ -205,14 +205,21 @@ def test_drawn_count_equals_gpu_counter(scene):
 def test_indirect_patch_is_live(scene):
     """Fails loudly if a pygfx upgrade stops using our indirect container."""
     assert indirect.is_installed()
-    used = _containers(scene)
-    draws = [c for c in used if hasattr(c, "shader") and getattr(c.shader, "indirect_args", None) is not None
-             and not isinstance(c, indirect.IndirectComputePipelineContainer)]  # the rasterizer's walks dispatch indirectly too
-    # one draw per LOD class, and one of the culled blades (color_by "cull"), for the first phase and for
-    # occlusion culling's second phase (its draw object takes part in every render, its pipelines kept alive)
+    # one draw per LOD class, and one of the culled blades (color_by "cull"); with occlusion culling on, as
+    # many again for its second phase
     per_phase = len(ref.LOD_SEGMENTS) + 1
-    assert len(draws) in (per_phase, 2 * per_phase), "pygfx no longer draws the grass through the indirect container"
-    assert all(isinstance(c, indirect.IndirectRenderPipelineContainer) for c in draws)
+    for occlusion, expected in ((True, 2 * per_phase), (False, per_phase)):
+        scene.params.cull_occlusion = occlusion
+        scene.render()  # the switch's pipelines and children settled
+        used = _containers(scene)
+        # each container once (the second phase's draws are called in the first render, deferred, and again
+        # in the second phase's submission); the rasterizer's walks dispatch indirectly too
+        draws = list({id(c): c for c in used if hasattr(c, "shader")
+                      and getattr(c.shader, "indirect_args", None) is not None
+                      and not isinstance(c, indirect.IndirectComputePipelineContainer)}.values())
+        assert len(draws) == expected, (f"pygfx no longer draws the grass through the indirect container "
+                                        f"(occlusion {occlusion}: {len(draws)} draws, {expected} expected)")
+        assert all(isinstance(c, indirect.IndirectRenderPipelineContainer) for c in draws)
     # the args buffer really drives the draw: zero instances -> no grass on screen
     img = scene.render()
     from conftest import grass_mask

@@ -395,9 +395,9 @@ TWINS = {
     "clip_to_pixel": (lambda r: [_clip_points(r), _viewports(r)], ref.clip_to_pixel, 2000),
     "raster_step": (lambda r: [r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)), r.uniform(0, 300, (N, 2)),
                                _u(r, 0, 1)], ref.raster_step, 1),
-    "raster_span": (lambda r: [_clip_points(r), _clip_points(r), _clip_points(r), 0.01 * _clip_points(r) * [1, 1, 1, 0],
-                               _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99), _viewports(r)],
-                    ref.raster_span, 2000),
+    "raster_section": (lambda r: [_clip_points(r), _clip_points(r), _clip_points(r), r.uniform(-20, 20, (N, 2)),
+                                  _u(r, 0, 1), r.integers(0, len(BladeShape), N), _u(r, 0, 0.99), _viewports(r)],
+                       ref.raster_section, 2000),
     "raster_cover": (lambda r: [r.integers(0, 2**24, N), r.integers(0, 256, N), _u(r, 0, 20)], ref.raster_cover, 0),
     "raster_payload": (lambda r: [r.integers(0, 2**24, N), _u(r, 0, 1)], ref.raster_payload, 0),
 }

@@ -105,3 +105,27 @@ def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
         assert w.engine_reason.startswith("browser engine: the kernel has no WebGPU adapter")
     finally:
         w.close()
+
+
+def test_the_sunlights_default_follows_the_adapter_until_the_user_sets_it():
+    """notebook/sunlight_default.py: an adapter report sets ``shadows`` (a GPU: on, a software
+    adapter by name: off) while it is the widget's default; never params the user passed, never
+    after the user set it."""
+    from grasswidget.notebook.sunlight_default import SunlightDefault, engine_adapter_is_cpu
+
+    assert engine_adapter_is_cpu("google swiftshader Google SwiftShader") and engine_adapter_is_cpu("llvmpipe")
+    # as the "auto" rule: an adapter not known as a software one is a GPU
+    assert not engine_adapter_is_cpu("nvidia ampere NVIDIA GeForce RTX 4090") and not engine_adapter_is_cpu("")
+    params = gw.GrassParams(shadows=False)
+    default = SunlightDefault(params, own=True)
+    default.apply_engine_adapter("nvidia ampere")
+    assert params.shadows is True
+    default.apply_engine_adapter("google swiftshader")
+    assert params.shadows is False and default.live
+    params.shadows = True  # the user's value: kept from now on
+    default.apply(cpu_adapter=True)
+    assert params.shadows is True and not default.live
+    theirs = gw.GrassParams(shadows=False)
+    SunlightDefault(theirs, own=False).apply(cpu_adapter=False)
+    assert theirs.shadows is False
+

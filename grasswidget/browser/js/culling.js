@@ -186,7 +186,7 @@ export class EngineCulling extends EngineResources {
   }
 
   // s_raster (the listed blades), s_raster_args (counters, read by the stats) and
-  // s_raster_dispatch (the walks' workgroups, written by the args step).
+  // s_raster_dispatch (the walks' workgroups, written by the args step, and the clear's, by clear_args).
   buildRasterBuffers(buffer) {
     const U = GPUBufferUsage;
     this.res.s_raster = buffer(this.n * 4, U.STORAGE, "compute raster list");

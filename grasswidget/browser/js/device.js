@@ -46,7 +46,7 @@ export class EngineDevice {
     this.onMsg = (msg, buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
     const names = ["cull_uniform", "material_uniform", "sky_ground_uniform", "ball_uniform", "collider_spheres", "collider_grid",
-      "frame_rules", "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform"];
+      "frame_rules", "blade_data", "width", "height", "pixel_ratio", "frustum_lines", "inspect_uniform", "shaders"];
     this.listeners = names.map((name) => {
       const fn = () => this.onChange(name);
       this.model.on(`change:${name}`, fn);
@@ -149,6 +149,10 @@ export class EngineDevice {
       this.setNote("");
       this.ready = true;
       this.status("ok", this.adapterText);
+      if (this.shadersChangedWhileStarting) {  // built from the shaders before that change
+        this.shadersChangedWhileStarting = false;
+        this.rebuildPipelines();
+      }
       const pending = this.queue;
       this.queue = [];
       for (const [msg, buffers] of pending) await this.onMessage(msg, buffers);
@@ -206,7 +210,28 @@ export class EngineDevice {
     return this.device.createBindGroupLayout({ entries });
   }
 
+  // The pipelines built for the shaders Python sent last and the time before, by their text and
+  // state (key): a change of the shaders (the sunlight's switch, a new wind) builds only the
+  // pipelines of the texts that changed, and switching back builds none.
+  cachedPipeline(key) {
+    if (this.pipelineCache && this.pipelineCache.device !== this.device) this.pipelineCache = null;
+    const cache = this.pipelineCache;
+    if (!cache) return null;
+    const hit = cache.now.get(key) || cache.before.get(key);
+    if (hit) cache.now.set(key, hit);
+    return hit || null;
+  }
+
+  keepPipeline(key, pipe) {
+    if (!this.pipelineCache) this.pipelineCache = { device: this.device, now: new Map(), before: new Map() };
+    this.pipelineCache.now.set(key, pipe);
+    return pipe;
+  }
+
   async computePipeline(shader, label) {
+    const key = `compute\n${shader.code}`;
+    const hit = this.cachedPipeline(key);
+    if (hit) return { ...hit, shader };
     const module = await this.compile(shader, label);
     const layout = this.layoutFor(shader, GPUShaderStage.COMPUTE);
     this.device.pushErrorScope("validation");
@@ -217,7 +242,7 @@ export class EngineDevice {
     });
     const err = await this.device.popErrorScope();
     if (err) throw new Error(`${label}: ${err.message}`);
-    return { pipeline, layout, shader };
+    return this.keepPipeline(key, { pipeline, layout, shader });
   }
 
   // The pipelines of a frame, from the shaders Python sent: the compute passes in the
@@ -227,17 +252,25 @@ export class EngineDevice {
   async buildPipelines() {
     const device = this.device;
     const shaders = this.model.get("shaders");
+    if (this.pipelineCache) {  // this build's pipelines are "now", the last build's "before"
+      this.pipelineCache.before = this.pipelineCache.now;
+      this.pipelineCache.now = new Map();
+    }
     this.lodSegments = shaders.lod_segments;
     this.sim = await this.computePipeline(shaders.simulate, "simulate.wgsl");
     this.computePasses = [];
     for (const pass of shaders.compute_passes) {
       const pipe = await this.computePipeline(shaders[pass.shader], pass.label || pass.shader);
       this.computePasses.push({ ...pipe, dispatch: pass.dispatch, name: pass.shader, label: pass.label || pass.shader,
-        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now", sized: !!pass.sized });
+        onlyIf: pass.only_if, simNow: pass.sim_uniform === "now", sized: !!pass.sized,
+        indirectOffset: pass.indirect_offset || 0 });
     }
     this.depthFormat = (shaders.occlusion && shaders.occlusion.depth_format) || "depth24plus";
     const depthStencil = { format: this.depthFormat, depthWriteEnabled: true, depthCompare: "less" };
     const renderPipeline = this.renderPipeline = async (shader, label, { topology, depth, blend }) => {
+      const key = JSON.stringify(["render", shader.code, shader.vertex, shader.fragment, this.format, topology, depth, blend]);
+      const hit = this.cachedPipeline(key);
+      if (hit) return { ...hit, shader };
       const module = await this.compile(shader, label);
       const layout = this.layoutFor(shader, GPUShaderStage.VERTEX | GPUShaderStage.FRAGMENT);
       const pipeline = await device.createRenderPipelineAsync({
@@ -247,7 +280,7 @@ export class EngineDevice {
         primitive: { topology, cullMode: "none" },
         depthStencil: depth,
       });
-      return { pipeline, layout, shader };
+      return this.keepPipeline(key, { pipeline, layout, shader });
     };
     // Two sets of ribbon pipelines: the natural view's, and the colour-by views' (flat colours and
     // the culled blades' draw), which cost GPU draw time and are only used while color_by shows them.
@@ -278,6 +311,31 @@ export class EngineDevice {
       const depth = { format: this.depthFormat, depthWriteEnabled: false, depthCompare: o.depth_test ? "less" : "always" };
       const pipe = await renderPipeline(o, `overlay.wgsl (${o.name})`, { topology: "triangle-list", depth });
       this.overlays.push({ ...pipe, instances: o.instances, onlyIf: o.only_if });
+    }
+  }
+
+  // Python sent other shaders (the "shaders" trait: the sunlight's switch, GrassParams.shadows,
+  // selects the draws' set; a compiled wind): the pipelines are built again from them (the
+  // unchanged texts' from the cache) and bound again; frames and requests wait meanwhile.
+  async rebuildPipelines() {
+    if (this.rebuilding) { this.rebuildAgain = true; return; }
+    this.rebuilding = true;
+    try {
+      do {
+        this.rebuildAgain = false;
+        if (this.occlusion) this.dropOcclusionTargets();
+        if (this.raster) this.dropRasterTargets();
+        await this.buildPipelines();
+        this.makeBindGroups();
+      } while (this.rebuildAgain && !this.closed);
+    } catch (err) {
+      this.report("error", `browser engine: building the pipelines of the new shaders failed: ${err.message || err}`);
+    } finally {
+      this.rebuilding = false;
+      const pending = this.queue;
+      this.queue = [];
+      for (const [msg, buffers] of pending) await this.onMessage(msg, buffers);
+      this.scheduleFrame();
     }
   }
 

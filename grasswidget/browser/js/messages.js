@@ -23,7 +23,7 @@ export class EngineMessages extends EnginePasses {
   // ---------------------------------------------------------------- requests from Python
 
   async onMessage(msg, buffers) {
-    if (!this.ready) {
+    if (!this.ready || this.rebuilding) {
       this.queue.push([msg, buffers]);
       return;
     }
@@ -162,6 +162,7 @@ export class EngineMessages extends EnginePasses {
       for (const v of this.views) v.resize();
       return;
     }
+    if (name === "shaders" && this.starting) this.shadersChangedWhileStarting = true;
     if (!this.ready) return;
     try {
       const uniform = UNIFORM_TRAITS.find(([, trait]) => trait === name);
@@ -169,6 +170,7 @@ export class EngineMessages extends EnginePasses {
       else if (name === "collider_spheres" || name === "collider_grid") this.writeBalls();
       else if (name === "frustum_lines") this.writeFrustum();
       else if (name === "blade_data") this.buildBuffers();
+      else if (name === "shaders") this.rebuildPipelines();
     } catch (err) {
       this.report("error", `browser engine: applying ${name} failed: ${err.message || err}`);
     }

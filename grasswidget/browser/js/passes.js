@@ -90,7 +90,6 @@ export class EnginePasses extends EngineCulling {
     const raster = this.rasterOn() ? this.rasterTarget(width, height) : null;
     const depthView = depthTexture.createView();
     const blades = this.workgroups(this.n);
-    const pixels = this.workgroups(width * height);
     const cpass = encoder.beginComputePass();
     for (const p of this.computePasses) {
       if (!this.active(p.onlyIf)) continue;
@@ -98,8 +97,7 @@ export class EnginePasses extends EngineCulling {
       cpass.setPipeline(p.pipeline);
       cpass.setBindGroup(0, p.sized ? raster.groups.get(p.name) : p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
-      else if (p.dispatch === "pixels") cpass.dispatchWorkgroups(pixels[0], pixels[1]);
-      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, 0);
+      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, p.indirectOffset);
       else cpass.dispatchWorkgroups(1);
     }
     cpass.end();
@@ -163,6 +161,7 @@ export class EnginePasses extends EngineCulling {
   // until visibilityChanged() finds a view in sight again.
   frame(now) {
     if (!this.ready || this.closed) return;
+    if (this.rebuilding) return;  // rebuildPipelines asks for the next frame when done
     const shown = this.visibleViews();
     if (!shown.length) { this.rest(); return; }
     if (this.resting) {

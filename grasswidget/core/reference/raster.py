@@ -16,7 +16,7 @@ from .vectors import U32_MASK as _M32
 __all__ = [
     "clip_to_pixel",
     "raster_step",
-    "raster_span",
+    "raster_section",
     "raster_cover",
     "raster_payload",
     "raster_walk",
@@ -59,26 +59,37 @@ def raster_step(s0, s1, s2, v):
     return np.clip(0.9 / np.maximum(speed, 1e-6), 1.0 / RASTER_MAX_SAMPLES, 1.0)
 
 
-def raster_span(c0, c1, c2, across, v, shape, tau, viewport_size):
-    """The ribbon's cross-section at v on screen: its two ends (x, y, depth), each (..., 3).
+def raster_section(c0, c1, c2, across_px, v, shape, tau, viewport_size):
+    """The ribbon's cross-section at v on screen: its two ends (x, y, depth), each (..., 3)
+    (blade_math.wgsl ``raster_section``).
 
-    ``c0, c1, c2`` are the control points in clip space, ``across`` the half-width
-    vector in clip space (``view_proj @ (width * t1, 0)``); the ends are the curve point
-    plus (2 t - 1) across for t = blade_shape_t(0, v) and blade_shape_t(1, v).
+    ``c0, c1, c2`` are the control points in clip space; ``across_px`` is the blade's
+    half-width vector in clip space (``view_proj @ (width * t1, 0)``, x and y) times
+    (0.5 width, -0.5 height) of the view. The ends are the projected curve point c(v) plus
+    (2 t - 1) across_px / c(v).w for t = blade_shape_t(0, v) and blade_shape_t(1, v), both
+    at c(v)'s depth.
     """
-    c0, c1, c2, across = (np.asarray(x, np.float64) for x in (c0, c1, c2, across))
+    c0, c1, c2 = (np.asarray(x, np.float64) for x in (c0, c1, c2))
+    across_px = np.asarray(across_px, np.float64)
     v = np.asarray(v, np.float64)[..., None]
     a = c0 + v * (c1 - c0)
     b = c1 + v * (c2 - c1)
     c = a + v * (b - a)
+    centre = clip_to_pixel(c, viewport_size)
+    half = across_px / c[..., 3:4]
     vs = v[..., 0]
-    shape = np.broadcast_to(np.asarray(shape), vs.shape)
-    tau = np.broadcast_to(np.asarray(tau, np.float64), vs.shape)
-    t_left = np.array([blade_shape_t(0.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
-    t_right = np.array([blade_shape_t(1.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
-    t_left, t_right = t_left.reshape(vs.shape)[..., None], t_right.reshape(vs.shape)[..., None]
-    return (clip_to_pixel(c + (2.0 * t_left - 1.0) * across, viewport_size),
-            clip_to_pixel(c + (2.0 * t_right - 1.0) * across, viewport_size))
+    if np.ndim(shape) == 0 and np.ndim(tau) == 0:  # one shape (a blade's walk): all v at once
+        t_left = blade_shape_t(0.0, vs, int(shape), float(tau)) + 0.0 * vs
+        t_right = blade_shape_t(1.0, vs, int(shape), float(tau)) + 0.0 * vs
+    else:
+        shape = np.broadcast_to(np.asarray(shape), vs.shape)
+        tau = np.broadcast_to(np.asarray(tau, np.float64), vs.shape)
+        t_left = np.array([blade_shape_t(0.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+        t_right = np.array([blade_shape_t(1.0, vv, int(s), t) for vv, s, t in zip(vs.ravel(), shape.ravel(), tau.ravel())])
+    t_left, t_right = np.reshape(t_left, vs.shape)[..., None], np.reshape(t_right, vs.shape)[..., None]
+    zero = np.zeros_like(half[..., :1])
+    return (centre + np.concatenate([(2.0 * t_left - 1.0) * half, zero], axis=-1),
+            centre + np.concatenate([(2.0 * t_right - 1.0) * half, zero], axis=-1))
 
 
 def raster_cover(blade, sample, span_px):
@@ -103,31 +114,41 @@ def raster_payload(blade, v):
 def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
     """The compute rasterizer's walk of one blade (raster.wgsl), in float32 like the GPU.
 
-    Samples s = 0, 1, ... at v = 0, then v += raster_step(projected control points, v)
-    (the last sample at v = 1, at most RASTER_MAX_SAMPLES + 1 samples); at each, the cross-section (raster_span) of length L pixels is covered by
-    m = raster_cover(blade, s, L) points at (j + 0.5) / m along it. A point writes pixel floor(x, y) when it is inside the view
-    and 0 < depth <= 1. Returns (x, y, depth, v) arrays, one entry per written pixel
-    (a pixel may repeat)."""
+    The blade is projected once: control points s0, s1, s2 in pixels and the half-width
+    vector ``across`` (clip space, ``view_proj @ (width * t1, 0)``) scaled to pixels times w.
+    Samples s = 0, 1, ... at v = 0, then v += raster_step(s0, s1, s2, v) (the last sample at
+    v = 1, at most RASTER_MAX_SAMPLES + 1 samples); at each, the cross-section
+    (raster_section) of length L pixels is covered by m = raster_cover(blade, s, L) points,
+    point j at a + (j + 0.5) (b - a) / m. A point writes pixel floor(x, y) when it is inside
+    the view and 0 < depth <= 1 (the section's depth). Returns (x, y, depth, v) arrays, one
+    entry per written pixel (a pixel may repeat)."""
     f32 = np.float32
     size = np.asarray(viewport_size, f32)
     c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
+    across_px = (across[:2] * np.array([0.5 * size[0], -0.5 * size[1]], f32)).astype(f32)
     s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
-    xs, ys, ds, vs = [], [], [], []
-    v = f32(0.0)
-    for s in range(int(RASTER_MAX_SAMPLES) + 1):
-        a, b = raster_span(c0, c1, c2, across, v, shape, tau, size)
-        a, b = a.astype(f32), b.astype(f32)
-        span_px = np.float32(np.linalg.norm(b[:2] - a[:2]))
-        m = int(raster_cover(blade, s, span_px))
-        for j in range(m):
-            p = a + (b - a) * f32((j + 0.5) / m)
-            x, y = int(np.floor(p[0])), int(np.floor(p[1]))
-            if 0 <= x < size[0] and 0 <= y < size[1] and 0.0 < p[2] <= 1.0:
-                xs.append(x), ys.append(y), ds.append(float(p[2])), vs.append(float(v))
+    # The samples' v, one after the other (each step depends on the last v), in float32.
+    v, vs = f32(0.0), []
+    for _ in range(int(RASTER_MAX_SAMPLES) + 1):
+        vs.append(v)
         if v >= 1.0:
             break
         v = f32(min(f32(v + f32(raster_step(s0, s1, s2, v))), f32(1.0)))
-    return np.array(xs, np.int64), np.array(ys, np.int64), np.array(ds), np.array(vs)
+    vs = np.array(vs, f32)
+    # Every sample's cross-section and coverage at once, then each sample's points.
+    a, b = raster_section(c0, c1, c2, across_px, vs, shape, tau, size)
+    a, b = a.astype(f32), b.astype(f32)
+    span_px = np.linalg.norm(b[:, :2] - a[:, :2], axis=1).astype(f32)
+    m = raster_cover(blade, np.arange(len(vs)), span_px)
+    along = (b[:, :2] - a[:, :2]) / np.maximum(m, 1).astype(f32)[:, None]
+    live = (m > 0) & (a[:, 2] > 0.0) & (a[:, 2] <= 1.0)
+    sample = np.repeat(np.flatnonzero(live), m[live])
+    j = np.arange(len(sample)) - np.repeat(np.cumsum(m[live]) - m[live], m[live])
+    p = a[sample, :2] + (j.astype(f32) + f32(0.5))[:, None] * along[sample]
+    x, y = np.floor(p[:, 0]).astype(np.int64), np.floor(p[:, 1]).astype(np.int64)
+    inside = (x >= 0) & (x < size[0]) & (y >= 0) & (y < size[1])
+    keep = sample[inside]
+    return x[inside], y[inside], a[keep, 2].astype(np.float64), vs[keep].astype(np.float64)
 
 
 def raster_blades(blades, viewport_size):
