@@ -168,10 +168,7 @@ def test_lecture_layout_is_a_large_view_and_one_line(full_hd, lab_server, browse
 def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_root):
     page = webgpu_browser.page
     write_notebook(browser_root / "camera_browser.ipynb",
-                   ["import grasswidget as gw\n"
-                    # 320 x 240: what the top and low buttons do does not depend on the size (SwiftShader draws
-                    # the default 640 x 480 four times slower)
-                    "w = gw.GrassWidget(blades=4096, backend='browser', size=(320, 240))\nw"])
+                   ["import grasswidget as gw\nw = gw.GrassWidget(blades=4096, backend='browser')\nw"])
     page.set_viewport_size(FULL_HD)
     try:
         open_notebook(page, lab_server, "camera_browser.ipynb")
