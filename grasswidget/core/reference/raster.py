@@ -140,7 +140,7 @@ def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
     size = np.asarray(viewport_size, f32)
     c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
     across_px = (across[:2] * np.array([0.5 * size[0], -0.5 * size[1]], f32)).astype(f32)
-    s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
+    s0, s1, s2 = clip_to_pixel(np.stack([c0, c1, c2]), size)[:, :2]  # elementwise: as one point at a time
     # The samples' v, one after the other (each step depends on the last v), in float32. The step
     # is raster_step's float64 arithmetic on Python floats, operation for operation (the same
     # IEEE results, without NumPy's per-call cost on a 2-vector).
@@ -179,8 +179,7 @@ def raster_blades(blades, viewport_size):
     payload = np.zeros((h, w), np.uint64)
     for c0, c1, c2, across, blade, shape, tau in blades:
         xs, ys, ds, vs = raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size)
-        for x, y, d, v in zip(xs, ys, ds, vs):
-            p = int(raster_payload(blade, v))
+        for x, y, d, p in zip(xs, ys, ds, raster_payload(blade, vs).tolist()):  # elementwise: one v at a time
             if d < depth[y, x]:
                 depth[y, x], payload[y, x] = d, p
             elif d == depth[y, x]:
