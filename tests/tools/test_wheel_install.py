@@ -85,7 +85,8 @@ def test_wheel_alone_in_a_fresh_venv(wheel, tmp_path):
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
     python = venv / "bin" / "python"
     # pip of the test interpreter installs into the new venv (pip >= 22.3: --python); --no-compile:
-    # no bytecode compiled ahead for every installed package (Python compiles what is imported)
+    # no bytecode compiled ahead for every installed package (half the install's time here; Python
+    # compiles what is imported when it is imported)
     subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "-q", "--no-compile", str(wheel)],
                    check=True, timeout=600)
     work = tmp_path / "work"
@@ -100,18 +101,18 @@ def test_wheel_alone_in_a_fresh_venv(wheel, tmp_path):
         out, err = proc.communicate(timeout=300)
         return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
-    # three separate processes side by side: a snapshot with the command line, a widget of each
-    # engine (and where grasswidget comes from), a live page with the command line
+    # a widget of each engine (and where grasswidget comes from) first: it compiles the modules it
+    # imports; then a snapshot and a live page with the command line, side by side
+    widget = finish(start("-c", "import grasswidget as gw, sys\n"
+                                "print('FILE', gw.__file__); print('PREFIX', sys.prefix)\n"
+                                "k = gw.GrassWidget(256, size=(160, 120)); b = gw.GrassWidget(256, backend='browser', size=(160, 120))\n"
+                                "k.step(3); print('ENGINES', k.backend, b.backend, k.scene.field.step_count)\n"
+                                "k.chart = 'tip'; print('CHART', k.bench.chart.data['y_label'])\n"
+                                "k.close(); b.close()"))
     procs = [start("-m", "grasswidget", "snapshot", "snap.png", "--blades", "1024", "--size", "160x120",
                    "--steps", "10"),
-             start("-c", "import grasswidget as gw, sys\n"
-                         "print('FILE', gw.__file__); print('PREFIX', sys.prefix)\n"
-                         "k = gw.GrassWidget(256, size=(160, 120)); b = gw.GrassWidget(256, backend='browser', size=(160, 120))\n"
-                         "k.step(3); print('ENGINES', k.backend, b.backend, k.scene.field.step_count)\n"
-                         "k.chart = 'tip'; print('CHART', k.bench.chart.data['y_label'])\n"
-                         "k.close(); b.close()"),
              start("-m", "grasswidget", "html", "page.html", "--blades", "256", "--size", "160x120", "--no-still")]
-    snap, widget, page = (finish(p) for p in procs)
+    snap, page = (finish(p) for p in procs)
     assert widget.returncode == 0, widget.stderr
     probe = [line for line in widget.stdout.splitlines() if line.startswith(("FILE ", "PREFIX "))]
     assert len(probe) == 2 and all(str(venv) in line for line in probe)  # the installed copy ...
