@@ -9,8 +9,9 @@ Fixtures:
 * ``webgpu_browser`` a Chromium with WebGPU (SwiftShader) for one test: one browser
   (``webgpu_chromium``, session-wide) serves every test; after each test its page is
   back at its first viewport size.
-* ``page``          the browser's page for one test; after the test the page
-  leaves Lab, its kernel is reset and kept for the next test's notebook (every
+* ``page``          the browser's page for one test; after the test its notebook is
+  closed in Lab (Lab stays loaded for the next test's notebook:
+  ``harness.leave_notebook``), its kernel is reset and kept for the next test's notebook (every
   other kernel is shut down: ``JupyterLabServer.shutdown_kernels``) and, on
   failure, a screenshot, the browser console and the server log are saved (path
   printed in the report); a failed test's kernel is not kept.
@@ -28,7 +29,7 @@ from pathlib import Path
 
 import pytest
 
-from .harness import Browser, JupyterLabServer, prerequisites_missing, save_debug_artifacts
+from .harness import Browser, JupyterLabServer, leave_notebook, prerequisites_missing, save_debug_artifacts
 
 _HERE = Path(__file__).resolve().parent
 
@@ -79,7 +80,9 @@ def lab_server(browser_root):
 def _kernel_reuse(request):
     """The session's JupyterLab keeps the last test's kernel, reset, for the next notebook
     (``JupyterLabServer.shutdown_kernels``); a module with ``FRESH_KERNELS = True`` opens
-    each notebook on a new kernel, and after a failed test the kept kernel is shut down."""
+    each notebook on a new kernel (one that has run nothing, started while the notebook
+    before ran: ``JupyterLabServer.start_spare_kernel``), and after a failed test the kept
+    kernel is shut down."""
     if "lab_server" not in request.fixturenames:
         yield
         return
@@ -88,10 +91,14 @@ def _kernel_reuse(request):
     if fresh:
         server.drop_warm_kernel()
         server.reuse_kernels = False
+        server.spare_kernels = True  # the next notebook's new kernel starts while this one runs
+    else:
+        server.drop_spare_kernel()
     try:
         yield
     finally:
         server.reuse_kernels = True
+        server.spare_kernels = False
         if any(getattr(getattr(request.node, f"gw_report_{when}", None), "failed", False)
                for when in ("setup", "call")):
             server.drop_warm_kernel()
@@ -132,9 +139,9 @@ def page(browser, lab_server, request):
         save_debug_artifacts(page, out, request.node.name, browser, lab_server)
         tail = "\n".join(browser.console[n_console:][-40:])
         print(f"\n[browser harness] debug artifacts in {out}\n[browser console tail]\n{tail}")
-    # Leave a clean server for the next test: every kernel shut down but one, reset and kept.
+    # Leave a clean server for the next test: every kernel shut down but one, reset and kept; the
+    # notebook closed in Lab, which stays loaded for the next test (reloaded after a failure).
     try:
-        page.goto("about:blank")
-        lab_server.shutdown_kernels()
+        leave_notebook(page, lab_server, reload=rep is None or rep.failed)
     except Exception as exc:  # teardown must not mask the test result
         print(f"[browser harness] cleanup after {request.node.name} failed: {exc!r}")

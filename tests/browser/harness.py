@@ -70,6 +70,7 @@ __all__ = [
     "StaticServer",
     "Browser",
     "open_notebook",
+    "leave_notebook",
     "run_all_cells",
     "wait_for_kernel_idle",
     "kernel_execute",
@@ -393,6 +394,11 @@ class JupyterLabServer:
         self.warm_session: Optional[dict] = None
         #: How many notebooks :func:`open_notebook` opened on a kept kernel / kernels reset to keep.
         self.kernels_reused = 0
+        #: With ``spare_kernels`` (and ``reuse_kernels`` off), :func:`open_notebook` starts a new kernel
+        #: for the next notebook as soon as its own is open (:meth:`start_spare_kernel`).
+        self.spare_kernels = False
+        #: The kernel started ahead by :meth:`start_spare_kernel` (it has run nothing), or None.
+        self.spare_session: Optional[dict] = None
 
     # -- public API --------------------------------------------------------
 
@@ -446,7 +452,8 @@ class JupyterLabServer:
         and importing the package again (about 7 s on 2 busy cores). A kernel whose
         reset fails, times out or finds a widget still open is shut down like the rest."""
         keep_one = self.reuse_kernels if keep_one is None else keep_one
-        sessions = self.api("api/sessions")
+        spare = (self.spare_session or {}).get("id")
+        sessions = [s for s in self.api("api/sessions") if s["id"] != spare]  # the spare kernel waits on
         self.warm_session = None
         for s in sessions:
             if keep_one and self.warm_session is None and self._reset_for_reuse(s):
@@ -464,6 +471,40 @@ class JupyterLabServer:
                 self.api(f"api/sessions/{s['id']}", method="DELETE", timeout=timeout)
             except urllib.error.HTTPError:
                 pass  # already gone
+
+    def start_spare_kernel(self) -> None:
+        """Start a new kernel now for the next notebook that wants a new one (a session of a
+        placeholder notebook in the served folder's top level; nothing runs in it). It starts
+        (Python, ipykernel: seconds on 2 busy cores) while the current notebook runs, and
+        :func:`open_notebook` hands it to the next notebook: the kernel that notebook gets has run
+        nothing, as one Lab would start for it, only started earlier. :meth:`shutdown_kernels`
+        leaves it alone; :meth:`drop_spare_kernel` (or :meth:`stop`) ends it."""
+        if self.spare_session is None:
+            self.spare_session = self.api("api/sessions", method="POST", timeout=60, body={
+                "path": f".gw-spare-{uuid.uuid4().hex}.ipynb", "name": "spare", "type": "notebook",
+                "kernel": {"name": "python3"}})
+
+    def drop_spare_kernel(self, timeout: float = 15.0) -> None:
+        """Shut down the kernel :meth:`start_spare_kernel` started, if no notebook took it."""
+        s, self.spare_session = self.spare_session, None
+        if s is not None:
+            try:
+                self.api(f"api/sessions/{s['id']}", method="DELETE", timeout=timeout)
+            except urllib.error.HTTPError:
+                pass  # already gone
+
+    def take_spare_session(self, relpath: str) -> Optional[dict]:
+        """Hand the spare kernel (:meth:`start_spare_kernel`) to the notebook ``relpath`` when it
+        lies in the served folder's top level, where the spare kernel runs (its working folder is
+        the notebook's, as for a kernel Lab starts); None otherwise (Lab starts one)."""
+        if self.spare_session is None or Path(relpath).parent != Path("."):
+            return None
+        s, self.spare_session = self.spare_session, None
+        try:
+            return self.api(f"api/sessions/{s['id']}", method="PATCH",
+                            body={"path": relpath, "name": Path(relpath).name, "type": "notebook"})
+        except urllib.error.HTTPError:
+            return None  # the kernel died meanwhile: Lab starts a new one
 
     def take_warm_session(self, relpath: str) -> Optional[dict]:
         """Hand the kept kernel to the notebook ``relpath`` (its session is renamed to that
@@ -1061,14 +1102,123 @@ def _notebook_state(page, path: Optional[str]):
     return page.evaluate(_JS_NOTEBOOK_STATE, path)
 
 
-def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0) -> None:
-    """Navigate to ``relpath`` in Lab and wait until the notebook panel is
+#: JS: close every document of Lab's main area without asking (marked saved first, so no
+#: "save your work?" dialog), as navigating away would; returns how many were closed.
+_JS_CLOSE_DOCUMENTS = r"""
+() => {
+  const app = window.jupyterapp;
+  if (!app) return -1;
+  let n = 0;
+  for (const w of [...app.shell.widgets('main')]) {
+    if (w.context && w.context.model) w.context.model.dirty = false;
+    w.dispose();
+    n++;
+  }
+  return n;
+}
+"""
+
+#: JS: the frame counter starts again from 0, as if installed now (a notebook opened in a page
+#: that already ran one counts its own frames only).
+_JS_RESTART_COUNTER = "() => { const st = window.__gwFrames; if (st) { st.total = 0; st.last = performance.now(); } }"
+
+
+def _shows_lab_of(page, server) -> bool:
+    """The page holds ``server``'s JupyterLab app, loaded and with no dialog open."""
+    if getattr(server, "app", None) != "lab" or not page.url.startswith(f"{server.base_url}lab"):
+        return False
+    try:
+        return bool(page.evaluate("() => !!(window.jupyterapp && window.jupyterapp.shell) && "
+                                  "!document.querySelector('.jp-Dialog')"))
+    except Exception:  # navigating, or the page is gone
+        return False
+
+
+#: Kernel code closing every widget (grasswidget's first: their views, loops and GPU resources),
+#: run through the page's own connection so that the page hears each close and ends the widget's
+#: views and page-wide state (the browser engine's engines) as a user's ``w.close()`` would.
+CLOSE_WIDGETS = r"""
+def __gw_close_widgets():
+    import gc
+    import ipywidgets
+    for widget in [o for o in gc.get_objects()
+                   if isinstance(o, ipywidgets.Widget) and type(o).__module__.startswith('grasswidget')]:
+        widget.close()
+    ipywidgets.Widget.close_all()
+__gw_close_widgets()
+del __gw_close_widgets
+"""
+
+#: JS: the notebooks open in Lab's main area (their paths).
+_JS_OPEN_NOTEBOOKS = r"""
+() => [...window.jupyterapp.shell.widgets('main')]
+  .filter((w) => w.sessionContext && w.content && w.context).map((w) => w.context.path)
+"""
+
+#: JS: every browser-engine engine of the page is closed (engine.js's page-wide registry).
+_JS_ENGINES_CLOSED = r"""
+() => { const e = globalThis.__grasswidgetEngines; return !e || [...e.values()].every((x) => x.closed); }
+"""
+
+
+def _close_in_lab(page, timeout: float = 15.0) -> bool:
+    """Close the notebooks open in Lab as a user ends them: every widget closed from its kernel
+    (the page ends their views and engines), then the notebook closed. False (nothing may be
+    left as it was) when a kernel does not answer or something of the page stays open."""
+    try:
+        for path in page.evaluate(_JS_OPEN_NOTEBOOKS):
+            kernel_execute(page, CLOSE_WIDGETS, path, timeout=timeout)
+        poll(lambda: page.evaluate(_JS_ENGINES_CLOSED), "the page's browser engines to close", 10, 0.1, page=page)
+        return page.evaluate(_JS_CLOSE_DOCUMENTS) >= 0
+    except Exception:
+        return False
+
+
+def leave_notebook(page, server: JupyterLabServer, reload: bool = False) -> None:
+    """End a test's notebook: close it in the page and end its kernel through the server
+    (:meth:`JupyterLabServer.shutdown_kernels`, which keeps one kernel, reset, when the server
+    reuses kernels). Where the page holds this server's JupyterLab (and ``reload`` is False) its
+    widgets are closed from the kernel (:data:`CLOSE_WIDGETS`: the page ends their views and
+    engines), the notebook is closed inside Lab and Lab stays loaded, so the next
+    :func:`open_notebook` opens its notebook in the same app without loading Lab again (about 3 s
+    on 2 busy cores); otherwise (after a failed test: ``reload=True``, or when a kernel does not
+    answer or an engine stays open) the page goes to ``about:blank``, as navigating away."""
+    closed = not reload and _shows_lab_of(page, server) and _close_in_lab(page)
+    if not closed:
+        page.goto("about:blank")
+    server.shutdown_kernels()
+
+
+def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float = 90.0,
+                  reload: bool = False) -> None:
+    """Open ``relpath`` in Lab and wait until the notebook panel is
     open, its kernel is connected and idle; installs the frame counter.
-    A kernel the server kept (:meth:`JupyterLabServer.shutdown_kernels`) is
-    handed to the notebook first, so Lab connects to it instead of starting one."""
+    A kernel the server kept (:meth:`JupyterLabServer.shutdown_kernels`), else the spare kernel
+    it started ahead (:meth:`JupyterLabServer.start_spare_kernel`), is handed to the notebook
+    first, so Lab connects to it instead of starting one. With the server's ``spare_kernels`` on
+    (and ``reuse_kernels`` off), a new spare kernel is started for the next notebook once this one is open.
+
+    Where the page already holds this server's Lab (:func:`leave_notebook` left it loaded) the
+    notebook is opened inside it (``docmanager:open``), after closing any document still open
+    (a notebook as :func:`leave_notebook` does), and the frame counter starts again from 0;
+    otherwise (or with ``reload``, or when a browser engine of a notebook before is still open)
+    the page navigates to the notebook's URL and Lab loads (with its saved workspace reset)."""
     if getattr(server, "warm_session", None) is not None:
         server.take_warm_session(relpath)
-    page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
+    elif getattr(server, "spare_session", None) is not None:
+        server.take_spare_session(relpath)
+    in_app = not reload and _shows_lab_of(page, server)
+    if in_app and page.evaluate(_JS_OPEN_NOTEBOOKS):  # one still open: end it as leave_notebook does
+        in_app = _close_in_lab(page)
+    if in_app and not page.evaluate(_JS_ENGINES_CLOSED):  # something of a notebook before still runs
+        in_app = False
+    if in_app:
+        page.evaluate(_JS_CLOSE_DOCUMENTS)
+        page.evaluate("async (path) => { await window.jupyterapp.commands.execute('docmanager:open', "
+                      "{path, factory: 'Notebook'}); }", relpath)
+        page.evaluate(_JS_RESTART_COUNTER)
+    else:
+        page.goto(server.url_for(relpath), wait_until="domcontentloaded", timeout=timeout * 1000)
 
     def check():
         st = _notebook_state(page, relpath)
@@ -1078,6 +1228,8 @@ def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float =
     poll(check, f"notebook {relpath!r} to open with a connected, idle kernel", timeout, 0.25, page=page)
     _activate(page, relpath)
     install_frame_counter(page)
+    if getattr(server, "spare_kernels", False) and not server.reuse_kernels:
+        server.start_spare_kernel()  # for the next notebook, starting while this one runs
 
 
 def _activate(page, path: Optional[str]) -> None:

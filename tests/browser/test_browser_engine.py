@@ -26,11 +26,13 @@ one line saying WebGPU is not available, and that the controls keep working.
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 import pytest
 
 from .harness import (
+    leave_notebook,
     choose_option,
     panel_label,
     click_button,
@@ -51,7 +53,8 @@ from .harness import (
 pytestmark = pytest.mark.browser
 
 N_BLADES = 4096
-SIZE = (480, 360)
+#: The view's CSS size (a small one: SwiftShader draws every pixel on the CPU; Save PNG renders 2 x 2 x as many).
+SIZE = (320, 240)
 
 
 def _grass_fraction(px):
@@ -97,8 +100,7 @@ def test_browser_engine(webgpu_browser, lab_server, browser_root):
         raise
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass
 
@@ -327,7 +329,6 @@ def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
         assert kernel_eval(page, "sorted(w.camera_state)") == ["fov_deg", "position", "target"]
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass

@@ -18,11 +18,12 @@ Screenshots go to ``$GW_ARTIFACTS_DIR`` (else the Lab root's ``artifacts`` folde
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 import pytest
 
-from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
+from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
     write_notebook
 
 pytestmark = pytest.mark.browser
@@ -55,8 +56,7 @@ def teaching_page(browser_root, lab_server, webgpu_chromium):
         raise
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass
 

@@ -16,13 +16,15 @@ or a temporary folder (path printed).
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from .harness import (click_button, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
+from .harness import (
+    leave_notebook,click_button, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
                       wait_for_kernel, wait_for_view, wait_until_quiet, view_pixels, write_notebook)
 
 pytestmark = pytest.mark.browser
@@ -206,7 +208,6 @@ def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_ro
         raise
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass

@@ -18,11 +18,13 @@ from __future__ import annotations
 
 import html
 import os
+import sys
 
 import numpy as np
 import pytest
 
 from .harness import (
+    leave_notebook,
     kernel_eval,
     kernel_execute,
     open_notebook,
@@ -48,8 +50,7 @@ def _grass_fraction(px):
 
 def _finish(page, lab_server):
     try:
-        page.goto("about:blank")
-        lab_server.shutdown_kernels()
+        leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
     except Exception:
         pass
 

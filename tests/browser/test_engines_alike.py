@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 
 import numpy as np
 import pytest
 
-from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
+from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
     write_notebook
 
 pytestmark = pytest.mark.browser
@@ -69,8 +70,7 @@ def _run(page, server, root, name, cells, check, browser):
         raise
     finally:
         try:
-            page.goto("about:blank")
-            server.shutdown_kernels()
+            leave_notebook(page, server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass
 

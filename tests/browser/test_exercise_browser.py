@@ -5,10 +5,11 @@ stock physics."""
 from __future__ import annotations
 
 import os
+import sys
 
 import pytest
 
-from .harness import kernel_execute, open_notebook, run_all_cells, wait_for_kernel, write_notebook
+from .harness import leave_notebook, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, write_notebook
 
 pytestmark = pytest.mark.browser
 
@@ -62,7 +63,6 @@ print('EXERCISE', err, off)
         raise
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass

@@ -141,11 +141,19 @@ w.VBox([button, status, check, n, note])
 
 def test_harness_widget_helpers(page, lab_server, browser_root):
     """Buttons, checkboxes, IntSlider and output text, without a canvas;
-    also checks that the previous test's notebook is gone and that its kernel, when
+    also checks that the previous test's notebook is gone (its panel and view closed, the frame
+    counter at 0) and that its kernel, when
     kept for this notebook (``reuse_kernels``), holds nothing of it: no name, no widget."""
     write_notebook(browser_root / "widgets.ipynb", [WIDGETS_CELL])
     reused = lab_server.kernels_reused
     open_notebook(page, lab_server, "widgets.ipynb")
+    # opened in the Lab the test before left loaded (harness.leave_notebook) or in a new one: either way
+    # the only notebook is this one, no view of the one before is left and the frame counter starts at 0
+    panels = page.evaluate("() => [...window.jupyterapp.shell.widgets('main')].filter((w) => w.context)"
+                           ".map((w) => w.context.path)")
+    assert panels == ["widgets.ipynb"], panels
+    assert page.locator("img.renderview-view").count() == 0
+    assert frame_count(page) == 0
     left = kernel_eval(page, "[n for n in ('s', 'canvas', 'pointer_events', 'Out') if n in globals() and "
                              "(n != 'Out' or globals()['Out'])] + "
                              "list(__import__('ipywidgets').widgets.widget._instances)")

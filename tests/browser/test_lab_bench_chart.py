@@ -9,11 +9,12 @@ panel switches it off again.
 
 from __future__ import annotations
 
+import sys
 import numpy as np
 import pytest
 
 from grasswidget.core.teaching import INSPECTED_BLADE_COLORS, hex_to_rgb
-from .harness import kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_frames, wait_for_view, write_notebook
+from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_frames, wait_for_view, write_notebook
 
 pytestmark = pytest.mark.browser
 
@@ -162,7 +163,6 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
         assert kernel_eval(page, "w.view.engine_widget.stats_interval_ms") == 500
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass

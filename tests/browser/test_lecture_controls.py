@@ -24,12 +24,13 @@ from __future__ import annotations
 
 import os
 import re
+import sys
 import tempfile
 from pathlib import Path
 
 import pytest
 
-from .harness import (drag, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
+from .harness import (drag, kernel_eval, kernel_execute, leave_notebook, open_notebook, poll, run_all_cells,
                       view_locator, wait_for_kernel, wait_for_view, write_notebook)
 
 pytestmark = pytest.mark.browser
@@ -200,5 +201,4 @@ def test_blade_control_keyboard_browser_engine(webgpu_browser, lab_server, brows
         errors = _page_errors(webgpu_browser, since)
         assert not errors, errors
     finally:
-        page.goto("about:blank")
-        lab_server.shutdown_kernels()
+        leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)

@@ -28,7 +28,8 @@ from .harness import StaticServer, drag, poll
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 N_BLADES = 4096
-SIZE = (480, 360)
+#: The page's view (a small one: SwiftShader draws every pixel on the CPU).
+SIZE = (320, 240)
 
 
 @pytest.fixture(scope="module")
@@ -142,7 +143,7 @@ def test_live_page_with_webgpu(live_page, webgpu_browser):
         ball0 = page.evaluate("() => window.grasswidgetPage.controls.ball.position")
         page.keyboard.down("Shift")
         try:
-            drag(page, canvas, -80, 30, start=(240, 250))
+            drag(page, canvas, -80, 30, start=(SIZE[0] // 2, int(0.7 * SIZE[1])))  # on the grass
         finally:
             page.keyboard.up("Shift")
         poll(lambda: ball_box.is_checked(), "shift + drag to switch the ball on", 10, 0.1, page=page)

@@ -36,6 +36,7 @@ import json
 import os
 import re
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +47,7 @@ from notebook_outputs import LIVE_CULLING_PROBE, WRITTEN, check_notebook_outputs
 
 from .tour_checks import check_tour
 from .harness import (
+    leave_notebook,
     kernel_eval,
     kernel_execute,
     open_notebook,
@@ -119,8 +121,7 @@ def test_run_all_with_webgpu_leaves_browser_views_drawing(path, webgpu_browser, 
         raise
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass
 

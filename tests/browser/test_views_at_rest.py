@@ -19,12 +19,14 @@ into it (one simulation per widget, drawn into the visible canvas only).
 
 from __future__ import annotations
 
+import sys
 import time
 
 import imageio.v3 as iio
 import pytest
 
 from .harness import (
+    leave_notebook,
     frame_counts,
     kernel_eval,
     open_notebook,
@@ -186,7 +188,6 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         assert gained <= since_back + 0.25, (gained, since_back, away_s)
     finally:
         try:
-            page.goto("about:blank")
-            lab_server.shutdown_kernels()
+            leave_notebook(page, lab_server, reload=sys.exc_info()[0] is not None)
         except Exception:
             pass
