@@ -11,6 +11,7 @@ subpackages; every error raised on purpose derives from GrassError.
 
 import ast
 import importlib
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -22,21 +23,95 @@ def _run(code):
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
 
 
-@pytest.mark.parametrize("module", ["grasswidget.gpu.field", "grasswidget.gpu.material", "grasswidget.gpu.simulation",
-                                    "grasswidget.gpu.shader_classes", "grasswidget.gpu.scene", "grasswidget.gpu.frame",
-                                    "grasswidget.gpu", "grasswidget", "grasswidget.gpu.shaders"])
-def test_a_grass_field_renders_whichever_entry_point_is_imported(module):
-    """Whichever module a user imports first (then ``gw.GrassField``), pygfx knows how to render a
-    GrassField: the package ``grasswidget.gpu`` registers the render function (pygfx's pattern),
-    and any GPU module's import runs it first."""
-    code = (f"import importlib; importlib.import_module({module!r})\n"
+ENTRY_POINTS = ["grasswidget.gpu.field", "grasswidget.gpu.material", "grasswidget.gpu.simulation",
+                "grasswidget.gpu.shader_classes", "grasswidget.gpu.scene", "grasswidget.gpu.frame",
+                "grasswidget.gpu", "grasswidget", "grasswidget.gpu.shaders"]
+
+#: Run each case's code in its own child of one fresh interpreter: the parent imports only what
+#: every GPU entry point imports first anyway (numpy, wgpu, pygfx; no module of grasswidget), then
+#: forks one child per case (as many at a time as there are CPU cores), so each case starts with no
+#: grasswidget module loaded (as a fresh ``python -c`` would) without paying an interpreter start
+#: and pygfx's import per case. Reads ``{case: code}`` (JSON) on stdin; prints
+#: ``RESULTS {case: {"status": exit status, "stderr": what the child wrote to stderr}}``.
+FORKED_CASES = """
+import json, os, sys, tempfile, traceback
+import numpy, wgpu, pygfx
+cases = json.loads(sys.stdin.read())
+assert not [m for m in sys.modules if m.split('.')[0] == 'grasswidget'], 'grasswidget loaded before the cases'
+sys.stdout.flush(); sys.stderr.flush()
+running, results = {}, {}
+
+def wait_one():
+    pid, status = os.wait()
+    name, err = running.pop(pid)
+    err.seek(0)
+    results[name] = {'status': os.waitstatus_to_exitcode(status), 'stderr': err.read().decode(errors='replace')}
+    err.close()
+
+for name, code in cases.items():
+    if len(running) >= (os.cpu_count() or 1):
+        wait_one()
+    err = tempfile.TemporaryFile()
+    pid = os.fork()
+    if pid == 0:
+        os.dup2(err.fileno(), 2)
+        status = 0
+        try:
+            exec(compile(code, name, 'exec'), {'__name__': '__main__'})
+        except BaseException:
+            traceback.print_exc()
+            status = 1
+        sys.stderr.flush()
+        os._exit(status)
+    running[pid] = (name, err)
+while running:
+    wait_one()
+print('RESULTS', json.dumps(results))
+"""
+
+
+def _entry_point_code(module):
+    return (f"import importlib; importlib.import_module({module!r})\n"
             "import grasswidget as gw\n"
             "field = gw.GrassField(gw.Blades.on_plane(64))\n"
             "from pygfx.renderers.wgpu.engine.utils import registry\n"
             "from grasswidget.gpu.shader_classes import grass_render_function\n"
             "assert registry.get_render_function(field) is grass_render_function\n")
-    r = _run(code)
+
+
+@pytest.fixture(scope="module")
+def forked_cases():
+    """Each entry point's case (and the old import paths' cases), run once for the module in
+    children of one interpreter (FORKED_CASES): ``{case: {"status", "stderr"}}``."""
+    cases = {module: _entry_point_code(module) for module in ENTRY_POINTS}
+    cases["old paths"] = OLD_PATHS_CODE
+    cases["renamed modules"] = RENAMED_MODULES_CODE
+    cases["a failing case"] = "import grasswidget\nassert 'grasswidget' == 'elsewhere', 'the case failed'\n"
+    r = subprocess.run([sys.executable, "-c", FORKED_CASES], input=json.dumps(cases), capture_output=True,
+                       text=True, timeout=600)
     assert r.returncode == 0, r.stderr
+    line = next(x for x in r.stdout.splitlines() if x.startswith("RESULTS "))
+    results = json.loads(line[len("RESULTS "):])
+    assert set(results) == set(cases)
+    return results
+
+
+@pytest.mark.parametrize("module", ENTRY_POINTS)
+def test_a_grass_field_renders_whichever_entry_point_is_imported(module, forked_cases):
+    """Whichever module a user imports first (then ``gw.GrassField``), pygfx knows how to render a
+    GrassField: the package ``grasswidget.gpu`` registers the render function (pygfx's pattern),
+    and any GPU module's import runs it first. Each module is imported first in a process of its
+    own (a child forked before any grasswidget module is loaded: FORKED_CASES)."""
+    result = forked_cases[module]
+    assert result["status"] == 0, result["stderr"]
+
+
+def test_the_forked_cases_can_fail(forked_cases):
+    """The check above sees a case that fails, with what it wrote to stderr (the fixture runs one
+    that fails on purpose); a case that passes writes nothing there."""
+    failing = forked_cases["a failing case"]
+    assert failing["status"] == 1 and "AssertionError: the case failed" in failing["stderr"]
+    assert forked_cases["old paths"] == {"status": 0, "stderr": ""}
 
 
 def test_the_frame_entry_point_lives_in_its_own_module():
@@ -145,27 +220,30 @@ def test_errors_have_one_root():
     assert issubclass(gw.NoGPUAdapterError, gw.GrassError) and issubclass(gw.NoGPUAdapterError, RuntimeError)
 
 
-def test_import_paths_of_before_the_layout_still_work():
+#: The import paths of before the subpackages (run in a fresh process: forked_cases).
+OLD_PATHS_CODE = ("import grasswidget.reference as old, grasswidget.core.reference as new\n"
+                  "assert old is new and new.__name__ == 'grasswidget.core.reference'\n"
+                  "from grasswidget.scene import GrassScene\n"
+                  "import grasswidget as gw\n"
+                  "assert GrassScene is gw.GrassScene\n"
+                  "import grasswidget.widget_ball, grasswidget.notebook.ball\n"
+                  "assert grasswidget.widget_ball is grasswidget.notebook.ball\n"
+                  "from grasswidget.cli import main\n"
+                  "import grasswidget.tools.cli as cli\n"
+                  "assert main is cli.main\n"
+                  "try:\n"
+                  "    import grasswidget.nonsense\n"
+                  "except ModuleNotFoundError:\n"
+                  "    pass\n"
+                  "else:\n"
+                  "    raise AssertionError('grasswidget.nonsense imported')\n")
+
+
+def test_import_paths_of_before_the_layout_still_work(forked_cases):
     """``import grasswidget.reference`` / ``from grasswidget.scene import GrassScene`` (the paths of
     before the subpackages) give the very module under its new path; an unknown name still fails."""
-    code = ("import grasswidget.reference as old, grasswidget.core.reference as new\n"
-            "assert old is new and new.__name__ == 'grasswidget.core.reference'\n"
-            "from grasswidget.scene import GrassScene\n"
-            "import grasswidget as gw\n"
-            "assert GrassScene is gw.GrassScene\n"
-            "import grasswidget.widget_ball, grasswidget.notebook.ball\n"
-            "assert grasswidget.widget_ball is grasswidget.notebook.ball\n"
-            "from grasswidget.cli import main\n"
-            "import grasswidget.tools.cli as cli\n"
-            "assert main is cli.main\n"
-            "try:\n"
-            "    import grasswidget.nonsense\n"
-            "except ModuleNotFoundError:\n"
-            "    pass\n"
-            "else:\n"
-            "    raise AssertionError('grasswidget.nonsense imported')\n")
-    r = _run(code)
-    assert r.returncode == 0, r.stderr
+    result = forked_cases["old paths"]
+    assert result["status"] == 0, result["stderr"]
 
 
 def package_modules(package: Path = None) -> dict:
@@ -280,22 +358,25 @@ def test_the_cycle_check_finds_a_lazy_circle(tmp_path, monkeypatch):
     assert cycles == [["grasswidget.gpu.a", "grasswidget.gpu.b", "grasswidget.gpu.a"]]
 
 
-def test_modules_renamed_for_one_meaning_keep_their_old_paths():
+#: The old paths of the modules renamed for one meaning (run in a fresh process: forked_cases).
+RENAMED_MODULES_CODE = ("import importlib\n"
+                        "pairs = [('grasswidget.gpu.shaders', 'grasswidget.gpu.shader_classes'),\n"
+                        "         ('grasswidget.gpu.wgsl', 'grasswidget.gpu.wgsl_templates'),\n"
+                        "         ('grasswidget.gpu.runtime_dir', 'grasswidget.core.runtime_dir'),\n"
+                        "         ('grasswidget.browser.wgsl', 'grasswidget.browser.browser_wgsl')]\n"
+                        "for old, new in pairs:\n"
+                        "    assert importlib.import_module(old) is importlib.import_module(new), old\n"
+                        "from grasswidget.gpu.shaders import grass_render_function, CullShader\n"
+                        "from grasswidget.browser.wgsl import BrowserShaders\n"
+                        "from grasswidget.gpu.occlusion import render_frame\n")
+
+
+def test_modules_renamed_for_one_meaning_keep_their_old_paths(forked_cases):
     """gpu/shaders.py -> gpu/shader_classes.py ("shaders" is the WGSL folder), the two wgsl.py ->
     gpu/wgsl_templates.py and browser/browser_wgsl.py, gpu/runtime_dir.py -> core/runtime_dir.py:
     the old import paths give the very module under its new name."""
-    code = ("import importlib\n"
-            "pairs = [('grasswidget.gpu.shaders', 'grasswidget.gpu.shader_classes'),\n"
-            "         ('grasswidget.gpu.wgsl', 'grasswidget.gpu.wgsl_templates'),\n"
-            "         ('grasswidget.gpu.runtime_dir', 'grasswidget.core.runtime_dir'),\n"
-            "         ('grasswidget.browser.wgsl', 'grasswidget.browser.browser_wgsl')]\n"
-            "for old, new in pairs:\n"
-            "    assert importlib.import_module(old) is importlib.import_module(new), old\n"
-            "from grasswidget.gpu.shaders import grass_render_function, CullShader\n"
-            "from grasswidget.browser.wgsl import BrowserShaders\n"
-            "from grasswidget.gpu.occlusion import render_frame\n")
-    r = _run(code)
-    assert r.returncode == 0, r.stderr
+    result = forked_cases["renamed modules"]
+    assert result["status"] == 0, result["stderr"]
 
 
 TESTS = Path(__file__).resolve().parent

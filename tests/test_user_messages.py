@@ -24,18 +24,44 @@ def _cli(*args, cwd=None):
                           cwd=cwd or ROOT, timeout=300)
 
 
-# ---------------------------------------------------------------- CPU-adapter notice
+def _cli_together(*arg_lists, cwd=None):
+    """Several command lines at once (separate processes, started together, all awaited):
+    the same results as one ``_cli`` after the other, in about the time of the slowest."""
+    procs = [subprocess.Popen([sys.executable, "-m", "grasswidget", *map(str, args)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, cwd=cwd or ROOT) for args in arg_lists]
+    results = []
+    for args, proc in zip(arg_lists, procs):
+        out, err = proc.communicate(timeout=300)
+        results.append(subprocess.CompletedProcess(proc.args, proc.returncode, out, err))
+    return results
 
-def test_cpu_notice_is_one_line_of_information_once():
+
+# ---------------------------------------------------------------- CPU-adapter notice and XDG_RUNTIME_DIR
+
+@pytest.fixture(scope="module")
+def first_renders(tmp_path_factory):
+    """One fresh process, as a new user starts it: no XDG_RUNTIME_DIR (TMPDIR is a fresh folder,
+    where the private one goes), warnings are errors (-W error: a warning, with its source line,
+    would be an exception), two scenes rendered (one at a second size). Returns (the run,
+    its TMPDIR, the environment)."""
+    tmp = tmp_path_factory.mktemp("first-renders")
+    env = {k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"}
+    env["TMPDIR"] = str(tmp)
+    code = ("import os, stat, grasswidget as gw\n"
+            "d = os.environ['XDG_RUNTIME_DIR']\n"
+            "st = os.stat(d)\n"
+            "print('DIR', d, oct(stat.S_IMODE(st.st_mode)), st.st_uid == os.getuid())\n"
+            "a = gw.GrassScene(64, size=(32, 24)); a.render(); a.render_at((48, 32))\n"
+            "b = gw.GrassScene(64, size=(32, 24)); b.render()\n")
+    return _python(code, env=env, args=("-W", "error")), tmp, env
+
+
+def test_cpu_notice_is_one_line_of_information_once(first_renders):
     from grasswidget.gpu.adapter import cpu_notice, is_cpu_adapter
 
     if not is_cpu_adapter():
         pytest.skip("rendering runs on a GPU here: no CPU notice")
-    code = ("import grasswidget as gw\n"
-            "a = gw.GrassScene(64, size=(32, 24)); a.render(); a.render_at((48, 32))\n"
-            "b = gw.GrassScene(64, size=(32, 24)); b.render()\n")
-    # -W error: a warning (with its source line) would be an exception here
-    r = _python(code, args=("-W", "error"))
+    r, _, _ = first_renders
     assert r.returncode == 0, r.stderr
     lines = [line for line in r.stdout.splitlines() if "CPU adapter" in line]
     assert lines == [cpu_notice()], r.stdout  # once, one line, on stdout
@@ -54,17 +80,8 @@ def test_cpu_notice_in_the_widget_stats_line(widget):
         assert note in details and "\n" not in note
 
 
-# ---------------------------------------------------------------- XDG_RUNTIME_DIR
-
-def test_no_vulkan_loader_noise_without_xdg_runtime_dir(tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != "XDG_RUNTIME_DIR"}
-    env["TMPDIR"] = str(tmp_path)  # where the private dir goes
-    code = ("import os, stat, grasswidget as gw\n"
-            "d = os.environ['XDG_RUNTIME_DIR']\n"
-            "st = os.stat(d)\n"
-            "print('DIR', d, oct(stat.S_IMODE(st.st_mode)), st.st_uid == os.getuid())\n"
-            "gw.GrassScene(64, size=(32, 24)).render()\n")
-    r = _python(code, env=env)
+def test_no_vulkan_loader_noise_without_xdg_runtime_dir(first_renders):
+    r, tmp_path, env = first_renders
     assert r.returncode == 0, r.stderr
     assert "XDG_RUNTIME_DIR" not in r.stderr and "XDG_RUNTIME_DIR" not in r.stdout
     line = next(x for x in r.stdout.splitlines() if x.startswith("DIR "))
@@ -153,13 +170,13 @@ def test_cli_gpu_limit_is_an_argument_error(tmp_path):
 def test_cli_extension_chooses_the_format_or_is_refused(tmp_path):
     import imageio.v3 as iio
 
-    for bad in ("out.bmp", "out", "out.png.txt"):
-        r = _cli("snapshot", tmp_path / bad, "--blades", 64)
+    bad_names = ("out.bmp", "out", "out.png.txt")
+    for r in _cli_together(*(("snapshot", tmp_path / bad, "--blades", 64) for bad in bad_names)):
         assert r.returncode == 2 and r.stderr.count("\n") == 1 and ".png, .jpg, .jpeg" in r.stderr
     common = ("--blades", 512, "--size", "96x64", "--steps", 5)
     png, jpg = tmp_path / "new" / "deeper" / "a.png", tmp_path / "new" / "b.JPG"  # folders that do not exist yet
-    assert _cli("snapshot", png, *common).returncode == 0
-    r = _cli("snapshot", jpg, *common)
+    r_png, r = _cli_together(("snapshot", png, *common), ("snapshot", jpg, *common))  # "new" made by both at once
+    assert r_png.returncode == 0, r_png.stderr
     assert r.returncode == 0, r.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert jpg.read_bytes()[:3] == b"\xff\xd8\xff"  # JPEG bytes under a .jpg name
@@ -171,10 +188,12 @@ def test_cli_extension_chooses_the_format_or_is_refused(tmp_path):
 def test_cli_folder_that_cannot_be_made_is_a_one_line_error(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    r = _cli("snapshot", blocker / "sub" / "x.png", "--blades", 64)
+    snapshot, bench, bare = _cli_together(("snapshot", blocker / "sub" / "x.png", "--blades", 64),
+                                          ("bench", "--json", blocker / "sub" / "r.json", "--blades", 64), ())
+    r = snapshot
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "argument out: cannot create the folder" in r.stderr
-    r = _cli("bench", "--json", blocker / "sub" / "r.json", "--blades", 64)
+    r = bench
     assert r.returncode == 2 and "argument --json: cannot create the folder" in r.stderr
-    r = _cli()
+    r = bare
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "command" in r.stderr

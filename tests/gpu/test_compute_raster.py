@@ -102,11 +102,13 @@ def test_gpu_walk_matches_the_numpy_reference(meadow):
         assert len(wins) == 24  # most listed blades write pixels
         assert sum(w > 0 for w in wins) >= 4  # blades that show somewhere (the rest: behind nearer ones)
         # All listed blades together: the covered pixels are the reference's.
-        blades = []
-        for b in map(int, ids):
-            c = [mvp @ np.append(state[k][b], 1.0) for k in ("v0", "v1", "v2")]
-            across = mvp @ np.append(state["width"][b] * ref.width_direction(state["up"][b], state["orientation"][b]), 0.0)
-            blades.append((*c, across, b, shape, tau))
+        # (the same clip-space points as above, for all listed blades at once)
+        listed = ids.astype(np.int64)
+        clip = {k: np.c_[state[k][listed], np.ones(len(listed))] @ mvp.T for k in ("v0", "v1", "v2")}
+        t1 = ref.width_direction(state["up"][listed], state["orientation"][listed])
+        across_all = np.c_[state["width"][listed][:, None] * t1, np.zeros(len(listed))] @ mvp.T
+        blades = [(clip["v0"][i], clip["v1"][i], clip["v2"][i], across_all[i], int(b), shape, tau)
+                  for i, b in enumerate(listed)]
         ref_depth, ref_payload = ref.raster_blades(blades, (w, h))
         gpu_covered = depth != ref.RASTER_EMPTY
         ref_covered = np.isfinite(ref_depth)

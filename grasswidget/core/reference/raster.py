@@ -59,6 +59,20 @@ def raster_step(s0, s1, s2, v):
     return np.clip(0.9 / np.maximum(speed, 1e-6), 1.0 / RASTER_MAX_SAMPLES, 1.0)
 
 
+def _raster_step_scalar(d1x, d1y, d2x, d2y, v):
+    """raster_step for one v, given s1 - s0 = (d1x, d1y) and s2 - s1 = (d2x, d2y) (float64):
+    the same operations in the same order (NumPy's norm over the last axis of a 2-vector is
+    sqrt(x * x + y * y); its clip is min(max(., low), high), NaN passing through), so the
+    same float64 result."""
+    a, b = 2.0 * (1.0 - v), 2.0 * v
+    gx, gy = a * d1x + b * d2x, a * d1y + b * d2y
+    speed = math.sqrt(gx * gx + gy * gy)
+    step = 0.9 / (speed if speed >= 1e-6 or speed != speed else 1e-6)
+    if step != step:
+        return step
+    return min(max(step, 1.0 / RASTER_MAX_SAMPLES), 1.0)
+
+
 def raster_section(c0, c1, c2, across_px, v, shape, tau, viewport_size):
     """The ribbon's cross-section at v on screen: its two ends (x, y, depth), each (..., 3)
     (blade_math.wgsl ``raster_section``).
@@ -126,14 +140,17 @@ def raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size):
     size = np.asarray(viewport_size, f32)
     c0, c1, c2, across = (np.asarray(x, f32) for x in (c0, c1, c2, across))
     across_px = (across[:2] * np.array([0.5 * size[0], -0.5 * size[1]], f32)).astype(f32)
-    s0, s1, s2 = (clip_to_pixel(c, size)[:2] for c in (c0, c1, c2))
-    # The samples' v, one after the other (each step depends on the last v), in float32.
+    s0, s1, s2 = clip_to_pixel(np.stack([c0, c1, c2]), size)[:, :2]  # elementwise: as one point at a time
+    # The samples' v, one after the other (each step depends on the last v), in float32. The step
+    # is raster_step's float64 arithmetic on Python floats, operation for operation (the same
+    # IEEE results, without NumPy's per-call cost on a 2-vector).
+    (d1x, d1y), (d2x, d2y) = (s1 - s0).tolist(), (s2 - s1).tolist()
     v, vs = f32(0.0), []
     for _ in range(int(RASTER_MAX_SAMPLES) + 1):
         vs.append(v)
         if v >= 1.0:
             break
-        v = f32(min(f32(v + f32(raster_step(s0, s1, s2, v))), f32(1.0)))
+        v = f32(min(f32(v + f32(_raster_step_scalar(d1x, d1y, d2x, d2y, float(v)))), f32(1.0)))
     vs = np.array(vs, f32)
     # Every sample's cross-section and coverage at once, then each sample's points.
     a, b = raster_section(c0, c1, c2, across_px, vs, shape, tau, size)
@@ -162,8 +179,7 @@ def raster_blades(blades, viewport_size):
     payload = np.zeros((h, w), np.uint64)
     for c0, c1, c2, across, blade, shape, tau in blades:
         xs, ys, ds, vs = raster_walk(c0, c1, c2, across, blade, shape, tau, viewport_size)
-        for x, y, d, v in zip(xs, ys, ds, vs):
-            p = int(raster_payload(blade, v))
+        for x, y, d, p in zip(xs, ys, ds, raster_payload(blade, vs).tolist()):  # elementwise: one v at a time
             if d < depth[y, x]:
                 depth[y, x], payload[y, x] = d, p
             elif d == depth[y, x]:
