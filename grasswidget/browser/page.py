@@ -31,6 +31,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +43,7 @@ from ..errors import GrassTypeError, GrassValueError, MissingFileError, PageBuil
 from .esm import engine_module_text
 
 __all__ = ["PAGE_MAX_BLADES", "PAGE_MAX_PIXELS", "check_page_path", "check_page_blades", "page_state",
-           "page_controls", "page_html", "PageBuildError"]
+           "page_controls", "page_html", "fill_template", "PageBuildError"]
 
 HERE = Path(__file__).resolve().parent
 #: Most blades a live page carries: 64 bytes each, base64 in the page (about 22 MB at the limit).
@@ -376,5 +377,17 @@ def page_html(view, *, title="grasswidget meadow", still_png: bytes | None = Non
         raise PageBuildError("page.js must not contain </script>")
     import html
 
-    return (template.replace("{{TITLE}}", html.escape(title)).replace("{{DATA}}", payload)
-            .replace("{{SCRIPT}}", script))
+    return fill_template(template, {"TITLE": html.escape(title), "DATA": payload, "SCRIPT": script})
+
+
+def fill_template(template: str, values: dict) -> str:
+    """``template`` with each ``{{NAME}}`` slot replaced by ``values[NAME]``, in one pass.
+
+    Each slot must appear exactly once (PageBuildError otherwise: a broken template is a
+    bug). The inserted texts are never scanned again, so a user's text that itself reads
+    ``{{SCRIPT}}`` (a title, a wind WGSL in the data block) stays what it was and cannot
+    change the page's structure."""
+    slots = re.findall(r"\{\{([A-Z_]+)\}\}", template)
+    if sorted(slots) != sorted(values):
+        raise PageBuildError(f"the page template's slots are {sorted(slots)}, expected each of {sorted(values)} once")
+    return re.sub(r"\{\{([A-Z_]+)\}\}", lambda m: values[m.group(1)], template)

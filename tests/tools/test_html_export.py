@@ -81,6 +81,35 @@ def test_page_is_self_contained(page_data):
     assert data["blades"] == 256 and data["size"] == [320, 240]
 
 
+@pytest.mark.parametrize("where", ["title", "wind_wgsl"])
+def test_user_text_cannot_change_the_page(where):
+    # Text that reads like the template's slots, closes the data block or starts a new script:
+    # the page keeps its structure (one data block, one module) and the text comes back intact.
+    hostile = "{{SCRIPT}} {{DATA}} {{TITLE}} </script><script>alert(1)</script> <!-- \u2028 &amp;"
+    params = gw.GrassParams()
+    if where == "wind_wgsl":
+        params.wind_wgsl = "// " + hostile + "\nreturn vec3<f32>(0.0);"
+    view = BrowserEngineWidget(gw.Blades.on_plane(64, seed=1), params=params, size=(64, 48))
+    try:
+        text = page_html(view, title=hostile if where == "title" else "plain")
+    finally:
+        view.close()
+    assert text.count("<script") == 2 and text.count("</script>") == 2
+    assert text.count('id="gw-data"') == 1
+    data = _data(text)
+    if where == "title":
+        assert data["title"] == hostile
+        title = re.search(r"<title>(.*?)</title>", text, re.S).group(1)
+        import html
+
+        assert html.unescape(title) == hostile and "<" not in title
+    else:
+        assert params.wind_wgsl in data["state"]["shaders"]["simulate"]["code"]  # the WGSL the page compiles
+    # the page's own script is there once, after the data block
+    assert text.index('id="gw-data"') < text.index('<script type="module">')
+    assert data["engine"] == engine_module_text()
+
+
 def test_controls_send_what_the_kernel_would(page_data):
     view, _text, data = page_data
     controls = {c["id"]: c for c in data["controls"]}
