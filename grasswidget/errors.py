@@ -22,10 +22,11 @@ error                           also a                              raised for
 ``MissingFileError``            ``FileNotFoundError``               an output folder or shipped shader not there
 ``MissingDependencyError``      ``ImportError``                     an optional package a feature needs
 ``NoGPUAdapterError``           ``RuntimeError``                    no usable WebGPU adapter
-``WidgetClosedError``           ``RuntimeError``                    using a closed widget
+``WidgetClosedError``           ``RuntimeError``                    using a closed widget or a released scene/field
 ``UpstreamChangedError``        ``RuntimeError``                    a pygfx internal that compat.py relies on moved
 ``BrowserTimeoutError``         ``TimeoutError``                    the browser view did not answer in time
 ``PageBuildError``              ``RuntimeError``                    a live page that could not be described (a bug)
+``TraceFileError``              ``GrassValueError``                 a traces file that cannot be read back
 ==============================  ==================================  ===============================================
 """
 
@@ -38,7 +39,7 @@ __all__ = [
     "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
-    "PageBuildError",
+    "PageBuildError", "TraceFileError",
 ]
 
 
@@ -141,7 +142,8 @@ class NoGPUAdapterError(GrassError, RuntimeError):
 
 
 class WidgetClosedError(GrassError, RuntimeError):
-    """A closed GrassWidget was asked to do something; create a new one."""
+    """A closed GrassWidget, or a released GrassScene / GrassField, was asked to do
+    something; create a new one."""
 
 
 class UpstreamChangedError(GrassError, RuntimeError):
@@ -157,3 +159,38 @@ class PageBuildError(GrassError, RuntimeError):
     """The live page's controls could not be described as patches of the browser
     engine's state (two controls touch the same state, or the ball's position does
     not map affinely onto it): a bug in grasswidget, not bad input."""
+
+
+class TraceFileError(GrassValueError):
+    """A traces file (.csv / .npz) that :func:`grasswidget.load_traces` cannot read back:
+    empty, truncated, not text, or not written by ``save_traces``. The message names the
+    file and what is wrong with it."""
+
+
+def refuse_when_closed(what: str, exempt=("release", "close")):
+    """Class decorator: every public method the class itself defines raises
+    :class:`WidgetClosedError` ("this {what} is released ...") once the instance's
+    ``closed`` attribute is true, before its body runs. Methods named in ``exempt``
+    (the releasing call, which may be repeated) and class/static methods are left as
+    they are; so are properties (reading a released object's data is harmless)."""
+    import functools
+
+    def guard(method):
+        @functools.wraps(method)
+        def checked(self, *args, **kwargs):
+            if self.closed:
+                raise WidgetClosedError(f"this {what} is released (its GPU memory was freed); "
+                                        f"{method.__name__}() cannot run: create a new {what}")
+            return method(self, *args, **kwargs)
+
+        return checked
+
+    def decorate(cls):
+        for name, value in list(vars(cls).items()):
+            if (name.startswith("_") or name in exempt or isinstance(value, (classmethod, staticmethod, type))
+                    or not callable(value)):
+                continue
+            setattr(cls, name, guard(value))
+        return cls
+
+    return decorate

@@ -89,7 +89,7 @@ def test_each_error_is_also_its_builtin():
         "MissingFileError": FileNotFoundError,
         "MissingDependencyError": ImportError, "NoGPUAdapterError": RuntimeError, "WidgetClosedError": RuntimeError,
         "UpstreamChangedError": RuntimeError, "BrowserTimeoutError": TimeoutError,
-        "PageBuildError": RuntimeError,
+        "PageBuildError": RuntimeError, "TraceFileError": ValueError,
     }
     assert set(expect) == set(errors.__all__) - {"GrassError"}
     for name, base in expect.items():

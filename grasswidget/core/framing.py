@@ -3,19 +3,21 @@
 ``preset_field(name)`` gives the blades, default size and camera of a named
 scene (``GrassScene.preset`` builds its GPU scene from it; the browser engine
 sends the same blades and camera to the browser); ``parse_size`` reads a view
-size. ``grasswidget.gpu.scene`` re-exports both.
+size and ``check_png_path`` a picture's file name (every ``save_png``).
+``grasswidget.gpu.scene`` re-exports ``preset_field`` and ``parse_size``.
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from .blades import Blades
-from ..errors import GrassValueError
+from ..errors import GrassTypeError, GrassValueError, MissingFileError
 
-__all__ = ["PRESETS", "PRESET_PARAMS", "preset_field", "preset_params", "parse_size"]
+__all__ = ["PRESETS", "PRESET_PARAMS", "preset_field", "preset_params", "parse_size", "check_png_path"]
 
 #: Named scenes: see GrassScene.preset().
 PRESETS = ("cis565", "meadow")
@@ -51,6 +53,22 @@ def parse_size(size, name="size"):
     if not ok or not (1 <= w <= 16384 and 1 <= h <= 16384):
         raise GrassValueError(f"{name} must be (width, height) in pixels, each 1..16384, e.g. (640, 480) or '640x480'; got {size!r}")
     return w, h
+
+
+def check_png_path(path, name="path") -> str:
+    """``path`` as a str if it names a PNG file in an existing folder: it must end in ``.png``
+    (any case; the pictures are always written as PNG, so another extension would name the
+    file falsely: GrassValueError) and its folder must exist (MissingFileError; nothing is
+    created). ``name`` is the argument named in the message."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise GrassTypeError(f"{name} must be a file name ending in .png, not {type(path).__name__}")
+    path = os.fspath(path)
+    if not isinstance(path, str) or os.path.splitext(path)[1].lower() != ".png":
+        raise GrassValueError(f"{name} must end in .png (pictures are written as PNG); got {path!r}")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise MissingFileError(f"{name}: the folder {folder!r} does not exist")
+    return path
 
 
 #: The meadow preset's reach (radius of its last blades) as a share of its camera's far plane:

@@ -28,11 +28,12 @@ import collections
 import csv
 import math
 import os
+import zipfile
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import GrassTypeError, GrassValueError, MissingFileError
+from ..errors import GrassTypeError, GrassValueError, MissingFileError, TraceFileError
 from .reference import FORCE_NAMES
 
 __all__ = ["TraceSample", "TraceRecorder", "load_traces", "check_window", "check_trace_path", "CULL_TESTS",
@@ -269,7 +270,8 @@ class TraceRecorder:
         ``kept_orientation`` etc.) or ``.csv`` (one row per sample: t, step, then per blade id
         ``v0x_<id>`` .. ``v0z_<id>``, ``v2x_<id>`` .. ``v2z_<id>``, ``tip_offset_<id>``, ``bend_deg_<id>``,
         ``collision_strength_<id>`` and ``force_<name>_<id>``, then ``kept_<test>``, ``drawn_<path>``,
-        ``frame_ms_<stage>``). Returns the path. :func:`load_traces` reads either back."""
+        ``frame_ms_<stage>`` and ``window_s``, the same in every row). Returns the path.
+        :func:`load_traces` reads either back, every field of :meth:`traces`."""
         path = check_trace_path(path)
         tr = self.traces()
         flat = _flatten(tr)
@@ -294,6 +296,8 @@ class TraceRecorder:
             for name, values in tr[group].items():
                 header.append(f"{group}_{name}")
                 columns.append(values)
+        header.append("window_s")  # the same in every row: the recorder's window when saved
+        columns.append(np.full(len(tr["t"]), tr["window_s"]))
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(header)
@@ -381,29 +385,83 @@ def _flatten(tr: dict) -> dict:
 
 def load_traces(path) -> dict:
     """Read a file :meth:`TraceRecorder.save` wrote (.npz or .csv) back into :meth:`TraceRecorder.traces`'s
-    dict (CSV: ``v0``, ``v2``, ``tip_offset``, ``bend_deg``, ``collision``, ``force``, ``kept``,
-    ``drawn``, ``frame_ms``, ``t``, ``step``, ``ids``; ``window_s`` only from .npz)."""
+    dict, every field: ``t``, ``step``, ``ids``, ``v0``, ``v2``, ``tip_offset``, ``bend_deg``, ``collision``,
+    ``force``, ``kept``, ``drawn``, ``frame_ms`` and ``window_s`` (a CSV with no samples has no row to keep
+    the window in: NaN). A file that is empty, truncated, not text or not written by ``save`` raises
+    :class:`~grasswidget.errors.TraceFileError` naming the file and what is wrong with it."""
     path = check_trace_path(path, must_exist=True)
-    groups = {"kept": CULL_TESTS, "drawn": DRAW_PATHS, "frame_ms": FRAME_STAGES, "force": FORCE_NAMES}
-    if path.lower().endswith(".npz"):
-        with np.load(path) as z:
-            flat = {k: z[k] for k in z.files}
-        out = {k: v for k, v in flat.items() if not any(k.startswith(g + "_") and k[len(g) + 1:] in names
-                                                      for g, names in groups.items())}
-        for g, names in groups.items():
-            out[g] = {name: flat[f"{g}_{name}"] for name in names if f"{g}_{name}" in flat}
-        if "window_s" in out:
-            out["window_s"] = float(out["window_s"])
-        return out
-    with open(path, newline="") as f:
+    try:
+        if path.lower().endswith(".npz"):
+            return _load_npz(path)
+        return _load_csv(path)
+    except TraceFileError:
+        raise
+    except (OSError, ValueError, KeyError, IndexError, EOFError, UnicodeDecodeError, zipfile.BadZipFile) as err:
+        raise TraceFileError(f"{path!r} is not a traces file that save_traces wrote ({type(err).__name__}: {err})") \
+            from None
+
+
+_GROUPS = {"kept": CULL_TESTS, "drawn": DRAW_PATHS, "frame_ms": FRAME_STAGES, "force": FORCE_NAMES}
+
+
+def _bad(path, what):
+    return TraceFileError(f"{path!r} is not a traces file that save_traces wrote: {what}")
+
+
+def _load_npz(path) -> dict:
+    if os.path.getsize(path) == 0:
+        raise _bad(path, "the file is empty")
+    with np.load(path, allow_pickle=False) as z:
+        flat = {k: z[k] for k in z.files}
+    missing = [k for k in ("t", "step", "ids", "v0", "v2", "window_s") if k not in flat]
+    if missing:
+        raise _bad(path, f"no {', '.join(missing)} in it")
+    n, k = len(flat["t"]), len(flat["ids"])
+    for name in ("v0", "v2"):
+        if flat[name].shape != (n, k, 3):
+            raise _bad(path, f"{name} has shape {flat[name].shape}, expected {(n, k, 3)} (samples, blades, 3)")
+    out = {k: v for k, v in flat.items() if not any(k.startswith(g + "_") and k[len(g) + 1:] in names
+                                                  for g, names in _GROUPS.items())}
+    for g, names in _GROUPS.items():
+        out[g] = {name: flat[f"{g}_{name}"] for name in names if f"{g}_{name}" in flat}
+    out["window_s"] = float(out["window_s"])
+    return out
+
+
+def _load_csv(path) -> dict:
+    with open(path, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
+    if not rows:
+        raise _bad(path, "the file is empty")
     header, body = rows[0], rows[1:]
-    data = np.array([[float(c) if c else np.nan for c in r] for r in body], np.float64).reshape(len(body), len(header))
+    for name in ("t", "step"):
+        if name not in header:
+            raise _bad(path, f"no {name!r} column in its first row")
+    if len(set(header)) != len(header):
+        raise _bad(path, "a column name appears twice in its first row")
+    for r, row in enumerate(body, start=2):
+        if len(row) != len(header):
+            raise _bad(path, f"line {r} has {len(row)} cells where the first row names {len(header)} "
+                             "(truncated or edited?)")
+    data = np.full((len(body), len(header)), np.nan)
+    for r, row in enumerate(body):
+        for j, cell in enumerate(row):
+            if cell:
+                try:
+                    data[r, j] = float(cell)
+                except ValueError:
+                    raise _bad(path, f"line {r + 2}, column {header[j]!r}: {cell[:40]!r} is not a number") from None
     col = {name: data[:, j] for j, name in enumerate(header)}
-    ids = []
-    for name in header:
-        if name.startswith("v2x_"):
-            ids.append(int(name[4:]))
+    ids = [int(name[4:]) for name in header if name.startswith("v2x_") and name[4:].isdigit()]
+    per_blade = [f"{v}{a}_{i}" for i in ids for v in ("v0", "v2") for a in "xyz"]
+    per_blade += [f"{column}_{i}" for i in ids for _, column in _CSV_PER_BLADE]
+    per_blade += [f"force_{name}_{i}" for i in ids for name in FORCE_NAMES]
+    whole = [f"{g}_{name}" for g in ("kept", "drawn", "frame_ms") for name in _GROUPS[g]]
+    missing = [name for name in per_blade + whole if name not in col]
+    if missing:
+        raise _bad(path, f"no column {missing[0]!r}" + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else ""))
+    if not np.all(np.isfinite(col["t"])) or not np.all(np.isfinite(col["step"])):
+        raise _bad(path, "a row without its simulated time t or step")
     out = {"t": col["t"], "step": col["step"].astype(np.int64), "ids": np.array(ids, np.int64)}
     for v in ("v0", "v2"):
         out[v] = np.stack([np.stack([col[f"{v}{a}_{i}"] for a in "xyz"], axis=-1) for i in ids], axis=1) \
@@ -413,5 +471,7 @@ def load_traces(path) -> dict:
     out["force"] = {name: (np.stack([col[f"force_{name}_{i}"] for i in ids], axis=1) if ids
                            else np.zeros((len(body), 0))) for name in FORCE_NAMES}
     for g in ("kept", "drawn", "frame_ms"):
-        out[g] = {name: col[f"{g}_{name}"] for name in groups[g]}
+        out[g] = {name: col[f"{g}_{name}"] for name in _GROUPS[g]}
+    window = col.get("window_s")
+    out["window_s"] = float(window[0]) if window is not None and len(window) else float("nan")
     return out

@@ -16,7 +16,7 @@ from pygfx.utils import array_from_shadertype
 from .. import compat
 from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
-from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError
+from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError, refuse_when_closed
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
@@ -75,6 +75,7 @@ def max_blade_count() -> int:
     return gpu if host is None else min(gpu, host)
 
 
+@refuse_when_closed("GrassField")
 class GrassField(gfx.WorldObject):
     """A field of grass blades simulated and drawn on the GPU.
 
@@ -109,6 +110,7 @@ class GrassField(gfx.WorldObject):
         corners = np.array([lo - reach, hi + reach], np.float32)
         super().__init__(gfx.Geometry(positions=corners), material or GrassMaterial())
 
+        self._released = False
         self.blades = blades
         self.params = params if params is not None else GrassParams()
         n = len(blades)
@@ -637,8 +639,17 @@ class GrassField(gfx.WorldObject):
             raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
         self.simulation.step(int(n))
 
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`release` ran: every method but ``release`` then raises WidgetClosedError."""
+        return self._released
+
     def release(self):
-        """Free this field's GPU memory now; the field cannot be drawn or stepped afterwards."""
+        """Free this field's GPU memory now (a second call does nothing); the field cannot
+        be drawn or stepped afterwards: its methods raise WidgetClosedError."""
+        if self._released:
+            return
+        self._released = True
         try:  # the field observes its params: that reference would keep it alive
             self.params.unobserve(self._on_params_change)
         except ValueError:

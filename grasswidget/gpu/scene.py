@@ -7,7 +7,6 @@ advances time; ``step(n)`` advances the physics by n fixed steps.
 from __future__ import annotations
 
 import math
-import os
 import time
 
 import numpy as np
@@ -15,7 +14,7 @@ import pygfx as gfx
 
 from .. import compat
 from ..core.blades import Blades
-from ..errors import GrassTypeError, GrassValueError
+from ..errors import GrassTypeError, GrassValueError, refuse_when_closed
 from .adapter import announce_cpu_defaults, ensure_device, is_cpu_adapter
 from .collider_view import ColliderBalls
 from .compute_ddaa import use_compute_ddaa
@@ -25,6 +24,7 @@ from ..core import frame_data
 from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
 from ..core.frame_data import SKY_GROUND_TRAITS, ground_square, sky_ground_values, sun_direction
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
+from ..core.framing import check_png_path
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.params import GrassParams, sunlight_defaults
 
@@ -96,6 +96,7 @@ def make_renderer(canvas, *, export=False):
     return renderer
 
 
+@refuse_when_closed("GrassScene")
 class GrassScene:
     """A field of grass in a scene with a camera, a light and a ground plane.
 
@@ -114,6 +115,7 @@ class GrassScene:
     """
 
     def __init__(self, blades, size=(640, 480), params: GrassParams | None = None, *, canvas=None):
+        self._released = False
         if isinstance(blades, (int, np.integer)) and not isinstance(blades, bool):
             if blades < 1:
                 raise GrassValueError(f"blades must be a blade count >= 1 or a Blades; got {blades!r}")
@@ -374,17 +376,27 @@ class GrassScene:
 
     def save_png(self, path, size=None) -> str:
         """Write an anti-aliased PNG of the current state (default: the scene's size;
-        see :meth:`render_at`); returns the path."""
+        see :meth:`render_at`); returns the path. ``path`` must end in ``.png`` and its
+        folder exist (checked before anything is rendered)."""
         import imageio.v3 as iio
 
+        path = check_png_path(path)
         img = self.render_at(size)
-        path = os.fspath(path)
         iio.imwrite(path, img, extension=".png")
         return path
 
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`release` ran: every method but ``release`` then raises WidgetClosedError."""
+        return self._released
+
     def release(self):
-        """Free the field's GPU memory now and drop the renderer and canvas; the
-        scene cannot be drawn or stepped afterwards."""
+        """Free the field's GPU memory now and drop the renderer and canvas (a second call
+        does nothing); the scene cannot be drawn or stepped afterwards: its methods raise
+        WidgetClosedError."""
+        if self._released:
+            return
+        self._released = True
         try:  # the params may outlive the scene (a widget's next scene shares them)
             self.params.unobserve(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
         except ValueError:  # released before

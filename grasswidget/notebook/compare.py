@@ -496,7 +496,7 @@ class Comparison(ipw.VBox):
 
         from PIL import Image
 
-        from ..core.framing import parse_size
+        from ..core.framing import check_png_path, parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
@@ -505,9 +505,7 @@ class Comparison(ipw.VBox):
             path, k = os.path.join(os.getcwd(), f"compare-{stamp}.png"), 2
             while os.path.exists(path):
                 path, k = os.path.join(os.getcwd(), f"compare-{stamp}-{k}.png"), k + 1
-        path = os.fspath(path)
-        if not path.lower().endswith(".png"):
-            raise GrassValueError(f"path must end in .png; got {path!r}")
+        path = check_png_path(path)
         with tempfile.TemporaryDirectory() as tmp:
             paths = [w.save_png(os.path.join(tmp, f"{k}.png"), size=size) for k, w in enumerate(self.views.values())]
             Image.fromarray(self._pictures(size, paths), "RGBA").save(path)

@@ -474,13 +474,17 @@ class GrassWidget(ipw.VBox):
 
     def play(self):
         """Animate continuously (while a view is visible)."""
+        self._check_open()
         self.playing = True
 
     def pause(self):
         """Stop the animation; the view still redraws on camera or parameter changes."""
+        self._check_open()
         self.playing = False
 
     def toggle_play(self):
+        """Play if paused, pause if playing."""
+        self._check_open()
         self.playing = not self.playing
 
     def step(self, n: int | None = None):
@@ -591,15 +595,13 @@ class GrassWidget(ipw.VBox):
                 the folder is created).
             size: (width, height) or "WxH"; default twice the view size.
         """
-        from ..core.framing import parse_size
+        from ..core.framing import check_png_path, parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
         if path is None:
             path = _unique_name(default_picture_folder(), "grass", ".png")
-        path = os.fspath(path)
-        if not path.lower().endswith(".png"):
-            raise GrassValueError(f"path must end in .png; got {path!r}")
+        path = check_png_path(path)
         self.view.save_png(path, size)
         return path
 

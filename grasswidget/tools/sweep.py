@@ -28,17 +28,15 @@ range, an empty sweep, more than two parameters, more than
 from __future__ import annotations
 
 import io
-import math
-import os
 
 import numpy as np
 
 from ..core.blade_response import response_summary
 from ..core.blades import Blades
-from ..core.framing import PRESETS, parse_size
+from ..core.framing import PRESETS, check_png_path, parse_size
 from ..core.params import GrassParams
 from ..core.variants import apply_changes, check_sweep_axes
-from ..errors import GrassTypeError, GrassValueError, MissingFileError
+from ..errors import GrassTypeError, GrassValueError
 from .sheet import labelled_sheet
 
 __all__ = ["sweep", "SweepResult", "METRICS", "DEFAULT_BLADES", "DEFAULT_SIZE", "MAX_CELL_PIXELS"]
@@ -106,12 +104,7 @@ class SweepResult:
         not created: MissingFileError). Returns the path."""
         from PIL import Image
 
-        path = os.fspath(path)
-        if not path.lower().endswith(".png"):
-            raise GrassValueError(f"path must end in .png; got {path!r}")
-        folder = os.path.dirname(os.path.abspath(path))
-        if not os.path.isdir(folder):
-            raise MissingFileError(f"path: the folder {folder!r} does not exist")
+        path = check_png_path(path)
         Image.fromarray(self.image, "RGBA").save(path)
         return path
 

@@ -1,5 +1,8 @@
 """The traces' recorder (pure NumPy): arrays, the rolling window, files, chart series, culling counts."""
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -82,12 +85,14 @@ def test_window_out_of_range_is_refused_naming_the_range(bad):
 @pytest.mark.parametrize("ext", [".csv", ".npz"])
 def test_save_and_load_round_trip(tmp_path, ext):
     rng = np.random.default_rng(2)
-    rec = TraceRecorder()
+    rec = TraceRecorder(window_s=12.5)
     rec.record(_sample(0.1, 12, [5, 9], rng))
     rec.record(_sample(0.2, 24, [9], rng, kept={"orientation": 90, "frustum": None}))
     path = rec.save(tmp_path / f"traces{ext}")
     assert path.endswith(ext)
     got, want = load_traces(path), rec.traces()
+    assert set(got) == set(want)  # every field comes back
+    assert got["window_s"] == want["window_s"] == 12.5
     for key in ("t", "step", "ids", "v0", "v2", "tip_offset", "bend_deg", "collision"):
         np.testing.assert_allclose(got[key], want[key], rtol=0, atol=0, equal_nan=True, err_msg=key)
     for group in ("kept", "drawn", "frame_ms", "force"):
@@ -107,6 +112,46 @@ def test_bad_paths_are_refused(tmp_path):
         rec.save(42)
     with pytest.raises(gw.MissingFileError, match="no traces file"):
         load_traces(tmp_path / "missing.npz")
+
+
+def _good_files(tmp_path):
+    rng = np.random.default_rng(4)
+    rec = TraceRecorder()
+    for k in range(1, 4):
+        rec.record(_sample(0.1 * k, 12 * k, [5, 9], rng))
+    return {ext: Path(rec.save(tmp_path / f"good{ext}")) for ext in (".csv", ".npz")}
+
+
+def _broken(tmp_path, good):
+    """(name, bytes, what the error says) for files that are not traces."""
+    csv_text = good[".csv"].read_bytes()
+    npz = good[".npz"].read_bytes()
+    header = csv_text.split(b"\n")[0]
+    return [
+        ("empty.csv", b"", "empty"),
+        ("empty.npz", b"", "empty"),
+        ("truncated.csv", csv_text[: len(csv_text) * 2 // 3], "line .* cells"),
+        ("truncated.npz", npz[: len(npz) // 2], "not a traces file"),
+        ("garbage.csv", bytes(range(256)) * 4, "not a traces file"),
+        ("garbage.npz", b"PK\x03\x04" + bytes(range(200)), "not a traces file"),
+        ("latin1.csv", "t,step\n0.1,caf\xe9\n".encode("latin-1"), "not a traces file"),
+        ("words.csv", header + b"\n" + b",".join([b"abc"] * len(header.split(b","))) + b"\n", "'abc' is not a number"),
+        ("other.csv", b"a,b,c\n1,2,3\n", "no 't' column"),
+        ("columns.csv", b"t,step,v2x_3\n0.1,1,0.5\n", "no column 'v0x_3'"),
+        ("text.npz", b"hello, world", "not a traces file"),
+    ]
+
+
+def test_a_broken_traces_file_is_named_with_what_is_wrong(tmp_path):
+    good = _good_files(tmp_path)
+    for name, data, says in _broken(tmp_path, good):
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(gw.TraceFileError, match=re.escape(repr(str(path))) + ".*" + says) as err:
+            load_traces(path)
+        assert isinstance(err.value, ValueError) and isinstance(err.value, gw.GrassError)
+    for ext, path in good.items():  # the good ones still read
+        assert len(load_traces(path)["t"]) == 3
 
 
 def test_chart_series_colours_thinning_and_kinds():

@@ -183,7 +183,8 @@ def test_a_view_member_of_a_closed_widget_raises_and_old_names_are_the_same_obje
     assert isinstance(w.stats, dict) and w.inspected == ()
     assert w.view.browser_view is w.view.engine_widget and w.view.clock_source is w.view.playback is w
     w.close()
-    for call in (lambda: w.read_inspected(), lambda: w.inspect([0]), lambda: w.read_state()):
+    for call in (lambda: w.read_inspected(), lambda: w.inspect([0]), lambda: w.read_state(), lambda: w.play(),
+                 lambda: w.pause(), lambda: w.toggle_play(), lambda: w.step(1), lambda: w.save_png("x.png")):
         with pytest.raises(gw.WidgetClosedError, match="GrassWidget is closed"):
             call()
     with pytest.raises(gw.WidgetClosedError):
