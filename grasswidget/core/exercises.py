@@ -36,7 +36,8 @@ from .enums import GravityMode
 from ..errors import GrassValueError
 
 __all__ = ["ExerciseFunction", "ExerciseSpec", "SimulationCase", "CullingCase", "EXERCISES", "exercise_spec",
-           "step_trace", "function_io", "near_cull_threshold", "SIM_TOLERANCE"]
+           "step_trace", "function_io", "function_calls", "cull_io", "cull_details", "cull_margin",
+           "near_cull_threshold", "SIM_TOLERANCE"]
 
 #: A simulated function passes when every blade's v1 and v2 after one step are within this
 #: many blade heights of the reference (float32 rounding of one step is about 1e-7).
@@ -205,7 +206,10 @@ def step_trace(state, params, t, spheres=None) -> dict:
     per blade: inputs and outputs of each exercise function. Keys: ``g_env``, ``f``,
     ``g_front``, ``gravity``, ``W`` (wind field at v0), ``wind`` (wind force),
     ``s_eff``, ``iv2``, ``accel``, ``moved`` (integrate_tip), ``v2_ground``, ``v1_lean``,
-    ``v1``, ``v2`` (validate_length), ``v1_out``, ``v2_out`` (after collisions)."""
+    ``v1``, ``v2`` (validate_length), ``v1_out``, ``v2_out`` (after collisions) and
+    ``collisions`` (a list, one dict per collision pass: ``hit`` (bool per blade: the pass
+    validated the blade again), ``pushed`` (the tip the spheres pushed), ``v2_ground``,
+    ``v1_lean``, ``v1``, ``v2``: the validation of that pass)."""
     v0, up, v2 = (np.asarray(state[k], np.float64) for k in ("v0", "up", "v2"))
     h = np.asarray(state["height"], np.float64)
     eta = ref.fade_collision(np.asarray(state.get("collision", np.zeros(len(h))), np.float64), params.collision_fade,
@@ -226,9 +230,18 @@ def step_trace(state, params, t, spheres=None) -> dict:
     v1, v2n = ref.validate_length(v0, v1_lean, v2g, h)
     spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64).reshape(-1, 4)
     v1_out, v2_out, _ = ref.collision_passes(v0, v1, v2n, up, h, spheres)
+    collisions, c1, c2 = [], v1, v2n
+    if len(spheres):
+        for _ in range(ref.COLLISION_PASSES):  # collision_passes step by step: what each validation is handed
+            pushed, _, hit = ref.collide_spheres(v0, c1, c2, h, spheres)
+            pg = ref.validate_ground(v0, pushed, up)
+            pl = ref.validate_v1(v0, pg, up, h)
+            p1, p2 = ref.validate_length(v0, pl, pg, h)
+            collisions.append(dict(hit=np.asarray(hit, bool), pushed=pushed, v2_ground=pg, v1_lean=pl, v1=p1, v2=p2))
+            c1, c2 = np.where(hit[:, None], p1, c1), np.where(hit[:, None], p2, c2)
     return dict(v0=v0, up=up, height=h, v2_in=v2, g_env=g_env, f=f, g_front=g_front, gravity=g_env + g_front, W=W,
                 wind=wind, s_eff=s_eff, iv2=iv2, accel=accel, moved=moved, v2_ground=v2g, v1_lean=v1_lean, v1=v1,
-                v2=v2n, v1_out=v1_out, v2_out=v2_out)
+                v2=v2n, v1_out=v1_out, v2_out=v2_out, collisions=collisions)
 
 
 def function_io(name, trace, params, k) -> tuple:
@@ -257,6 +270,34 @@ def function_io(name, trace, params, k) -> tuple:
     raise GrassValueError(f"name must be a simulated exercise function; got {name!r}")
 
 
+_VALIDATED = ("validate_ground", "validate_v1", "validate_length")
+
+
+def function_calls(name, trace, params, k) -> list:
+    """Every call the simulation pass makes of exercise function ``name`` for blade ``k``
+    in one step (``trace`` from :func:`step_trace`), in order: a list of (where, inputs,
+    reference output). The forces are called once ("the step"); the validation functions
+    once in the step and again in each collision pass that pushed the blade ("collision
+    pass 1", ...: the ball moved the tip, the pass validates it again)."""
+    inputs, reference = function_io(name, trace, params, k)
+    calls = [("the step", inputs, reference)]
+    if name not in _VALIDATED:
+        return calls
+    v0, up, h = trace["v0"][k], trace["up"][k], trace["height"][k]
+    for p, c in enumerate(trace["collisions"]):
+        if not c["hit"][k]:
+            continue
+        where = f"collision pass {p + 1} (a sphere pushed the tip; validated again)"
+        if name == "validate_ground":
+            calls.append((where, dict(v0=v0, v2=c["pushed"][k], up=up), c["v2_ground"][k]))
+        elif name == "validate_v1":
+            calls.append((where, dict(v0=v0, v2=c["v2_ground"][k], up=up, height=h), c["v1_lean"][k]))
+        else:
+            calls.append((where, dict(v0=v0, v1=c["v1_lean"][k], v2=c["v2_ground"][k], height=h),
+                          {"v1": c["v1"][k], "v2": c["v2"][k]}))
+    return calls
+
+
 def cull_io(name, state, params, view_proj, cam_pos, k) -> tuple:
     """(inputs, reference output) of culling function ``name`` for blade ``k`` under a
     camera (``view_proj``: 4x4 world to clip, ``cam_pos``)."""
@@ -272,6 +313,90 @@ def cull_io(name, state, params, view_proj, cam_pos, k) -> tuple:
         i = dict(v0=v0, up=up, cam_pos=cam_pos, id=k, buckets=params.cull_buckets, d_max=params.cull_distance_max)
         return i, bool(ref.distance_cull(v0[None], up[None], cam_pos, np.array([k]), params.cull_buckets,
                                          params.cull_distance_max)[0])
+    raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+_PLANES = ("x < -(w + tol)", "x > w + tol", "y < -(w + tol)", "y > w + tol", "z < 0 (in front of the near plane)",
+           "z > w (beyond the far plane)")
+
+
+def _clip_points(state, view_proj, k=None):
+    """The three points frustum_cull projects (v0, the curve's midpoint m, v2) in clip space:
+    {name: (N, 4)} or, for one blade ``k``, {name: (4,)}."""
+    sel = slice(None) if k is None else slice(k, k + 1)
+    v0, v1, v2 = (np.asarray(state[key][sel], np.float64) for key in ("v0", "v1", "v2"))
+    vp = np.asarray(view_proj, np.float64)
+    out = {}
+    for label, p in (("v0", v0), ("m", 0.25 * v0 + 0.5 * v1 + 0.25 * v2), ("v2", v2)):
+        c = np.concatenate([p, np.ones((len(p), 1))], 1) @ vp.T
+        out[label] = c if k is None else c[0]
+    return out
+
+
+def _outside_by(c, tol):
+    """How far clip point(s) ``c`` lie outside each plane (N, 6): > 0 outside that plane."""
+    c = np.atleast_2d(c)
+    lim = c[:, 3] + tol
+    return np.stack([-c[:, 0] - lim, c[:, 0] - lim, -c[:, 1] - lim, c[:, 1] - lim, -c[:, 2], c[:, 2] - c[:, 3]], 1)
+
+
+def cull_details(name, state, params, view_proj, cam_pos, k) -> dict:
+    """What decides culling test ``name`` for blade ``k``, in the reference's terms (for a
+    report): orientation: ``|dir · t1|`` and the threshold; frustum: the clip coordinates
+    (x, y, z, w) of v0, m and v2 and, for each, the plane it is outside ("inside" when
+    none); distance: ``d`` (m, on the ground), ``bucket`` (id % buckets), ``keep``
+    (⌈buckets · max(1 − d / d_max, 0)⌉) and the rule."""
+    v0, up = (np.asarray(state[key][k], np.float64) for key in ("v0", "up"))
+    d = v0 - np.asarray(cam_pos, np.float64)
+    if name == "orientation_cull":
+        t1 = ref.width_direction(up[None], np.asarray([state["orientation"][k]]))[0]
+        o = abs(float(np.dot(d / np.linalg.norm(d), t1)))
+        return {"|normalize(v0 - cam_pos) · t1|": o, "threshold": params.cull_orientation_threshold,
+                "rule": "cull when the first is greater"}
+    if name == "frustum_cull":
+        out = {}
+        for label, c in _clip_points(state, view_proj, k).items():
+            by = _outside_by(c, params.cull_frustum_tolerance)[0]
+            where = "inside" if (by <= 0).all() else "outside: " + _PLANES[int(np.argmax(by))]
+            out[f"{label} in clip space (x, y, z, w)"] = f"{format_clip(c)}  {where}"
+        out["rule"] = (f"inside when |x| <= w + tol, |y| <= w + tol, 0 <= z <= w (tol = {params.cull_frustum_tolerance:g});"
+                       " cull when all three are outside")
+        return out
+    if name == "distance_cull":
+        dg = float(np.linalg.norm(d - up * np.dot(d, up)))
+        b, d_max = int(params.cull_buckets), float(params.cull_distance_max)
+        keep = int(np.ceil(b * max(1.0 - dg / d_max, 0.0)))
+        return {"d (on the ground, m)": dg, "d_max": d_max, "bucket (id % buckets)": f"{k % b} of {b}",
+                "keep": f"{keep} of every {b}", "rule": f"cull when bucket >= keep: {k % b} >= {keep} is "
+                                                        f"{'true' if k % b >= keep else 'false'}"}
+    raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+def format_clip(c) -> str:
+    """A clip-space point as ``(x, y, z, w)`` with 4 significant digits."""
+    return "(" + ", ".join(f"{float(v):.4g}" for v in c) + ")"
+
+
+def cull_margin(name, state, params, view_proj, cam_pos) -> np.ndarray:
+    """(N,) how clearly the reference decides test ``name`` for each blade (larger: further
+    from its threshold): the grader shows the wrongly decided blade with the largest margin."""
+    v0, up = (np.asarray(state[k], np.float64) for k in ("v0", "up"))
+    d = v0 - np.asarray(cam_pos, np.float64)
+    if name == "orientation_cull":
+        t1 = ref.width_direction(up, state["orientation"])
+        return np.abs(np.abs(np.sum(d / np.linalg.norm(d, axis=1)[:, None] * t1, axis=1))
+                      - params.cull_orientation_threshold)
+    if name == "frustum_cull":
+        worst = None
+        for c in _clip_points(state, view_proj).values():
+            by = _outside_by(c, params.cull_frustum_tolerance).max(axis=1) / np.maximum(np.abs(c[:, 3]), 1.0)
+            worst = by if worst is None else np.minimum(worst, by)
+        return np.abs(worst)
+    if name == "distance_cull":
+        dproj = np.linalg.norm(d - up * np.sum(d * up, axis=1)[:, None], axis=1)
+        x = params.cull_buckets * np.maximum(1 - dproj / params.cull_distance_max, 0)
+        bucket = np.arange(len(v0)) % params.cull_buckets
+        return np.abs(bucket + 0.5 - x)
     raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
 
 
