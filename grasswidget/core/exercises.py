@@ -26,6 +26,7 @@ behind), and far.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,10 +34,11 @@ import numpy as np
 from . import reference as ref
 from .blades import Blades
 from .enums import GravityMode
+from .wgsl_overrides import strip_comments
 from ..errors import GrassValueError
 
 __all__ = ["ExerciseFunction", "ExerciseSpec", "SimulationCase", "CullingCase", "EXERCISES", "exercise_spec",
-           "step_trace", "function_io", "function_calls", "cull_io", "cull_details", "cull_margin",
+           "step_trace", "function_io", "call_paths", "pass_source", "PASS_FILES", "function_calls", "cull_io", "cull_details", "cull_margin",
            "near_cull_threshold", "SIM_TOLERANCE"]
 
 #: A simulated function passes when every blade's v1 and v2 after one step are within this
@@ -195,7 +197,23 @@ def _culling_cases():
                     state, dict(base, cull_frustum_tolerance=0.1), (0.0, 3.0, 0.0), (12.0, 1.0, 12.0), 40.0),
         CullingCase("far", "from far away: distance thins the field", state,
                     dict(base, cull_distance_max=45.0, cull_buckets=16), (0.0, 8.0, 38.0), (0.0, 0.0, 0.0), 30.0),
+        CullingCase("eye at a tip", "the eye 7.5 cm from a blade's tip, nearer than the near plane (0.1 m): "
+                    "0 <= z decides", state, dict(base), *_eye_at_tip(state)),
+        CullingCase("past the far plane", "110 m away: the far half of the field lies beyond the far plane "
+                    "(100 m): z <= w decides", state, dict(base), (0.0, 4.0, 112.0), (0.0, 0.0, 0.0), 12.0),
     ]
+
+
+def _eye_at_tip(state, gap=0.075):
+    """(position, target) of a camera looking level along the ground, ``gap`` m behind the
+    tip v2 of the leaning blade nearest the field's centre: the tip lies between the eye
+    and the near plane (0.1 m), its root and midpoint far below the view."""
+    v0, v1, v2 = (np.asarray(state[k], np.float64) for k in ("v0", "v1", "v2"))
+    mid = 0.25 * v0 + 0.5 * v1 + 0.25 * v2
+    drop = v2[:, 1] - mid[:, 1]
+    k = int(np.argmin(np.linalg.norm(v0[:, [0, 2]], axis=1) + 10.0 * (drop < 0.4)))
+    eye = v2[k] - np.array([0.0, 0.0, -gap])
+    return tuple(eye), tuple(eye + np.array([0.0, 0.0, -5.0]))
 
 
 # ------------------------------------------------------------------ the reference, step by step
@@ -422,6 +440,94 @@ def near_cull_threshold(name, state, params, view_proj, cam_pos, eps=1e-4) -> np
         x = params.cull_buckets * np.maximum(1 - dproj / params.cull_distance_max, 0)
         return np.abs(x - np.round(x)) < eps * params.cull_buckets
     raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+# ------------------------------------------------------------------ the pass around the functions
+
+#: The pass each kind of exercise runs the student's functions in.
+PASS_FILES = {"simulation": "simulate.wgsl", "culling": "cull.wgsl"}
+
+
+def _function_spans(text) -> dict:
+    """{name: (start of ``fn``, one past the closing brace)} of the module-scope functions of
+    WGSL ``text`` (comments already blanked), entry points with ``@builtin(...)`` parameters included."""
+    spans, pos = {}, 0
+    head = re.compile(r"\bfn\s+(\w+)\s*\(")
+    while True:
+        m = head.search(text, pos)
+        if not m:
+            return spans
+        depth, i = 1, m.end()
+        while i < len(text) and depth:
+            depth += {"(": 1, ")": -1}.get(text[i], 0)
+            i += 1
+        i = text.find("{", i)
+        if i < 0:
+            return spans
+        depth, j = 1, i + 1
+        while j < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+        spans[m.group(1)] = (m.start(), j)
+        pos = j
+
+
+def call_paths(wgsl: str, entry: str, targets) -> list:
+    """Every call path in WGSL ``wgsl`` from function ``entry`` to each function of
+    ``targets``: a list of tuples of function names (entry first, a target last), in the
+    order of ``targets``; paths through a target stop there."""
+    text = strip_comments(wgsl)
+    spans = _function_spans(text)
+    calls = {name: [c for c in dict.fromkeys(re.findall(r"\b(\w+)\s*\(", text[a:b][text[a:b].find("{"):]))
+                    if c in spans and c != name] for name, (a, b) in spans.items()}
+    found = []
+
+    def walk(path):
+        for c in calls.get(path[-1], []):
+            if c in path:
+                continue
+            if c in targets:
+                found.append(path + (c,))
+            else:
+                walk(path + (c,))
+
+    walk((entry,))
+    order = {t: k for k, t in enumerate(targets)}
+    return sorted(found, key=lambda p: (order[p[-1]], len(p)))
+
+
+def pass_source(spec) -> str:
+    """The WGSL a student needs to see around their functions: the call paths from the
+    pass's entry point (``main`` of ``simulate.wgsl`` or ``cull.wgsl``) to each function of
+    exercise ``spec``, then the source of every function on those paths (the student's
+    functions themselves left out), each headed by the shader file it comes from."""
+    from .shader_files import render_wgsl, shader_names
+
+    pass_file = PASS_FILES[spec.kind]
+    wgsl = render_wgsl(pass_file)
+    paths = call_paths(wgsl, "main", spec.names)
+    text = strip_comments(wgsl)
+    spans = _function_spans(text)
+    home = {}
+    for name in [pass_file] + [n for n in shader_names() if n != pass_file]:
+        try:
+            rendered = strip_comments(render_wgsl(name))
+        except Exception:  # noqa: BLE001 - a pygfx-only file that does not render alone
+            continue
+        for fn in _function_spans(rendered):
+            home.setdefault(fn, name)
+    shown = [f for f in dict.fromkeys(f for p in paths for f in p) if f not in spec.names]
+    lines = [f"// How the {spec.kind} pass ({pass_file}) reaches your functions, from its entry point `main`:"]
+    lines += ["//   " + " -> ".join(p) for p in paths]
+    lines.append("// Each function on these paths, as shipped (your functions are where they are called):")
+    for f in shown:
+        a, b = spans[f]
+        head = wgsl.rfind("\n", 0, wgsl.rfind("\n", 0, a))  # the entry point's attributes on the line before
+        if wgsl[head + 1:a].lstrip().startswith("@"):
+            a = head + 1
+        lines.append(f"\n// ---- {f} (from {home.get(f, pass_file)})")
+        lines.append(wgsl[a:b])
+    return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------ the exercises
