@@ -74,6 +74,7 @@ class FunctionGrade:
     wrong: int
     tolerance: float
     failure: dict | None = None
+    failed_cases: tuple = ()
 
     @property
     def passed(self) -> bool:
@@ -96,7 +97,11 @@ class FunctionGrade:
         f = self.failure
         if not f:
             return []
-        lines = [f"worst blade: #{f['blade']} of case \"{f['case']}\" ({f['case_description']})"]
+        lines = []
+        if self.failed_cases:
+            lines.append("wrong in case" + ("s" if len(self.failed_cases) > 1 else "") + ": "
+                         + ", ".join(f'"{c}"' for c in self.failed_cases))
+        lines.append(f"worst blade: #{f['blade']} of case \"{f['case']}\" ({f['case_description']})")
         if f.get("calls", 1) > 1:
             lines.append(f"  the pass calls {self.name} {f['calls']} times for this blade; shown: call "
                          f"{f['call_index'] + 1}, {f['call']}")

@@ -192,7 +192,7 @@ def _grade_simulated_function(fn, overrides, cases, fields, expected, traces) ->
     probed, trap, sites = _probe(overrides, fn.name, rows)
     finite_row = np.all([np.isfinite(v).reshape(len(v), -1).all(axis=1) for v in probed.values()], axis=0)
     one = overrides.only(fn.name)
-    wrong, checked, worst, nonfinite_any = 0, 0, 0.0, not finite_row.all()
+    wrong, checked, worst, nonfinite_any, failed_cases = 0, 0, 0.0, not finite_row.all(), []
     best = None  # (key, case index, blade, errors, got)
     for c, (case, field, exp) in enumerate(zip(cases, fields, expected)):
         field.set_function_overrides(one)
@@ -215,6 +215,8 @@ def _grade_simulated_function(fn, overrides, cases, fields, expected, traces) ->
         checked += n
         wrong += int(bad.sum())
         worst = max(worst, float(err.max()))
+        if bad.any():
+            failed_cases.append(case.name)
         for k in np.flatnonzero(bad):
             key = (not finite[k] or trapped[k] > 0, float(err[k]))
             if best is None or key > best[0]:
@@ -234,7 +236,8 @@ def _grade_simulated_function(fn, overrides, cases, fields, expected, traces) ->
                        expected={"v1": exp["v1"][k], "v2": exp["v2"][k]},
                        yours={"v1": got["v1"][k].astype(np.float64), "v2": got["v2"][k].astype(np.float64)})
     verdict = "NaN" if nonfinite_any else ("fail" if wrong else "pass")
-    return FunctionGrade(fn.name, fn.label, verdict, worst, "blade heights", checked, wrong, SIM_TOLERANCE, failure)
+    return FunctionGrade(fn.name, fn.label, verdict, worst, "blade heights", checked, wrong, SIM_TOLERANCE, failure,
+                         tuple(failed_cases))
 
 
 # ------------------------------------------------------------------ culling
@@ -253,7 +256,7 @@ def _grade_culling(spec, overrides, cases) -> list:
         grades = []
         for fn in spec.functions:
             scene.field.set_function_overrides(overrides.only(fn.name))
-            wrong, checked, best = 0, 0, None
+            wrong, checked, best, failed_cases = 0, 0, None, []
             for case in cases:
                 for name, value in case.params.items():
                     setattr(params, name, value)
@@ -273,6 +276,7 @@ def _grade_culling(spec, overrides, cases) -> list:
                 checked += int((~skip).sum())
                 wrong += int(bad.sum())
                 if bad.any():  # the wrongly decided blade the reference decides most clearly
+                    failed_cases.append(case.name)
                     margin = np.where(bad, cull_margin(fn.name, case.state, params, view_proj, cam_pos), -1.0)
                     k = int(np.argmax(margin))
                     if best is None or margin[k] > best[0]:
@@ -290,7 +294,7 @@ def _grade_culling(spec, overrides, cases) -> list:
                 failure["your_value"] = bool(probed["r"][0])
                 failure["trap"] = _trap_text(sites, int(trap[0]))
             grades.append(FunctionGrade(fn.name, fn.label, "fail" if wrong else "pass", float(wrong), "blades",
-                                        checked, wrong, 0.0, failure))
+                                        checked, wrong, 0.0, failure, tuple(failed_cases)))
         return grades
     finally:
         scene.release()
