@@ -501,7 +501,7 @@ def pass_source(spec) -> str:
     pass's entry point (``main`` of ``simulate.wgsl`` or ``cull.wgsl``) to each function of
     exercise ``spec``, then the source of every function on those paths (the student's
     functions themselves left out), each headed by the shader file it comes from."""
-    from .shader_files import render_wgsl, shader_names
+    from .shader_files import read_shader, render_wgsl, shader_names
 
     pass_file = PASS_FILES[spec.kind]
     wgsl = render_wgsl(pass_file)
@@ -509,12 +509,8 @@ def pass_source(spec) -> str:
     text = strip_comments(wgsl)
     spans = _function_spans(text)
     home = {}
-    for name in [pass_file] + [n for n in shader_names() if n != pass_file]:
-        try:
-            rendered = strip_comments(render_wgsl(name))
-        except Exception:  # noqa: BLE001 - a pygfx-only file that does not render alone
-            continue
-        for fn in _function_spans(rendered):
+    for name in [pass_file] + shader_names():  # the file defining each function (as stored: includes not expanded)
+        for fn in _function_spans(strip_comments(read_shader(name))):
             home.setdefault(fn, name)
     shown = [f for f in dict.fromkeys(f for p in paths for f in p) if f not in spec.names]
     lines = [f"// How the {spec.kind} pass ({pass_file}) reaches your functions, from its entry point `main`:"]

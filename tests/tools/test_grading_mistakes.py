@@ -12,6 +12,7 @@ docs/teaching.md's "Known limits" (checked below).
 import collections
 import functools
 
+import numpy as np
 import pytest
 
 import grasswidget as gw
@@ -166,3 +167,95 @@ def test_the_mistakes_no_case_catches_are_named_in_the_docs():
     assert "## Known limits" in text and f"a table of {len(MISTAKES)} plausible wrong solutions" in text
     for what in UNCAUGHT.values():
         assert what in text
+
+
+# ------------------------------------------------------------------ what the reports say (the same grades)
+
+
+def _grade_of(key):
+    (mistake,) = [m for m in MISTAKES if m.key == key]
+    k, _ = _batch_of(mistake)
+    return _report(mistake.exercise, k)[mistake.function]
+
+
+def _solution_line(exercise, text):
+    lines = gw.exercise(exercise).solution().split("\n")
+    return next(k for k, line in enumerate(lines) if text in line) + 1
+
+
+@pytest.mark.slow
+def test_a_division_by_zero_is_named_with_the_students_line_on_every_adapter():
+    """lavapipe turns x / 0.0 into 0: the value alone says (0, 0, 0); the trap names it."""
+    grade = _grade_of("wind-divide-by-zero")
+    assert grade.verdict == "NaN" and "NaN or infinity" in grade.headline()
+    line = _solution_line("forces", "let fr = dot(v2 - v0, up) / height;")
+    column = gw.exercise("forces").solution().split("\n")[line - 1].index("/ height") + 1
+    assert grade.failure["trap"].startswith(f"division by zero at your line {line}, column {column}: ")
+    assert "/ 0.0" in grade.failure["trap"] and grade.failure["trap"] in "\n".join(grade.failure_lines())
+
+
+@pytest.mark.slow
+def test_the_worst_blade_is_shown_not_the_first():
+    """Explicit Euler: the blade shown is the one with the largest error (a stiff one), and
+    the student's value of the function differs there from the reference's."""
+    grade = _grade_of("explicit-euler")
+    f = grade.failure
+    assert f["case"] == "stiff" and max(f["errors"].values()) == pytest.approx(grade.max_error, rel=1e-12)
+    assert grade.max_error > 0.5
+    assert np.abs(np.asarray(f["your_value"]) - np.asarray(f["reference"])).max() > 0.1  # metres
+
+
+@pytest.mark.slow
+def test_validation_shows_v1_and_v2_apart_and_the_call_that_differs():
+    """validate_v1 without the 0.05 floor: the call shown is one where the student's value
+    differs from the reference's (not an identical one), and v1's and v2's errors are apart."""
+    grade = _grade_of("v1-no-floor")
+    f = grade.failure
+    assert set(f["errors"]) == {"v1", "v2"} and f["errors"]["v1"] != f["errors"]["v2"]
+    assert np.abs(np.asarray(f["your_value"]) - np.asarray(f["reference"])).max() > 1e-3
+    text = "\n".join(grade.failure_lines())
+    assert "off by: v1 " in text and ", v2 " in text
+    assert grade.failed_cases == ("a ball", "lying flat")
+
+
+def test_the_ball_case_reports_the_collision_pass_call():
+    """In "a ball" the pass validates pushed blades again; function_calls lists those calls
+    (the inputs the second validation gets), which a report may show."""
+    from grasswidget.core.exercises import exercise_spec, function_calls, step_trace
+    from grasswidget.core.params import GrassParams
+
+    (case,) = [c for c in exercise_spec("validation").cases() if c.name == "a ball"]
+    params = GrassParams(**case.params)
+    trace = step_trace(case.state, params, case.step_index * params.dt, case.spheres)
+    hit = trace["collisions"][0]["hit"]
+    assert hit.any() and not hit.all()
+    k = int(np.argmax(hit))
+    calls = function_calls("validate_v1", trace, params, k)
+    assert len(calls) >= 2 and calls[0][0] == "the step" and calls[1][0].startswith("collision pass 1")
+    assert not np.allclose(calls[0][1]["v2"], calls[1][1]["v2"])  # the pushed tip, validated again
+    assert len(function_calls("wind_force", trace, params, k)) == 1
+
+
+@pytest.mark.slow
+def test_a_frustum_failure_shows_clip_coordinates_and_the_plane():
+    for key, plane in (("frustum-no-z", "z < 0"), ("frustum-opengl-depth", "z < 0")):
+        grade = _grade_of(key)
+        f = grade.failure
+        assert f["case"] == "eye at a tip" and f["expected"] is True and f["yours"] is False
+        clip = {k: v for k, v in f["details"].items() if "clip space" in k}
+        assert len(clip) == 3 and any(plane in v for v in clip.values()), f["details"]
+        assert "in clip space (x, y, z, w)" in "\n".join(grade.failure_lines())
+
+
+@pytest.mark.slow
+def test_two_distance_bugs_show_d_the_bucket_and_the_keep_count():
+    texts = []
+    for key in ("distance-off-by-one", "distance-floor"):
+        f = _grade_of(key).failure
+        d = f["details"]
+        bucket, of = (int(x) for x in d["bucket (id % buckets)"].split(" of "))
+        assert bucket == f["blade"] % of and d["d (on the ground, m)"] >= 0
+        keep = int(d["keep"].split(" of ")[0])
+        assert (bucket >= keep) == f["expected"]  # the reference's rule, on the numbers shown
+        texts.append("\n".join(_grade_of(key).failure_lines()))
+    assert texts[0] != texts[1]
