@@ -114,7 +114,7 @@ class TrapSite:
     """One watched operation of the student's code: ``index`` (1-based, what ``gwtrap_site``
     holds when it fired first), ``kind`` ("division by zero", "normalize of a zero vector",
     ...), ``line``/``column`` (1-based, in the student's code, of the operation), ``text`` (that line as
-    written, comments left out, shortened to 60 characters)."""
+    written, comments left out, shortened to 80 characters)."""
 
     index: int
     kind: str
@@ -233,7 +233,7 @@ def _is_zero_literal(s):
 
 def _short(s):
     s = " ".join(s.split())
-    return s if len(s) <= 60 else s[:57] + "..."
+    return s if len(s) <= 80 else s[:77] + "..."
 
 
 def _trap(index, x, test):

@@ -293,8 +293,9 @@ def _grade_culling(spec, overrides, cases) -> list:
                 probed, trap, sites = _probe(overrides, fn.name, [failure.pop("probe_inputs")])
                 failure["your_value"] = bool(probed["r"][0])
                 failure["trap"] = _trap_text(sites, int(trap[0]))
-            grades.append(FunctionGrade(fn.name, fn.label, "fail" if wrong else "pass", float(wrong), "blades",
-                                        checked, wrong, 0.0, failure, tuple(failed_cases)))
+            verdict = ("NaN" if failure["trap"] else "fail") if failure else "pass"
+            grades.append(FunctionGrade(fn.name, fn.label, verdict, float(wrong), "blades", checked, wrong, 0.0,
+                                        failure, tuple(failed_cases)))
         return grades
     finally:
         scene.release()
