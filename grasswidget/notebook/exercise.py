@@ -86,7 +86,7 @@ class Exercise:
     def grade(self, wgsl: str):
         """Grade ``wgsl`` in the real passes against the NumPy reference: a
         :class:`~grasswidget.core.grade_report.GradeReport` (``.passed``; per function the
-        verdict, the largest error and the first failing blade). Raises
+        verdict, the largest error, the failing cases and the worst blade). Raises
         :class:`~grasswidget.errors.ExerciseShaderError` (the student's line and column) for
         code that does not compile, misses a function, changes a signature or loops."""
         from ..tools.grading import grade

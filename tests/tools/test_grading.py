@@ -2,7 +2,7 @@
 against the NumPy reference.
 
 The starter never passes and the solution always does; a force scaled by 3 % or a wrong
-frustum test fails naming exactly that function, with its first failing blade; a compile
+frustum test fails naming exactly that function, with its worst blade; a compile
 error names the student's line and column; a NaN fails with the word NaN.
 """
 
