@@ -96,3 +96,16 @@ def test_pass_source_shows_the_path_to_every_function_without_the_answers():
     culling = pass_source(exercise_spec("culling"))
     assert "//   main -> frustum_cull" in culling and "// ---- main (from cull.wgsl)" in culling
     assert call_paths("fn a() { b(); c(); }\nfn b() { c(); }\nfn c() {}", "a", ("c",)) == [("a", "c"), ("a", "b", "c")]
+
+
+def test_huge_or_nested_code_is_left_alone_quickly():
+    import time
+
+    nested = "fn f(a: f32) -> f32 { return " + "a / f2(" * 3000 + "a" + ")" * 3000 + "; }"
+    many = "fn f(a: f32) -> f32 { return " + " + ".join(["a / 3.0"] * 50000) + "; }"
+    t = time.perf_counter()
+    for code in (nested, many):
+        assert instrument(code) == (code, [])
+    assert time.perf_counter() - t < 1.0
+    check_names(many)  # linear: no error, quickly
+    assert time.perf_counter() - t < 3.0
