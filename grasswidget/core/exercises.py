@@ -21,7 +21,9 @@ so that every branch of every function matters: calm air, gusts (wave and noise
 wind), gravity towards a point, a ball (collision strength lowers the recovery),
 tips pushed under the ground, blades lying flat, tilted ground normals, very stiff
 blades; cameras looking over the field, low and edge-on, away (half the field
-behind), and far.
+behind), far, with the eye 7.5 cm from a blade's tip (nearer than the near plane: the
+depth test's 0 <= z decides) and 110 m away (the far half of the field past the far
+plane: z <= w decides).
 """
 
 from __future__ import annotations
