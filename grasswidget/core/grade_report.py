@@ -155,7 +155,8 @@ class GradeReport:
     def summary(self) -> str:
         n = sum(f.passed for f in self.functions)
         state = "all passed" if self.passed else f"{n} of {len(self.functions)} passed"
-        return f"exercise \"{self.exercise}\": {state} ({len(self.cases)} cases: {', '.join(self.cases)}; {self.device})"
+        names = ", ".join(f'"{c}"' for c in self.cases)  # quoted: a case name may hold a comma
+        return f"exercise \"{self.exercise}\": {state} ({len(self.cases)} cases: {names}; {self.device})"
 
     def __str__(self):
         lines = [self.summary()]
