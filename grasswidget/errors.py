@@ -126,6 +126,11 @@ class ExerciseShaderError(GrassValueError):
         super().__init__(message)
         self.line, self.column, self.reason, self.naga_message = line, column, reason, naga_message
 
+    def _render_traceback_(self):
+        # IPython shows what this returns instead of the traceback: the message names the
+        # student's line, the frames inside grasswidget would only bury it (a few KB).
+        return [f"{type(self).__name__}: {self}"]
+
 
 class MissingFileError(GrassError, FileNotFoundError):
     """A file or folder grasswidget needs is not there (an export's folder, a

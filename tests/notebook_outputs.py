@@ -94,7 +94,7 @@ def check_notebook_outputs(stem: str, nb, out_dir: Path, live_probe_text: str = 
         reports = [o["data"]["text/plain"] for o in results if "GradeReport" in o["data"].get("text/plain", "")]
         assert len(reports) == 2 and "failed" in reports[0] and reports[1].endswith("passed>"), reports
         html = [o["data"]["text/html"] for o in results if "text/html" in o["data"]]
-        assert "first failing blade" in html[0] and "all passed" in html[1]
+        assert "worst blade" in html[0] and "all passed" in html[1]
 
 
 def culling_tables(text):

@@ -21,11 +21,14 @@ so that every branch of every function matters: calm air, gusts (wave and noise
 wind), gravity towards a point, a ball (collision strength lowers the recovery),
 tips pushed under the ground, blades lying flat, tilted ground normals, very stiff
 blades; cameras looking over the field, low and edge-on, away (half the field
-behind), and far.
+behind), far, with the eye 7.5 cm from a blade's tip (nearer than the near plane: the
+depth test's 0 <= z decides) and 110 m away (the far half of the field past the far
+plane: z <= w decides).
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,10 +36,12 @@ import numpy as np
 from . import reference as ref
 from .blades import Blades
 from .enums import GravityMode
+from .wgsl_overrides import strip_comments
 from ..errors import GrassValueError
 
 __all__ = ["ExerciseFunction", "ExerciseSpec", "SimulationCase", "CullingCase", "EXERCISES", "exercise_spec",
-           "step_trace", "function_io", "near_cull_threshold", "SIM_TOLERANCE"]
+           "step_trace", "function_io", "call_paths", "pass_source", "PASS_FILES", "function_calls", "cull_io", "cull_details", "cull_margin",
+           "near_cull_threshold", "SIM_TOLERANCE"]
 
 #: A simulated function passes when every blade's v1 and v2 after one step are within this
 #: many blade heights of the reference (float32 rounding of one step is about 1e-7).
@@ -194,7 +199,23 @@ def _culling_cases():
                     state, dict(base, cull_frustum_tolerance=0.1), (0.0, 3.0, 0.0), (12.0, 1.0, 12.0), 40.0),
         CullingCase("far", "from far away: distance thins the field", state,
                     dict(base, cull_distance_max=45.0, cull_buckets=16), (0.0, 8.0, 38.0), (0.0, 0.0, 0.0), 30.0),
+        CullingCase("eye at a tip", "the eye 7.5 cm from a blade's tip, nearer than the near plane (0.1 m): "
+                    "0 <= z decides", state, dict(base), *_eye_at_tip(state)),
+        CullingCase("past the far plane", "110 m away: the far half of the field lies beyond the far plane "
+                    "(100 m): z <= w decides", state, dict(base), (0.0, 4.0, 112.0), (0.0, 0.0, 0.0), 12.0),
     ]
+
+
+def _eye_at_tip(state, gap=0.075):
+    """(position, target) of a camera looking level along the ground, ``gap`` m behind the
+    tip v2 of the leaning blade nearest the field's centre: the tip lies between the eye
+    and the near plane (0.1 m), its root and midpoint far below the view."""
+    v0, v1, v2 = (np.asarray(state[k], np.float64) for k in ("v0", "v1", "v2"))
+    mid = 0.25 * v0 + 0.5 * v1 + 0.25 * v2
+    drop = v2[:, 1] - mid[:, 1]
+    k = int(np.argmin(np.linalg.norm(v0[:, [0, 2]], axis=1) + 10.0 * (drop < 0.4)))
+    eye = v2[k] - np.array([0.0, 0.0, -gap])
+    return tuple(eye), tuple(eye + np.array([0.0, 0.0, -5.0]))
 
 
 # ------------------------------------------------------------------ the reference, step by step
@@ -205,7 +226,10 @@ def step_trace(state, params, t, spheres=None) -> dict:
     per blade: inputs and outputs of each exercise function. Keys: ``g_env``, ``f``,
     ``g_front``, ``gravity``, ``W`` (wind field at v0), ``wind`` (wind force),
     ``s_eff``, ``iv2``, ``accel``, ``moved`` (integrate_tip), ``v2_ground``, ``v1_lean``,
-    ``v1``, ``v2`` (validate_length), ``v1_out``, ``v2_out`` (after collisions)."""
+    ``v1``, ``v2`` (validate_length), ``v1_out``, ``v2_out`` (after collisions) and
+    ``collisions`` (a list, one dict per collision pass: ``hit`` (bool per blade: the pass
+    validated the blade again), ``pushed`` (the tip the spheres pushed), ``v2_ground``,
+    ``v1_lean``, ``v1``, ``v2``: the validation of that pass)."""
     v0, up, v2 = (np.asarray(state[k], np.float64) for k in ("v0", "up", "v2"))
     h = np.asarray(state["height"], np.float64)
     eta = ref.fade_collision(np.asarray(state.get("collision", np.zeros(len(h))), np.float64), params.collision_fade,
@@ -226,9 +250,18 @@ def step_trace(state, params, t, spheres=None) -> dict:
     v1, v2n = ref.validate_length(v0, v1_lean, v2g, h)
     spheres = np.zeros((0, 4)) if spheres is None else np.asarray(spheres, np.float64).reshape(-1, 4)
     v1_out, v2_out, _ = ref.collision_passes(v0, v1, v2n, up, h, spheres)
+    collisions, c1, c2 = [], v1, v2n
+    if len(spheres):
+        for _ in range(ref.COLLISION_PASSES):  # collision_passes step by step: what each validation is handed
+            pushed, _, hit = ref.collide_spheres(v0, c1, c2, h, spheres)
+            pg = ref.validate_ground(v0, pushed, up)
+            pl = ref.validate_v1(v0, pg, up, h)
+            p1, p2 = ref.validate_length(v0, pl, pg, h)
+            collisions.append(dict(hit=np.asarray(hit, bool), pushed=pushed, v2_ground=pg, v1_lean=pl, v1=p1, v2=p2))
+            c1, c2 = np.where(hit[:, None], p1, c1), np.where(hit[:, None], p2, c2)
     return dict(v0=v0, up=up, height=h, v2_in=v2, g_env=g_env, f=f, g_front=g_front, gravity=g_env + g_front, W=W,
                 wind=wind, s_eff=s_eff, iv2=iv2, accel=accel, moved=moved, v2_ground=v2g, v1_lean=v1_lean, v1=v1,
-                v2=v2n, v1_out=v1_out, v2_out=v2_out)
+                v2=v2n, v1_out=v1_out, v2_out=v2_out, collisions=collisions)
 
 
 def function_io(name, trace, params, k) -> tuple:
@@ -257,6 +290,34 @@ def function_io(name, trace, params, k) -> tuple:
     raise GrassValueError(f"name must be a simulated exercise function; got {name!r}")
 
 
+_VALIDATED = ("validate_ground", "validate_v1", "validate_length")
+
+
+def function_calls(name, trace, params, k) -> list:
+    """Every call the simulation pass makes of exercise function ``name`` for blade ``k``
+    in one step (``trace`` from :func:`step_trace`), in order: a list of (where, inputs,
+    reference output). The forces are called once ("the step"); the validation functions
+    once in the step and again in each collision pass that pushed the blade ("collision
+    pass 1", ...: the ball moved the tip, the pass validates it again)."""
+    inputs, reference = function_io(name, trace, params, k)
+    calls = [("the step", inputs, reference)]
+    if name not in _VALIDATED:
+        return calls
+    v0, up, h = trace["v0"][k], trace["up"][k], trace["height"][k]
+    for p, c in enumerate(trace["collisions"]):
+        if not c["hit"][k]:
+            continue
+        where = f"collision pass {p + 1} (a sphere pushed the tip; validated again)"
+        if name == "validate_ground":
+            calls.append((where, dict(v0=v0, v2=c["pushed"][k], up=up), c["v2_ground"][k]))
+        elif name == "validate_v1":
+            calls.append((where, dict(v0=v0, v2=c["v2_ground"][k], up=up, height=h), c["v1_lean"][k]))
+        else:
+            calls.append((where, dict(v0=v0, v1=c["v1_lean"][k], v2=c["v2_ground"][k], height=h),
+                          {"v1": c["v1"][k], "v2": c["v2"][k]}))
+    return calls
+
+
 def cull_io(name, state, params, view_proj, cam_pos, k) -> tuple:
     """(inputs, reference output) of culling function ``name`` for blade ``k`` under a
     camera (``view_proj``: 4x4 world to clip, ``cam_pos``)."""
@@ -272,6 +333,90 @@ def cull_io(name, state, params, view_proj, cam_pos, k) -> tuple:
         i = dict(v0=v0, up=up, cam_pos=cam_pos, id=k, buckets=params.cull_buckets, d_max=params.cull_distance_max)
         return i, bool(ref.distance_cull(v0[None], up[None], cam_pos, np.array([k]), params.cull_buckets,
                                          params.cull_distance_max)[0])
+    raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+_PLANES = ("x < -(w + tol)", "x > w + tol", "y < -(w + tol)", "y > w + tol", "z < 0 (in front of the near plane)",
+           "z > w (beyond the far plane)")
+
+
+def _clip_points(state, view_proj, k=None):
+    """The three points frustum_cull projects (v0, the curve's midpoint m, v2) in clip space:
+    {name: (N, 4)} or, for one blade ``k``, {name: (4,)}."""
+    sel = slice(None) if k is None else slice(k, k + 1)
+    v0, v1, v2 = (np.asarray(state[key][sel], np.float64) for key in ("v0", "v1", "v2"))
+    vp = np.asarray(view_proj, np.float64)
+    out = {}
+    for label, p in (("v0", v0), ("m", 0.25 * v0 + 0.5 * v1 + 0.25 * v2), ("v2", v2)):
+        c = np.concatenate([p, np.ones((len(p), 1))], 1) @ vp.T
+        out[label] = c if k is None else c[0]
+    return out
+
+
+def _outside_by(c, tol):
+    """How far clip point(s) ``c`` lie outside each plane (N, 6): > 0 outside that plane."""
+    c = np.atleast_2d(c)
+    lim = c[:, 3] + tol
+    return np.stack([-c[:, 0] - lim, c[:, 0] - lim, -c[:, 1] - lim, c[:, 1] - lim, -c[:, 2], c[:, 2] - c[:, 3]], 1)
+
+
+def cull_details(name, state, params, view_proj, cam_pos, k) -> dict:
+    """What decides culling test ``name`` for blade ``k``, in the reference's terms (for a
+    report): orientation: ``|dir · t1|`` and the threshold; frustum: the clip coordinates
+    (x, y, z, w) of v0, m and v2 and, for each, the plane it is outside ("inside" when
+    none); distance: ``d`` (m, on the ground), ``bucket`` (id % buckets), ``keep``
+    (⌈buckets · max(1 − d / d_max, 0)⌉) and the rule."""
+    v0, up = (np.asarray(state[key][k], np.float64) for key in ("v0", "up"))
+    d = v0 - np.asarray(cam_pos, np.float64)
+    if name == "orientation_cull":
+        t1 = ref.width_direction(up[None], np.asarray([state["orientation"][k]]))[0]
+        o = abs(float(np.dot(d / np.linalg.norm(d), t1)))
+        return {"|normalize(v0 - cam_pos) · t1|": o, "threshold": params.cull_orientation_threshold,
+                "rule": "cull when the first is greater"}
+    if name == "frustum_cull":
+        out = {}
+        for label, c in _clip_points(state, view_proj, k).items():
+            by = _outside_by(c, params.cull_frustum_tolerance)[0]
+            where = "inside" if (by <= 0).all() else "outside: " + _PLANES[int(np.argmax(by))]
+            out[f"{label} in clip space (x, y, z, w)"] = f"{format_clip(c)}  {where}"
+        out["rule"] = (f"inside when |x| <= w + tol, |y| <= w + tol, 0 <= z <= w (tol = {params.cull_frustum_tolerance:g});"
+                       " cull when all three are outside")
+        return out
+    if name == "distance_cull":
+        dg = float(np.linalg.norm(d - up * np.dot(d, up)))
+        b, d_max = int(params.cull_buckets), float(params.cull_distance_max)
+        keep = int(np.ceil(b * max(1.0 - dg / d_max, 0.0)))
+        return {"d (on the ground, m)": dg, "d_max": d_max, "bucket (id % buckets)": f"{k % b} of {b}",
+                "keep": f"{keep} of every {b}", "rule": f"cull when bucket >= keep: {k % b} >= {keep} is "
+                                                        f"{'true' if k % b >= keep else 'false'}"}
+    raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+def format_clip(c) -> str:
+    """A clip-space point as ``(x, y, z, w)`` with 4 significant digits."""
+    return "(" + ", ".join(f"{float(v):.4g}" for v in c) + ")"
+
+
+def cull_margin(name, state, params, view_proj, cam_pos) -> np.ndarray:
+    """(N,) how clearly the reference decides test ``name`` for each blade (larger: further
+    from its threshold): the grader shows the wrongly decided blade with the largest margin."""
+    v0, up = (np.asarray(state[k], np.float64) for k in ("v0", "up"))
+    d = v0 - np.asarray(cam_pos, np.float64)
+    if name == "orientation_cull":
+        t1 = ref.width_direction(up, state["orientation"])
+        return np.abs(np.abs(np.sum(d / np.linalg.norm(d, axis=1)[:, None] * t1, axis=1))
+                      - params.cull_orientation_threshold)
+    if name == "frustum_cull":
+        worst = None
+        for c in _clip_points(state, view_proj).values():
+            by = _outside_by(c, params.cull_frustum_tolerance).max(axis=1) / np.maximum(np.abs(c[:, 3]), 1.0)
+            worst = by if worst is None else np.minimum(worst, by)
+        return np.abs(worst)
+    if name == "distance_cull":
+        dproj = np.linalg.norm(d - up * np.sum(d * up, axis=1)[:, None], axis=1)
+        x = params.cull_buckets * np.maximum(1 - dproj / params.cull_distance_max, 0)
+        bucket = np.arange(len(v0)) % params.cull_buckets
+        return np.abs(bucket + 0.5 - x)
     raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
 
 
@@ -297,6 +442,90 @@ def near_cull_threshold(name, state, params, view_proj, cam_pos, eps=1e-4) -> np
         x = params.cull_buckets * np.maximum(1 - dproj / params.cull_distance_max, 0)
         return np.abs(x - np.round(x)) < eps * params.cull_buckets
     raise GrassValueError(f"name must be a culling exercise function; got {name!r}")
+
+
+# ------------------------------------------------------------------ the pass around the functions
+
+#: The pass each kind of exercise runs the student's functions in.
+PASS_FILES = {"simulation": "simulate.wgsl", "culling": "cull.wgsl"}
+
+
+def _function_spans(text) -> dict:
+    """{name: (start of ``fn``, one past the closing brace)} of the module-scope functions of
+    WGSL ``text`` (comments already blanked), entry points with ``@builtin(...)`` parameters included."""
+    spans, pos = {}, 0
+    head = re.compile(r"\bfn\s+(\w+)\s*\(")
+    while True:
+        m = head.search(text, pos)
+        if not m:
+            return spans
+        depth, i = 1, m.end()
+        while i < len(text) and depth:
+            depth += {"(": 1, ")": -1}.get(text[i], 0)
+            i += 1
+        i = text.find("{", i)
+        if i < 0:
+            return spans
+        depth, j = 1, i + 1
+        while j < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+        spans[m.group(1)] = (m.start(), j)
+        pos = j
+
+
+def call_paths(wgsl: str, entry: str, targets) -> list:
+    """Every call path in WGSL ``wgsl`` from function ``entry`` to each function of
+    ``targets``: a list of tuples of function names (entry first, a target last), in the
+    order of ``targets``; paths through a target stop there."""
+    text = strip_comments(wgsl)
+    spans = _function_spans(text)
+    calls = {name: [c for c in dict.fromkeys(re.findall(r"\b(\w+)\s*\(", text[a:b][text[a:b].find("{"):]))
+                    if c in spans and c != name] for name, (a, b) in spans.items()}
+    found = []
+
+    def walk(path):
+        for c in calls.get(path[-1], []):
+            if c in path:
+                continue
+            if c in targets:
+                found.append(path + (c,))
+            else:
+                walk(path + (c,))
+
+    walk((entry,))
+    order = {t: k for k, t in enumerate(targets)}
+    return sorted(found, key=lambda p: (order[p[-1]], len(p)))
+
+
+def pass_source(spec) -> str:
+    """The WGSL a student needs to see around their functions: the call paths from the
+    pass's entry point (``main`` of ``simulate.wgsl`` or ``cull.wgsl``) to each function of
+    exercise ``spec``, then the source of every function on those paths (the student's
+    functions themselves left out), each headed by the shader file it comes from."""
+    from .shader_files import read_shader, render_wgsl, shader_names
+
+    pass_file = PASS_FILES[spec.kind]
+    wgsl = render_wgsl(pass_file)
+    paths = call_paths(wgsl, "main", spec.names)
+    text = strip_comments(wgsl)
+    spans = _function_spans(text)
+    home = {}
+    for name in [pass_file] + shader_names():  # the file defining each function (as stored: includes not expanded)
+        for fn in _function_spans(strip_comments(read_shader(name))):
+            home.setdefault(fn, name)
+    shown = [f for f in dict.fromkeys(f for p in paths for f in p) if f not in spec.names]
+    lines = [f"// How the {spec.kind} pass ({pass_file}) reaches your functions, from its entry point `main`:"]
+    lines += ["//   " + " -> ".join(p) for p in paths]
+    lines.append("// Each function on these paths, as shipped (your functions are where they are called):")
+    for f in shown:
+        a, b = spans[f]
+        head = wgsl.rfind("\n", 0, wgsl.rfind("\n", 0, a))  # the entry point's attributes on the line before
+        if wgsl[head + 1:a].lstrip().startswith("@"):
+            a = head + 1
+        lines.append(f"\n// ---- {f} (from {home.get(f, pass_file)})")
+        lines.append(wgsl[a:b])
+    return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------ the exercises

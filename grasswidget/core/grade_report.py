@@ -3,9 +3,12 @@
 :class:`GradeReport` (one per ``ex.grade(wgsl)``) holds a :class:`FunctionGrade` per
 function of the exercise: pass or fail, the largest error (blade heights for the
 simulated functions, wrongly culled or kept blades for the culling tests), and the
-first failing blade: its case, its inputs (what the pass hands the function), the
-reference value of the function there (its NumPy twin), and the blade's expected and
-actual result. It shows itself in a notebook (``_repr_html_``, ``_repr_markdown_``)
+worst failing blade (the largest error over all cases; for a culling test the wrongly
+decided blade the reference decides most clearly): its case, the call of the function
+that went wrong (the inputs the pass hands it, the reference value there (its NumPy
+twin) and the student's), how far off v1 and v2 are, the blade's expected and actual
+result, what decides a culling test (clip coordinates and the plane; d, the bucket and
+the keep count), and, where the student's code divided by zero or the like, its line. It shows itself in a notebook (``_repr_html_``, ``_repr_markdown_``)
 and as text (``str``).
 """
 
@@ -51,11 +54,15 @@ class FunctionGrade:
     error: blade heights for simulated functions; for culling tests the number of
     blades culled or kept wrongly), ``error_unit``, ``checked`` (blades compared, over
     all cases), ``wrong`` (blades out of tolerance), ``tolerance`` and ``failure``
-    (None, or a dict: ``case``, ``case_description``, ``blade``, ``inputs`` (dict of the
-    function's arguments), ``reference`` (what the NumPy twin returns for them),
-    ``your_value`` (what the student's function returned for them, None when not probed),
-    ``expected`` and ``yours`` (the blade after the pass: dicts of v1/v2, or the culling
-    verdict)).
+    (None, or a dict about the worst failing blade: ``case``, ``case_description``,
+    ``blade``, ``inputs`` (dict of the function's arguments), ``reference`` (what the
+    NumPy twin returns for them), ``your_value`` (what the student's function returned for
+    them, None when not probed), ``expected`` and ``yours`` (the blade after the pass:
+    dicts of v1/v2, or the culling verdict); optional: ``call`` (which of the function's
+    calls for this blade, e.g. "collision pass 1 (...)"), ``call_index`` and ``calls``
+    (0-based index and number of calls), ``errors`` ({"v1": e, "v2": e}, blade heights),
+    ``trap`` (text: the operation of the student's code that divided by zero or the like
+    first, with its line) and ``details`` (dict: what decides a culling test)).
     """
 
     name: str
@@ -67,6 +74,7 @@ class FunctionGrade:
     wrong: int
     tolerance: float
     failure: dict | None = None
+    failed_cases: tuple = ()
 
     @property
     def passed(self) -> bool:
@@ -75,26 +83,43 @@ class FunctionGrade:
     def headline(self) -> str:
         """One line: the verdict and the largest error."""
         if self.error_unit == "blade heights":
-            err = "NaN" if self.verdict == "NaN" else f"{self.max_error:.2e} blade heights"
+            err = f"{self.max_error:.2e} blade heights" if np.isfinite(self.max_error) else "not a number"
+            if self.verdict == "NaN":
+                err = "NaN or infinity"
             size = f"largest error {err} (tolerance {self.tolerance:.0e})"
         else:
             size = f"{self.wrong} of {self.checked} blades culled or kept wrongly"
-        word = {"pass": "PASS", "fail": "FAIL", "NaN": "FAIL (NaN)"}[self.verdict]
+        word = {"pass": "PASS", "fail": "FAIL", "NaN": "FAIL (NaN or infinity)"}[self.verdict]
         return f"{word}  {self.name} ({self.label}): {size}"
 
     def failure_lines(self) -> list:
-        """The first failing blade, as lines of text ([] when the function passed)."""
+        """The worst failing blade, as lines of text ([] when the function passed)."""
         f = self.failure
         if not f:
             return []
-        lines = [f"first failing blade: #{f['blade']} of case \"{f['case']}\" ({f['case_description']})"]
+        lines = []
+        if self.failed_cases:
+            lines.append("wrong in case" + ("s" if len(self.failed_cases) > 1 else "") + ": "
+                         + ", ".join(f'"{c}"' for c in self.failed_cases))
+        lines.append(f"worst blade: #{f['blade']} of case \"{f['case']}\" ({f['case_description']})")
+        if f.get("calls", 1) > 1:
+            lines.append(f"  the pass calls {self.name} {f['calls']} times for this blade; shown: call "
+                         f"{f['call_index'] + 1}, {f['call']}")
         lines.append("  inputs: " + format_value(f["inputs"]))
         lines.append(f"  reference {self.name}(...) = {format_value(f['reference'])}")
         if f.get("your_value") is not None:
             lines.append(f"  your      {self.name}(...) = {format_value(f['your_value'])}")
+        for key, value in (f.get("details") or {}).items():
+            lines.append(f"  {key}: {format_value(value)}")
         lines.append(f"  expected after the pass: {format_value(f['expected'])}")
         lines.append(f"  yours:                   {format_value(f['yours'])}")
-        if self.verdict == "NaN":
+        if f.get("errors"):
+            lines.append("  off by: " + ", ".join(
+                f"{k} {v:.2e}" if np.isfinite(v) else f"{k} NaN or infinity" for k, v in f["errors"].items())
+                + " blade heights")
+        if f.get("trap"):
+            lines.append(f"  your code: {f['trap']} (NaN or infinity; this adapter may show it as another number)")
+        if self.verdict == "NaN" and not f.get("trap"):
             lines.append("  your function made NaN (not a number) or infinity: look for a division by zero, "
                          "normalize() of a zero vector or sqrt/log of a negative number")
         return lines
@@ -130,7 +155,8 @@ class GradeReport:
     def summary(self) -> str:
         n = sum(f.passed for f in self.functions)
         state = "all passed" if self.passed else f"{n} of {len(self.functions)} passed"
-        return f"exercise \"{self.exercise}\": {state} ({len(self.cases)} cases: {', '.join(self.cases)}; {self.device})"
+        names = ", ".join(f'"{c}"' for c in self.cases)  # quoted: a case name may hold a comma
+        return f"exercise \"{self.exercise}\": {state} ({len(self.cases)} cases: {names}; {self.device})"
 
     def __str__(self):
         lines = [self.summary()]
@@ -149,10 +175,10 @@ class GradeReport:
         return self.to_html()
 
     def to_markdown(self) -> str:
-        """The report as Markdown: a table of the functions, then each failing one's first blade."""
+        """The report as Markdown: a table of the functions, then each failing one's worst blade."""
         rows = ["| function | result | largest error |", "|---|---|---|"]
         for f in self.functions:
-            word = {"pass": "✅ pass", "fail": "❌ fail", "NaN": "❌ NaN"}[f.verdict]
+            word = {"pass": "✅ pass", "fail": "❌ fail", "NaN": "❌ NaN or infinity"}[f.verdict]
             err = f.headline().split(": ", 1)[1]
             rows.append(f"| `{f.name}` ({f.label}) | {word} | {err} |")
         details = []
@@ -163,12 +189,12 @@ class GradeReport:
 
     def to_html(self) -> str:
         """The report as HTML (what a notebook shows): the summary, a table of the functions
-        (verdict in colour, the largest error, the first failing blade)."""
+        (verdict in colour, the largest error, the worst failing blade)."""
         esc = html.escape
         colour = {"pass": "#1a7f37", "fail": "#cf222e", "NaN": "#cf222e"}
         rows = []
         for f in self.functions:
-            word = {"pass": "pass", "fail": "fail", "NaN": "NaN"}[f.verdict]
+            word = {"pass": "pass", "fail": "fail", "NaN": "NaN or infinity"}[f.verdict]
             err = f.headline().split(": ", 1)[1]
             detail = ""
             if f.failure:

@@ -79,19 +79,21 @@ def _pack(ptype, x, n):
     return np.ascontiguousarray(x, np.float32).view(np.uint32).reshape(n, -1)
 
 
-def call_function(module: str, name: str, params, returns: str, inputs) -> dict:
+def call_function(module: str, name: str, params, returns: str, inputs, read_after=()) -> dict:
     """Call ``name`` (a function of WGSL ``module``, with parameter types ``params`` and
     result type ``returns``) once per row of ``inputs`` (a list of arrays, one per
     parameter, each with the calls along the first axis). Returns {leaf: array}: the
     result's fields (``"r"`` for a plain result, ``"r.v1"``... for a struct), float64
-    for floats, bool for bool, int64 for integers."""
+    for floats, bool for bool, int64 for integers. ``read_after``: names of ``u32``
+    module-scope ``var<private>`` variables of ``module`` read after each call (e.g. the
+    trap of :func:`grasswidget.core.student_wgsl.instrument`), returned under their names."""
     structs = _structs(module)
     n = len(np.asarray(inputs[0])) if inputs else 1
     lines, w = [], 0
     for k, ptype in enumerate(params):
         lines.append(f"    let a{k} = {_decode(ptype, w)};")
         w += _WORDS[ptype]
-    leaves = _leaves(returns, structs)
+    leaves = _leaves(returns, structs) + [(var, "u32") for var in read_after]
     outs = [word for expr, ltype in leaves for word in _encode(expr, ltype)]
     lines.append(f"    let r = {name}({', '.join(f'a{k}' for k in range(len(params)))});")
     lines += [f"    probe_out[o + {k}u] = {word};" for k, word in enumerate(outs)]

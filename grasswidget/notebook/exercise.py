@@ -9,15 +9,12 @@ functions' signatures and units), gives the ``starter`` code and the teacher's
 
 from __future__ import annotations
 
-from ..core.exercises import EXERCISES, exercise_spec
-from ..core.shader_files import read_shader, render_wgsl
+from ..core.exercises import EXERCISES, PASS_FILES, exercise_spec, pass_source
+from ..core.shader_files import render_wgsl
 from ..core.wgsl_overrides import parse_functions
 from ..errors import GrassTypeError
 
 __all__ = ["Exercise", "exercise", "EXERCISES"]
-
-#: The pass each kind of exercise replaces functions in.
-PASS_FILES = {"simulation": "simulate.wgsl", "culling": "cull.wgsl"}
 
 
 class Exercise:
@@ -66,9 +63,12 @@ class Exercise:
 
     @property
     def pass_source(self) -> str:
-        """The WGSL source of the pass that calls the functions (``simulate.wgsl`` or
-        ``cull.wgsl``, a template as shipped)."""
-        return read_shader(self.pass_file)
+        """The WGSL around the functions: the call paths from the pass's entry point
+        (``main`` of ``simulate.wgsl`` or ``cull.wgsl``) to each function to write, then the
+        source of every function on those paths (e.g. ``tip_step`` of ``blade_math.wgsl``,
+        which calls ``wind_force`` and ``integrate_tip``), each headed by its file
+        (:func:`grasswidget.core.exercises.pass_source`)."""
+        return pass_source(self.spec)
 
     def solution(self) -> str:
         """The teacher's answer (WGSL). Its first line says so: SOLUTION (teacher's answer)."""
@@ -86,7 +86,7 @@ class Exercise:
     def grade(self, wgsl: str):
         """Grade ``wgsl`` in the real passes against the NumPy reference: a
         :class:`~grasswidget.core.grade_report.GradeReport` (``.passed``; per function the
-        verdict, the largest error and the first failing blade). Raises
+        verdict, the largest error, the failing cases and the worst blade). Raises
         :class:`~grasswidget.errors.ExerciseShaderError` (the student's line and column) for
         code that does not compile, misses a function, changes a signature or loops."""
         from ..tools.grading import grade

@@ -31,10 +31,12 @@ import numpy as np
 from ..core import reference as ref
 from ..core.blades import Blades
 from ..core.colliders import SphereCollider
-from ..core.exercises import SIM_TOLERANCE, cull_io, function_io, near_cull_threshold, step_trace
+from ..core.exercises import (SIM_TOLERANCE, cull_details, cull_io, cull_margin, function_calls, near_cull_threshold,
+                               step_trace)
 from ..core.grade_report import FunctionGrade, GradeReport
 from ..core.params import GrassParams
 from ..core.shader_files import render_wgsl
+from ..core.student_wgsl import TRAP_VAR, check_names, instrument
 from ..core.wgsl_overrides import FunctionOverrides, parse_functions
 from ..errors import GrassTypeError
 
@@ -43,10 +45,15 @@ __all__ = ["grade", "overrides_for", "check_compiles"]
 
 def overrides_for(spec, wgsl: str) -> FunctionOverrides:
     """The student's ``wgsl`` as checked overrides of exercise ``spec``'s functions
-    (ExerciseShaderError before compiling: missing function, wrong signature, loop)."""
+    (ExerciseShaderError before compiling: a NUL or another control character, the
+    engine's bindings such as ``u_sim`` or ``s_blades``, entry points, missing function,
+    wrong signature, loop; :func:`grasswidget.core.student_wgsl.check_names` and
+    :meth:`FunctionOverrides.check`)."""
     if not isinstance(wgsl, str):
         raise GrassTypeError(f"wgsl must be a str (the WGSL of your functions); got {type(wgsl).__name__}")
-    return FunctionOverrides(wgsl, spec.names, label=f"your {spec.name} code").check(render_wgsl("blade_math.wgsl"))
+    label = f"your {spec.name} code"
+    check_names(wgsl, label)
+    return FunctionOverrides(wgsl, spec.names, label=label).check(render_wgsl("blade_math.wgsl"))
 
 
 def check_compiles(overrides: FunctionOverrides):
@@ -106,23 +113,53 @@ def _sim_field(case):
     return field
 
 
-def _probe(overrides, name, cases_inputs):
-    """The student's ``name`` called alone on the GPU with each blade's inputs
-    (:mod:`grasswidget.gpu.function_probe`): {leaf: array over all blades of all cases}."""
+def _probe(overrides, name, rows):
+    """The student's ``name`` called alone on the GPU with each row of inputs (a dict of
+    its arguments; :mod:`grasswidget.gpu.function_probe`), its divisions and the like
+    trapped (:func:`grasswidget.core.student_wgsl.instrument`). Returns ({leaf: array over
+    the rows}, trap (int per row: the 1-based trap site that fired first, 0 none), sites)."""
     from ..gpu.function_probe import call_function
 
     stock = render_wgsl("blade_math.wgsl")
     (fn,) = [f for f in parse_functions(stock) if f.name == name]
-    rows = [inputs for case_inputs in cases_inputs for inputs in case_inputs]
     columns = [np.array([np.asarray(row[p], np.float64) if not isinstance(row[p], (int, np.integer)) else row[p]
                          for row in rows]) for p, _ in fn.params]
-    return call_function(overrides.only(name).apply(stock), name, [t for _, t in fn.params], fn.returns, columns)
+    types = [t for _, t in fn.params]
+    one = overrides.only(name)
+    code, sites = instrument(one.code)
+    if sites:
+        try:
+            module = FunctionOverrides(code, (name,), one.label).apply(stock)
+            out = call_function(module, name, types, fn.returns, columns, read_after=(TRAP_VAR,))
+            return out, out.pop(TRAP_VAR).astype(int), sites
+        except Exception:  # noqa: BLE001 - the traps could not be compiled (e.g. an abstract constant): probe without
+            pass
+    out = call_function(one.apply(stock), name, types, fn.returns, columns)
+    return out, np.zeros(len(rows), int), []
 
 
 def _leaf_value(leaves, k):
     if list(leaves) == ["r"]:
         return leaves["r"][k]
     return {key.split(".", 1)[1]: v[k] for key, v in leaves.items()}
+
+
+def _flat(value):
+    if isinstance(value, dict):
+        return np.concatenate([np.ravel(np.asarray(v, np.float64)) for v in value.values()])
+    return np.ravel(np.asarray(value, np.float64))
+
+
+def _difference(a, b) -> float:
+    """The largest difference of two function values (inf where one is not finite)."""
+    a, b = _flat(a), _flat(b)
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return np.inf
+    return float(np.max(np.abs(a - b))) if a.size else 0.0
+
+
+def _trap_text(sites, site):
+    return sites[site - 1].describe() if site and site <= len(sites) else None
 
 
 def _grade_simulation(spec, overrides, cases) -> list:
@@ -135,46 +172,72 @@ def _grade_simulation(spec, overrides, cases) -> list:
             expected.append(ref.simulate(case.state, field.params, 1, first_step=case.step_index,
                                          colliders=case.spheres))
             traces.append(step_trace(case.state, field.params, t, case.spheres))
-        grades = []
-        for fn in spec.functions:
-            one = overrides.only(fn.name)
-            io = [[function_io(fn.name, trace, field.params, k) for k in range(len(case.state["v0"]))]
-                  for case, field, trace in zip(cases, fields, traces)]
-            probed = _probe(overrides, fn.name, [[inputs for inputs, _ in rows] for rows in io])
-            finite_value = np.all([np.isfinite(v).reshape(len(v), -1).all(axis=1) for v in probed.values()], axis=0)
-            worst, wrong, checked, first, offset = 0.0, 0, 0, None, 0
-            for c, (case, field, exp) in enumerate(zip(cases, fields, expected)):
-                field.set_function_overrides(one)
-                field.write_state(case.state)
-                field.step_count = case.step_index
-                field.step(1)
-                got = field.read_state()
-                n = len(case.state["v0"])
-                h = np.asarray(case.state["height"], np.float64)
-                err = np.maximum(np.linalg.norm(got["v1"] - exp["v1"], axis=1),
-                                 np.linalg.norm(got["v2"] - exp["v2"], axis=1)) / h
-                finite = (np.isfinite(got["v1"]).all(axis=1) & np.isfinite(got["v2"]).all(axis=1)
-                          & finite_value[offset: offset + n])
-                err = np.where(finite, err, np.inf)
-                bad = err > SIM_TOLERANCE
-                checked += n
-                wrong += int(bad.sum())
-                worst = max(worst, float(err.max()))
-                if bad.any() and first is None:
-                    k = int(np.argmax(~finite)) if not finite.all() else int(np.argmax(bad))
-                    inputs, reference = io[c][k]
-                    first = dict(case=case.name, case_description=case.description, blade=k, inputs=inputs,
-                                 reference=reference, your_value=_leaf_value(probed, offset + k),
-                                 expected={"v1": exp["v1"][k], "v2": exp["v2"][k]},
-                                 yours={"v1": got["v1"][k].astype(np.float64), "v2": got["v2"][k].astype(np.float64)})
-                offset += n
-            verdict = "NaN" if not finite_value.all() else ("fail" if wrong else "pass")
-            grades.append(FunctionGrade(fn.name, fn.label, verdict, worst, "blade heights", checked, wrong,
-                                        SIM_TOLERANCE, first))
-        return grades
+        return [_grade_simulated_function(fn, overrides, cases, fields, expected, traces) for fn in spec.functions]
     finally:
         for field in fields:
             field.release()
+
+
+def _grade_simulated_function(fn, overrides, cases, fields, expected, traces) -> FunctionGrade:
+    """One function of a simulation exercise: every call it gets in each case probed alone,
+    then one step of the real pass per case; the worst blade over all cases reported."""
+    calls = [[function_calls(fn.name, trace, field.params, k) for k in range(len(case.state["v0"]))]
+             for case, field, trace in zip(cases, fields, traces)]
+    rows, where = [], []  # where[c][k] = (first row, number of calls) of blade k of case c
+    for blade_calls in calls:
+        where.append([])
+        for one_blade in blade_calls:
+            where[-1].append((len(rows), len(one_blade)))
+            rows += [inputs for _, inputs, _ in one_blade]
+    probed, trap, sites = _probe(overrides, fn.name, rows)
+    finite_row = np.all([np.isfinite(v).reshape(len(v), -1).all(axis=1) for v in probed.values()], axis=0)
+    one = overrides.only(fn.name)
+    wrong, checked, worst, nonfinite_any, failed_cases = 0, 0, 0.0, not finite_row.all(), []
+    best = None  # (key, case index, blade, errors, got)
+    for c, (case, field, exp) in enumerate(zip(cases, fields, expected)):
+        field.set_function_overrides(one)
+        field.write_state(case.state)
+        field.step_count = case.step_index
+        field.step(1)
+        got = field.read_state()
+        n = len(case.state["v0"])
+        h = np.asarray(case.state["height"], np.float64)
+        e1 = np.linalg.norm(got["v1"] - exp["v1"], axis=1) / h
+        e2 = np.linalg.norm(got["v2"] - exp["v2"], axis=1) / h
+        first = np.array([r for r, _ in where[c]])
+        count = np.array([m for _, m in where[c]])
+        probe_finite = np.array([finite_row[r: r + m].all() for r, m in zip(first, count)])
+        trapped = np.array([int(next((t for t in trap[r: r + m] if t), 0)) for r, m in zip(first, count)])
+        finite = np.isfinite(got["v1"]).all(axis=1) & np.isfinite(got["v2"]).all(axis=1) & probe_finite
+        err = np.where(finite, np.maximum(e1, e2), np.inf)
+        bad = err > SIM_TOLERANCE
+        nonfinite_any |= bool((bad & (trapped > 0)).any())
+        checked += n
+        wrong += int(bad.sum())
+        worst = max(worst, float(err.max()))
+        if bad.any():
+            failed_cases.append(case.name)
+        for k in np.flatnonzero(bad):
+            key = (not finite[k] or trapped[k] > 0, float(err[k]))
+            if best is None or key > best[0]:
+                best = (key, c, int(k), (float(e1[k]), float(e2[k])), got, int(trapped[k]))
+    failure = None
+    if best is not None:
+        _, c, k, (e1k, e2k), got, site = best
+        r0, m = where[c][k]
+        diffs = [_difference(_leaf_value(probed, r0 + j), calls[c][k][j][2]) for j in range(m)]
+        j = int(np.argmax(diffs))
+        label, inputs, reference = calls[c][k][j]
+        exp = expected[c]
+        failure = dict(case=cases[c].name, case_description=cases[c].description, blade=k, call=label,
+                       call_index=j, calls=m, inputs=inputs, reference=reference,
+                       your_value=_leaf_value(probed, r0 + j), errors={"v1": e1k, "v2": e2k},
+                       trap=_trap_text(sites, site or int(next((t for t in trap[r0: r0 + m] if t), 0))),
+                       expected={"v1": exp["v1"][k], "v2": exp["v2"][k]},
+                       yours={"v1": got["v1"][k].astype(np.float64), "v2": got["v2"][k].astype(np.float64)})
+    verdict = "NaN" if nonfinite_any else ("fail" if wrong else "pass")
+    return FunctionGrade(fn.name, fn.label, verdict, worst, "blade heights", checked, wrong, SIM_TOLERANCE, failure,
+                         tuple(failed_cases))
 
 
 # ------------------------------------------------------------------ culling
@@ -193,7 +256,7 @@ def _grade_culling(spec, overrides, cases) -> list:
         grades = []
         for fn in spec.functions:
             scene.field.set_function_overrides(overrides.only(fn.name))
-            wrong, checked, first = 0, 0, None
+            wrong, checked, best, failed_cases = 0, 0, None, []
             for case in cases:
                 for name, value in case.params.items():
                     setattr(params, name, value)
@@ -212,13 +275,27 @@ def _grade_culling(spec, overrides, cases) -> list:
                 bad = (culled != culled_expected) & ~skip
                 checked += int((~skip).sum())
                 wrong += int(bad.sum())
-                if bad.any() and first is None:
-                    k = int(np.argmax(bad))
-                    inputs, reference = cull_io(fn.name, case.state, params, view_proj, cam_pos, k)
-                    first = dict(case=case.name, case_description=case.description, blade=k, inputs=inputs,
-                                 reference=reference, expected=bool(culled_expected[k]), yours=bool(culled[k]))
-            grades.append(FunctionGrade(fn.name, fn.label, "fail" if wrong else "pass", float(wrong), "blades",
-                                        checked, wrong, 0.0, first))
+                if bad.any():  # the wrongly decided blade the reference decides most clearly
+                    failed_cases.append(case.name)
+                    margin = np.where(bad, cull_margin(fn.name, case.state, params, view_proj, cam_pos), -1.0)
+                    k = int(np.argmax(margin))
+                    if best is None or margin[k] > best[0]:
+                        inputs, reference = cull_io(fn.name, case.state, params, view_proj, cam_pos, k)
+                        exact = dict(inputs, view_proj=view_proj) if "view_proj" in inputs else inputs
+                        best = (float(margin[k]), dict(
+                            case=case.name, case_description=case.description, blade=k, inputs=inputs,
+                            reference=reference, probe_inputs=exact, expected=bool(culled_expected[k]),
+                            yours=bool(culled[k]), details=cull_details(fn.name, case.state, params, view_proj,
+                                                                        cam_pos, k)))
+            failure = None
+            if best is not None:
+                failure = best[1]
+                probed, trap, sites = _probe(overrides, fn.name, [failure.pop("probe_inputs")])
+                failure["your_value"] = bool(probed["r"][0])
+                failure["trap"] = _trap_text(sites, int(trap[0]))
+            verdict = ("NaN" if failure["trap"] else "fail") if failure else "pass"
+            grades.append(FunctionGrade(fn.name, fn.label, verdict, float(wrong), "blades", checked, wrong, 0.0,
+                                        failure, tuple(failed_cases)))
         return grades
     finally:
         scene.release()

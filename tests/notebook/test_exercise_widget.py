@@ -87,3 +87,26 @@ def test_compare_in_the_browser_engine_is_two_widgets_on_one_set_of_params():
     finally:
         mine.close()
         ref.close()
+
+
+def test_a_typo_in_a_notebook_shows_the_students_error_only():
+    """IPython shows an ExerciseShaderError as its message: the student's line, not ~3 KB of
+    the grader's and the widget's frames before it."""
+    import contextlib
+    import io
+
+    from IPython.core.interactiveshell import InteractiveShell
+
+    shell = InteractiveShell.instance(colors="NoColor")
+    try:
+        ex = gw.exercise("forces")
+        shell.user_ns.update(ex=ex, code=ex.solution().replace("/ height;", "/ heigth;"), SIZE=SIZE)
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+            result = shell.run_cell("w = ex.widget(code, blades=64, size=SIZE)")
+    finally:
+        InteractiveShell.clear_instance()
+    text = out.getvalue()
+    assert isinstance(result.error_in_exec, gw.ExerciseShaderError)
+    assert "ExerciseShaderError: your forces code line 21, column 33:" in text and "| " in text
+    assert "Traceback" not in text and "kernel_view.py" not in text and len(text) < 600, text

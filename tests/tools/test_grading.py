@@ -2,7 +2,7 @@
 against the NumPy reference.
 
 The starter never passes and the solution always does; a force scaled by 3 % or a wrong
-frustum test fails naming exactly that function, with its first failing blade; a compile
+frustum test fails naming exactly that function, with its worst blade; a compile
 error names the student's line and column; a NaN fails with the word NaN.
 """
 
@@ -102,3 +102,24 @@ def test_a_wrong_frustum_test_fails_naming_it():
     assert report.failed == ["frustum_cull"], str(report)
     f = report["frustum_cull"].failure
     assert f["expected"] is False and f["yours"] is True  # kept by the reference (one point inside), culled by this
+
+
+def test_the_engines_bindings_and_a_nul_are_refused_at_the_students_line(forces):
+    """Before: u_sim gave a raw GPUValidationError at "wgsl:584", a NUL "Unable to find entry
+    point 'probe_main'"; now both are ExerciseShaderError at the student's line, before compiling."""
+    old = "let fr = dot(v2 - v0, up) / height;"
+    for new, reason in (("let fr = u_sim.gravity / height;", "engine binding u_sim"),
+                        ("let fr = dot(s_blades[0].xyz, up) / height;", "engine binding s_blades"),
+                        ("let fr = dot(v2 - v0, up) /\x00 height;", "control character")):
+        code = forces.solution().replace(old, new)
+        line = code.split("\n").index("    " + new) + 1
+        with pytest.raises(gw.ExerciseShaderError) as info:
+            forces.grade(code)
+        assert info.value.reason == reason and info.value.line == line, str(info.value)
+        assert f"line {line}, column {info.value.column}" in str(info.value)
+
+
+def test_pass_source_shows_where_tip_step_calls_the_forces(forces):
+    src = forces.pass_source
+    assert "main -> tip_step -> wind_force" in src and "main -> tip_step -> integrate_tip" in src
+    assert "fn tip_step(" in src and "(from blade_math.wgsl)" in src
