@@ -120,7 +120,11 @@ def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitu
             if mode == "point":
                 raise GrassValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
             v0 = np.zeros((int(v0), 3))
-        return environmental_gravity(v0, mode, params.gravity_direction, params.gravity_center, params.gravity)
+        # Only the direction counts: scaled by its largest component first, so that a
+        # direction like (1e300, 0, 0) does not overflow its length (as frame_data does for the GPU).
+        direction = np.asarray(params.gravity_direction, np.float64)
+        direction = direction / max(float(np.abs(direction).max()), 1e-300)
+        return environmental_gravity(v0, mode, direction, params.gravity_center, params.gravity)
     mode = GravityMode.from_label(gravity_mode) if isinstance(gravity_mode, str) else GravityMode(int(gravity_mode))
     v0 = np.asarray(v0, np.float64)
     if mode == GravityMode.POINT:
