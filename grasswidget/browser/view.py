@@ -48,6 +48,7 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
+from ..core.limits import check_steps
 from ..core import camera_rules
 from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
@@ -315,9 +316,9 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     # ------------------------------------------------------------------ commands
 
     def step(self, n: int = 1):
-        """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests)."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests);
+        ``n`` an integer in [0, MAX_STEPS] (:mod:`grasswidget.core.limits`)."""
+        n = check_steps(n)
         if n:
             self.send({"type": "step", "n": int(n)})
 

@@ -25,11 +25,16 @@ the origin stays finite but its blades lose their shape; keep fields within a fe
 from __future__ import annotations
 
 import numbers
+import signal
+import threading
+from contextlib import contextmanager
 
 from ..errors import GrassValueError
 
 __all__ = ["MAX_COORDINATE", "MAX_BLADE_HEIGHT", "MAX_BLADE_WIDTH", "MAX_BLADE_STIFFNESS", "MAX_STEPS",
-           "steps_error_text", "check_steps"]
+           "steps_error_text", "check_steps",
+           "StepsInterrupted", "hold_interrupts",
+           "NonFiniteStateWarning", "nonfinite_cause", "nonfinite_message"]
 
 #: Largest |x|, |y| or |z| (metres) of a blade root, a wind or gravity centre, a sphere
 #: collider's centre, and the largest collider radius: 1e7 m (squares 1e14, far below float32's 3.4e38).
@@ -57,3 +62,81 @@ def check_steps(n) -> int:
     if isinstance(n, bool) or not isinstance(n, numbers.Integral) or not 0 <= n <= MAX_STEPS:
         raise GrassValueError(steps_error_text(n))
     return int(n)
+
+
+class StepsInterrupted(KeyboardInterrupt):
+    """Ctrl-C (a kernel interrupt) during a long ``step(n)``: raised once the GPU submission in
+    flight was recorded, so the state stays consistent. A ``KeyboardInterrupt`` (not a
+    GrassError: ``except Exception`` does not swallow it). Attributes: ``done`` (the fixed steps
+    that ran and are counted in ``step_count``) and ``requested`` (the ``n`` asked for)."""
+
+    def __init__(self, done: int, requested: int):
+        super().__init__(f"step({requested:,}) interrupted after {done:,} steps; the state and the step "
+                         f"counter hold those {done:,} steps")
+        self.done, self.requested = int(done), int(requested)
+
+
+class _Held:
+    """The SIGINT that arrived while held (``hit``), see :func:`hold_interrupts`."""
+
+    def __init__(self):
+        self.hit = False
+
+    def __call__(self, signum, frame):
+        self.hit = True
+
+
+_active: list = []  # the holder in force (nested holds share it)
+
+
+@contextmanager
+def hold_interrupts():
+    """Hold Ctrl-C (SIGINT) back inside the block: the handler only records it (``held.hit``), so a
+    loop of GPU submissions can check ``held.hit`` between two of them, stop there with its
+    counters right and raise :class:`StepsInterrupted`. The previous handler is back after the
+    block. Nested holds share the outer one. Outside the main thread (where signals cannot be
+    handled) or under a handler not set from Python, nothing is held and ``hit`` stays False."""
+    if _active:
+        yield _active[-1]
+        return
+    held = _Held()
+    old = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.getsignal(signal.SIGINT)
+        if previous is not None and previous is not signal.SIG_IGN:
+            try:
+                old = signal.signal(signal.SIGINT, held)
+            except (ValueError, OSError):
+                old = None
+    _active.append(held)
+    try:
+        yield held
+    finally:
+        _active.pop()
+        if old is not None:
+            signal.signal(signal.SIGINT, old)
+
+
+class NonFiniteStateWarning(RuntimeWarning):
+    """Blades went non-finite (NaN or inf) in the simulation and its last validation step put
+    them back at rest (``reference.validate_finite``). Warned once per cause (a wind WGSL, the
+    user's blade-math functions), not once per frame."""
+
+
+def nonfinite_cause(params, overrides: bool = False) -> str:
+    """What most likely made blades non-finite with these params: the user's wind WGSL when the
+    wind field is "custom", else the user's blade-math functions (``overrides``), else the wind
+    field by name (every built-in input is range-checked, so that would be a bug)."""
+    if params.wind_field == "custom":
+        return "the wind WGSL (params.wind_wgsl, wind_field 'custom')"
+    if overrides:
+        return "the user's blade-math functions (set_function_overrides)"
+    return f"wind_field {params.wind_field!r} (a grasswidget bug: please report it)"
+
+
+def nonfinite_message(params, overrides: bool = False) -> str:
+    """The warning's text: what went non-finite, under what, and what was done."""
+    cause = nonfinite_cause(params, overrides)
+    hint = " Make user_wind return finite numbers." if params.wind_field == "custom" else ""
+    return (f"blades went non-finite (NaN or inf) under {cause}; the simulation's state validation "
+            f"put them back at rest.{hint}")
