@@ -56,7 +56,7 @@ export class EngineMessages extends EnginePasses {
     const steps = this.stepCount;
     await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
     const blades = a.getMappedRange().slice(0, this.n * 64);
-    const collision = b.getMappedRange().slice(0, this.n * 4);
+    const collision = b.getMappedRange().slice(0, (this.n + 1) * 4);  // the strengths and the reset flag
     a.destroy(); b.destroy();
     this.model.send({ type: "state", id, step_count: steps, n: this.n }, undefined, [blades, collision]);
   }
