@@ -16,6 +16,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.core import frame_data
+from grasswidget.core.params import RangedFloat, Vec3
 from grasswidget.core import reference as ref
 from grasswidget.core.limits import (MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE, MAX_STEPS,
                                      NonFiniteStateWarning, StepsInterrupted)
@@ -79,6 +80,49 @@ def test_extreme_accepted_inputs_keep_every_blade_finite(case, fresh, blades):
     # Every blade keeps its length (the paper's validation still holds): finite and meaningful.
     length = ref.curve_length(state["v0"], state["v1"], state["v2"])
     assert np.allclose(length, blades.height, rtol=2e-3), case
+
+
+def _numeric_extremes():
+    """(trait, value): both ends of every float trait of GrassParams, and for every vector trait
+    its limit along every axis (1e300 where it has none) and the smallest non-zero direction."""
+    p = gw.GrassParams()
+    out = []
+    for name in sorted(p.trait_names()):
+        trait = p.traits()[name]
+        if isinstance(trait, RangedFloat):
+            out += [(name, trait.lo), (name, trait.hi)]
+        elif isinstance(trait, Vec3):
+            big = trait.limit if trait.limit is not None else 1e300
+            out += [(name, (big, -big, big)), (name, (-big, 0.0, 0.0))]
+            if trait.nonzero:
+                out.append((name, (0.0, -1e-300, 0.0)))
+    return out
+
+
+def test_every_numeric_parameter_at_either_end_keeps_every_blade_finite_on_the_gpu(fresh):
+    """All four built-in wind fields, each float/vector trait at each end of its range (gravity_center
+    with gravity_mode 'point'), a huge ball and a small one in the field: float32 stays finite."""
+    fresh.colliders.set_array([[0.0, 0.5, 0.0, 1.0], [1.0, -MAX_COORDINATE + 2.0, 1.0, MAX_COORDINATE]])
+    extremes = _numeric_extremes()
+    assert len(extremes) > 40
+    resets = fresh.nonfinite_resets
+    bad = []
+    defaults = gw.GrassParams()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonFiniteStateWarning)
+        for wind in ("wave", "radial", "vortex", "noise"):
+            fresh.params.wind_field = wind
+            for name, value in extremes:
+                fresh.params.gravity_mode = "point" if name == "gravity_center" else "direction"
+                setattr(fresh.params, name, value)
+                fresh.step(6)
+                state = fresh.read_state()
+                if not _finite(state):
+                    bad.append((wind, name, value))
+                setattr(fresh.params, name, getattr(defaults, name))
+                fresh.reset()
+    assert not bad
+    assert fresh.nonfinite_resets == resets
 
 
 def test_extreme_blades_stay_finite():
