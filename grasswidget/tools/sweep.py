@@ -33,6 +33,7 @@ import os
 
 import numpy as np
 
+from ..core.limits import MAX_STEPS
 from ..core.blade_response import response_summary
 from ..core.blades import Blades
 from ..core.framing import PRESETS, parse_size
@@ -148,8 +149,9 @@ def _sheet(result) -> np.ndarray:
 
 
 def _check_args(steps, blades, preset, size, params):
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not (0 <= steps <= 1_000_000):
-        raise GrassValueError(f"steps must be an integer in [0, 1000000] (fixed steps of params.dt); got {steps!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not (0 <= steps <= MAX_STEPS):
+        raise GrassValueError(f"steps must be an integer in [0, {MAX_STEPS}] (fixed steps of params.dt; "
+                              f"MAX_STEPS, grasswidget.core.limits); got {steps!r}")
     if preset is not None and preset not in PRESETS:
         raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
     if not isinstance(blades, Blades):
