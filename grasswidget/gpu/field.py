@@ -737,7 +737,14 @@ class GrassField(gfx.WorldObject):
 
     def write_state(self, state: dict):
         """Upload a state dict (as returned by read_state) to the GPU (its "collision",
-        if present, too)."""
+        if present, too). Every value must be finite (a GrassValueError names the first
+        key that is not; nothing is written then)."""
+        for key, value in state.items():
+            arr = np.asarray(value)
+            if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
+                bad = int(np.count_nonzero(~np.isfinite(arr)))
+                raise GrassValueError(f"write_state: state[{key!r}] must be finite; {bad} of {arr.size} values "
+                                      f"are NaN or inf")
         self.blade_buffer.data[:] = pack_state(state).reshape(-1, 4)
         self.blade_buffer.update_full()
         sync_buffer(self.blade_buffer)

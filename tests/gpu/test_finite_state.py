@@ -203,17 +203,36 @@ def test_only_the_blades_that_went_non_finite_are_reset(fresh, blades):
     assert np.linalg.norm(state["v2"][~right] - rest[~right], axis=1).min() > 1e-3
 
 
-def test_a_non_finite_state_written_by_hand_is_put_back_at_rest(fresh, blades):
-    state = fresh.read_state()
-    state["v2"][::7] = np.nan
-    state["collision"][3] = np.inf
-    fresh.write_state(state)
-    with pytest.warns(NonFiniteStateWarning):
-        fresh.step(1)
-        assert fresh.check_finite()
+def test_a_users_blade_math_function_returning_nan_is_named_as_the_cause():
+    from grasswidget.core.wgsl_overrides import FunctionOverrides
+
+    blades = gw.Blades.on_plane(128, size=4.0, seed=6)
+    field = gw.GrassField(blades)
+    nan_force = """fn wind_force(W: vec3<f32>, v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> vec3<f32> {
+    return vec3<f32>(sqrt(-1.0 - height));
+}
+"""
+    try:
+        field.set_function_overrides(FunctionOverrides(nan_force, ("wind_force",), "the forces exercise"))
+        field.step(8)
+        with pytest.warns(NonFiniteStateWarning, match="blade-math functions"):
+            state = field.read_state()
+        assert _finite(state) and _at_rest(state, blades)
+    finally:
+        field.release()
+
+
+def test_a_non_finite_state_is_refused_by_write_state_and_nothing_changes(fresh, blades):
+    fresh.step(5)
+    before = fresh.read_state()
+    for key, row in (("v2", 7), ("collision", 3)):
+        state = {k: np.array(v) for k, v in before.items()}
+        state[key][row] = np.nan
+        with pytest.raises(gw.GrassValueError, match=rf"state\['{key}'\] must be finite; [13] of"):
+            fresh.write_state(state)
     after = fresh.read_state()
-    assert _finite(after)
-    assert not fresh.check_finite()  # cleared once read
+    assert all(np.array_equal(after[k], before[k]) for k in ("v1", "v2", "collision"))
+    assert not fresh.check_finite()
 
 
 def test_the_frame_stats_bring_the_flag_without_a_readback_of_their_own():
