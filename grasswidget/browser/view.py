@@ -305,6 +305,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         if change["name"] == "wind_wgsl":
             if not self._reverting_wind:
                 self._request_wind(change["new"], change["old"], wait=False)
+                self._warned_cause = None  # a new snippet that fails is worth its own warning
             return
         self.auto_switches.params_changed(change["name"])
         with self.hold_sync():
@@ -451,10 +452,12 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def note_reset_flag(self, value: float) -> bool:
         """The reset flag of the browser's simulation (read with the state): when set, the
         finite check of simulate.wgsl put blades that went non-finite back at rest; warn once
-        per cause (NonFiniteStateWarning), as the kernel engine's GrassField.note_reset_flag.
-        The flag stays set in the page until the blades are reset. Returns whether it was set."""
+        per cause (NonFiniteStateWarning), as the kernel engine's GrassField.note_reset_flag,
+        and ask the page to clear the flag (in order with the steps that follow). Returns
+        whether it was set."""
         if not value:
             return False
+        self.send({"type": "clear_reset_flag"})
         cause = nonfinite_cause(self.params, self.function_overrides is not None)
         if cause != self._warned_cause:
             self._warned_cause = cause

@@ -41,12 +41,15 @@ def test_browser_widget_step_refuses_too():
 def test_the_reset_flag_warns_once_per_cause_until_reset():
     view = BrowserEngineWidget(gw.Blades.on_plane(64, seed=1),
                                params=gw.GrassParams(wind_field="custom", wind_wgsl="return vec3<f32>(1.0);"))
-    view.send = lambda content, buffers=None: None
+    sent = []
+    view.send = lambda content, buffers=None: sent.append(content["type"])
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             assert not view.note_reset_flag(0.0)
+            assert sent == []
             assert view.note_reset_flag(1.0) and view.note_reset_flag(1.0)
+            assert sent == ["clear_reset_flag", "clear_reset_flag"]  # the page clears it after each read
             view.reset()
             assert view.note_reset_flag(1.0)
         mine = [str(w.message) for w in caught if issubclass(w.category, NonFiniteStateWarning)]
