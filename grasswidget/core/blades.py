@@ -31,6 +31,10 @@ _BLADE_MAX = {"height": (MAX_BLADE_HEIGHT, "m"), "width": (MAX_BLADE_WIDTH, "m")
               "stiffness": (MAX_BLADE_STIFFNESS, "1/s^2")}
 
 
+#: Orientations (rad) beyond this are brought into [-pi, pi] (the same angle) when Blades are made.
+_ORIENTATION_REDUCE = 1e4
+
+
 def _check_range(name, value, lo_min=0.0):
     hi_max, unit = _BLADE_MAX[name]
     try:
@@ -59,7 +63,8 @@ class Blades:
     Attributes (all float32):
         v0: (N, 3) roots, metres, every coordinate in [-1e7, 1e7] (``limits.MAX_COORDINATE``).
         up: (N, 3) unit surface normals at the roots (any finite non-zero vectors, normalised).
-        orientation: (N,) angle theta (radians) of the width direction in the tangent plane.
+        orientation: (N,) angle theta (radians) of the width direction in the tangent plane
+            (any finite angle; beyond 1e4 rad brought into [-pi, pi], the same angle).
         height: (N,) blade heights h, metres, in (0, 1e3] (``limits.MAX_BLADE_HEIGHT``).
         width: (N,) blade widths w, metres, in (0, 1e2] (``limits.MAX_BLADE_WIDTH``).
         stiffness: (N,) stiffness s of the recovery force, 1/s^2, in (0, 1e6] (``limits.MAX_BLADE_STIFFNESS``).
@@ -104,6 +109,10 @@ class Blades:
                 hi, unit = _BLADE_MAX[name]
                 raise GrassValueError(f"{name} must be in (0, {hi:g}] {unit} for every blade; "
                                       f"got values in [{float(arr.min()):g}, {float(arr.max()):g}]")
+            if name == "orientation" and n and np.abs(arr).max() > _ORIENTATION_REDUCE:
+                # The same angle, reduced where float32's sin/cos would lose it (|theta| > 1e4 rad).
+                # (NumPy's float64 sin/cos reduce exactly; atan2 gives the angle back in [-pi, pi].)
+                arr = np.where(np.abs(arr) > _ORIENTATION_REDUCE, np.arctan2(np.sin(arr), np.cos(arr)), arr)
             setattr(self, name, np.ascontiguousarray(arr, np.float32))
         if n and (self.height.min() <= 0 or self.width.min() <= 0 or self.stiffness.min() <= 0):
             raise GrassValueError("height, width and stiffness must be > 0")  # a value that rounds to 0 in float32
@@ -380,6 +389,9 @@ def _mesh_arrays(geometry):
         raise GrassValueError(f"geometry positions must be a (V, 3) array; got shape {pos.shape}")
     if not np.all(np.isfinite(pos)):
         raise GrassValueError("geometry positions must be finite (found NaN or inf)")
+    if pos.size and np.abs(pos).max() > MAX_COORDINATE:
+        raise GrassValueError(f"geometry positions must be in [{-MAX_COORDINATE:g}, {MAX_COORDINATE:g}] metres "
+                              f"(MAX_COORDINATE); got {float(np.abs(pos).max()):g}")
     if idx is None:
         if len(pos) % 3:
             raise GrassValueError("geometry has no indices and its vertex count is not a multiple of 3")

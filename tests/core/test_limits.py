@@ -70,6 +70,11 @@ def test_blades_past_the_limits_are_refused_naming_the_array_and_range():
                             (dict(size=10.0, reach=1e30), r"reach .*1e\+07")]:
         with pytest.raises(gw.GrassValueError, match=message):
             gw.Blades.on_plane(8, **kwargs)
+    with pytest.raises(gw.GrassValueError, match=r"geometry positions must be in \[-1e\+07, 1e\+07\]"):
+        gw.Blades.on_mesh((np.array([[0, 0, 0], [1e30, 0, 0], [0, 0, 1.0]]), np.array([0, 1, 2])), count=8)
+    huge_angle = gw.Blades(**{**fields, "orientation": np.full(8, 3e38)})
+    assert np.all(np.abs(huge_angle.orientation) <= np.pi + 1e-6)
+    assert np.allclose(np.cos(huge_angle.orientation), np.cos(np.full(8, 3e38)), atol=1e-6)
     with pytest.raises(gw.GrassValueError, match=r"heights must be in \[-1e\+07, 1e\+07\]"):
         gw.Blades.on_heightmap(np.full((4, 4), 1e30), size=10.0, count=8)
     # The extremes themselves are accepted.
