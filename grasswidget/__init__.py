@@ -16,6 +16,7 @@ ensure_runtime_dir()  # before any Vulkan instance: keeps the loader from compla
 
 from .core.blades import Blades  # noqa: E402
 from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
+from .core.limits import MAX_STEPS, NonFiniteStateWarning, StepsInterrupted  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, TraceFileError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, ReadOnlyAttributeError, UnknownNameError, UpstreamChangedError,
@@ -108,6 +109,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
+    "MAX_STEPS", "NonFiniteStateWarning", "StepsInterrupted",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError", "MissingLimitError",
     "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError", "TraceFileError",

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import itertools
 import uuid
+import warnings
 from pathlib import Path
 
 import anywidget
@@ -48,6 +49,7 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
+from ..core.limits import NonFiniteStateWarning, check_steps, nonfinite_cause, nonfinite_message
 from ..core import camera_rules
 from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
@@ -177,6 +179,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         self._frozen = None
         self._wind_body = self.params.wind_wgsl
         self._reverting_wind = False
+        self._warned_cause = None  # the cause of the last NonFiniteStateWarning (note_reset_flag)
         self.step_count_hint = 0
         self.last_stats = {}
         #: The last 20 errors the browser reported (text), newest last.
@@ -302,6 +305,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         if change["name"] == "wind_wgsl":
             if not self._reverting_wind:
                 self._request_wind(change["new"], change["old"], wait=False)
+                self._warned_cause = None  # a new snippet that fails is worth its own warning
             return
         self.auto_switches.params_changed(change["name"])
         with self.hold_sync():
@@ -315,14 +319,15 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     # ------------------------------------------------------------------ commands
 
     def step(self, n: int = 1):
-        """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests)."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        """Advance exactly ``n`` fixed steps of ``params.dt`` in the browser (in order with other requests);
+        ``n`` an integer in [0, MAX_STEPS] (:mod:`grasswidget.core.limits`)."""
+        n = check_steps(n)
         if n:
             self.send({"type": "step", "n": int(n)})
 
     def reset(self):
-        """Every blade back to its rest pose, collision strengths and the step counter to 0."""
+        """Every blade back to its rest pose, collision strengths, the reset flag and the step counter to 0."""
+        self._warned_cause = None
         self.send({"type": "reset"})
 
     def reset_camera(self):
@@ -438,9 +443,27 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         msg, buffers = self._request({"type": "read_state"}, timeout, "read_state() from the browser view")
         n = int(msg["n"])
         state = unpack_state(np.frombuffer(bytes(buffers[0]), np.float32).reshape(n, 4, 4))
-        state["collision"] = np.frombuffer(bytes(buffers[1]), np.float32).copy()
+        collision = np.frombuffer(bytes(buffers[1]), np.float32)
+        state["collision"] = collision[:n].copy()
         state["step_count"] = int(msg["step_count"])
+        self.note_reset_flag(float(collision[n]) if len(collision) > n else 0.0)
         return state
+
+    def note_reset_flag(self, value: float) -> bool:
+        """The reset flag of the browser's simulation (read with the state): when set, the
+        finite check of simulate.wgsl put blades that went non-finite back at rest; warn once
+        per cause (NonFiniteStateWarning), as the kernel engine's GrassField.note_reset_flag,
+        and ask the page to clear the flag (in order with the steps that follow). Returns
+        whether it was set."""
+        if not value:
+            return False
+        self.send({"type": "clear_reset_flag"})
+        cause = nonfinite_cause(self.params, self.function_overrides is not None)
+        if cause != self._warned_cause:
+            self._warned_cause = cause
+            warnings.warn(nonfinite_message(self.params, self.function_overrides is not None),
+                          NonFiniteStateWarning, stacklevel=3)
+        return True
 
     @staticmethod
     def snapshot_request(size, supersample: int = 1) -> dict:

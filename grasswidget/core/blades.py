@@ -20,21 +20,40 @@ import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError
 from .horizon import HorizonLayout
+from .limits import MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE
 from .memory import BladeCountError, check_blade_count
 
 __all__ = ["Blades", "BladeCountError"]
 
 
+#: The largest value of each per-blade number (grasswidget.core.limits), with its unit.
+_BLADE_MAX = {"height": (MAX_BLADE_HEIGHT, "m"), "width": (MAX_BLADE_WIDTH, "m"),
+              "stiffness": (MAX_BLADE_STIFFNESS, "1/s^2")}
+
+
+#: Orientations (rad) beyond this are brought into [-pi, pi] (the same angle) when Blades are made.
+_ORIENTATION_REDUCE = 1e4
+
+
 def _check_range(name, value, lo_min=0.0):
+    hi_max, unit = _BLADE_MAX[name]
     try:
         lo, hi = (float(value[0]), float(value[1]))
     except (TypeError, IndexError, ValueError):
         raise GrassValueError(f"{name} must be a (min, max) pair of numbers; got {value!r}") from None
-    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= lo_min or hi < lo:
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= lo_min or hi < lo or hi > hi_max:
         raise GrassValueError(
-            f"{name} must be a (min, max) pair with {lo_min:g} < min <= max, finite; got {value!r}"
+            f"{name} must be a (min, max) pair with {lo_min:g} < min <= max <= {hi_max:g} {unit}, finite; got {value!r}"
         )
     return lo, hi
+
+
+def _check_size(size):
+    """The side of a square field (metres) in (0, 2 MAX_COORDINATE], as a float."""
+    if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) \
+            or not 0 < size <= 2 * MAX_COORDINATE:
+        raise GrassValueError(f"size must be a finite number in (0, {2 * MAX_COORDINATE:g}] (metres); got {size!r}")
+    return float(size)
 
 
 @dataclass
@@ -42,12 +61,15 @@ class Blades:
     """A set of N grass blades in their rest pose.
 
     Attributes (all float32):
-        v0: (N, 3) roots, metres.
-        up: (N, 3) unit surface normals at the roots.
-        orientation: (N,) angle theta (radians) of the width direction in the tangent plane.
-        height: (N,) blade heights h, metres.
-        width: (N,) blade widths w, metres.
-        stiffness: (N,) stiffness s of the recovery force, 1/s^2.
+        v0: (N, 3) roots, metres, every coordinate in [-1e7, 1e7] (``limits.MAX_COORDINATE``).
+        up: (N, 3) unit surface normals at the roots (any finite non-zero vectors, normalised).
+        orientation: (N,) angle theta (radians) of the width direction in the tangent plane
+            (any finite angle; beyond 1e4 rad brought into [-pi, pi], the same angle).
+        height: (N,) blade heights h, metres, in (0, 1e3] (``limits.MAX_BLADE_HEIGHT``).
+        width: (N,) blade widths w, metres, in (0, 1e2] (``limits.MAX_BLADE_WIDTH``).
+        stiffness: (N,) stiffness s of the recovery force, 1/s^2, in (0, 1e6] (``limits.MAX_BLADE_STIFFNESS``).
+
+    Values outside these ranges raise a GrassValueError naming the array and the range.
         horizon: a :class:`~grasswidget.core.horizon.HorizonLayout` for a field to the
             horizon (``on_plane(..., reach=R)``), else None.
     """
@@ -62,21 +84,38 @@ class Blades:
 
     def __post_init__(self):
         n = len(self.v0)
-        self.v0 = np.ascontiguousarray(self.v0, np.float32).reshape(n, 3)
+        v0 = np.asarray(self.v0, np.float64).reshape(n, 3)
+        if not np.all(np.isfinite(v0)):
+            raise GrassValueError("v0 (roots) must be finite")
+        if n and np.abs(v0).max() > MAX_COORDINATE:
+            raise GrassValueError(f"v0 (roots) must have every coordinate in [{-MAX_COORDINATE:g}, {MAX_COORDINATE:g}] "
+                                  f"metres (MAX_COORDINATE); got {float(np.abs(v0).max()):g}")
+        self.v0 = np.ascontiguousarray(v0, np.float32)
         up = np.asarray(self.up, np.float64).reshape(n, 3)
+        if n and not np.all(np.isfinite(up)):
+            raise GrassValueError("up vectors must be finite and non-zero")
+        # Only the direction counts: scale by the largest component first (no overflow or
+        # underflow in the length of (1e300, 1, 0) or (1e-300, 0, 0)).
+        up = up / np.maximum(np.abs(up).max(axis=1, keepdims=True), 1e-300) if n else up
         norm = np.linalg.norm(up, axis=1, keepdims=True)
-        if n and (not np.all(np.isfinite(up)) or np.any(norm < 1e-12)):
+        if n and np.any(norm < 1e-12):
             raise GrassValueError("up vectors must be finite and non-zero")
         self.up = (up / np.maximum(norm, 1e-30)).astype(np.float32)
         for name in ("orientation", "height", "width", "stiffness"):
-            arr = np.ascontiguousarray(getattr(self, name), np.float32).reshape(n)
+            arr = np.asarray(getattr(self, name), np.float64).reshape(n)
             if not np.all(np.isfinite(arr)):
                 raise GrassValueError(f"{name} must be finite")
-            setattr(self, name, arr)
-        if not np.all(np.isfinite(self.v0)):
-            raise GrassValueError("v0 (roots) must be finite")
+            if name in _BLADE_MAX and n and not (arr.min() > 0 and arr.max() <= _BLADE_MAX[name][0]):
+                hi, unit = _BLADE_MAX[name]
+                raise GrassValueError(f"{name} must be in (0, {hi:g}] {unit} for every blade; "
+                                      f"got values in [{float(arr.min()):g}, {float(arr.max()):g}]")
+            if name == "orientation" and n and np.abs(arr).max() > _ORIENTATION_REDUCE:
+                # The same angle, reduced where float32's sin/cos would lose it (|theta| > 1e4 rad).
+                # (NumPy's float64 sin/cos reduce exactly; atan2 gives the angle back in [-pi, pi].)
+                arr = np.where(np.abs(arr) > _ORIENTATION_REDUCE, np.arctan2(np.sin(arr), np.cos(arr)), arr)
+            setattr(self, name, np.ascontiguousarray(arr, np.float32))
         if n and (self.height.min() <= 0 or self.width.min() <= 0 or self.stiffness.min() <= 0):
-            raise GrassValueError("height, width and stiffness must be > 0")
+            raise GrassValueError("height, width and stiffness must be > 0")  # a value that rounds to 0 in float32
 
     def __len__(self):
         return len(self.v0)
@@ -111,9 +150,11 @@ class Blades:
             count: number of blades N, >= 1. A count whose making would not fit in the
                 available memory raises :class:`~grasswidget.core.memory.BladeCountError`
                 (a ValueError) at once, before anything is allocated.
-            size: side of the square plane in metres, > 0 (default 15, the course scene).
+            size: side of the square plane in metres, in (0, 2e7] (default 15, the course scene).
             seed: random seed (int).
-            height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2.
+            height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2; at most
+                1e3 m, 1e2 m and 1e6 1/s^2 (:mod:`grasswidget.core.limits`: the float32
+                physics stays finite with every parameter in range).
             reach: None (default: the square field) or the radius in metres (> size / 2) of
                 a field to the horizon: a near disc of diameter ``size`` at full density,
                 beyond it out to ``reach`` the density falls as 1/r (half per doubling of
@@ -128,17 +169,16 @@ class Blades:
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
         count = check_blade_count(count)
-        if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
-            raise GrassValueError(f"size must be a finite number > 0 (metres); got {size!r}")
+        size = _check_size(size)
         h = _check_range("height", height)
         w = _check_range("width", width)
         s = _check_range("stiffness", stiffness)
         horizon = None
         if reach is not None:
             if isinstance(reach, bool) or not isinstance(reach, (int, float, np.number)) or not np.isfinite(reach) \
-                    or not reach > 0.5 * size:
-                raise GrassValueError(f"reach must be None or a finite number > size / 2 = {0.5 * size:g} metres; "
-                                      f"got {reach!r}")
+                    or not 0.5 * size < reach <= MAX_COORDINATE:
+                raise GrassValueError(f"reach must be None or a finite number in (size / 2 = {0.5 * size:g}, "
+                                      f"{MAX_COORDINATE:g}] metres; got {reach!r}")
             horizon = HorizonLayout(center=(0.0, 0.0), near_radius=0.5 * float(size), reach=float(reach))
         rng = np.random.default_rng(seed)
         v0 = np.zeros((count, 3), np.float32)
@@ -254,8 +294,10 @@ class Blades:
         if not np.all(np.isfinite(h)):
             bad = int(np.count_nonzero(~np.isfinite(h)))
             raise GrassValueError(f"heights must be finite; {bad} of {h.size} values are NaN or inf")
-        if isinstance(size, bool) or not isinstance(size, (int, float, np.number)) or not np.isfinite(size) or size <= 0:
-            raise GrassValueError(f"size must be a finite number > 0 (metres); got {size!r}")
+        if np.abs(h).max() > MAX_COORDINATE:
+            raise GrassValueError(f"heights must be in [{-MAX_COORDINATE:g}, {MAX_COORDINATE:g}] metres "
+                                  f"(MAX_COORDINATE); got {float(np.abs(h).max()):g}")
+        size = _check_size(size)
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise GrassValueError(f"count must be an integer >= 1; got {count!r}")
         count, size = check_blade_count(count), float(size)
@@ -347,6 +389,9 @@ def _mesh_arrays(geometry):
         raise GrassValueError(f"geometry positions must be a (V, 3) array; got shape {pos.shape}")
     if not np.all(np.isfinite(pos)):
         raise GrassValueError("geometry positions must be finite (found NaN or inf)")
+    if pos.size and np.abs(pos).max() > MAX_COORDINATE:
+        raise GrassValueError(f"geometry positions must be in [{-MAX_COORDINATE:g}, {MAX_COORDINATE:g}] metres "
+                              f"(MAX_COORDINATE); got {float(np.abs(pos).max()):g}")
     if idx is None:
         if len(pos) % 3:
             raise GrassValueError("geometry has no indices and its vertex count is not a multiple of 3")

@@ -29,6 +29,7 @@ import traitlets
 from traitlets import TraitError
 
 from ..errors import GrassTypeError, GrassValueError, ParameterError
+from .limits import MAX_COORDINATE
 from .params import StrictTraits, Vec3
 
 __all__ = ["SphereCollider", "ColliderList", "MAX_COLLIDERS", "collider_array", "check_sphere_array"]
@@ -39,17 +40,17 @@ MAX_COLLIDERS = 1024
 
 
 class _PositiveFloat(traitlets.Float):
-    """A finite float > 0 with an error message naming the trait."""
+    """A finite float in (0, MAX_COORDINATE] with an error message naming the trait and the range."""
 
     def validate(self, obj, value):
-        bad = ParameterError(f"{self.name} must be a finite number > 0 (metres); got {value!r}")
+        bad = ParameterError(f"{self.name} must be a finite number in (0, {MAX_COORDINATE:g}] (metres); got {value!r}")
         if isinstance(value, (bool, str, bytes)):
             raise bad
         try:
             v = float(value)
         except (TypeError, ValueError):
             raise bad from None
-        if not (math.isfinite(v) and v > 0):
+        if not (math.isfinite(v) and 0 < v <= MAX_COORDINATE):
             raise bad
         return v
 
@@ -58,8 +59,10 @@ class SphereCollider(StrictTraits):
     """A sphere that pushes blades out of its way.
 
     Args:
-        center: (x, y, z) centre in the field's local space (metres), finite.
-        radius: radius in metres, finite and > 0.
+        center: (x, y, z) centre in the field's local space (metres), each coordinate in
+            [-1e7, 1e7] (:data:`grasswidget.core.limits.MAX_COORDINATE`).
+        radius: radius in metres, in (0, 1e7] (the same limit: the pushes of a larger
+            sphere, squared into the collision strength, would overflow float32).
 
     Both are traits (observable, linkable); invalid values raise ``TraitError``
     naming ``center`` or ``radius`` and leave the old value; an unknown name
@@ -76,8 +79,9 @@ class SphereCollider(StrictTraits):
     :meth:`ColliderList.set_array` instead.
     """
 
-    center = Vec3((0.0, 0.0, 0.0), unit="m", help="Centre (x, y, z) in the field's local space, metres.")
-    radius = _PositiveFloat(1.0, help="Radius in metres, > 0.")
+    center = Vec3((0.0, 0.0, 0.0), unit="m", limit=MAX_COORDINATE,
+                  help="Centre (x, y, z) in the field's local space, metres, each in [-1e7, 1e7].")
+    radius = _PositiveFloat(1.0, help="Radius in metres, in (0, 1e7].")
 
     def __init__(self, center=(0.0, 0.0, 0.0), radius=1.0, **kwargs):
         self._edits = 0  # counts changes, so a ColliderList re-reads only the balls that moved
@@ -114,7 +118,8 @@ def _too_many(n):
 
 def check_sphere_array(spheres, name="spheres") -> np.ndarray:
     """``spheres`` as a (K, 4) float64 array of (cx, cy, cz, radius) rows (metres), checked:
-    finite values, radius > 0, 0 <= K <= MAX_COLLIDERS; a GrassValueError naming ``name`` otherwise.
+    finite values, centres within +-MAX_COORDINATE, radius in (0, MAX_COORDINATE] (metres),
+    0 <= K <= MAX_COLLIDERS; a GrassValueError naming ``name`` and the range otherwise.
     A single row (4,) is taken as (1, 4)."""
     try:
         a = np.array(spheres, dtype=np.float64, copy=True)
@@ -132,6 +137,12 @@ def check_sphere_array(spheres, name="spheres") -> np.ndarray:
     if not (a[:, 3] > 0).all():
         row = int(np.flatnonzero(a[:, 3] <= 0)[0])
         raise GrassValueError(f"{name}: every radius (column 3) must be > 0 metres; row {row} has {a[row, 3]!r}")
+    far = np.abs(a) > MAX_COORDINATE
+    if far.any():
+        row = int(np.flatnonzero(far.any(axis=1))[0])
+        raise GrassValueError(f"{name}: every centre coordinate must be in [{-MAX_COORDINATE:g}, {MAX_COORDINATE:g}] "
+                              f"and every radius in (0, {MAX_COORDINATE:g}] metres (MAX_COORDINATE); "
+                              f"row {row} is {a[row].tolist()}")
     if len(a) > MAX_COLLIDERS:
         raise _too_many(len(a))
     return a

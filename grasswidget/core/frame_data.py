@@ -194,6 +194,7 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     p = params
     m = _local(world_matrix)
     g = np.asarray(p.gravity_direction, np.float64)
+    g = g / max(float(np.abs(g).max()), 1e-300)  # only the direction counts: no overflow in its length
     try:
         g = np.linalg.solve(m[:3, :3], g)
     except np.linalg.LinAlgError:

@@ -15,6 +15,7 @@ import math
 import traitlets
 from traitlets import Bool, HasTraits, Unicode
 
+from .limits import MAX_COORDINATE
 from .pays import AutoSwitch
 from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
@@ -124,20 +125,26 @@ class ChoiceTrait(Unicode):
 class Vec3(traitlets.TraitType):
     """A 3-vector trait: any sequence of 3 finite numbers, stored as a tuple of floats.
 
-    With ``nonzero=True`` the zero vector is refused too. The error message names
-    the trait, e.g. ``gravity_direction must be 3 finite numbers (x, y, z); got ...``.
+    With ``nonzero=True`` the zero vector is refused too; with ``limit`` every
+    component must lie in [-limit, limit] (a position the float32 physics can take,
+    :data:`grasswidget.core.limits.MAX_COORDINATE`). The error message names the
+    trait, e.g. ``wind_center must be 3 finite numbers (x, y, z) in m, each in
+    [-1e+07, 1e+07]; got ...``.
     """
 
     default_value = (0.0, 0.0, 0.0)
     info_text = "a 3-vector of finite numbers"
 
-    def __init__(self, default_value=(0.0, 0.0, 0.0), nonzero=False, unit="", **kwargs):
+    def __init__(self, default_value=(0.0, 0.0, 0.0), nonzero=False, unit="", limit=None, **kwargs):
         self.nonzero, self.unit = nonzero, unit
+        self.limit = None if limit is None else float(limit)
         super().__init__(tuple(float(x) for x in default_value), **kwargs)
 
     def validate(self, obj, value):
         unit = f" in {self.unit}" if self.unit else ""
         what = "a finite non-zero 3-vector" if self.nonzero else "3 finite numbers"
+        if self.limit is not None:
+            unit += f", each in [{-self.limit:g}, {self.limit:g}]"
         bad = ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
         if isinstance(value, (str, bytes)):
             raise bad
@@ -152,7 +159,9 @@ class Vec3(traitlets.TraitType):
         except (TypeError, ValueError):
             raise bad from None
         if not all(math.isfinite(x) for x in out) or (self.nonzero and not any(out)):
-            raise ParameterError(f"{self.name} must be {what} (x, y, z){unit}; got {value!r}")
+            raise bad
+        if self.limit is not None and any(abs(x) > self.limit for x in out):
+            raise bad
         return out
 
 
@@ -208,8 +217,8 @@ class GrassParams(StrictTraits):
     front_gravity = RangedFloat(0.25, 0.0, 2.0, help="Front gravity factor: gF = front_gravity * |gE| * f (paper: 0.25).").tag(sync=True)
     stiffness_scale = RangedFloat(1.0, 0.01, 20.0, help="Multiplies each blade's stiffness s in the recovery force r = (iv2 - v2) s.").tag(sync=True)
     gravity_mode = ChoiceTrait("direction", GRAVITY_MODES, help='"direction": gE = normalize(gravity_direction) * gravity; "point": gE = normalize(gravity_center - v0) * gravity (grass on a planet).').tag(sync=True)
-    gravity_direction = Vec3((0.0, -1.0, 0.0), nonzero=True, help="Direction of gravity in world space (normalised), used when gravity_mode is 'direction'.").tag(sync=True)
-    gravity_center = Vec3((0.0, 0.0, 0.0), unit="m", help="Point that pulls the blades (world space), used when gravity_mode is 'point'.").tag(sync=True)
+    gravity_direction = Vec3((0.0, -1.0, 0.0), nonzero=True, help="Direction of gravity in world space (normalised), used when gravity_mode is 'direction'. Any finite non-zero 3-vector: only its direction counts (normalised in float64, so (1e300, 0, 0) and (1e-300, 0, 0) both mean +x).").tag(sync=True)
+    gravity_center = Vec3((0.0, 0.0, 0.0), unit="m", limit=MAX_COORDINATE, help="Point that pulls the blades (world space), used when gravity_mode is 'point'. Each coordinate in [-1e7, 1e7] m (grasswidget.core.limits.MAX_COORDINATE: a planet's centre fits).").tag(sync=True)
 
     # ---- collisions -------------------------------------------------------------
     collision_gain = RangedFloat(200.0, 0.0, 1e5, "1/m^2", help="Each collider push d adds collision_gain * |d|^2 to the blade's collision strength eta (clamped to 0..1). 1 is the paper's literal rule; at 120 steps/s the pushes are small, and the default 200 makes a rolling sphere leave a visible trail.").tag(sync=True)
@@ -221,7 +230,7 @@ class GrassParams(StrictTraits):
     wind_direction = RangedFloat(0.0, -360.0, 360.0, "degrees", help="Direction the wind blows towards, in the ground plane: 0 = +x, 90 = +z.").tag(sync=True)
     wind_speed = RangedFloat(3.0, 0.0, 50.0, "m/s", help="Speed at which the wind wave travels along wind_direction.").tag(sync=True)
     wind_wavelength = RangedFloat(8.0, 0.1, 1000.0, "m", help="Distance between two gust crests (wave, radial and vortex pulses); the gust size of the noise field.").tag(sync=True)
-    wind_center = Vec3((0.0, 0.0, 0.0), unit="m", help="Centre of the radial and vortex fields, in the field's local space (world space for an untransformed field).").tag(sync=True)
+    wind_center = Vec3((0.0, 0.0, 0.0), unit="m", limit=MAX_COORDINATE, help="Centre of the radial and vortex fields, in the field's local space (world space for an untransformed field). Each coordinate in [-1e7, 1e7] m (grasswidget.core.limits.MAX_COORDINATE: farther, the float32 distances to it overflow).").tag(sync=True)
     wind_radius = RangedFloat(5.0, 0.01, 1000.0, "m", help="Radial and vortex fields peak at this distance from wind_center and fall off beyond it.").tag(sync=True)
     wind_wgsl = Unicode("", help="Body of `fn user_wind(p: vec3<f32>, t: f32) -> vec3<f32>` (WGSL), used when wind_field is 'custom'. Empty: no wind. A GrassField compiles it when set and refuses (raises, keeps the old one) a snippet that does not compile.").tag(sync=True)
 

@@ -303,7 +303,9 @@ class EngineView(abc.ABC):
 
     @abc.abstractmethod
     def step(self, n: int) -> None:
-        """Advance exactly ``n`` (>= 0, validated by the widget) fixed steps of ``params.dt`` and redraw."""
+        """Advance exactly ``n`` (in [0, MAX_STEPS], validated by the widget: ``core.limits.check_steps``)
+        fixed steps of ``params.dt`` and redraw. The kernel engine stops on Ctrl-C between two GPU
+        submissions, counts the steps that ran and raises ``core.limits.StepsInterrupted``."""
 
     @abc.abstractmethod
     def reset_blades(self) -> None:

@@ -8,6 +8,8 @@ with indirect draws (see :mod:`grasswidget.gpu.shader_classes`).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pygfx as gfx
 import wgpu
@@ -16,6 +18,7 @@ from pygfx.utils import array_from_shadertype
 from .. import compat
 from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
+from ..core.limits import NonFiniteStateWarning, check_steps, nonfinite_cause, nonfinite_message
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError, refuse_when_closed
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..core.params import LOOK_TRAITS, GrassParams
@@ -182,10 +185,14 @@ class GrassField(gfx.WorldObject):
         self.inspector = None
         #: The physics: compute program, ``u_sim`` uniform writer and step counter.
         self.simulation = Simulation(self)
-        # Per-blade collision strength eta (N float32), persistent across steps.
+        # Per-blade collision strength eta (N float32), persistent across steps, then one word:
+        # the flag simulate.wgsl sets when it put a non-finite blade back at rest (note_reset_flag).
         self._store.collision_buffer = gfx.Buffer(
-            np.zeros(n, np.float32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
+            np.zeros(n + 1, np.float32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
         )
+        #: How many readbacks found blades put back at rest by the finite check (check_finite).
+        self.nonfinite_resets = 0
+        self._warned_cause = None
         self._colliders = ColliderList()
         # What the sunlight needs of the blades (their rectangle, leaf area, height: O(N), once).
         self._grass_layer = grass_layer(blades)
@@ -328,6 +335,7 @@ class GrassField(gfx.WorldObject):
             setattr(self.material, change["name"], look_values(self.params)[change["name"]])
         elif change["name"] == "wind_wgsl":
             self.simulation.compile_wind(change["new"], change["old"])
+            self._warned_cause = None  # a new snippet that fails is worth its own warning
 
     def _write_cull_uniform(self):
         """``u_cull`` from the params and the frozen camera (values: frame_data.cull_uniform_values)."""
@@ -631,13 +639,17 @@ class GrassField(gfx.WorldObject):
     def step(self, n: int = 1):
         """Advance the physics by ``n`` fixed steps of ``params.dt`` (n >= 0).
 
-        All n steps run in one dispatch of one GPU submission (the loop is in the
-        shader; blades are independent). Step k uses wind time
-        ``(k * dt) mod wind_period`` like the NumPy reference.
+        The steps run in one dispatch of one GPU submission (the loop is in the shader;
+        blades are independent) up to ``core.frame_data.BLADE_STEPS_PER_DISPATCH`` blade
+        steps, in several beyond. Step k uses wind time ``(k * dt) mod wind_period`` like
+        the NumPy reference.
+
+        ``n`` is an integer in [0, MAX_STEPS] (1,000,000, :mod:`grasswidget.core.limits`); more
+        raises a GrassValueError naming the limit. Ctrl-C between two submissions stops there
+        and raises :class:`~grasswidget.core.limits.StepsInterrupted` (a KeyboardInterrupt),
+        with ``step_count`` counting the steps that ran.
         """
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
-        self.simulation.step(int(n))
+        self.simulation.step(check_steps(n))
 
     @property
     def closed(self) -> bool:
@@ -676,6 +688,39 @@ class GrassField(gfx.WorldObject):
             self.stats = FrameStats(self)
         return self.stats
 
+    # ------------------------------------------------------------------ finite state
+
+    @property
+    def reset_flag_offset(self) -> int:
+        """Byte offset in ``collision_buffer`` of the flag simulate.wgsl sets (1.0) when its
+        finite check put a blade back at rest (after the N collision strengths)."""
+        return 4 * self.count
+
+    def check_finite(self) -> bool:
+        """Whether the simulation put blades back at rest since the last check because their
+        state went non-finite (a wind WGSL returning NaN or inf); warns once per cause
+        (:class:`~grasswidget.core.limits.NonFiniteStateWarning`). One 4-byte synchronous
+        readback: for after a run, not per frame (``read_state`` and the frame stats read the
+        flag anyway)."""
+        raw = ensure_device().queue.read_buffer(sync_buffer(self.collision_buffer), self.reset_flag_offset, 4)
+        return self.note_reset_flag(float(np.frombuffer(raw, np.float32)[0]))
+
+    def note_reset_flag(self, value: float) -> bool:
+        """Handle the reset flag as read back from the GPU (any readback that has it): when set,
+        clear it, count it in ``nonfinite_resets`` and warn (once per cause, until the wind or
+        the blades are reset). Returns whether it was set."""
+        if not value:
+            return False
+        ensure_device().queue.write_buffer(sync_buffer(self.collision_buffer), self.reset_flag_offset,
+                                           np.zeros(1, np.float32).tobytes())
+        self.nonfinite_resets += 1
+        overrides = self.function_overrides is not None
+        cause = nonfinite_cause(self.params, overrides)
+        if cause != self._warned_cause:
+            self._warned_cause = cause
+            warnings.warn(nonfinite_message(self.params, overrides), NonFiniteStateWarning, stacklevel=3)
+        return True
+
     def reset(self):
         """Put every blade back in its rest pose, collision strengths and the step counter to 0."""
         self.blade_buffer.data[:] = self.blades.packed().reshape(-1, 4)
@@ -683,6 +728,7 @@ class GrassField(gfx.WorldObject):
         self.collision_buffer.data[:] = 0.0
         self.collision_buffer.update_full()
         self.simulation.step_count = 0
+        self._warned_cause = None
 
     # ------------------------------------------------------------------ readback
 
@@ -695,18 +741,26 @@ class GrassField(gfx.WorldObject):
         device = ensure_device()
         raw = device.queue.read_buffer(sync_buffer(self.blade_buffer))
         state = unpack_state(np.frombuffer(raw, np.float32).reshape(-1, 4, 4))
-        raw = device.queue.read_buffer(sync_buffer(self.collision_buffer))
-        state["collision"] = np.frombuffer(raw, np.float32).copy()
+        raw = np.frombuffer(device.queue.read_buffer(sync_buffer(self.collision_buffer)), np.float32)
+        state["collision"] = raw[: self.count].copy()
+        self.note_reset_flag(float(raw[self.count]) if len(raw) > self.count else 0.0)
         return state
 
     def write_state(self, state: dict):
         """Upload a state dict (as returned by read_state) to the GPU (its "collision",
-        if present, too)."""
+        if present, too). Every value must be finite (a GrassValueError names the first
+        key that is not; nothing is written then)."""
+        for key, value in state.items():
+            arr = np.asarray(value)
+            if arr.dtype.kind in "fc" and not np.isfinite(arr).all():
+                bad = int(np.count_nonzero(~np.isfinite(arr)))
+                raise GrassValueError(f"write_state: state[{key!r}] must be finite; {bad} of {arr.size} values "
+                                      f"are NaN or inf")
         self.blade_buffer.data[:] = pack_state(state).reshape(-1, 4)
         self.blade_buffer.update_full()
         sync_buffer(self.blade_buffer)
         if "collision" in state:
-            self.collision_buffer.data[:] = np.asarray(state["collision"], np.float32).reshape(-1)
+            self.collision_buffer.data[: self.count] = np.asarray(state["collision"], np.float32).reshape(-1)
             self.collision_buffer.update_full()
             sync_buffer(self.collision_buffer)
 

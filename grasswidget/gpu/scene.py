@@ -332,7 +332,8 @@ class GrassScene:
     # ------------------------------------------------------------------ time
 
     def step(self, n: int = 1):
-        """Advance the physics by n fixed steps (see GrassField.step)."""
+        """Advance the physics by n fixed steps, n in [0, MAX_STEPS] (1,000,000; see GrassField.step:
+        a larger n raises a GrassValueError naming MAX_STEPS, Ctrl-C stops between submissions)."""
         self.field.step(n)
 
     # ------------------------------------------------------------------ pictures

@@ -9,6 +9,7 @@ inside ``renderer.render()``.
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 
 import numpy as np
 import pygfx as gfx
@@ -18,6 +19,7 @@ from pygfx.utils import array_from_shadertype
 
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
+from ..core.limits import StepsInterrupted, hold_interrupts
 from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
 from ..errors import WindShaderError
 from ..core.reference import wind_period
@@ -213,18 +215,25 @@ class Simulation:
         sync_buffer(field.collision_buffer)
         per_dispatch = steps_per_dispatch(field.count)
         done = 0
-        while done < n:
-            chunk = min(per_dispatch, n - done)
-            t0 = wind_time(self.step_count, field.params.dt, wind_period(field.params))
-            self.write_uniform(chunk, t0)
-            encoder = device.create_command_encoder()
-            writes = field.stats.sim_timestamp_writes() if field.stats is not None else None
-            cpass = encoder.begin_compute_pass(timestamp_writes=writes)
-            self._program.dispatch(cpass, workgroups(field.count))
-            cpass.end()
-            device.queue.submit([encoder.finish()])
-            self.step_count += chunk
-            done += chunk
+        # Ctrl-C between two submissions stops after the one in flight, with step_count counting
+        # exactly the steps submitted (StepsInterrupted); one submission is never cut.
+        with hold_interrupts() if n > per_dispatch else nullcontext(None) as held:
+            while done < n:
+                chunk = min(per_dispatch, n - done)
+                t0 = wind_time(self.step_count, field.params.dt, wind_period(field.params))
+                self.write_uniform(chunk, t0)
+                encoder = device.create_command_encoder()
+                writes = field.stats.sim_timestamp_writes() if field.stats is not None else None
+                cpass = encoder.begin_compute_pass(timestamp_writes=writes)
+                self._program.dispatch(cpass, workgroups(field.count))
+                cpass.end()
+                device.queue.submit([encoder.finish()])
+                self.step_count += chunk
+                done += chunk
+                if held is not None and held.hit:
+                    break
+        if held is not None and held.hit:
+            raise StepsInterrupted(done, n)
 
     def release(self):
         """Free the uniform buffer and drop the program."""

@@ -61,7 +61,10 @@ class FrameStats:
         # Staging layout: first-phase args, second-phase args (+ occluded count), and
         # the compute rasterizer's counters (16 bytes) in self._second bytes; timestamps.
         self._second = 16 * (self.n_classes + 1) + 16
-        size = 16 * self.n_classes + self._second + (8 * N_QUERIES if self.timestamps else 0)
+        # Last, 4 bytes: the simulation's reset flag (GrassField.note_reset_flag), so a blade put
+        # back at rest for going non-finite is noticed without a readback of its own.
+        self._flag_at = 16 * self.n_classes + self._second + (8 * N_QUERIES if self.timestamps else 0)
+        size = self._flag_at + 4
         for _ in range(RING):
             self._free.append(device.create_buffer(size=size, usage=wgpu.BufferUsage.COPY_DST | wgpu.BufferUsage.MAP_READ))
         if self.timestamps:
@@ -126,6 +129,8 @@ class FrameStats:
         if self.timestamps:
             enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
             enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs + self._second, 8 * N_QUERIES)
+        enc.copy_buffer_to_buffer(compat.sync_buffer(self.field.collision_buffer), self.field.reset_flag_offset,
+                                  staging, self._flag_at, 4)
         self.device.queue.submit([enc.finish()])
         self._pending.append((staging, staging.map_async("READ")))
 
@@ -151,8 +156,9 @@ class FrameStats:
         self.rastered = counts["rastered"]
         self.visible = int(sum(self.visible_per_class)) + self.rastered
         self.occluded = counts["occluded"]
+        self.field.note_reset_flag(float(raw[self._flag_at:self._flag_at + 4].view(np.float32)[0]))
         if self.timestamps:
-            ts = raw[nargs + self._second:].view(np.uint64).astype(np.float64)
+            ts = raw[nargs + self._second:self._flag_at].view(np.uint64).astype(np.float64)
             for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):
                 if name in self._written and ts[q + 1] > ts[q] > 0:
                     self.gpu_ms[name] = float((ts[q + 1] - ts[q]) * self._period_ns / 1e6)

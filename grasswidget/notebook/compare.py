@@ -68,6 +68,7 @@ import numpy as np
 from traitlets import All, Bool
 
 from . import cell_rerun
+from ..core.limits import check_steps
 from ..core.orbit_limits import FLOORS
 from ..core.params import ChoiceTrait, GrassParams, RangedFloat
 from ..core.variants import apply_changes, check_variants
@@ -339,8 +340,7 @@ class Comparison(ipw.VBox):
         self._check_open()
         if n is None:
             n = max(1, self.steps_per_frame)
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        n = check_steps(n)  # [0, MAX_STEPS], before any view moves
         self.playing = False
         for w in self.views.values():
             w.step(int(n))

@@ -66,6 +66,7 @@ import numpy as np
 
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
+from ..core.limits import StepsInterrupted, hold_interrupts
 from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS
 from ..core.blades import Blades
 from ..core.view_api import EngineView
@@ -438,22 +439,35 @@ class KernelView(EngineView):
 
     @_exclusive
     def step(self, n: int):
-        # Advance exactly ``n`` fixed steps and redraw.
-        self._simulate(n)
-        self.request_draw()
+        # Advance exactly ``n`` fixed steps and redraw (what ran, when interrupted).
+        try:
+            self._simulate(n)
+        finally:
+            self.request_draw()
 
     def _simulate(self, n):
-        """n fixed steps, the ball moving between chunks (simulated time, not wall clock)."""
+        """n fixed steps, the ball moving between chunks (simulated time, not wall clock).
+        Ctrl-C is held back to the end of a chunk's GPU submission: the clock then counts the
+        steps that ran and StepsInterrupted (a KeyboardInterrupt) says how many."""
         dt = self.params.dt
-        for chunk in (self.ball.step_chunks(n, dt) if self.ball is not None else [n]):
-            if self.ball is not None:
+        done = 0
+        with hold_interrupts() as held:
+            for chunk in (self.ball.step_chunks(n, dt) if self.ball is not None else [n]):
+                if self.ball is not None:
+                    try:
+                        self.ball.advance(chunk * dt)
+                    except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
+                        self.ball.rolling = False
+                        self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
                 try:
-                    self.ball.advance(chunk * dt)
-                except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
-                    self.ball.rolling = False
-                    self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
-            self.scene.step(chunk)
-            self.clock.count(chunk, dt)
+                    self.scene.step(chunk)
+                except StepsInterrupted as err:
+                    self.clock.count(err.done, dt)
+                    raise StepsInterrupted(done + err.done, n) from None
+                self.clock.count(chunk, dt)
+                done += chunk
+                if held.hit:
+                    raise StepsInterrupted(done, n)
 
     @_exclusive
     def set_function_overrides(self, overrides):

@@ -63,6 +63,7 @@ from traitlets import All, Any, Bool, validate
 from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
+from ..core.limits import check_steps
 from ..core.framing import preset_params
 from ..core.view_api import MAX_STEPS_PER_FRAME, EngineView, ViewMember
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
@@ -490,12 +491,16 @@ class GrassWidget(ipw.VBox):
     def step(self, n: int | None = None):
         """Pause and advance exactly ``n`` fixed steps of ``params.dt`` (default: one
         frame's worth, at least 1); in browser mode the browser runs them, in order
-        with every other request."""
+        with every other request. ``n`` is an integer in [0, MAX_STEPS] (1,000,000,
+        :mod:`grasswidget.core.limits`); more raises a GrassValueError naming the limit.
+        In the kernel engine a long run can be interrupted (Ctrl-C, the notebook's stop
+        button): it stops between two GPU submissions and raises
+        :class:`~grasswidget.core.limits.StepsInterrupted` (a KeyboardInterrupt); the
+        steps that ran are counted (``w.sim_time``, the field's step counter)."""
         self._check_open()
         if n is None:
             n = max(1, self.steps_per_frame)
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise GrassValueError(f"n (number of steps) must be an integer >= 0; got {n!r}")
+        n = check_steps(n)
         self.playing = False
         self.view.step(n)
         self.bench.after_step()

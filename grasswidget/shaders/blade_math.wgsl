@@ -275,6 +275,32 @@ fn tip_step(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32, stiffness:
     return validate_state(v0, moved, up, height);
 }
 
+// ---------------------------------------------------------------- finite state
+
+// Whether every component of v is a finite number (neither NaN nor +-inf), read from the
+// bits: an exponent of all ones marks both (a compiler may assume that floats are finite
+// and fold a test like x != x away). See reference.finite3.
+fn finite3(v: vec3<f32>) -> bool {
+    let exponent = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(exponent != vec3<u32>(0x7f800000u));
+}
+
+// A blade after a step's validation: its guides, collision strength eta, and whether it
+// was put back at rest.
+struct Settled { v1: vec3<f32>, v2: vec3<f32>, eta: f32, reset: bool };
+
+// The last state validation of a step: a blade whose guides or collision strength are not
+// all finite (a user's wind WGSL that returned NaN or inf) goes back to rest, v1 = v2 =
+// v0 + up * height and eta = 0, with reset set; any other blade is unchanged. See
+// reference.validate_finite.
+fn validate_finite(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32, eta: f32) -> Settled {
+    if (finite3(v1) && finite3(v2) && finite3(vec3<f32>(eta))) {
+        return Settled(v1, v2, eta, false);
+    }
+    let rest = v0 + up * height;
+    return Settled(rest, rest, 0.0, true);
+}
+
 // ---------------------------------------------------------------- culling
 
 // Seen edge-on: |dot(normalize(v0 - cam), t1)| > threshold.

@@ -1,14 +1,20 @@
 // Blade simulation: `steps` fixed steps of length dt for every blade, in one
 // dispatch. Each step: fade the collision strength (fade_collision), forces and
 // state validation (tip_step: paper 5.1-5.2), the sphere collisions with validation
-// of the pushed blades (collision_passes), and their strength (gain_collision).
+// of the pushed blades (collision_passes), their strength (gain_collision), and the
+// finite check (validate_finite).
 // Blades are independent, so looping inside the shader is exact and needs no
 // barriers. The twin of reference.simulate() / reference.simulate_step().
+//
+// Last in each step, validate_finite puts a blade whose state went non-finite (a user's
+// wind WGSL returning NaN or inf) back at rest; a dispatch that did so for any blade sets
+// the word after the blades' collision strengths, s_collision[n_blades], to 1 (where the
+// buffer has it): Python reads it with the state or the frame stats and warns once.
 //
 // Engine-neutral body: the engine declares (before this file) the uniform u_sim
 // (fields of grasswidget.gpu.simulation.SIM_UNIFORM), s_blades (array<vec4<f32>>,
 // read_write), s_collision (array<f32>, read_write: the per-blade collision
-// strength eta, 0..1, persistent across steps), and s_colliders / s_collider_grid
+// strength eta, 0..1, persistent across steps, then the reset flag), and s_colliders / s_collider_grid
 // (read: the spheres and their grid, see collisions.wgsl and core.collider_grid);
 // see grasswidget.core.shader_files.
 
@@ -37,6 +43,7 @@ fn main(
     var v1 = blade.v1;
     var v2 = blade.v2;
     var eta = s_collision[i];
+    var reset = false;
 
     let t1 = width_direction(up, blade.orientation);
     let f = front_direction(up, t1);
@@ -48,13 +55,18 @@ fn main(
         eta = fade_collision(eta, u_sim.collision_fade, u_sim.dt);
         let moved = tip_step(v0, v2, up, h, effective_stiffness(s, eta), g, wind_field(v0, t), u_sim.dt);
         let collided = collision_passes(v0, moved.v1, moved.v2, up, h);
-        v1 = collided.v1;
-        v2 = collided.v2;
-        eta = gain_collision(eta, collided.add, u_sim.collision_gain);
+        let settled = validate_finite(v0, collided.v1, collided.v2, up, h, gain_collision(eta, collided.add, u_sim.collision_gain));
+        v1 = settled.v1;
+        v2 = settled.v2;
+        eta = settled.eta;
+        reset = reset || settled.reset;
     }
 
     blade.v1 = v1;
     blade.v2 = v2;
     store_blade_guides(i, blade);
     s_collision[i] = eta;
+    if (reset && u_sim.n_blades < arrayLength(&s_collision)) {
+        s_collision[u_sim.n_blades] = 1.0;
+    }
 }

@@ -58,6 +58,16 @@ _positive = _int_at_least(1)
 _non_negative = _int_at_least(0)
 
 
+def _steps(text):
+    """An argparse type: a step count in [0, MAX_STEPS] (grasswidget.core.limits)."""
+    from ..core.limits import MAX_STEPS
+
+    v = _non_negative(text)
+    if v > MAX_STEPS:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, {MAX_STEPS}] (MAX_STEPS); got {text!r}")
+    return v
+
+
 def _blade_count(text):
     """A blade count >= 1 whose making fits in the host's memory (the GPU's
     buffers are checked once the device is known)."""
@@ -165,7 +175,7 @@ def build_parser():
                    help="output image: .png, or .jpg/.jpeg (JPEG quality 95); a missing folder is created")
     s.add_argument("--blades", type=_blade_count, default=65536, help="number of blades (default 65536)")
     s.add_argument("--size", type=_size, default=(1280, 720), help="image size WxH (default 1280x720)")
-    s.add_argument("--steps", type=_non_negative, default=240, help="fixed simulation steps before the picture (default 240)")
+    s.add_argument("--steps", type=_steps, default=240, help="fixed simulation steps before the picture (default 240)")
     s.add_argument("--preset", choices=["default", "cis565", "meadow"], default="default", help="scene preset")
     s.add_argument("--wind", type=_param("wind_strength"), default=None,
                    help="wind strength in m/s^2, 0..200 (default: GrassParams default)")
@@ -194,7 +204,7 @@ def build_parser():
     w.add_argument("--vary", type=_sweep_axis, action="append", required=True, metavar="NAME=V1,V2,...",
                    help="a GrassParams parameter and its values, e.g. stiffness_scale=0.25,0.5,1,2,4; once for a "
                         "row, twice for a grid (the first down, the second across)")
-    w.add_argument("--steps", type=_non_negative, default=240, help="fixed steps simulated per setting (default 240)")
+    w.add_argument("--steps", type=_steps, default=240, help="fixed steps simulated per setting (default 240)")
     w.add_argument("--blades", type=_blade_count, default=4096, help="number of blades (default 4096)")
     w.add_argument("--size", type=_size, default=(240, 180), help="size of each cell WxH (default 240x180)")
     w.add_argument("--preset", choices=["default", "cis565", "meadow"], default="default", help="scene preset")

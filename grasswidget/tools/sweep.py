@@ -31,6 +31,7 @@ import io
 
 import numpy as np
 
+from ..core.limits import MAX_STEPS
 from ..core.blade_response import response_summary
 from ..core.blades import Blades
 from ..core.framing import PRESETS, check_png_path, parse_size
@@ -141,8 +142,9 @@ def _sheet(result) -> np.ndarray:
 
 
 def _check_args(steps, blades, preset, size, params):
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not (0 <= steps <= 1_000_000):
-        raise GrassValueError(f"steps must be an integer in [0, 1000000] (fixed steps of params.dt); got {steps!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not (0 <= steps <= MAX_STEPS):
+        raise GrassValueError(f"steps must be an integer in [0, {MAX_STEPS}] (fixed steps of params.dt; "
+                              f"MAX_STEPS, grasswidget.core.limits); got {steps!r}")
     if preset is not None and preset not in PRESETS:
         raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
     if not isinstance(blades, Blades):

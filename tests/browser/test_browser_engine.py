@@ -288,6 +288,35 @@ print('WIND', w.params.wind_field, w.params.wind_wgsl)
 """, timeout=60)
     assert "RAISED 1" in out.stdout and "WIND custom return vec3<f32>(4.0" in out.stdout, out.stdout
 
+    # 6b. A custom wind that returns NaN: the browser's simulation puts the blades back at rest
+    # (validate_finite), read_state is finite and warns once; a normal wind moves them again.
+    out = kernel_execute(page, """
+import warnings
+w.pause()
+w.reset_blades()
+w.set_wind_wgsl('return vec3<f32>(sqrt(-1.0 - abs(t)));')
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter('always')
+    w.step(10)
+    s1 = w.read_state()
+    w.step(5)
+    s2 = w.read_state()
+b = w.view.engine_widget.blades
+rest = b.v0 + b.up * b.height[:, None]
+n_warn = sum(issubclass(c.category, gw.NonFiniteStateWarning) for c in caught)
+at_rest = max(float(np.abs(s[k] - rest).max()) for s in (s1, s2) for k in ('v1', 'v2'))
+finite = all(np.isfinite(s[k]).all() for s in (s1, s2) for k in ('v1', 'v2', 'collision'))
+w.set_wind_wgsl('return vec3<f32>(20.0, 0.0, 0.0);')
+w.step(20)
+s3 = w.read_state()
+print('NANWIND', n_warn, at_rest, int(finite), float(np.abs(s3['v2'] - rest).max()), int(len(s3['collision']) == len(b.v0)))
+""", timeout=120)
+    n_warn, at_rest, finite, moved, same_len = out.stdout.split("NANWIND")[1].split()
+    print(f"[browser engine] NaN wind: {n_warn} warning, blades within {float(at_rest):.1e} m of rest; "
+          f"a normal wind moved the tips {float(moved):.2f} m")
+    assert int(n_warn) == 1 and float(at_rest) < 1e-5 and finite == "1" and same_len == "1"
+    assert float(moved) > 1e-2
+
     # 7. A lost device is recovered with a message; a view that is not shown times out.
     _show_view(page)
     kernel_execute(page, "w.play(); w.view.engine_widget.lose_device()")

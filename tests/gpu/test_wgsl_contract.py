@@ -295,8 +295,35 @@ def _pushed(rng, v2, h):
     return np.where(hit[:, None], moved, v2), np.where(hit, _u(rng, 1e-4, 0.1), 0.0), hit
 
 
+def _spoil(rng, x, share=0.3):
+    """x with NaN, +inf or -inf in about ``share`` of the rows (one component of a vector row)."""
+    x = np.array(x, np.float64)
+    rows = np.flatnonzero(rng.uniform(0, 1, N) < share)
+    bad = rng.choice([np.nan, np.inf, -np.inf], len(rows))
+    if x.ndim == 1:
+        x[rows] = bad
+    else:
+        x[rows, rng.integers(0, x.shape[1], len(rows))] = bad
+    return x
+
+
+def _unsettled_blade(rng):
+    """v0, v1, v2, up, height of validated blades and eta in [0, 1], about a third of the rows
+    with a NaN or inf in v1, v2 or eta (what a NaN wind leaves after a step)."""
+    v0, v1, v2, up, h = _valid_blade(rng)
+    eta = _u(rng, 0.0, 1.0)
+    which = rng.integers(0, 3, N)
+    spoilt = [_spoil(rng, x, 0.3) for x in (v1, v2, eta)]
+    v1 = np.where((which == 0)[:, None], spoilt[0], v1)
+    v2 = np.where((which == 1)[:, None], spoilt[1], v2)
+    eta = np.where(which == 2, spoilt[2], eta)
+    return [v0, v1, v2, up, h, eta]
+
+
 #: name -> (inputs(rng) in WGSL order, twin(*inputs) -> output or tuple, tolerance scale)
 TWINS = {
+    "finite3": (lambda r: [_spoil(r, _pts(r, 1e30), 0.5)], ref.finite3, 0),
+    "validate_finite": (_unsettled_blade, ref.validate_finite, 5),
     "safe_normalize": (lambda r: [np.where(_u(r, 0, 1)[:, None] < 0.1, 0.0, _pts(r))], ref.safe_normalize, 1),
     "tangent_basis": (lambda r: [_unit(r)], ref.tangent_basis, 1),
     "width_direction": (lambda r: [_unit(r), _u(r, -4, 4)], ref.width_direction, 1),

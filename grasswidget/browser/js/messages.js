@@ -31,6 +31,8 @@ export class EngineMessages extends EnginePasses {
       switch (msg.type) {
         case "step": this.simulate(msg.n); break;
         case "reset": this.uploadRestPose(); break;
+        // the finite check's flag (after the collision strengths) back to 0, once Python has read it
+        case "clear_reset_flag": this.device.queue.writeBuffer(this.res.s_collision, this.n * 4, new Float32Array(1)); break;
         case "read_state": await this.readState(msg.id); break;
         case "read_inspected": await this.readInspected(msg); break;
         case "sync": this.report("synced", "", { id: msg.id }); break;
@@ -56,7 +58,7 @@ export class EngineMessages extends EnginePasses {
     const steps = this.stepCount;
     await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
     const blades = a.getMappedRange().slice(0, this.n * 64);
-    const collision = b.getMappedRange().slice(0, this.n * 4);
+    const collision = b.getMappedRange().slice(0, (this.n + 1) * 4);  // the strengths and the reset flag
     a.destroy(); b.destroy();
     this.model.send({ type: "state", id, step_count: steps, n: this.n }, undefined, [blades, collision]);
   }

@@ -35,7 +35,8 @@ export class EngineResources extends EngineDevice {
     this.n = n;
     this.res = {
       s_blades: buffer(n * 64, U.STORAGE | U.COPY_SRC | U.COPY_DST, "blades"),
-      s_collision: buffer(n * 4, U.STORAGE | U.COPY_SRC | U.COPY_DST, "collision"),
+      // the collision strengths, then the word simulate.wgsl sets when it put a non-finite blade at rest
+      s_collision: buffer((n + 1) * 4, U.STORAGE | U.COPY_SRC | U.COPY_DST, "collision"),
       s_args: buffer(classes * 16, U.STORAGE | U.INDIRECT | U.COPY_SRC | U.COPY_DST, "draw args"),
       s_visible: buffer(classes * n * 4, U.STORAGE, "visible"),
       s_culled: buffer(n * 4, U.STORAGE, "culled"),
@@ -91,7 +92,7 @@ export class EngineResources extends EngineDevice {
     const data = this.model.get("blade_data");
     const bytes = new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
     this.device.queue.writeBuffer(this.res.s_blades, 0, bytes);
-    this.device.queue.writeBuffer(this.res.s_collision, 0, new Float32Array(this.n));
+    this.device.queue.writeBuffer(this.res.s_collision, 0, new Float32Array(this.n + 1));
     this.stepCount = 0;
     this.clock.reset(performance.now() / 1000);
   }

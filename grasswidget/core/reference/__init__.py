@@ -5,7 +5,8 @@ Everything here is vectorised over N blades and imports no GPU code. The WGSL
 include ``grasswidget/shaders/blade_math.wgsl`` implements the same functions under the same
 names (``shaders/collisions.wgsl`` the loop over the colliders: ``collide_spheres``,
 ``collision_passes``), so the two can be read side by side: :func:`simulate_step` is
-``simulate.wgsl``'s step (fade_collision, tip_step, collision_passes, gain_collision),
+``simulate.wgsl``'s step (fade_collision, tip_step, collision_passes, gain_collision,
+validate_finite),
 :func:`blade_forces` ``inspect.wgsl``'s. Equation numbers refer to Jahrmann &
 Wimmer, "Responsive Real-Time Grass Rendering for General 3D Scenes", I3D 2017.
 

@@ -37,6 +37,8 @@ __all__ = [
     "validate_ground",
     "validate_v1",
     "validate_length",
+    "finite3",
+    "validate_finite",
     "curve_length",
     "sphere_push",
     "collide_sphere",
@@ -120,7 +122,11 @@ def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitu
             if mode == "point":
                 raise GrassValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
             v0 = np.zeros((int(v0), 3))
-        return environmental_gravity(v0, mode, params.gravity_direction, params.gravity_center, params.gravity)
+        # Only the direction counts: scaled by its largest component first, so that a
+        # direction like (1e300, 0, 0) does not overflow its length (as frame_data does for the GPU).
+        direction = np.asarray(params.gravity_direction, np.float64)
+        direction = direction / max(float(np.abs(direction).max()), 1e-300)
+        return environmental_gravity(v0, mode, direction, params.gravity_center, params.gravity)
     mode = GravityMode.from_label(gravity_mode) if isinstance(gravity_mode, str) else GravityMode(int(gravity_mode))
     v0 = np.asarray(v0, np.float64)
     if mode == GravityMode.POINT:
@@ -578,6 +584,25 @@ def validate_state(v0, v2, up, height):
     return validate_length(v0, validate_v1(v0, v2, up, height), v2, height)
 
 
+def finite3(v):
+    """Whether every component of each 3-vector of ``v`` ((..., 3)) is finite (neither NaN
+    nor +-inf): a bool array of v's shape without the last axis."""
+    return np.isfinite(np.asarray(v, np.float64)).all(axis=-1)
+
+
+def validate_finite(v0, v1, v2, up, height, eta):
+    """The last state validation of a step (after the paper's, section 5.2, and the
+    collisions): a blade whose guides v1, v2 or collision strength ``eta`` are not all finite
+    (a user's wind WGSL that returned NaN or inf) is put back at rest, v1 = v2 = v0 + up *
+    height and eta = 0; any other blade is unchanged. Returns (v1, v2, eta, reset), reset
+    the bool array of the blades put back."""
+    v0, up = np.asarray(v0, np.float64), np.asarray(up, np.float64)
+    v1, v2, eta = np.asarray(v1, np.float64), np.asarray(v2, np.float64), np.asarray(eta, np.float64)
+    ok = finite3(v1) & finite3(v2) & np.isfinite(eta)
+    rest = v0 + up * np.asarray(height, np.float64)[..., None]
+    return (np.where(ok[..., None], v1, rest), np.where(ok[..., None], v2, rest), np.where(ok, eta, 0.0), ~ok)
+
+
 def tip_step(v0, v2, up, height, stiffness, gravity, wind, dt):
     """One fixed step ``dt`` (s) of the tips, collisions aside (paper 5.1-5.2).
 
@@ -630,6 +655,9 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
        eta += collision_gain * sum |d|^2 (clamped to COLLISION_MAX = 1;
        :func:`gain_collision`). The paper adds |d|^2 (gain 1); with small fixed
        steps the pushes are small, hence the gain (default 200).
+    4. :func:`validate_finite`: a blade whose state is not finite any more (a user's
+       wind that returned NaN or inf) goes back to rest, eta 0 (the GPU also sets one
+       flag for Python's warning).
 
     The same functions in the same order as ``shaders/simulate.wgsl``.
 
@@ -648,8 +676,10 @@ def simulate_step(state, params, t, colliders=None, user_wind=None):
     v2 = np.asarray(state["v2"], np.float64)
     eta, s_eff = _step_collision_and_stiffness(state, params)
     v1, v2 = tip_step(v0, v2, up, h, s_eff, _gravity(state, params), wind_field(v0, t, params, user_wind), params.dt)
-    v1, v2, add = collision_passes(v0, v1, v2, up, h, _spheres(colliders))
-    eta = gain_collision(eta, add, params.collision_gain)
+    with np.errstate(invalid="ignore", over="ignore"):  # a non-finite wind: validate_finite settles it
+        v1, v2, add = collision_passes(v0, v1, v2, up, h, _spheres(colliders))
+        eta = gain_collision(eta, add, params.collision_gain)
+    v1, v2, eta, _reset = validate_finite(v0, v1, v2, up, h, eta)
     out = dict(state)
     out["v1"], out["v2"], out["collision"] = v1, v2, eta
     return out
