@@ -5,7 +5,10 @@ arguments (visible blades per LOD class) and, where the device has timestamp
 queries, the GPU times of the simulation pass and of the blade draws into a
 small ring of mappable buffers and asks for them asynchronously. Results are
 picked up on a later frame when the GPU is done, so values may lag a frame or
-two; nothing waits for the GPU.
+two; nothing waits for the GPU. ``counts_frame`` says which frame the counts are of
+(``frames`` is the number of renders so far): the counts describe the picture on
+screen only when the two are equal, which :meth:`FrameStats.settle` makes so (it
+waits for the readbacks in flight: what a paused view and the tests use).
 """
 
 from __future__ import annotations
@@ -40,6 +43,10 @@ class FrameStats:
         gpu_ms: dict with "simulation" and "draw" GPU milliseconds (timestamp queries).
         render_ms: CPU milliseconds of the last render call.
         fps: frames per second over the last second of renders.
+        frames: renders so far (1 after the first; :meth:`after_render` counts them).
+        counts_frame: the render (1-based, as ``frames``) whose counts ``visible``,
+            ``visible_per_class``, ``rastered`` and ``occluded`` are; None before the first
+            arrives. Equal to ``frames`` after :meth:`settle`.
     """
 
     def __init__(self, field):
@@ -55,6 +62,8 @@ class FrameStats:
         self.gpu_ms = {}
         self.render_ms = None
         self.fps = None
+        self.frames = 0
+        self.counts_frame = None
         self._times = deque(maxlen=120)
         self._free = deque()
         self._pending = deque()
@@ -104,6 +113,7 @@ class FrameStats:
     def after_render(self, render_ms=None):
         """Queue the copies for this frame and pick up finished earlier ones."""
         now = time.perf_counter()
+        self.frames += 1
         self._times.append(now)
         while self._times and now - self._times[0] > 1.0:
             self._times.popleft()
@@ -127,21 +137,35 @@ class FrameStats:
             enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
             enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs + self._second, 8 * N_QUERIES)
         self.device.queue.submit([enc.finish()])
-        self._pending.append((staging, staging.map_async("READ")))
+        self._pending.append((staging, staging.map_async("READ"), self.frames))
 
     def poll(self):
         """Read every finished frame's numbers (non-blocking)."""
         compat.poll_device(self.device)
         while self._pending and compat.promise_settled(self._pending[0][1]):
-            staging, promise = self._pending.popleft()
-            try:
-                promise.sync_wait()
-                raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
-            finally:
-                if staging.map_state == "mapped":
-                    staging.unmap()
-                self._free.append(staging)
-            self._apply(raw)
+            self._take()
+
+    def settle(self):
+        """Wait for every readback in flight and read it: afterwards the counts are those
+        of the last render (``counts_frame == frames``), unless that render's copy was
+        skipped because all RING staging buffers were busy (then the newest before it).
+        Blocks for the GPU's work queued so far (a paused view, the tests); a playing
+        view uses :meth:`poll`."""
+        compat.poll_device(self.device)
+        while self._pending:
+            self._take()
+
+    def _take(self):
+        staging, promise, frame = self._pending.popleft()
+        try:
+            promise.sync_wait()
+            raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
+        finally:
+            if staging.map_state == "mapped":
+                staging.unmap()
+            self._free.append(staging)
+        self._apply(raw)
+        self.counts_frame = frame
 
     def _apply(self, raw):
         nargs = 16 * self.n_classes
@@ -161,12 +185,12 @@ class FrameStats:
         """Destroy the staging buffers and the query set (the stats stop working)."""
         # Settle outstanding map requests first: an unsettled promise stays referenced
         # by the event loop (if one is set) and keeps its buffer alive.
-        for staging, promise in self._pending:
+        for staging, promise, _frame in self._pending:
             try:
                 promise.sync_wait()
             except Exception:
                 pass
-        buffers = list(self._free) + [staging for staging, _ in self._pending]
+        buffers = list(self._free) + [staging for staging, _p, _f in self._pending]
         if self.timestamps:
             buffers.append(self._resolve)
             self.query_set.destroy()
@@ -186,6 +210,8 @@ class FrameStats:
             gpu_ms=dict(self.gpu_ms),
             render_ms=self.render_ms,
             fps=self.fps,
+            frames=self.frames,
+            counts_frame=self.counts_frame,
         )
 
     def __repr__(self):

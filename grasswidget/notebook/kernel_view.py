@@ -671,6 +671,10 @@ class KernelView(EngineView):
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
+                if not self.playback.playing:
+                    # Paused: no next frame will bring the last one's counts, and nothing waits
+                    # for the GPU meanwhile: read them now, so the numbers are the picture's.
+                    stats.settle()
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")

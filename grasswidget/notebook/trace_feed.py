@@ -117,6 +117,10 @@ class KernelTraceFeed(_Feed):
             return
         self._last_step = step
         stats = dict(view.stats)
+        if scene.stats is not None and not view.playback.playing:
+            # Paused (a step(n)): the counts of this very frame, read now (nothing to stall); while
+            # playing the newest that arrived (a frame or two before this one: FrameStats.counts_frame).
+            scene.stats.settle()
         live = scene.stats.as_dict() if scene.stats is not None else {}
         for key in ("visible", "rastered"):
             if live.get(key) is not None:
