@@ -39,7 +39,8 @@ class FrameStats:
         visible: total visible blades (drawn by the hardware rasterizer or in compute).
         rastered: of those, the blades the compute rasterizer drew (0 while it is off;
             GrassParams.compute_raster); ``visible - rastered`` were drawn as ribbons.
-        occluded: blades culled by occlusion (0 without occlusion culling).
+        occluded: blades culled by occlusion in the counted frame; None when occlusion
+            culling did not run in it (off, or "auto" deciding off), as the browser engine's.
         gpu_ms: dict with "simulation" and "draw" GPU milliseconds (timestamp queries).
         render_ms: CPU milliseconds of the last render call.
         fps: frames per second over the last second of renders.
@@ -137,7 +138,8 @@ class FrameStats:
             enc.resolve_query_set(self.query_set, 0, N_QUERIES, self._resolve, 0)
             enc.copy_buffer_to_buffer(self._resolve, 0, staging, nargs + self._second, 8 * N_QUERIES)
         self.device.queue.submit([enc.finish()])
-        self._pending.append((staging, staging.map_async("READ"), self.frames))
+        switches = dict(self.field.frame_switches or {})  # the frame's occlusion and compute rasterizer
+        self._pending.append((staging, staging.map_async("READ"), (self.frames, switches)))
 
     def poll(self):
         """Read every finished frame's numbers (non-blocking)."""
@@ -156,7 +158,7 @@ class FrameStats:
             self._take()
 
     def _take(self):
-        staging, promise, frame = self._pending.popleft()
+        staging, promise, (frame, switches) = self._pending.popleft()
         try:
             promise.sync_wait()
             raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
@@ -164,17 +166,21 @@ class FrameStats:
             if staging.map_state == "mapped":
                 staging.unmap()
             self._free.append(staging)
-        self._apply(raw)
+        self._apply(raw, switches)
         self.counts_frame = frame
 
-    def _apply(self, raw):
+    def _apply(self, raw, switches=None):
+        """Take one read-back; ``switches``: the frame's ``GrassField.frame_switches`` (a pass
+        that did not run counted nothing that frame: occluded None, rastered 0, as the browser
+        engine's stats; unknown ({}, a frame drawn without render_frame): taken as counted)."""
+        switches = switches or {}
         nargs = 16 * self.n_classes
         layout = counter_layout(self.n_classes)  # the staging layout above, both engines' (core.frame_data)
         counts = read_counters(raw[: 4 * layout["words"]].view(np.uint32), layout)
         self.visible_per_class = counts["visible_per_class"]
-        self.rastered = counts["rastered"]
+        self.rastered = counts["rastered"] if switches.get("compute_raster", True) else 0
         self.visible = int(sum(self.visible_per_class)) + self.rastered
-        self.occluded = counts["occluded"]
+        self.occluded = counts["occluded"] if switches.get("cull_occlusion", True) else None
         if self.timestamps:
             ts = raw[nargs + self._second:].view(np.uint64).astype(np.float64)
             for name, q in (("simulation", Q_SIM), ("draw", Q_DRAW)):

@@ -678,7 +678,7 @@ class KernelView(EngineView):
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
-                occluded = d.get("occluded") if scene.params.cull_occlusion else None
+                occluded = d.get("occluded")  # None when occlusion culling did not run in that frame
                 rastered = d.get("rastered")
             except Exception:
                 visible = gpu_ms = occluded = rastered = None

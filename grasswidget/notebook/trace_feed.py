@@ -41,7 +41,7 @@ class _Feed:
         self.recorder = recorder
         self.on_sample = on_sample or (lambda: None)
         self.counter = CullCounter(view.blades, view.params)
-        self._blade_count = view.blade_count
+        self._blades = view.blades
         self.frozen_camera = None
         self._last_step = None
         view.frame_hooks.append(self.after_frame)
@@ -51,8 +51,10 @@ class _Feed:
         self.frozen_camera = self.view.current_camera() if frozen else None
 
     def _check_blades(self):
-        if self.view.blade_count != self._blade_count:  # a new field: new rest pose, new ids
-            self._blade_count = self.view.blade_count
+        # A new field (another count, or other blades of the same count): new rest pose, new ids,
+        # and a step count from 0 again.
+        if self.view.blades is not self._blades:
+            self._blades = self.view.blades
             self.counter.set_blades(self.view.blades)
             self.recorder.clear()
             self._last_step = None
@@ -125,7 +127,7 @@ class KernelTraceFeed(_Feed):
         for key in ("visible", "rastered"):
             if live.get(key) is not None:
                 stats[key] = live[key]
-        if live.get("occluded") is not None and view.params.cull_occlusion:
+        if "occluded" in live:  # None when occlusion culling did not run in the counted frame
             stats["occluded"] = live["occluded"]
         kept, drawn = self._counts(stats)
         tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms(stats))
