@@ -122,7 +122,7 @@ class CullCounter:
             kept["distance"] = kept["occlusion"] = None
         else:
             kept["occlusion"] = int(visible)
-            kept["distance"] = int(visible) + (int(occluded) if occluded is not None else 0)
+            kept["distance"] = int(visible) + (int(occluded) if occluded is not None and p.cull_occlusion else 0)
         return kept
 
     def wait(self, timeout=10.0):
