@@ -64,7 +64,9 @@ class _Feed:
         visible = stats.get("visible")
         occluded = stats.get("occluded")
         rastered = stats.get("rastered")
-        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded)
+        # Paused (a step(n)): the reference counts this very camera before the sample is taken.
+        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded,
+                                 now=not self.view.playback.playing)
         drawn = {"ribbons": None if visible is None else visible - (rastered or 0), "compute": rastered}
         return kept, drawn
 

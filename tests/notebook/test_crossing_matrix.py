@@ -71,6 +71,10 @@ def _frozen(w, value):
         w.view.camera_state = dict(ABOVE)
 
 
+def _camera(w, value):
+    w.view.camera_state = dict(CAMERA if value == "in the grass" else ABOVE)
+
+
 def _ball(w, value):
     w.ball.enabled = bool(value)
     if value:
@@ -89,6 +93,7 @@ SWITCHES = [
     Switch("cull_occlusion", (False, True, "auto"), _param("cull_occlusion")),
     Switch("compute_raster", (False, True, "auto"), _param("compute_raster")),
     Switch("lod", (True, False), _param("lod")),
+    Switch("camera", ("in the grass", "above"), _camera, picture="changes"),
     Switch("culling_frozen", (False, True), _frozen, picture="changes"),
     Switch("horizon", (False, True), _horizon, picture="changes"),
     Switch("ball", (False, True), _ball, picture="changes"),
@@ -115,6 +120,7 @@ class Record:
     rest: dict
     blades: int
     color_by: str
+    rest_reason: np.ndarray
     visible_count: int
     drawn: dict
     ids: np.ndarray
@@ -148,6 +154,7 @@ def _measure(w, switch, value) -> Record:
         p = p.copy()
         p.cull_distance = False
     kept = ref.cull(state, p, view_proj, cam_pos)
+    rest_reason = ref.cull_reason(w.view.blades.rest_state(), p, view_proj, cam_pos)
     pixels = ref.projected_pixels(state["v0"], state["v2"], state["height"], view_proj, height)
     gpu = dict(visible_count=scene.visible_count(), drawn=scene.drawn_counts(), ids=f.read_visible(),
                per_class=f.read_visible(draw_order=True), rastered_ids=f.read_rastered(),
@@ -157,7 +164,7 @@ def _measure(w, switch, value) -> Record:
     return Record(
         switch, value, picture, bool(p.lod), kept, ref.lod_class(state["v0"], state["v2"], state["height"], view_proj, height),
         pixels, dict(w.stats), html.unescape(w.stats_line.value), format_details(w.stats), w.traces(), state,
-        w.view.blades.rest_state(), f.count, str(p.color_by), **gpu)
+        w.view.blades.rest_state(), f.count, str(p.color_by), rest_reason, **gpu)
 
 
 @pytest.fixture(scope="module")
@@ -254,6 +261,10 @@ def check_traces(r: Record, _ctx):
     assert t["kept"]["occlusion"][-1] == r.visible_count
     assert t["kept"]["distance"][-1] == r.visible_count + (r.occluded if r.occlusion_ran else 0)
     assert t["ids"].tolist() == [7, 311, 1500]
+    # orientation and frustum: the reference on the rest pose for the culling camera (core.cull_counts)
+    reason = r.rest_reason
+    assert t["kept"]["orientation"][-1] == len(reason) - np.count_nonzero(reason == 1)
+    assert t["kept"]["frustum"][-1] == np.count_nonzero((reason == 0) | (reason == 3))
 
 
 def check_read_state(r: Record, _ctx):
