@@ -29,6 +29,9 @@ from grasswidget.core import reference as ref
 from grasswidget.notebook.panel import format_details, format_status
 from conftest import grass_mask
 
+# About 20 s in all on the 2-core lavapipe machine (most of it the first frames compiling pipelines).
+pytestmark = pytest.mark.slow
+
 BLADES, SIZE = 2048, (160, 120)
 #: The camera of every cell (just above the grass, looking over it: near blades hide far ones, so
 #: occlusion culling removes some, and far ones are thin enough for the compute rasterizer) and
