@@ -265,6 +265,30 @@ def test_stats_are_non_blocking_and_converge(scene):
     assert st.visible is not None and abs(st.visible - scene.visible_count()) <= scene.field.count
     assert len(st.visible_per_class) == len(ref.LOD_SEGMENTS)
     assert st.render_ms > 0
+    assert st.counts_frame is None or st.counts_frame <= st.frames
+
+
+def test_settled_stats_are_the_last_frames_counts(scene):
+    """After settle() the stats' counts are those of the last render (its frame number), the same
+    as the synchronous readbacks, for each camera of a moving view; occluded is None for a frame
+    that ran without occlusion culling and the GPU's count for one with it."""
+    p = scene.params
+    st = scene.stats
+    before = p.cull_occlusion
+    try:
+        for k, occlusion in enumerate([False, True, True, False]):
+            p.cull_occlusion = occlusion
+            scene.camera.local.position = (2.0 * k - 3.0, 1.5, 12.0)
+            scene.camera.look_at((0, 0.3, 0))
+            scene.render()
+            st.settle()
+            assert st.counts_frame == st.frames
+            assert st.visible == scene.visible_count() and st.rastered == scene.drawn_counts()["compute"]
+            assert sum(st.visible_per_class) == scene.drawn_counts()["hardware"]
+            assert st.occluded == (scene.field.read_occluded_count() if occlusion else None)
+    finally:
+        p.cull_occlusion = before
+        scene.reset_camera()
 
 
 def test_stats_before_the_first_step():
