@@ -32,13 +32,23 @@ import numpy as np
 from .reference import cull_reason
 from .teaching import camera_view_proj
 
-__all__ = ["CullCounter", "RECOUNT_INTERVAL_S"]
+__all__ = ["CullCounter", "RECOUNT_INTERVAL_S", "gpu_kept"]
 
 #: Least wall-clock time between two reference counts while the camera moves (s).
 RECOUNT_INTERVAL_S = 0.25
 
 _CULL_PARAMS = ("cull_orientation", "cull_orientation_threshold", "cull_frustum", "cull_frustum_tolerance",
                 "cull_distance", "cull_buckets", "cull_distance_max")
+
+
+def gpu_kept(visible, occluded, occlusion) -> dict:
+    """The GPU's part of the kept counts: ``{"distance": visible + occluded, "occlusion": visible}``
+    (None where ``visible`` is None); ``occluded`` counts only while ``occlusion``
+    (``params.cull_occlusion``) is on and it is not None (None: occlusion did not run)."""
+    if visible is None:
+        return {"distance": None, "occlusion": None}
+    extra = int(occluded) if occluded is not None and occlusion else 0
+    return {"distance": int(visible) + extra, "occlusion": int(visible)}
 
 
 class CullCounter:
@@ -123,11 +133,7 @@ class CullCounter:
                 threading.Thread(target=self._count, args=job, name="grasswidget-cull-counts", daemon=True).start()
         with self._lock:
             kept = dict(self._counts) if self._counts is not None else {"orientation": None, "frustum": None}
-        if visible is None:
-            kept["distance"] = kept["occlusion"] = None
-        else:
-            kept["occlusion"] = int(visible)
-            kept["distance"] = int(visible) + (int(occluded) if occluded is not None and p.cull_occlusion else 0)
+        kept.update(gpu_kept(visible, occluded, p.cull_occlusion))
         return kept
 
     def wait(self, timeout=10.0):

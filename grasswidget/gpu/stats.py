@@ -26,6 +26,8 @@ from .adapter import ensure_device
 __all__ = ["FrameStats"]
 
 RING = 3
+#: Frames whose counts :meth:`FrameStats.counts_of` still knows.
+HISTORY = 16
 # Query slots: sim begin/end, draw begin/end.
 Q_SIM, Q_DRAW, N_QUERIES = 0, 2, 4
 
@@ -65,6 +67,7 @@ class FrameStats:
         self.fps = None
         self.frames = 0
         self.counts_frame = None
+        self._history = deque(maxlen=HISTORY)  # (frame, counts) of the last frames read
         self._times = deque(maxlen=120)
         self._free = deque()
         self._pending = deque()
@@ -168,6 +171,17 @@ class FrameStats:
             self._free.append(staging)
         self._apply(raw, switches)
         self.counts_frame = frame
+        self._history.append((frame, {"visible": self.visible, "rastered": self.rastered, "occluded": self.occluded}))
+
+    def counts_of(self, frame):
+        """The counts of render ``frame`` (as :attr:`frames` numbered it): {"visible",
+        "rastered", "occluded"} once read (:meth:`poll`, :meth:`settle`); None before, for a
+        frame whose copy was skipped (the staging ring full) and for one older than the last
+        :data:`HISTORY` read."""
+        for f, counts in reversed(self._history):
+            if f == frame:
+                return dict(counts)
+        return None
 
     def _apply(self, raw, switches=None):
         """Take one read-back; ``switches``: the frame's ``GrassField.frame_switches`` (a pass

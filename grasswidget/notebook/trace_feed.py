@@ -18,15 +18,19 @@ adds nothing, and a sample taken again at the same step count replaces the last.
   ``read_inspected`` request answered by the browser with its step count (non-blocking
   for the kernel), so 2 samples a second while playing, 5 with a chart.
 
-Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts of the
-non-blocking stats for distance and occlusion, the NumPy reference on the rest pose
-for orientation and frustum). Frame times: the view's stats (``render_ms``,
+Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts for distance
+and occlusion, the NumPy reference on the rest pose for orientation and frustum). A kernel
+sample takes the drawn and GPU counts of its own frame (``FrameStats.counts_of``): while
+playing they arrive a frame or two later, so the sample is recorded then (at the latest by
+``flush``, which ``traces()`` calls); paused, at once. Frame times: the view's stats (``render_ms``,
 ``readback_ms``, ``encode_send_ms``, ``ack_ms``; the browser: its frame time as render).
 """
 
 from __future__ import annotations
 
-from ..core.cull_counts import CullCounter
+from collections import deque
+
+from ..core.cull_counts import CullCounter, gpu_kept
 from ..core.frame_data import STATS_INTERVAL_MS as FRAME_STATS_INTERVAL_MS
 from ..core.traces import TraceSample
 
@@ -101,6 +105,9 @@ class KernelTraceFeed(_Feed):
 
         self._readback_field = view.scene.field
         self.readback = InspectedReadback(self._readback_field)
+        #: Samples of frames drawn while playing, with nothing inspected, waiting for their
+        #: frame's counts (FrameStats.counts_of): (frame, tag), oldest first.
+        self._waiting = deque()
 
     def after_frame(self):
         view = self.view
@@ -113,9 +120,11 @@ class KernelTraceFeed(_Feed):
             from ..gpu.trace_readback import InspectedReadback
 
             self.readback = InspectedReadback(scene.field)
+            self._waiting.clear()  # frames of the field before (its stats numbered them)
         self._check_blades()
-        for tag, rows in self.readback.poll():
-            self._record(*tag, rows)
+        for (frame, tag), rows in self.readback.poll():
+            self._record(*self._of_frame(frame, tag), rows)
+        self._record_waiting()
         step = int(scene.field.step_count)
         if step == self._last_step:
             return
@@ -133,10 +142,14 @@ class KernelTraceFeed(_Feed):
             stats["occluded"] = live["occluded"]
         kept, drawn = self._counts(stats)
         tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms(stats))
-        if not view.inspected or not self.readback.after_render(tag):
+        # The frame's own counts replace the newest ones when they arrive (while playing, a frame or
+        # two later; paused, they are here already): the sample says what this frame drew.
+        frame = scene.stats.frames if scene.stats is not None else None
+        if not view.inspected or not self.readback.after_render((frame, tag)):
             if view.inspected:  # the ring is full: the frame is skipped
                 return
-            self._record(*tag, rows=[])
+            self._waiting.append((frame, tag))
+            self._record_waiting()
         elif not view.playback.playing:
             self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
@@ -145,8 +158,38 @@ class KernelTraceFeed(_Feed):
 
     def flush(self):
         """Wait for the frames in flight and record them (tests, and before reading the traces)."""
-        for tag, rows in self.readback.flush():
-            self._record(*tag, rows)
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        if stats is not None:
+            stats.settle()
+        for (frame, tag), rows in self.readback.flush():
+            self._record(*self._of_frame(frame, tag), rows)
+        self._record_waiting(final=True)
+
+    def _of_frame(self, frame, tag):
+        """``tag`` with the drawn and GPU-kept counts of its own ``frame`` where they were read;
+        as it was (the newest counts when it was taken) where they were not (a copy skipped)."""
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        counts = stats.counts_of(frame) if stats is not None and frame is not None else None
+        if counts is None or counts["visible"] is None:
+            return tag
+        t, step, kept, drawn, frame_ms = tag
+        kept = {**kept, **gpu_kept(counts["visible"], counts["occluded"], self.view.params.cull_occlusion)}
+        rastered = counts["rastered"] or 0
+        drawn = {"ribbons": counts["visible"] - rastered, "compute": counts["rastered"]}
+        return t, step, kept, drawn, frame_ms
+
+    def _record_waiting(self, final=False):
+        """Record the waiting samples whose frame's counts were read (all of them when ``final``,
+        or once the stats have moved past a frame whose copy was skipped)."""
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        while self._waiting:
+            frame, tag = self._waiting[0]
+            known = stats is not None and frame is not None and stats.counts_of(frame) is not None
+            passed = stats is None or frame is None or (stats.counts_frame or 0) >= frame
+            if not (known or passed or final):
+                return
+            self._waiting.popleft()
+            self._record(*self._of_frame(frame, tag), rows=[])
 
     def detach(self):
         super().detach()

@@ -353,3 +353,32 @@ CELLS = [pytest.param(s, v, m, id=f"{s.name}={v}-{m}") for s in SWITCHES for v i
 def test_crossing(switch, value, measurement, records, request):
     ctx = {"record": records, "browser": lambda: request.getfixturevalue("browser_widget")}
     MEASUREMENTS[measurement](records(switch, value), ctx)
+
+
+def test_traces_while_playing_count_their_own_frame(kernel_widget, records):
+    """Playing, the camera moving every frame: each frame's sample in the traces has that frame's
+    drawn counts (the GPU's, read synchronously after the frame here), though they reach the
+    feed a frame or two later."""
+    from conftest import TickingWall
+
+    w = kernel_widget
+    records(SWITCHES[0], SWITCHES[0].values[0])  # the matrix's record first (its own steps)
+    w.view.clock.now = TickingWall(1.0 / w.max_fps)  # each frame drawn while playing: whole steps
+    drawn_at_step = {}
+    try:
+        w.play()
+        for k in range(8):
+            x = -4.0 + 1.2 * k
+            w.view.camera_state = {"position": (x, 1.5, 14.0), "target": (0.3 * x, 0.3, 0.0)}
+            w.view.draw()
+            drawn_at_step[int(w.view.scene.field.step_count)] = w.view.scene.visible_count()
+    finally:
+        w.pause()
+        w.view.camera_state = dict(CAMERA)
+    t = w.traces()
+    got = {int(s): (r, c) for s, r, c in zip(t["step"], t["drawn"]["ribbons"], t["drawn"]["compute"])}
+    assert len(set(drawn_at_step.values())) > 3  # the count changes from frame to frame
+    for step, drawn in drawn_at_step.items():
+        ribbons, compute = got[step]
+        assert ribbons + (0 if math.isnan(compute) else compute) == drawn, (step, got[step], drawn)
+        assert t["kept"]["occlusion"][list(t["step"]).index(step)] == drawn
