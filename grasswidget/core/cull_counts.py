@@ -32,13 +32,23 @@ import numpy as np
 from .reference import cull_reason
 from .teaching import camera_view_proj
 
-__all__ = ["CullCounter", "RECOUNT_INTERVAL_S"]
+__all__ = ["CullCounter", "RECOUNT_INTERVAL_S", "gpu_kept"]
 
 #: Least wall-clock time between two reference counts while the camera moves (s).
 RECOUNT_INTERVAL_S = 0.25
 
 _CULL_PARAMS = ("cull_orientation", "cull_orientation_threshold", "cull_frustum", "cull_frustum_tolerance",
                 "cull_distance", "cull_buckets", "cull_distance_max")
+
+
+def gpu_kept(visible, occluded, occlusion) -> dict:
+    """The GPU's part of the kept counts: ``{"distance": visible + occluded, "occlusion": visible}``
+    (None where ``visible`` is None); ``occluded`` counts only while ``occlusion``
+    (``params.cull_occlusion``) is on and it is not None (None: occlusion did not run)."""
+    if visible is None:
+        return {"distance": None, "occlusion": None}
+    extra = int(occluded) if occluded is not None and occlusion else 0
+    return {"distance": int(visible) + extra, "occlusion": int(visible)}
 
 
 class CullCounter:
@@ -86,7 +96,7 @@ class CullCounter:
                 # A large field's count takes longer: wait 10 times as long as it took (a tenth of a core).
                 self._interval = max(RECOUNT_INTERVAL_S, 10.0 * (time.perf_counter() - t0))
 
-    def kept(self, camera: dict, depth_range, size, visible=None, occluded=None) -> dict:
+    def kept(self, camera: dict, depth_range, size, visible=None, occluded=None, now=False) -> dict:
         """Blades kept after each test (see the module docstring).
 
         Args:
@@ -94,6 +104,9 @@ class CullCounter:
             depth_range: (near, far) m. size: (width, height) of the view (its aspect).
             visible: the GPU's drawn count (None: unknown). occluded: the GPU's occluded
                 count (None: occlusion culling off or unknown).
+            now: count for this very camera before returning (on this thread, after any
+                count running), whatever the interval; False (default): the newest count,
+                which may lag a moving camera. A paused view's sample (a ``step(n)``) uses True.
         """
         p = self.params
         values = {name: getattr(p, name) for name in _CULL_PARAMS}
@@ -101,28 +114,26 @@ class CullCounter:
                   "target": tuple(float(x) for x in camera["target"]), "fov_deg": float(camera["fov_deg"])}
         key = (camera["position"], camera["target"], camera["fov_deg"], tuple(depth_range), tuple(size),
                tuple(values.values()))
-        now = time.perf_counter()
+        if now:
+            self.wait()
+        at = time.perf_counter()
         with self._lock:
             first = self._counts is None and not self._running
-            due = key != self._key and not self._running and now - self._started_at >= self._interval
+            due = key != self._key and not self._running and (now or at - self._started_at >= self._interval)
             if first or due:
-                self._key, self._started_at, self._running = key, now, True
+                self._key, self._started_at, self._running = key, at, True
                 job = (self._generation, key, self._state, types.SimpleNamespace(**values), camera,
                        tuple(depth_range), tuple(size))
             else:
                 job = None
         if job is not None:
-            if first or not self.background:
+            if first or now or not self.background:
                 self._count(*job)
             else:
                 threading.Thread(target=self._count, args=job, name="grasswidget-cull-counts", daemon=True).start()
         with self._lock:
             kept = dict(self._counts) if self._counts is not None else {"orientation": None, "frustum": None}
-        if visible is None:
-            kept["distance"] = kept["occlusion"] = None
-        else:
-            kept["occlusion"] = int(visible)
-            kept["distance"] = int(visible) + (int(occluded) if occluded is not None and p.cull_occlusion else 0)
+        kept.update(gpu_kept(visible, occluded, p.cull_occlusion))
         return kept
 
     def wait(self, timeout=10.0):

@@ -207,6 +207,10 @@ class GrassField(gfx.WorldObject):
             self.simulation.compile_now(self.params.wind_wgsl)
         #: Optional FrameStats (set by GrassScene or enable_stats()); None = no timing work.
         self.stats = None
+        #: What the "auto" switches were in the last frame drawn through
+        #: :func:`grasswidget.gpu.render_frame`: {"cull_occlusion": bool, "compute_raster": bool}
+        #: (the decision of an "auto" value); None before the first such frame.
+        self.frame_switches = None
         #: The blade draws (one per LOD class and the culled blades), replayed from a render
         #: bundle (:mod:`grasswidget.gpu.draw_bundles`).
         self.blade_draw_bundle = DrawBundle(N_CLASSES + 1)

@@ -63,6 +63,8 @@ def render_frame(renderer, scene, camera, late=()):
     """
     all_fields = _fields(scene)
     switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    for field in all_fields:  # what this frame runs: its counts are read with it (gpu.stats)
+        field.frame_switches = dict(switches.values[field])
     try:
         _render_frame(renderer, scene, camera, late, all_fields, switches)
     finally:

@@ -5,7 +5,10 @@ arguments (visible blades per LOD class) and, where the device has timestamp
 queries, the GPU times of the simulation pass and of the blade draws into a
 small ring of mappable buffers and asks for them asynchronously. Results are
 picked up on a later frame when the GPU is done, so values may lag a frame or
-two; nothing waits for the GPU.
+two; nothing waits for the GPU. ``counts_frame`` says which frame the counts are of
+(``frames`` is the number of renders so far): the counts describe the picture on
+screen only when the two are equal, which :meth:`FrameStats.settle` makes so (it
+waits for the readbacks in flight: what a paused view and the tests use).
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ from .adapter import ensure_device
 __all__ = ["FrameStats"]
 
 RING = 3
+#: Frames whose counts :meth:`FrameStats.counts_of` still knows.
+HISTORY = 16
 # Query slots: sim begin/end, draw begin/end.
 Q_SIM, Q_DRAW, N_QUERIES = 0, 2, 4
 
@@ -36,10 +41,15 @@ class FrameStats:
         visible: total visible blades (drawn by the hardware rasterizer or in compute).
         rastered: of those, the blades the compute rasterizer drew (0 while it is off;
             GrassParams.compute_raster); ``visible - rastered`` were drawn as ribbons.
-        occluded: blades culled by occlusion (0 without occlusion culling).
+        occluded: blades culled by occlusion in the counted frame; None when occlusion
+            culling did not run in it (off, or "auto" deciding off), as the browser engine's.
         gpu_ms: dict with "simulation" and "draw" GPU milliseconds (timestamp queries).
         render_ms: CPU milliseconds of the last render call.
         fps: frames per second over the last second of renders.
+        frames: renders so far (1 after the first; :meth:`after_render` counts them).
+        counts_frame: the render (1-based, as ``frames``) whose counts ``visible``,
+            ``visible_per_class``, ``rastered`` and ``occluded`` are; None before the first
+            arrives. Equal to ``frames`` after :meth:`settle`.
     """
 
     def __init__(self, field):
@@ -55,6 +65,9 @@ class FrameStats:
         self.gpu_ms = {}
         self.render_ms = None
         self.fps = None
+        self.frames = 0
+        self.counts_frame = None
+        self._history = deque(maxlen=HISTORY)  # (frame, counts) of the last frames read
         self._times = deque(maxlen=120)
         self._free = deque()
         self._pending = deque()
@@ -107,6 +120,7 @@ class FrameStats:
     def after_render(self, render_ms=None):
         """Queue the copies for this frame and pick up finished earlier ones."""
         now = time.perf_counter()
+        self.frames += 1
         self._times.append(now)
         while self._times and now - self._times[0] > 1.0:
             self._times.popleft()
@@ -132,30 +146,60 @@ class FrameStats:
         enc.copy_buffer_to_buffer(compat.sync_buffer(self.field.collision_buffer), self.field.reset_flag_offset,
                                   staging, self._flag_at, 4)
         self.device.queue.submit([enc.finish()])
-        self._pending.append((staging, staging.map_async("READ")))
+        switches = dict(self.field.frame_switches or {})  # the frame's occlusion and compute rasterizer
+        self._pending.append((staging, staging.map_async("READ"), (self.frames, switches)))
 
     def poll(self):
         """Read every finished frame's numbers (non-blocking)."""
         compat.poll_device(self.device)
         while self._pending and compat.promise_settled(self._pending[0][1]):
-            staging, promise = self._pending.popleft()
-            try:
-                promise.sync_wait()
-                raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
-            finally:
-                if staging.map_state == "mapped":
-                    staging.unmap()
-                self._free.append(staging)
-            self._apply(raw)
+            self._take()
 
-    def _apply(self, raw):
+    def settle(self):
+        """Wait for every readback in flight and read it: afterwards the counts are those
+        of the last render (``counts_frame == frames``), unless that render's copy was
+        skipped because all RING staging buffers were busy (then the newest before it).
+        Blocks for the GPU's work queued so far (a paused view, the tests); a playing
+        view uses :meth:`poll`."""
+        compat.poll_device(self.device)
+        while self._pending:
+            self._take()
+
+    def _take(self):
+        staging, promise, (frame, switches) = self._pending.popleft()
+        try:
+            promise.sync_wait()
+            raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
+        finally:
+            if staging.map_state == "mapped":
+                staging.unmap()
+            self._free.append(staging)
+        self._apply(raw, switches)
+        self.counts_frame = frame
+        self._history.append((frame, {"visible": self.visible, "rastered": self.rastered, "occluded": self.occluded}))
+
+    def counts_of(self, frame):
+        """The counts of render ``frame`` (as :attr:`frames` numbered it): {"visible",
+        "rastered", "occluded"} once read (:meth:`poll`, :meth:`settle`); None before, for a
+        frame whose copy was skipped (the staging ring full) and for one older than the last
+        :data:`HISTORY` read."""
+        for f, counts in reversed(self._history):
+            if f == frame:
+                return dict(counts)
+        return None
+
+    def _apply(self, raw, switches=None):
+        """Take one read-back; ``switches``: the frame's ``GrassField.frame_switches`` (a pass
+        that did not run counted nothing that frame: occluded None, rastered 0, as the browser
+        engine's stats; unknown ({}, a frame drawn without render_frame): taken as counted)."""
+        switches = switches or {}
         nargs = 16 * self.n_classes
         layout = counter_layout(self.n_classes)  # the staging layout above, both engines' (core.frame_data)
         counts = read_counters(raw[: 4 * layout["words"]].view(np.uint32), layout)
         self.visible_per_class = counts["visible_per_class"]
-        self.rastered = counts["rastered"]
+        self.rastered = counts["rastered"] if switches.get("compute_raster", True) else 0
         self.visible = int(sum(self.visible_per_class)) + self.rastered
-        self.occluded = counts["occluded"]
+        self.occluded = counts["occluded"] if switches.get("cull_occlusion", True) else None
         self.field.note_reset_flag(float(raw[self._flag_at:self._flag_at + 4].view(np.float32)[0]))
         if self.timestamps:
             ts = raw[nargs + self._second:self._flag_at].view(np.uint64).astype(np.float64)
@@ -167,12 +211,12 @@ class FrameStats:
         """Destroy the staging buffers and the query set (the stats stop working)."""
         # Settle outstanding map requests first: an unsettled promise stays referenced
         # by the event loop (if one is set) and keeps its buffer alive.
-        for staging, promise in self._pending:
+        for staging, promise, _frame in self._pending:
             try:
                 promise.sync_wait()
             except Exception:
                 pass
-        buffers = list(self._free) + [staging for staging, _ in self._pending]
+        buffers = list(self._free) + [staging for staging, _p, _f in self._pending]
         if self.timestamps:
             buffers.append(self._resolve)
             self.query_set.destroy()
@@ -192,6 +236,8 @@ class FrameStats:
             gpu_ms=dict(self.gpu_ms),
             render_ms=self.render_ms,
             fps=self.fps,
+            frames=self.frames,
+            counts_frame=self.counts_frame,
         )
 
     def __repr__(self):

@@ -685,10 +685,14 @@ class KernelView(EngineView):
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
+                if not self.playback.playing:
+                    # Paused: no next frame will bring the last one's counts, and nothing waits
+                    # for the GPU meanwhile: read them now, so the numbers are the picture's.
+                    stats.settle()
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
-                occluded = d.get("occluded") if scene.params.cull_occlusion else None
+                occluded = d.get("occluded")  # None when occlusion culling did not run in that frame
                 rastered = d.get("rastered")
             except Exception:
                 visible = gpu_ms = occluded = rastered = None

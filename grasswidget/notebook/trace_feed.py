@@ -18,15 +18,19 @@ adds nothing, and a sample taken again at the same step count replaces the last.
   ``read_inspected`` request answered by the browser with its step count (non-blocking
   for the kernel), so 2 samples a second while playing, 5 with a chart.
 
-Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts of the
-non-blocking stats for distance and occlusion, the NumPy reference on the rest pose
-for orientation and frustum). Frame times: the view's stats (``render_ms``,
+Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts for distance
+and occlusion, the NumPy reference on the rest pose for orientation and frustum). A kernel
+sample takes the drawn and GPU counts of its own frame (``FrameStats.counts_of``): while
+playing they arrive a frame or two later, so the sample is recorded then (at the latest by
+``flush``, which ``traces()`` calls); paused, at once. Frame times: the view's stats (``render_ms``,
 ``readback_ms``, ``encode_send_ms``, ``ack_ms``; the browser: its frame time as render).
 """
 
 from __future__ import annotations
 
-from ..core.cull_counts import CullCounter
+from collections import deque
+
+from ..core.cull_counts import CullCounter, gpu_kept
 from ..core.frame_data import STATS_INTERVAL_MS as FRAME_STATS_INTERVAL_MS
 from ..core.traces import TraceSample
 
@@ -41,7 +45,7 @@ class _Feed:
         self.recorder = recorder
         self.on_sample = on_sample or (lambda: None)
         self.counter = CullCounter(view.blades, view.params)
-        self._blade_count = view.blade_count
+        self._blades = view.blades
         self.frozen_camera = None
         self._last_step = None
         view.frame_hooks.append(self.after_frame)
@@ -51,8 +55,10 @@ class _Feed:
         self.frozen_camera = self.view.current_camera() if frozen else None
 
     def _check_blades(self):
-        if self.view.blade_count != self._blade_count:  # a new field: new rest pose, new ids
-            self._blade_count = self.view.blade_count
+        # A new field (another count, or other blades of the same count): new rest pose, new ids,
+        # and a step count from 0 again.
+        if self.view.blades is not self._blades:
+            self._blades = self.view.blades
             self.counter.set_blades(self.view.blades)
             self.recorder.clear()
             self._last_step = None
@@ -62,7 +68,9 @@ class _Feed:
         visible = stats.get("visible")
         occluded = stats.get("occluded")
         rastered = stats.get("rastered")
-        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded)
+        # Paused (a step(n)): the reference counts this very camera before the sample is taken.
+        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded,
+                                 now=not self.view.playback.playing)
         drawn = {"ribbons": None if visible is None else visible - (rastered or 0), "compute": rastered}
         return kept, drawn
 
@@ -97,6 +105,9 @@ class KernelTraceFeed(_Feed):
 
         self._readback_field = view.scene.field
         self.readback = InspectedReadback(self._readback_field)
+        #: Samples of frames drawn while playing, with nothing inspected, waiting for their
+        #: frame's counts (FrameStats.counts_of): (frame, tag), oldest first.
+        self._waiting = deque()
 
     def after_frame(self):
         view = self.view
@@ -109,26 +120,36 @@ class KernelTraceFeed(_Feed):
             from ..gpu.trace_readback import InspectedReadback
 
             self.readback = InspectedReadback(scene.field)
+            self._waiting.clear()  # frames of the field before (its stats numbered them)
         self._check_blades()
-        for tag, rows in self.readback.poll():
-            self._record(*tag, rows)
+        for (frame, tag), rows in self.readback.poll():
+            self._record(*self._of_frame(frame, tag), rows)
+        self._record_waiting()
         step = int(scene.field.step_count)
         if step == self._last_step:
             return
         self._last_step = step
         stats = dict(view.stats)
+        if scene.stats is not None and not view.playback.playing:
+            # Paused (a step(n)): the counts of this very frame, read now (nothing to stall); while
+            # playing the newest that arrived (a frame or two before this one: FrameStats.counts_frame).
+            scene.stats.settle()
         live = scene.stats.as_dict() if scene.stats is not None else {}
         for key in ("visible", "rastered"):
             if live.get(key) is not None:
                 stats[key] = live[key]
-        if live.get("occluded") is not None and view.params.cull_occlusion:
+        if "occluded" in live:  # None when occlusion culling did not run in the counted frame
             stats["occluded"] = live["occluded"]
         kept, drawn = self._counts(stats)
         tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms(stats))
-        if not view.inspected or not self.readback.after_render(tag):
+        # The frame's own counts replace the newest ones when they arrive (while playing, a frame or
+        # two later; paused, they are here already): the sample says what this frame drew.
+        frame = scene.stats.frames if scene.stats is not None else None
+        if not view.inspected or not self.readback.after_render((frame, tag)):
             if view.inspected:  # the ring is full: the frame is skipped
                 return
-            self._record(*tag, rows=[])
+            self._waiting.append((frame, tag))
+            self._record_waiting()
         elif not view.playback.playing:
             self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
@@ -137,8 +158,38 @@ class KernelTraceFeed(_Feed):
 
     def flush(self):
         """Wait for the frames in flight and record them (tests, and before reading the traces)."""
-        for tag, rows in self.readback.flush():
-            self._record(*tag, rows)
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        if stats is not None:
+            stats.settle()
+        for (frame, tag), rows in self.readback.flush():
+            self._record(*self._of_frame(frame, tag), rows)
+        self._record_waiting(final=True)
+
+    def _of_frame(self, frame, tag):
+        """``tag`` with the drawn and GPU-kept counts of its own ``frame`` where they were read;
+        as it was (the newest counts when it was taken) where they were not (a copy skipped)."""
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        counts = stats.counts_of(frame) if stats is not None and frame is not None else None
+        if counts is None or counts["visible"] is None:
+            return tag
+        t, step, kept, drawn, frame_ms = tag
+        kept = {**kept, **gpu_kept(counts["visible"], counts["occluded"], self.view.params.cull_occlusion)}
+        rastered = counts["rastered"] or 0
+        drawn = {"ribbons": counts["visible"] - rastered, "compute": counts["rastered"]}
+        return t, step, kept, drawn, frame_ms
+
+    def _record_waiting(self, final=False):
+        """Record the waiting samples whose frame's counts were read (all of them when ``final``,
+        or once the stats have moved past a frame whose copy was skipped)."""
+        stats = self.view.scene.stats if self.view.scene is not None else None
+        while self._waiting:
+            frame, tag = self._waiting[0]
+            known = stats is not None and frame is not None and stats.counts_of(frame) is not None
+            passed = stats is None or frame is None or (stats.counts_frame or 0) >= frame
+            if not (known or passed or final):
+                return
+            self._waiting.popleft()
+            self._record(*self._of_frame(frame, tag), rows=[])
 
     def detach(self):
         super().detach()

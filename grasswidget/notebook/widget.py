@@ -425,7 +425,7 @@ class GrassWidget(ipw.VBox):
         """Replace the field: a blade count or a :class:`Blades` (camera and params are kept)."""
         self._check_open()
         blades = self._check_blades(blades)
-        if blades == self._blades and not isinstance(blades, Blades):
+        if not isinstance(blades, Blades) and not isinstance(self._blades, Blades) and blades == self._blades:
             return
         self.view.set_blades(blades)
         self._blades = blades
