@@ -19,7 +19,7 @@ from .core.colliders import MAX_COLLIDERS, SphereCollider  # noqa: E402
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, ReadOnlyAttributeError, UnknownNameError, UpstreamChangedError,
-    WidgetClosedError, WindShaderError, ExerciseShaderError,
+    WidgetClosedError, WindShaderError, ExerciseShaderError, IsolatedRunError,
 )
 from .core.params import GrassParams  # noqa: E402
 from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
@@ -109,7 +109,7 @@ if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError", "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "IsolatedRunError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError",
     *_LAZY,
 ]

@@ -19,12 +19,14 @@ from pygfx.utils import array_from_shadertype
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
-from ..errors import WindShaderError
+from ..core.wgsl_overrides import limit_problem
+from ..errors import ExerciseShaderError, IsolatedRunError, WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
 from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
+from .isolation import check_compute, verdict_message
 from .wgsl_templates import GrassComputeShader, naga_error_parts, overrides_error, workgroups
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
@@ -121,20 +123,51 @@ class Simulation:
     # ------------------------------------------------------------------ program
 
     def build_program(self, body):
-        """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails."""
+        """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails.
+
+        User code (a ``body``, the field's function overrides) is checked first: the wind
+        body's size limits (:func:`~grasswidget.core.wgsl_overrides.limit_problem`), then a
+        compile of the whole shader in the isolated worker
+        (:func:`~grasswidget.gpu.isolation.check_compute`); only a shader that compiled
+        there is compiled here. A crash, a compile past the time or memory limit or a lost
+        device there raises ExerciseShaderError (with overrides and no wind) or
+        WindShaderError naming the cause."""
+        overrides = self.field.function_overrides
+        if body.strip():
+            problem = limit_problem(body)
+            if problem is not None:
+                message, line, column, reason = problem
+                where = f" line {line}, column {column}" if line else ""
+                src = body.splitlines()[line - 1][:160] if line and line <= len(body.splitlines()) else ""
+                raise WindShaderError(f"wind_wgsl{where}: {message}" + (f"\n  {line} | {src}" if src else ""),
+                                      line, column, reason, "")
         shader = SimulateShader(self.field, user_wind_body=body)
+        if body.strip() or overrides is not None:
+            wgsl = shader.generate_wgsl()
+            try:
+                message = check_compute(wgsl)
+            except IsolatedRunError as err:
+                if overrides is not None and not body.strip():
+                    raise ExerciseShaderError(verdict_message(err, overrides.label), None, None, err.verdict,
+                                              err.detail) from None
+                label = "wind_wgsl" if overrides is None else f"wind_wgsl or {overrides.label}"
+                raise WindShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+            if message is not None:
+                self._raise_compile_error(message, wgsl, body, overrides)
         try:
             return ComputeProgram(shader, self.field)
         except wgpu.GPUError as err:
-            overrides = self.field.function_overrides
-            wgsl = shader.generate_wgsl()
-            if overrides is not None:
-                error = overrides_error(err, wgsl, overrides)
-                if error.line is not None or not body.strip():
-                    raise error from None
-            if not body.strip():
-                raise
-            raise wind_shader_error(err, wgsl, body) from None
+            if overrides is None and not body.strip():
+                raise  # the stock shader: not the user's error
+            self._raise_compile_error(err, shader.generate_wgsl(), body, overrides)
+
+    @staticmethod
+    def _raise_compile_error(err, wgsl, body, overrides):
+        if overrides is not None:
+            error = overrides_error(err, wgsl, overrides)
+            if error.line is not None or not body.strip():
+                raise error from None
+        raise wind_shader_error(err, wgsl, body) from None
 
     def compile_now(self, body):
         """Compile ``body`` into the program now (no revert on error)."""

@@ -20,8 +20,14 @@ WGSL and returns a :class:`~grasswidget.core.grade_report.GradeReport`:
      (``GrassField.read_visible``) compared with :func:`grasswidget.core.reference.cull_reason`;
      blades within 1e-4 of the test's threshold are left out (float32 may decide either way).
 
-Why no subprocess: the loop rule makes every accepted function end (WGSL has no
-recursion), so grading runs in the kernel, fast, and cannot hang it.
+Isolation: the checks before compiling (step 1's rules and the size limits of
+:mod:`grasswidget.core.wgsl_limits`: length, nesting, statement length, array sizes,
+inlined size) run in the kernel and name the student's line. Everything that compiles or
+runs the student's code (steps 1 and 2: :func:`grade_here`) runs in the isolated worker
+process of :mod:`grasswidget.gpu.isolation` (its own GPU device, a time and a memory
+limit, reused from grade to grade): a compiler crash, a compile that does not end, a
+runaway allocation or a lost device becomes an ExerciseShaderError naming the cause, and
+the kernel, its device and the next grade are untouched.
 """
 
 from __future__ import annotations
@@ -36,9 +42,9 @@ from ..core.grade_report import FunctionGrade, GradeReport
 from ..core.params import GrassParams
 from ..core.shader_files import render_wgsl
 from ..core.wgsl_overrides import FunctionOverrides, parse_functions
-from ..errors import GrassTypeError
+from ..errors import ExerciseShaderError, GrassTypeError, IsolatedRunError
 
-__all__ = ["grade", "overrides_for", "check_compiles"]
+__all__ = ["grade", "grade_here", "overrides_for", "check_compiles"]
 
 
 def overrides_for(spec, wgsl: str) -> FunctionOverrides:
@@ -75,10 +81,30 @@ def _adapter_name() -> str:
     return str(info.get("device") or info.get("summary") or "GPU")
 
 
-def grade(spec, wgsl: str) -> GradeReport:
+def grade(spec, wgsl: str, *, worker=None) -> GradeReport:
     """Grade ``wgsl`` (the student's functions) for exercise ``spec`` (an ExerciseSpec);
     see the module docstring. Never raises for wrong results (the report says what is
-    wrong); raises ExerciseShaderError for code that does not compile or breaks a rule."""
+    wrong); raises ExerciseShaderError for code that does not compile or breaks a rule,
+    and for code that crashed, hung or exhausted the isolated worker (``reason`` names
+    the cause, e.g. "crashed the shader compiler (segmentation fault)"). ``worker``: the
+    :class:`~grasswidget.gpu.isolation.IsolatedWorker` to grade in (default the shared one).
+    """
+    from ..gpu.isolation import in_worker, shared_worker, verdict_message
+
+    overrides_for(spec, wgsl)  # the rules and limits, in the kernel: the student's line
+    if in_worker():
+        return grade_here(spec, wgsl)
+    label = f"your {spec.name} code"
+    try:
+        return (worker or shared_worker()).call(grade_here, spec, wgsl, what=f"grading {label}")
+    except IsolatedRunError as err:
+        raise ExerciseShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+
+
+def grade_here(spec, wgsl: str) -> GradeReport:
+    """Grade ``wgsl`` for ``spec`` in this process (what :func:`grade` runs in the
+    isolated worker); the same result and errors, with nothing between the student's code
+    and this process's device."""
     overrides = overrides_for(spec, wgsl)
     cases = spec.cases()
     if spec.kind == "simulation":
