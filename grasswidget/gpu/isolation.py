@@ -393,15 +393,16 @@ class IsolatedWorker:
         data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
         return _HEADER.pack(len(data)) + data
 
-    def check_compute(self, wgsl: str, entry_point: str = "main"):
+    def check_compute(self, wgsl: str, entry_point: str = "main", timeout_s=None):
         """Compile compute shader ``wgsl`` (module and pipeline, layout "auto") in the
         worker: None when it compiled, the compiler's message (str) when it does not;
-        raises IsolatedRunError when the compile crashed, hung or ran out of memory.
-        Shaders that compiled are remembered by their text and not compiled again."""
+        raises IsolatedRunError when the compile crashed, hung, ran out of memory or lost
+        the device. ``timeout_s`` overrides the time limit for this compile. Shaders that
+        compiled are remembered by their text and not compiled again."""
         key = hashlib.sha1((entry_point + "\0" + wgsl).encode()).hexdigest()
         if key in self._passed:
             return None
-        message = self.call(compile_compute, wgsl, entry_point, what="compiling the shader")
+        message = self.call(compile_compute, wgsl, entry_point, what="compiling the shader", timeout_s=timeout_s)
         if message is None:
             self._passed.add(key)
         return message

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pygfx as gfx
 import wgpu
-from pygfx.renderers.wgpu import Binding
+from pygfx.renderers.wgpu import Binding, get_shared
 from pygfx.utils import array_from_shadertype
 
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
@@ -122,7 +122,7 @@ class Simulation:
 
     # ------------------------------------------------------------------ program
 
-    def build_program(self, body):
+    def build_program(self, body, blame=None):
         """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails.
 
         User code (a ``body``, the field's function overrides) is checked first: the wind
@@ -130,8 +130,9 @@ class Simulation:
         compile of the whole shader in the isolated worker
         (:func:`~grasswidget.gpu.isolation.check_compute`); only a shader that compiled
         there is compiled here. A crash, a compile past the time or memory limit or a lost
-        device there raises ExerciseShaderError (with overrides and no wind) or
-        WindShaderError naming the cause."""
+        device there raises an error naming the cause: ExerciseShaderError when ``blame``
+        is "overrides" (default: when there are overrides and no wind body), else
+        WindShaderError."""
         overrides = self.field.function_overrides
         if body.strip():
             problem = limit_problem(body)
@@ -143,11 +144,12 @@ class Simulation:
                                       line, column, reason, "")
         shader = SimulateShader(self.field, user_wind_body=body)
         if body.strip() or overrides is not None:
+            shader.get_bindings_info(self.field, get_shared(), None)  # the bindings' code is part of the text
             wgsl = shader.generate_wgsl()
             try:
                 message = check_compute(wgsl)
             except IsolatedRunError as err:
-                if overrides is not None and not body.strip():
+                if blame == "overrides" or (blame is None and overrides is not None and not body.strip()):
                     raise ExerciseShaderError(verdict_message(err, overrides.label), None, None, err.verdict,
                                               err.detail) from None
                 label = "wind_wgsl" if overrides is None else f"wind_wgsl or {overrides.label}"
@@ -169,9 +171,9 @@ class Simulation:
                 raise error from None
         raise wind_shader_error(err, wgsl, body) from None
 
-    def compile_now(self, body):
-        """Compile ``body`` into the program now (no revert on error)."""
-        self._program, self.wind_body = self.build_program(body), body
+    def compile_now(self, body, blame=None):
+        """Compile ``body`` into the program now (no revert on error); ``blame``: see :meth:`build_program`."""
+        self._program, self.wind_body = self.build_program(body, blame), body
 
     def compile_wind(self, body, old):
         """Compile a new wind snippet; on error put ``params.wind_wgsl`` back to ``old`` and raise."""
