@@ -178,9 +178,9 @@ def worker_main():
         try:
             result = func(*args, **kwargs)
         except Exception as err:  # noqa: BLE001 - every failure goes back to the kernel
-            if _device_lost(str(err)):
+            if _device_lost(str(err)):  # this device is gone: the kernel ends this process
                 _send(proto, ("lost", str(err)))
-                os._exit(3)
+                return
             _send(proto, ("error", _pack_exception(err)))
             continue
         _send(proto, ("ok", result))
@@ -383,7 +383,6 @@ class IsolatedWorker:
             if kind == "ok":
                 return value
             if kind == "lost":
-                self._proc.wait()
                 raise self._fail("device lost", f"lost the GPU device ({value.strip().splitlines()[-1][:200]})",
                                  None, what)
             raise _unpack_exception(value)
