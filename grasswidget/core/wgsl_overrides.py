@@ -29,10 +29,10 @@ import hashlib
 import re
 from dataclasses import dataclass
 
-from ..errors import ExerciseShaderError, GrassTypeError, GrassValueError
+from ..errors import ExerciseShaderError, GrassTypeError, GrassValueError, WindShaderError
 from .wgsl_limits import wgsl_limit_problem
 
-__all__ = ["WgslFunction", "FunctionOverrides", "parse_functions", "strip_comments", "limit_problem",
+__all__ = ["WgslFunction", "FunctionOverrides", "parse_functions", "strip_comments", "limit_problem", "wind_limit_error",
            "OVERRIDE_MARKER"]
 
 #: Start of the marker line before the user's code in an overridden shader.
@@ -118,6 +118,22 @@ def limit_problem(code: str):
     column, reason)``, line and column 1-based in ``code`` (None for the length); None when
     it keeps them all. Checked before any compile of user code."""
     return wgsl_limit_problem(code, strip_comments(code), parse_functions(code))
+
+
+def wind_limit_error(body: str):
+    """A :class:`~grasswidget.errors.WindShaderError` for the first size limit a
+    ``wind_wgsl`` body breaks (see :func:`limit_problem`), with the line and column in
+    ``body``; None when it keeps them all (or is empty). Both engines check it first."""
+    problem = limit_problem(body) if body.strip() else None
+    if problem is None:
+        return None
+    message, line, column, reason = problem
+    rows = body.splitlines()
+    where = f" line {line}, column {column}" if line else ""
+    src = rows[line - 1] if line and line <= len(rows) else ""
+    src = src if len(src) <= 160 else src[:157] + "..."
+    return WindShaderError(f"wind_wgsl{where}: {message}" + (f"\n  {line} | {src}" if line else ""), line, column,
+                           reason, "")
 
 
 def _line_col(code: str, offset: int) -> tuple:

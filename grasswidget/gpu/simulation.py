@@ -19,7 +19,7 @@ from pygfx.utils import array_from_shadertype
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
-from ..core.wgsl_overrides import limit_problem
+from ..core.wgsl_overrides import wind_limit_error
 from ..errors import ExerciseShaderError, IsolatedRunError, WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
@@ -126,7 +126,7 @@ class Simulation:
         """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails.
 
         User code (a ``body``, the field's function overrides) is checked first: the wind
-        body's size limits (:func:`~grasswidget.core.wgsl_overrides.limit_problem`), then a
+        body's size limits (:func:`~grasswidget.core.wgsl_overrides.wind_limit_error`), then a
         compile of the whole shader in the isolated worker
         (:func:`~grasswidget.gpu.isolation.check_compute`); only a shader that compiled
         there is compiled here. A crash, a compile past the time or memory limit or a lost
@@ -134,14 +134,9 @@ class Simulation:
         is "overrides" (default: when there are overrides and no wind body), else
         WindShaderError."""
         overrides = self.field.function_overrides
-        if body.strip():
-            problem = limit_problem(body)
-            if problem is not None:
-                message, line, column, reason = problem
-                where = f" line {line}, column {column}" if line else ""
-                src = body.splitlines()[line - 1][:160] if line and line <= len(body.splitlines()) else ""
-                raise WindShaderError(f"wind_wgsl{where}: {message}" + (f"\n  {line} | {src}" if src else ""),
-                                      line, column, reason, "")
+        refused = wind_limit_error(body)
+        if refused is not None:
+            raise refused
         shader = SimulateShader(self.field, user_wind_body=body)
         if body.strip() or overrides is not None:
             shader.get_bindings_info(self.field, get_shared(), None)  # the bindings' code is part of the text

@@ -158,3 +158,17 @@ def test_a_wind_or_overrides_that_crash_the_compiler_leave_the_field_drawing(mon
         assert int(grass_mask(scene.render()).sum()) > 100
     finally:
         scene.release()
+
+
+def test_a_wind_past_the_size_limits_is_refused_at_its_line_and_the_old_wind_stays():
+    field = GrassField(gw.Blades.on_plane(64))
+    try:
+        calm = "return vec3<f32>(2.0, 0.0, 0.0);"
+        field.set_wind_wgsl(calm)
+        with pytest.raises(gw.WindShaderError) as info:
+            field.params.wind_wgsl = "let k = 2.0;\nvar big: array<vec4<f32>, 16777216>;\nreturn big[0].xyz;"
+        err = info.value
+        assert (err.line, err.column) == (2, 10) and "16,777,216 elements" in str(err), str(err)
+        assert field.params.wind_wgsl == calm and field.simulation.wind_body == calm
+    finally:
+        field.release()
