@@ -8,8 +8,9 @@ refuses the known shapes of such code by its text; what is left runs here.
 An :class:`IsolatedWorker` is one long-lived child Python process with its own wgpu
 device (the same adapter the kernel would pick). :meth:`IsolatedWorker.call` sends it a
 picklable function and arguments and waits for the result under a time limit, while
-watching the child's resident memory against a memory limit; the child also runs under
-an address-space limit (``RLIMIT_AS``) as a backstop. When the child crashes, runs past
+watching the child's resident memory against a memory limit; on a CPU adapter (lavapipe,
+where the device's memory is the child's) the child also runs under an address-space limit
+(``RLIMIT_AS``) as a backstop. When the child crashes, runs past
 a limit (it is killed) or reports its device lost (it exits), the call raises
 :class:`~grasswidget.errors.IsolatedRunError` naming the cause, and the next call starts
 a fresh child (about 1-2 s on lavapipe). The kernel's process and device are never
@@ -48,7 +49,7 @@ import time
 import traceback
 from pathlib import Path
 
-from ..errors import GrassValueError, IsolatedRunError, NoGPUAdapterError
+from ..errors import GrassTypeError, GrassValueError, IsolatedRunError, NoGPUAdapterError
 
 __all__ = ["IsolatedWorker", "shared_worker", "set_limits", "check_compute", "in_worker", "verdict_message",
            "DEFAULT_TIMEOUT_S",
@@ -163,8 +164,12 @@ def worker_main():
     except Exception as err:  # noqa: BLE001 - reported to the kernel
         _send(proto, ("error", _pack_exception(err)))
         return
+    from .adapter import is_cpu_adapter
+
     backstop_mb = float(os.environ.get("GRASSWIDGET_WORKER_AS_MB", "0"))
-    if backstop_mb > 0:
+    # Only on a CPU adapter, where the "GPU" memory is this process's memory: a GPU driver may
+    # reserve address space in large blocks at any time, and a grade must not fail for that.
+    if backstop_mb > 0 and is_cpu_adapter():
         import resource
 
         limit = _own_kb("VmSize") * 1024 + int(backstop_mb * 2**20)
@@ -197,9 +202,9 @@ class IsolatedWorker:
             > 0); past it the worker is killed and the call raises IsolatedRunError.
         memory_mb: megabytes of resident memory the worker may grow by during a call above
             what it used when it became ready (default :data:`DEFAULT_MEMORY_MB`, >= 64);
-            past it the worker is killed. The worker's address space is also limited to
-            what it had when ready plus 4 x ``memory_mb`` (``RLIMIT_AS``), so one huge
-            allocation fails inside it.
+            past it the worker is killed. On a CPU adapter the worker's address space is
+            also limited to what it had when ready plus 4 x ``memory_mb`` (``RLIMIT_AS``), so
+            one huge allocation fails inside it.
 
     The process starts on the first call and is reused by the next ones; after a crash,
     a limit or a lost device the next call starts a new one. Thread-safe (one call at a
@@ -370,12 +375,17 @@ class IsolatedWorker:
         limit or lost its device (then the next call starts a new worker), and
         :class:`~grasswidget.errors.NoGPUAdapterError` when the worker finds no adapter."""
         limit = self.timeout_s if timeout_s is None else float(timeout_s)
+        try:
+            frame = self._frame((func, args, kwargs))
+        except Exception as err:  # noqa: BLE001 - a lambda, a local class, an open file...
+            raise GrassTypeError(f"func and its arguments must be picklable to run in the isolated worker (a "
+                                 f"module-level function, plain data); {what}: {err}") from None
         with self._lock:
             if not self.alive:
                 self._stop()
                 self._start()
             try:
-                self._proc.stdin.write(self._frame((func, args, kwargs)))
+                self._proc.stdin.write(frame)
                 self._proc.stdin.flush()
             except (BrokenPipeError, OSError):
                 raise self._fail("crash", "crashed the worker (it was gone)", None, what) from None

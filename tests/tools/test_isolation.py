@@ -107,6 +107,7 @@ def test_a_kernel_killing_compile_gets_a_verdict_and_the_next_grade_passes(name,
     assert _renders() > 100  # this process's device is untouched
 
 
+@pytest.mark.slow
 def test_a_grade_past_the_time_limit_is_an_exercise_error_and_the_worker_comes_back():
     w = IsolatedWorker(timeout_s=0.05)
     try:
@@ -126,6 +127,13 @@ def test_a_compile_error_in_the_worker_comes_back_as_the_compilers_message(stock
     message = shared_worker().check_compute(FunctionOverrides(code, FORCES.names).apply(stock_simulation))
     assert "heigth" in message
     assert compile_compute(stock_simulation) is None  # the stock shader compiles in this process too
+
+
+def test_what_cannot_be_sent_to_the_worker_is_a_type_error_before_it_starts():
+    w = IsolatedWorker()
+    with pytest.raises(gw.GrassTypeError, match="picklable"):
+        w.call(lambda: 1)
+    assert w.starts == 0 and not w.alive
 
 
 def test_the_limits_refuse_bad_values():
