@@ -52,6 +52,7 @@ from pathlib import Path
 from ..errors import GrassTypeError, GrassValueError, IsolatedRunError, NoGPUAdapterError
 
 __all__ = ["IsolatedWorker", "shared_worker", "set_limits", "check_compute", "in_worker", "verdict_message",
+           "probe_entry", "PROBE_ENTRY",
            "DEFAULT_TIMEOUT_S",
            "DEFAULT_MEMORY_MB", "START_TIMEOUT_S"]
 
@@ -402,13 +403,15 @@ class IsolatedWorker:
         data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
         return _HEADER.pack(len(data)) + data
 
-    def check_compute(self, wgsl: str, entry_point: str = "main", timeout_s=None):
-        """Compile compute shader ``wgsl`` (module and pipeline, layout "auto") in the
+    def check_compute(self, wgsl: str, entry_point="main", timeout_s=None):
+        """Compile compute shader ``wgsl`` (module and pipeline, layout "auto", for
+        ``entry_point``: a name or a tuple of names) in the
         worker: None when it compiled, the compiler's message (str) when it does not;
         raises IsolatedRunError when the compile crashed, hung, ran out of memory or lost
         the device. ``timeout_s`` overrides the time limit for this compile. Shaders that
         compiled are remembered by their text and not compiled again."""
-        key = hashlib.sha1((entry_point + "\0" + wgsl).encode()).hexdigest()
+        entries = (entry_point,) if isinstance(entry_point, str) else tuple(entry_point)
+        key = hashlib.sha1((",".join(entries) + "\0" + wgsl).encode()).hexdigest()
         if key in self._passed:
             return None
         message = self.call(compile_compute, wgsl, entry_point, what="compiling the shader", timeout_s=timeout_s)
@@ -417,18 +420,21 @@ class IsolatedWorker:
         return message
 
 
-def compile_compute(wgsl: str, entry_point: str = "main"):
-    """Compile compute shader ``wgsl`` (module and a pipeline with layout "auto") on this
-    process's device: None when it compiled, the compiler's message when it does not.
-    Meant for the worker (see :func:`check_compute`); a lost device raises."""
+def compile_compute(wgsl: str, entry_point="main"):
+    """Compile compute shader ``wgsl`` (module and a pipeline with layout "auto" for
+    ``entry_point``, a name or a tuple of names) on this process's device: None when it
+    compiled, the compiler's message when it does not. Meant for the worker (see
+    :func:`check_compute`); a lost device raises."""
     import wgpu
 
     from .adapter import ensure_device
 
     device = ensure_device()
+    entries = (entry_point,) if isinstance(entry_point, str) else tuple(entry_point)
     try:
         module = device.create_shader_module(code=wgsl)
-        device.create_compute_pipeline(layout="auto", compute={"module": module, "entry_point": entry_point})
+        for entry in entries:
+            device.create_compute_pipeline(layout="auto", compute={"module": module, "entry_point": entry})
     except wgpu.GPUError as err:
         if _device_lost(str(err)):
             raise
@@ -451,7 +457,7 @@ def set_limits(timeout_s=None, memory_mb=None):
     shared_worker().set_limits(timeout_s, memory_mb)
 
 
-def check_compute(wgsl: str, entry_point: str = "main", worker=None):
+def check_compute(wgsl: str, entry_point="main", worker=None):
     """Compile compute shader ``wgsl`` away from the kernel first: in ``worker`` (default
     the shared one), or directly inside a worker process. None when it compiled, the
     compiler's message when it does not; IsolatedRunError when the compile crashed, hung,
@@ -476,3 +482,58 @@ def verdict_message(err, label: str) -> str:
     hint = _HINTS.get(err.cause, "")
     return (f"{label} {err.verdict}; it ran in an isolated worker process, so the kernel, its GPU device and its "
             f"widgets are unaffected" + (f" ({hint})" if hint else ""))
+
+
+#: The entry point :func:`probe_entry` adds.
+PROBE_ENTRY = "isolation_probe"
+_SCALARS = {"f32": "x", "i32": "i32(gid.x)", "u32": "gid.x", "bool": "(gid.x == 3u)"}
+
+
+def _probe_arg(ptype, k):
+    x = f"(x + {0.25 * (k + 1):.2f})"
+    if ptype in _SCALARS:
+        return _SCALARS[ptype].replace("x", x) if ptype == "f32" else _SCALARS[ptype]
+    if ptype.startswith("vec") and ptype.endswith("<f32>"):
+        n = int(ptype[3])
+        return f"{ptype}({', '.join(f'{x} + {c}.0' for c in range(n))})"
+    if ptype == "mat4x4<f32>":
+        return f"mat4x4<f32>({', '.join(f'{x} * {c + 1}.0' for c in range(16))})"
+    return None
+
+
+def _probe_bits(expr, rtype, structs):
+    if rtype in ("f32", "i32"):
+        return f"bitcast<u32>({expr})"
+    if rtype == "u32":
+        return expr
+    if rtype == "bool":
+        return f"select(0u, 1u, {expr})"
+    if rtype.startswith("vec") and rtype.endswith("<f32>"):
+        return " ^ ".join(f"bitcast<u32>({expr}.{c})" for c in "xyzw"[: int(rtype[3])])
+    if rtype in structs:
+        return " ^ ".join(f"({_probe_bits(f'{expr}.{name}', ftype, structs)})" for name, ftype in structs[rtype])
+    return "0u"
+
+
+def probe_entry(functions, code: str) -> str:
+    """WGSL to append to shader ``code``: a compute entry point :data:`PROBE_ENTRY` that
+    calls each of ``functions`` ((name, parameter types, return type) tuples) with
+    arguments the compiler cannot know in advance and stores what they return, so that a
+    pipeline for it compiles every one of them (a driver compiles only what an entry point
+    reaches: the culling functions are not reached from the simulation's ``main``).
+    Functions with a parameter type other than scalars, float vectors and mat4x4 are left out."""
+    import re
+
+    structs = {m.group(1): [tuple(x.strip() for x in f.split(":")) for f in m.group(2).split(",") if f.strip()]
+               for m in re.finditer(r"struct (\w+)\s*\{([^}]*)\}", code)}
+    lines = []
+    for name, params, returns in functions:
+        args = [_probe_arg(t, k) for k, t in enumerate(params)]
+        if any(a is None for a in args):
+            continue
+        call = f"{name}({', '.join(args)})"
+        lines.append(f"    acc = acc ^ ({_probe_bits(call, returns, structs)});" if returns else f"    {call};")
+    return ("\n@group(1) @binding(0) var<storage, read_write> isolation_probe_out: array<u32>;\n"
+            f"@compute @workgroup_size(1)\nfn {PROBE_ENTRY}(@builtin(global_invocation_id) gid: vec3<u32>) {{\n"
+            "    let x = f32(gid.x) * 0.001;\n    var acc = 0u;\n" + "\n".join(lines) +
+            "\n    isolation_probe_out[gid.x] = acc;\n}\n")

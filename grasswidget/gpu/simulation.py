@@ -19,14 +19,15 @@ from pygfx.utils import array_from_shadertype
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
-from ..core.wgsl_overrides import wind_limit_error
+from ..core.shader_files import render_wgsl
+from ..core.wgsl_overrides import parse_functions, wind_limit_error
 from ..errors import ExerciseShaderError, IsolatedRunError, WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
 from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
-from .isolation import check_compute, verdict_message
+from .isolation import PROBE_ENTRY, check_compute, probe_entry, verdict_message
 from .wgsl_templates import GrassComputeShader, naga_error_parts, overrides_error, workgroups
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
@@ -141,8 +142,14 @@ class Simulation:
         if body.strip() or overrides is not None:
             shader.get_bindings_info(self.field, get_shared(), None)  # the bindings' code is part of the text
             wgsl = shader.generate_wgsl()
+            checked, entries = wgsl, "main"
+            if overrides is not None:  # every replaced function compiled, the culling ones too
+                stock = {f.name: f for f in parse_functions(render_wgsl("blade_math.wgsl"))}
+                checked += probe_entry([(n, [t for _, t in stock[n].params], stock[n].returns) for n in overrides.names
+                                        if n in stock], wgsl)
+                entries = ("main", PROBE_ENTRY)
             try:
-                message = check_compute(wgsl)
+                message = check_compute(checked, entries)
             except IsolatedRunError as err:
                 if blame == "overrides" or (blame is None and overrides is not None and not body.strip()):
                     raise ExerciseShaderError(verdict_message(err, overrides.label), None, None, err.verdict,

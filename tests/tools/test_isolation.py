@@ -180,3 +180,32 @@ def test_a_wind_past_the_size_limits_is_refused_at_its_line_and_the_old_wind_sta
         assert field.params.wind_wgsl == calm and field.simulation.wind_body == calm
     finally:
         field.release()
+
+
+@pytest.mark.slow
+def test_a_culling_function_is_compiled_in_the_worker_though_the_simulation_never_calls_it(monkeypatch):
+    """frustum_cull is not reached from the simulation's entry point, so a driver would not
+    compile it there: the worker's check adds an entry point that calls every replaced
+    function. A helper chain the driver cannot finish (text limits loosened here) runs into
+    the time limit in the worker, not in the kernel's culling pipeline."""
+    monkeypatch.setattr(wgsl_limits, "MAX_INLINED_TERMS", 10**9)
+    ex = gw.exercise("culling")
+    head = "fn frustum_cull(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, view_proj: mat4x4<f32>, tol: f32) -> bool {"
+    helpers = "\n".join(["fn h0(x: f32) -> f32 { return sin(x) * 1.5; }"] + [
+        f"fn h{k}(x: f32) -> f32 {{ return h{k - 1}(x) + h{k - 1}(x * 0.5); }}" for k in range(1, 21)])
+    code = ex.solution().replace(head, head + "\n    if (h20(tol) > 1e30) { return true; }") + "\n" + helpers + "\n"
+    assert head in ex.solution() and code != ex.solution()
+    field = GrassField(gw.Blades.on_plane(64))
+    worker = shared_worker()
+    try:
+        field.set_function_overrides(ex.overrides(ex.solution()))  # the probe compiles the solution's functions
+        worker.set_limits(timeout_s=4)
+        with pytest.raises(gw.ExerciseShaderError) as info:
+            field.set_function_overrides(FunctionOverrides(code, ex.functions))
+        assert info.value.reason == "exceeded the 4 s time limit", str(info.value)
+        assert field.function_overrides == ex.overrides(ex.solution())  # the functions before stay
+        field.step(2)
+        assert np.isfinite(field.read_state()["v2"]).all()
+    finally:
+        worker.set_limits(timeout_s=60)
+        field.release()
