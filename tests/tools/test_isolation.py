@@ -108,18 +108,18 @@ def test_a_kernel_killing_compile_gets_a_verdict_and_the_next_grade_passes(name,
 
 
 @pytest.mark.slow
-def test_a_grade_past_the_time_limit_is_an_exercise_error_and_the_worker_comes_back():
-    w = IsolatedWorker(timeout_s=0.05)
+def test_a_grade_past_the_time_limit_is_an_exercise_error_and_the_worker_comes_back(worker):
+    worker.set_limits(timeout_s=0.05)
     try:
         with pytest.raises(gw.ExerciseShaderError) as info:
-            grade(FORCES, FORCES.solution, worker=w)
+            grade(FORCES, FORCES.solution, worker=worker)
         err = info.value
         assert err.reason == "exceeded the 0.05 s time limit" and "isolated worker process" in str(err), str(err)
-        assert err.line is None
-        w.set_limits(timeout_s=60)
-        assert grade(FORCES, FORCES.solution, worker=w).passed and w.starts == 2
+        assert err.line is None and not worker.alive
     finally:
-        w.close()
+        worker.set_limits(timeout_s=60)
+    started = worker.starts
+    assert grade(FORCES, FORCES.solution, worker=worker).passed and worker.starts == started + 1
 
 
 def test_a_compile_error_in_the_worker_comes_back_as_the_compilers_message(stock_simulation):
