@@ -153,6 +153,15 @@ def worker_main():
     """The worker process's loop (started by :class:`IsolatedWorker`; not for direct use).
     Reads (function, args, kwargs) frames on stdin, answers ("ok", result), ("error",
     exception) or ("lost", message) on the original stdout; anything printed goes to stderr."""
+    parent = os.getppid()
+
+    def orphaned():  # the kernel died (even killed): a compile that never ends must not outlive it
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=orphaned, name="grasswidget-worker-orphaned", daemon=True).start()
     proto = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)  # prints of user code or libraries must not corrupt the frames
     sys.stdout = sys.stderr
