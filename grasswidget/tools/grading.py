@@ -26,8 +26,9 @@ inlined size) run in the kernel and name the student's line. Everything that com
 runs the student's code (steps 1 and 2: :func:`grade_here`) runs in the isolated worker
 process of :mod:`grasswidget.gpu.isolation` (its own GPU device, a time and a memory
 limit, reused from grade to grade): a compiler crash, a compile that does not end, a
-runaway allocation or a lost device becomes an ExerciseShaderError naming the cause, and
-the kernel, its device and the next grade are untouched.
+runaway allocation or a lost device becomes an ExerciseShaderError naming the cause (and,
+but for the time limit, the function at fault: :func:`locate_failure`), and the kernel,
+its device and the next grade are untouched.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from ..core.shader_files import render_wgsl
 from ..core.wgsl_overrides import FunctionOverrides, parse_functions
 from ..errors import ExerciseShaderError, GrassTypeError, IsolatedRunError
 
-__all__ = ["grade", "grade_here", "overrides_for", "check_compiles"]
+__all__ = ["grade", "grade_here", "overrides_for", "check_compiles", "locate_failure"]
 
 
 def overrides_for(spec, wgsl: str) -> FunctionOverrides:
@@ -95,10 +96,48 @@ def grade(spec, wgsl: str, *, worker=None) -> GradeReport:
     if in_worker():
         return grade_here(spec, wgsl)
     label = f"your {spec.name} code"
+    worker = worker or shared_worker()
     try:
-        return (worker or shared_worker()).call(grade_here, spec, wgsl, what=f"grading {label}")
+        return worker.call(grade_here, spec, wgsl, what=f"grading {label}")
     except IsolatedRunError as err:
-        raise ExerciseShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+        where = None
+        if err.cause != "time":  # a crash, memory or a lost device comes back in seconds: find the function
+            where = locate_failure(FunctionOverrides(wgsl, spec.names, label=label), worker)
+        if where is None:
+            raise ExerciseShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+        name, line, column = where
+        message = verdict_message(err, f"{label} line {line} (`{name}`)")
+        row = wgsl.split("\n")[line - 1]
+        raise ExerciseShaderError(f"{message}\n  {line} | {row[:160]}", line, column, err.verdict,
+                                  err.detail) from None
+
+
+def locate_failure(overrides, worker=None):
+    """Which of ``overrides``' functions takes the compiler or the driver down: each is
+    compiled alone (the stock blade math, the student's helpers, that function, and an entry
+    point that calls it) in ``worker`` (default the shared
+    :class:`~grasswidget.gpu.isolation.IsolatedWorker`). Returns (name, line, column) of
+    the function's definition in the student's code when exactly some of them fail, None
+    when none does or all do (then the cause is in code they share, or elsewhere).
+    Each failure costs a worker start on the next call."""
+    from ..gpu.isolation import PROBE_ENTRY, probe_entry, shared_worker
+
+    worker = worker or shared_worker()
+    stock_code = render_wgsl("blade_math.wgsl")
+    stock = {f.name: f for f in parse_functions(stock_code)}
+    mine = {f.name: f for f in parse_functions(overrides.code)}
+    failed = []
+    for name in overrides.names:
+        text = overrides.only(name).apply(stock_code)
+        text += probe_entry([(name, [t for _, t in stock[name].params], stock[name].returns)], text)
+        try:
+            worker.check_compute(text, PROBE_ENTRY, timeout_s=min(worker.timeout_s, 20.0))
+        except IsolatedRunError:
+            failed.append(name)
+    if not failed or len(failed) == len(overrides.names) or failed[0] not in mine:
+        return None
+    f = mine[failed[0]]
+    return f.name, f.line, f.column
 
 
 def grade_here(spec, wgsl: str) -> GradeReport:

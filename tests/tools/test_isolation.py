@@ -21,7 +21,7 @@ from grasswidget.gpu.compute import ComputeProgram
 from grasswidget.gpu.field import GrassField
 from grasswidget.gpu.isolation import IsolatedWorker, compile_compute, shared_worker
 from grasswidget.gpu.simulation import SimulateShader
-from grasswidget.tools.grading import grade
+from grasswidget.tools.grading import grade, locate_failure
 
 FORCES = exercise_spec("forces")
 LAST = "return W * (fd * fr);"
@@ -209,3 +209,12 @@ def test_a_culling_function_is_compiled_in_the_worker_though_the_simulation_neve
     finally:
         worker.set_limits(timeout_s=60)
         field.release()
+
+
+@pytest.mark.slow
+def test_the_function_that_crashes_the_compiler_is_found_by_compiling_each_alone(worker):
+    code = CASES["nested 3500 deep"][0]
+    line = next(k + 1 for k, row in enumerate(code.split("\n")) if row.startswith("fn wind_force("))
+    assert locate_failure(FunctionOverrides(code, FORCES.names), worker) == ("wind_force", line, 1)
+    assert locate_failure(FunctionOverrides(FORCES.solution, FORCES.names), worker) is None
+    assert grade(FORCES, FORCES.solution, worker=worker).passed
