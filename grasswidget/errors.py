@@ -133,7 +133,8 @@ class IsolatedRunError(GrassError, RuntimeError):
     past its time limit, past its memory limit, or lost its GPU device. The kernel's own
     process and device were never touched; the next call starts a fresh worker.
 
-    Attributes: ``cause`` ("crash", "time", "memory" or "device lost"), ``verdict`` (one
+    Attributes: ``cause`` ("crash", "time", "memory" or "device lost"; "start" when the
+    worker itself could not start, which is no fault of the code), ``verdict`` (one
     line naming the cause and the limit, e.g. "exceeded the 60 s time limit"), ``limit``
     (the seconds or megabytes of the limit, None for a crash or a lost device) and
     ``detail`` (the signal, or the last lines the worker printed). Grading and the kernel's

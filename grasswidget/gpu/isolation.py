@@ -276,7 +276,11 @@ class IsolatedWorker:
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._err_file, env=env, start_new_session=True)
         self._buffer = b""
         self.starts += 1
-        kind, value = self._wait(START_TIMEOUT_S, "starting", watch_memory=False)
+        try:
+            kind, value = self._wait(START_TIMEOUT_S, "starting the isolated worker", watch_memory=False)
+        except IsolatedRunError as err:  # not the user's code: no adapter in a child, a broken install...
+            raise IsolatedRunError(f"the isolated worker could not start: {err.verdict}\n{err.detail}", "start",
+                                   f"could not start ({err.verdict})", err.limit, err.detail) from None
         if kind == "noadapter":
             self._stop()
             raise NoGPUAdapterError(value)

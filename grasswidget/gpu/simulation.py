@@ -151,6 +151,8 @@ class Simulation:
             try:
                 message = check_compute(checked, entries)
             except IsolatedRunError as err:
+                if err.cause == "start":  # the worker, not the user's code
+                    raise
                 if blame == "overrides" or (blame is None and overrides is not None and not body.strip()):
                     raise ExerciseShaderError(verdict_message(err, overrides.label), None, None, err.verdict,
                                               err.detail) from None

@@ -100,6 +100,8 @@ def grade(spec, wgsl: str, *, worker=None) -> GradeReport:
     try:
         return worker.call(grade_here, spec, wgsl, what=f"grading {label}")
     except IsolatedRunError as err:
+        if err.cause == "start":  # the worker, not the student's code
+            raise
         where = None
         if err.cause != "time":  # a crash, memory or a lost device comes back in seconds: find the function
             where = locate_failure(FunctionOverrides(wgsl, spec.names, label=label), worker)

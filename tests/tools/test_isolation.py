@@ -218,3 +218,15 @@ def test_the_function_that_crashes_the_compiler_is_found_by_compiling_each_alone
     assert locate_failure(FunctionOverrides(code, FORCES.names), worker) == ("wind_force", line, 1)
     assert locate_failure(FunctionOverrides(FORCES.solution, FORCES.names), worker) is None
     assert grade(FORCES, FORCES.solution, worker=worker).passed
+
+
+def test_a_worker_without_an_adapter_says_so_and_blames_no_code(monkeypatch):
+    monkeypatch.setenv("VK_ICD_FILENAMES", "/nonexistent/icd.json")  # the child's Vulkan finds no driver
+    monkeypatch.setenv("VK_DRIVER_FILES", "/nonexistent/icd.json")
+    w = IsolatedWorker()
+    try:
+        with pytest.raises(gw.NoGPUAdapterError):
+            w.call(abs, -1)
+        assert not w.alive
+    finally:
+        w.close()
