@@ -20,7 +20,7 @@ from .core.limits import MAX_STEPS, NonFiniteStateWarning, StepsInterrupted  # n
 from .errors import (  # noqa: E402
     BladeCountError, BladeLimitError, BrowserTimeoutError, PageBuildError, TraceFileError, GrassError, GrassTypeError,
     GrassValueError, MissingDependencyError, MissingFileError, MissingLimitError, NoGPUAdapterError, ParameterError, ReadOnlyAttributeError, UnknownNameError, UpstreamChangedError,
-    WidgetClosedError, WindShaderError, ExerciseShaderError,
+    WidgetClosedError, WindShaderError, ExerciseShaderError, IsolatedRunError,
 )
 from .core.params import GrassParams  # noqa: E402
 from .core.teaching import CULL_COLORS, LOD_COLORS  # noqa: E402
@@ -111,7 +111,7 @@ __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",
     "MAX_STEPS", "NonFiniteStateWarning", "StepsInterrupted",
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError", "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "IsolatedRunError", "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError", "PageBuildError", "TraceFileError",
     *_LAZY,
 ]

@@ -19,6 +19,7 @@ error                           also a                              raised for
 ``BladeLimitError``             ``BladeCountError``                 more blades than one GPU buffer binding holds
 ``WindShaderError``             ``GrassValueError``                 a ``wind_wgsl`` snippet that does not compile
 ``ExerciseShaderError``         ``GrassValueError``                 exercise WGSL that does not compile or breaks a rule
+``IsolatedRunError``             ``RuntimeError``                    user code that crashed, hung or overran the isolated worker
 ``MissingFileError``            ``FileNotFoundError``               an output folder or shipped shader not there
 ``MissingDependencyError``      ``ImportError``                     an optional package a feature needs
 ``NoGPUAdapterError``           ``RuntimeError``                    no usable WebGPU adapter
@@ -37,7 +38,8 @@ from traitlets import TraitError
 __all__ = [
     "GrassError", "GrassValueError", "GrassTypeError", "ParameterError", "UnknownNameError", "ReadOnlyAttributeError",
     "MissingLimitError",
-    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "MissingFileError", "MissingDependencyError",
+    "BladeCountError", "BladeLimitError", "WindShaderError", "ExerciseShaderError", "IsolatedRunError",
+    "MissingFileError", "MissingDependencyError",
     "NoGPUAdapterError", "WidgetClosedError", "UpstreamChangedError", "BrowserTimeoutError",
     "PageBuildError", "TraceFileError",
 ]
@@ -130,6 +132,25 @@ class ExerciseShaderError(GrassValueError):
         # IPython shows what this returns instead of the traceback: the message names the
         # student's line, the frames inside grasswidget would only bury it (a few KB).
         return [f"{type(self).__name__}: {self}"]
+
+
+class IsolatedRunError(GrassError, RuntimeError):
+    """Work on user code in the isolated worker process (:mod:`grasswidget.gpu.isolation`)
+    that did not come back: the worker crashed (e.g. a compiler's segmentation fault), ran
+    past its time limit, past its memory limit, or lost its GPU device. The kernel's own
+    process and device were never touched; the next call starts a fresh worker.
+
+    Attributes: ``cause`` ("crash", "time", "memory" or "device lost"; "start" when the
+    worker itself could not start, which is no fault of the code), ``verdict`` (one
+    line naming the cause and the limit, e.g. "exceeded the 60 s time limit"), ``limit``
+    (the seconds or megabytes of the limit, None for a crash or a lost device) and
+    ``detail`` (the signal, or the last lines the worker printed). Grading and the kernel's
+    compiles turn it into an :class:`ExerciseShaderError` or :class:`WindShaderError`.
+    """
+
+    def __init__(self, message, cause="crash", verdict="", limit=None, detail=""):
+        super().__init__(message)
+        self.cause, self.verdict, self.limit, self.detail = cause, verdict or message, limit, detail
 
 
 class MissingFileError(GrassError, FileNotFoundError):

@@ -86,6 +86,7 @@ def test_each_error_is_also_its_builtin():
         "GrassValueError": ValueError, "GrassTypeError": TypeError, "ParameterError": ValueError,
         "UnknownNameError": AttributeError, "ReadOnlyAttributeError": AttributeError, "MissingLimitError": KeyError, "BladeCountError": ValueError,
         "BladeLimitError": ValueError, "WindShaderError": ValueError, "ExerciseShaderError": ValueError,
+        "IsolatedRunError": RuntimeError,
         "MissingFileError": FileNotFoundError,
         "MissingDependencyError": ImportError, "NoGPUAdapterError": RuntimeError, "WidgetClosedError": RuntimeError,
         "UpstreamChangedError": RuntimeError, "BrowserTimeoutError": TimeoutError,

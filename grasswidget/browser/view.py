@@ -57,6 +57,7 @@ from ..core.params import SUN_TRAITS, GrassParams
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspected_rows
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
+from ..core.wgsl_overrides import wind_limit_error
 from . import uniforms
 from .auto_switches import BrowserAutoSwitches
 from .esm import engine_module_text
@@ -483,6 +484,18 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
 
     def _request_wind(self, body, old, wait, timeout=ANSWER_TIMEOUT):
+        refused = wind_limit_error(body)  # the size limits, before the page's compiler sees it
+        if refused is not None:
+            if self.params.wind_wgsl == body:
+                self._reverting_wind = True
+                try:
+                    self.params.wind_wgsl = old
+                finally:
+                    self._reverting_wind = False
+            if wait:
+                raise refused
+            self._emit_error(refused)
+            return
         shader = with_function_overrides(BrowserShaders.simulate(body), self.function_overrides)
         inspect = with_function_overrides(BrowserShaders.inspect(body), self.function_overrides)  # the same wind
         content = {"type": "compile_simulate", "shader": shader, "passes": {"inspect": inspect}}

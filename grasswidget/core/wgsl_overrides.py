@@ -29,9 +29,11 @@ import hashlib
 import re
 from dataclasses import dataclass
 
-from ..errors import ExerciseShaderError, GrassTypeError, GrassValueError
+from ..errors import ExerciseShaderError, GrassTypeError, GrassValueError, WindShaderError
+from .wgsl_limits import wgsl_limit_problem
 
-__all__ = ["WgslFunction", "FunctionOverrides", "parse_functions", "strip_comments", "OVERRIDE_MARKER"]
+__all__ = ["WgslFunction", "FunctionOverrides", "parse_functions", "strip_comments", "limit_problem", "wind_limit_error",
+           "OVERRIDE_MARKER"]
 
 #: Start of the marker line before the user's code in an overridden shader.
 OVERRIDE_MARKER = "// ---- replaced blade math (user code; its line 1 is the next line):"
@@ -108,6 +110,30 @@ def _strip_comments(code: str) -> str:
         at = b
     out.append(code[at:])
     return "".join(out)
+
+
+def limit_problem(code: str):
+    """The first size limit user WGSL ``code`` breaks (length, nesting, statement length,
+    array sizes, inlined size: :mod:`grasswidget.core.wgsl_limits`) as ``(message, line,
+    column, reason)``, line and column 1-based in ``code`` (None for the length); None when
+    it keeps them all. Checked before any compile of user code."""
+    return wgsl_limit_problem(code, strip_comments(code), parse_functions(code))
+
+
+def wind_limit_error(body: str):
+    """A :class:`~grasswidget.errors.WindShaderError` for the first size limit a
+    ``wind_wgsl`` body breaks (see :func:`limit_problem`), with the line and column in
+    ``body``; None when it keeps them all (or is empty). Both engines check it first."""
+    problem = limit_problem(body) if body.strip() else None
+    if problem is None:
+        return None
+    message, line, column, reason = problem
+    rows = body.splitlines()
+    where = f" line {line}, column {column}" if line else ""
+    src = rows[line - 1] if line and line <= len(rows) else ""
+    src = src if len(src) <= 160 else src[:157] + "..."
+    return WindShaderError(f"wind_wgsl{where}: {message}" + (f"\n  {line} | {src}" if line else ""), line, column,
+                           reason, "")
 
 
 def _line_col(code: str, offset: int) -> tuple:
@@ -198,14 +224,20 @@ class FunctionOverrides:
         text = f"{self.label}{where}: {message}"
         if line:
             src = self.code.splitlines()[line - 1] if line <= len(self.code.splitlines()) else ""
+            src = src if len(src) <= 160 else src[:157] + "..."
             text += f"\n  {line} | {src}"
         return ExerciseShaderError(text, line, column, reason or message, "")
 
     def check(self, stock_code: str):
         """Raise :class:`~grasswidget.errors.ExerciseShaderError` unless the user's code
-        defines each replaced function exactly once with the parameter and return types of
-        its definition in ``stock_code`` (e.g. the rendered ``blade_math.wgsl``), and has no
-        loop. Returns self."""
+        keeps the size limits of :func:`limit_problem` (length, nesting, statement length,
+        array sizes, inlined size), defines each replaced function exactly once with the
+        parameter and return types of its definition in ``stock_code`` (e.g. the rendered
+        ``blade_math.wgsl``), and has no loop. Returns self."""
+        problem = limit_problem(self.code)
+        if problem is not None:
+            message, line, column, reason = problem
+            raise self._error(message, line, column, reason)
         stock = {f.name: f for f in parse_functions(stock_code)}
         mine = parse_functions(self.code)
         text = strip_comments(self.code)

@@ -635,7 +635,7 @@ class GrassField(gfx.WorldObject):
         old = self._store.function_overrides
         self._store.function_overrides = overrides
         try:
-            self.simulation.compile_now(self.params.wind_wgsl)
+            self.simulation.compile_now(self.params.wind_wgsl, blame="overrides")
         except BaseException:
             self._store.function_overrides = old
             raise

@@ -14,19 +14,22 @@ from contextlib import nullcontext
 import numpy as np
 import pygfx as gfx
 import wgpu
-from pygfx.renderers.wgpu import Binding
+from pygfx.renderers.wgpu import Binding, get_shared
 from pygfx.utils import array_from_shadertype
 
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.limits import StepsInterrupted, hold_interrupts
 from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
-from ..errors import WindShaderError
+from ..core.shader_files import render_wgsl
+from ..core.wgsl_overrides import parse_functions, wind_limit_error
+from ..errors import ExerciseShaderError, IsolatedRunError, WindShaderError
 from ..core.reference import wind_period
 from ..core.shader_files import NO_WIND_BODY
 from ..core.uniform_layouts import SIM_LAYOUT, shadertype, write_values
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
+from .isolation import PROBE_ENTRY, check_compute, probe_entry, verdict_message
 from .wgsl_templates import GrassComputeShader, naga_error_parts, overrides_error, workgroups
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
@@ -122,25 +125,61 @@ class Simulation:
 
     # ------------------------------------------------------------------ program
 
-    def build_program(self, body):
-        """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails."""
+    def build_program(self, body, blame=None):
+        """Compile the simulation pipeline with ``body`` as user_wind; WindShaderError if it fails.
+
+        User code (a ``body``, the field's function overrides) is checked first: the wind
+        body's size limits (:func:`~grasswidget.core.wgsl_overrides.wind_limit_error`), then a
+        compile of the whole shader in the isolated worker
+        (:func:`~grasswidget.gpu.isolation.check_compute`); only a shader that compiled
+        there is compiled here. A crash, a compile past the time or memory limit or a lost
+        device there raises an error naming the cause: ExerciseShaderError when ``blame``
+        is "overrides" (default: when there are overrides and no wind body), else
+        WindShaderError."""
+        overrides = self.field.function_overrides
+        refused = wind_limit_error(body)
+        if refused is not None:
+            raise refused
         shader = SimulateShader(self.field, user_wind_body=body)
+        if body.strip() or overrides is not None:
+            shader.get_bindings_info(self.field, get_shared(), None)  # the bindings' code is part of the text
+            wgsl = shader.generate_wgsl()
+            checked, entries = wgsl, "main"
+            if overrides is not None:  # every replaced function compiled, the culling ones too
+                stock = {f.name: f for f in parse_functions(render_wgsl("blade_math.wgsl"))}
+                checked += probe_entry([(n, [t for _, t in stock[n].params], stock[n].returns) for n in overrides.names
+                                        if n in stock], wgsl)
+                entries = ("main", PROBE_ENTRY)
+            try:
+                message = check_compute(checked, entries)
+            except IsolatedRunError as err:
+                if err.cause == "start":  # the worker, not the user's code
+                    raise
+                if blame == "overrides" or (blame is None and overrides is not None and not body.strip()):
+                    raise ExerciseShaderError(verdict_message(err, overrides.label), None, None, err.verdict,
+                                              err.detail) from None
+                label = "wind_wgsl" if overrides is None else f"wind_wgsl or {overrides.label}"
+                raise WindShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+            if message is not None:
+                self._raise_compile_error(message, wgsl, body, overrides)
         try:
             return ComputeProgram(shader, self.field)
         except wgpu.GPUError as err:
-            overrides = self.field.function_overrides
-            wgsl = shader.generate_wgsl()
-            if overrides is not None:
-                error = overrides_error(err, wgsl, overrides)
-                if error.line is not None or not body.strip():
-                    raise error from None
-            if not body.strip():
-                raise
-            raise wind_shader_error(err, wgsl, body) from None
+            if overrides is None and not body.strip():
+                raise  # the stock shader: not the user's error
+            self._raise_compile_error(err, shader.generate_wgsl(), body, overrides)
 
-    def compile_now(self, body):
-        """Compile ``body`` into the program now (no revert on error)."""
-        self._program, self.wind_body = self.build_program(body), body
+    @staticmethod
+    def _raise_compile_error(err, wgsl, body, overrides):
+        if overrides is not None:
+            error = overrides_error(err, wgsl, overrides)
+            if error.line is not None or not body.strip():
+                raise error from None
+        raise wind_shader_error(err, wgsl, body) from None
+
+    def compile_now(self, body, blame=None):
+        """Compile ``body`` into the program now (no revert on error); ``blame``: see :meth:`build_program`."""
+        self._program, self.wind_body = self.build_program(body, blame), body
 
     def compile_wind(self, body, old):
         """Compile a new wind snippet; on error put ``params.wind_wgsl`` back to ``old`` and raise."""

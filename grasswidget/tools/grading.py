@@ -20,8 +20,15 @@ WGSL and returns a :class:`~grasswidget.core.grade_report.GradeReport`:
      (``GrassField.read_visible``) compared with :func:`grasswidget.core.reference.cull_reason`;
      blades within 1e-4 of the test's threshold are left out (float32 may decide either way).
 
-Why no subprocess: the loop rule makes every accepted function end (WGSL has no
-recursion), so grading runs in the kernel, fast, and cannot hang it.
+Isolation: the checks before compiling (step 1's rules and the size limits of
+:mod:`grasswidget.core.wgsl_limits`: length, nesting, statement length, array sizes,
+inlined size) run in the kernel and name the student's line. Everything that compiles or
+runs the student's code (steps 1 and 2: :func:`grade_here`) runs in the isolated worker
+process of :mod:`grasswidget.gpu.isolation` (its own GPU device, a time and a memory
+limit, reused from grade to grade): a compiler crash, a compile that does not end, a
+runaway allocation or a lost device becomes an ExerciseShaderError naming the cause (and,
+but for the time limit, the function at fault: :func:`locate_failure`), and the kernel,
+its device and the next grade are untouched.
 """
 
 from __future__ import annotations
@@ -38,9 +45,9 @@ from ..core.params import GrassParams
 from ..core.shader_files import render_wgsl
 from ..core.student_wgsl import TRAP_VAR, check_names, instrument
 from ..core.wgsl_overrides import FunctionOverrides, parse_functions
-from ..errors import GrassTypeError
+from ..errors import ExerciseShaderError, GrassTypeError, IsolatedRunError
 
-__all__ = ["grade", "overrides_for", "check_compiles"]
+__all__ = ["grade", "grade_here", "overrides_for", "check_compiles", "locate_failure"]
 
 
 def overrides_for(spec, wgsl: str) -> FunctionOverrides:
@@ -82,10 +89,70 @@ def _adapter_name() -> str:
     return str(info.get("device") or info.get("summary") or "GPU")
 
 
-def grade(spec, wgsl: str) -> GradeReport:
+def grade(spec, wgsl: str, *, worker=None) -> GradeReport:
     """Grade ``wgsl`` (the student's functions) for exercise ``spec`` (an ExerciseSpec);
     see the module docstring. Never raises for wrong results (the report says what is
-    wrong); raises ExerciseShaderError for code that does not compile or breaks a rule."""
+    wrong); raises ExerciseShaderError for code that does not compile or breaks a rule,
+    and for code that crashed, hung or exhausted the isolated worker (``reason`` names
+    the cause, e.g. "crashed the shader compiler (segmentation fault)"). ``worker``: the
+    :class:`~grasswidget.gpu.isolation.IsolatedWorker` to grade in (default the shared one).
+    """
+    from ..gpu.isolation import in_worker, shared_worker, verdict_message
+
+    overrides_for(spec, wgsl)  # the rules and limits, in the kernel: the student's line
+    if in_worker():
+        return grade_here(spec, wgsl)
+    label = f"your {spec.name} code"
+    worker = worker or shared_worker()
+    try:
+        return worker.call(grade_here, spec, wgsl, what=f"grading {label}")
+    except IsolatedRunError as err:
+        if err.cause == "start":  # the worker, not the student's code
+            raise
+        where = None
+        if err.cause != "time":  # a crash, memory or a lost device comes back in seconds: find the function
+            where = locate_failure(FunctionOverrides(wgsl, spec.names, label=label), worker)
+        if where is None:
+            raise ExerciseShaderError(verdict_message(err, label), None, None, err.verdict, err.detail) from None
+        name, line, column = where
+        message = verdict_message(err, f"{label} line {line} (`{name}`)")
+        row = wgsl.split("\n")[line - 1]
+        raise ExerciseShaderError(f"{message}\n  {line} | {row[:160]}", line, column, err.verdict,
+                                  err.detail) from None
+
+
+def locate_failure(overrides, worker=None):
+    """Which of ``overrides``' functions takes the compiler or the driver down: each is
+    compiled alone (the stock blade math, the student's helpers, that function, and an entry
+    point that calls it) in ``worker`` (default the shared
+    :class:`~grasswidget.gpu.isolation.IsolatedWorker`). Returns (name, line, column) of
+    the function's definition in the student's code when exactly some of them fail, None
+    when none does or all do (then the cause is in code they share, or elsewhere).
+    Each failure costs a worker start on the next call."""
+    from ..gpu.isolation import PROBE_ENTRY, probe_entry, shared_worker
+
+    worker = worker or shared_worker()
+    stock_code = render_wgsl("blade_math.wgsl")
+    stock = {f.name: f for f in parse_functions(stock_code)}
+    mine = {f.name: f for f in parse_functions(overrides.code)}
+    failed = []
+    for name in overrides.names:
+        text = overrides.only(name).apply(stock_code)
+        text += probe_entry([(name, [t for _, t in stock[name].params], stock[name].returns)], text)
+        try:
+            worker.check_compute(text, PROBE_ENTRY, timeout_s=min(worker.timeout_s, 20.0))
+        except IsolatedRunError:
+            failed.append(name)
+    if not failed or len(failed) == len(overrides.names) or failed[0] not in mine:
+        return None
+    f = mine[failed[0]]
+    return f.name, f.line, f.column
+
+
+def grade_here(spec, wgsl: str) -> GradeReport:
+    """Grade ``wgsl`` for ``spec`` in this process (what :func:`grade` runs in the
+    isolated worker); the same result and errors, with nothing between the student's code
+    and this process's device."""
     overrides = overrides_for(spec, wgsl)
     cases = spec.cases()
     if spec.kind == "simulation":

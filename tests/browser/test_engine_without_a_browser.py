@@ -404,3 +404,20 @@ def test_browser_export_filter_is_pygfx_supersampling(bgra):
     assert (got[..., 3] == 255).all()
     # and it is a filter, not a copy: the hard edge is softened
     assert np.abs(got[..., :3] - img[::f, ::f]).max() > 20
+
+
+def test_a_wind_past_the_size_limits_is_refused_before_the_page_compiles_it():
+    """A wind nested 3,500 deep would crash the page's compiler: refused in the kernel at its
+    line, before any request (no page answers here), the old wind kept; assigned, the error is
+    the view's error and params.wind_wgsl goes back."""
+    view = BrowserEngineWidget(gw.Blades.on_plane(64))
+    try:
+        nested = "return vec3<f32>(" + "(" * 3500 + "1.0" + ")" * 3500 + ", 0.0, 0.0);"
+        with pytest.raises(gw.WindShaderError) as info:
+            view.set_wind_wgsl("let k = 2.0;\n" + nested, timeout=0.5)
+        assert info.value.line == 2 and "nested more than 48 deep" in str(info.value)
+        assert view.params.wind_wgsl == ""
+        view.params.wind_wgsl = nested
+        assert view.params.wind_wgsl == "" and "wind_wgsl line 1" in view.errors[-1]
+    finally:
+        view.close()
