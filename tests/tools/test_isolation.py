@@ -202,7 +202,10 @@ def test_a_culling_function_is_compiled_in_the_worker_though_the_simulation_neve
         worker.set_limits(timeout_s=4)
         with pytest.raises(gw.ExerciseShaderError) as info:
             field.set_function_overrides(FunctionOverrides(code, ex.functions))
-        assert info.value.reason == "exceeded the 4 s time limit", str(info.value)
+        # The exploding compile runs out of time or, on a quieter machine, into the memory limit
+        # first: either way it stopped in the worker, not in the kernel's culling pipeline.
+        assert info.value.reason in ("exceeded the 4 s time limit", "exceeded the 1536 MB memory limit"), \
+            str(info.value)
         assert field.function_overrides == ex.overrides(ex.solution())  # the functions before stay
         field.step(2)
         assert np.isfinite(field.read_state()["v2"]).all()
