@@ -360,6 +360,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             raise GrassTypeError(f"frozen must be a FrozenView or None, not {type(frozen).__name__}")
         self._frozen = frozen
         with self.hold_sync():
+            self.auto_switches.refresh()  # the "auto" switches hold their values (a trial is suspended)
             self.cull_uniform = self._cull_uniform()
             self.frustum_lines = np.ascontiguousarray(frozen.segments(), np.float32).tobytes()
         return frozen
@@ -368,6 +369,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """Cull against the camera of each frame again (and remove the frustum lines)."""
         self._frozen = None
         with self.hold_sync():
+            self.auto_switches.refresh()  # a suspended trial of the "auto" switches resumes
             self.cull_uniform = self._cull_uniform()
             self.frustum_lines = b""
 
