@@ -86,11 +86,12 @@ export class EngineMessages extends EnginePasses {
       encoder.copyBufferToBuffer(this.res.s_points, 0, b, 0, Math.ceil(pointsBytes / 4) * 4);
     }
     device.queue.submit([encoder.finish()]);
+    const steps = this.stepCount;  // the state read: a step asked for meanwhile runs after it
     await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
     const forces = a.getMappedRange().slice(0, forcesBytes);
     const points = b.getMappedRange().slice(0, pointsBytes);
     a.destroy(); b.destroy();
-    this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
+    this.model.send({ type: "inspected", id, n, step_count: steps }, undefined, [forces, points]);
   }
 
   // A picture of the current state at msg.width x msg.height, rendered msg.filter.factor
