@@ -173,7 +173,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         self._answers = {}
         self._ids = itertools.count(1)
         self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": [],
-                           "pick": []}
+                           "pick": [], "rest": []}
         self._frozen = None
         self._wind_body = self.params.wind_wgsl
         self._reverting_wind = False
@@ -511,7 +511,8 @@ class BrowserEngineWidget(anywidget.AnyWidget):
 
     def on(self, kind, callback):
         """Register ``callback(msg)`` for browser messages of ``kind``: stats, ball, key, error, device_lost,
-        steps, pick (ctrl + click: ``origin`` and ``direction`` of the view ray, world space)."""
+        steps, pick (ctrl + click: ``origin`` and ``direction`` of the view ray, world space), rest (no
+        view of the engine is on screen any more: nothing is drawn, and no stats come, until one is)."""
         self._listeners[kind].append(callback)
 
     def _emit_error(self, err):

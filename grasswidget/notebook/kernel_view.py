@@ -66,7 +66,7 @@ import numpy as np
 
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
-from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS
+from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTER_S, stats_freshness
 from ..core.blades import Blades
 from ..core.view_api import EngineView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -297,6 +297,12 @@ class KernelView(EngineView):
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
+        # How old the stats are (core.frame_data.stats_freshness), perf_counter seconds: the newest
+        # frame drawn, the newest the browser acknowledged, the first one sent (None: none yet),
+        # a change not drawn yet, and whether no view is on screen.
+        self._drawn_t = self._arrived_t = self._first_sent_t = self._changed_t = None
+        self._at_rest = False
+        self._fps_t = self._stats_t  # the window the delivered frame rate is measured over
         self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats window
         self._stats_confirmed = 0
         #: User WGSL replacing blade-math functions (an exercise's), kept across blade changes; None: stock.
@@ -513,6 +519,10 @@ class KernelView(EngineView):
 
     def request_draw(self):
         self._inspect_stale = True  # something changed: the inspector's numbers are of the next frame
+        if self._changed_t is None:
+            self._changed_t = time.perf_counter()  # the stats are of an older picture until it is drawn
+        if self._at_rest and not self.closed:  # nothing will be drawn: the status line says how old it is
+            self.report_stats(self.current_stats())
         if not self.closed:
             self.canvas.request_draw()
 
@@ -594,9 +604,11 @@ class KernelView(EngineView):
             self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
         scene.draw_frame()
         self._inspect_stale = False
+        self._changed_t, self._at_rest = None, False  # drawn: shown (jupyter-rfb draws only for a view on screen)
         if self.camera_listeners:  # a linked view (a comparison) follows this camera
             self.report_camera_moved()
         t1 = time.perf_counter()
+        self._drawn_t = t1
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)
         if self._report_pending:
@@ -619,12 +631,16 @@ class KernelView(EngineView):
         if not visible:
             with self.lock:
                 self.clock.stop()
+                self._at_rest = True
+            self.report_stats(self.current_stats())  # the status line says it rests, and since when
 
     def _on_present(self, t):
         self.timing.presented(t)
 
     def _on_sent(self, t, size):
         self.timing.sent(t)
+        if self._first_sent_t is None:
+            self._first_sent_t = time.perf_counter()
 
     # ------------------------------------------------------------------ stats
 
@@ -639,7 +655,23 @@ class KernelView(EngineView):
         s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
+        s.update(self._freshness(playing))
         return s
+
+    def _freshness(self, playing) -> dict:
+        """``frame_age_s``, ``at_rest``, ``stale``, ``waiting`` (core.frame_data.stats_freshness).
+        A frame "arrived" when the browser acknowledged it; with no browser (nothing sent: a
+        script, tests) when it was drawn. Sent frames never acknowledged count as waited for
+        from the first one sent."""
+        now = time.perf_counter()
+        if self._first_sent_t is None:
+            frame_t = self._drawn_t
+        else:
+            frame_t = self._arrived_t
+        out = stats_freshness(now, frame_t, playing=playing, at_rest=self._at_rest, changed_t=self._changed_t)
+        if frame_t is None and self._first_sent_t is not None and playing and not self._at_rest:
+            out["waiting"] = now - self._first_sent_t > WAITING_AFTER_S
+        return out
 
     @_exclusive
     def refresh_stats(self):
@@ -654,16 +686,26 @@ class KernelView(EngineView):
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
         ack_ms = None
+        fps = self._stats["fps"]
         try:
             rfb = self.canvas.get_stats()
-            self.canvas.reset_stats()  # the next figures cover the next window only
-            fps = rfb["confirmed_frames"] / dt if rfb["sent_frames"] or rfb["confirmed_frames"] else None
-            if rfb["confirmed_frames"]:
+            sent, confirmed = rfb["sent_frames"], rfb["confirmed_frames"]
+            fps_dt = max(now - self._fps_t, 1e-6)
+            if confirmed:
+                self._arrived_t = now  # (to within a stats interval)
                 ack_ms = 1000.0 * rfb["roundtrip"]
+            if confirmed or (sent and fps_dt > WAITING_AFTER_S):
+                # Frames/s over the window since the last acknowledged frames. Acknowledgements
+                # lag (about 0.5 s on a loaded machine): a window that sent frames but got none
+                # acknowledged yet stays open rather than reading 0 frames/s while frames arrive.
+                fps = confirmed / fps_dt
+                self.canvas.reset_stats()  # the next figures cover the next window only
+                self._fps_t = now
+            elif not sent:
+                raise LookupError  # nothing sent: no browser
         except Exception:
-            fps = None
-        if fps is None:  # no browser: frames drawn
-            fps = (self._frames - self._stats_frames) / dt
+            fps = (self._frames - self._stats_frames) / dt  # no browser: frames drawn
+            self._fps_t = now
         self._stats_frames = self._frames
         self._stats_t = now
         scene = self.scene

@@ -5,7 +5,8 @@
 //   (filter: grasswidget.core.frame_data.export_filter, the supersampling), read_inspected {id},
 //   sync {id} (answered at once: "synced"), compile_simulate {id, shader, passes}, lose_device (tests).
 // Answers and reports: state, snapshot, inspected, compiled, synced, stats, steps, pick, ball, key,
-//   error and device_lost messages; the gpu_status trait.
+//   rest (no view on screen: nothing is drawn until one is), error and device_lost messages; the
+//   gpu_status trait.
 // Stats {fps, visible (per LOD class), occluded, rastered, step_count, steps, frame_ms, frame_size,
 //   adapter, views, frame_times, timed_switches, counts_switches}: every stats_interval_ms (Python's
 //   trait), decoded in Python by grasswidget.browser.engine_view. frame_times: the ms (start to
