@@ -143,11 +143,17 @@ class KernelTraceFeed(_Feed):
             if not view.inspected or inspector is None:
                 self._record(*tag, rows=[])
                 return
-            inspector.compute_now()
-            if not self.readback.after_render(tag):  # every ring buffer in flight: wait for them
-                self.flush()
-                if not self.readback.after_render(tag):
-                    self._record(*tag, rows=[])
+            try:
+                inspector.compute_now()
+                queued = self.readback.after_render(tag)
+                if not queued:  # every ring buffer in flight: wait for them
+                    self.flush()
+                    queued = self.readback.after_render(tag)
+            except Exception as err:  # noqa: BLE001 - e.g. user WGSL the inspector cannot compile
+                view.report_error(f"traces: the inspected blades could not be read: {err}")
+                queued = False
+            if not queued:
+                self._record(*tag, rows=[])
 
     def after_frame(self):
         view = self.view
