@@ -120,6 +120,10 @@ class LabBench:
         """A step(n) call: one sample of the state it left, in either engine, drawn or not."""
         self.feed.after_step()
 
+    def after_reset(self):
+        """A reset_blades() call: the traces start again (at step 0)."""
+        self.feed.after_reset()
+
     def set_playing(self, playing: bool):
         self.playing = bool(playing)
         if not playing:

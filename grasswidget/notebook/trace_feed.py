@@ -50,6 +50,7 @@ class _Feed:
         self._blade_count = view.blade_count
         self.frozen_camera = None
         self._last_step = None
+        self._generation = 0  # reset_blades() calls so far: an answer asked for before one is dropped
         view.frame_hooks.append(self.after_frame)
 
     def set_culling_frozen(self, frozen: bool):
@@ -95,6 +96,16 @@ class _Feed:
 
     def after_step(self):
         """Take the sample of a ``step(n)`` call (each engine's feed)."""
+
+    def after_reset(self):
+        """The blades went back to rest (step 0): forget every sample, and any still on its way."""
+        self.flush()
+        self._generation += 1
+        self._last_step = None
+        self.recorder.clear()
+
+    def flush(self):
+        """Record what is still on its way (each engine's feed)."""
 
 
 class KernelTraceFeed(_Feed):
@@ -235,10 +246,11 @@ class BrowserTraceFeed(_Feed):
         kept, drawn = self._counts(stats)
         frame_ms = self._frame_ms(stats)
         bview = view.engine_widget
+        generation = self._generation
 
         def answered(msg, buffers):
             self._in_flight = max(0, self._in_flight - 1)
-            if msg.get("type") != "inspected" or msg.get("step_count") is None:
+            if msg.get("type") != "inspected" or msg.get("step_count") is None or generation != self._generation:
                 return
             step = int(msg["step_count"])
             rows = bview.inspected_from_answer(msg, buffers, ids) if ids else []

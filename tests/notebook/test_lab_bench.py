@@ -120,7 +120,13 @@ def test_reset_and_a_new_blade_count_start_a_new_trace(widget):
     widget.reset_blades()
     widget.step(2)
     widget.view.draw()
-    assert widget.traces()["step"].tolist() == [2]
+    first = widget.traces()
+    assert first["step"].tolist() == [2]
+    widget.reset_blades()
+    widget.step(2)  # the step count of before the reset, no frame drawn: a new trace, one sample
+    again = widget.traces()
+    assert again["step"].tolist() == [2]
+    np.testing.assert_array_equal(again["v2"], first["v2"])
     widget.blade_count = 512
     widget.step(3)
     widget.view.draw()
