@@ -284,6 +284,7 @@ class KernelView(EngineView):
         self.canvas.add_event_handler(self.on_key, "key_down")
         # At rest off screen: jupyter-rfb draws only while a view is on screen; the clock stops too.
         compat.observe_view_visibility(self.canvas, self._on_visibility)
+        compat.observe_frame_feedback(self.canvas, self._on_frame_arrived)  # how old the stats are
 
         self._frames = 0
         self._draw_ms = 0.0
@@ -634,6 +635,10 @@ class KernelView(EngineView):
                 self._at_rest = True
             self.report_stats(self.current_stats())  # the status line says it rests, and since when
 
+    def _on_frame_arrived(self, _index):
+        """The page acknowledged frames: the newest one shown arrived now (to within the comm's delay)."""
+        self._arrived_t = time.perf_counter()
+
     def _on_present(self, t):
         self.timing.presented(t)
 
@@ -692,7 +697,6 @@ class KernelView(EngineView):
             sent, confirmed = rfb["sent_frames"], rfb["confirmed_frames"]
             fps_dt = max(now - self._fps_t, 1e-6)
             if confirmed:
-                self._arrived_t = now  # (to within a stats interval)
                 ack_ms = 1000.0 * rfb["roundtrip"]
             if confirmed or (sent and fps_dt > WAITING_AFTER_S):
                 # Frames/s over the window since the last acknowledged frames. Acknowledgements
