@@ -599,13 +599,15 @@ class KernelView(EngineView):
             return
         t0 = time.perf_counter()
         playing = bool(self.playback.playing)
-        if playing:
+        if playing and not self._at_rest:
             if not self.clock.running:
                 self.clock.start()
             self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
+        elif self._at_rest:  # a frame asked for while out of sight (e.g. play() from a cell): time stays put
+            self.clock.stop()
         scene.draw_frame()
         self._inspect_stale = False
-        self._changed_t, self._at_rest = None, False  # drawn: shown (jupyter-rfb draws only for a view on screen)
+        self._changed_t = None
         if self.camera_listeners:  # a linked view (a comparison) follows this camera
             self.report_camera_moved()
         t1 = time.perf_counter()
@@ -628,11 +630,13 @@ class KernelView(EngineView):
         the frames' acknowledgements): jupyter-rfb asks for no frame, so nothing is simulated,
         rendered or sent, and the clock stops as :meth:`pause` stops it. Back on screen, the next
         frame starts it again: simulated time goes on from where it stopped, the time away is not
-        owed (no catch-up burst, no slow motion on the stats line)."""
-        if not visible:
-            with self.lock:
+        owed (no catch-up burst, no slow motion on the stats line). A frame drawn while out of
+        sight anyway (asked for from a cell: ``play()``, a parameter) advances no time."""
+        with self.lock:
+            self._at_rest = not visible
+            if not visible:
                 self.clock.stop()
-                self._at_rest = True
+        if not visible:
             self.report_stats(self.current_stats())  # the status line says it rests, and since when
 
     def _on_frame_arrived(self, _index):

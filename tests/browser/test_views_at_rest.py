@@ -26,6 +26,7 @@ import imageio.v3 as iio
 import pytest
 
 from .harness import (
+    kernel_execute,
     leave_notebook,
     frame_counts,
     kernel_eval,
@@ -147,6 +148,11 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
             time.sleep(0.2)  # paces the reads only: each read is checked
         print(f"[views at rest, {backend}] view 1's status line while drawing: {lines[-1][0]}")
         assert not any(at_rest or waiting or "waiting for frames" in line for line, at_rest, waiting in lines), lines
+        # At rest, each step(n) still records a sample (issue 37, item 1): the third widget, out of sight.
+        kernel_execute(page, "ws[2].inspect([1])\nfor _ in range(2):\n    ws[2].step(6)")
+        wait_for_kernel(page, "(lambda s: [int(x) for x in s[-2:]])(ws[2].traces()['step'])",
+                        predicate=lambda s: len(s) == 2 and s[1] - s[0] == 6, timeout=60)
+        assert kernel_eval(page, "[int(i) for i in ws[2].traces()['ids']]") == [1]
 
         # Back to the first: it draws again; simulated time goes on from where it stopped.
         engine.show(page, 0)
