@@ -698,21 +698,21 @@ class KernelView(EngineView):
         fps = self._stats["fps"]
         try:
             rfb = self.canvas.get_stats()
-            sent, confirmed = rfb["sent_frames"], rfb["confirmed_frames"]
-            fps_dt = max(now - self._fps_t, 1e-6)
-            if confirmed:
-                ack_ms = 1000.0 * rfb["roundtrip"]
-            if confirmed or (sent and fps_dt > WAITING_AFTER_S):
-                # Frames/s over the window since the last acknowledged frames. Acknowledgements
-                # lag (about 0.5 s on a loaded machine): a window that sent frames but got none
-                # acknowledged yet stays open rather than reading 0 frames/s while frames arrive.
-                fps = confirmed / fps_dt
-                self.canvas.reset_stats()  # the next figures cover the next window only
-                self._fps_t = now
-            elif not sent:
-                raise LookupError  # nothing sent: no browser
         except Exception:
-            fps = (self._frames - self._stats_frames) / dt  # no browser: frames drawn
+            rfb = None
+        sent, confirmed = (rfb["sent_frames"], rfb["confirmed_frames"]) if rfb else (0, 0)
+        fps_dt = max(now - self._fps_t, 1e-6)
+        if confirmed:
+            ack_ms = 1000.0 * rfb["roundtrip"]
+        if confirmed or (sent and fps_dt > WAITING_AFTER_S):
+            # Frames/s over the window since the last acknowledged frames. Acknowledgements lag
+            # (about 0.5 s on a loaded machine): a window that sent frames but got none
+            # acknowledged yet stays open rather than reading 0 frames/s while frames arrive.
+            fps = confirmed / fps_dt
+            self.canvas.reset_stats()  # the next figures cover the next window only
+            self._fps_t = now
+        elif not sent:  # nothing sent: no browser; frames drawn
+            fps = (self._frames - self._stats_frames) / dt
             self._fps_t = now
         self._stats_frames = self._frames
         self._stats_t = now
