@@ -52,6 +52,8 @@ __all__ = [
     "kernel_requeue_shell",
     "timed_jupyter_canvas_class",
     "observe_view_visibility",
+    "set_view_visibility",
+    "observe_frame_feedback",
     "fixed_rfb_esm",
     "widget_registry",
     "marimo_anywidget_element",
@@ -109,7 +111,10 @@ PRIVATE_USES = (
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
     ("jupyter_rfb", "RemoteFrameBuffer._has_visible_views",
      "the synced trait its front end sets from an IntersectionObserver per view: whether any view is on screen "
-     "(jupyter-rfb draws only then; the kernel view stops its clock while it is False: observe_view_visibility)"),
+     "(jupyter-rfb draws only then; the kernel view stops its clock while it is False: observe_view_visibility; set_view_visibility sets it in tests)"),
+    ("jupyter_rfb", "RemoteFrameBuffer._frame_feedback",
+     "the synced trait its front end sets when a frame arrived (index, timestamp): the kernel view's stats "
+     "say how long ago the newest frame arrived (observe_frame_feedback)"),
     ("jupyter_rfb", "RemoteFrameBuffer._esm (the text of renderview.js)",
      "one line corrected: its 'input' handler clears the hidden key input through this.focus_el, a name "
      "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm)"),
@@ -520,6 +525,30 @@ def observe_view_visibility(canvas, callback):
 
     canvas.observe(changed, names=[name])
     return lambda: canvas.unobserve(changed, names=[name])
+
+
+def observe_frame_feedback(canvas, callback):
+    """Call ``callback(index)`` each time jupyter-rfb's front end acknowledges frames of ``canvas``
+    (its ``_frame_feedback`` trait: the index of the newest frame the page has shown). Returns a
+    function that stops observing."""
+    name = "_frame_feedback"
+    if not canvas.has_trait(name):
+        raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
+
+    def changed(change):
+        callback(int((change["new"] or {}).get("index", 0)))
+
+    canvas.observe(changed, names=[name])
+    return lambda: canvas.unobserve(changed, names=[name])
+
+
+def set_view_visibility(canvas, visible: bool):
+    """Set what jupyter-rfb's front end syncs when a view of ``canvas`` comes on or goes off
+    screen (its ``_has_visible_views`` trait), as the page would: for tests and headless runs."""
+    name = "_has_visible_views"
+    if not canvas.has_trait(name):
+        raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
+    canvas.set_trait(name, bool(visible))
 
 
 #: jupyter-rfb 1.0.2's renderview.js, in the 'input' listener of its hidden key input: the

@@ -325,9 +325,17 @@ def test_jupyter_rfb_reports_whether_a_view_is_on_screen():
     # What jupyter-rfb's front end syncs from its IntersectionObserver (the trait it draws by).
     rfb.set_trait("_has_visible_views", True)
     rfb.set_trait("_has_visible_views", False)
+    compat.set_view_visibility(rfb, True)  # the same trait, as tests set it
     stop()
     rfb.set_trait("_has_visible_views", True)
-    assert seen == [True, False]
+    assert seen == [True, False, True]
+    acks = []
+    stop = compat.observe_frame_feedback(rfb, acks.append)
+    # What its front end syncs when frames arrive (the newest index shown, and when it was sent).
+    rfb.set_trait("_frame_feedback", {"index": 3, "timestamp": 1.0, "localtime": 1.1})
+    stop()
+    rfb.set_trait("_frame_feedback", {"index": 4, "timestamp": 1.2, "localtime": 1.3})
+    assert acks == [3]
     rfb.close()
 
 

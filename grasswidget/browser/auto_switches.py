@@ -19,7 +19,8 @@ when the browser ran them with the state the trial asked for (and its counts are
 frame), one by one until the trial asks for another state; then it writes the new state. The
 decision is made again on the kernel's triggers (:class:`grasswidget.core.pays.DecisionContext`):
 the camera moved or turned, the blade field or any parameter but the two switches changed.
-While culling is frozen the decision holds (as in the kernel engine). A trial starts and advances
+While culling is frozen the switches hold their values and a trial in progress is suspended until
+culling is unfrozen (as in the kernel engine; :mod:`grasswidget.core.pays`, "Frozen culling"). A trial starts and advances
 only on stats messages that report frames drawn while the widget plays: a view at rest (off
 screen, nothing drawn; or paused, drawing only on demand) runs none, and is never woken by one.
 """
@@ -68,8 +69,9 @@ class BrowserAutoSwitches:
                                (self._params_version, self._field_version))
 
     def _next_values(self, start_trial: bool) -> dict:
-        frozen = self._widget.frozen_camera is not None and self.state.context is not None
-        return self.state.values(self.settings(), self.state.context if frozen else self.context(), start_trial)
+        frozen = self._widget.frozen_camera is not None
+        return self.state.values(self.settings(), self.state.context if frozen else self.context(), start_trial,
+                                 frozen=frozen)
 
     def refresh(self) -> dict:
         """Work out the values for the next frames and send them if they changed; returns

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
-from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW
+from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW, stats_freshness
 from ..core.view_api import EngineView
 from ..errors import GrassTypeError, GrassValueError
 from .view import BrowserEngineWidget
@@ -123,7 +123,12 @@ class BrowserEngineView(EngineView):
                        "steps_per_frame": None, "frame_size": None, "step_count": None, "switches": None,
                        "trial": False}  # the keys a stats message fills, known from the start
         self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats message
+        # How old the stats are (core.frame_data.stats_freshness), perf_counter seconds: the newest
+        # stats message (a frame drawn), a change sent since, and whether the engine rests.
+        self._frame_t = self._changed_t = None
+        self._at_rest = False
         self.engine_widget.on("stats", self._on_browser_stats)
+        self.engine_widget.on("rest", self._on_rest)
         self.engine_widget.on("error", self.report_error)
         self.engine_widget.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
         self.engine_widget.on("ball", self._on_ball_msg)
@@ -311,9 +316,20 @@ class BrowserEngineView(EngineView):
 
     def step(self, n: int):
         self.engine_widget.step(n)
+        self._changed()
 
     def reset_blades(self):
         self.engine_widget.reset()
+        self._changed()
+
+    def _changed(self):
+        """Something the picture shows changed: the stats are of an older frame until the next one."""
+        if self._changed_t is None:
+            import time
+
+            self._changed_t = time.perf_counter()
+        if self._at_rest and not self.closed:  # nothing will be drawn: the status line says how old it is
+            self.report_stats(self.current_stats())
 
     def reset_camera(self):
         self.engine_widget.reset_camera()
@@ -327,8 +343,9 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.orbit_limits
 
     def request_draw(self):
-        # The browser draws every animation frame; parameter changes arrive as traits.
-        pass
+        # The browser draws every animation frame; parameter changes arrive as traits. The stats
+        # are of an older picture until the browser's next stats message.
+        self._changed()
 
     # ------------------------------------------------------------------ camera
 
@@ -451,10 +468,24 @@ class BrowserEngineView(EngineView):
     # ------------------------------------------------------------------ stats
 
     def current_stats(self) -> dict:
+        import time
+
         s = dict(self._stats)
         s["blades"] = self.blade_count
         s["target_fps"] = self.target_fps  # as the kernel's (the blade control's estimate aims for it)
+        # How old: the newest stats message is the newest frame known to be drawn.
+        s.update(stats_freshness(time.perf_counter(), self._frame_t, playing=bool(self.playback.playing),
+                                 at_rest=self._at_rest, changed_t=self._changed_t,
+                                 interval_s=self.engine_widget.stats_interval_ms / 1000.0))
         return s
+
+    def _on_rest(self, msg):
+        """No view of the engine is on screen: it draws nothing (and sends no stats) until one is;
+        the stats say so, and the status line."""
+        self._at_rest = True
+        if msg.get("step_count") is not None:
+            self._stats["step_count"] = msg["step_count"]
+        self.report_stats(self.current_stats())
 
     def refresh_stats(self):
         self.report_stats(self.current_stats())
@@ -474,6 +505,10 @@ class BrowserEngineView(EngineView):
         return steps * float(self.params.dt) / ((now - last) * scale)
 
     def _on_browser_stats(self, msg):
+        import time
+
+        self._frame_t = time.perf_counter()  # a stats message comes from a frame drawn (none at rest)
+        self._changed_t, self._at_rest = None, False
         per_class = msg.get("visible")
         fps = msg.get("fps")
         steps = int(msg.get("steps") or 0)

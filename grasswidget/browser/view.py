@@ -176,7 +176,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         self._answers = {}
         self._ids = itertools.count(1)
         self._listeners = {"stats": [], "ball": [], "key": [], "error": [], "device_lost": [], "steps": [],
-                           "pick": []}
+                           "pick": [], "rest": []}
         self._frozen = None
         self._wind_body = self.params.wind_wgsl
         self._reverting_wind = False
@@ -366,6 +366,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             raise GrassTypeError(f"frozen must be a FrozenView or None, not {type(frozen).__name__}")
         self._frozen = frozen
         with self.hold_sync():
+            self.auto_switches.refresh()  # the "auto" switches hold their values (a trial is suspended)
             self.cull_uniform = self._cull_uniform()
             self.frustum_lines = np.ascontiguousarray(frozen.segments(), np.float32).tobytes()
         return frozen
@@ -374,6 +375,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """Cull against the camera of each frame again (and remove the frustum lines)."""
         self._frozen = None
         with self.hold_sync():
+            self.auto_switches.refresh()  # a suspended trial of the "auto" switches resumes
             self.cull_uniform = self._cull_uniform()
             self.frustum_lines = b""
 
@@ -545,7 +547,8 @@ class BrowserEngineWidget(anywidget.AnyWidget):
 
     def on(self, kind, callback):
         """Register ``callback(msg)`` for browser messages of ``kind``: stats, ball, key, error, device_lost,
-        steps, pick (ctrl + click: ``origin`` and ``direction`` of the view ray, world space)."""
+        steps, pick (ctrl + click: ``origin`` and ``direction`` of the view ray, world space), rest (no
+        view of the engine is on screen any more: nothing is drawn, and no stats come, until one is)."""
         self._listeners[kind].append(callback)
 
     def _emit_error(self, err):

@@ -23,6 +23,8 @@ and each engine only writes it into its own buffers:
   steps are dispatched (workgroup size, blade steps per dispatch, the wind time of a step),
   the same in both engines.
 * :data:`STATS_INTERVAL_MS`: how often both engines report their stats (by default);
+  :func:`stats_freshness`: how old a view's stats are (``frame_age_s``, ``at_rest``, ``stale``)
+  and whether it waits for frames, the same rule for both engines;
   :func:`counter_layout` and :func:`read_counters`: where the drawn, occluded and compute-drawn
   blade counts lie in the words both engines read back for their stats, and how they are read.
 * :func:`sky_ground_values`: the values of ``u_material`` of
@@ -73,6 +75,7 @@ __all__ = [
     "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
     "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
+    "stats_freshness", "WAITING_AFTER_S",
 ]
 
 #: The most fixed steps one drawn frame may take while playing, in both engines (a frame
@@ -600,3 +603,42 @@ def frame_rules(params, blades, far, floor="grass") -> dict:
     :func:`orbit_rules`)."""
     return {"clock": clock_rules(params), "dispatch": dispatch_rules(), "orbit": orbit_rules(blades, far, floor),
             "drag": drag_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}
+
+
+#: A playing view whose newest frame arrived longer ago than this (wall seconds) is "waiting for
+#: frames"; a frame that arrived more recently never is (two stats intervals and more: the
+#: browser's acknowledgements come about 0.5 s after a frame on a loaded machine).
+WAITING_AFTER_S = 2.0
+
+
+def stats_freshness(now: float, frame_t: float | None, *, playing: bool, at_rest: bool = False,
+                    changed_t: float | None = None, interval_s: float = STATS_INTERVAL_MS / 1000.0) -> dict:
+    """How old a view's stats are, both engines alike (seconds on one monotonic clock, e.g.
+    ``time.perf_counter()``).
+
+    Args:
+        now: the time now.
+        frame_t: when the newest frame the stats describe arrived (the kernel engine: the browser
+            acknowledged it, or, with no browser, it was drawn; the browser engine: the stats
+            message reporting it came in); None before the first frame.
+        playing: whether the view's clock runs (a paused view draws on demand only).
+        at_rest: no view of it is on screen, so nothing is drawn (scrolled away, a collapsed
+            output, a hidden tab).
+        changed_t: when something the picture shows changed (parameters, camera, steps) with no
+            frame drawn since; None when the newest frame shows it.
+        interval_s: the stats interval (default :data:`STATS_INTERVAL_MS`, 0.5 s).
+
+    Returns:
+        ``{"frame_age_s": wall seconds since ``frame_t`` (None before a frame), "at_rest": bool,
+        "stale": bool, "waiting": bool}``. ``stale``: the numbers may not describe what the view
+        would draw now: it is at rest, or playing with its newest frame older than ``interval_s``,
+        or a change older than ``interval_s`` has not been drawn; never before the first frame
+        (the numbers are None then, not old). ``waiting``: playing, on screen and no frame arrived
+        for :data:`WAITING_AFTER_S` (or none yet after that long a change); a frame that arrived
+        more recently is never waited for.
+    """
+    age = None if frame_t is None else max(0.0, float(now) - float(frame_t))
+    pending = changed_t is not None and float(now) - float(changed_t) > interval_s
+    stale = age is not None and bool(at_rest or (playing and age > interval_s) or pending)
+    waiting = bool(playing and not at_rest and age is not None and age > WAITING_AFTER_S)
+    return {"frame_age_s": age, "at_rest": bool(at_rest), "stale": stale, "waiting": waiting}

@@ -36,6 +36,14 @@ start_trial=False)`` makes a decision stale without starting one). ``AutoSwitche
 counts the frames recorded in trials, so that a view can tell its frame rate measurements
 that include a trial's (GPU-synchronised, first-use compiling) frames from the others.
 
+Frozen culling (a teaching view: ``values(..., frozen=True)``) freezes the switches too: the
+context is held (the camera flying around the frozen view is no trigger), no trial starts, a
+trial in progress is suspended (its frames are not recorded, its decision is not made) and each
+"auto" switch keeps the value it had in the last frame before freezing, so nothing that decides
+which blades are drawn changes under the frozen view. A switch forced (True / False) meanwhile
+takes that value at once, as the user asked. Unfreezing resumes the trial where it stopped
+(after :data:`TRIAL_SETTLE_FRAMES` again), unless the context changed meanwhile.
+
 :class:`AutoSwitches` is the pure state machine an engine drives once per frame: it says
 which value each switch has for the next frame and takes the frame's measurements. No GPU,
 no widgets: the kernel engine runs it in :mod:`grasswidget.gpu.auto_switches`.
@@ -272,6 +280,14 @@ class AutoSwitches:
         #: between two frame rate measurements to tell whether a trial ran in between.
         self.trial_frames_run = 0
         self._trial: _Trial | None = None
+        #: True while culling is frozen (the last :meth:`values` call said ``frozen``).
+        self.frozen = False
+        self._held: dict = {}  # the values of the last frame before freezing
+
+    @property
+    def suspended(self) -> bool:
+        """True while a trial waits for culling to be unfrozen (see the module docstring)."""
+        return self.frozen and self._trial is not None
 
     @property
     def trial(self) -> str | None:
@@ -279,15 +295,41 @@ class AutoSwitches:
 
     @property
     def measuring(self) -> bool:
-        """True while a trial runs (the engine should time this frame)."""
-        return self._trial is not None
+        """True while a trial runs and is not suspended (the engine should time this frame)."""
+        return self._trial is not None and not self.frozen
 
-    def values(self, settings: dict, context: DecisionContext, start_trial: bool = True) -> dict:
+    def values(self, settings: dict, context: DecisionContext, start_trial: bool = True,
+               frozen: bool = False) -> dict:
         """The value (bool) of each switch of ``settings`` ({name: True/False/"auto"}) for the
         next frame in ``context``; starts a trial where an "auto" switch is undecided, unless
         ``start_trial`` is False (the caller draws no frame for it: the value is then the
         previous context's decision, or off). An undecided switch not being tried runs with
-        its previous decision (off when it has none)."""
+        its previous decision (off when it has none). ``frozen``: culling is frozen; the
+        context is not looked at, no trial starts or advances and each "auto" switch keeps its
+        value of the last frame before freezing (see the module docstring)."""
+        if frozen:
+            if not self.frozen:
+                self.frozen = True
+            out = {}
+            for name in SWITCHES:
+                if name not in settings:
+                    continue
+                if settings[name] != AUTO:
+                    out[name] = bool(settings[name])
+                elif name in self._held:
+                    out[name] = self._held[name]
+                else:
+                    out[name] = self._value(settings, name)
+            return out
+        if self.frozen:  # unfrozen: a suspended trial resumes, settling first (its state flips back)
+            self.frozen = False
+            if self._trial is not None:
+                self._trial.settle = self.settle_frames
+        out = self._values(settings, context, start_trial)
+        self._held = {name: out[name] for name in out}
+        return out
+
+    def _values(self, settings, context, start_trial) -> dict:
         if self.context is not None:
             why = self.context.differs(context)
             if why:
@@ -328,7 +370,7 @@ class AutoSwitches:
         ``counts``: the GPU's latest ``occluded``, ``visible`` (drawn, both paths) and
         ``rastered`` (values may lag a frame; only counts of on-frames are used)."""
         t = self._trial
-        if t is None:
+        if t is None or self.frozen:  # no trial, or one suspended while culling is frozen
             return
         self.trial_frames_run += 1
         if t.settle > 0:
@@ -367,7 +409,10 @@ class AutoSwitches:
     def text(self, name: str, setting) -> str:
         """The panel's words for switch ``name`` set to ``setting``: see :func:`switch_text`."""
         measuring = self._trial is not None and self._trial.name == name
-        return switch_text(setting, self.decisions.get(name), measuring, self.previous.get(name))
+        text = switch_text(setting, self.decisions.get(name), measuring, self.previous.get(name))
+        if measuring and self.frozen and setting == AUTO:
+            text = text[:-1] + "; paused while culling is frozen)"
+        return text
 
 
 def switch_text(setting, decision: Decision | None, measuring: bool = False, previous: Decision | None = None) -> str:

@@ -451,8 +451,15 @@ class EngineView(abc.ABC):
         seconds while playing), step_count (simulation steps so far; None until the browser engine's
         first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
         decided, in words; None before the first window) and trial (True when a trial of the "auto"
-        switches ran in the window measured: its frame rate is not the view's). Every key is there
-        from the start."""
+        switches ran in the window measured: its frame rate is not the view's); and how old they are
+        (:func:`grasswidget.core.frame_data.stats_freshness`, the same rule in both engines):
+        frame_age_s (wall seconds since the newest frame they describe arrived: acknowledged by the
+        browser, or drawn when there is no browser; None before the first), at_rest (True while no
+        view is on screen: nothing is drawn, the numbers are the last frame's), stale (True when
+        they may not describe what the view would draw now: at rest, playing with a frame older than
+        a stats interval, or a change not drawn for longer than one) and waiting (True while playing
+        on screen with no frame for ``frame_data.WAITING_AFTER_S``, 2 s). Every key is there from
+        the start."""
         return self.current_stats()
 
     @abc.abstractmethod

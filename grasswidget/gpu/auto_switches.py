@@ -9,8 +9,9 @@ the queue), so its time is the render's, and the blades drawn, occluded and draw
 are read back right after it. Frames outside a trial are not synchronised. The time is wall
 time on a GPU adapter and the process's CPU time on a CPU adapter (lavapipe renders in this
 process's threads: its CPU time is the render's work, and moves far less than wall time when
-other processes load the machine). While a field's culling is frozen its decision holds (the
-camera flying around a frozen view does not start a trial).
+other processes load the machine). While a field's culling is frozen its switches hold the values
+of the last frame before freezing (the camera flying around a frozen view starts no trial, and a
+trial in progress is suspended until culling is unfrozen: :mod:`grasswidget.core.pays`).
 """
 
 from __future__ import annotations
@@ -94,9 +95,11 @@ class FrameSwitches:
         for field in fields:
             state = switches_of(field)
             settings = {name: getattr(field.params, name) for name in SWITCHES}
-            # Culling frozen (a teaching view): the decision holds while the camera flies around it.
-            frozen = getattr(field, "culling_frozen", False) and state.context is not None
-            self.values[field] = state.values(settings, state.context if frozen else context_of(field, camera))
+            # Culling frozen (a teaching view): the switches hold their values while the camera flies
+            # around it, and a trial in progress is suspended (core.pays: "Frozen culling").
+            frozen = bool(getattr(field, "culling_frozen", False))
+            self.values[field] = state.values(settings, state.context if frozen else context_of(field, camera),
+                                              frozen=frozen)
             if state.measuring:
                 self.measured.append((field, state))
         self._t0 = None

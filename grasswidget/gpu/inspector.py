@@ -87,6 +87,8 @@ class BladeInspector(gfx.WorldObject):
         self.render_order = 10  # over the grass
         self.ids = ()
         self.visible = False
+        self._program = None  # compute_now's pipeline, and the WGSL it was built from
+        self._program_key = None
         # The compute shader compiles the field's WGSL wind too (wind_field "custom").
         self._store.user_wind_body = field.params.wind_wgsl
         field.params.observe(self._on_wind_wgsl, names="wind_wgsl")
@@ -102,6 +104,7 @@ class BladeInspector(gfx.WorldObject):
 
     def release(self):
         """Stop following the field's params (the field is being released)."""
+        self._program = None
         try:
             self.field.params.unobserve(self._on_wind_wgsl, names="wind_wgsl")
         except ValueError:
@@ -144,6 +147,29 @@ class BladeInspector(gfx.WorldObject):
         super()._update_object()
         if self.ids:
             self.refresh_uniforms()
+
+    def compute_now(self):
+        """Run the inspector's compute pass now, outside a render (no drawing): the points and
+        forces buffers then hold the inspected blades' numbers for the current state, as the
+        next render would write them (the lab bench samples a ``step(n)`` this way when no frame
+        is drawn). The pipeline is built once per WGSL (the field's wind and function overrides)
+        and reused; nothing is waited for. No-op when nothing is inspected."""
+        if not self.ids:
+            return
+        from .compute import ComputeProgram
+
+        self.refresh_uniforms()
+        overrides = self.field.function_overrides
+        key = (self.user_wind_body, overrides.key if overrides is not None else "")  # what the WGSL depends on
+        if self._program is None or self._program_key != key:
+            self._program, self._program_key = ComputeProgram(InspectShader(self), self), key
+        sync_buffer(self.inspect_uniform)  # new ids since the last dispatch or render
+        device = ensure_device()
+        encoder = device.create_command_encoder()
+        cpass = encoder.begin_compute_pass()
+        self._program.dispatch(cpass, (1, 1, 1))
+        cpass.end()
+        device.queue.submit([encoder.finish()])
 
     def read(self) -> list:
         """The inspected blades' numbers from the GPU (one small synchronous readback):

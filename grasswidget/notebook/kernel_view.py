@@ -67,7 +67,7 @@ import numpy as np
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.limits import StepsInterrupted, hold_interrupts
-from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS
+from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTER_S, stats_freshness
 from ..core.blades import Blades
 from ..core.view_api import EngineView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -285,6 +285,7 @@ class KernelView(EngineView):
         self.canvas.add_event_handler(self.on_key, "key_down")
         # At rest off screen: jupyter-rfb draws only while a view is on screen; the clock stops too.
         compat.observe_view_visibility(self.canvas, self._on_visibility)
+        compat.observe_frame_feedback(self.canvas, self._on_frame_arrived)  # how old the stats are
 
         self._frames = 0
         self._draw_ms = 0.0
@@ -298,6 +299,12 @@ class KernelView(EngineView):
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
+        # How old the stats are (core.frame_data.stats_freshness), perf_counter seconds: the newest
+        # frame drawn, the newest the browser acknowledged, the first one sent (None: none yet),
+        # a change not drawn yet, and whether no view is on screen.
+        self._drawn_t = self._arrived_t = self._first_sent_t = self._changed_t = None
+        self._at_rest = False
+        self._fps_t = self._stats_t  # the window the delivered frame rate is measured over
         self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats window
         self._stats_confirmed = 0
         #: User WGSL replacing blade-math functions (an exercise's), kept across blade changes; None: stock.
@@ -527,6 +534,10 @@ class KernelView(EngineView):
 
     def request_draw(self):
         self._inspect_stale = True  # something changed: the inspector's numbers are of the next frame
+        if self._changed_t is None:
+            self._changed_t = time.perf_counter()  # the stats are of an older picture until it is drawn
+        if self._at_rest and not self.closed:  # nothing will be drawn: the status line says how old it is
+            self.report_stats(self.current_stats())
         if not self.closed:
             self.canvas.request_draw()
 
@@ -602,15 +613,19 @@ class KernelView(EngineView):
             return
         t0 = time.perf_counter()
         playing = bool(self.playback.playing)
-        if playing:
+        if playing and not self._at_rest:
             if not self.clock.running:
                 self.clock.start()
             self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
+        elif self._at_rest:  # a frame asked for while out of sight (e.g. play() from a cell): time stays put
+            self.clock.stop()
         scene.draw_frame()
         self._inspect_stale = False
+        self._changed_t = None
         if self.camera_listeners:  # a linked view (a comparison) follows this camera
             self.report_camera_moved()
         t1 = time.perf_counter()
+        self._drawn_t = t1
         self._draw_ms = 1000.0 * (t1 - t0)
         self.timing.drawn(t0, t1)
         if self._report_pending:
@@ -629,16 +644,26 @@ class KernelView(EngineView):
         the frames' acknowledgements): jupyter-rfb asks for no frame, so nothing is simulated,
         rendered or sent, and the clock stops as :meth:`pause` stops it. Back on screen, the next
         frame starts it again: simulated time goes on from where it stopped, the time away is not
-        owed (no catch-up burst, no slow motion on the stats line)."""
-        if not visible:
-            with self.lock:
+        owed (no catch-up burst, no slow motion on the stats line). A frame drawn while out of
+        sight anyway (asked for from a cell: ``play()``, a parameter) advances no time."""
+        with self.lock:
+            self._at_rest = not visible
+            if not visible:
                 self.clock.stop()
+        if not visible:
+            self.report_stats(self.current_stats())  # the status line says it rests, and since when
+
+    def _on_frame_arrived(self, _index):
+        """The page acknowledged frames: the newest one shown arrived now (to within the comm's delay)."""
+        self._arrived_t = time.perf_counter()
 
     def _on_present(self, t):
         self.timing.presented(t)
 
     def _on_sent(self, t, size):
         self.timing.sent(t)
+        if self._first_sent_t is None:
+            self._first_sent_t = time.perf_counter()
 
     # ------------------------------------------------------------------ stats
 
@@ -653,7 +678,23 @@ class KernelView(EngineView):
         s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")
         s["sim_speed"] = self.clock.speed if playing else None
         s["slow_motion"] = playing and s["sim_speed"] is not None and s["sim_speed"] < SLOW_MOTION_BELOW
+        s.update(self._freshness(playing))
         return s
+
+    def _freshness(self, playing) -> dict:
+        """``frame_age_s``, ``at_rest``, ``stale``, ``waiting`` (core.frame_data.stats_freshness).
+        A frame "arrived" when the browser acknowledged it; with no browser (nothing sent: a
+        script, tests) when it was drawn. Sent frames never acknowledged count as waited for
+        from the first one sent."""
+        now = time.perf_counter()
+        if self._first_sent_t is None:
+            frame_t = self._drawn_t
+        else:
+            frame_t = self._arrived_t
+        out = stats_freshness(now, frame_t, playing=playing, at_rest=self._at_rest, changed_t=self._changed_t)
+        if frame_t is None and self._first_sent_t is not None and playing and not self._at_rest:
+            out["waiting"] = now - self._first_sent_t > WAITING_AFTER_S
+        return out
 
     @_exclusive
     def refresh_stats(self):
@@ -668,16 +709,25 @@ class KernelView(EngineView):
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
         ack_ms = None
+        fps = self._stats["fps"]
         try:
             rfb = self.canvas.get_stats()
-            self.canvas.reset_stats()  # the next figures cover the next window only
-            fps = rfb["confirmed_frames"] / dt if rfb["sent_frames"] or rfb["confirmed_frames"] else None
-            if rfb["confirmed_frames"]:
-                ack_ms = 1000.0 * rfb["roundtrip"]
         except Exception:
-            fps = None
-        if fps is None:  # no browser: frames drawn
+            rfb = None
+        sent, confirmed = (rfb["sent_frames"], rfb["confirmed_frames"]) if rfb else (0, 0)
+        fps_dt = max(now - self._fps_t, 1e-6)
+        if confirmed:
+            ack_ms = 1000.0 * rfb["roundtrip"]
+        if confirmed or (sent and fps_dt > WAITING_AFTER_S):
+            # Frames/s over the window since the last acknowledged frames. Acknowledgements lag
+            # (about 0.5 s on a loaded machine): a window that sent frames but got none
+            # acknowledged yet stays open rather than reading 0 frames/s while frames arrive.
+            fps = confirmed / fps_dt
+            self.canvas.reset_stats()  # the next figures cover the next window only
+            self._fps_t = now
+        elif not sent:  # nothing sent: no browser; frames drawn
             fps = (self._frames - self._stats_frames) / dt
+            self._fps_t = now
         self._stats_frames = self._frames
         self._stats_t = now
         scene = self.scene

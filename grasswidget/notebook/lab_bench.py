@@ -117,10 +117,12 @@ class LabBench:
         self.feed.set_culling_frozen(frozen)
 
     def after_step(self):
-        """A step(n) call: the browser engine samples after it (the kernel samples the frame drawn next)."""
-        sample_now = getattr(self.feed, "sample_now", None)
-        if sample_now is not None:
-            sample_now()
+        """A step(n) call: one sample of the state it left, in either engine, drawn or not."""
+        self.feed.after_step()
+
+    def after_reset(self):
+        """A reset_blades() call: the traces start again (at step 0)."""
+        self.feed.after_reset()
 
     def set_playing(self, playing: bool):
         self.playing = bool(playing)

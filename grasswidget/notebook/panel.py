@@ -40,7 +40,7 @@ from ..core.reference import FORCE_NAMES
 from ..core.teaching import INSPECTED_BLADE_COLORS, legend
 
 __all__ = ["ControlPanel", "PARAM_SLIDERS", "LOOK_SLIDERS", "LABELS", "CULL_CHECKBOXES", "control_label",
-           "control_tooltip", "format_status", "format_speed", "format_details", "legend_html", "inspected_html"]
+           "control_tooltip", "format_status", "format_speed", "format_age", "format_details", "legend_html", "inspected_html"]
 
 #: Sliders of the panel: (GrassParams trait, slider step, readout format).
 PARAM_SLIDERS = (
@@ -145,28 +145,44 @@ def format_speed(speed: float) -> str:
     return f"{speed:.1g}x" if speed >= 0.01 else "under 0.01x"
 
 
+def format_age(seconds: float) -> str:
+    """Wall seconds as the status writes an age: ``"0.8 s"``, ``"12 s"``, ``"3 min"``."""
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min"
+
+
 def format_status(stats: dict) -> str:
     """The one-line status under the view, in words (plain, " · " separated): frames
     per second, blades drawn, and whether time runs in real time or slow motion.
     Keys of a view's stats dict (each optional, None = unknown): ``fps``,
     ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
-    seconds), ``playing`` (False: "paused" instead of the speed of time). The rest is
-    in :func:`format_details`.
+    seconds), ``playing`` (False: "paused" instead of the speed of time), and how old
+    the numbers are (:func:`grasswidget.core.frame_data.stats_freshness`): ``at_rest``,
+    ``waiting``, ``stale`` and ``frame_age_s``. The rest is in :func:`format_details`.
 
     It only says what it knows: paused, ``"paused"`` (no frame rate: a paused view
-    draws on demand); playing before the first measured frame (``fps`` None),
-    ``"starting…"``; playing while no frame arrives (``fps`` below
-    :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``. "real time" or "slow motion"
-    only follow a measured frame rate, and not while ``sim_speed`` is given as None
-    (the speed of simulated time is not measured yet)."""
+    draws on demand; ``"paused, out of sight"`` at rest); out of sight, ``"at rest (out of sight)"``; playing before the first
+    measured frame (``fps`` None), ``"starting…"``; playing while no frame arrives
+    (``waiting``: none for :data:`~grasswidget.core.frame_data.WAITING_AFTER_S`; without
+    that key, ``fps`` below :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``, and never
+    while frames arrive. Stale numbers say their age: ``"last frame 12 s ago"``.
+    "real time" or "slow motion" only follow a measured frame rate of fresh stats, and not
+    while ``sim_speed`` is given as None (the speed of simulated time is not measured yet)."""
     s = stats
     fps = s.get("fps")
+    aged = "waiting" in s  # the stats say how old they are (both engines' views do)
+    measured = fps is not None and fps >= NO_FRAMES_BELOW
     if s.get("playing") is False:
-        parts = ["paused"]
-    elif fps is None:
-        parts = ["starting…"]
-    elif fps < NO_FRAMES_BELOW:
+        parts = ["paused, out of sight" if s.get("at_rest") else "paused"]
+    elif s.get("at_rest"):
+        parts = ["at rest (out of sight)"]
+    elif s.get("waiting") or (not aged and fps is not None and not measured):
         parts = ["waiting for frames"]
+    elif fps is None or not measured:
+        parts = ["starting…"]  # (with an age: frames arrive, their rate is not measured yet)
     else:
         parts = [f"{fps:.1f} frames/s"]
     blades = s.get("blades")
@@ -174,11 +190,14 @@ def format_status(stats: dict) -> str:
         parts.append(f"{s['visible']:,} of {blades:,} blades drawn")
     elif blades is not None:
         parts.append(f"{blades:,} blades")
-    if s.get("playing") is not False and fps is not None and fps >= NO_FRAMES_BELOW:
+    fresh = not (s.get("stale") or s.get("at_rest") or s.get("waiting"))
+    if s.get("playing") is not False and measured and fresh:
         if s.get("slow_motion") and s.get("sim_speed") is not None:
             parts.append(f"slow motion {format_speed(s['sim_speed'])}")
         elif "sim_speed" not in s or s["sim_speed"] is not None:  # not measured yet: no claim
             parts.append("real time")
+    if s.get("stale") and s.get("frame_age_s") is not None:
+        parts.append(f"last frame {format_age(s['frame_age_s'])} ago")
     return " · ".join(parts)
 
 

@@ -6,17 +6,23 @@ engines): a sample is taken when simulated time has advanced
 (the step count changed) since the last one, so a paused view that only redraws
 adds nothing, and a sample taken again at the same step count replaces the last.
 
-* kernel engine (:class:`KernelTraceFeed`): after every frame the kernel draws while
-  time advances, so one sample per frame while playing and one per ``step(n)`` call
-  (the frame drawn after it; two calls before a frame is drawn make one sample). The
-  inspected blades' numbers of that frame come from
-  :class:`grasswidget.gpu.trace_readback.InspectedReadback` a frame or two later
-  (non-blocking while playing; a paused frame waits for its few bytes, as no next
-  frame would pick them up), with the frame's time and step count attached.
-* browser engine (:class:`BrowserTraceFeed`): at each stats message of the browser
-  (every 0.5 s; every 0.2 s while a chart is shown) and after each ``step(n)``: one
-  ``read_inspected`` request answered by the browser with its step count (non-blocking
-  for the kernel), so 2 samples a second while playing, 5 with a chart.
+* kernel engine (:class:`KernelTraceFeed`): one sample per ``step(n)`` call, taken when
+  the call returns whether or not a frame is ever drawn (a script, a notebook run by
+  nbclient, a view scrolled out of sight, a loop of steps in one cell): the inspector's
+  compute pass runs alone and its few bytes are read back (queued; :meth:`traces` waits
+  for them), with NaN for the culling counts and frame times no frame measured. Then one
+  sample per frame the kernel draws while time advances (playing); a frame drawn at the
+  step count of a ``step(n)`` sample replaces it (the same ``v2``, plus the frame's
+  counts), so there is never a second sample for one step count. The inspected blades'
+  numbers of a frame come from :class:`grasswidget.gpu.trace_readback.InspectedReadback`
+  a frame or two later (non-blocking while playing; a paused frame waits for its few
+  bytes, as no next frame would pick them up), with the frame's time and step count.
+* browser engine (:class:`BrowserTraceFeed`): after each ``step(n)`` call (every call:
+  the browser steps and answers in order, on screen or at rest) and at each stats message
+  of the browser (every 0.5 s; every 0.2 s while a chart is shown; skipped while an
+  answer is still on its way): one ``read_inspected`` request answered by the browser with
+  the step count it read the blades at (non-blocking for the kernel), so 2 samples a
+  second while playing, 5 with a chart.
 
 Culling counts: :class:`grasswidget.core.cull_counts.CullCounter` (GPU counts for distance
 and occlusion, the NumPy reference on the rest pose for orientation and frustum). A kernel
@@ -48,6 +54,7 @@ class _Feed:
         self._blades = view.blades
         self.frozen_camera = None
         self._last_step = None
+        self._generation = 0  # reset_blades() calls so far: an answer asked for before one is dropped
         view.frame_hooks.append(self.after_frame)
 
     def set_culling_frozen(self, frozen: bool):
@@ -95,9 +102,23 @@ class _Feed:
     def after_frame(self):
         """Take this frame's sample (each engine's feed)."""
 
+    def after_step(self):
+        """Take the sample of a ``step(n)`` call (each engine's feed)."""
+
+    def after_reset(self):
+        """The blades went back to rest (step 0): forget every sample, and any still on its way."""
+        self.flush()
+        self._generation += 1
+        self._last_step = None
+        self.recorder.clear()
+
+    def flush(self):
+        """Record what is still on its way (each engine's feed)."""
+
 
 class KernelTraceFeed(_Feed):
-    """Samples of the kernel engine: after each drawn frame in which time advanced."""
+    """Samples of the kernel engine: after each ``step(n)`` call and after each drawn frame in
+    which time advanced."""
 
     def __init__(self, view, recorder, on_sample=None):
         super().__init__(view, recorder, on_sample)
@@ -108,12 +129,9 @@ class KernelTraceFeed(_Feed):
         #: Samples of frames drawn while playing, with nothing inspected, waiting for their
         #: frame's counts (FrameStats.counts_of): (frame, tag), oldest first.
         self._waiting = deque()
+        self._step_sample = False  # the newest sample is a step(n)'s, of no drawn frame
 
-    def after_frame(self):
-        view = self.view
-        scene = view.scene
-        if scene is None:
-            return
+    def _follow_field(self, scene):
         if scene.field is not self._readback_field:  # the blade count changed: a new field
             self.readback.release()
             self._readback_field = scene.field
@@ -125,10 +143,52 @@ class KernelTraceFeed(_Feed):
         for (frame, tag), rows in self.readback.poll():
             self._record(*self._of_frame(frame, tag), rows)
         self._record_waiting()
-        step = int(scene.field.step_count)
-        if step == self._last_step:
+
+    def after_step(self):
+        """A ``step(n)`` call: sample the state it left, whether or not a frame is drawn (a
+        script, nbclient, a view at rest, several calls in one cell). The inspector's compute
+        pass runs alone (no render) and its few bytes are queued for readback; the culling
+        and frame-time numbers of a sample no frame was drawn for are unknown (NaN). A frame
+        drawn later at the same step count replaces this sample with its own (same ``v2``,
+        plus the frame's counts)."""
+        view = self.view
+        scene = view.scene
+        if scene is None or view.closed:
             return
-        self._last_step = step
+        with view.lock:  # the canvas may draw on another thread (kernel_view: "Threads")
+            self._follow_field(scene)
+            step = int(scene.field.step_count)
+            if step == self._last_step:
+                return
+            kept, drawn = self._counts({})  # no frame drawn: the GPU's counts are unknown
+            tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms({}))
+            self._last_step, self._step_sample = step, True
+            inspector = scene.field.inspector
+            if not view.inspected or inspector is None:
+                self._record(*tag, rows=[])
+                return
+            try:
+                inspector.compute_now()
+                queued = self.readback.after_render((None, tag))  # no frame: no frame's counts
+                if not queued:  # every ring buffer in flight: wait for them
+                    self.flush()
+                    queued = self.readback.after_render((None, tag))
+            except Exception as err:  # noqa: BLE001 - e.g. user WGSL the inspector cannot compile
+                view.report_error(f"traces: the inspected blades could not be read: {err}")
+                queued = False
+            if not queued:
+                self._record(*tag, rows=[])
+
+    def after_frame(self):
+        view = self.view
+        scene = view.scene
+        if scene is None:
+            return
+        self._follow_field(scene)
+        step = int(scene.field.step_count)
+        if step == self._last_step and not self._step_sample:
+            return
+        self._last_step, self._step_sample = step, False
         stats = dict(view.stats)
         if scene.stats is not None and not view.playback.playing:
             # Paused (a step(n)): the counts of this very frame, read now (nothing to stall); while
@@ -207,7 +267,7 @@ class BrowserTraceFeed(_Feed):
 
     def __init__(self, view, recorder, on_sample=None):
         super().__init__(view, recorder, on_sample)
-        self._request_pending = False
+        self._in_flight = 0  # read_inspected requests not answered yet
 
     def set_charting(self, charting: bool):
         """A chart is shown: ask the browser for a stats message (a sample) every 200 ms instead of 500."""
@@ -216,32 +276,39 @@ class BrowserTraceFeed(_Feed):
     def after_frame(self):
         self._check_blades()
         step = self.view.stats.get("step_count")
-        if step is None or step == self._last_step:
-            return
+        if step is None or step == self._last_step or self._in_flight:
+            return  # nothing new, or a sample on its way (a slow browser is not flooded)
+        self.sample_now()
+
+    def after_step(self):
+        """A ``step(n)`` call: one sample of the state it leaves, whatever else is on its way
+        (the browser steps and answers in order, on screen or at rest)."""
         self.sample_now()
 
     def sample_now(self):
         """Ask the browser for the inspected blades' numbers now (answered after what it was
-        asked before, e.g. a step(n)); the sample is recorded when the answer comes."""
+        asked before, e.g. a step(n)); the sample is recorded when the answer comes, with the
+        step count the browser had when it read them."""
         view = self.view
-        if view.closed or self._request_pending:
+        if view.closed:
             return
         ids = list(view.inspected)
         stats = dict(view.stats)
         kept, drawn = self._counts(stats)
         frame_ms = self._frame_ms(stats)
         bview = view.engine_widget
+        generation = self._generation
 
         def answered(msg, buffers):
-            self._request_pending = False
-            if msg.get("type") != "inspected" or msg.get("step_count") is None:
+            self._in_flight = max(0, self._in_flight - 1)
+            if msg.get("type") != "inspected" or msg.get("step_count") is None or generation != self._generation:
                 return
             step = int(msg["step_count"])
             rows = bview.inspected_from_answer(msg, buffers, ids) if ids else []
             self._last_step = step
             self._record(step * view.params.dt, step, kept, drawn, frame_ms, rows)
 
-        self._request_pending = True
+        self._in_flight += 1
         bview.request_async({"type": "read_inspected"}, answered)
 
     def flush(self):

@@ -203,7 +203,6 @@ class GrassWidget(ipw.VBox):
     inspect = ViewMember()
     inspected = ViewMember(no_view=())
     read_inspected = ViewMember()
-    reset_blades = ViewMember()
     sliders = _panel_property("sliders")
     checkboxes = _panel_property("checkboxes")
     switch_choices = _panel_property("switch_choices")
@@ -504,6 +503,12 @@ class GrassWidget(ipw.VBox):
         self.playing = False
         self.view.step(n)
         self.bench.after_step()
+
+    def reset_blades(self):
+        """Every blade back to its rest pose; the simulation clock back to 0; the traces start again."""
+        self._check_open()
+        self.view.reset_blades()
+        self.bench.after_reset()
 
     def reset_camera(self):
         """Back to the scene's starting view (``look_from("home")``)."""

@@ -121,3 +121,33 @@ def test_a_paused_browser_view_runs_no_trial_and_is_not_woken():
         assert w.stats["trial"] is True  # this window's frame rate is a trial's
     finally:
         w.close()
+
+
+def test_frozen_culling_suspends_the_browser_trial_until_unfrozen():
+    """Issue 37, item 3, browser engine: frozen, the frames the browser reports do not advance the
+    trial, the switch state sent (u_cull) does not change, nothing is decided; unfrozen, the
+    trial resumes and decides."""
+    w = gw.GrassWidget(1024, backend="browser", size=(320, 240))
+    ew = w.view.engine_widget
+    try:
+        w.play()
+        ew.handle_message(_stats([False, False], 10.0))  # the trial's off half: the browser is asked for on
+        assert _executed(ew) == [True, False] and ew.auto_switches.state.trial == "cull_occlusion"
+        w.culling_frozen = True
+        cam = ew.camera
+        ew.camera = dict(cam, position=[0.0, 30.0, 0.01])  # flying around the frozen view
+        for _ in range(4):  # far more frames than the rest of the trial needs, with either state
+            ew.handle_message(_stats([True, False], 6.0, occluded=500))
+            ew.handle_message(_stats([False, False], 10.0))
+            assert _executed(ew) == [True, False]
+        state = ew.auto_switches.state
+        assert state.suspended and state.decisions == {}
+        assert ew.auto_switches.texts()["cull_occlusion"] == "auto (measuring; paused while culling is frozen)"
+        ew.camera = cam
+        w.culling_frozen = False
+        assert not state.suspended and state.trial == "cull_occlusion"
+        for switches, ms in (([True, False], 6.0), ([True, False], 6.0), ([False, False], 10.0)):
+            ew.handle_message(_stats(switches, ms, occluded=500 if switches[0] else None))
+        assert state.decisions["cull_occlusion"].on
+    finally:
+        w.close()

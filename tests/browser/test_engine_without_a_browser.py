@@ -421,3 +421,49 @@ def test_a_wind_past_the_size_limits_is_refused_before_the_page_compiles_it():
         assert view.params.wind_wgsl == "" and "wind_wgsl line 1" in view.errors[-1]
     finally:
         view.close()
+
+
+def test_browser_stats_say_how_old_they_are_and_when_the_engine_rests(monkeypatch):
+    """Issue 37, item 4: each stats message is a frame drawn; the stats say how long ago
+    (``frame_age_s``), turn ``stale`` a stats interval after it while playing, ``waiting`` after
+    WAITING_AFTER_S, and an engine at rest (no view on screen: its "rest" message) says so, in
+    ``w.stats`` and the status line, also after a change made while it rests."""
+    import time
+
+    from grasswidget.core.frame_data import WAITING_AFTER_S
+
+    wall = [100.0]
+    monkeypatch.setattr(time, "perf_counter", lambda: wall[0])
+    w = gw.GrassWidget(256, backend="browser", size=(320, 240))
+    page = w.view.engine_widget
+    msg = {"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 6, "step_count": 6,
+           "frame_size": [320, 240]}
+    try:
+        w.play()
+        s = w.stats
+        assert s["frame_age_s"] is None and not s["stale"] and not s["at_rest"] and not s["waiting"]
+        page.handle_message(msg)
+        s = w.stats
+        assert s["frame_age_s"] == 0.0 and not s["stale"] and "12.5 frames/s" in w.stats_line.value
+        wall[0] += 0.3
+        assert w.stats["frame_age_s"] == pytest.approx(0.3) and not w.stats["stale"]
+        wall[0] += 0.5  # no message for longer than the stats interval (0.5 s) while playing
+        assert w.stats["stale"] and not w.stats["waiting"]
+        wall[0] += WAITING_AFTER_S
+        assert w.stats["waiting"]
+        page.handle_message(msg)
+        assert not w.stats["stale"] and not w.stats["waiting"]
+        page.handle_message({"type": "rest", "message": "", "step_count": 6})  # scrolled out of sight
+        s = w.stats
+        assert s["at_rest"] and s["stale"] and "at rest (out of sight)" in w.stats_line.value
+        wall[0] += 30.0
+        w.params.cull_orientation = False  # from a cell, while it rests: nothing is drawn
+        s = w.stats
+        assert s["visible"] == 10 and s["stale"] and s["frame_age_s"] == pytest.approx(30.0)
+        line = w.stats_line.value
+        assert "at rest (out of sight)" in line and "10 of 256 blades drawn" in line and "last frame 30 s ago" in line
+        page.handle_message(msg)  # back in sight: a frame drawn
+        s = w.stats
+        assert not s["at_rest"] and not s["stale"] and "at rest" not in w.stats_line.value
+    finally:
+        w.close()

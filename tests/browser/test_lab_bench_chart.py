@@ -137,14 +137,17 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
         wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-1:]", [7], timeout=60)
         kernel_execute(page, "w.step(5)")
         wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-1:]", [12], timeout=60)
+        # a loop of steps in one cell (issue 37): one sample per call, none lost while answers are on their way
+        kernel_execute(page, "for _ in range(4):\n    w.step(10)")
+        wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-4:]", [22, 32, 42, 52], timeout=60)
         kernel_execute(page, COMPARE)
         got = kernel_eval(page, "result")
-        assert got["ids"] == [3, 50] and got["steps"][-2:] == [7, 12]
+        assert got["ids"] == [3, 50] and got["steps"][-6:] == [7, 12, 22, 32, 42, 52]
         assert got["worst"] <= 1e-4, got
         assert all(v is not None for v in got["kept"]["orientation"]), got["kept"]
         s = poll(lambda: (lambda s: (bool(s and s["visible"] and s["series"] == "blade 3|blade 50"), s))(
             _chart_state(page)), "the browser engine's chart", timeout=30, page=page)
-        assert s["xLast"] == pytest.approx(12 / 120, rel=1e-6)
+        assert s["xLast"] == pytest.approx(52 / 120, rel=1e-6)
         # playing with a chart shown: the browser sends its stats (a sample each) every 200 ms instead of
         # 500, and the chart moves. (How many samples come a second depends on the browser's frame rate
         # and one read_inspected round trip each: SwiftShader on 2 loaded cores drew 2.4 frames/s and

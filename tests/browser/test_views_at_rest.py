@@ -26,6 +26,7 @@ import imageio.v3 as iio
 import pytest
 
 from .harness import (
+    kernel_execute,
     leave_notebook,
     frame_counts,
     kernel_eval,
@@ -136,6 +137,22 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         assert on_way[0] <= engine.on_their_way and on_way[2] == 0 and on_way[3] <= on_way[0], on_way
         assert frames[0] == 0 and frames[2] == 0 and frames[3] == 0, frames
         assert _sim_time(page, 0) == pytest.approx(stopped_at, abs=1e-9), "simulated time ran off screen"
+        # Its stats say so (issue 37, item 4): at rest, stale, and the status line says it; the view on
+        # screen, drawing, is fresh and never "waiting for frames" (polled over a second).
+        rest = kernel_eval(page, "{k: ws[0].stats[k] for k in ('at_rest', 'stale', 'frame_age_s')}")
+        assert rest["at_rest"] and rest["stale"] and rest["frame_age_s"] > 0, rest
+        assert "at rest (out of sight)" in kernel_eval(page, "ws[0].stats_line.value")
+        lines = []
+        for _ in range(5):
+            lines.append(kernel_eval(page, "(ws[1].stats_line.value, ws[1].stats['at_rest'], ws[1].stats['waiting'])"))
+            time.sleep(0.2)  # paces the reads only: each read is checked
+        print(f"[views at rest, {backend}] view 1's status line while drawing: {lines[-1][0]}")
+        assert not any(at_rest or waiting or "waiting for frames" in line for line, at_rest, waiting in lines), lines
+        # At rest, each step(n) still records a sample (issue 37, item 1): the third widget, out of sight.
+        kernel_execute(page, "ws[2].inspect([1])\nfor _ in range(2):\n    ws[2].step(6)")
+        wait_for_kernel(page, "(lambda s: [int(x) for x in s[-2:]])(ws[2].traces()['step'])",
+                        predicate=lambda s: len(s) == 2 and s[1] - s[0] == 6, timeout=60)
+        assert kernel_eval(page, "[int(i) for i in ws[2].traces()['ids']]") == [1]
 
         # Back to the first: it draws again; simulated time goes on from where it stopped.
         engine.show(page, 0)
@@ -154,6 +171,7 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         print(f"[views at rest, {backend}] scrolled back to view 0 after {away_s:.1f} s away: "
               f"frames per view over {seconds_back:.1f} s: {frames_back} (in the first window: {on_way_back})")
         assert on_way_back[0] >= MIN_FRAMES_SHOWN and frames_back[0] >= MIN_FRAMES_SHOWN
+        assert kernel_eval(page, "ws[0].stats['at_rest']") is False  # drawing again: no longer at rest
         assert on_way_back[1] <= engine.on_their_way and on_way_back[2] == 0, on_way_back
         assert frames_back[1] == 0 and frames_back[2] == 0, frames_back
         if backend == "browser":

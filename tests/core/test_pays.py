@@ -192,3 +192,41 @@ def test_the_first_switch_is_tried_again_when_the_second_changes_what_it_was_tri
     # (each tried again at most once per context): 4 trials of 2 + 4 + 2 frames, then the choice
     assert len(seen) == 1 + 4 * 8
     assert state.values(settings, _ctx()) == seen[-1] and not state.measuring  # settled: no more trials
+
+
+def test_frozen_culling_suspends_a_trial_and_holds_the_values_until_unfrozen():
+    """Issue 37, item 3: while culling is frozen no "auto" decision lands and no switch changes
+    (the would-be decision needs frames the frozen view does not record); unfreezing resumes the
+    trial where it stopped, and it then decides as an unfrozen run would."""
+    settings = {"cull_occlusion": AUTO, "compute_raster": False}
+    ms_of = lambda v: 5.0 if v["cull_occlusion"] else 9.0  # noqa: E731  occlusion pays
+    counts_of = lambda v: dict(occluded=600 if v["cull_occlusion"] else 0, visible=400, rastered=0)  # noqa: E731
+    reference = _run_trial(AutoSwitches(trial_frames=2, settle_frames=1, min_ms=0), settings, _ctx(), ms_of, counts_of)
+
+    state = AutoSwitches(trial_frames=2, settle_frames=1, min_ms=0)
+    for _ in range(1):  # the trial's first (settling) frame, occlusion off; then freeze
+        v = state.values(settings, _ctx())
+        state.record(ms_of(v), counts_of(v))
+    before = state.values(settings, _ctx())
+    assert state.measuring and before["cull_occlusion"] is False
+    runs = state.trial_frames_run
+    moved = _ctx(eye=(0.0, 40.0, 0.01))  # the camera flies off the frozen view
+    for _ in range(3 * len(reference)):  # far more frames than the whole trial needs
+        v = state.values(settings, moved, frozen=True)
+        assert v == before  # nothing that decides which blades are drawn changes
+        assert not state.measuring and state.suspended
+        state.record(ms_of(v), counts_of(v))  # a frozen frame is not one of the trial's
+    assert "cull_occlusion" not in state.decisions and state.trial_frames_run == runs
+    assert state.text("cull_occlusion", AUTO) == "auto (measuring; paused while culling is frozen)"
+    # forcing a switch while frozen takes effect at once (the user asked), and "auto" again holds
+    assert state.values({**settings, "cull_occlusion": True}, moved, frozen=True)["cull_occlusion"] is True
+    assert state.values(settings, moved, frozen=True) == before
+    # unfrozen at the view of before: the trial resumes (a settling frame first) and decides
+    seen = _run_trial(state, settings, _ctx(), ms_of, counts_of)
+    assert not state.suspended and state.decisions["cull_occlusion"].on and seen[-1]["cull_occlusion"] is True
+    assert state.trial_frames_run > runs
+    # decided, then frozen: the decision holds whatever the camera does, no new trial starts
+    state.values(settings, _ctx())
+    for eye in ((30.0, 5.0, 0.0), (0.0, 40.0, 0.01)):
+        assert state.values(settings, _ctx(eye=eye), frozen=True)["cull_occlusion"] is True
+        assert not state.measuring

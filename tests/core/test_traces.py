@@ -212,3 +212,27 @@ def test_cull_counter_recounts_in_the_background_when_the_camera_moves():
     counter.kept(away, (0.1, 200.0), (320, 240))
     counter.wait()
     assert counter.kept(away, (0.1, 200.0), (320, 240))["frustum"] < first["frustum"] // 4
+
+
+def test_stats_freshness_says_how_old_the_stats_are():
+    """Issue 37, item 4 (the rule both engines' stats use, core.frame_data.stats_freshness)."""
+    from grasswidget.core.frame_data import WAITING_AFTER_S, stats_freshness
+
+    none_yet = stats_freshness(100.0, None, playing=True)
+    assert none_yet == {"frame_age_s": None, "at_rest": False, "stale": False, "waiting": False}
+    fresh = stats_freshness(100.0, 99.8, playing=True)
+    assert fresh["frame_age_s"] == pytest.approx(0.2) and not fresh["stale"] and not fresh["waiting"]
+    # playing, the newest frame older than a stats interval: stale; waiting only past WAITING_AFTER_S
+    late = stats_freshness(100.0, 99.0, playing=True)
+    assert late["stale"] and not late["waiting"]
+    assert stats_freshness(100.0, 100.0 - WAITING_AFTER_S - 0.1, playing=True)["waiting"]
+    # paused: an old frame is still the picture, unless a change has waited longer than an interval
+    assert not stats_freshness(100.0, 40.0, playing=False)["stale"]
+    assert not stats_freshness(100.0, 40.0, playing=False, changed_t=99.9)["stale"]
+    assert stats_freshness(100.0, 40.0, playing=False, changed_t=99.0)["stale"]
+    # at rest: stale whatever else, never "waiting" (nothing is asked for)
+    rest = stats_freshness(100.0, 99.9, playing=True, at_rest=True)
+    assert rest["at_rest"] and rest["stale"] and not rest["waiting"]
+    # the interval is the view's (a chart asks for 0.2 s)
+    assert stats_freshness(100.0, 99.7, playing=True, interval_s=0.2)["stale"]
+    assert not stats_freshness(100.0, 99.7, playing=True, interval_s=0.5)["stale"]

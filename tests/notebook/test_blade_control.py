@@ -129,6 +129,21 @@ def test_a_count_from_code_is_shown_exactly_and_a_refused_count_goes_back():
      "slow motion 0.96x", "1.0x"),
     ({"fps": 11.9, "blades": 1024, "playing": True, "slow_motion": True, "sim_speed": 0.9999},
      "slow motion 0.99x", "1.0x"),
+    # how old the stats are (issue 37, item 4): a frame that arrived is never "waiting for frames"
+    ({"fps": 0.0, "visible": 10, "blades": 4096, "playing": True, "frame_age_s": 0.4, "stale": False,
+      "waiting": False, "at_rest": False}, "starting… · 10 of 4,096 blades drawn", "waiting"),
+    ({"fps": 3.9, "visible": 10, "blades": 4096, "playing": True, "frame_age_s": 0.8, "stale": True,
+      "waiting": False, "at_rest": False}, "3.9 frames/s · 10 of 4,096 blades drawn · last frame 0.8 s ago",
+     "real time"),
+    ({"fps": 3.9, "blades": 4096, "playing": True, "frame_age_s": 5.0, "stale": True, "waiting": True,
+      "at_rest": False}, "waiting for frames · 4,096 blades · last frame 5.0 s ago", "real time"),
+    ({"fps": 24.0, "visible": 2756, "blades": 4096, "playing": True, "frame_age_s": 42.3, "stale": True,
+      "waiting": False, "at_rest": True},
+     "at rest (out of sight) · 2,756 of 4,096 blades drawn · last frame 42 s ago", "frames/s"),
+    ({"fps": 24.0, "blades": 4096, "playing": False, "frame_age_s": 600.0, "stale": True, "waiting": False,
+      "at_rest": False}, "paused · 4,096 blades · last frame 10 min ago", "real time"),
+    ({"fps": 24.0, "blades": 4096, "playing": False, "frame_age_s": 600.0, "stale": False, "waiting": False,
+      "at_rest": False}, "paused · 4,096 blades", "ago"),
 ])
 def test_status_says_only_what_it_knows(stats, want, never):
     line = format_status(stats)

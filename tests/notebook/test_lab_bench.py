@@ -71,6 +71,46 @@ def test_traces_equal_a_scene_stepped_the_same_steps(widget):
     np.testing.assert_array_equal(tr["drawn"]["ribbons"] + np.nan_to_num(tr["drawn"]["compute"]), kept["occlusion"])
 
 
+def test_every_step_call_is_sampled_whether_or_not_a_frame_is_drawn(widget):
+    """Issue 37, item 1: a loop of step(n) calls with no frame drawn (a script, nbclient, a view at
+    rest, one cell) gives one sample per call, each equal to a GrassScene stepped alike; its
+    forces are the inspector's of a render; a frame drawn later at the same step count replaces
+    the last sample (no duplicate) and adds the frame's counts."""
+    widget.params.wind_strength = 25.0
+    widget.inspect(IDS)
+    for _ in range(6):
+        widget.step(20)  # no view.draw(): nothing is drawn
+    tr = widget.traces()
+    assert list(tr["step"]) == [20, 40, 60, 80, 100, 120] and list(tr["ids"]) == IDS
+    # no frame measured these samples: the GPU's counts and the frame times are unknown, not stale
+    assert np.all(np.isnan(tr["drawn"]["ribbons"])) and np.all(np.isnan(tr["kept"]["distance"]))
+    assert np.all(np.isnan(tr["frame_ms"]["render"]))
+    scene = gw.GrassScene(widget.view.blades, size=WIDGET_SIZE, params=widget.params.copy())
+    try:
+        heights = widget.view.blades.height[IDS]
+        for k in range(6):
+            scene.step(20)
+            err = np.abs(tr["v2"][k] - scene.field.read_state()["v2"][IDS]).max(axis=-1)
+            assert np.all(err <= 1e-4 * heights), (k, err)
+        scene.inspect(IDS)
+        scene.render()  # the inspector's numbers of a render, for the same state
+        rows = scene.read_inspected()
+        for name in ("gravity", "recovery", "wind"):
+            want = [np.linalg.norm(r[name]) for r in rows]
+            np.testing.assert_allclose(tr["force"][name][-1], want, rtol=1e-4, atol=1e-5)
+    finally:
+        scene.release()
+    _show(widget)
+    version = widget.bench.recorder.version
+    widget.view.draw()  # a frame at the same step count: its sample replaces the last one
+    again = widget.traces()
+    assert widget.bench.recorder.version > version
+    assert list(again["step"]) == list(tr["step"])
+    np.testing.assert_array_equal(again["v2"], tr["v2"])
+    widget.view.draw()
+    assert len(widget.traces()["step"]) == 6  # a redraw adds nothing
+
+
 def test_reset_and_a_new_blade_count_start_a_new_trace(widget):
     _show(widget)
     widget.inspect([1])
@@ -80,7 +120,13 @@ def test_reset_and_a_new_blade_count_start_a_new_trace(widget):
     widget.reset_blades()
     widget.step(2)
     widget.view.draw()
-    assert widget.traces()["step"].tolist() == [2]
+    first = widget.traces()
+    assert first["step"].tolist() == [2]
+    widget.reset_blades()
+    widget.step(2)  # the step count of before the reset, no frame drawn: a new trace, one sample
+    again = widget.traces()
+    assert again["step"].tolist() == [2]
+    np.testing.assert_array_equal(again["v2"], first["v2"])
     widget.blade_count = 512
     widget.step(3)
     widget.view.draw()

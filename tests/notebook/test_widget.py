@@ -285,6 +285,32 @@ def test_stats_line(widget):
         assert f"{s['fps']:.1f} frames/s" in line, line
 
 
+def test_stats_say_how_old_they_are_and_a_view_at_rest_says_so(widget):
+    """Issue 37, item 4, kernel engine: a drawn frame's stats are fresh; a view out of sight
+    (jupyter-rfb's visibility trait, as the page sets it) rests, and its stats and status line
+    say so, also after a change made meanwhile (not drawn); back on screen, fresh again."""
+    from grasswidget import compat
+
+    _resize(widget)
+    widget.pause()
+    widget.view.draw()
+    widget.view.refresh_stats()
+    s = widget.stats
+    assert 0.0 <= s["frame_age_s"] < 60.0 and not s["stale"] and not s["at_rest"] and not s["waiting"]
+    assert "at rest" not in widget.stats_line.value and "ago" not in widget.stats_line.value
+    compat.set_view_visibility(widget.canvas, True)
+    compat.set_view_visibility(widget.canvas, False)  # scrolled out of sight
+    s = widget.stats
+    assert s["at_rest"] and s["stale"] and s["frame_age_s"] >= 0.0
+    widget.params.cull_orientation = not widget.params.cull_orientation  # from a cell: nothing is drawn
+    line = widget.stats_line.value
+    assert widget.stats["stale"] and line.startswith("<small>paused, out of sight") and " ago" in line, line
+    compat.set_view_visibility(widget.canvas, True)
+    widget.view.draw()  # back on screen: jupyter-rfb asks for a frame
+    s = widget.stats
+    assert not s["at_rest"] and not s["stale"]
+
+
 def test_blade_count_slider_rebuilds(widget):
     cam_before = np.array(widget.scene.camera.world.position)
     widget.blade_slider.value = 512  # fewer blades: at once

@@ -80,8 +80,10 @@ export class EngineDevice {
     else this.rest();
   }
 
+  // Tells Python once per stretch at rest ("rest"): its stats then say they are of the last frame.
   rest() {
     this.clock.stop();
+    if (!this.resting) this.report("rest", "", { step_count: this.stepCount });
     this.resting = true;
   }
 

@@ -5,7 +5,8 @@
 //   (filter: grasswidget.core.frame_data.export_filter, the supersampling), read_inspected {id},
 //   sync {id} (answered at once: "synced"), compile_simulate {id, shader, passes}, lose_device (tests).
 // Answers and reports: state, snapshot, inspected, compiled, synced, stats, steps, pick, ball, key,
-//   error and device_lost messages; the gpu_status trait.
+//   rest (no view on screen: nothing is drawn until one is), error and device_lost messages; the
+//   gpu_status trait.
 // Stats {fps, visible (per LOD class), occluded, rastered, step_count, steps, frame_ms, frame_size,
 //   adapter, views, frame_times, timed_switches, counts_switches}: every stats_interval_ms (Python's
 //   trait), decoded in Python by grasswidget.browser.engine_view. frame_times: the ms (start to
@@ -88,11 +89,12 @@ export class EngineMessages extends EnginePasses {
       encoder.copyBufferToBuffer(this.res.s_points, 0, b, 0, Math.ceil(pointsBytes / 4) * 4);
     }
     device.queue.submit([encoder.finish()]);
+    const steps = this.stepCount;  // the state read: a step asked for meanwhile runs after it
     await Promise.all([a.mapAsync(GPUMapMode.READ), b.mapAsync(GPUMapMode.READ)]);
     const forces = a.getMappedRange().slice(0, forcesBytes);
     const points = b.getMappedRange().slice(0, pointsBytes);
     a.destroy(); b.destroy();
-    this.model.send({ type: "inspected", id, n, step_count: this.stepCount }, undefined, [forces, points]);
+    this.model.send({ type: "inspected", id, n, step_count: steps }, undefined, [forces, points]);
   }
 
   // A picture of the current state at msg.width x msg.height, rendered msg.filter.factor
