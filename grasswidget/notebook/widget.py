@@ -501,8 +501,10 @@ class GrassWidget(ipw.VBox):
             n = max(1, self.steps_per_frame)
         n = check_steps(n)
         self.playing = False
-        self.view.step(n)
-        self.bench.after_step()
+        try:
+            self.view.step(n)
+        finally:  # interrupted too: the steps that ran get their sample
+            self.bench.after_step()
 
     def reset_blades(self):
         """Every blade back to its rest pose; the simulation clock back to 0; the traces start again."""
