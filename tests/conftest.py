@@ -308,3 +308,17 @@ def assert_same_picture(a, b, what="the picture"):
     differing = int(np.any(a != b, axis=-1).sum())
     allowed = 0 if is_cpu_adapter() else int(GPU_REPEAT_PIXEL_SHARE * a.shape[0] * a.shape[1])
     assert differing <= allowed, f"{what}: {differing} pixels differ (at most {allowed} on this adapter)"
+
+
+def save_test_picture(name, img):
+    """Write ``img`` as ``$GW_TEST_PICTURES/<name>.png`` when that variable names a folder (tests/run_on_gpu.sh
+    sets it, so that the GPU machine's pictures come back to be looked at); otherwise nothing."""
+    folder = os.environ.get("GW_TEST_PICTURES")
+    if not folder:
+        return None
+    import imageio.v3 as iio
+
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, f"{name}.png")
+    iio.imwrite(path, np.ascontiguousarray(np.asarray(img)[..., :3], np.uint8))
+    return path

@@ -19,8 +19,9 @@
 #       there, from the checkout's root: sources DIR/env.sh, prints the adapter wgpu chose (it
 #       must be the GPU, not a CPU fallback: the run stops otherwise), then runs
 #       pytest -m "not browser" tests/core tests/gpu tests/tools  (or PYTEST ARGS)
-#       writing OUT/gpu-suite.log (the whole output), OUT/gpu-suite-junit.xml and
-#       OUT/gpu-suite-times.log (each test's time, tests/conftest.py). OUT defaults to $OUT (the
+#       writing OUT/gpu-suite.log (the whole output), OUT/gpu-suite-junit.xml,
+#       OUT/gpu-suite-times.log (each test's time, tests/conftest.py) and OUT/gpu-suite-pictures.tar
+#       (the pictures tests save with conftest.save_test_picture, to be looked at here). OUT defaults to $OUT (the
 #       device tool's folder that comes back) or gpu-suite-out/. Exit status: pytest's.
 #       About 100 s on an H200. Tests that need the network (installing the built wheel's
 #       dependencies from an index) skip there, saying why; every other test must pass, as on
@@ -118,9 +119,13 @@ if is_cpu_adapter():
     raise SystemExit("wgpu chose a CPU adapter: the GPU's Vulkan driver was not found (see env.sh)")
 PYCODE
   if [ $# -eq 0 ]; then set -- -m "not browser" tests/core tests/gpu tests/tools; fi
-  GW_TEST_TIMES="$DEST/gpu-suite-times.log" python3 -m pytest -q -p no:cacheprovider -rfEs \
+  # pictures the tests save (conftest.save_test_picture) come back in one file
+  GW_TEST_PICTURES="$DEST/pictures" GW_TEST_TIMES="$DEST/gpu-suite-times.log" python3 -m pytest -q -p no:cacheprovider -rfEs \
     --junitxml="$DEST/gpu-suite-junit.xml" "$@" 2>&1 | tee "$DEST/gpu-suite.log"
   status=${PIPESTATUS[0]}
+  if [ -d "$DEST/pictures" ]; then
+    tar cf "$DEST/gpu-suite-pictures.tar" -C "$DEST" pictures && rm -rf "$DEST/pictures"
+  fi
   echo "pytest exit status $status; log: $DEST/gpu-suite.log"
   exit "$status"
   ;;

@@ -12,7 +12,7 @@ from grasswidget import teaching
 from grasswidget.core.enums import BladeShape
 from grasswidget.gpu.adapter import ensure_device
 from grasswidget.gpu.compute import sync_buffer
-from conftest import grass_mask, shaded_grass_mask, sky_mask
+from conftest import grass_mask, save_test_picture, shaded_grass_mask, sky_mask
 
 SIZE = (192, 108)
 
@@ -278,6 +278,7 @@ def test_picture_while_the_camera_moves(meadow):
             meadow.camera.look_at(tuple(home + (1.5 * k + 0.5, -2.0, -20.0)))
             meadow.step(4)
             on, off, rastered = _on_off(meadow)
+            save_test_picture(f"compute_raster_moving_{k}", np.concatenate([on, off], axis=1))
             assert rastered > 0
             difference, coverage = _mean_difference(on, off), _coverage_change(on, off)
             if k == 0:  # the home camera: the baseline of the frames that moved

@@ -26,7 +26,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
-from conftest import assert_same_picture
+from conftest import assert_same_picture, save_test_picture
 
 W, H = 320, 180
 N_BLADES = 1 << 16
@@ -114,6 +114,7 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
         finally:
             scene.params.fog_density = gw.GrassParams().fog_density
         _rows, clear_grass, ring, steps = _band_measures(clear, dist, reach)
+        save_test_picture(f"horizon_{name}", np.concatenate([img, clear], axis=0))  # fog on, off
         drawn.append(scene.visible_count())
         print(f"[horizon] {name}: {rows} band rows, {grass:.1%} grass-coloured, ring {ring}/255, "
               f"largest row step {steps:.1f}/255, {drawn[-1]} blades drawn")

@@ -8,7 +8,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.core import reference as ref
 from grasswidget.core import teaching
-from conftest import grass_mask, shaded_grass_mask
+from conftest import grass_mask, save_test_picture, shaded_grass_mask
 
 SCENE = dict(preset="cis565", blades=6000, size=(160, 120), seed=3)
 
@@ -114,6 +114,7 @@ def test_still_camera_picture_is_the_unculled_one(scene, shadows):
             assert _differing(on, off) <= 0.001
     finally:
         scene.params.shadows = default
+    save_test_picture(f"occlusion_still_shadows_{shadows}", np.concatenate([on, off], axis=1))
     assert drawn_on < 0.7 * drawn_off  # ... with far fewer blades drawn
     assert shaded_grass_mask(on).mean() > 0.5
 

@@ -5,7 +5,7 @@ import pytest
 
 import grasswidget as gw
 
-from conftest import grass_mask, hue_degrees, shaded_grass_mask, sky_mask
+from conftest import grass_mask, hue_degrees, save_test_picture, shaded_grass_mask, sky_mask
 
 
 # Fixtures blades and scene (conftest).
@@ -25,6 +25,7 @@ def test_render_shape_and_grass(scene, shadows):
     finally:
         scene.params.shadows = default
     assert img.shape == (150, 200, 4) and img.dtype == np.uint8
+    save_test_picture(f"renders_default_view_shadows_{shadows}", img)
     grass = shaded_grass_mask(img)
     # the field fills the lower part of the default view; the sky the top
     assert grass[90:].mean() > 0.6
@@ -101,4 +102,5 @@ def test_sky_and_ground_in_one_pass(shadows):
     s.ground.visible = True
     s.field.visible = True
     img3 = s.render()
+    save_test_picture(f"renders_cis565_backdrop_shadows_{shadows}", np.concatenate([img.astype(np.uint8), img3[..., :3]], axis=1))
     assert shaded_grass_mask(img3[250:460]).mean() > 0.5  # drawn after the grass, only where nothing is
