@@ -6,13 +6,20 @@ GPU reports for a frame with occlusion on."""
 import pytest
 
 import grasswidget as gw
-from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION
+from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION, TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
 from grasswidget.gpu.auto_switches import switches_of
 
 pytestmark = pytest.mark.slow
 
+#: The most frames the rule takes to decide both switches (core.pays): at most 4 trials (each switch once,
+#: the first again when the second changed what it was tried with), each of 4 blocks of at most half of
+#: TRIAL_MAX_FRAMES and a settling frame at each flip. A trial is 11 frames on lavapipe (its 100 ms frames
+#: fill a block's milliseconds at once); on a GPU (1.7 ms frames on an H200) every block runs to its frame cap,
+#: 52 frames a trial, which a fixed 120 frames cut short.
+MAX_DECISION_FRAMES = 4 * (4 * -(-TRIAL_MAX_FRAMES // 2) + 4 * TRIAL_SETTLE_FRAMES)
 
-def _decide(scene, max_frames=120):
+
+def _decide(scene, max_frames=MAX_DECISION_FRAMES):
     """Render until the field's auto switches decided both; returns its AutoSwitches (a trial
     is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2; at most 4
     trials when each switch is tried again once)."""
