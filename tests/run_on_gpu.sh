@@ -27,7 +27,7 @@
 #       dependencies from an index) skip there, saying why; every other test must pass, as on
 #       lavapipe: a picture test whose bound differs per adapter says so in its docstring.
 #
-# With the device tool (see docs/testing.md): after `prepare`, call run with carry [".gpu-suite"]
+# With the device tool (see tests/README.md): after `prepare`, call run with carry [".gpu-suite"]
 # and the command `bash tests/run_on_gpu.sh run`.
 set -uo pipefail
 
@@ -130,7 +130,7 @@ PYCODE
   exit "$status"
   ;;
 *)
-  sed -n '2,33p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+  sed -n '2,31p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
   exit 2
   ;;
 esac
