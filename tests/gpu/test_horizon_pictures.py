@@ -103,7 +103,7 @@ def _picture(scene):
     On a GPU the live view runs pygfx's DDAA, which blends the bright horizon line into the row below it:
     from the preset's camera that row is the only one past the reach (d in (R, 1.2 R]), and an H200 drew
     it (74, 92, 58) against lavapipe's (53, 74, 27), a "ring" of 34.75 that is the horizon's anti-aliasing,
-    not the far ground (2026-11-28; without the anti-aliasing the H200's rows are within 2 of lavapipe's)."""
+    not the far ground (2026-11-28; measured without it, the H200 passes every camera's checks)."""
     before = scene.renderer.ppaa
     scene.renderer.ppaa = "none"
     try:
