@@ -1,11 +1,13 @@
 """The browser engine on Dawn (Chrome's WebGPU) without a browser: frames/s, GPU ms per pass,
 and its picture against the kernel engine's.
 
-Python builds what a :class:`~grasswidget.browser.view.BrowserView` would send a page (the
-engine's ES module, ``BrowserView._esm``; every synced trait: blades, packed uniforms, the
-rendered WGSL, frame rules, camera) for the meadow preset at each blade count, and the kernel
-engine's picture of the same state (the same blades and params, ``STEPS`` fixed steps from rest,
-the preset's camera; ``GrassScene.render_at(antialias=False)``, like a live frame). It writes
+Python builds what the page of ``GrassWidget(n, preset="meadow", size=..., backend="browser")``
+gets, the meadow preset exactly as a user gets it (the field to the horizon, the preset's camera and
+parameters, the sunlight's default for the page's adapter, ``--adapter``; the engine's ES module,
+``BrowserView._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
+the rendered WGSL, frame rules, camera) at each blade count, and the kernel engine's picture of the
+same state (the same blades and params, ``STEPS`` fixed steps from rest, the preset's camera;
+``GrassScene.render_at(antialias=False)``, like a live frame) with its count of blades drawn. It writes
 them to a folder; ``benchmarks/dawn/run_engine.mjs`` (node + the npm package ``webgpu`` 0.6.2,
 dawn.node) loads the module with a small shim (an ``el``, a canvas whose WebGPU context draws
 into a device texture, ``requestAnimationFrame`` driven by a loop, the model with the traits),
@@ -129,47 +131,69 @@ def _json_or_none(value):
         return None
 
 
-def write_case(states: Path, n_blades: int, size, steps: int = STEPS, kernel_picture: bool = True) -> dict:
-    """One case's files under ``states``: traits JSON, the byte traits, the kernel's picture.
-    Returns its manifest entry."""
-    from grasswidget.browser.view import BrowserView
-    from grasswidget.core.framing import preset_field, preset_params
-    from grasswidget.core.params import GrassParams
+#: How the page's adapter is reported to the widget (its ``gpu_status`` detail, as engine.js words it), for
+#: the sunlight's default (``core.params.sunlight_defaults``: shadows on a GPU, off on a CPU adapter).
+ADAPTER_WORDS = {"swiftshader": "google swiftshader SwiftShader Device (Subzero)", "gpu": "nvidia hopper NVIDIA H200"}
 
+
+def user_state(n_blades: int, size, adapter: str = "swiftshader"):
+    """The meadow preset exactly as a user gets it in the browser engine:
+    ``GrassWidget(n_blades, preset="meadow", size=size, backend="browser")`` (the field to the horizon,
+    the preset's camera and parameters), its page reporting ``adapter`` (a key of :data:`ADAPTER_WORDS`)
+    so that the sunlight takes that adapter's default. Returns the open widget (close it)."""
+    import grasswidget as gw
+
+    if adapter not in ADAPTER_WORDS:
+        raise SystemExit(f"--adapter must be one of {', '.join(ADAPTER_WORDS)}; got {adapter!r}")
+    w = gw.GrassWidget(n_blades, preset="meadow", size=tuple(size), backend="browser")
+    w.view.engine_widget.gpu_status = {"state": "ok", "detail": ADAPTER_WORDS[adapter]}
+    return w
+
+
+def write_case(states: Path, n_blades: int, size, steps: int = STEPS, kernel_picture: bool = True,
+               adapter: str = "swiftshader") -> dict:
+    """One case's files under ``states``: traits JSON, the byte traits, the kernel's picture.
+    Returns its manifest entry.
+
+    The state is the browser-engine widget's own (:func:`user_state`): every synced trait of its
+    BrowserEngineWidget, set playing. The kernel's picture is ``GrassScene.preset("meadow")`` of the
+    same blades, parameters (a copy of the widget's) and camera, ``steps`` steps from rest."""
     name = f"meadow_{n_blades}_{size[0]}x{size[1]}"
     folder = states / name
     folder.mkdir(parents=True, exist_ok=True)
-    params = GrassParams(**preset_params("meadow"))
-    # the square meadow of before (horizon=False): its figures stay comparable with the earlier runs, and at
-    # the small counts of the test (1024 blades) the field to the horizon puts most blades out of sight
-    blades, _size, view = preset_field("meadow", n_blades, horizon=False)
-    camera = {"position": [float(x) for x in view["position"]], "target": [float(x) for x in view["target"]],
-              "fov_deg": float(view["fov_deg"]), "near": float(view["near"]), "far": float(view["far"])}
-    bv = BrowserView(blades, params=params, size=size, camera=camera, pixel_ratio=1.0)
-    bv.playing = True
-    traits, byte_traits = {}, {}
-    for trait in sorted(bv.trait_names(sync=True)):
-        if trait.startswith("_") or trait in ("layout", "tabbable", "tooltip", "comm", "keys", "log"):
-            continue
-        value = getattr(bv, trait)
-        if isinstance(value, (bytes, bytearray, memoryview)):
-            (folder / f"{trait}.bin").write_bytes(bytes(value))
-            byte_traits[trait] = f"{name}/{trait}.bin"
-        elif _json_or_none(value) is not None or value is None:
-            traits[trait] = value
-    (folder / "traits.json").write_text(json.dumps(traits))
-    bv.close()
+    w = user_state(n_blades, size, adapter)
+    try:
+        bv = w.view.engine_widget
+        blades, params = bv.blades, w.params.copy()
+        bv.playing = True
+        traits, byte_traits = {}, {}
+        for trait in sorted(bv.trait_names(sync=True)):
+            if trait.startswith("_") or trait in ("layout", "tabbable", "tooltip", "comm", "keys", "log"):
+                continue
+            value = getattr(bv, trait)
+            if isinstance(value, (bytes, bytearray, memoryview)):
+                (folder / f"{trait}.bin").write_bytes(bytes(value))
+                byte_traits[trait] = f"{name}/{trait}.bin"
+            elif _json_or_none(value) is not None or value is None:
+                traits[trait] = value
+        (folder / "traits.json").write_text(json.dumps(traits))
+        scene_of_the_user = {"horizon": blades.horizon is not None, "shadows": bool(params.shadows),
+                             "camera": _json_or_none(traits.get("camera")), "adapter": adapter}
+    finally:
+        w.close()
     entry = {"name": name, "blades": n_blades, "width": size[0], "height": size[1], "steps": steps,
-             "traits": f"{name}/traits.json", "byte_traits": byte_traits, "kernel_picture": None}
+             "traits": f"{name}/traits.json", "byte_traits": byte_traits, "kernel_picture": None,
+             "scene": scene_of_the_user}
     if kernel_picture:
         from grasswidget.gpu.adapter import adapter_info
         from grasswidget.gpu.scene import GrassScene
 
         t0 = time.perf_counter()
-        scene = GrassScene.preset("meadow", blades=blades, size=size, params=params.copy())
+        scene = GrassScene.preset("meadow", blades=blades, size=size, params=params)
         try:
             scene.step(steps)
             img = np.ascontiguousarray(scene.render_at(size, antialias=False)[..., :4], np.uint8)
+            entry["kernel_visible"] = int(scene.visible_count())  # the kernel's count of blades drawn in it
         finally:
             scene.release()
         (folder / "kernel.rgba").write_bytes(img.tobytes())
@@ -179,11 +203,13 @@ def write_case(states: Path, n_blades: int, size, steps: int = STEPS, kernel_pic
     return entry
 
 
-def prepare(states: Path, counts, size, steps: int = STEPS, kernel_picture: bool = True) -> Path:
-    """The engine module and every case's state under ``states``; returns the manifest's path."""
+def prepare(states: Path, counts, size, steps: int = STEPS, kernel_picture: bool = True,
+            adapter: str = "swiftshader") -> Path:
+    """The engine module and every case's state under ``states`` (the page's adapter ``adapter``, see
+    :func:`user_state`); returns the manifest's path."""
     states.mkdir(parents=True, exist_ok=True)
     (states / "engine.mjs").write_text(engine_module(), encoding="utf-8")
-    cases = [write_case(states, n, size, steps, kernel_picture) for n in counts]
+    cases = [write_case(states, n, size, steps, kernel_picture, adapter) for n in counts]
     manifest = {"engine": "engine.mjs", "cases": cases, "tolerance": {"mean": TOLERANCE_MEAN,
                                                                        "share_over_40": TOLERANCE_SHARE}}
     path = states / "manifest.json"
@@ -242,7 +268,7 @@ def _xz(folder: Path, name: str, members, preset: int = 3) -> Path:
     return path
 
 
-def bundle(dest: Path, counts, size, node: Path, vulkan_root: Path, steps: int = STEPS) -> list:
+def bundle(dest: Path, counts, size, node: Path, vulkan_root: Path, steps: int = STEPS, adapter: str = "gpu") -> list:
     """What the GPU machine needs, compressed under ``dest``: ``common.tar.xz`` (node, dawn.node and the
     package's index.js, the Vulkan loader, the engine module) and one ``case_<n>.tar.xz`` per blade
     count (the traits, the blades, the kernel engine's picture, rendered here). Returns the groups of
@@ -262,7 +288,7 @@ def bundle(dest: Path, counts, size, node: Path, vulkan_root: Path, steps: int =
                      preset=6)
         files = [common]
         for n in counts:
-            entry = write_case(states, n, size, steps)
+            entry = write_case(states, n, size, steps, adapter=adapter)
             manifest = {"engine": "engine.mjs", "cases": [entry],
                         "tolerance": {"mean": TOLERANCE_MEAN, "share_over_40": TOLERANCE_SHARE}}
             (states / f"manifest_{n}.json").write_text(json.dumps(manifest, indent=1))
@@ -306,6 +332,9 @@ def main(argv=None):
                                                  "benchmarks/.dawn)")
     ap.add_argument("--prepare-only", action="store_true", help="write the states and kernel pictures, run nothing")
     ap.add_argument("--no-kernel-picture", action="store_true")
+    ap.add_argument("--adapter", choices=sorted(ADAPTER_WORDS), default=None,
+                    help="the adapter the page reports to the widget, for the sunlight's default (default: "
+                         "swiftshader here, gpu for --bundle)")
     ap.add_argument("--out", default="benchmarks/browser_engine_dawn.json")
     ap.add_argument("--bundle", default=None, help="write the GPU machine's bundles into this folder "
                                                    "(benchmarks/dawn/prepare_device.sh uses it)")
@@ -340,7 +369,8 @@ def main(argv=None):
     import tempfile
 
     if args.bundle:
-        groups = bundle(Path(args.bundle), args.blades, size, Path(args.node), Path(args.vulkan), args.steps)
+        groups = bundle(Path(args.bundle), args.blades, size, Path(args.node), Path(args.vulkan), args.steps,
+                        adapter=args.adapter or "gpu")
         for k, group in enumerate(groups, 1):
             weight = sum(f.stat().st_size for f in group) / 2 ** 20
             carry = json.dumps([str(f.relative_to(ROOT)) if f.is_relative_to(ROOT) else str(f) for f in group])
@@ -349,7 +379,8 @@ def main(argv=None):
                   f"command: CASES='{cases}' bash benchmarks/dawn/run_on_device.sh")
         return 0
     states = Path(args.states) if args.states else Path(tempfile.mkdtemp(prefix="gw-dawn-states-"))
-    manifest = prepare(states, args.blades, size, args.steps, kernel_picture=not args.no_kernel_picture)
+    manifest = prepare(states, args.blades, size, args.steps, kernel_picture=not args.no_kernel_picture,
+                       adapter=args.adapter or "swiftshader")
     print(f"states: {states}")
     if args.prepare_only:
         return 0
@@ -359,8 +390,17 @@ def main(argv=None):
     result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
     import imageio.v3 as iio
 
+    counts_agree = True
     for case, entry in zip(result["cases"], json.loads(manifest.read_text())["cases"]):
         w, h = case["width"], case["height"]
+        if entry.get("kernel_visible") is not None and case.get("visible_last"):
+            drawn = sum(case["visible_last"])
+            # the engine's last frame while playing against the kernel's compared state: the same rules, a
+            # few blades apart as the wind moves them
+            case["blades_drawn"] = {"engine": drawn, "kernel": entry["kernel_visible"],
+                                    "pass": abs(drawn - entry["kernel_visible"]) <= 0.05 * max(entry["kernel_visible"], 1)}
+            counts_agree &= case["blades_drawn"]["pass"]
+            print(f"{case['name']}: blades drawn: engine {drawn}, kernel {entry['kernel_visible']}")
         frame = np.frombuffer(Path(case["frame_file"]).read_bytes(), np.uint8).reshape(h, w, 4)
         if entry.get("kernel_picture"):
             kernel = np.frombuffer((states / entry["kernel_picture"]).read_bytes(), np.uint8).reshape(h, w, 4)
@@ -370,7 +410,7 @@ def main(argv=None):
         print(f"{case['name']}: kernel | Dawn side by side: {picture}")
     out.write_text(json.dumps(result, indent=1))
     print(f"wrote {out}")
-    return 0 if all(c.get("picture", {}).get("pass", True) for c in result["cases"]) else 1
+    return 0 if counts_agree and all(c.get("picture", {}).get("pass", True) for c in result["cases"]) else 1
 
 
 if __name__ == "__main__":

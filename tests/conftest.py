@@ -55,6 +55,32 @@ def grass_mask(img):
     return (g > r + 8) & (g > b + 8)
 
 
+def hue_degrees(img):
+    """Each pixel's hue (HSV, degrees 0..360) of an (..., 3+) uint8 picture; grey pixels get 0."""
+    rgb = img[..., :3].astype(np.float64)
+    mx, mn = rgb.max(axis=-1), rgb.min(axis=-1)
+    c = np.maximum(mx - mn, 1e-9)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    hue = np.where(mx == r, ((g - b) / c) % 6, np.where(mx == g, (b - r) / c + 2, (r - g) / c + 4))
+    return np.where(mx > mn, hue * 60.0, 0.0)
+
+
+def shaded_grass_mask(img):
+    """Pixels that are grass, lit or in the sunlight's shade: green is the largest channel, leads
+    blue by more than 4 and the hue is a grass green (68..160 degrees; the bare ground's khaki
+    #787a4e is 62, soil is 20..50).
+
+    ``grass_mask`` asks green to lead red and blue by 8 levels, which the grass' own shade (the
+    sunlight, ``GrassParams.shadows``: on by default on a GPU adapter) fails near the roots, where
+    a blade is 20-30 levels bright; this mask counts those pixels by their colour, not their
+    brightness (measured: the same default view is 0.75 grass under it with the sunlight on or off,
+    on lavapipe and on an H200, where ``grass_mask`` gives 0.75 and 0.55)."""
+    rgb = img[..., :3].astype(np.int32)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    hue = hue_degrees(img)
+    return (g >= r) & (g > b + 4) & (hue > 68.0) & (hue < 160.0)
+
+
 def sky_mask(img):
     """Pixels of the light-blue sky background."""
     rgb = img[..., :3].astype(np.int32)
@@ -221,3 +247,78 @@ def node_executable() -> str:
     if node is None:
         pytest.fail("Node.js is not installed: ./run.sh test installs Debian's nodejs package")
     return node
+
+
+# ---------------------------------------------------------------- what packaging tests need
+#
+# Building the wheel or the sdist needs the build backend (hatchling, in the ``test`` extra: the
+# tests build with --no-build-isolation, so nothing is fetched), and installing the built wheel
+# into a fresh environment needs a package index for its dependencies. Where either is missing
+# (the GPU machine: no network, see tests/run_on_gpu.sh) those tests skip, saying why.
+
+_INDEX = {}
+
+
+def require_build_backend():
+    """Skip the calling test when the build backend (hatchling) cannot be imported."""
+    import importlib.util
+
+    if importlib.util.find_spec("hatchling") is None:
+        pytest.skip("the build backend hatchling is not installed (pip install -e .[test] installs it; "
+                    "with no network to fetch it, the package cannot be built here)")
+
+
+def require_package_index():
+    """Skip the calling test when pip cannot reach a package index (no network): asks the index pip is
+    configured with for one of the package's dependencies (hsluv), once per session, 5 s at most."""
+    import subprocess
+    import sys
+
+    if "reason" not in _INDEX:
+        try:
+            out = subprocess.run([sys.executable, "-m", "pip", "index", "versions", "hsluv", "--timeout", "5",
+                                  "--retries", "0", "--disable-pip-version-check"],
+                                 capture_output=True, text=True, timeout=60)
+            _INDEX["reason"] = None if out.returncode == 0 else (out.stderr.strip().splitlines() or ["no answer"])[-1]
+        except (OSError, subprocess.TimeoutExpired) as e:
+            _INDEX["reason"] = str(e)
+    if _INDEX["reason"]:
+        pytest.skip(f"no package index reachable (no network?) for the wheel's dependencies: {_INDEX['reason']}")
+
+
+# ---------------------------------------------------------------- one state, the same picture
+#
+# On a CPU adapter (lavapipe) two renders of one state are the same bytes. On a GPU they may
+# differ in a few pixels: the culling pass appends the blades it keeps with an atomic counter, so
+# their draw order follows whichever workgroup finished first, and where two blades' fragments tie
+# in depth the later one wins. Measured on an H200 (2026-11-28): 0, 2, 3 and 8 pixels of 14,400 to
+# 120,000 between repeated renders of one state (at most 0.06 %).
+
+#: Share of pixels that may differ between two renders of one state on a GPU adapter (0 on a CPU adapter).
+GPU_REPEAT_PIXEL_SHARE = 0.002
+
+
+def assert_same_picture(a, b, what="the picture"):
+    """``a`` and ``b`` (renders of one state) are equal: byte for byte on a CPU adapter; on a GPU in
+    all but GPU_REPEAT_PIXEL_SHARE of the pixels (the draw order of tied blades, see above)."""
+    from grasswidget.gpu.adapter import is_cpu_adapter
+
+    a, b = np.asarray(a)[..., :3], np.asarray(b)[..., :3]
+    assert a.shape == b.shape, (what, a.shape, b.shape)
+    differing = int(np.any(a != b, axis=-1).sum())
+    allowed = 0 if is_cpu_adapter() else int(GPU_REPEAT_PIXEL_SHARE * a.shape[0] * a.shape[1])
+    assert differing <= allowed, f"{what}: {differing} pixels differ (at most {allowed} on this adapter)"
+
+
+def save_test_picture(name, img):
+    """Write ``img`` as ``$GW_TEST_PICTURES/<name>.png`` when that variable names a folder (tests/run_on_gpu.sh
+    sets it, so that the GPU machine's pictures come back to be looked at); otherwise nothing."""
+    folder = os.environ.get("GW_TEST_PICTURES")
+    if not folder:
+        return None
+    import imageio.v3 as iio
+
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, f"{name}.png")
+    iio.imwrite(path, np.ascontiguousarray(np.asarray(img)[..., :3], np.uint8))
+    return path

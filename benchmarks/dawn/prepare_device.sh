@@ -4,8 +4,10 @@
 #   .device/dawn/common.tar.xz     node (this machine's, the nodesource 20 build: needs only glibc and
 #                                  libstdc++), dawn.node + index.js of the npm package webgpu 0.6.2,
 #                                  Debian's libvulkan1 loader, the engine module (BrowserView._esm)
-#   .device/dawn/case_<N>.tar.xz   per blade count: the traits a BrowserView sends for the meadow preset
-#                                  at 1920x1080 and the kernel engine's picture of the same state
+#   .device/dawn/case_<N>.tar.xz   per blade count: the traits GrassWidget(N, preset="meadow",
+#                                  backend="browser") sends at 1920x1080 when its page reports a GPU (the
+#                                  meadow as shipped: to the horizon, the sunlight on) and the kernel
+#                                  engine's picture and count of blades drawn of the same state
 # .device/ is ignored by git. It prints the run calls: what to carry and the command
 # (benchmarks/dawn/run_on_device.sh, which unpacks with Python's lzma and runs node on NVIDIA's Vulkan).
 #   .device/dawn-wheels/           with --matrix: Python 3.12 wheels of the widget's side of

@@ -1,18 +1,26 @@
-"""The "auto" switches in the kernel engine on lavapipe: occlusion culling turns itself on
-where it hides many blades (the cis565 view, rows of blades behind the front ones) and off
+"""The "auto" switches in the kernel engine: occlusion culling turns itself on (lavapipe; on a GPU,
+where it is faster there) where it hides many blades (the cis565 view, rows of blades behind the front ones) and off
 where it hides none (looking straight down), each decision checked against the counts the
 GPU reports for a frame with occlusion on."""
 
 import pytest
 
 import grasswidget as gw
-from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION
+from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION, TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
+from grasswidget.gpu.adapter import is_cpu_adapter
 from grasswidget.gpu.auto_switches import switches_of
 
 pytestmark = pytest.mark.slow
 
+#: The most frames the rule takes to decide both switches (core.pays): at most 4 trials (each switch once,
+#: the first again when the second changed what it was tried with), each of 4 blocks of at most half of
+#: TRIAL_MAX_FRAMES and a settling frame at each flip. A trial is 11 frames on lavapipe (its 100 ms frames
+#: fill a block's milliseconds at once); on a GPU (1.7 ms frames on an H200) every block runs to its frame cap,
+#: 52 frames a trial, which a fixed 120 frames cut short.
+MAX_DECISION_FRAMES = 4 * (4 * -(-TRIAL_MAX_FRAMES // 2) + 4 * TRIAL_SETTLE_FRAMES)
 
-def _decide(scene, max_frames=120):
+
+def _decide(scene, max_frames=MAX_DECISION_FRAMES):
     """Render until the field's auto switches decided both; returns its AutoSwitches (a trial
     is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2; at most 4
     trials when each switch is tried again once)."""
@@ -46,12 +54,20 @@ def test_auto_occlusion_on_where_it_hides_and_off_from_above():
         occl = state.decisions["cull_occlusion"]
         occluded, drawn = _occlusion_counts(scene)
         assert occluded > 0.3 * (occluded + drawn), "the cis565 view hides many blades"
-        assert occl.on, occl.reason
         assert f"removed {100 * occluded / (occluded + drawn):.0f} % of blades" in occl.reason
-        assert state.text("cull_occlusion", AUTO).startswith("auto (on: removed")
+        if is_cpu_adapter():
+            # lavapipe: the hidden blades' draws are the frame's cost, occlusion gains about 1.5x, far above noise
+            assert occl.on, occl.reason
+        else:
+            # a GPU draws this 320 x 240 view in under 2 ms, where occlusion's extra passes can cost more than the
+            # hidden blades' draws (an H200: "removed 87 % of blades, but 2.2 ms a frame against 1.6 ms off"):
+            # the decision is the faster of the two timed sides, whichever it is
+            assert occl.on or "but" in occl.reason, occl.reason
+        assert state.text("cull_occlusion", AUTO).startswith("auto (on: removed" if occl.on else "auto (off: removed")
         assert not state.measuring and state.decisions["cull_occlusion"] is occl  # forcing kept the decision
         scene.render()
-        assert scene.field.read_occluded_count() > 0  # executed: the next auto frame culls
+        if occl.on:
+            assert scene.field.read_occluded_count() > 0  # executed: the next auto frame culls
 
         scene.look(position=(0.0, 30.0, 0.01), target=(0.0, 0.0, 0.0))  # straight down: nothing hidden
         scene.render()

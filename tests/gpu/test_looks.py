@@ -11,6 +11,7 @@ import numpy as np
 
 import grasswidget as gw
 from grasswidget.core import reference as ref
+from conftest import assert_same_picture
 
 W, H = 200, 150
 
@@ -100,4 +101,4 @@ def test_exports_are_anti_aliased(tmp_path):
     assert d_export < 0.65 * d_plain, (d_plain, d_export)
     assert d_export < 4.0
     path = scene.save_png(tmp_path / "aa.png", size=(w, h))
-    assert np.array_equal(iio.imread(path)[..., :3], export.astype(np.uint8))  # save_png is the export
+    assert_same_picture(iio.imread(path), export.astype(np.uint8), "save_png against the export")  # save_png is the export

@@ -8,7 +8,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.core import reference as ref
 from grasswidget.core import teaching
-from conftest import grass_mask
+from conftest import grass_mask, save_test_picture, shaded_grass_mask
 
 SCENE = dict(preset="cis565", blades=6000, size=(160, 120), seed=3)
 
@@ -101,13 +101,22 @@ def test_gpu_occlusion_matches_numpy_blade_for_blade(scene):
     assert np.array_equal(scene.field.read_visible(), np.flatnonzero(seen))
 
 
-def test_still_camera_picture_is_the_unculled_one(scene):
+@pytest.mark.parametrize("shadows", [False, True])
+def test_still_camera_picture_is_the_unculled_one(scene, shadows):
+    """With the sunlight off (a CPU adapter's default) and on (a GPU's): the grass is counted by its
+    hue, so that the roots in the grass' own shade count (conftest.shaded_grass_mask)."""
     scene.reset_camera()
-    for _ in range(2):
-        on, off, drawn_on, drawn_off = _on_off(scene)
-        assert _differing(on, off) <= 0.001
+    default = scene.params.shadows
+    scene.params.shadows = shadows
+    try:
+        for _ in range(2):
+            on, off, drawn_on, drawn_off = _on_off(scene)
+            assert _differing(on, off) <= 0.001
+    finally:
+        scene.params.shadows = default
+    save_test_picture(f"occlusion_still_shadows_{shadows}", np.concatenate([on, off], axis=1))
     assert drawn_on < 0.7 * drawn_off  # ... with far fewer blades drawn
-    assert grass_mask(on).mean() > 0.5
+    assert shaded_grass_mask(on).mean() > 0.5
 
 
 def test_moving_camera_wind_and_ball_keep_the_picture(scene):

@@ -5,7 +5,7 @@ import pytest
 
 import grasswidget as gw
 
-from conftest import grass_mask, sky_mask
+from conftest import grass_mask, hue_degrees, save_test_picture, shaded_grass_mask, sky_mask
 
 
 # Fixtures blades and scene (conftest).
@@ -13,11 +13,20 @@ BLADES = dict(count=4096, seed=11)
 SCENE = dict(size=(200, 150))
 
 
-def test_render_shape_and_grass(scene):
+@pytest.mark.parametrize("shadows", [False, True])
+def test_render_shape_and_grass(scene, shadows):
+    """With the sunlight off (a CPU adapter's default) and on (a GPU's): the grass is counted by its
+    hue, so that the roots in the grass' own shade count (conftest.shaded_grass_mask)."""
     scene.field.reset()
-    img = scene.render()
+    default = scene.params.shadows
+    scene.params.shadows = shadows
+    try:
+        img = scene.render()
+    finally:
+        scene.params.shadows = default
     assert img.shape == (150, 200, 4) and img.dtype == np.uint8
-    grass = grass_mask(img)
+    save_test_picture(f"renders_default_view_shadows_{shadows}", img)
+    grass = shaded_grass_mask(img)
     # the field fills the lower part of the default view; the sky the top
     assert grass[90:].mean() > 0.6
     assert sky_mask(img)[:10].mean() > 0.9
@@ -68,15 +77,22 @@ def test_save_png_any_size(scene, tmp_path):
         scene.save_png(tmp_path / "bad.png", size=(0, 10))
 
 
-def test_sky_and_ground_in_one_pass():
+@pytest.mark.parametrize("shadows", [False, True])
+def test_sky_and_ground_in_one_pass(shadows):
     """The backdrop: the sky paler at the horizon and bluer above it; below it the ground:
     brown soil under the field (the cis565 camera looks at it from 1 m up), sky
-    everywhere when the ground is switched off; the grass covers it."""
+    everywhere when the ground is switched off; the grass covers it. With the sunlight off (a CPU
+    adapter's default) and on (a GPU's, where the grass' shade darkens the soil and the roots to
+    20-30 levels: brown and grass are told by their hue, not by a lead of 8 levels)."""
     s = gw.GrassScene.preset("cis565", blades=2048)
+    s.params.shadows = shadows
     s.field.visible = False
     img = s.render()[..., :3].astype(int)
     ground = img[400:].reshape(-1, 3)
-    assert np.all(ground[:, 0] > ground[:, 2] + 8) and np.all(ground[:, 1] > ground[:, 2])  # soil: brown
+    hue = hue_degrees(img[400:].astype(np.uint8)).reshape(-1)
+    # soil: brown (red leads, blue last; hue 15..60 degrees: lit soil (48, 40, 27) is 36, shaded (28, 24, 17) 40,
+    # the lit ground past the field's edge at the bottom rows (91, 89, 58) 56; grass is over 68)
+    assert np.all(ground[:, 0] >= ground[:, 1]) and np.all(ground[:, 1] > ground[:, 2]) and np.all((hue > 15) & (hue < 60))
     assert ground.mean(0).max() < 90  # dark under 2048 blades
     top, mid = img[0].mean(0), img[200].mean(0)
     assert sky_mask(img[:150]).mean() > 0.99 and top[0] < mid[0]  # bluer towards the zenith, paler at the horizon
@@ -86,4 +102,5 @@ def test_sky_and_ground_in_one_pass():
     s.ground.visible = True
     s.field.visible = True
     img3 = s.render()
-    assert grass_mask(img3[250:460]).mean() > 0.5  # drawn after the grass, only where nothing is
+    save_test_picture(f"renders_cis565_backdrop_shadows_{shadows}", np.concatenate([img.astype(np.uint8), img3[..., :3]], axis=1))
+    assert shaded_grass_mask(img3[250:460]).mean() > 0.5  # drawn after the grass, only where nothing is

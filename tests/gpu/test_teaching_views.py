@@ -7,7 +7,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.core import reference as ref
 from grasswidget.core import teaching
-from conftest import grass_mask
+from conftest import assert_same_picture, grass_mask
 
 SIZE = (400, 300)
 
@@ -252,4 +252,4 @@ def test_flat_colours_are_compiled_in_only_while_shown(scene):
     assert flat.mean() > 0.05  # blades now show their class colours
     scene.params.color_by = "natural"
     assert scene.field.flat_colors is False
-    assert np.array_equal(scene.render(), natural)
+    assert_same_picture(scene.render(), natural, "natural colours again")

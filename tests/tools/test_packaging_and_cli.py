@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import require_build_backend
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -29,6 +31,7 @@ def test_shaders_live_in_the_package_only():
 
 
 def test_wheel_contains_shaders(tmp_path):
+    require_build_backend()
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path), str(ROOT)],
         check=True,
@@ -45,10 +48,16 @@ def test_wheel_contains_shaders(tmp_path):
     zipfile.ZipFile(wheel).extractall(target)
     code = ("from grasswidget.core.shader_files import shader_dir, read_shader; p = shader_dir(); print(p); "
             "assert 'site' in str(p); assert 'fn main' in read_shader('simulate.wgsl')")
-    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(target)})
+    # the installed copy first; the dependencies wherever they are (a --target folder on the GPU machine,
+    # tests/run_on_gpu.sh), but not this checkout
+    others = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
+              if p and Path(p).resolve() != ROOT.resolve()]
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path,
+                   env={**os.environ, "PYTHONPATH": os.pathsep.join([str(target), *others])})
 
 
 def test_sdist_contains_shaders(tmp_path):
+    require_build_backend()
     subprocess.run([sys.executable, "-m", "hatchling", "build", "-t", "sdist", "-d", str(tmp_path)], check=True, cwd=ROOT,
                    capture_output=True)
     sdist = next(tmp_path.glob("grasswidget-*.tar.gz"))
