@@ -185,3 +185,25 @@ def test_a_compiler_crash_is_scored_with_its_reason(course, batch):
     cells = _graded_cells(course, "cy")
     assert "ExerciseShaderError" in _errors(cells["test_wind_force"])
     assert "line" in _errors(cells["test_wind_force"])
+
+
+def test_the_derive_notebooks_run_with_the_teachers_answer(tmp_path):
+    """The three "derive it" source notebooks (outside notebooks/'s Run All) run top to bottom in a
+    kernel: the reference's examples and charts show, the answer passes every points cell."""
+    from nbclient import NotebookClient
+
+    for assignment in ("forces_derive", "validation_derive", "culling_derive"):
+        name, _variant, path = ASSIGNMENTS[assignment]
+        nb = nbformat.read(str(path), as_version=4)
+        NotebookClient(nb, timeout=300, kernel_name="python3", allow_errors=True,
+                       resources={"metadata": {"path": str(tmp_path)}}).execute()
+        errors = [f"{o.ename}: {o.evalue}" for c in nb.cells if c.cell_type == "code" for o in c.outputs
+                  if o.output_type == "error"]
+        assert not errors, f"{path.name}: {errors}"
+        by_id = {_nbgrader_meta(c).get("grade_id"): c for c in nb.cells}
+        tables = [o for o in by_id["examples"].outputs if "text/markdown" in o.get("data", {})]
+        assert len(tables) == len(gw.exercise(name).functions)
+        assert all(o["data"]["text/markdown"].count("\n|") >= 7 for o in tables)  # header, rule, 6 examples
+        assert any("image/png" in o.get("data", {}) for o in by_id["charts"].outputs), f"{path.name}: no chart"
+        passes = "".join(o.get("text", "") for c in nb.cells if _nbgrader_meta(c).get("grade") for o in c.outputs)
+        assert passes.count("PASS  ") == len(gw.exercise(name).functions), passes
