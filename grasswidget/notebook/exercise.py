@@ -155,7 +155,8 @@ class Exercise:
         panel on the shared parameters; ``c.views["yours"]`` runs the student's functions.
         ``backend="browser"`` or ``"auto"``: the browser compiles user functions only when a
         view starts, which a comparison's views cannot be given, so the two GrassWidgets stand
-        in an HBox instead, sharing one GrassParams (no linked camera or clock); ``.views``
+        in a :class:`~grasswidget.notebook.compare.SideBySide` (an HBox) instead, sharing one
+        GrassParams (no linked camera or clock; marimo shows it too); ``.views``
         holds them too. The code is checked first (ExerciseShaderError with the line)."""
         from .compare import compare
         from .widget import GrassWidget
@@ -175,18 +176,15 @@ class Exercise:
                 raise
             return comparison
 
-        import ipywidgets as ipw
-
         mine = self.widget(wgsl, blades=blades, size=size, params=params, backend=backend)
         try:
             ref = GrassWidget(blades=blades, size=size, params=params, backend=backend)
         except BaseException:
             mine.close()
             raise
-        views = {"yours": mine, "reference": ref}
-        box = ipw.HBox([ipw.VBox([ipw.HTML(f"<b>{title}</b>"), w]) for title, w in views.items()])
-        box.views = views
-        return box
+        from .compare import SideBySide
+
+        return SideBySide({"yours": mine, "reference": ref})
 
 
 class ReferenceExamples:
