@@ -651,7 +651,7 @@ _DERIVE_STARTERS = {
 // Exercise "forces", derive it: fill in the four functions (keep their signatures).
 // Vectors in metres, accelerations in m/s^2, stiffness in 1/s^2, dt in s.
 
-// Gravity of the environment. gravity_mode: 0 = along direction, 1 = towards center.
+// Gravity of the environment. gravity_mode 0: along direction; 1: towards center.
 fn environmental_gravity(v0: vec3<f32>, gravity_mode: i32, direction: vec3<f32>, center: vec3<f32>, magnitude: f32) -> vec3<f32> {
     // TODO
     return vec3<f32>(0.0, -magnitude, 0.0);
