@@ -118,7 +118,7 @@ def _graded_cells(course, student) -> dict:
 
 
 def _errors(cell) -> str:
-    return "\n".join(f"{o.ename}: {o.evalue}" for o in cell.outputs if o.output_type == "error")
+    return "\n".join(f"{o.ename}: {o.evalue}" for o in cell.get("outputs", ()) if o.output_type == "error")
 
 
 @pytest.mark.parametrize("assignment", list(ASSIGNMENTS))
@@ -165,6 +165,8 @@ def test_autograde_scores_each_submission_per_function(course, batch):
     assert "AssertionError" in _errors(fay["test_wind_force"]) and not _errors(fay["test_integrate_tip"])
     bob = _graded_cells(course, "bob")
     assert "first failing blade" in _errors(bob["test_wind_force"])  # feedback a student can act on
+    # the untouched student copy runs top to bottom (task, grade, live views) but for its points cells
+    assert [gid for gid, c in bob.items() if _errors(c)] == [f"test_{f}" for f in gw.exercise("forces").functions]
     handed_in = _submissions(gw.exercise("forces").solution())
     for student, cause, marker in (("dee", "loops are not allowed", "loop {"), ("eve", "heigth", "heigth")):
         line = next(i for i, text in enumerate(handed_in[student].splitlines(), 1) if marker in text)
@@ -188,15 +190,19 @@ def test_a_compiler_crash_is_scored_with_its_reason(course, batch):
 
 
 def test_the_derive_notebooks_run_with_the_teachers_answer(tmp_path):
-    """The three "derive it" source notebooks (outside notebooks/'s Run All) run top to bottom in a
-    kernel: the reference's examples and charts show, the answer passes every points cell."""
+    """The three "derive it" source notebooks (outside notebooks/'s Run All) run top to bottom, one
+    after the other in one kernel (one start for three): the reference's examples and charts show,
+    the answer passes every points cell."""
     from nbclient import NotebookClient
 
-    for assignment in ("forces_derive", "validation_derive", "culling_derive"):
+    books = {a: nbformat.read(str(ASSIGNMENTS[a][2]), as_version=4)
+             for a in ("forces_derive", "validation_derive", "culling_derive")}
+    together = nbformat.v4.new_notebook(metadata=books["forces_derive"].metadata)
+    together.cells = [cell for nb in books.values() for cell in nb.cells]
+    NotebookClient(together, timeout=300, kernel_name="python3", allow_errors=True,
+                   resources={"metadata": {"path": str(tmp_path)}}).execute()
+    for assignment, nb in books.items():  # the cells are the same objects, now with their outputs
         name, _variant, path = ASSIGNMENTS[assignment]
-        nb = nbformat.read(str(path), as_version=4)
-        NotebookClient(nb, timeout=300, kernel_name="python3", allow_errors=True,
-                       resources={"metadata": {"path": str(tmp_path)}}).execute()
         errors = [f"{o.ename}: {o.evalue}" for c in nb.cells if c.cell_type == "code" for o in c.outputs
                   if o.output_type == "error"]
         assert not errors, f"{path.name}: {errors}"
