@@ -221,6 +221,10 @@ class ReferenceExamples:
         return f"<ReferenceExamples {self.function}: {len(self.rows)} rows>"
 
     def _repr_markdown_(self):
+        return self.to_markdown()
+
+    def to_markdown(self) -> str:
+        """The table as Markdown: one row per example (where, the inputs, the reference's value)."""
         esc = (lambda text: text.replace("|", "\\|"))
         rows = [f"| blade | inputs | reference `{self.function}` |", "|---|---|---|"]
         rows += ["| " + " | ".join(esc(c) for c in self._cells(row)) + " |" for row in self.rows]

@@ -55,7 +55,7 @@ def test_examples_are_the_references_values_on_the_grading_cases():
         culled = ref.distance_cull(i["v0"][None], i["up"][None], i["cam_pos"], np.array([i["id"]]), i["buckets"],
                                    i["d_max"])[0]
         assert bool(culled) == r["reference"]
-    text, md = str(culling), culling._repr_markdown_()
+    text, md = str(culling), culling.to_markdown()
     assert text.count("distance_cull(") == 40 and "true (cull)" in text and "false (keep)" in text
     assert md.count("\n|") == 41 and str(forces.examples("wind_force")) == str(forces.examples("wind_force"))
 
