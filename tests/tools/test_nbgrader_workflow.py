@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -164,7 +165,9 @@ def test_autograde_scores_each_submission_per_function(course, batch):
     assert "FAIL  wind_force" in "".join(o.get("text", "") for o in fay["test_wind_force"].outputs)
     assert "AssertionError" in _errors(fay["test_wind_force"]) and not _errors(fay["test_integrate_tip"])
     bob = _graded_cells(course, "bob")
-    assert "first failing blade" in _errors(bob["test_wind_force"])  # feedback a student can act on
+    # feedback a student can act on: a failing blade, its case, its inputs, the reference's value and the student's
+    assert re.search(r"blade: #\d+ of case .*inputs: .*reference +wind_force\(\.\.\.\) = .*your +wind_force",
+                     _errors(bob["test_wind_force"]), re.S), _errors(bob["test_wind_force"])
     # the untouched student copy runs top to bottom (task, grade, live views) but for its points cells
     assert [gid for gid, c in bob.items() if _errors(c)] == [f"test_{f}" for f in gw.exercise("forces").functions]
     handed_in = _submissions(gw.exercise("forces").solution())
