@@ -89,12 +89,16 @@ def check_notebook_outputs(stem: str, nb, out_dir: Path, live_probe_text: str = 
     if stem == "05_colliders_and_wind":
         assert "refused: wind_wgsl line 2" in text  # the bad snippet's error names its line
     if stem in ("07_exercise_forces", "08_exercise_validation", "09_exercise_culling"):
-        # the starter's report is shown (not asserted in the notebook) and fails; the teacher's solution passes
+        # nbgrader source notebooks: the code cell holds the teacher's answer (its solution region), so the
+        # report passes and every points cell prints PASS for its function (the student copies: the
+        # nbgrader workflow test, tests/tools/test_nbgrader_workflow.py)
         results = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "execute_result"]
         reports = [o["data"]["text/plain"] for o in results if "GradeReport" in o["data"].get("text/plain", "")]
-        assert len(reports) == 2 and "failed" in reports[0] and reports[1].endswith("passed>"), reports
+        assert len(reports) == 1 and reports[0].endswith("passed>"), reports
         html = [o["data"]["text/html"] for o in results if "text/html" in o["data"]]
-        assert "worst blade" in html[0] and "all passed" in html[1]
+        assert "all passed" in html[0]
+        points = [c for c in nb.cells if c.get("metadata", {}).get("nbgrader", {}).get("grade")]
+        assert len(points) >= 3 and text.count("PASS  ") == len(points), text[-2000:]
 
 
 def culling_tables(text):

@@ -41,7 +41,7 @@ from ..errors import GrassValueError
 
 __all__ = ["ExerciseFunction", "ExerciseSpec", "SimulationCase", "CullingCase", "EXERCISES", "exercise_spec",
            "step_trace", "function_io", "call_paths", "pass_source", "PASS_FILES", "function_calls", "cull_io", "cull_details", "cull_margin",
-           "near_cull_threshold", "SIM_TOLERANCE"]
+           "near_cull_threshold", "SIM_TOLERANCE", "VARIANTS", "exercise_variant", "reference_examples"]
 
 #: A simulated function passes when every blade's v1 and v2 after one step are within this
 #: many blade heights of the reference (float32 rounding of one step is about 1e-7).
@@ -96,7 +96,8 @@ class ExerciseSpec:
     """An exercise: ``name``, ``title``, ``kind`` ("simulation" or "culling"),
     ``functions`` (ExerciseFunction, in the order the task presents them), ``task``
     (Markdown), ``starter`` and ``solution`` (WGSL), ``cases`` (a callable returning the
-    fixed cases)."""
+    fixed cases) and ``variant`` ("equations": the task gives the paper's equations; "derive":
+    the physics in words, see :func:`exercise_variant`)."""
 
     name: str
     title: str
@@ -106,6 +107,7 @@ class ExerciseSpec:
     starter: str
     solution: str
     make_cases: object = field(repr=False)
+    variant: str = "equations"
 
     @property
     def names(self) -> tuple:
@@ -796,3 +798,227 @@ def exercise_spec(name: str) -> ExerciseSpec:
     if name not in _SPECS:
         raise GrassValueError(f"name must be one of {', '.join(map(repr, EXERCISES))}; got {name!r}")
     return _SPECS[name]
+
+
+# ------------------------------------------------------------------ the "derive it" variant
+#
+# The same functions, cases, solution and grader; the task gives the physics in words and
+# points at the reference's behaviour (its values on the grading cases: reference_examples)
+# instead of the equations. The starters' comments give no formula either.
+
+_DERIVE_INTRO = (
+    "\n**Derive it.** No equations here: the task says what each function must do in words. "
+    "Work out the formula yourself from the words, the paper (Jahrmann & Wimmer, I3D 2017) and the reference's "
+    "behaviour: `ex.examples(name)` lists what the reference function returns for inputs taken from the grading "
+    "cases, and the NumPy twins (`gw.reference.<name>`) can be called on inputs of your own. "
+    "The grader is the same as in the exercise with the equations.\n")
+
+_FORCES_DERIVE_TASK = r"""
+### Exercise "forces", derive it: the three forces on a blade tip (paper section 5.1)
+
+A blade is a quadratic Bézier curve from its root v0 through v1 to the tip guide **v2**; the simulation moves
+v2 (v1 follows from the state validation). Write four WGSL functions that the simulation pass calls once per blade
+and step:
+
+1. **Environmental gravity** (`environmental_gravity`): an acceleration of the given magnitude (m/s²). In
+   direction mode (`gravity_mode` 0) it points along `direction`, however long that vector is; in point mode (1)
+   it points from the blade's root towards `center` (a planet under the field). A root sitting exactly on the
+   centre feels no pull.
+2. **Front gravity** (`front_gravity`): the paper adds a pull along the blade's front direction `f` (a unit
+   vector) so that blades bend forwards, not only down. Its strength is a fraction `factor` of the
+   environmental gravity's strength (the paper uses a quarter).
+3. **Wind** (`wind_force`): `W` is the wind field at the root. A blade that already points along the wind
+   (its root-to-tip direction parallel or anti-parallel to W) offers no face to it and feels no force; one
+   across the wind feels all of it. A blade lying flat on its ground plane is out of the wind; an upright
+   one feels all of it, in proportion to how high its tip stands above the ground plane, measured in blade
+   heights. No wind, no force.
+4. **Recovery and the step** (`integrate_tip`): a spring of stiffness `stiffness` (1/s²) pulls the tip back
+   towards its rest position `iv2` (straight up, one height above the root), proportional to the distance.
+   Advance the tip by one step of `dt` under that spring and the acceleration `accel` (gravity and wind).
+   The plain explicit step overshoots and oscillates for stiff blades (`stiffness * dt` > 1); the reference
+   treats the spring implicitly (at the end of the step) and stays stable. Find which by its values.
+"""
+
+_VALIDATION_DERIVE_TASK = r"""
+### Exercise "validation", derive it: keep every blade a valid blade (paper section 5.2)
+
+After the forces move the tip v2, three corrections keep the blade in shape, in this order:
+
+1. **Above the ground** (`validate_ground`): a tip below the blade's own ground plane (through v0, normal `up`)
+   is put back onto that plane, moving only along `up`; a tip above it is left alone.
+2. **v1 from the lean** (`validate_v1`): the middle control point stands on the blade's axis, straight above
+   the root. The further the tip leans away from the axis (its distance from the axis, compared with the
+   blade's height), the lower v1 sits: upright blades have v1 at full height, leaning ones lower. It never goes
+   all the way down: a small floor (a twentieth of the height, growing once the lean exceeds the height) keeps
+   the curve from folding.
+3. **Length** (`validate_length`, returning `Guides(v1, v2)`): forces stretch or shrink the curve; scale it
+   about the root so its length is the blade's height again. The curve's length is estimated from the chord
+   (root to tip) and the control polygon (root to v1 to tip), as the paper does for a degree-2 curve; the stock
+   helper `curve_length(v0, v1, v2)` gives that estimate. Both guides move by the same factor.
+"""
+
+_CULLING_DERIVE_TASK = r"""
+### Exercise "culling", derive it: three tests that skip blades before drawing (paper section 6)
+
+The culling pass runs every frame, one thread per blade; each function returns `true` to **cull** (skip):
+
+1. **Orientation** (`orientation_cull`): a blade is flat; seen edge-on it covers almost no pixels. Compare the
+   direction from the camera to the root with the blade's width direction `t1` (unit): cull when they are
+   nearly parallel, more so than `threshold` allows (seen from either side).
+2. **View frustum** (`frustum_cull`): a blade is kept when any of three points, the root, a point in the
+   middle of the curve and the tip guide, is inside the view. Inside means inside the clip volume WebGPU
+   uses (`view_proj` maps world to clip space), with a slack of `tol` on the sides only, never in depth.
+3. **Distance** (`distance_cull`): thin the field far away. Measure the distance from the camera to the root
+   along the ground (ignore height above the ground plane). Blades are grouped in `buckets` classes by their
+   `id`; near the camera all classes are drawn, fewer with the distance, none from `d_max` on, and a class
+   is drawn at a distance only if every lower class is.
+"""
+
+_DERIVE_STARTERS = {
+    "forces": """\
+// Exercise "forces", derive it: fill in the four functions (keep their signatures).
+// Vectors in metres, accelerations in m/s^2, stiffness in 1/s^2, dt in s.
+
+// Gravity of the environment. gravity_mode 0: along direction; 1: towards center.
+fn environmental_gravity(v0: vec3<f32>, gravity_mode: i32, direction: vec3<f32>, center: vec3<f32>, magnitude: f32) -> vec3<f32> {
+    // TODO
+    return vec3<f32>(0.0, -magnitude, 0.0);
+}
+
+// The pull along the blade's front direction f.
+fn front_gravity(g_env: vec3<f32>, f: vec3<f32>, factor: f32) -> vec3<f32> {
+    // TODO
+    return vec3<f32>(0.0);
+}
+
+// The wind's force on the blade, W the wind at the root.
+fn wind_force(W: vec3<f32>, v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> vec3<f32> {
+    // TODO
+    return W;
+}
+
+// One step of the tip under the spring back to iv2 and the acceleration accel.
+fn integrate_tip(v2: vec3<f32>, iv2: vec3<f32>, stiffness: f32, accel: vec3<f32>, dt: f32) -> vec3<f32> {
+    // TODO
+    return v2 + dt * accel;
+}
+""",
+    "validation": """\
+// Exercise "validation", derive it: fill in the three functions (keep their signatures).
+// struct Guides { v1: vec3<f32>, v2: vec3<f32> } is declared by the shader.
+
+// Keep v2 on or above the blade's ground plane (through v0, normal up).
+fn validate_ground(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>) -> vec3<f32> {
+    // TODO
+    return v2;
+}
+
+// v1 on the blade's axis, lower the more the tip leans.
+fn validate_v1(v0: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32) -> vec3<f32> {
+    // TODO
+    return v0 + up * height;
+}
+
+// Scale the curve about the root to the blade's height.
+fn validate_length(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, height: f32) -> Guides {
+    // TODO
+    return Guides(v1, v2);
+}
+""",
+    "culling": """\
+// Exercise "culling", derive it: fill in the three tests (keep their signatures). Return true to CULL the blade.
+
+// Seen edge-on.
+fn orientation_cull(v0: vec3<f32>, t1: vec3<f32>, cam_pos: vec3<f32>, threshold: f32) -> bool {
+    // TODO
+    return false;
+}
+
+// Root, middle of the curve and tip guide all outside the view.
+fn frustum_cull(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, view_proj: mat4x4<f32>, tol: f32) -> bool {
+    // TODO
+    return false;
+}
+
+// Thin the field with the distance along the ground.
+fn distance_cull(v0: vec3<f32>, up: vec3<f32>, cam_pos: vec3<f32>, id: u32, buckets: u32, d_max: f32) -> bool {
+    // TODO
+    return false;
+}
+""",
+}
+
+#: What each function does, in words (the derive variant's "computes" column: no equation).
+_DERIVE_WORDS = {
+    "environmental_gravity": "along `direction`, or towards `center` in point mode; strength `magnitude`",
+    "front_gravity": "along the front `f`, a fraction `factor` of gE's strength",
+    "wind_force": "none along the blade or lying flat, all of it across an upright blade",
+    "integrate_tip": "one stable step under a spring back to `iv2` and `accel`",
+    "validate_ground": "tip back onto the ground plane, along `up` only",
+    "validate_v1": "v1 on the axis, lower the more the tip leans, never below a floor",
+    "validate_length": "curve scaled about the root to length `height`",
+    "orientation_cull": "true when seen nearly edge-on",
+    "frustum_cull": "true when root, middle and tip are all outside clip space",
+    "distance_cull": "true for the classes beyond what the ground distance keeps",
+}
+
+_DERIVE_TASKS = {"forces": _FORCES_DERIVE_TASK, "validation": _VALIDATION_DERIVE_TASK,
+                 "culling": _CULLING_DERIVE_TASK}
+
+
+def _derive_spec(spec: ExerciseSpec) -> ExerciseSpec:
+    functions = tuple(ExerciseFunction(f.name, f.label, _DERIVE_WORDS[f.name], f.units) for f in spec.functions)
+    task = _DERIVE_TASKS[spec.name] + _DERIVE_INTRO + ("\n" + _UNITS if spec.kind == "simulation" else "")
+    return ExerciseSpec(spec.name, spec.title + " (derive it)", spec.kind, functions, task,
+                        _DERIVE_STARTERS[spec.name], spec.solution, spec.make_cases, variant="derive")
+
+
+_DERIVED = {name: _derive_spec(spec) for name, spec in _SPECS.items()}
+
+#: The variants of every exercise: "equations" (the task gives the paper's equations; the default)
+#: and "derive" (the physics in words and the reference's behaviour; the formulas are the student's).
+VARIANTS = ("equations", "derive")
+
+
+def exercise_variant(name: str, variant: str = "equations") -> ExerciseSpec:
+    """The definition of exercise ``name`` (one of :data:`EXERCISES`) in ``variant`` (one of
+    :data:`VARIANTS`; default "equations")."""
+    spec = exercise_spec(name)
+    if not isinstance(variant, str) or variant not in VARIANTS:
+        raise GrassValueError(f"variant must be one of {', '.join(map(repr, VARIANTS))}; got {variant!r}")
+    return _DERIVED[spec.name] if variant == "derive" else spec
+
+
+def _example_camera(case):
+    from .camera_rules import view_proj
+
+    aspect = case.size[0] / case.size[1]
+    return view_proj(case.position, case.target, case.fov_deg, 0.1, 1000.0, aspect), np.asarray(case.position, float)
+
+
+def reference_examples(spec: ExerciseSpec, name: str, count: int = 6) -> list:
+    """What the reference function ``name`` returns for inputs of the grading cases: a list of
+    ``count`` (1 to 64, default 6) dicts ``case``, ``blade``, ``inputs`` (the function's
+    arguments by name) and ``reference`` (its NumPy twin's value), spread over the cases and
+    blades (the same every call). Culling cameras use a near plane of 0.1 m and a far plane
+    of 1000 m."""
+    from .params import GrassParams
+
+    spec.function(name)  # a clear error for a name not in this exercise
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or not 1 <= count <= 64:
+        raise GrassValueError(f"count must be a whole number from 1 to 64; got {count!r}")
+    cases = spec.cases()
+    rng = np.random.default_rng(7)
+    rows = []
+    for i in range(int(count)):
+        case = cases[i % len(cases)]
+        params = GrassParams(**case.params)
+        k = int(rng.integers(len(case.state["v0"])))
+        if spec.kind == "simulation":
+            trace = step_trace(case.state, params, case.step_index * params.dt, case.spheres)
+            inputs, value = function_io(name, trace, params, k)
+        else:
+            vp, cam_pos = _example_camera(case)
+            inputs, value = cull_io(name, case.state, params, vp, cam_pos, k)
+        rows.append(dict(case=case.name, blade=k, inputs=inputs, reference=value))
+    return rows

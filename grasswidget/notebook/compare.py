@@ -74,7 +74,7 @@ from ..core.params import ChoiceTrait, GrassParams, RangedFloat
 from ..core.variants import apply_changes, check_variants
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 
-__all__ = ["compare", "Comparison", "DEFAULT_VIEW_SIZE"]
+__all__ = ["compare", "Comparison", "SideBySide", "DEFAULT_VIEW_SIZE"]
 
 #: Size (w, h) of each view of a comparison by default, CSS pixels.
 DEFAULT_VIEW_SIZE = (400, 300)
@@ -143,6 +143,7 @@ class Comparison(ipw.VBox):
     views: dict = {}
     panel = None
     camera_bar = None
+    _marimo = None  # (columns, panel mirror): what marimo shows, made on first display there
 
     def __init__(self, variants, blades=4096, preset=None, backend="kernel", size=DEFAULT_VIEW_SIZE, params=None,
                  **widget_options):
@@ -551,7 +552,41 @@ class Comparison(ipw.VBox):
         for bar in [self.camera_bar]:
             if bar is not None:  # its Play button is off the page while the panel is unfolded
                 found += [bar.row, bar.play_button, bar.floor_checkbox, bar.more_button, *bar.preset_buttons.values()]
+        if self._marimo is not None:
+            columns, panel = self._marimo
+            found += [panel, *(mirror for head, _stage, status in columns for mirror in (head, status))]
         return tuple(found)
+
+    # ------------------------------------------------------------------ marimo
+
+    def _display_(self):
+        """What marimo shows (only marimo asks for ``_display_``; Jupyter draws the ipywidgets):
+        the views' stages and the shared panel as anywidgets (see
+        :func:`~grasswidget.notebook.marimo_face.marimo_compare_display`)."""
+        from .marimo_face import marimo_compare_display
+
+        if self._closed:
+            return repr(self)
+        return marimo_compare_display(self)
+
+    def marimo_parts(self) -> tuple:
+        """What marimo shows: ``(columns, panel)``; ``columns`` a list of (label and status,
+        stage, status and message lines) per view (the label line and the view's status and
+        message lines as :class:`~grasswidget.notebook.control_mirror.ControlMirror`, the
+        stage the view's :meth:`GrassWidget.marimo_stage`), ``panel`` the shared camera bar and
+        rows as one ControlMirror. Made on first use (needs marimo), then the same ones."""
+        from .control_mirror import ControlMirror
+
+        self._check_open()
+        if self._marimo is None:
+            columns = []
+            for label, w in self.views.items():
+                head = ControlMirror(ipw.VBox([self.labels[label]]), on_error=self._show_error)
+                status = ControlMirror(ipw.VBox([w.panel.rows[0], w.message_line]), on_error=self._show_error)
+                columns.append((head, w.marimo_stage(), status))
+            panel = ControlMirror(ipw.VBox([self.camera_bar.row, self._more]), on_error=self._show_error)
+            self._marimo = (columns, panel)
+        return self._marimo
 
     # ------------------------------------------------------------------ closing
 
@@ -566,6 +601,12 @@ class Comparison(ipw.VBox):
             self.params.unobserve(self._on_shared_param, names=All)
         except ValueError:
             pass
+        if self._marimo is not None:
+            columns, panel = self._marimo
+            for head, _stage, status in columns:  # the stages are the views' own: closed with them
+                head.close()
+                status.close()
+            panel.close()
         if self.panel is not None:
             self.panel.close()
         for w in self.views.values():
@@ -589,3 +630,24 @@ class Comparison(ipw.VBox):
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
         return f"<Comparison {', '.join(self.views)}: {self.blade_count} blades, {state}>"
+
+
+class SideBySide(ipw.HBox):
+    """GrassWidgets in a row, each under its title (``ex.compare(code, backend="browser")``):
+    ``views`` is {title: GrassWidget}. An ipywidgets HBox in Jupyter; in marimo each widget as
+    marimo shows it alone, under its title. :meth:`close` closes the widgets."""
+
+    def __init__(self, views: dict):
+        self.views = dict(views)
+        super().__init__([ipw.VBox([ipw.HTML(f"<b>{html.escape(title)}</b>"), w]) for title, w in self.views.items()])
+
+    def _display_(self):
+        """What marimo shows (only marimo asks): the widgets side by side, each with its panel."""
+        from .marimo_face import marimo_row_display
+
+        return marimo_row_display(list(self.views.items()))
+
+    def close(self):
+        for w in self.views.values():
+            w.close()
+        super().close()

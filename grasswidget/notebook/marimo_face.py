@@ -1,4 +1,4 @@
-"""A GrassWidget shown in marimo.
+"""A GrassWidget (and a comparison of them) shown in marimo.
 
 marimo draws anywidgets but no ipywidgets containers and no ``ipywidgets.Output``
 (it shows "Jupyter widgets are not supported in marimo" for a GrassWidget, an
@@ -36,7 +36,8 @@ from traitlets import Unicode
 from ..compat import marimo_anywidget_element
 from .layout import PANEL_WIDTH
 
-__all__ = ["marimo_display", "MarimoStage", "running_in_marimo", "esm_for_front_end", "class_for_front_end"]
+__all__ = ["marimo_display", "marimo_compare_display", "marimo_row_display", "MarimoStage", "running_in_marimo",
+           "esm_for_front_end", "class_for_front_end"]
 
 HERE = Path(__file__).resolve().parent
 
@@ -151,3 +152,38 @@ def marimo_display(widget):
         f"<div class='grasswidget-stage-column' style='flex:none;max-width:100%'>{stage_element.text}</div>"
         f"<div class='grasswidget-panel-column' style='flex:0 1 {PANEL_WIDTH}px;min-width:0'>{panel_element.text}</div>"
         f"</div>")
+
+
+def marimo_compare_display(comparison):
+    """What marimo shows for ``comparison`` (a :class:`~grasswidget.notebook.compare.Comparison`):
+    a column per view (its label line, its stage and its status and message lines) in a row that
+    wraps, then the one shared panel (camera bar and rows), as in Jupyter. The anywidgets are made
+    once per comparison (``comparison.marimo_parts()``)."""
+    import marimo as mo
+
+    columns, panel = comparison.marimo_parts()
+    width = comparison.size[0]
+    cells = "".join(
+        f"<div class='grasswidget-compare-column' style='flex:none;width:{width}px;max-width:100%'>"
+        f"{mo.ui.anywidget(head).text}{mo.ui.anywidget(stage).text}{mo.ui.anywidget(status).text}</div>"
+        for head, stage, status in columns)
+    return mo.Html(
+        "<div class='grasswidget grasswidget-compare grasswidget-marimo' style='max-width:100%'>"
+        f"<div class='grasswidget-compare-views' style='display:flex;flex-flow:row wrap;gap:6px 10px;"
+        f"align-items:flex-start'>{cells}</div>"
+        f"<div class='grasswidget-panel-column' style='max-width:{max(2 * width + 10, PANEL_WIDTH)}px'>"
+        f"{mo.ui.anywidget(panel).text}</div></div>")
+
+
+def marimo_row_display(titled_widgets):
+    """What marimo shows for GrassWidgets side by side (``ex.compare(code, backend="browser")``):
+    ``titled_widgets`` is a list of (title, GrassWidget); each widget as marimo shows it alone
+    (:func:`marimo_display`), under its title, in a row that wraps."""
+    import html
+
+    import marimo as mo
+
+    cells = "".join(f"<div style='flex:none;max-width:100%'><b>{html.escape(title)}</b>{marimo_display(w).text}</div>"
+                    for title, w in titled_widgets)
+    return mo.Html(f"<div class='grasswidget-row grasswidget-marimo' style='display:flex;flex-flow:row wrap;"
+                   f"gap:8px 16px;align-items:flex-start;max-width:100%'>{cells}</div>")

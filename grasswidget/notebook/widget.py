@@ -746,12 +746,18 @@ class GrassWidget(ipw.VBox):
         """What marimo shows: the stage (view and chart, following an engine switch; a
         :class:`~grasswidget.notebook.marimo_face.MarimoStage`) and :meth:`control_mirror`.
         Made on first use (needs marimo), then the same ones."""
+        return self.marimo_stage(), self.control_mirror()
+
+    def marimo_stage(self):
+        """The stage alone (view and chart) as marimo shows it, without the panel: a
+        :class:`~grasswidget.notebook.marimo_face.MarimoStage`, made on first use (needs
+        marimo), then the same one (a comparison shows its views' stages with one shared panel)."""
         from .marimo_face import MarimoStage
 
         self._check_open()
         if self._marimo_stage is None:
             self._marimo_stage = MarimoStage(self._stage)
-        return self._marimo_stage, self.control_mirror()
+        return self._marimo_stage
 
     def parts(self) -> tuple:
         """The objects this widget is made of and owns: its view, the view's widget,
