@@ -385,10 +385,14 @@ class GrassScene:
     def release(self):
         """Free the field's GPU memory now and drop the renderer and canvas; the
         scene cannot be drawn or stepped afterwards."""
-        try:  # the params may outlive the scene (a widget's next scene shares them)
-            self.params.unobserve(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
-        except ValueError:  # released before
-            pass
+        # The params may outlive the scene (a widget's next scene shares them): an observer
+        # left behind would keep this scene, its field and their GPU buffers alive.
+        for handler, names in ((self._write_sky_ground, list(SKY_GROUND_TRAITS)),
+                               (self._aim_sun, ["sun_elevation", "sun_azimuth"])):
+            try:
+                self.params.unobserve(handler, names=names)
+            except ValueError:  # released before
+                pass
         self.field.release()
         try:
             self.scene.remove(self.field)
