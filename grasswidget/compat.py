@@ -104,6 +104,10 @@ PRIVATE_USES = (
     ("wgpu", "backends.wgpu_native.extras.write_timestamp", "GPU timestamps inside pygfx's render pass"),
     ("rendercanvas", "jupyter.RenderCanvas._rc_present_bitmap",
      "the Jupyter canvas's hook that receives each rendered frame; timed (readback ms on the stats line)"),
+    ("rendercanvas", "jupyter.RenderCanvas._rc_close",
+     "the Jupyter canvas's close hook; extended to close what jupyter-rfb leaves open (its Layout, its output widget)"),
+    ("jupyter_rfb", "RemoteFrameBuffer._output_context",
+     "the Output widget jupyter-rfb makes per canvas for callback errors and never closes (closed with the canvas)"),
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
@@ -485,13 +489,15 @@ def kernel_requeue_shell(kernel, frames):
 def timed_jupyter_canvas_class():
     """A subclass of rendercanvas's Jupyter ``RenderCanvas`` that calls
     ``self.on_present(perf_counter_seconds)`` (when set) as each rendered frame's
-    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook)."""
+    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook),
+    and that, closed, also closes its Layout and jupyter-rfb's output widget (``_rc_close``)."""
     import time
 
     from rendercanvas.jupyter import RenderCanvas
 
-    if not callable(getattr(RenderCanvas, "_rc_present_bitmap", None)):
-        raise UpstreamChangedError("rendercanvas internals changed: jupyter.RenderCanvas._rc_present_bitmap not found")
+    for hook in ("_rc_present_bitmap", "_rc_close"):
+        if not callable(getattr(RenderCanvas, hook, None)):
+            raise UpstreamChangedError(f"rendercanvas internals changed: jupyter.RenderCanvas.{hook} not found")
 
     class TimedJupyterCanvas(RenderCanvas):
         #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
@@ -503,6 +509,17 @@ def timed_jupyter_canvas_class():
             if self.on_present is not None:
                 self.on_present(time.perf_counter())
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+        def _rc_close(self):
+            # jupyter-rfb 1.0.2 closes the canvas widget alone: its Layout and the Output widget it
+            # made for callback errors (with that one's Layout) stayed in ipywidgets' registry, three
+            # widgets and their comms for every canvas ever closed.
+            output = getattr(self, "_output_context", None)
+            parts = [self.layout, output, getattr(output, "layout", None)]
+            super()._rc_close()
+            for part in parts:
+                if part is not None:
+                    part.close()
 
     return TimedJupyterCanvas
 
