@@ -35,6 +35,7 @@ __all__ = [
     "compute_pipeline_container_class",
     "set_compute_pipeline_container_class",
     "renderer_depth_texture",
+    "keep_renderstates",
     "still_directional_light_class",
     "begin_target_render_pass",
     "render_target_formats",
@@ -70,6 +71,9 @@ PRIVATE_USES = (
      "drop a destroyed buffer's pending upload so no later render writes to it"),
     ("pygfx", "renderers.wgpu.engine.shared.Shared.get_instance",
      "whether pygfx has created its device yet (the adapter choice must come first)"),
+    ("pygfx", "renderers.wgpu.engine.renderstate._renderstate_instance_cache",
+     "the render states (lights, blender) pygfx keeps only while a renderer uses them: kept for good, so that a new "
+     "scene's renderer reuses every cached pipeline instead of compiling them all again (keep_renderstates)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
     ("pygfx", "renderers.wgpu.engine.pipeline.ComputePipelineContainer",
@@ -239,6 +243,34 @@ def ddaa_fragment_wgsl(effect_pass) -> str:
                                    f"{DDAA_FRAGMENT_HEAD!r} reading varyings.texCoord")
     return code
 
+
+
+#: Render states made by pygfx, kept alive here: {their hash: the state}. A handful at most (one
+#: per combination of light counts and blender set-up).
+_KEPT_RENDERSTATES: dict = {}
+
+
+def keep_renderstates() -> int:
+    """Keep every render state pygfx has made so far alive for the rest of the process;
+    returns how many are kept.
+
+    pygfx 0.17 holds a render state (the lights' and the blender's bindings, one bind group
+    layout) in a weak dictionary, so it dies with the last renderer that used it. The next
+    renderer makes a new one whose bind group layout is a new object, and every pipeline
+    cache key of pygfx (``renderers.wgpu.engine.pipeline``: pipeline layouts, pipelines)
+    names that object: each new GrassScene, each export's offscreen renderer, each blade
+    count of a widget compiled all its ~11 render pipelines again (0.1-0.4 s on lavapipe)
+    and left the old ones in pygfx's LRU caches (128 entries each), several MiB a scene.
+    Kept, the states are found again by their hash and the cached pipelines are reused.
+    """
+    from pygfx.renderers.wgpu.engine import renderstate
+
+    cache = getattr(renderstate, "_renderstate_instance_cache", None)
+    if cache is None or not hasattr(cache, "items"):
+        raise UpstreamChangedError("pygfx internals changed: renderstate._renderstate_instance_cache not found")
+    for key, state in list(cache.items()):
+        _KEPT_RENDERSTATES.setdefault(key, state)
+    return len(_KEPT_RENDERSTATES)
 
 
 def render_pipeline_container_class():

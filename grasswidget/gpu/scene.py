@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import os
 import time
+import weakref
 
 import numpy as np
 import pygfx as gfx
@@ -42,6 +43,10 @@ CIS565_DISTANCE_MAX = preset_params("cis565")["cull_distance_max"]
 #: of the hardware-only one (2 px: 0.09; 6 px: 1.12 and visibly grainier far grass for few
 #: more frames).
 GPU_COMPUTE_RASTER_MAX_PX = 4.0
+
+
+#: Renderers that have drawn a frame (see compat.keep_renderstates).
+_RENDERERS_DRAWN: "weakref.WeakSet" = weakref.WeakSet()
 
 
 def adapter_params(**values) -> GrassParams:
@@ -348,6 +353,9 @@ class GrassScene:
         (:func:`grasswidget.gpu.frame.render_frame`). Never advances time."""
         self.collider_balls.sync()
         render_frame(renderer, self.scene, self.camera, late=[self.collider_balls])
+        if renderer not in _RENDERERS_DRAWN:  # its first frame made its render state: keep it for the next renderers
+            _RENDERERS_DRAWN.add(renderer)
+            compat.keep_renderstates()
 
     def render(self) -> np.ndarray:
         """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""
