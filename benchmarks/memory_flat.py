@@ -68,7 +68,11 @@ def measure(name: str, calls: int, warmup: int, draw_every: int) -> dict:
                 state["w"].view.draw()
 
         def done():
-            state["w"].close()
+            w = state["w"]
+            w.view.draw()
+            result = {"blade_count": w.blade_count, "visible": w.view.scene.visible_count()}
+            w.close()
+            return result
     elif name == "scene_set_blades":
         state["s"] = gw.GrassScene(COUNTS[-1], size=SIZE)
 
@@ -80,7 +84,11 @@ def measure(name: str, calls: int, warmup: int, draw_every: int) -> dict:
                 state["s"].render()
 
         def done():
-            state["s"].release()
+            s = state["s"]
+            s.render()
+            result = {"blade_count": s.field.count, "visible": s.visible_count()}
+            s.release()
+            return result
     elif name == "widget_create_close":
         def call(i):
             w = _widget(gw, 1024)
@@ -89,7 +97,9 @@ def measure(name: str, calls: int, warmup: int, draw_every: int) -> dict:
             w.close()
 
         def done():
-            pass
+            from grasswidget import compat
+
+            return {"open_ipywidgets": len(compat.widget_registry())}
     else:
         raise ValueError(f"loop must be one of {', '.join(LOOPS)}; got {name!r}")
     t0 = time.perf_counter()
@@ -104,14 +114,14 @@ def measure(name: str, calls: int, warmup: int, draw_every: int) -> dict:
     gc.collect()
     after = resident_mb()
     seconds = time.perf_counter() - t0
-    done()
+    last = done()
     if before is None:
         raise ValueError(f"calls ({calls}) must exceed warmup ({warmup})")
     measured = calls - warmup
     return {"loop": name, "calls": calls, "warmup": warmup, "draw_every": draw_every,
             "rss_after_warmup_mb": round(before, 1), "rss_end_mb": round(after, 1),
             "growth_mb": round(after - before, 2), "mib_per_call": round((after - before) / measured, 4),
-            "seconds": round(seconds, 1)}
+            "seconds": round(seconds, 1), **last}
 
 
 def main(argv=None):
