@@ -147,7 +147,8 @@ def main(argv=None):
         calls = args.widgets if name == "widget_create_close" else args.calls
         results.append(measure(name, calls, args.warmup, args.draw_every))
         print(json.dumps(results[-1]), flush=True)
-    summary = {"python": sys.version.split()[0], "loops": results}
+    summary = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": f"{os.cpu_count()} cores",
+               "python": sys.version.split()[0], "loops": results}
     try:
         from grasswidget.gpu.adapter import ensure_device
 
