@@ -27,6 +27,7 @@ from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, defa
 from ..core.frame_data import SKY_GROUND_TRAITS, ground_square, sky_ground_values, sun_direction
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
+from ..core.observers import WeakObserver
 from ..core.params import GrassParams, sunlight_defaults
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
@@ -138,7 +139,8 @@ class GrassScene:
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
         self.ground = GroundSwitch(self.sky_ground.material)
         self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
-        self.params.observe(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
+        # Weakly: the params may be shared and outlive this scene (core.observers).
+        self._observers = [WeakObserver(self.params, self._write_sky_ground, names=list(SKY_GROUND_TRAITS))]
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         # Colliders live in the field's local space: the balls follow the field's transform
@@ -153,7 +155,7 @@ class GrassScene:
         self.scene.add(sun)
         self.light = sun
         self._aim_sun()  # the params' sun (core.frame_data.sun_direction), both engines
-        self.params.observe(self._aim_sun, names=["sun_elevation", "sun_azimuth"])
+        self._observers.append(WeakObserver(self.params, self._aim_sun, names=["sun_elevation", "sun_azimuth"]))
 
         self.camera = gfx.PerspectiveCamera(DEFAULT_FOV_DEG, self.size[0] / self.size[1],
                                             depth_range=(DEFAULT_NEAR, DEFAULT_FAR))
@@ -393,14 +395,9 @@ class GrassScene:
     def release(self):
         """Free the field's GPU memory now and drop the renderer and canvas; the
         scene cannot be drawn or stepped afterwards."""
-        # The params may outlive the scene (a widget's next scene shares them): an observer
-        # left behind would keep this scene, its field and their GPU buffers alive.
-        for handler, names in ((self._write_sky_ground, list(SKY_GROUND_TRAITS)),
-                               (self._aim_sun, ["sun_elevation", "sun_azimuth"])):
-            try:
-                self.params.unobserve(handler, names=names)
-            except ValueError:  # released before
-                pass
+        # The params may outlive the scene (a widget's next scene shares them): stop following them now.
+        for observer in self._observers:
+            observer.stop()
         self.field.release()
         try:
             self.scene.remove(self.field)

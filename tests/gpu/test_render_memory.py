@@ -215,3 +215,32 @@ def test_a_released_scene_is_freed_and_the_next_reuses_its_render_pipelines(monk
         assert params.sun_elevation == 30.0
     finally:
         second.release()
+
+
+def test_scenes_sharing_params_are_freed_without_release():
+    """Scenes that share one GrassParams (a user's, passed to each) and are dropped without
+    release() are freed when nobody holds them: the params follow them weakly (core.observers),
+    so a cell re-run that makes a new scene on the same params does not keep every old one."""
+    import gc
+    import weakref
+
+    from grasswidget.gpu.scene import adapter_params
+
+    params = adapter_params()
+    fields = []
+    for count in (1024, 2048):
+        scene = gw.GrassScene(count, size=(64, 48), params=params)
+        scene.step(1)
+        scene.render()
+        fields.append(weakref.ref(scene.field))
+    live = scene
+    del scene
+    gc.collect()
+    assert fields[0]() is None, "a dropped scene is still alive"
+    assert fields[1]() is live.field  # the one still held lives and follows the params
+    params.sun_elevation = 20.0
+    params.wind_strength = 1.0
+    live.step(1)
+    live.render()
+    assert live.visible_count() > 0 and np.isfinite(live.field.read_state()["v2"]).all()
+    live.release()
