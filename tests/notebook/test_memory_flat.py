@@ -11,9 +11,9 @@ Three leaks, each found and fixed at its cause (docs/design.md, "Memory"):
   ipywidgets' registry for every GrassWidget closed (0.36 MiB a widget).
 
 The soak test runs ``benchmarks/memory_flat.py`` (one process per loop, so one loop's freed
-memory cannot hide another's growth) with fewer calls than the benchmark's 1,000 / 500, enough
-that each leak grew the process by 80-450 MB on the code of before, and bounds the growth after
-the first 50 calls at 20 MB.
+memory cannot hide another's growth) with fewer calls than the benchmark's 1,000 / 500 (120, 120
+and 90: 17 s on a quiet machine, about 60 s at load 8; the full counts take 78 s quiet), enough that
+the code of before grew by 239, 132 and 89 MB, and bounds the growth after the first 50 calls at 20 MB.
 """
 
 from __future__ import annotations
