@@ -47,7 +47,7 @@ GPU_COMPUTE_RASTER_MAX_PX = 4.0
 
 
 #: Renderers that have drawn a frame (see compat.keep_renderstates).
-_RENDERERS_DRAWN: "weakref.WeakSet" = weakref.WeakSet()
+_RENDERERS_DRAWN: weakref.WeakSet = weakref.WeakSet()
 
 
 def adapter_params(**values) -> GrassParams:

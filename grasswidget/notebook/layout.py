@@ -25,7 +25,7 @@ import ipywidgets as ipw
 
 from ..errors import GrassValueError
 
-__all__ = ["LAYOUTS", "LAYOUT_VIEW_SIZES", "PANEL_WIDTH", "check_layout", "close_widgets", "WidgetLayout"]
+__all__ = ["LAYOUTS", "LAYOUT_VIEW_SIZES", "PANEL_WIDTH", "WidgetLayout", "check_layout", "close_widgets"]
 
 #: The layouts a GrassWidget offers.
 LAYOUTS = ("default", "lecture")
