@@ -35,6 +35,7 @@ __all__ = [
     "compute_pipeline_container_class",
     "set_compute_pipeline_container_class",
     "renderer_depth_texture",
+    "keep_renderstates",
     "still_directional_light_class",
     "begin_target_render_pass",
     "render_target_formats",
@@ -72,6 +73,9 @@ PRIVATE_USES = (
      "drop a destroyed buffer's pending upload so no later render writes to it"),
     ("pygfx", "renderers.wgpu.engine.shared.Shared.get_instance",
      "whether pygfx has created its device yet (the adapter choice must come first)"),
+    ("pygfx", "renderers.wgpu.engine.renderstate._renderstate_instance_cache",
+     "the render states (lights, blender) pygfx keeps only while a renderer uses them: kept for good, so that a new "
+     "scene's renderer reuses every cached pipeline instead of compiling them all again (keep_renderstates)"),
     ("pygfx", "renderers.wgpu.engine.pipeline.RenderPipelineContainer",
      "the class pygfx instantiates per render shader; replaced to issue draw_indirect"),
     ("pygfx", "renderers.wgpu.engine.pipeline.ComputePipelineContainer",
@@ -106,6 +110,10 @@ PRIVATE_USES = (
     ("wgpu", "backends.wgpu_native.extras.write_timestamp", "GPU timestamps inside pygfx's render pass"),
     ("rendercanvas", "jupyter.RenderCanvas._rc_present_bitmap",
      "the Jupyter canvas's hook that receives each rendered frame; timed (readback ms on the stats line)"),
+    ("rendercanvas", "jupyter.RenderCanvas._rc_close",
+     "the Jupyter canvas's close hook; extended to close what jupyter-rfb leaves open (its Layout, its output widget)"),
+    ("jupyter_rfb", "RemoteFrameBuffer._output_context",
+     "the Output widget jupyter-rfb makes per canvas for callback errors and never closes (closed with the canvas)"),
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
@@ -240,6 +248,35 @@ def ddaa_fragment_wgsl(effect_pass) -> str:
                                    f"{DDAA_FRAGMENT_HEAD!r} reading varyings.texCoord")
     return code
 
+
+
+#: Render states made by pygfx, kept alive here: {their hash: the state}. A handful at most (one
+#: per combination of light counts and blender set-up).
+_KEPT_RENDERSTATES: dict = {}
+
+
+def keep_renderstates() -> int:
+    """Keep every render state pygfx has made so far alive for the rest of the process;
+    returns how many are kept.
+
+    pygfx 0.17 holds a render state (the lights' and the blender's bindings, one bind group
+    layout) in a weak dictionary, so it dies with the last renderer that used it. The next
+    renderer makes a new one whose bind group layout is a new object, and every pipeline
+    cache key of pygfx (``renderers.wgpu.engine.pipeline``: pipeline layouts, pipelines)
+    names that object: a new GrassScene made after the last one was released (or a new
+    widget after the last was closed) compiled all its ~11 render pipelines again (0.1-0.4 s
+    on lavapipe) and left the old ones in pygfx's LRU caches (128 entries each): 2.6 MiB a
+    scene drawn once on lavapipe.
+    Kept, the states are found again by their hash and the cached pipelines are reused.
+    """
+    from pygfx.renderers.wgpu.engine import renderstate
+
+    cache = getattr(renderstate, "_renderstate_instance_cache", None)
+    if cache is None or not hasattr(cache, "items"):
+        raise UpstreamChangedError("pygfx internals changed: renderstate._renderstate_instance_cache not found")
+    for key, state in list(cache.items()):
+        _KEPT_RENDERSTATES.setdefault(key, state)
+    return len(_KEPT_RENDERSTATES)
 
 
 def render_pipeline_container_class():
@@ -490,13 +527,15 @@ def kernel_requeue_shell(kernel, frames):
 def timed_jupyter_canvas_class():
     """A subclass of rendercanvas's Jupyter ``RenderCanvas`` that calls
     ``self.on_present(perf_counter_seconds)`` (when set) as each rendered frame's
-    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook)."""
+    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook),
+    and that, closed, also closes its Layout and jupyter-rfb's output widget (``_rc_close``)."""
     import time
 
     from rendercanvas.jupyter import RenderCanvas
 
-    if not callable(getattr(RenderCanvas, "_rc_present_bitmap", None)):
-        raise UpstreamChangedError("rendercanvas internals changed: jupyter.RenderCanvas._rc_present_bitmap not found")
+    for hook in ("_rc_present_bitmap", "_rc_close"):
+        if not callable(getattr(RenderCanvas, hook, None)):
+            raise UpstreamChangedError(f"rendercanvas internals changed: jupyter.RenderCanvas.{hook} not found")
 
     class TimedJupyterCanvas(RenderCanvas):
         #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
@@ -508,6 +547,17 @@ def timed_jupyter_canvas_class():
             if self.on_present is not None:
                 self.on_present(time.perf_counter())
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+        def _rc_close(self):
+            # jupyter-rfb 1.0.2 closes the canvas widget alone: its Layout and the Output widget it
+            # made for callback errors (with that one's Layout) stayed in ipywidgets' registry, three
+            # widgets and their comms for every canvas ever closed.
+            output = getattr(self, "_output_context", None)
+            parts = [self.layout, output, getattr(output, "layout", None)]
+            super()._rc_close()
+            for part in parts:
+                if part is not None:
+                    part.close()
 
     return TimedJupyterCanvas
 

@@ -254,6 +254,58 @@ def test_rendercanvas_present_hook_times_each_frame():
     canvas.close()
 
 
+def test_closed_jupyter_canvas_leaves_no_widget_open():
+    """jupyter-rfb 1.0.2 closes the canvas widget alone; the timed canvas's _rc_close also closes
+    its Layout and the output widget jupyter-rfb made for it (RemoteFrameBuffer._output_context)."""
+    cls = compat.timed_jupyter_canvas_class()
+    registry = compat.widget_registry()
+    before = set(registry)
+    canvas = cls(size=(8, 6))
+    output = canvas._output_context
+    made = set(registry) - before
+    assert {canvas.model_id, canvas.layout.model_id, output.model_id, output.layout.model_id} <= made
+    canvas.close()
+    assert set(registry) - before == set()
+    assert canvas.get_closed()
+
+
+def test_pygfx_render_states_outlive_their_renderer():
+    """pygfx 0.17 keeps a render state (renderstate._renderstate_instance_cache, a weak dict)
+    only while a renderer uses it; keep_renderstates keeps them, so the next renderer finds the
+    same state, and with it every cached pipeline. (Two point lights and a spot light: a state
+    no GrassScene makes, so no other test has kept it.)"""
+    import gc
+    import weakref
+
+    import pygfx as gfx
+    from pygfx.renderers.wgpu.engine import renderstate
+    from rendercanvas.offscreen import RenderCanvas
+
+    def draw_once(keep):
+        canvas = RenderCanvas(size=(16, 12), pixel_ratio=1)
+        renderer = gfx.WgpuRenderer(canvas)
+        scene = gfx.Scene()
+        scene.add(gfx.PointLight(), gfx.PointLight(), gfx.SpotLight(),
+                  gfx.Mesh(gfx.box_geometry(), gfx.MeshPhongMaterial()))
+        camera = gfx.PerspectiveCamera(50)
+        camera.show_object(scene)
+        canvas.request_draw(lambda: renderer.render(scene, camera))
+        canvas.draw()
+        states = {key: weakref.ref(state) for key, state in renderstate._renderstate_instance_cache.items()
+                  if key and isinstance(key[0], tuple) and key[0][0] == 2}  # the combined state of 2 point lights
+        if keep:
+            assert compat.keep_renderstates() >= len(states)
+        canvas.close()
+        return states
+
+    states = draw_once(keep=True)
+    assert len(states) == 1
+    gc.collect()
+    again = draw_once(keep=False)
+    for key, state in states.items():  # the same object, not a new one of the same hash
+        assert state() is not None and again[key]() is state()
+
+
 def test_ipywidgets_registry_holds_open_widgets():
     """cell_rerun does not count ipywidgets' registry of open widgets as a holder
     (ipywidgets 8.1: widgets.widget._instances, model id -> widget)."""

@@ -599,7 +599,9 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             self.params.unobserve(self._on_params)
         except ValueError:
             pass
+        own_layout = self.layout  # a widget of its own, which ipywidgets' close leaves open
         super().close()
+        own_layout.close()
 
 
 def default_camera(blades: Blades, aspect: float) -> dict:

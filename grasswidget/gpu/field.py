@@ -21,6 +21,7 @@ from ..core.colliders import ColliderList
 from ..core.limits import NonFiniteStateWarning, check_steps, nonfinite_cause, nonfinite_message
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError, refuse_when_closed
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
+from ..core.observers import WeakObserver
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
 from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
@@ -217,7 +218,8 @@ class GrassField(gfx.WorldObject):
         #: Occlusion culling's pyramid, second phase and draws (see :mod:`grasswidget.gpu.occlusion`).
         self.occlusion = OcclusionCulling(self)
         self._write_cull_uniform()
-        self.params.observe(self._on_params_change)
+        # Weakly: shared params must not keep a field nobody holds (core.observers).
+        self._params_observer = WeakObserver(self.params, self._on_params_change)
 
     # ------------------------------------------------------------------ properties
 
@@ -666,10 +668,7 @@ class GrassField(gfx.WorldObject):
         if self._released:
             return
         self._released = True
-        try:  # the field observes its params: that reference would keep it alive
-            self.params.unobserve(self._on_params_change)
-        except ValueError:
-            pass
+        self._params_observer.stop()
         if self.stats is not None:
             self.stats.release()
             self.stats = None

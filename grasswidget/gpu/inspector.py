@@ -28,6 +28,7 @@ import wgpu
 from pygfx.renderers.wgpu import Binding, register_wgpu_render_function
 from pygfx.utils import array_from_shadertype
 
+from ..core.observers import WeakObserver
 from ..core.reference import FORCE_NAMES, wind_period
 from ..core.shader_files import NO_WIND_BODY
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, INSPECTOR_COLORS, MAX_INSPECTED,
@@ -91,7 +92,7 @@ class BladeInspector(gfx.WorldObject):
         self._program_key = None
         # The compute shader compiles the field's WGSL wind too (wind_field "custom").
         self._store.user_wind_body = field.params.wind_wgsl
-        field.params.observe(self._on_wind_wgsl, names="wind_wgsl")
+        self._wind_observer = WeakObserver(field.params, self._on_wind_wgsl, names="wind_wgsl")
 
     @property
     def user_wind_body(self) -> str:
@@ -105,10 +106,7 @@ class BladeInspector(gfx.WorldObject):
     def release(self):
         """Stop following the field's params (the field is being released)."""
         self._program = None
-        try:
-            self.field.params.unobserve(self._on_wind_wgsl, names="wind_wgsl")
-        except ValueError:
-            pass
+        self._wind_observer.stop()
 
     segments_buffer = property(lambda self: self._store.segments_buffer,
                                doc="pygfx Buffer (64 x SEGMENT_VERTICES, 3) float32: the Line's vertices.")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 
 import numpy as np
 import pygfx as gfx
@@ -26,6 +27,7 @@ from ..core.frame_data import SKY_GROUND_TRAITS, ground_square, sky_ground_value
 from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
 from ..core.framing import check_png_path
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
+from ..core.observers import WeakObserver
 from ..core.params import GrassParams, sunlight_defaults
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
@@ -42,6 +44,10 @@ CIS565_DISTANCE_MAX = preset_params("cis565")["cull_distance_max"]
 #: of the hardware-only one (2 px: 0.09; 6 px: 1.12 and visibly grainier far grass for few
 #: more frames).
 GPU_COMPUTE_RASTER_MAX_PX = 4.0
+
+
+#: Renderers that have drawn a frame (see compat.keep_renderstates).
+_RENDERERS_DRAWN: weakref.WeakSet = weakref.WeakSet()
 
 
 def adapter_params(**values) -> GrassParams:
@@ -135,7 +141,8 @@ class GrassScene:
         self.sky_ground = SkyGround(SkyGroundMaterial(ground_center=centre, ground_half_size=half))
         self.ground = GroundSwitch(self.sky_ground.material)
         self.field.material.fog_color = self.sky_ground.material.horizon_color  # far grass meets the sky
-        self.params.observe(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
+        # Weakly: the params may be shared and outlive this scene (core.observers).
+        self._observers = [WeakObserver(self.params, self._write_sky_ground, names=list(SKY_GROUND_TRAITS))]
         self.scene.add(self.sky_ground)
         self.scene.add(self.field)
         # Colliders live in the field's local space: the balls follow the field's transform
@@ -150,7 +157,7 @@ class GrassScene:
         self.scene.add(sun)
         self.light = sun
         self._aim_sun()  # the params' sun (core.frame_data.sun_direction), both engines
-        self.params.observe(self._aim_sun, names=["sun_elevation", "sun_azimuth"])
+        self._observers.append(WeakObserver(self.params, self._aim_sun, names=["sun_elevation", "sun_azimuth"]))
 
         self.camera = gfx.PerspectiveCamera(DEFAULT_FOV_DEG, self.size[0] / self.size[1],
                                             depth_range=(DEFAULT_NEAR, DEFAULT_FAR))
@@ -351,6 +358,9 @@ class GrassScene:
         (:func:`grasswidget.gpu.frame.render_frame`). Never advances time."""
         self.collider_balls.sync()
         render_frame(renderer, self.scene, self.camera, late=[self.collider_balls])
+        if renderer not in _RENDERERS_DRAWN:  # its first frame made its render state: keep it for the next renderers
+            _RENDERERS_DRAWN.add(renderer)
+            compat.keep_renderstates()
 
     def render(self) -> np.ndarray:
         """Render the current state; returns (h, w, 4) uint8 RGBA. Never advances time."""
@@ -398,10 +408,9 @@ class GrassScene:
         if self._released:
             return
         self._released = True
-        try:  # the params may outlive the scene (a widget's next scene shares them)
-            self.params.unobserve(self._write_sky_ground, names=list(SKY_GROUND_TRAITS))
-        except ValueError:  # released before
-            pass
+        # The params may outlive the scene (a widget's next scene shares them): stop following them now.
+        for observer in self._observers:
+            observer.stop()
         self.field.release()
         try:
             self.scene.remove(self.field)

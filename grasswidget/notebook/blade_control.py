@@ -29,6 +29,8 @@ import html
 
 import ipywidgets as ipw
 
+from .layout import close_widgets
+
 __all__ = ["BladeCountControl", "blade_stops", "count_words", "estimate_fps", "needs_confirmation"]
 
 def count_words(n: int) -> str:
@@ -223,5 +225,4 @@ class BladeCountControl:
             self.slider.observe(self._on_slider, names="value")
 
     def close(self):
-        for w in (self.slider, self.question, self.apply_button, self.cancel_button, self.confirm_row):
-            w.close()
+        close_widgets(self.slider, self.question, self.apply_button, self.cancel_button, self.confirm_row)

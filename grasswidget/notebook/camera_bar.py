@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ipywidgets as ipw
 
+from .layout import close_widgets
 
 __all__ = ["CameraBar", "PRESET_BUTTONS", "floor_for"]
 
@@ -120,5 +121,4 @@ class CameraBar:
                 self._owner.unobserve(fn, names=name)
             except ValueError:
                 pass
-        for w in (self.play_button, *self.preset_buttons.values(), self.floor_checkbox, self.more_button, self.row):
-            w.close()
+        close_widgets(self.play_button, *self.preset_buttons.values(), self.floor_checkbox, self.more_button, self.row)

@@ -182,6 +182,7 @@ class Comparison(ipw.VBox):
         #: The shared panel's first line: play/pause while folded, the camera presets (every view), more/less.
         self.camera_bar = CameraBar(self, on_error=self._show_error)
         self._more = ipw.VBox(list(self.panel.rows), layout=ipw.Layout(width="100%"))
+        self._grid = grid
         super().__init__(children=[grid, self.camera_bar.row, self._more],
                          layout=ipw.Layout(width=f"{width}px", max_width="100%"))
         self.add_class("grasswidget-compare")
@@ -611,7 +612,15 @@ class Comparison(ipw.VBox):
             self.panel.close()
         for w in self.views.values():
             w.close()
+        from .layout import close_widgets
+
+        # The boxes and labels made here (each with its Layout): left open, ipywidgets' registry keeps them.
+        grid = getattr(self, "_grid", None)
+        close_widgets(*getattr(self, "labels", {}).values(), *(grid.children if grid is not None else ()), grid,
+                      getattr(self, "_more", None))
+        own_layout = self.layout
         super().close()
+        own_layout.close()
 
     def _check_open(self):
         if self._closed:

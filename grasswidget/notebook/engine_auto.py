@@ -78,4 +78,6 @@ class AutoEngine:
     def close(self):
         self.decided = True
         if self.probe is not None:
-            self.probe.close()
+            from .layout import close_widgets
+
+            close_widgets(self.probe)  # with its Layout

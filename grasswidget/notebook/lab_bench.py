@@ -30,6 +30,7 @@ from ..core.teaching import INSPECTED_BLADE_COLORS
 from ..core.traces import CHART_KINDS, DEFAULT_WINDOW_S, TraceRecorder
 from ..errors import GrassValueError
 from .control_link import ControlLink
+from .layout import close_widgets
 
 __all__ = ["LabBench", "check_chart", "CHART_UPDATES_PER_S", "CHART_MAX_POINTS", "CHART_HEIGHT", "CHART_LABELS"]
 
@@ -190,5 +191,4 @@ class LabBench:
             self.feed = None
         if self._link is not None:
             self._link.unlink()
-        for w in (self.dropdown, self.control, self.chart, self.widget):
-            w.close()
+        close_widgets(self.dropdown, self.control, self.chart, self.widget)

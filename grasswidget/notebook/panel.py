@@ -34,6 +34,7 @@ import ipywidgets as ipw
 
 from .blade_control import BladeCountControl
 from .control_link import ControlLink
+from .layout import close_widgets
 from .switch_choice import SWITCH_CHOICES, SwitchChoice
 from ..core.params import COLOR_BY, WIND_FIELDS
 from ..core.reference import FORCE_NAMES
@@ -520,7 +521,7 @@ class ControlPanel:
         while todo:
             w = todo.pop()
             todo.extend(getattr(w, "children", ()))
-            w.close()
+            close_widgets(w)
 
 
 def file_link(path, size) -> str:

@@ -70,7 +70,7 @@ from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
 from .panel import ControlPanel
 from .camera_bar import CameraBar
-from .layout import PANEL_WIDTH, WidgetLayout
+from .layout import PANEL_WIDTH, WidgetLayout, close_widgets
 from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
 from ..core.params import ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
@@ -808,8 +808,10 @@ class GrassWidget(ipw.VBox):
         if layout is not None:
             layout.close()  # an open box would keep the closed rows (and through them this widget) alive
         if stage is not None:
-            stage.close()
+            close_widgets(stage)
+        own_layout = self.layout  # ipywidgets' close leaves a box's Layout (a widget of its own) open
         super().close()
+        own_layout.close()
 
     # ------------------------------------------------------------------ internals
 
