@@ -204,7 +204,7 @@ def refuse_when_closed(what: str, exempt=("release", "close")):
     def guard(method):
         @functools.wraps(method)
         def checked(self, *args, **kwargs):
-            if self.closed:
+            if getattr(self, "closed", False):  # (not yet built, or called unbound: the method decides)
                 raise WidgetClosedError(f"this {what} is released (its GPU memory was freed); "
                                         f"{method.__name__}() cannot run: create a new {what}")
             return method(self, *args, **kwargs)
