@@ -384,6 +384,9 @@ class KernelView(EngineView):
 
     @property
     def blade_count(self) -> int:
+        # A closed view answers with what it had when it closed (its scene is gone).
+        if self.scene is None:
+            return self._closed_view["blade_count"]
         return self.scene.field.count
 
     @property
@@ -514,7 +517,10 @@ class KernelView(EngineView):
         return self.controller.limits if self.controller is not None else None
 
     def current_camera(self) -> dict:
-        # position, target (the orbit centre) and fov_deg (vertical) of the camera.
+        # position, target (the orbit centre) and fov_deg (vertical) of the camera; a closed
+        # view's is the one it had when it closed.
+        if self.scene is None:
+            return dict(self._closed_view["camera"])
         cam = self.scene.camera
         target = self.controller.target if self.controller is not None else orbit_target(self.scene)
         return {"position": tuple(float(x) for x in cam.world.position),
@@ -807,6 +813,8 @@ class KernelView(EngineView):
         if self.closed:
             return
         self.closed = True
+        if self.scene is not None:  # what reading a closed view's stats and camera_state still gives
+            self._closed_view = {"blade_count": self.blade_count, "camera": self.current_camera()}
         canvas = self.canvas
         try:
             canvas.remove_event_handler(self.events, *EventsWithoutPicking.TYPES)
