@@ -741,10 +741,11 @@ class KernelView(EngineView):
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
-                if not self.playback.playing:
-                    # Paused: no next frame will bring the last one's counts, and nothing waits
-                    # for the GPU meanwhile: read them now, so the numbers are the picture's.
-                    stats.settle()
+                # The counts of the frame just drawn, read now, so that visible / rastered /
+                # occluded are of the same frame as step_count (and as that frame's trace
+                # sample). Twice a second at most (STATS_INTERVAL); the frame's pixels are read
+                # back for the browser right after anyway, so this waits for nothing more.
+                stats.settle()
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
