@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import itertools
 import uuid
-import warnings
 from pathlib import Path
 
 import anywidget
@@ -49,7 +48,7 @@ from traitlets import Bool, Bytes, Dict, Float, Int, List, Unicode
 from ..errors import GrassTypeError, GrassValueError
 from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
-from ..core.limits import NonFiniteStateWarning, check_steps, nonfinite_cause, nonfinite_message
+from ..core.limits import check_steps, nonfinite_cause, nonfinite_message, warn_nonfinite
 from ..core import camera_rules
 from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
@@ -464,8 +463,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         cause = nonfinite_cause(self.params, self.function_overrides is not None)
         if cause != self._warned_cause:
             self._warned_cause = cause
-            warnings.warn(nonfinite_message(self.params, self.function_overrides is not None),
-                          NonFiniteStateWarning, stacklevel=3)
+            warn_nonfinite(nonfinite_message(self.params, self.function_overrides is not None))
         return True
 
     @staticmethod

@@ -34,7 +34,7 @@ from ..errors import GrassValueError
 __all__ = ["MAX_COORDINATE", "MAX_BLADE_HEIGHT", "MAX_BLADE_WIDTH", "MAX_BLADE_STIFFNESS", "MAX_STEPS",
            "steps_error_text", "check_steps",
            "StepsInterrupted", "hold_interrupts",
-           "NonFiniteStateWarning", "nonfinite_cause", "nonfinite_message"]
+           "NonFiniteStateWarning", "nonfinite_cause", "nonfinite_message", "warn_nonfinite"]
 
 #: Largest |x|, |y| or |z| (metres) of a blade root, a wind or gravity centre, a sphere
 #: collider's centre, and the largest collider radius: 1e7 m (squares 1e14, far below float32's 3.4e38).
@@ -121,6 +121,24 @@ class NonFiniteStateWarning(RuntimeWarning):
     """Blades went non-finite (NaN or inf) in the simulation and its last validation step put
     them back at rest (``reference.validate_finite``). Warned once per cause (a wind WGSL, the
     user's blade-math functions), not once per frame."""
+
+
+def warn_nonfinite(message: str):
+    """Issue a :class:`NonFiniteStateWarning` attributed to the first caller outside the grasswidget
+    package (the user's ``read_state()``, ``step`` or cell), not to the library line that noticed it,
+    so the warning shows where the user's code is and a filter by module works."""
+    import inspect
+    import os
+    import warnings
+
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+    frame = inspect.currentframe().f_back  # stacklevel 2: who called this
+    level = 2
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame = frame.f_back
+        level += 1
+    del frame
+    warnings.warn(message, NonFiniteStateWarning, stacklevel=level)
 
 
 def nonfinite_cause(params, overrides: bool = False) -> str:

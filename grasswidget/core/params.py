@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 import math
 
+import numpy as np
 import traitlets
 from traitlets import Bool, HasTraits, Unicode
 
@@ -21,7 +22,7 @@ from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
 __all__ = [
-    "GrassParams", "LOOK_TRAITS", "SUN_TRAITS", "DEFAULT_SUN_DIRECTION", "sunlight_defaults", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
+    "CheckedBool", "GrassParams", "LOOK_TRAITS", "SUN_TRAITS", "DEFAULT_SUN_DIRECTION", "sunlight_defaults", "StrictTraits", "ParameterError", "RangedFloat", "RangedInt", "Vec3",
     "WIND_FIELDS", "BLADE_SHAPES", "GRAVITY_MODES", "COLOR_BY",
 ]
 
@@ -51,6 +52,23 @@ def sunlight_defaults(cpu_adapter: bool) -> dict:
     grass and ground pays for it (benchmarks/sunlight_cost_lavapipe.json: 1.03-1.09x the live
     view's frame) and the far grass of the meadow to the horizon spends the CPU view's budget."""
     return {"shadows": not bool(cpu_adapter)}
+
+
+class CheckedBool(Bool):
+    """A True/False trait whose bad values raise a :class:`ParameterError` naming the trait
+    (traitlets' ``Bool`` raises a bare ``TraitError``, which ``except ValueError`` misses).
+
+    Takes ``True``/``False``, NumPy's booleans (``arr[0] > 0``) and the integers 0 and 1, as
+    traitlets does; anything else (``"yes"``, ``None``, ``2``, ``0.5``) is refused and the
+    previous value stays.
+    """
+
+    def validate(self, obj, value):
+        if isinstance(value, np.bool_):
+            return bool(value)
+        if isinstance(value, (bool, int, np.integer)) and value in (0, 1):
+            return bool(value)
+        raise ParameterError(f"{self.name} must be True or False; got {value!r}")
 
 
 class RangedFloat(traitlets.Float):
@@ -242,7 +260,7 @@ class GrassParams(StrictTraits):
     patch_size = RangedFloat(3.0, 0.1, 100.0, "m", help="Size of the meadow's colour patches (clumps of lighter, darker, drier grass).").tag(sync=True)
     dryness = RangedFloat(0.1, 0.0, 1.0, help="How much dry, straw-coloured grass there is, in patches (tips dry first): 0 none, 1 most of it.").tag(sync=True)
     translucency = RangedFloat(0.6, 0.0, 1.0, help="How much the tips light up when the sun is behind them (light through the blade): 0 not at all, 1 strongly.").tag(sync=True)
-    shadows = Bool(False, help="Sunlight with shadows: the balls' shadows on grass and ground, the grass' shadow on the ground beside it and on itself (the blades as a layer that lets exp(-depth) of the light through, depth from their leaf area per m^2 and the sun's height), and the roots darkened by the grass above them, more where the field is denser. Both engines. Off by default in GrassParams (a CPU adapter pays for it in every pixel of grass and ground); GrassScene and GrassWidget turn it on where it is affordable (grasswidget.gpu.scene.adapter_params). Off: the picture without shadows.").tag(sync=True)
+    shadows = CheckedBool(False, help="Sunlight with shadows: the balls' shadows on grass and ground, the grass' shadow on the ground beside it and on itself (the blades as a layer that lets exp(-depth) of the light through, depth from their leaf area per m^2 and the sun's height), and the roots darkened by the grass above them, more where the field is denser. Both engines. Off by default in GrassParams (a CPU adapter pays for it in every pixel of grass and ground); GrassScene and GrassWidget turn it on where it is affordable (grasswidget.gpu.scene.adapter_params). Off: the picture without shadows.").tag(sync=True)
     sun_elevation = RangedFloat(_SUN_ELEVATION, 5.0, 90.0, "degrees", help="The sun's height above the horizon: 90 straight up; lower suns cast longer shadows. Lights the blades, the ground and the balls in both engines.").tag(sync=True)
     sun_azimuth = RangedFloat(_SUN_AZIMUTH, -360.0, 360.0, "degrees", help="Where the sun stands in the ground plane, seen from the field: 0 = towards +x, 90 = towards +z (as wind_direction).").tag(sync=True)
     fog_density = RangedFloat(0.005, 0.0, 1.0, "1/m", help="Distance fog: a share exp(-fog_density * d) of the light from d metres away reaches the eye, the rest is the sky's colour at the horizon; 0 turns the fog off.").tag(sync=True)
@@ -251,15 +269,15 @@ class GrassParams(StrictTraits):
     dt = RangedFloat(1.0 / 120.0, 1e-4, 0.05, "s", help="Fixed simulation time step; step(n) advances n * dt.").tag(sync=True)
 
     # ---- culling and level of detail (per render, on the GPU) ------------------
-    cull_orientation = Bool(True, help="Cull blades seen edge-on.").tag(sync=True)
+    cull_orientation = CheckedBool(True, help="Cull blades seen edge-on.").tag(sync=True)
     cull_orientation_threshold = RangedFloat(0.9, 0.0, 1.0, help="Cull when |dot(view dir to v0, width dir)| exceeds this.").tag(sync=True)
-    cull_frustum = Bool(True, help="Cull blades whose v0, curve midpoint and v2 are all outside the view.").tag(sync=True)
+    cull_frustum = CheckedBool(True, help="Cull blades whose v0, curve midpoint and v2 are all outside the view.").tag(sync=True)
     cull_frustum_tolerance = RangedFloat(0.5, 0.0, 10.0, help="Slack added to clip-space w in the frustum test (paper/author: 0.5).").tag(sync=True)
-    cull_distance = Bool(True, help="Thin the field with distance on the ground.").tag(sync=True)
+    cull_distance = CheckedBool(True, help="Thin the field with distance on the ground.").tag(sync=True)
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
     cull_occlusion = AutoSwitch("auto", help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
-    lod = Bool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
+    lod = CheckedBool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
     compute_raster = AutoSwitch("auto", help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve once with a 64-bit atomic depth test where the device has 64-bit atomics, else twice with 32-bit ones; then a resolve over the rows written that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md).").tag(sync=True)
     compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none. GrassScene's own params on a GPU adapter use 4 (measured on an H100: more frames, the same look).").tag(sync=True)
 

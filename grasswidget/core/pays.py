@@ -52,6 +52,7 @@ no widgets: the kernel engine runs it in :mod:`grasswidget.gpu.auto_switches`.
 from __future__ import annotations
 
 import math
+import numbers
 import statistics
 from dataclasses import dataclass, field
 
@@ -99,11 +100,17 @@ def coerce_switch(value, name: str = "switch"):
         word = _WORDS.get(value.strip().lower())
         if word is not None:
             return word
-    elif value is True or value is False or type(value).__name__ == "bool_":
+    elif value is True or value is False or _numpy_bool(value):
         return bool(value)
-    elif isinstance(value, int) and value in (0, 1):
+    elif isinstance(value, numbers.Integral) and value in (0, 1):  # NumPy's integers too
         return bool(value)
     raise ParameterError(f"{name} must be True (on), False (off) or 'auto' (decided by measuring); got {value!r}")
+
+
+def _numpy_bool(value) -> bool:
+    # NumPy's boolean scalar: numpy.bool_ (NumPy 1), numpy.bool (NumPy 2); no NumPy import here.
+    kind = type(value)
+    return kind.__module__ == "numpy" and kind.__name__ in ("bool_", "bool")
 
 
 class AutoSwitch(traitlets.TraitType):

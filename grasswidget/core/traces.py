@@ -411,8 +411,16 @@ def _bad(path, what):
 def _load_npz(path) -> dict:
     if os.path.getsize(path) == 0:
         raise _bad(path, "the file is empty")
-    with np.load(path, allow_pickle=False) as z:
-        flat = {k: z[k] for k in z.files}
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            flat = {k: z[k] for k in z.files}
+    except ValueError as err:
+        if "pickle" not in str(err).lower():
+            raise
+        # NumPy's own text suggests loading it "unsafely": load_traces never does (a traces file has
+        # no Python objects; unpickling runs code from the file).
+        raise _bad(path, "it holds pickled Python objects, which are never loaded (save_traces writes "
+                         "numbers only)") from None
     missing = [k for k in ("t", "step", "ids", "v0", "v2", "window_s") if k not in flat]
     if missing:
         raise _bad(path, f"no {', '.join(missing)} in it")

@@ -444,7 +444,9 @@ class EngineView(abc.ABC):
     @property
     def stats(self) -> dict:
         """The last stats shown: fps (frames/s delivered to the browser, confirmed by it; frames drawn
-        when there is no browser), target_fps, visible, blades, render_ms / readback_ms / encode_send_ms /
+        when there is no browser), target_fps, visible (with rastered and occluded: the counts of one
+        frame; in the kernel engine the frame at step_count, read when the stats are refreshed; in
+        the browser engine the newest the page had read back, a frame or two older), blades, render_ms / readback_ms / encode_send_ms /
         ack_ms (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls
         of the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
         frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall

@@ -8,7 +8,6 @@ with indirect draws (see :mod:`grasswidget.gpu.shader_classes`).
 
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 import pygfx as gfx
@@ -18,7 +17,7 @@ from pygfx.utils import array_from_shadertype
 from .. import compat
 from ..core.blades import BLADE_BYTES, Blades, pack_state, unpack_state
 from ..core.colliders import ColliderList
-from ..core.limits import NonFiniteStateWarning, check_steps, nonfinite_cause, nonfinite_message
+from ..core.limits import check_steps, nonfinite_cause, nonfinite_message, warn_nonfinite
 from ..errors import BladeLimitError, GrassTypeError, GrassValueError, WindShaderError, refuse_when_closed
 from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_for_gpu, max_blades_for_memory
 from ..core.observers import WeakObserver
@@ -721,7 +720,7 @@ class GrassField(gfx.WorldObject):
         cause = nonfinite_cause(self.params, overrides)
         if cause != self._warned_cause:
             self._warned_cause = cause
-            warnings.warn(nonfinite_message(self.params, overrides), NonFiniteStateWarning, stacklevel=3)
+            warn_nonfinite(nonfinite_message(self.params, overrides))
         return True
 
     def reset(self):

@@ -25,13 +25,13 @@ import math
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import Any, Bool, HasTraits
+from traitlets import Any, HasTraits
 
 from .. import compat
 from ..core.colliders import SphereCollider
 from .control_link import ControlLink
 from ..errors import GrassValueError, ParameterError
-from ..core.params import RangedFloat
+from ..core.params import CheckedBool, RangedFloat
 
 __all__ = ["BallControl", "ground_point"]
 
@@ -89,8 +89,8 @@ class BallControl(HasTraits):
     (m/s of simulated time, 0.1..20, default 2).
     """
 
-    enabled = Bool(False, help="The ball is in the scene's colliders (pushes grass, drawn).")
-    rolling = Bool(False, help="Roll the ball along its path as simulated time goes by.")
+    enabled = CheckedBool(False, help="The ball is in the scene's colliders (pushes grass, drawn).")
+    rolling = CheckedBool(False, help="Roll the ball along its path as simulated time goes by.")
     roll_speed = RangedFloat(2.0, 0.1, 20.0, "m/s", help="Rolling speed, metres per simulated second.")
     path = Any(None, help="None (circle around the field's centre) or a callable s -> (x, z).")
 

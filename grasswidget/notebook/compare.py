@@ -65,12 +65,12 @@ import threading
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import All, Bool
+from traitlets import All
 
 from . import cell_rerun
 from ..core.limits import check_steps
 from ..core.orbit_limits import FLOORS
-from ..core.params import ChoiceTrait, GrassParams, RangedFloat
+from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat
 from ..core.variants import apply_changes, check_variants
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 
@@ -133,11 +133,11 @@ class Comparison(ipw.VBox):
 
     camera_floor = ChoiceTrait("grass", FLOORS, help='What every view\'s orbit keeps the camera above: "grass" '
                                '(the tallest blade\'s tip) or "ground" (as GrassWidget.camera_floor).')
-    panel_folded = Bool(False, help="Show only the camera bar of the shared panel (play/pause, camera presets, more).")
+    panel_folded = CheckedBool(False, help="Show only the camera bar of the shared panel (play/pause, camera presets, more).")
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per wall-clock second while playing (every view).")
-    playing = Bool(True, help="Animate every view (True) or pause them all (False).")
-    culling_frozen = Bool(False, help="Freeze culling in every view at its current camera (the shared one).")
+    playing = CheckedBool(True, help="Animate every view (True) or pause them all (False).")
+    culling_frozen = CheckedBool(False, help="Freeze culling in every view at its current camera (the shared one).")
 
     _closed = False
     views: dict = {}

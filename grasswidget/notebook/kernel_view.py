@@ -384,6 +384,9 @@ class KernelView(EngineView):
 
     @property
     def blade_count(self) -> int:
+        # A closed view answers with what it had when it closed (its scene is gone).
+        if self.scene is None:
+            return self._closed_view["blade_count"]
         return self.scene.field.count
 
     @property
@@ -514,7 +517,10 @@ class KernelView(EngineView):
         return self.controller.limits if self.controller is not None else None
 
     def current_camera(self) -> dict:
-        # position, target (the orbit centre) and fov_deg (vertical) of the camera.
+        # position, target (the orbit centre) and fov_deg (vertical) of the camera; a closed
+        # view's is the one it had when it closed.
+        if self.scene is None:
+            return dict(self._closed_view["camera"])
         cam = self.scene.camera
         target = self.controller.target if self.controller is not None else orbit_target(self.scene)
         return {"position": tuple(float(x) for x in cam.world.position),
@@ -735,10 +741,11 @@ class KernelView(EngineView):
         stats = getattr(scene, "stats", None)
         if stats is not None:
             try:
-                if not self.playback.playing:
-                    # Paused: no next frame will bring the last one's counts, and nothing waits
-                    # for the GPU meanwhile: read them now, so the numbers are the picture's.
-                    stats.settle()
+                # The counts of the frame just drawn, read now, so that visible / rastered /
+                # occluded are of the same frame as step_count (and as that frame's trace
+                # sample). Twice a second at most (STATS_INTERVAL); the frame's pixels are read
+                # back for the browser right after anyway, so this waits for nothing more.
+                stats.settle()
                 d = stats.as_dict()
                 visible = d.get("visible", d.get("visible_blades"))
                 gpu_ms = d.get("gpu_ms")
@@ -807,6 +814,8 @@ class KernelView(EngineView):
         if self.closed:
             return
         self.closed = True
+        if self.scene is not None:  # what reading a closed view's stats and camera_state still gives
+            self._closed_view = {"blade_count": self.blade_count, "camera": self.current_camera()}
         canvas = self.canvas
         try:
             canvas.remove_event_handler(self.events, *EventsWithoutPicking.TYPES)

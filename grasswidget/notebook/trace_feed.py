@@ -300,8 +300,10 @@ class BrowserTraceFeed(_Feed):
         generation = self._generation
 
         def answered(msg, buffers):
+            if generation != self._generation:
+                return  # asked before a reset_blades() or a flush that gave up: not counted, dropped
             self._in_flight = max(0, self._in_flight - 1)
-            if msg.get("type") != "inspected" or msg.get("step_count") is None or generation != self._generation:
+            if msg.get("type") != "inspected" or msg.get("step_count") is None:
                 return
             step = int(msg["step_count"])
             rows = bview.inspected_from_answer(msg, buffers, ids) if ids else []
@@ -312,7 +314,33 @@ class BrowserTraceFeed(_Feed):
         bview.request_async({"type": "read_inspected"}, answered)
 
     def flush(self):
-        """Nothing is held back in the kernel (the browser answers on its own)."""
+        """Wait for the samples asked of the browser and not answered yet (a loop of ``step(n)``
+        calls in one cell, then ``traces()``: the answers come while this handles the notebook's
+        messages), at most ``ANSWER_TIMEOUT`` seconds. None can come with no notebook kernel (a
+        script) or no page that answers: then :class:`~grasswidget.browser.kernel_pump.BrowserTimeoutError`
+        (a TimeoutError) says how many are missing, instead of traces that silently lack them;
+        they are given up (dropped should they come later), so the next call returns what was
+        recorded."""
+        if not self._in_flight or self.view.closed:
+            return
+        from ..browser.kernel_pump import BrowserTimeoutError, wait_for
+        from ..browser.view import ANSWER_TIMEOUT
+
+        missing = self._in_flight
+        try:
+            wait_for(lambda: True if not self._in_flight else None, ANSWER_TIMEOUT,
+                     f"traces(): {missing} sample(s) of step(n) calls or frames asked of the browser engine's view")
+        except BrowserTimeoutError:
+            self._in_flight = 0  # given up: an answer that still comes is dropped
+            self._generation += 1
+            raise
+
+    def after_reset(self):
+        """As every feed's, without waiting for the answers on their way: they are dropped."""
+        self._in_flight = 0
+        self._generation += 1
+        self._last_step = None
+        self.recorder.clear()
 
 
 def make_feed(view, recorder, on_sample=None):

@@ -58,7 +58,7 @@ import os
 
 import ipywidgets as ipw
 import numpy as np
-from traitlets import All, Any, Bool, validate
+from traitlets import All, Any, validate
 
 from . import cell_rerun
 from .adaptive import check_target_fps
@@ -73,7 +73,7 @@ from .camera_bar import CameraBar
 from .layout import PANEL_WIDTH, WidgetLayout, close_widgets
 from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
-from ..core.params import ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
+from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
 from .sunlight_default import SunlightDefault
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
@@ -160,8 +160,8 @@ class GrassWidget(ipw.VBox):
 
     time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
                              help="Simulated seconds per wall-clock second while playing.")
-    playing = Bool(True, help="Animate (continuous drawing) or pause (draw on demand).")
-    culling_frozen = Bool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
+    playing = CheckedBool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = CheckedBool(False, help="Cull against a copy of the camera taken when this was set (see GrassScene.freeze_culling).")
     chart = Any(None, allow_none=True,
                     help='The live chart under the view: None (hidden), "tip" (tip offset of each inspected blade), '
                          '"bend" (bend angle), "culling" (blades kept after each culling test) or "frame" (where '
@@ -170,7 +170,7 @@ class GrassWidget(ipw.VBox):
                                'the tallest blade\'s tip, so never inside the field) or "ground" (0.3 m above the '
                                'ground, down among the blades). A widget whose start camera is lower than the grass '
                                'starts with "ground".')
-    panel_folded = Bool(False, help="Show only the camera bar (play/pause, camera presets, more) under or beside the "
+    panel_folded = CheckedBool(False, help="Show only the camera bar (play/pause, camera presets, more) under or beside the "
                         "view; True from the start with layout='lecture'.")
     camera_bar = None
     _layout = None

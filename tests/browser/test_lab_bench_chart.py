@@ -138,7 +138,9 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
         kernel_execute(page, "w.step(5)")
         wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-1:]", [12], timeout=60)
         # a loop of steps in one cell (issue 37): one sample per call, none lost while answers are on their way
-        kernel_execute(page, "for _ in range(4):\n    w.step(10)")
+        # ... and traces() in that same cell has them all (it waits for the answers on their way)
+        kernel_execute(page, "for _ in range(4):\n    w.step(10)\n_in_cell = [int(s) for s in w.traces()['step']][-4:]")
+        assert kernel_eval(page, "_in_cell") == [22, 32, 42, 52]
         wait_for_kernel(page, "[int(s) for s in w.traces()['step']][-4:]", [22, 32, 42, 52], timeout=60)
         kernel_execute(page, COMPARE)
         got = kernel_eval(page, "result")

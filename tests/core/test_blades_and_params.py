@@ -128,6 +128,30 @@ def test_bad_wind_field_and_type():
         GrassParams(gravity=-1)
 
 
+def test_every_on_off_param_refuses_what_is_not_a_bool_as_a_parameter_error():
+    """Each True/False trait (and each "auto" switch) takes bools, NumPy's booleans and 0/1, and
+    refuses anything else with a ParameterError (a ValueError, a GrassError) naming it; the value
+    stays."""
+    from traitlets import Bool
+
+    from grasswidget.core.pays import AutoSwitch
+
+    p = GrassParams()
+    names = [n for n, t in p.traits().items() if isinstance(t, (Bool, AutoSwitch)) and not n.startswith("_")]
+    assert {"lod", "cull_frustum", "shadows", "cull_occlusion", "compute_raster"} <= set(names)
+    for name in names:
+        before = getattr(p, name)
+        for bad in ("yes", None, 2, 0.5, [True]):
+            with pytest.raises(gw.ParameterError, match=name) as info:
+                setattr(p, name, bad)
+            assert isinstance(info.value, ValueError)
+            assert getattr(p, name) == before
+        for good, want in ((np.bool_(not before), not before), (np.int64(1), True), (0, False)):
+            setattr(p, name, good)
+            assert getattr(p, name) is want
+        setattr(p, name, before)
+
+
 def test_preset_params_are_one_table_for_scene_and_widget():
     """GrassScene.preset and GrassWidget(preset=...) take a preset's own parameter values from
     core.framing.preset_params: the cis565 preset culls by distance to zero at 40 m in both."""

@@ -139,7 +139,16 @@ def _broken(tmp_path, good):
         ("other.csv", b"a,b,c\n1,2,3\n", "no 't' column"),
         ("columns.csv", b"t,step,v2x_3\n0.1,1,0.5\n", "no column 'v0x_3'"),
         ("text.npz", b"hello, world", "not a traces file"),
+        ("pickled.npz", _pickled_npz(), "pickled Python objects, which are never loaded"),
     ]
+
+
+def _pickled_npz() -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    np.savez(buf, t=np.array([{"run": "code"}], dtype=object), step=np.arange(1))
+    return buf.getvalue()
 
 
 def test_a_broken_traces_file_is_named_with_what_is_wrong(tmp_path):
@@ -150,6 +159,7 @@ def test_a_broken_traces_file_is_named_with_what_is_wrong(tmp_path):
         with pytest.raises(gw.TraceFileError, match=re.escape(repr(str(path))) + ".*" + says) as err:
             load_traces(path)
         assert isinstance(err.value, ValueError) and isinstance(err.value, gw.GrassError)
+        assert "unsafe" not in str(err.value)  # never advice to unpickle a file
     for ext, path in good.items():  # the good ones still read
         assert len(load_traces(path)["t"]) == 3
 

@@ -162,6 +162,7 @@ def test_a_wind_wgsl_that_returns_nan_or_inf_leaves_the_blades_at_rest_with_one_
     mine = [w for w in caught if issubclass(w.category, NonFiniteStateWarning)]
     assert len(mine) == 1, [str(w.message) for w in mine]
     assert "wind WGSL" in str(mine[0].message) and "at rest" in str(mine[0].message)
+    assert mine[0].filename == __file__  # attributed to the caller's read_state() line, not to grasswidget's
     assert fresh.nonfinite_resets - resets == 2  # both readbacks found the flag, set again after clearing
     for s in (state, state2):
         assert _finite(s) and _at_rest(s, blades)

@@ -382,3 +382,35 @@ def test_traces_while_playing_count_their_own_frame(kernel_widget, records):
         ribbons, compute = got[step]
         assert ribbons + (0 if math.isnan(compute) else compute) == drawn, (step, got[step], drawn)
         assert t["kept"]["occlusion"][list(t["step"]).index(step)] == drawn
+
+
+def test_stats_while_playing_are_of_the_frame_their_step_count_names(kernel_widget, records):
+    """Playing, the camera moving every frame: each stats refresh (at the end of a frame, twice a second
+    in a live view) gives that frame's counts beside its step count, as the status line shows them
+    and as the frame's trace sample has them (before, the counts were of a frame or two earlier)."""
+    from conftest import TickingWall
+
+    w = kernel_widget
+    records(SWITCHES[0], SWITCHES[0].values[0])
+    w.view.clock.now = TickingWall(1.0 / w.max_fps)
+    seen = []
+    try:
+        w.play()
+        for k in range(6):
+            x = -4.0 + 1.5 * k
+            w.view.camera_state = {"position": (x, 1.5, 14.0), "target": (0.3 * x, 0.3, 0.0)}
+            w.view.draw()
+            w.view.refresh_stats()
+            s = w.stats
+            drawn = w.view.scene.visible_count()  # synchronous: this frame's
+            seen.append(drawn)
+            assert s["step_count"] == w.view.scene.field.step_count
+            assert s["visible"] == drawn, (k, s["visible"], drawn)
+            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.stats_line.value)
+    finally:
+        w.pause()
+        w.view.camera_state = dict(CAMERA)
+    assert len(set(seen)) > 3  # the count changes from frame to frame
+    t = w.traces()
+    for step, ribbons, compute in zip(t["step"][-6:], t["drawn"]["ribbons"][-6:], t["drawn"]["compute"][-6:]):
+        assert ribbons + (0 if math.isnan(compute) else compute) in seen, (step, ribbons, compute)

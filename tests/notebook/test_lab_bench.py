@@ -267,3 +267,43 @@ def test_a_lab_bench_for_any_view_without_an_owner(widget):
     widget.step(1)
     widget.view.draw()
     assert widget.traces()["step"].tolist() == [3, 4]
+
+
+def test_browser_engine_traces_wait_for_the_answers_of_a_loop_of_steps_or_say_none_can_come(monkeypatch):
+    """Issue 37, item 1, browser engine: ``step(n)`` calls in one cell, then ``traces()``: the samples
+    the page is asked for are waited for (its answers come while the kernel handles messages, here
+    delivered by a stand-in for that wait); with no kernel to bring them (a script), traces() raises a
+    BrowserTimeoutError saying how many are missing, not an empty trace, and then gives them up."""
+    from grasswidget.browser import kernel_pump
+
+    w = gw.GrassWidget(blades=gw.Blades.on_plane(256, seed=5), size=(64, 48), backend="browser")
+    try:
+        page = w.view.engine_widget
+        asked = []
+        monkeypatch.setattr(page, "send", lambda content, *a, **k: asked.append(content))
+        for _ in range(3):
+            w.step(20)
+        reads = [m for m in asked if m.get("type") == "read_inspected"]
+        assert len(reads) == 3
+        with pytest.raises(gw.BrowserTimeoutError, match=r"traces\(\): 3 sample") as info:
+            w.traces()  # no kernel: none can come
+        assert isinstance(info.value, TimeoutError)
+        assert len(w.traces()["t"]) == 0  # given up: the next call returns what was recorded
+        page.handle_message({"type": "inspected", "id": reads[0]["id"], "n": 0, "step_count": 20}, [])
+        assert len(w.traces()["t"]) == 0  # a late answer of a sample given up is dropped
+
+        asked.clear()
+        for _ in range(3):
+            w.step(20)
+        reads = [m for m in asked if m.get("type") == "read_inspected"]
+
+        def answering_wait(check, timeout, what):  # the page answers, in order, while the kernel waits
+            assert "traces()" in what and timeout > 0
+            for k, m in enumerate(reads):
+                page.handle_message({"type": "inspected", "id": m["id"], "n": 0, "step_count": 80 + 20 * k}, [])
+            return check()
+
+        monkeypatch.setattr(kernel_pump, "wait_for", answering_wait)
+        assert w.traces()["step"].tolist() == [80, 100, 120]
+    finally:
+        w.close()

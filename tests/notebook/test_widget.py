@@ -461,6 +461,23 @@ def test_closed_widget_refuses_work(tmp_path):
         w.save_png(tmp_path / "x.png")
 
 
+@pytest.mark.parametrize("backend", ["kernel", "browser"])
+def test_a_closed_widget_still_reads_its_last_stats_and_camera(backend):
+    """Reading a closed widget's data is harmless, in both engines alike: ``stats`` and ``camera_state``
+    give what the view had when it closed (not a raw AttributeError from the released scene); setting
+    the camera raises WidgetClosedError."""
+    w = gw.GrassWidget(blades=gw.Blades.on_plane(96, seed=3), size=SIZE, backend=backend)
+    w.camera_state = {"position": (1.0, 2.0, 6.0), "target": (0.5, 0.2, 0.0), "fov_deg": 40.0}
+    before = w.camera_state
+    w.close()
+    assert w.stats["blades"] == 96
+    after = w.camera_state
+    assert np.allclose(after["position"], before["position"]) and np.allclose(after["target"], before["target"])
+    assert after["fov_deg"] == pytest.approx(before["fov_deg"])
+    with pytest.raises(gw.WidgetClosedError):
+        w.camera_state = {"fov_deg": 30.0}
+
+
 def test_preset():
     if not hasattr(gw.GrassScene, "preset"):
         with pytest.raises(NotImplementedError, match="preset"):
