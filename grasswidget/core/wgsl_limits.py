@@ -16,8 +16,10 @@ The limits (each a module constant, applied to the code with comments blanked):
 - :data:`MAX_CODE_CHARS` characters in all (32,768);
 - :data:`MAX_NESTING` levels of ``(``, ``[`` and ``{`` together (48);
 - :data:`MAX_STATEMENT_TERMS` names and numbers in one statement (500);
-- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (1,024);
-  its size must be a number or a module ``const`` set to a number;
+- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (1,024),
+  an array of an ``alias`` or a ``struct`` counted by what the name holds, and in one
+  ``struct`` or ``alias`` (its members added up); an array's size must be a number or a module
+  ``const`` set to a number;
 - :data:`MAX_INLINED_TERMS` names and numbers in one function with every call of the
   user's own functions written out, as a driver inlines them (20,000).
 
@@ -77,6 +79,8 @@ def _array_problem(code, text):
         if value is not None:
             consts[m.group(1)] = value
 
+    named = _named_type_elements(text)
+
     def parse(at):
         """(elements, end offset) of the array type whose ``<`` is at ``at``; raises _Refused."""
         depth, k, commas = 0, at, []
@@ -105,8 +109,16 @@ def _array_problem(code, text):
         inner = re.search(r"\barray\s*<", elem)
         if inner:
             per, _ = parse(inner_start + inner.end() - 1)
+        elif elem.strip() in named:  # an alias or a struct: its own elements, each
+            per = named[elem.strip()]
         return count * per, k
 
+    for name, elements in named.items():  # a struct of many arrays is as large as one long array
+        if elements > MAX_ARRAY_ELEMENTS:
+            m = re.search(r"\b(?:struct|alias)\s+" + re.escape(name) + r"\b", text)
+            return _problem(code, m.start(), f"`{name}` holds {elements:,} elements in all (at most "
+                            f"{MAX_ARRAY_ELEMENTS:,}; a huge variable can exhaust the GPU driver's memory or lose the "
+                            "device)", f"{name} of {elements} elements")
     for m in re.finditer(r"\barray\s*<", text):
         try:
             elements, _ = parse(m.end() - 1)
@@ -117,6 +129,50 @@ def _array_problem(code, text):
                             f"{MAX_ARRAY_ELEMENTS:,}; a huge array can exhaust the GPU driver's memory or lose "
                             "the device)", f"array of {elements} elements")
     return None
+
+
+def _named_type_elements(text) -> dict:
+    """name -> elements of each ``alias`` and ``struct`` of ``text`` (an array's size times its
+    element's, a struct's members added up, anything else 1), so that an array of a named type
+    counts what the name stands for. Sizes that are not numbers count 1 here (the array check
+    refuses them)."""
+    consts = {m.group(1): v for m in re.finditer(r"\bconst\s+(\w+)\s*(?::\s*\w+\s*)?=\s*([^;]+);", text)
+              if (v := _int_value(m.group(2), {})) is not None}
+    named = {}
+
+    def elements(type_text, depth=0):
+        type_text = type_text.strip()
+        if depth > 64:
+            return 1
+        m = re.match(r"array\s*<(.*)>$", type_text, re.S)
+        if m:
+            inner = m.group(1)
+            level, cut = 0, None
+            for k, ch in enumerate(inner):
+                level += ch == "<"
+                level -= ch == ">"
+                if ch == "," and level == 0:
+                    cut = k
+            if cut is None:
+                return elements(inner, depth + 1)
+            count = _int_value(inner[cut + 1:], consts) or 1
+            return count * elements(inner[:cut], depth + 1)
+        return named.get(type_text, 1)
+
+    for m in re.finditer(r"\b(alias\s+(\w+)\s*=\s*([^;]+);|struct\s+(\w+)\s*\{([^}]*)\})", text):
+        if m.group(2):
+            named[m.group(2)] = elements(m.group(3))
+        else:  # members `name: type,` with the types' commas inside < > kept together
+            members, level, start = [], 0, 0
+            body = m.group(5)
+            for k, ch in enumerate(body + ","):
+                level += ch == "<"
+                level -= ch == ">"
+                if ch == "," and level == 0:
+                    members.append(body[start:k])
+                    start = k + 1
+            named[m.group(4)] = sum(elements(part.split(":", 1)[1]) for part in members if ":" in part)
+    return named
 
 
 class _Refused(Exception):

@@ -110,3 +110,39 @@ def test_helpers_that_double_when_inlined_are_refused_at_the_first_too_large():
 def test_comments_do_not_count():
     code = _forces_with(LAST, "// " + "(" * 100 + " array<f32, 99999999>\n    " + LAST)
     assert limit_problem(code) is None
+
+
+@pytest.mark.parametrize("declarations, culprit, elements", [
+    # an alias of a legal array, then an array of the alias: 1,000 x 1,000 vectors (a 60 s compile on lavapipe)
+    ("alias A = array<vec4<f32>, 1000>;\nvar<private> big: array<A, 1000>;\n", "var<private> big", "1,000,000"),
+    # a struct of arrays, each under the limit: 4 x 1,024 in one struct (ran the worker past its memory limit)
+    ("struct S { a: array<vec4<f32>, 1024>, b: array<vec4<f32>, 1024>, c: array<vec4<f32>, 1024>, "
+     "d: array<vec4<f32>, 1024> }\n", "struct S", "4,096"),
+    # the size through a const, the element through an alias
+    ("const N = 600;\nalias Row = array<f32, N>;\nvar<private> rows: array<Row, 4>;\n", "var<private> rows", "2,400"),
+])
+def test_an_array_grown_through_an_alias_or_a_struct_is_refused_where_it_grows(declarations, culprit, elements):
+    code = declarations + FORCES.solution
+    err = _refusal(code)
+    assert err.line == _line_of(code, culprit) and f"{elements} elements" in str(err), str(err)
+    assert limit_problem(declarations) is not None
+
+
+def test_small_structs_and_aliases_pass():
+    code = ("struct Pair { a: vec3<f32>, b: array<f32, 8> }\nalias Pairs = array<Pair, 16>;\n"
+            "var<private> pairs: Pairs;\n" + FORCES.solution)
+    assert limit_problem(code) is None  # 16 x (1 + 8) = 144 elements
+
+
+@pytest.mark.parametrize("body, line", [
+    ("return vec3<f32>(0.0);\n}\n@group(0) @binding(17) var<storage, read_write> x: array<f32>;\nfn rest() {", 2),
+    ("return vec3<f32>(0.0);\n}\n@compute @workgroup_size(1) fn other() {", 2),
+    ("if (t > 1.0) { return vec3<f32>(1.0); } }\nfn more() {\nreturn;", 1),
+])
+def test_a_wind_body_that_closes_its_function_is_refused_at_that_brace(body, line):
+    from grasswidget.core.wgsl_overrides import wind_limit_error
+
+    err = wind_limit_error(body)
+    assert isinstance(err, gw.WindShaderError) and err.line == line and err.reason == "closes user_wind", err
+    assert "closes the function `user_wind`" in str(err)
+    assert wind_limit_error("if (t > 1.0) { return vec3<f32>(1.0); }\n// } in a comment\nreturn vec3<f32>(0.0);") is None
