@@ -16,10 +16,12 @@ The limits (each a module constant, applied to the code with comments blanked):
 - :data:`MAX_CODE_CHARS` characters in all (32,768);
 - :data:`MAX_NESTING` levels of ``(``, ``[`` and ``{`` together (48);
 - :data:`MAX_STATEMENT_TERMS` names and numbers in one statement (500);
-- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (1,024),
+- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (256),
   an array of an ``alias`` or a ``struct`` counted by what the name holds, and in one
   ``struct`` or ``alias`` (its members added up); an array's size must be a number or a module
   ``const`` set to a number;
+- :data:`MAX_TOTAL_ELEMENTS` array elements in the whole code (512), each array type and
+  each mention of an ``alias`` or ``struct`` counted;
 - :data:`MAX_INLINED_TERMS` names and numbers in one function with every call of the
   user's own functions written out, as a driver inlines them (20,000).
 
@@ -33,7 +35,7 @@ import functools
 import re
 
 __all__ = ["wgsl_limit_problem", "MAX_CODE_CHARS", "MAX_NESTING", "MAX_STATEMENT_TERMS", "MAX_ARRAY_ELEMENTS",
-           "MAX_INLINED_TERMS"]
+           "MAX_INLINED_TERMS", "MAX_TOTAL_ELEMENTS"]
 
 #: Most characters of one piece of user WGSL (the exercises' solutions are under 1,500).
 MAX_CODE_CHARS = 32_768
@@ -42,8 +44,13 @@ MAX_NESTING = 48
 #: Most names and numbers in one statement (a sum of 50,000 terms crashed the compiler).
 MAX_STATEMENT_TERMS = 500
 #: Most elements of one array type (``array<vec4<f32>, 16777216>`` exhausted memory;
-#: a 100,000-element ``const`` array lost the device).
-MAX_ARRAY_ELEMENTS = 1024
+#: a 100,000-element ``const`` array lost the device; on lavapipe one array of 1,024 indexed by
+#: a computed index made a grade run past 60 s, 512 took 18 s, 256 about 6 s).
+MAX_ARRAY_ELEMENTS = 256
+#: Most array elements of the whole code: every array type written out, and every mention of an
+#: ``alias`` or ``struct`` holding arrays, added up (on lavapipe two arrays of 256 indexed by a
+#: computed index made a grade take 21 s; 100 ``const`` arrays of 1,024 zeros each ran it past 60 s).
+MAX_TOTAL_ELEMENTS = 512
 #: Most names and numbers of one function once the user's own functions it calls are
 #: written out in place (the drivers inline every call).
 MAX_INLINED_TERMS = 20_000
@@ -119,15 +126,29 @@ def _array_problem(code, text):
             return _problem(code, m.start(), f"`{name}` holds {elements:,} elements in all (at most "
                             f"{MAX_ARRAY_ELEMENTS:,}; a huge variable can exhaust the GPU driver's memory or lose the "
                             "device)", f"{name} of {elements} elements")
-    for m in re.finditer(r"\barray\s*<", text):
-        try:
-            elements, _ = parse(m.end() - 1)
-        except _Refused as refused:
-            return _problem(code, refused.offset, refused.message, refused.reason)
-        if elements > MAX_ARRAY_ELEMENTS:
-            return _problem(code, m.start(), f"an array of {elements:,} elements is too large (at most "
-                            f"{MAX_ARRAY_ELEMENTS:,}; a huge array can exhaust the GPU driver's memory or lose "
-                            "the device)", f"array of {elements} elements")
+    total, inside = 0, -1
+    declared = {m.start(2) for m in re.finditer(r"\b(struct|alias)\s+(\w+)", text)}
+    mentions = (re.finditer(r"\barray\s*<", text), (m for m in re.finditer(r"\b[A-Za-z_]\w*\b", text)
+                                                      if m.group() in named and m.start() not in declared))
+    for m in sorted((m for ms in mentions for m in ms), key=lambda m: m.start()):
+        if m.start() < inside:  # an array inside one already counted
+            continue
+        if m.group() in named:  # a variable, value or parameter of a named type
+            elements = named[m.group()]
+        else:
+            try:
+                elements, inside = parse(m.end() - 1)
+            except _Refused as refused:
+                return _problem(code, refused.offset, refused.message, refused.reason)
+            if elements > MAX_ARRAY_ELEMENTS:
+                return _problem(code, m.start(), f"an array of {elements:,} elements is too large (at most "
+                                f"{MAX_ARRAY_ELEMENTS:,}; a huge array can exhaust the GPU driver's memory or lose "
+                                "the device)", f"array of {elements} elements")
+        total += elements
+        if total > MAX_TOTAL_ELEMENTS:
+            return _problem(code, m.start(), f"the arrays up to here hold {total:,} elements in all (at most "
+                            f"{MAX_TOTAL_ELEMENTS:,} in the whole code; many arrays can exhaust the GPU driver as one "
+                            "huge one does)", f"arrays of {total} elements in all")
     return None
 
 
