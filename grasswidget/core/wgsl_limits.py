@@ -124,8 +124,8 @@ def _array_problem(code, text):
         if elements > MAX_ARRAY_ELEMENTS:
             m = re.search(r"\b(?:struct|alias)\s+" + re.escape(name) + r"\b", text)
             return _problem(code, m.start(), f"`{name}` holds {elements:,} elements in all (at most "
-                            f"{MAX_ARRAY_ELEMENTS:,}; a huge variable can exhaust the GPU driver's memory or lose the "
-                            "device)", f"{name} of {elements} elements")
+                            f"{MAX_ARRAY_ELEMENTS:,}: large arrays make a GPU compile slow, huge ones can exhaust the "
+                            "driver's memory or lose the device)", f"{name} of {elements} elements")
     total, inside = 0, -1
     declared = {m.start(2) for m in re.finditer(r"\b(struct|alias)\s+(\w+)", text)}
     mentions = (re.finditer(r"\barray\s*<", text), (m for m in re.finditer(r"\b[A-Za-z_]\w*\b", text)
@@ -142,8 +142,8 @@ def _array_problem(code, text):
                 return _problem(code, refused.offset, refused.message, refused.reason)
             if elements > MAX_ARRAY_ELEMENTS:
                 return _problem(code, m.start(), f"an array of {elements:,} elements is too large (at most "
-                                f"{MAX_ARRAY_ELEMENTS:,}; a huge array can exhaust the GPU driver's memory or lose "
-                                "the device)", f"array of {elements} elements")
+                                f"{MAX_ARRAY_ELEMENTS:,}: large arrays make a GPU compile slow, huge ones can exhaust "
+                                "the driver's memory or lose the device)", f"array of {elements} elements")
         total += elements
         if total > MAX_TOTAL_ELEMENTS:
             return _problem(code, m.start(), f"the arrays up to here hold {total:,} elements in all (at most "
