@@ -16,8 +16,12 @@ The limits (each a module constant, applied to the code with comments blanked):
 - :data:`MAX_CODE_CHARS` characters in all (32,768);
 - :data:`MAX_NESTING` levels of ``(``, ``[`` and ``{`` together (48);
 - :data:`MAX_STATEMENT_TERMS` names and numbers in one statement (500);
-- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (1,024);
-  its size must be a number or a module ``const`` set to a number;
+- :data:`MAX_ARRAY_ELEMENTS` elements in one array type, nested arrays multiplied (256),
+  an array of an ``alias`` or a ``struct`` counted by what the name holds, and in one
+  ``struct`` or ``alias`` (its members added up); an array's size must be a number or a module
+  ``const`` set to a number;
+- :data:`MAX_TOTAL_ELEMENTS` array elements in the whole code (512), each array type and
+  each mention of an ``alias`` or ``struct`` counted;
 - :data:`MAX_INLINED_TERMS` names and numbers in one function with every call of the
   user's own functions written out, as a driver inlines them (20,000).
 
@@ -31,7 +35,7 @@ import functools
 import re
 
 __all__ = ["wgsl_limit_problem", "MAX_CODE_CHARS", "MAX_NESTING", "MAX_STATEMENT_TERMS", "MAX_ARRAY_ELEMENTS",
-           "MAX_INLINED_TERMS"]
+           "MAX_INLINED_TERMS", "MAX_TOTAL_ELEMENTS"]
 
 #: Most characters of one piece of user WGSL (the exercises' solutions are under 1,500).
 MAX_CODE_CHARS = 32_768
@@ -40,8 +44,13 @@ MAX_NESTING = 48
 #: Most names and numbers in one statement (a sum of 50,000 terms crashed the compiler).
 MAX_STATEMENT_TERMS = 500
 #: Most elements of one array type (``array<vec4<f32>, 16777216>`` exhausted memory;
-#: a 100,000-element ``const`` array lost the device).
-MAX_ARRAY_ELEMENTS = 1024
+#: a 100,000-element ``const`` array lost the device; on lavapipe one array of 1,024 indexed by
+#: a computed index made a grade run past 60 s, 512 took 18 s, 256 about 6 s).
+MAX_ARRAY_ELEMENTS = 256
+#: Most array elements of the whole code: every array type written out, and every mention of an
+#: ``alias`` or ``struct`` holding arrays, added up (on lavapipe two arrays of 256 indexed by a
+#: computed index made a grade take 21 s; 100 ``const`` arrays of 1,024 zeros each ran it past 60 s).
+MAX_TOTAL_ELEMENTS = 512
 #: Most names and numbers of one function once the user's own functions it calls are
 #: written out in place (the drivers inline every call).
 MAX_INLINED_TERMS = 20_000
@@ -77,6 +86,8 @@ def _array_problem(code, text):
         if value is not None:
             consts[m.group(1)] = value
 
+    named = _named_type_elements(text)
+
     def parse(at):
         """(elements, end offset) of the array type whose ``<`` is at ``at``; raises _Refused."""
         depth, k, commas = 0, at, []
@@ -105,18 +116,84 @@ def _array_problem(code, text):
         inner = re.search(r"\barray\s*<", elem)
         if inner:
             per, _ = parse(inner_start + inner.end() - 1)
+        elif elem.strip() in named:  # an alias or a struct: its own elements, each
+            per = named[elem.strip()]
         return count * per, k
 
-    for m in re.finditer(r"\barray\s*<", text):
-        try:
-            elements, _ = parse(m.end() - 1)
-        except _Refused as refused:
-            return _problem(code, refused.offset, refused.message, refused.reason)
+    for name, elements in named.items():  # a struct of many arrays is as large as one long array
         if elements > MAX_ARRAY_ELEMENTS:
-            return _problem(code, m.start(), f"an array of {elements:,} elements is too large (at most "
-                            f"{MAX_ARRAY_ELEMENTS:,}; a huge array can exhaust the GPU driver's memory or lose "
-                            "the device)", f"array of {elements} elements")
+            m = re.search(r"\b(?:struct|alias)\s+" + re.escape(name) + r"\b", text)
+            return _problem(code, m.start(), f"`{name}` holds {elements:,} elements in all (at most "
+                            f"{MAX_ARRAY_ELEMENTS:,}: large arrays make a GPU compile slow, huge ones can exhaust the "
+                            "driver's memory or lose the device)", f"{name} of {elements} elements")
+    total, inside = 0, -1
+    declared = {m.start(2) for m in re.finditer(r"\b(struct|alias)\s+(\w+)", text)}
+    mentions = (re.finditer(r"\barray\s*<", text), (m for m in re.finditer(r"\b[A-Za-z_]\w*\b", text)
+                                                      if m.group() in named and m.start() not in declared))
+    for m in sorted((m for ms in mentions for m in ms), key=lambda m: m.start()):
+        if m.start() < inside:  # an array inside one already counted
+            continue
+        if m.group() in named:  # a variable, value or parameter of a named type
+            elements = named[m.group()]
+        else:
+            try:
+                elements, inside = parse(m.end() - 1)
+            except _Refused as refused:
+                return _problem(code, refused.offset, refused.message, refused.reason)
+            if elements > MAX_ARRAY_ELEMENTS:
+                return _problem(code, m.start(), f"an array of {elements:,} elements is too large (at most "
+                                f"{MAX_ARRAY_ELEMENTS:,}: large arrays make a GPU compile slow, huge ones can exhaust "
+                                "the driver's memory or lose the device)", f"array of {elements} elements")
+        total += elements
+        if total > MAX_TOTAL_ELEMENTS:
+            return _problem(code, m.start(), f"the arrays up to here hold {total:,} elements in all (at most "
+                            f"{MAX_TOTAL_ELEMENTS:,} in the whole code; many arrays can exhaust the GPU driver as one "
+                            "huge one does)", f"arrays of {total} elements in all")
     return None
+
+
+def _named_type_elements(text) -> dict:
+    """name -> elements of each ``alias`` and ``struct`` of ``text`` (an array's size times its
+    element's, a struct's members added up, anything else 1), so that an array of a named type
+    counts what the name stands for. Sizes that are not numbers count 1 here (the array check
+    refuses them)."""
+    consts = {m.group(1): v for m in re.finditer(r"\bconst\s+(\w+)\s*(?::\s*\w+\s*)?=\s*([^;]+);", text)
+              if (v := _int_value(m.group(2), {})) is not None}
+    named = {}
+
+    def elements(type_text, depth=0):
+        type_text = type_text.strip()
+        if depth > 64:
+            return 1
+        m = re.match(r"array\s*<(.*)>$", type_text, re.S)
+        if m:
+            inner = m.group(1)
+            level, cut = 0, None
+            for k, ch in enumerate(inner):
+                level += ch == "<"
+                level -= ch == ">"
+                if ch == "," and level == 0:
+                    cut = k
+            if cut is None:
+                return elements(inner, depth + 1)
+            count = _int_value(inner[cut + 1:], consts) or 1
+            return count * elements(inner[:cut], depth + 1)
+        return named.get(type_text, 1)
+
+    for m in re.finditer(r"\b(alias\s+(\w+)\s*=\s*([^;]+);|struct\s+(\w+)\s*\{([^}]*)\})", text):
+        if m.group(2):
+            named[m.group(2)] = elements(m.group(3))
+        else:  # members `name: type,` with the types' commas inside < > kept together
+            members, level, start = [], 0, 0
+            body = m.group(5)
+            for k, ch in enumerate(body + ","):
+                level += ch == "<"
+                level -= ch == ">"
+                if ch == "," and level == 0:
+                    members.append(body[start:k])
+                    start = k + 1
+            named[m.group(4)] = sum(elements(part.split(":", 1)[1]) for part in members if ":" in part)
+    return named
 
 
 class _Refused(Exception):

@@ -125,6 +125,8 @@ def wind_limit_error(body: str):
     ``wind_wgsl`` body breaks (see :func:`limit_problem`), with the line and column in
     ``body``; None when it keeps them all (or is empty). Both engines check it first."""
     problem = limit_problem(body) if body.strip() else None
+    if problem is None and body.strip():
+        problem = _escape_problem(body)
     if problem is None:
         return None
     message, line, column, reason = problem
@@ -134,6 +136,22 @@ def wind_limit_error(body: str):
     src = src if len(src) <= 160 else src[:157] + "..."
     return WindShaderError(f"wind_wgsl{where}: {message}" + (f"\n  {line} | {src}" if line else ""), line, column,
                            reason, "")
+
+
+def _escape_problem(body: str):
+    """``(message, line, column, reason)`` for the first ``}`` of a wind body that closes
+    ``user_wind`` itself (what follows it would be module-scope code of the user's: bindings,
+    entry points, large private arrays, none of them checked as a body); None when the
+    body's braces stay inside the function."""
+    depth = 0
+    for m in re.finditer(r"[{}]", strip_comments(body)):
+        depth += 1 if m.group() == "{" else -1
+        if depth < 0:
+            line, column = _line_col(body, m.start())
+            return ("this `}` closes the function `user_wind` itself; wind_wgsl is the body of that one function "
+                    "(statements ending in `return vec3<f32>(...)`), so every `{` and `}` in it must pair up",
+                    line, column, "closes user_wind")
+    return None
 
 
 def _line_col(code: str, offset: int) -> tuple:

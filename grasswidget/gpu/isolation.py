@@ -482,7 +482,8 @@ def check_compute(wgsl: str, entry_point="main", worker=None):
 
 _HINTS = {
     "crash": "a very long or deeply nested expression is the usual cause: split it with `let`",
-    "time": "a compile or pass this slow usually comes from helpers that call each other many times over",
+    "time": "a compile or pass this slow usually comes from an array indexed by a computed index (a CPU "
+            "adapter's compiler is slow on those) or from helpers that call each other many times over",
     "memory": "large arrays, or helpers called many times over, are the usual cause",
     "device lost": "a huge constant or private array is the usual cause",
 }

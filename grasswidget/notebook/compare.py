@@ -650,10 +650,22 @@ class SideBySide(ipw.HBox):
         self.views = dict(views)
         super().__init__([ipw.VBox([ipw.HTML(f"<b>{html.escape(title)}</b>"), w]) for title, w in self.views.items()])
 
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` ran or any of the row's widgets was closed."""
+        return any(w.closed for w in self.views.values())
+
+    def __repr__(self):
+        titles = ", ".join(self.views)
+        return f"<SideBySide {titles}: {'closed' if self.closed else 'open'}>"
+
     def _display_(self):
-        """What marimo shows (only marimo asks): the widgets side by side, each with its panel."""
+        """What marimo shows (only marimo asks): the widgets side by side, each with its panel;
+        once closed, its text ("<SideBySide ...: closed>"), as a closed GrassWidget shows."""
         from .marimo_face import marimo_row_display
 
+        if self.closed:
+            return repr(self)
         return marimo_row_display(list(self.views.items()))
 
     def close(self):

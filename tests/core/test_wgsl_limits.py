@@ -68,7 +68,7 @@ def test_a_private_array_of_16m_vectors_is_refused_naming_its_size():
                               "    return big[0].xyz * (fd * fr);")
     err = _refusal(code)
     assert err.line == _line_of(code, "var big") and err.column == code.split("\n")[err.line - 1].index("array") + 1
-    assert "16,777,216 elements" in str(err) and "at most 1,024" in str(err)
+    assert "16,777,216 elements" in str(err) and f"at most {wgsl_limits.MAX_ARRAY_ELEMENTS:,}" in str(err)
 
 
 @pytest.mark.parametrize("declaration", [
@@ -110,3 +110,54 @@ def test_helpers_that_double_when_inlined_are_refused_at_the_first_too_large():
 def test_comments_do_not_count():
     code = _forces_with(LAST, "// " + "(" * 100 + " array<f32, 99999999>\n    " + LAST)
     assert limit_problem(code) is None
+
+
+@pytest.mark.parametrize("declarations, culprit, elements", [
+    # an alias of a legal array, then an array of the alias: 1,000 x 200 vectors (1,000 x 1,000 ran a grade
+    # past the worker's 60 s)
+    ("alias A = array<vec4<f32>, 200>;\nvar<private> big: array<A, 1000>;\n", "var<private> big", "200,000"),
+    # a struct of arrays, each under the limit: 4 x 200 in one struct (4 x 1,024 ran the worker out of memory)
+    ("struct S { a: array<vec4<f32>, 200>, b: array<vec4<f32>, 200>, c: array<vec4<f32>, 200>, "
+     "d: array<vec4<f32>, 200> }\n", "struct S", "800"),
+    # the size through a const, the element through an alias
+    ("const N = 100;\nalias Row = array<f32, N>;\nvar<private> rows: array<Row, 4>;\n", "var<private> rows", "400"),
+])
+def test_an_array_grown_through_an_alias_or_a_struct_is_refused_where_it_grows(declarations, culprit, elements):
+    code = declarations + FORCES.solution
+    err = _refusal(code)
+    assert err.line == _line_of(code, culprit) and f"{elements} elements" in str(err), str(err)
+    assert limit_problem(declarations) is not None
+
+
+def test_many_arrays_each_small_are_refused_where_their_sum_passes_the_limit():
+    # 100 const arrays of 1,024 zeros each (a compile past 60 s), the same as arrays of a named type
+    per = wgsl_limits.MAX_ARRAY_ELEMENTS
+    count = wgsl_limits.MAX_TOTAL_ELEMENTS // per + 1  # the first count over the total
+    consts = "\n".join(f"const T{k} = array<f32, {per}>();" for k in range(count)) + "\n"
+    code = consts + FORCES.solution
+    err = _refusal(code)
+    assert err.line == count and f"{count * per:,} elements in all" in str(err), str(err)
+    named = f"alias A = array<f32, {per}>;\n" + "\n".join(f"var<private> p{k}: A;" for k in range(count)) + "\n"
+    err = _refusal(named + FORCES.solution)  # the alias's own array and each variable of it
+    assert err.line == count and f"{count * per:,} elements in all" in str(err), str(err)
+    assert limit_problem("\n".join(consts.split("\n")[:count - 1])) is None  # one array fewer is fine
+
+
+def test_small_structs_and_aliases_pass():
+    code = ("struct Pair { a: vec3<f32>, b: array<f32, 8> }\nalias Pairs = array<Pair, 16>;\n"
+            "var<private> pairs: Pairs;\n" + FORCES.solution)
+    assert limit_problem(code) is None  # 16 x (1 + 8) = 144 elements
+
+
+@pytest.mark.parametrize("body, line", [
+    ("return vec3<f32>(0.0);\n}\n@group(0) @binding(17) var<storage, read_write> x: array<f32>;\nfn rest() {", 2),
+    ("return vec3<f32>(0.0);\n}\n@compute @workgroup_size(1) fn other() {", 2),
+    ("if (t > 1.0) { return vec3<f32>(1.0); } }\nfn more() {\nreturn;", 1),
+])
+def test_a_wind_body_that_closes_its_function_is_refused_at_that_brace(body, line):
+    from grasswidget.core.wgsl_overrides import wind_limit_error
+
+    err = wind_limit_error(body)
+    assert isinstance(err, gw.WindShaderError) and err.line == line and err.reason == "closes user_wind", err
+    assert "closes the function `user_wind`" in str(err)
+    assert wind_limit_error("if (t > 1.0) { return vec3<f32>(1.0); }\n// } in a comment\nreturn vec3<f32>(0.0);") is None

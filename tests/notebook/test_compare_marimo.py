@@ -75,3 +75,17 @@ def test_an_exercise_comparison_shows_in_marimo_in_both_engines():
     finally:
         row.close()
     assert all(w.closed for w in row.views.values())
+
+
+def test_a_closed_row_shows_its_text_in_marimo_instead_of_raising():
+    from grasswidget.notebook.compare import SideBySide  # what ex.compare(code, backend="browser") returns
+
+    row = SideBySide({title: gw.GrassWidget(blades=64, size=SIZE, backend="browser")
+                      for title in ("yours", "reference")})  # the browser engine: no GPU needed in the kernel
+    try:
+        assert not row.closed and "<marimo-anywidget" in mo.as_html(row).text
+    finally:
+        row.close()
+    assert row.closed and repr(row) == "<SideBySide yours, reference: closed>"
+    text = mo.as_html(row).text  # was WidgetClosedError from inside marimo's display
+    assert "SideBySide yours, reference: closed" in text.replace("&lt;", "<") and "<marimo-anywidget" not in text

@@ -103,8 +103,17 @@ MISTAKES = [
             "let d_ground = length(d - up * dot(d, up));", "let d_ground = length(d);", "overview"),
 ]
 
-#: Mistakes no case catches (named in docs/teaching.md's known limits); empty when every one is caught.
-UNCAUGHT = {}
+#: Plausible mistakes no case catches, graded to show they pass (so a case that starts catching one
+#: fails the test below: move it into MISTAKES then); each is named in docs/teaching.md's known limits.
+UNCAUGHT_ROWS = [
+    # the frustum test of v1 (the control point, off the curve) for the curve's midpoint: the two differ
+    # in view only for a blade whose v0 and v2 are both outside and whose bend straddles an edge
+    Mistake("frustum-v1-for-midpoint", "culling", "frustum_cull",
+            "the control point v1 tested instead of the curve's midpoint", "let m = 0.25 * v0 + 0.5 * v1 + 0.25 * v2;",
+            "let m = v1;", None),
+]
+#: key -> the words docs/teaching.md names it with.
+UNCAUGHT = {m.key: m.what for m in UNCAUGHT_ROWS}
 
 
 def _batches():
@@ -158,6 +167,16 @@ def test_each_mistake_is_caught_by_its_case(mistake):
     assert mistake.case in grade.failed_cases, (mistake.key, grade.failed_cases, str(report))
     assert grade.failure and grade.failure["case"] in grade.failed_cases
     assert f'"{mistake.case}"' in "\n".join(grade.failure_lines())  # named in the function's own lines
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mistake", UNCAUGHT_ROWS, ids=[m.key for m in UNCAUGHT_ROWS])
+def test_the_uncaught_mistakes_really_pass(mistake):
+    ex = gw.exercise(mistake.exercise)
+    code = ex.solution()
+    assert code.count(mistake.old) == 1 and mistake.key not in {m.key for m in MISTAKES}
+    report = ex.grade(code.replace(mistake.old, mistake.new))
+    assert mistake.function not in report.failed, f"{mistake.key} is caught now: move it into MISTAKES\n{report}"
 
 
 def test_the_mistakes_no_case_catches_are_named_in_the_docs():
