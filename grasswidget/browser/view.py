@@ -483,15 +483,20 @@ class BrowserEngineWidget(anywidget.AnyWidget):
                                      "a snapshot from the browser view")
         return np.frombuffer(bytes(buffers[0]), np.uint8).reshape(int(msg["height"]), int(msg["width"]), 4).copy()
 
+    def _put_wind_back(self, body, old):
+        """A refused ``body`` that is still ``params.wind_wgsl`` goes back to ``old`` (the wind the
+        page runs), without asking the page again."""
+        if self.params.wind_wgsl == body:
+            self._reverting_wind = True
+            try:
+                self.params.wind_wgsl = old
+            finally:
+                self._reverting_wind = False
+
     def _request_wind(self, body, old, wait, timeout=ANSWER_TIMEOUT):
         refused = wind_limit_error(body)  # the size limits, before the page's compiler sees it
         if refused is not None:
-            if self.params.wind_wgsl == body:
-                self._reverting_wind = True
-                try:
-                    self.params.wind_wgsl = old
-                finally:
-                    self._reverting_wind = False
+            self._put_wind_back(body, old)
             if wait:
                 raise refused
             self._emit_error(refused)
@@ -507,12 +512,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
                 return None
             err = wind_error_from_messages(msg.get("messages") or [], shader["code"], wind_body(body),
                                            msg.get("message", ""))
-            if self.params.wind_wgsl == body:
-                self._reverting_wind = True
-                try:
-                    self.params.wind_wgsl = old
-                finally:
-                    self._reverting_wind = False
+            self._put_wind_back(body, old)
             return err
 
         if not wait:
