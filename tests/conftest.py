@@ -194,6 +194,20 @@ def widget():
     w.close()
 
 
+@pytest.fixture
+def ctrl_c_enabled():
+    """Ctrl-C (SIGINT) handled as in an interactive Python for the test: a process started in the
+    background by a non-interactive shell (``cmd &``, some CI runners) inherits SIGINT ignored,
+    and grasswidget rightly holds back nothing then (``core.limits.hold_interrupts``)."""
+    import signal
+
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def _run_compute(code, words_in, words_out, n):
     """Run WGSL ``code`` (entry point ``main``, workgroup 64, bindings 0: ``array<u32>``
     in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words."""

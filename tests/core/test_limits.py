@@ -178,7 +178,7 @@ def test_check_steps_takes_0_to_max_steps_and_names_the_limit():
             check_steps(n)
 
 
-def test_hold_interrupts_holds_ctrl_c_and_restores_the_handler():
+def test_hold_interrupts_holds_ctrl_c_and_restores_the_handler(ctrl_c_enabled):
     before = signal.getsignal(signal.SIGINT)
     with hold_interrupts() as held:
         with hold_interrupts() as inner:

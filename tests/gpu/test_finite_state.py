@@ -275,7 +275,7 @@ def test_grass_scene_step_refuses_2_to_the_40():
         scene.release()
 
 
-def test_ctrl_c_between_submissions_stops_with_the_steps_counted(fresh, blades, monkeypatch):
+def test_ctrl_c_between_submissions_stops_with_the_steps_counted(fresh, blades, monkeypatch, ctrl_c_enabled):
     """A run of 40 dispatches of 4 steps; SIGINT during the 3rd: the 3rd completes, then
     StepsInterrupted; step_count and the state are those of 12 steps."""
     monkeypatch.setattr(frame_data, "BLADE_STEPS_PER_DISPATCH", 4 * fresh.count)
@@ -302,7 +302,7 @@ def test_ctrl_c_between_submissions_stops_with_the_steps_counted(fresh, blades, 
     assert np.abs(state["v2"] - cpu["v2"]).max() < 1e-4 * float(blades.height.max())
 
 
-def test_widget_step_interrupted_counts_the_steps_done(widget, monkeypatch):
+def test_widget_step_interrupted_counts_the_steps_done(widget, monkeypatch, ctrl_c_enabled):
     field = widget.view.scene.field
     monkeypatch.setattr(frame_data, "BLADE_STEPS_PER_DISPATCH", 8 * field.count)
     calls = []
