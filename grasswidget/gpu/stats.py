@@ -23,7 +23,7 @@ from .. import compat
 from ..core.frame_data import counter_layout, read_counters
 from .adapter import ensure_device
 
-__all__ = ["FrameStats"]
+__all__ = ["FrameStats", "read_staging"]
 
 RING = 3
 #: Frames whose counts :meth:`FrameStats.counts_of` still knows.
@@ -31,6 +31,18 @@ HISTORY = 16
 # Query slots: sim begin/end, draw begin/end.
 Q_SIM, Q_DRAW, N_QUERIES = 0, 2, 4
 
+
+
+def read_staging(staging, promise, free: list) -> np.ndarray:
+    """The bytes of a mapped-for-read staging buffer (waits for ``promise``, its map_async), as a
+    NumPy copy; the buffer is unmapped and put back on ``free`` for reuse, also on an error."""
+    try:
+        promise.sync_wait()
+        return np.frombuffer(staging.read_mapped(), np.uint8).copy()
+    finally:
+        if staging.map_state == "mapped":
+            staging.unmap()
+        free.append(staging)
 
 class FrameStats:
     """Live statistics of one GrassField: visible blades and GPU milliseconds.
@@ -167,13 +179,7 @@ class FrameStats:
 
     def _take(self):
         staging, promise, (frame, switches) = self._pending.popleft()
-        try:
-            promise.sync_wait()
-            raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
-        finally:
-            if staging.map_state == "mapped":
-                staging.unmap()
-            self._free.append(staging)
+        raw = read_staging(staging, promise, self._free)
         self._apply(raw, switches)
         self.counts_frame = frame
         self._history.append((frame, {"visible": self.visible, "rastered": self.rastered, "occluded": self.occluded}))

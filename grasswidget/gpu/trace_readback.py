@@ -22,6 +22,7 @@ from .. import compat
 from ..core.reference import FORCE_NAMES
 from ..core.teaching import MAX_INSPECTED, inspected_rows
 from .adapter import ensure_device
+from .stats import read_staging
 
 __all__ = ["InspectedReadback", "RING"]
 
@@ -70,13 +71,7 @@ class InspectedReadback:
         out = []
         while self._pending and compat.promise_settled(self._pending[0][1]):
             staging, promise, tag, ids = self._pending.popleft()
-            try:
-                promise.sync_wait()
-                raw = np.frombuffer(staging.read_mapped(), np.uint8).copy()
-            finally:
-                if staging.map_state == "mapped":
-                    staging.unmap()
-                self._free.append(staging)
+            raw = read_staging(staging, promise, self._free)
             n = len(ids)
             forces = raw[: n * len(FORCE_NAMES) * 16].view(np.float32).reshape(n, len(FORCE_NAMES), 4)
             points = raw[_FORCE_BYTES: _FORCE_BYTES + n * 36].view(np.float32).reshape(n, 3, 3)
