@@ -208,6 +208,27 @@ def ctrl_c_enabled():
         signal.signal(signal.SIGINT, before)
 
 
+def param_extremes():
+    """(trait, value) for both ends of every float trait of GrassParams, and for every vector trait
+    its limit along every axis (1e300 where it has none) and, where a zero vector is refused, the
+    smallest non-zero direction: what the finite-state tests run the physics at (pure and GPU)."""
+    import grasswidget as gw
+    from grasswidget.core.params import RangedFloat, Vec3
+
+    p = gw.GrassParams()
+    out = []
+    for name in sorted(p.trait_names()):
+        trait = p.traits()[name]
+        if isinstance(trait, RangedFloat):
+            out += [(name, trait.lo), (name, trait.hi)]
+        elif isinstance(trait, Vec3):
+            big = trait.limit if trait.limit is not None else 1e300
+            out += [(name, (big, -big, big)), (name, (-big, 0.0, 0.0))]
+            if trait.nonzero:
+                out.append((name, (0.0, -1e-300, 0.0)))
+    return out
+
+
 def _run_compute(code, words_in, words_out, n):
     """Run WGSL ``code`` (entry point ``main``, workgroup 64, bindings 0: ``array<u32>``
     in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words."""

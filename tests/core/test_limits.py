@@ -11,12 +11,12 @@ import pytest
 import traitlets
 
 import grasswidget as gw
+from conftest import param_extremes
 from grasswidget.core import reference as ref
 from grasswidget.core.colliders import ColliderList, collider_array
 from grasswidget.core.frame_data import sim_uniform_values
 from grasswidget.core.limits import (MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE,
                                      MAX_STEPS, StepsInterrupted, check_steps, hold_interrupts)
-from grasswidget.core.params import RangedFloat, Vec3
 
 
 # ------------------------------------------------------------------ refused, with the range named
@@ -101,24 +101,7 @@ def test_directions_of_any_finite_size_are_normalised_without_overflow():
 # ------------------------------------------------------------------ every accepted extreme stays finite
 
 
-def _extremes():
-    """(trait, value) for both ends of every numeric trait of GrassParams (vectors: each end of
-    the range along every axis, and the largest/smallest non-zero direction)."""
-    p = gw.GrassParams()
-    out = []
-    for name in sorted(p.trait_names()):
-        trait = p.traits()[name]
-        if isinstance(trait, RangedFloat):
-            out += [(name, trait.lo), (name, trait.hi)]
-        elif isinstance(trait, Vec3):
-            big = trait.limit if trait.limit is not None else 1e300
-            out += [(name, (big, -big, big)), (name, (-big, 0.0, 0.0))]
-            if trait.nonzero:
-                out.append((name, (0.0, -1e-300, 0.0)))
-    return out
-
-
-EXTREMES = _extremes()
+EXTREMES = param_extremes()
 
 
 def test_the_extremes_cover_every_float_and_vector_trait():

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
+from conftest import param_extremes
 from grasswidget.core import frame_data
-from grasswidget.core.params import RangedFloat, Vec3
 from grasswidget.core import reference as ref
 from grasswidget.core.limits import (MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE, MAX_STEPS,
                                      NonFiniteStateWarning, StepsInterrupted)
@@ -82,28 +82,11 @@ def test_extreme_accepted_inputs_keep_every_blade_finite(case, fresh, blades):
     assert np.allclose(length, blades.height, rtol=2e-3), case
 
 
-def _numeric_extremes():
-    """(trait, value): both ends of every float trait of GrassParams, and for every vector trait
-    its limit along every axis (1e300 where it has none) and the smallest non-zero direction."""
-    p = gw.GrassParams()
-    out = []
-    for name in sorted(p.trait_names()):
-        trait = p.traits()[name]
-        if isinstance(trait, RangedFloat):
-            out += [(name, trait.lo), (name, trait.hi)]
-        elif isinstance(trait, Vec3):
-            big = trait.limit if trait.limit is not None else 1e300
-            out += [(name, (big, -big, big)), (name, (-big, 0.0, 0.0))]
-            if trait.nonzero:
-                out.append((name, (0.0, -1e-300, 0.0)))
-    return out
-
-
 def test_every_numeric_parameter_at_either_end_keeps_every_blade_finite_on_the_gpu(fresh):
     """All four built-in wind fields, each float/vector trait at each end of its range (gravity_center
     with gravity_mode 'point'), a huge ball and a small one in the field: float32 stays finite."""
     fresh.colliders.set_array([[0.0, 0.5, 0.0, 1.0], [1.0, -MAX_COORDINATE + 2.0, 1.0, MAX_COORDINATE]])
-    extremes = _numeric_extremes()
+    extremes = param_extremes()
     assert len(extremes) > 40
     resets = fresh.nonfinite_resets
     bad = []
