@@ -1,6 +1,6 @@
 """What each notebook must print and write when it runs, checked on the outputs of a real run.
 
-The Run All test (``tests/browser/test_notebooks_run_all.py``) runs every notebook in
+The Run All test (``tests/e2e/test_notebooks_run_all.py``) runs every notebook in
 JupyterLab, saves it, and hands its outputs here: one run of each notebook serves both
 "every widget is alive and drawing" and "the notebook computed what its text says".
 """

@@ -2,7 +2,7 @@
 uniforms it packs, errors, and the GrassWidget backend choice.
 
 Runs without Chromium (not marked ``browser``); the engine in a real page is
-tested in tests/browser/test_browser_engine.py.
+tested in tests/e2e/test_browser_engine.py.
 """
 
 from __future__ import annotations

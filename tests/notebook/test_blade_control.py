@@ -2,7 +2,7 @@
 
 No GPU here: the control is driven with a stand-in ``apply`` that records what it
 is asked; the widget's own use of it runs in tests/notebook/test_widget.py and,
-with the keyboard in JupyterLab, in tests/browser/test_blade_control_browser.py.
+with the keyboard in JupyterLab, in tests/e2e/test_lecture_controls.py.
 """
 
 from __future__ import annotations

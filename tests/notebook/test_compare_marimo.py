@@ -1,7 +1,7 @@
 """``gw.compare(...)`` and ``ex.compare(code)`` in marimo, without a browser: what marimo shows is
 anywidgets only (marimo draws no ipywidgets container), and the shared panel, drawn by the
 ControlMirror, drives every view (the page's messages are fed to the mirror's ``receive``).
-The page itself (marimo run, Chromium) is ``tests/browser/test_marimo.py``."""
+The page itself (marimo run, Chromium) is ``tests/e2e/test_marimo.py``."""
 
 from __future__ import annotations
 

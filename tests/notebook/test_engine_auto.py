@@ -1,6 +1,6 @@
 """backend="auto" in the kernel (no browser): the default widget, and what the page's adapter
 report does to it. The page's side (the probe in a real Chromium) is tested in
-tests/browser/test_engine_auto_browser.py."""
+tests/e2e/test_engine_auto_browser.py."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The widget's layouts on the Python side: names, view sizes, folding and the camera bar's
-two-way links (the pixels are measured in Chromium by tests/browser/test_camera_and_layout.py)."""
+two-way links (the pixels are measured in Chromium by tests/e2e/test_camera_and_layout.py)."""
 
 import pytest
 

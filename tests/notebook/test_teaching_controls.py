@@ -147,7 +147,7 @@ def test_inspect_from_code_and_bad_input(widget):
 
 
 def test_browser_widget_teaching_views_without_a_browser():
-    """The browser engine's teaching views, the Python side (the page: tests/browser/
+    """The browser engine's teaching views, the Python side (the page: tests/e2e/
     test_browser_teaching.py): freezing sends the frozen camera in u_cull and its frustum
     as line data; inspect sends the ids; bad ids change nothing; read_inspected with no
     browser answering names the browser view; ctrl + click picks the blade on the ray."""

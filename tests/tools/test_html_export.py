@@ -3,7 +3,7 @@
 The page's controls are state patches computed in Python; here they are applied
 the way page.js applies them and compared with what the kernel side would send
 (the uniforms packed by grasswidget.browser.uniforms for the changed params).
-Chromium runs the page in tests/browser/test_live_page.py.
+Chromium runs the page in tests/e2e/test_live_page.py.
 """
 
 from __future__ import annotations

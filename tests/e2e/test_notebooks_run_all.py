@@ -1,7 +1,7 @@
 """Run All in JupyterLab leaves every widget a notebook showed alive and drawing.
 
 For every notebook in notebooks/ (a glob: notebooks added later are covered), in the shared
-JupyterLab and Chromium of tests/browser/conftest.py: copy it into the served folder, open it,
+JupyterLab and Chromium of tests/e2e/conftest.py: copy it into the served folder, open it,
 run "Run All", wait until the kernel is idle with no cell queued, and then check
 
 * in the kernel: every ``GrassWidget`` the notebook made is open (``w.view`` is not None), and

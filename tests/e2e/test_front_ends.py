@@ -1,6 +1,6 @@
 """The widget in Jupyter Notebook 7 and in Voila, in Chromium (the JupyterLab tests' harness).
 
-For each front end, two notebooks, as in tests/browser/test_browser_engine.py:
+For each front end, two notebooks, as in tests/e2e/test_browser_engine.py:
 
 * ``GrassWidget(backend="browser")`` in a Chromium with WebGPU (SwiftShader): the
   canvas shows grass under a sky, the panel's stats line counts frames and

@@ -1,7 +1,7 @@
 """What the tour notebook's widget does for a user in a real JupyterLab + Chromium.
 
 :func:`check_tour` runs in the Run All test of ``notebooks/01_tour.ipynb``
-(``tests/browser/test_notebooks_run_all.py``, the run without WebGPU), on the page and kernel
+(``tests/e2e/test_notebooks_run_all.py``, the run without WebGPU), on the page and kernel
 that Run All left, once that test has checked the notebook's outputs and that every widget draws;
 so the tour runs once in the suite. Through the page and the kernel it checks:
 

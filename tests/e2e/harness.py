@@ -3,7 +3,7 @@
 Everything here is synchronous (Playwright's sync API) and pytest-friendly.
 A typical test::
 
-    from tests.browser.harness import *   # or: from .harness import ...
+    from tests.e2e.harness import *   # or: from .harness import ...
 
     write_notebook(root / "nb.ipynb", ["import ...", "widget"])
     with JupyterLabServer(root) as server, Browser() as browser:
