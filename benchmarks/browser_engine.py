@@ -52,7 +52,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks import browser_matrix  # noqa: E402
-from tests.browser.harness import (  # noqa: E402
+from tests.e2e.harness import (  # noqa: E402
     Browser,
     JupyterLabServer,
     kernel_eval,

@@ -3,7 +3,7 @@
 Issue 20: the default ``GrassWidget(blades=8192)`` left playing grew the kernel
 by about 16 MB a second on lavapipe. This runs the widget (``--engine kernel``:
 pygfx renders in the kernel and streams frames; ``--engine browser``: WebGPU in
-the page) in a real JupyterLab + Chromium (tests/browser/harness.py) for
+the page) in a real JupyterLab + Chromium (tests/e2e/harness.py) for
 ``--minutes``, interacting all the time, and samples every ``--interval`` seconds:
 
 * the kernel's resident memory (``/proc/<kernel pid>/statm``, MB);
@@ -47,7 +47,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.browser.harness import (  # noqa: E402
+from tests.e2e.harness import (  # noqa: E402
     Browser,
     JupyterLabServer,
     click_button,

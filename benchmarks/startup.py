@@ -35,7 +35,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.browser.harness import (  # noqa: E402
+from tests.e2e.harness import (  # noqa: E402
     Browser,
     JupyterLabServer,
     StaticServer,
