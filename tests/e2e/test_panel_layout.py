@@ -26,7 +26,9 @@ from pathlib import Path
 
 import pytest
 
-from .harness import kernel_eval, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, wait_for_view, write_notebook
+from .frames import wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import open_notebook, run_all_cells, write_notebook
 
 pytestmark = pytest.mark.browser
 
