@@ -81,3 +81,19 @@ def poll(
             page.wait_for_timeout(interval * 1000)
         else:
             time.sleep(interval)
+
+
+def poll_until_stable(read: Callable[[], Any], what: str, timeout: float, interval: float = 0.3, page=None):
+    """Call ``read()`` until two calls ``interval`` seconds apart return equal values, and return
+    that value: e.g. the boxes of a widget's parts once the browser has laid out what the kernel
+    changed (no fixed pause could know when that is done).
+
+    Raises :class:`HarnessTimeout` after ``timeout`` seconds, naming ``what`` and the last two
+    values read. With ``page`` given the pause between reads is ``page.wait_for_timeout``."""
+    seen: list = []
+
+    def check():
+        seen.append(read())
+        return len(seen) >= 2 and seen[-1] == seen[-2], seen[-2:]
+
+    return poll(check, what, timeout, interval, page=page)[-1]

@@ -27,7 +27,7 @@ from .controls import click_button
 from .frames import view_pixels, wait_for_view, wait_until_quiet
 from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
 from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
-from .polling import poll
+from .polling import poll, poll_until_stable
 
 pytestmark = pytest.mark.browser
 
@@ -64,14 +64,8 @@ def _sky(px):
 
 def _settled_boxes(page):
     root = page.locator(".grasswidget").first
-    last = None
-    for _ in range(30):
-        m = root.evaluate(BOXES)
-        if m == last:
-            return m
-        last = m
-        page.wait_for_timeout(300)
-    return last
+    return poll_until_stable(lambda: root.evaluate(BOXES), "the widget's boxes to settle (two reads alike)", 30,
+                             0.3, page=page)
 
 
 def _kernel_picture(page):
