@@ -121,10 +121,13 @@ def blades(request):
 
 @pytest.fixture(scope="module")
 def field(request, blades):
-    """A GrassField of the module's blades with ``GrassParams(**FIELD_PARAMS)``."""
+    """A GrassField of the module's blades with ``GrassParams(**FIELD_PARAMS)``; its GPU buffers
+    are freed after the module."""
     import grasswidget as gw
 
-    return gw.GrassField(blades, params=gw.GrassParams(**_module_spec(request, "FIELD_PARAMS")))
+    field = gw.GrassField(blades, params=gw.GrassParams(**_module_spec(request, "FIELD_PARAMS")))
+    yield field
+    field.release()
 
 
 @pytest.fixture
@@ -147,15 +150,18 @@ def fresh(request, field):
 @pytest.fixture(scope="module")
 def scene(request):
     """The module's GrassScene, from its ``SCENE`` dict (a preset, or the module's
-    ``blades`` at ``size`` with ``params``)."""
+    ``blades`` at ``size`` with ``params``); its GPU buffers are freed after the module."""
     import grasswidget as gw
 
     spec = _module_spec(request, "SCENE")
     if "preset" in spec:
-        return gw.GrassScene.preset(spec.pop("preset"), **spec)
-    params = spec.pop("params", None)
-    return gw.GrassScene(request.getfixturevalue("blades"), params=gw.GrassParams(**params) if params else None,
-                         **spec)
+        scene = gw.GrassScene.preset(spec.pop("preset"), **spec)
+    else:
+        params = spec.pop("params", None)
+        scene = gw.GrassScene(request.getfixturevalue("blades"),
+                              params=gw.GrassParams(**params) if params else None, **spec)
+    yield scene
+    scene.release()
 
 
 #: View size of the test widgets (CSS pixels).
@@ -231,7 +237,8 @@ def param_extremes():
 
 def _run_compute(code, words_in, words_out, n):
     """Run WGSL ``code`` (entry point ``main``, workgroup 64, bindings 0: ``array<u32>``
-    in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words."""
+    in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words.
+    Both buffers are destroyed before it returns (or raises)."""
     import wgpu
 
     from grasswidget.gpu.adapter import ensure_device
@@ -241,6 +248,15 @@ def _run_compute(code, words_in, words_out, n):
     data = np.ascontiguousarray(words_in, np.uint32)
     b_in = device.create_buffer_with_data(data=data.tobytes() or b"\0\0\0\0", usage=usage.STORAGE)
     b_out = device.create_buffer(size=max(4 * words_out * n, 4), usage=usage.STORAGE | usage.COPY_SRC)
+    try:
+        return _dispatch(device, code, b_in, b_out, words_out, n)
+    finally:
+        b_in.destroy()
+        b_out.destroy()
+
+
+def _dispatch(device, code, b_in, b_out, words_out, n):
+    """One dispatch of ``code`` over n items reading ``b_in`` and writing ``b_out``; its out words."""
     pipeline = device.create_compute_pipeline(
         layout="auto", compute={"module": device.create_shader_module(code=code), "entry_point": "main"}
     )

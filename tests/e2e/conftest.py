@@ -11,7 +11,7 @@ Fixtures:
   back at its first viewport size.
 * ``page``          the browser's page for one test; after the test its notebook is
   closed in Lab (Lab stays loaded for the next test's notebook:
-  ``harness.leave_notebook``), its kernel is reset and kept for the next test's notebook (every
+  ``notebook_actions.leave_notebook``), its kernel is reset and kept for the next test's notebook (every
   other kernel is shut down: ``JupyterLabServer.shutdown_kernels``) and, on
   failure, a screenshot, the browser console and the server log are saved (path
   printed in the report); a failed test's kernel is not kept.
@@ -29,7 +29,9 @@ from pathlib import Path
 
 import pytest
 
-from .harness import Browser, JupyterLabServer, leave_notebook, prerequisites_missing, save_debug_artifacts
+from .chromium import Browser, prerequisites_missing, save_debug_artifacts
+from .notebook_actions import leave_notebook
+from .servers import JupyterLabServer
 
 _HERE = Path(__file__).resolve().parent
 

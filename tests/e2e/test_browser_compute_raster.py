@@ -23,7 +23,8 @@ import os
 import numpy as np
 import pytest
 
-from .harness import kernel_eval, kernel_execute, poll, wait_for_kernel
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .polling import poll
 from .test_engines_alike import _artifacts, _run
 
 pytestmark = pytest.mark.browser

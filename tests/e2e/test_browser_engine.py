@@ -31,24 +31,11 @@ import sys
 import numpy as np
 import pytest
 
-from .harness import (
-    leave_notebook,
-    choose_option,
-    panel_label,
-    click_button,
-    drag,
-    kernel_eval,
-    kernel_execute,
-    open_notebook,
-    poll,
-    run_all_cells,
-    set_slider,
-    toggle_checkbox,
-    wait_for_frames,
-    wait_for_kernel,
-    wait_for_view,
-    write_notebook,
-)
+from .controls import choose_option, click_button, drag, panel_label, set_slider, toggle_checkbox
+from .frames import wait_for_frames, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 
@@ -92,7 +79,7 @@ def test_browser_engine(webgpu_browser, lab_server, browser_root):
     try:
         _check_browser_engine(page, lab_server, browser_root)
     except BaseException:
-        from .harness import save_debug_artifacts
+        from .chromium import save_debug_artifacts
 
         out = save_debug_artifacts(page, os.environ.get("GW_ARTIFACTS_DIR") or browser_root / "artifacts",
                                    "browser_engine", webgpu_browser, lab_server)

@@ -23,8 +23,9 @@ import sys
 import numpy as np
 import pytest
 
-from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
-    write_notebook
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 
@@ -62,7 +63,7 @@ def teaching_page(browser_root, lab_server, webgpu_chromium):
 
 
 def _save_failure(page, browser, server, root):
-    from .harness import save_debug_artifacts
+    from .chromium import save_debug_artifacts
 
     out = save_debug_artifacts(page, _artifacts(root), "browser_teaching", browser, server)
     print(f"\n[browser teaching] debug artifacts in {out}\n" + "\n".join(browser.console[-30:]))

@@ -23,9 +23,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import (
-    leave_notebook,click_button, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells,
-                      wait_for_kernel, wait_for_view, wait_until_quiet, view_pixels, write_notebook)
+from .controls import click_button
+from .frames import view_pixels, wait_for_view, wait_until_quiet
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll, poll_until_stable
 
 pytestmark = pytest.mark.browser
 
@@ -62,14 +64,8 @@ def _sky(px):
 
 def _settled_boxes(page):
     root = page.locator(".grasswidget").first
-    last = None
-    for _ in range(30):
-        m = root.evaluate(BOXES)
-        if m == last:
-            return m
-        last = m
-        page.wait_for_timeout(300)
-    return last
+    return poll_until_stable(lambda: root.evaluate(BOXES), "the widget's boxes to settle (two reads alike)", 30,
+                             0.3, page=page)
 
 
 def _kernel_picture(page):
@@ -201,7 +197,7 @@ def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_ro
         assert limits["clearance"] > 2.5  # above the tallest tip (2.5 m) + 0.3
         assert top[0] < 0.01
     except BaseException:
-        from .harness import save_debug_artifacts
+        from .chromium import save_debug_artifacts
 
         out = save_debug_artifacts(page, _artifacts(), "camera_browser_engine", webgpu_browser, lab_server)
         print(f"\n[camera] debug artifacts in {out}\n" + "\n".join(webgpu_browser.console[-30:]))

@@ -14,8 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .harness import (drag, kernel_eval, open_notebook, poll, run_all_cells, view_locator, view_pixels,
-                      wait_for_kernel, wait_for_view, wait_until_quiet, write_notebook)
+from .controls import drag
+from .frames import view_locator, view_pixels, wait_for_view, wait_until_quiet
+from .kernel_calls import kernel_eval, wait_for_kernel
+from .notebook_actions import open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 CAMERAS = "[list(w.camera_state['position']) for w in c.views.values()]"
 

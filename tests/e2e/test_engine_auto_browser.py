@@ -23,18 +23,10 @@ import sys
 import numpy as np
 import pytest
 
-from .harness import (
-    leave_notebook,
-    kernel_eval,
-    kernel_execute,
-    open_notebook,
-    poll,
-    run_all_cells,
-    wait_for_frames,
-    wait_for_kernel,
-    wait_for_view,
-    write_notebook,
-)
+from .frames import wait_for_frames, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 

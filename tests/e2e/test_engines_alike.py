@@ -29,8 +29,9 @@ import sys
 import numpy as np
 import pytest
 
-from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_kernel, \
-    write_notebook
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 
@@ -63,7 +64,7 @@ def _run(page, server, root, name, cells, check, browser):
         run_all_cells(page, timeout=120)
         check()
     except BaseException:
-        from .harness import save_debug_artifacts
+        from .chromium import save_debug_artifacts
 
         out = save_debug_artifacts(page, _artifacts(root), name, browser, server)
         print(f"\n[{name}] debug artifacts in {out}\n" + "\n".join(browser.console[-30:]))

@@ -9,7 +9,8 @@ import sys
 
 import pytest
 
-from .harness import leave_notebook, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, write_notebook
+from .kernel_calls import kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
 
 pytestmark = pytest.mark.browser
 
@@ -55,7 +56,7 @@ print('EXERCISE', err, off)
               f"{off:.2f} h from the stock physics")
         assert err < 1e-4 and off > 0.05
     except BaseException:
-        from .harness import save_debug_artifacts
+        from .chromium import save_debug_artifacts
 
         out_dir = save_debug_artifacts(page, os.environ.get("GW_ARTIFACTS_DIR") or browser_root / "artifacts",
                                        "exercise_browser", webgpu_browser, lab_server)

@@ -23,24 +23,12 @@ import re
 import numpy as np
 import pytest
 
-from .harness import (
-    choose_option,
-    JupyterLabServer,
-    drag,
-    kernel_eval,
-    open_notebook,
-    panel_label,
-    poll,
-    run_all_cells,
-    set_slider,
-    slider_readout,
-    toggle_checkbox,
-    wait_for_frames,
-    wait_for_kernel,
-    wait_for_view,
-    wait_until_quiet,
-    write_notebook,
-)
+from .controls import choose_option, drag, panel_label, set_slider, slider_readout, toggle_checkbox
+from .frames import wait_for_frames, wait_for_view, wait_until_quiet
+from .kernel_calls import kernel_eval, wait_for_kernel
+from .notebook_actions import open_notebook, run_all_cells, write_notebook
+from .polling import poll
+from .servers import JupyterLabServer
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -172,7 +160,7 @@ def test_fallback_in_front_end(server, browser):
         poll(lambda: "WebGPU is not available in this browser" in _stats_text(page),
              "the line saying WebGPU is not available", 90, 0.3, page=page)
         wait_for_view(page, 0, timeout=90)
-        from .harness import install_frame_counter
+        from .frames import install_frame_counter
 
         install_frame_counter(page)
         wait_for_frames(page, 3, timeout=60, index=0)

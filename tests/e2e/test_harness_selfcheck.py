@@ -10,30 +10,13 @@ import time
 import numpy as np
 import pytest
 
-from .harness import (
-    HarnessTimeout,
-    KernelExecutionError,
-    cell_output_text,
-    click_button,
-    drag,
-    frame_count,
-    frames_per_second,
-    kernel_eval,
-    kernel_execute,
-    open_notebook,
-    run_all_cells,
-    set_slider,
-    slider_readout,
-    view_locator,
-    view_pixels,
-    toggle_checkbox,
-    wait_for_frames,
-    wait_for_kernel,
-    wait_for_output_text,
-    wait_for_view,
-    wait_until_quiet,
-    write_notebook,
+from .controls import click_button, drag, set_slider, slider_readout, toggle_checkbox
+from .frames import (
+    frame_count, frames_per_second, view_locator, view_pixels, wait_for_frames, wait_for_view, wait_until_quiet,
 )
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import cell_output_text, open_notebook, run_all_cells, wait_for_output_text, write_notebook
+from .polling import HarnessTimeout, KernelExecutionError
 
 pytestmark = pytest.mark.browser
 
@@ -147,7 +130,7 @@ def test_harness_widget_helpers(page, lab_server, browser_root):
     write_notebook(browser_root / "widgets.ipynb", [WIDGETS_CELL])
     reused = lab_server.kernels_reused
     open_notebook(page, lab_server, "widgets.ipynb")
-    # opened in the Lab the test before left loaded (harness.leave_notebook) or in a new one: either way
+    # opened in the Lab the test before left loaded (notebook_actions.leave_notebook) or in a new one: either way
     # the only notebook is this one, no view of the one before is left and the frame counter starts at 0
     panels = page.evaluate("() => [...window.jupyterapp.shell.widgets('main')].filter((w) => w.context)"
                            ".map((w) => w.context.path)")

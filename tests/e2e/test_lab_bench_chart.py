@@ -14,7 +14,10 @@ import numpy as np
 import pytest
 
 from grasswidget.core.teaching import INSPECTED_BLADE_COLORS, hex_to_rgb
-from .harness import leave_notebook, kernel_eval, kernel_execute, open_notebook, poll, run_all_cells, wait_for_frames, wait_for_view, write_notebook
+from .frames import wait_for_frames, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 
@@ -130,7 +133,7 @@ def test_browser_engine_traces_equal_a_kernel_scene_and_its_chart_shows(webgpu_b
     try:
         open_notebook(page, lab_server, "lab_bench_browser.ipynb")
         run_all_cells(page, timeout=120)
-        from .harness import wait_for_kernel
+        from .kernel_calls import wait_for_kernel
 
         wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=120)
         kernel_execute(page, "w.inspect([3, 50]); w.chart = 'tip'; w.step(7)")

@@ -30,8 +30,11 @@ from pathlib import Path
 
 import pytest
 
-from .harness import (drag, kernel_eval, kernel_execute, leave_notebook, open_notebook, poll, run_all_cells,
-                      view_locator, wait_for_kernel, wait_for_view, write_notebook)
+from .controls import drag
+from .frames import view_locator, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 pytestmark = pytest.mark.browser
 

@@ -23,7 +23,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import StaticServer, drag, poll
+from .controls import drag
+from .polling import poll
+from .servers import StaticServer
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 

@@ -37,7 +37,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .harness import MarimoServer, drag, panel_label, poll
+from .controls import drag, panel_label
+from .polling import poll
+from .servers import MarimoServer
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 pytest.importorskip("marimo")

@@ -46,19 +46,11 @@ from PIL import Image
 from notebook_outputs import LIVE_CULLING_PROBE, WRITTEN, check_notebook_outputs
 
 from .tour_checks import check_tour
-from .harness import (
-    leave_notebook,
-    kernel_eval,
-    kernel_execute,
-    open_notebook,
-    poll,
-    run_all_cells,
-    save_debug_artifacts,
-    view_locator,
-    view_pixels,
-    wait_for_frames,
-    wait_for_view,
-)
+from .chromium import save_debug_artifacts
+from .frames import view_locator, view_pixels, wait_for_frames, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells
+from .polling import poll
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import os
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
 
-from .harness import kernel_eval, kernel_execute, open_notebook, run_all_cells, wait_for_kernel, wait_for_view, write_notebook
+from .frames import wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import open_notebook, run_all_cells, write_notebook
+from .polling import poll_until_stable
 
 pytestmark = pytest.mark.browser
 
@@ -132,13 +134,8 @@ def _check_states(page, size):
         wait_for_kernel(page, "w.playing", False, timeout=30)
         root = page.locator(".grasswidget").first
         # the browser lays the new values out; wait until two measurements agree
-        last, t0 = None, time.monotonic()
-        while True:
-            m = root.evaluate(MEASURE)
-            if m == last or time.monotonic() - t0 > 10:
-                break
-            last = m
-            page.wait_for_timeout(300)
+        m = poll_until_stable(lambda: root.evaluate(MEASURE), f"the panel's layout in state {state!r} to settle",
+                              30, 0.3, page=page)
         shot = out / f"panel-{size[0]}-{state}.png"
         root.screenshot(path=str(shot))
         print(f"\n[panel] {size[0]}x{size[1]} {state}: screenshot {shot}")

@@ -25,17 +25,10 @@ import time
 import imageio.v3 as iio
 import pytest
 
-from .harness import (
-    kernel_execute,
-    leave_notebook,
-    frame_counts,
-    kernel_eval,
-    open_notebook,
-    poll,
-    run_all_cells,
-    wait_for_kernel,
-    write_notebook,
-)
+from .frames import frame_counts
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
+from .polling import poll
 
 from grasswidget.notebook.kernel_view import MAX_BUFFERED_FRAMES
 

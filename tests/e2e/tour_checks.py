@@ -36,23 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .harness import (
-    panel_label,
-    click_button,
-    drag,
-    frames_per_second,
-    kernel_eval,
-    kernel_execute,
-    poll,
-    set_slider,
-    toggle_checkbox,
-    view_locator,
-    view_pixels,
-    wait_for_frames,
-    wait_for_kernel,
-    wait_for_output_text,
-    wait_for_view,
-)
+from .controls import click_button, drag, panel_label, set_slider, toggle_checkbox
+from .frames import frames_per_second, view_locator, view_pixels, wait_for_frames, wait_for_view
+from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
+from .notebook_actions import wait_for_output_text
+from .polling import poll
 
 ROOT = Path(__file__).resolve().parents[2]
 BENCH_BLADES = 1 << 14
