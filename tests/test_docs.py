@@ -61,3 +61,166 @@ def test_the_architecture_map_names_every_module_and_only_modules_that_exist():
 def test_the_map_check_can_fail():
     text = "## Map\n\n```\ngrasswidget/\n  errors.py\n  core/   pure\n    params.py nothing.py\n```\n"
     assert map_modules(text) == {"errors.py", "core/params.py", "core/nothing.py"}
+
+
+# ---------------------------------------------------------------------------------------------
+# The flows of docs/architecture.md ("## Flows"), hop by hop: each hop names a `path::symbol`
+# that must exist, and the word before it says how the previous hop reaches it, checked in the
+# source so a refactor that breaks the chain fails here, naming the hop:
+#   calls / sets / watches   the previous hop's source mentions this hop's name
+#                            ("sets" a trait: by its name, or through a generic setattr)
+#   called by / read by / set by   this hop's source mentions the previous hop's name
+#   notifies ... (registered in `path::symbol`)   this hop is an observer or callback: the
+#                            registering function's source mentions this hop's name
+# A hop's name is the symbol's last part (a class's name for `Class.__init__`).
+
+FORWARD = ("calls", "sets", "watches")
+BACKWARD = ("called by", "read by", "set by")
+HOP = re.compile(r"^\d+\.\s+(?:(?P<link>calls|sets|watches|called by|read by|set by|notifies)\s+)?"
+                 r"`(?P<ref>[\w./-]+::[\w.]+)`(?:\s*\(registered in `(?P<reg>[\w./-]+::[\w.]+)`\))?")
+
+
+def parse_flows(text: str) -> dict:
+    """{flow name: [hop dict]} from the numbered lists after ``<!-- flow: name -->`` lines."""
+    flows = {}
+    for match in re.finditer(r"<!-- flow: ([\w-]+) -->\n((?:\d+\..*\n(?:   .*\n)*)+)", text):
+        items = re.split(r"\n(?=\d+\.)", match.group(2).strip())
+        hops = []
+        for item in items:
+            hop = HOP.match(item)
+            assert hop, f"flow {match.group(1)}: cannot read the hop {item[:80]!r}"
+            hops.append({"link": hop["link"], "ref": hop["ref"], "reg": hop["reg"], "text": item})
+        flows[match.group(1)] = hops
+    return flows
+
+
+def hop_name(ref: str) -> str:
+    parts = ref.split("::")[1].split(".")
+    return parts[-2] if parts[-1] == "__init__" and len(parts) > 1 else parts[-1]
+
+
+def _python_source(path: Path, symbol: str) -> str | None:
+    import ast
+
+    text = path.read_text(encoding="utf-8")
+    body = ast.parse(text).body
+    node = None
+    for part in symbol.split("."):
+        found = None
+        for child in body:
+            if isinstance(child, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and child.name == part:
+                found = child
+            elif isinstance(child, (ast.Assign, ast.AnnAssign)):  # a trait or a module-level table
+                targets = child.targets if isinstance(child, ast.Assign) else [child.target]
+                if any(isinstance(t, ast.Name) and t.id == part for t in targets):
+                    found = child
+        if found is None:
+            return None
+        node, body = found, getattr(found, "body", [])
+    return ast.get_source_segment(text, node)
+
+
+def _braced(text: str, start: int, brace: int) -> str:
+    """The text from ``start`` to the brace that closes the ``{`` at ``brace``."""
+    depth, i = 0, brace
+    while True:
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        if depth == 0:
+            return text[start:i + 1]
+        i += 1
+
+
+def _js_source(path: Path, symbol: str) -> str | None:
+    text = path.read_text(encoding="utf-8")
+    *owner, name = symbol.split(".")
+    if owner:
+        cls = re.search(rf"^(?:export\s+)?class\s+{re.escape(owner[0])}\b.*$", text, re.M)
+        if cls is None:
+            return None
+        text = _braced(text, cls.start(), text.index("{", cls.start()))
+    define = re.search(rf"^[ \t]*(?:export\s+)?(?:async\s+)?(?:function\s+)?{re.escape(name)}\s*\([^)]*\)\s*\{{",
+                       text, re.M)
+    return _braced(text, define.start(), define.end() - 1).strip() if define else None
+
+
+def hop_source(ref: str) -> str | None:
+    """The source text of a hop (a function, method, class, trait or table), or None if it is gone."""
+    path, symbol = ref.split("::")
+    file = ROOT / path
+    if not file.is_file():
+        return None
+    return _python_source(file, symbol) if file.suffix == ".py" else _js_source(file, symbol)
+
+
+def _mentions(source: str, name: str) -> bool:
+    return re.search(rf"(?<![\w$]){re.escape(name)}(?![\w$])", source) is not None
+
+
+def broken_hops(flows: dict) -> list:
+    """One sentence per hop that does not hold (empty when every flow is true)."""
+    broken = []
+    for flow, hops in flows.items():
+        for i, hop in enumerate(hops, 1):
+            where = f"flow {flow}, hop {i} (`{hop['ref']}`)"
+            source = hop_source(hop["ref"])
+            if source is None:
+                broken.append(f"{where}: no such file or symbol")
+                continue
+            if i == 1:
+                if hop["link"]:
+                    broken.append(f"{where}: the first hop has no previous hop to be reached from")
+                continue
+            prev = hops[i - 2]
+            prev_source = hop_source(prev["ref"]) or ""
+            link, name, prev_name = hop["link"], hop_name(hop["ref"]), hop_name(prev["ref"])
+            if link is None:
+                broken.append(f"{where}: say how hop {i - 1} reaches it ({', '.join(FORWARD + BACKWARD)}, notifies)")
+            elif link in FORWARD:
+                if not (_mentions(prev_source, name) or (link == "sets" and "setattr(" in prev_source)):
+                    broken.append(f"{where}: hop {i - 1} (`{prev['ref']}`) no longer mentions `{name}`")
+            elif link in BACKWARD:
+                if not _mentions(source, prev_name):
+                    broken.append(f"{where}: its source no longer mentions hop {i - 1}'s `{prev_name}`")
+            else:  # notifies
+                registrar = hop_source(hop["reg"]) if hop["reg"] else None
+                if registrar is None:
+                    broken.append(f"{where}: its registration `{hop['reg']}` is missing")
+                elif not _mentions(registrar, name):
+                    broken.append(f"{where}: `{hop['reg']}` no longer registers `{name}`")
+    return broken
+
+
+def test_the_architecture_flows_hold_hop_by_hop():
+    """docs/architecture.md's flows are true of the code: every named module and symbol exists and
+    each hop reaches the next (a broken hop is named: update the flow with the code)."""
+    flows = parse_flows((ROOT / "docs" / "architecture.md").read_text(encoding="utf-8"))
+    assert set(flows) >= {"slider-kernel", "slider-browser", "engine-auto", "engine-fallback"}, sorted(flows)
+    assert all(len(hops) >= 5 for hops in flows.values())
+    broken = broken_hops(flows)
+    assert not broken, "docs/architecture.md's flows no longer match the code:\n" + "\n".join(broken)
+    # Each slider flow ends at the GPU: one of its hops writes the uniform buffer.
+    assert any("queue.write_buffer(" in hop_source(h["ref"]) for h in flows["slider-kernel"])
+    assert any("queue.writeBuffer(" in hop_source(h["ref"]) for h in flows["slider-browser"])
+
+
+def test_the_flow_check_names_the_broken_hop():
+    text = ("<!-- flow: demo -->\n"
+            "1. `grasswidget/notebook/control_link.py::ControlLink.__init__`: observes the control.\n"
+            "2. notifies `grasswidget/notebook/control_link.py::ControlLink._from_control` "
+            "(registered in `grasswidget/notebook/control_link.py::ControlLink.__init__`): sets the trait.\n"
+            "3. calls `grasswidget/notebook/control_link.py::ControlLink.unlink`: not called there.\n"
+            "4. called by `grasswidget/notebook/control_link.py::ControlLink._from_obj`: does not call unlink.\n"
+            "5. calls `grasswidget/notebook/control_link.py::ControlLink.gone`: no such method.\n")
+    flows = parse_flows(text)
+    assert [h["link"] for h in flows["demo"]] == [None, "notifies", "calls", "called by", "calls"]
+    assert broken_hops(flows) == [
+        "flow demo, hop 3 (`grasswidget/notebook/control_link.py::ControlLink.unlink`): hop 2 "
+        "(`grasswidget/notebook/control_link.py::ControlLink._from_control`) no longer mentions `unlink`",
+        "flow demo, hop 4 (`grasswidget/notebook/control_link.py::ControlLink._from_obj`): its source no longer "
+        "mentions hop 3's `unlink`",
+        "flow demo, hop 5 (`grasswidget/notebook/control_link.py::ControlLink.gone`): no such file or symbol",
+    ]
+    assert hop_source("grasswidget/browser/js/passes.js::EnginePasses.simulate").startswith("simulate(n) {")
+    render = hop_source("grasswidget/browser/adapter_probe.js::render")  # braces in the arguments
+    assert render.startswith("render({ model, el }) {") and 'model.set("report"' in render
+    assert hop_name("grasswidget/notebook/panel.py::ControlPanel.__init__") == "ControlPanel"
