@@ -1,6 +1,7 @@
 """The README is for users and points to the rest: its set-up commands are the ones CI runs, it
 stays short, and every relative link in it and in docs/ and benchmarks/ names a file that exists."""
 
+import functools
 import re
 from pathlib import Path
 
@@ -9,11 +10,50 @@ DOCS = [ROOT / "README.md", ROOT / "benchmarks" / "README.md", *sorted((ROOT / "
 
 
 def test_readme_starts_with_the_two_set_up_commands_and_stays_short():
+    """The README is a front page: under 150 lines, none over 200 characters, the two set-up commands
+    first, a picture, an example of about ten lines, and a link to every page of docs/."""
     text = (ROOT / "README.md").read_text()
-    assert len(text.splitlines()) <= 300
+    lines = text.splitlines()
+    assert len(lines) < 150, f"README.md has {len(lines)} lines; move detail to docs/"
+    long = [i for i, line in enumerate(lines, 1) if len(line) > 200]
+    assert not long, f"README.md lines over 200 characters: {long}"
     blocks = re.findall(r"```\n(.*?)\n```", text, re.S)
     assert blocks[:2] == ["./run.sh demo", "./run.sh test"]
     assert "./run.sh test" in (ROOT / ".ci" / "run").read_text()
+    pictures = re.findall(r"!\[[^\]]+\]\(([^)]+\.png)\)", text)
+    assert pictures and all((ROOT / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pictures)
+    example = re.search(r"```python\n(.*?)\n```", text, re.S).group(1)
+    assert 6 <= len([ln for ln in example.splitlines() if ln.strip()]) <= 12
+    unlinked = [p.name for p in (ROOT / "docs").glob("*.md") if f"](docs/{p.name}" not in text]
+    assert not unlinked, f"docs the README does not link: {unlinked}"
+
+
+def _widget_defaults() -> dict:
+    """GrassWidget.__init__'s keyword defaults, read from the source (no GPU import)."""
+    import ast
+
+    tree = ast.parse((ROOT / "grasswidget" / "notebook" / "widget.py").read_text(encoding="utf-8"))
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "GrassWidget")
+    init = next(n for n in cls.body if isinstance(n, ast.FunctionDef) and n.name == "__init__")
+    args = init.args
+    pairs = list(zip(args.args[len(args.args) - len(args.defaults):], args.defaults))
+    pairs += [(a, d) for a, d in zip(args.kwonlyargs, args.kw_defaults) if d is not None]
+    return {a.arg: ast.literal_eval(d) for a, d in pairs}
+
+
+def test_the_documented_widget_defaults_are_the_code_s():
+    """Where the README and docs/usage.md write GrassWidget's signature (with its keyword-only part),
+    its defaults (backend="auto", ...) are the ones in notebook/widget.py."""
+    defaults = _widget_defaults()
+    assert defaults["backend"] == "auto"
+    rows = 0
+    for doc in (ROOT / "README.md", ROOT / "docs" / "usage.md"):
+        for signature in re.findall(r"`gw\.GrassWidget\(([^`]*\*,[^`]*)\)`", doc.read_text(encoding="utf-8")):
+            for name, value in re.findall(r"(\w+)=((?:\"[^\"]*\")|(?:\([^)]*\))|[\w.]+)", signature):
+                rows += 1
+                if name in defaults:
+                    assert eval(value, {}) == defaults[name], f"{doc.name}: GrassWidget({name}={value}), the code says {defaults[name]!r}"
+    assert rows >= 8
 
 
 def test_relative_links_name_files_that_exist():
@@ -99,11 +139,19 @@ def hop_name(ref: str) -> str:
     return parts[-2] if parts[-1] == "__init__" and len(parts) > 1 else parts[-1]
 
 
-def _python_source(path: Path, symbol: str) -> str | None:
+@functools.lru_cache(maxsize=None)
+def _parsed(path: Path) -> tuple:
     import ast
 
     text = path.read_text(encoding="utf-8")
-    body = ast.parse(text).body
+    return text.splitlines(), ast.parse(text)
+
+
+def _python_source(path: Path, symbol: str) -> str | None:
+    import ast
+
+    lines, tree = _parsed(path)
+    body = tree.body
     node = None
     for part in symbol.split("."):
         found = None
@@ -117,7 +165,7 @@ def _python_source(path: Path, symbol: str) -> str | None:
         if found is None:
             return None
         node, body = found, getattr(found, "body", [])
-    return ast.get_source_segment(text, node)
+    return "\n".join(lines[node.lineno - 1:node.end_lineno]).strip()
 
 
 def _braced(text: str, start: int, brace: int) -> str:
@@ -171,7 +219,9 @@ def broken_hops(flows: dict) -> list:
                     broken.append(f"{where}: the first hop has no previous hop to be reached from")
                 continue
             prev = hops[i - 2]
-            prev_source = hop_source(prev["ref"]) or ""
+            prev_source = hop_source(prev["ref"])
+            if prev_source is None:  # named once, at the missing hop
+                continue
             link, name, prev_name = hop["link"], hop_name(hop["ref"]), hop_name(prev["ref"])
             if link is None:
                 broken.append(f"{where}: say how hop {i - 1} reaches it ({', '.join(FORWARD + BACKWARD)}, notifies)")
