@@ -274,3 +274,22 @@ def test_the_flow_check_names_the_broken_hop():
     render = hop_source("grasswidget/browser/adapter_probe.js::render")  # braces in the arguments
     assert render.startswith("render({ model, el }) {") and 'model.set("report"' in render
     assert hop_name("grasswidget/notebook/panel.py::ControlPanel.__init__") == "ControlPanel"
+
+
+def test_the_layer_diagram_draws_the_rules_the_architecture_test_enforces():
+    """docs/architecture.md's mermaid diagram: its solid arrows ("may import") are exactly the
+    imports between layers that tests/test_architecture.py's FORBIDDEN leaves allowed."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_architecture_rules", ROOT / "tests" / "test_architecture.py")
+    rules = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rules)
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    block = re.search(r"```mermaid\n(.*?)\n```", text, re.S).group(1)
+    nodes = {node: label.split("/")[0] for node, label in re.findall(r"^\s*(\w+)\[\"([\w]+)/", block, re.M)}
+    drawn = {(nodes[a], nodes[b]) for a, b in re.findall(r"^\s*(\w+) --> (\w+)\s*$", block, re.M)}
+    layers = ("core", "gpu", "browser", "notebook")
+    allowed = {(a, b) for a in layers for b in layers
+               if a != b and f"grasswidget.{b}" not in rules.FORBIDDEN.get(a, ())}
+    assert {"core", "gpu", "browser", "notebook"} <= set(nodes.values()), nodes
+    assert drawn == allowed, f"drawn {sorted(drawn)}, allowed by tests/test_architecture.py {sorted(allowed)}"
