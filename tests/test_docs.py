@@ -65,6 +65,33 @@ def test_relative_links_name_files_that_exist():
     assert len(DOCS) >= 4 and not missing, missing
 
 
+def heading_anchors(path: Path) -> set:
+    """The anchors GitHub gives the headings of a Markdown file (lower case, punctuation dropped,
+    spaces to hyphens; code blocks skipped)."""
+    anchors, in_code = set(), False
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        heading = re.match(r"#+ (.*)", line)
+        if heading and not in_code:
+            anchors.add(re.sub(r"[^\w\- ]", "", heading.group(1).strip().lower()).replace(" ", "-"))
+    return anchors
+
+
+def test_links_to_a_section_name_a_heading_that_exists():
+    """A link like docs/usage.md#main-api keeps working when text moves between pages."""
+    broken = []
+    for doc in DOCS:
+        for target, anchor in re.findall(r"\]\(([^)#\s]*)#([^)\s]+)\)", doc.read_text(encoding="utf-8")):
+            page = doc.parent / target if target else doc
+            if page.suffix == ".md" and anchor not in heading_anchors(page):
+                broken.append(f"{doc.relative_to(ROOT)} -> {target}#{anchor}")
+    assert not broken, broken
+    assert "main-api" in heading_anchors(ROOT / "docs" / "usage.md")
+    assert heading_anchors(ROOT / "docs" / "front-ends.md") >= {
+        "where-notebooks-are-jupyterlab-notebook-7-voilà-marimo-vs-code-colab-a-page-with-no-kernel"}
+
+
 PACKAGE = ROOT / "grasswidget"
 
 
