@@ -6,7 +6,7 @@
 // rules.js's (Python's numbers, frame_rules.drag); what a key does Python decides (the "key" message).
 
 import { add, invert4, mul4, scale, sub } from "./linalg.js";
-import { PointerGesture, displayRatio, domButton, orbitDrag, panDrag, wheelZoom } from "./rules.js";
+import { PointerGesture, displayRatio, domButton, keyAction, orbitDrag, panDrag, wheelZoom } from "./rules.js";
 
 /**
  * What a CanvasView needs of the engine that draws into it (the widget's GrassEngine, engine.js).
@@ -254,7 +254,8 @@ export class CanvasView {
   onKey(e) {
     // Python decides what a key does (grasswidget.core.interaction.key_action, the kernel engine's too).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
-    if (e.key === " ") e.preventDefault();  // not the page's scroll
+    // the play key (space) must not scroll the page as well
+    if (keyAction(e.key, [], this.engine.rules().input) === "toggle_play") e.preventDefault();
     this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
   }
 
