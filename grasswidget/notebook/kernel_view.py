@@ -35,7 +35,9 @@ stays above the ground, the target over the field, the zoom in range), without
 the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
 Shift + drag goes to the ball first. Ctrl (or
 Cmd) + click inspects the blade under the pointer: one pick readback per click
-(the grass material writes pick ids in this view).
+(the grass material writes pick ids in this view); Ctrl (or Cmd) + drag pans, as in
+the browser engine (:mod:`grasswidget.core.interaction`, applied by
+:class:`~grasswidget.notebook.pointer_gesture.KernelPointer`).
 
 Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
