@@ -29,7 +29,7 @@ render pixel ratio goes down step by step to half, and back up when there is
 headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
 last frame), Save PNG and exports always render at full resolution.
 
-Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
+Mouse: drag to orbit, right-drag (or ctrl + drag) to pan, wheel to zoom (pygfx's
 ``OrbitController``, held to :class:`~grasswidget.notebook.orbit.OrbitLimits`: the camera
 stays above the ground, the target over the field, the zoom in range), without
 the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
