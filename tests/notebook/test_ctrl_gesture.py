@@ -47,18 +47,17 @@ def test_ctrl_drag_pans_as_a_right_drag_and_ctrl_click_inspects(kernel_widget, m
     moved = np.subtract(right["position"], home["position"])
     assert np.linalg.norm(moved) > 0.05  # a right-drag pans: camera and target move together
     assert np.allclose(np.subtract(right["target"], home["target"]), moved, atol=1e-6)
+    picks = []  # where the view was asked to pick a blade
+    monkeypatch.setattr(w.view, "pick_blade", lambda x, y: picks.append((x, y)))
     for mods in (("Control",), ("Meta",)):
         w.camera_state = home
         assert np.allclose(w.camera_state["position"], home["position"])
-        picks = []
-        monkeypatch.setattr(w.view, "pick_blade", lambda x, y: picks.append((x, y)))
         ctrl = _drag(w, path, mods)
         assert picks == []  # a drag inspects nothing
         for key in ("position", "target"):
             assert np.allclose(ctrl[key], right[key], atol=1e-6), (mods, key)
     # a press released less than the slop away is a click: it inspects there, the camera stays
     w.camera_state = home
-    picks = []
     near = (80 + 0.6 * CLICK_SLOP_PX, 60 + 0.5 * CLICK_SLOP_PX)
     assert np.hypot(near[0] - 80, near[1] - 60) < CLICK_SLOP_PX
     after = _drag(w, [(80, 60), (81, 61), near], ("Control",))
