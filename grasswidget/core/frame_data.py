@@ -35,7 +35,8 @@ and each engine only writes it into its own buffers:
   kernel's GrassField writes the params' looks into its GrassMaterial.
 * :func:`scene_style`: :func:`sky_ground_values` plus the collider balls' colour.
 * :func:`frame_rules`: all of the above that a frame needs, with the camera's drag rules
-  (:func:`grasswidget.core.camera_rules.drag_rules`), in one JSON-able dict (the browser's
+  (:func:`grasswidget.core.camera_rules.drag_rules`) and the pointer, key and display rules
+  (:func:`grasswidget.core.interaction.input_rules`), in one JSON-able dict (the browser's
   ``frame_rules`` trait; ``grasswidget/browser/js/rules.js`` executes it).
 * :data:`EXPORT_SUPERSAMPLE` and :func:`export_filter`: how both engines anti-alias
   exported pictures (render that many times larger, filter down with pygfx's
@@ -57,6 +58,7 @@ from .colliders import collider_array
 from .enums import ColorBy, GravityMode, WindField
 from .enums import BladeShape
 from .camera_rules import drag_rules
+from .interaction import input_rules
 from .orbit_limits import OrbitLimits
 from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
 from .pays import effective
@@ -598,11 +600,12 @@ def scene_style(blades, far, params=None, colliders=()) -> dict:
 
 def frame_rules(params, blades, far, floor="grass") -> dict:
     """``{"clock": clock_rules, "dispatch": dispatch_rules, "orbit": orbit_rules, "drag":
-    camera_rules.drag_rules, "counters": counter_layout, "style": scene_style}`` for a field of ``blades`` seen by a camera
+    camera_rules.drag_rules, "input": interaction.input_rules, "counters": counter_layout, "style":
+    scene_style}`` for a field of ``blades`` seen by a camera
     whose far plane is ``far`` metres, orbiting above the ``floor`` ("grass" or "ground", see
     :func:`orbit_rules`)."""
     return {"clock": clock_rules(params), "dispatch": dispatch_rules(), "orbit": orbit_rules(blades, far, floor),
-            "drag": drag_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}
+            "drag": drag_rules(), "input": input_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}
 
 
 #: A playing view whose newest frame arrived longer ago than this (wall seconds) is "waiting for

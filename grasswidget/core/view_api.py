@@ -56,6 +56,7 @@ import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from .frame_data import MAX_STEPS_PER_FRAME
+from .interaction import key_action
 
 __all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state", "GrassView", "ViewClock",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
@@ -477,16 +478,11 @@ class EngineView(abc.ABC):
     def on_key(self, event) -> None:
         """A key pressed while the view has focus: ``event`` is a dict with ``key`` (the DOM key name)
         and ``modifiers`` (held modifier names). Space = play/pause, ``s`` = step one frame,
-        ``r`` = reset the camera; a key with a modifier held is not ours (the notebook's)."""
-        if event.get("modifiers"):
-            return
-        key = str(event.get("key", "")).lower()
-        if key in (" ", "space", "spacebar"):
-            self.actions.toggle_play()
-        elif key == "s":
-            self.actions.step()
-        elif key == "r":
-            self.actions.reset_camera()
+        ``r`` = reset the camera; a key with a modifier held is not ours (the notebook's). The map is
+        :func:`grasswidget.core.interaction.key_action` (the live page runs the same)."""
+        action = key_action(event.get("key", ""), tuple(event.get("modifiers") or ()))
+        if action is not None:
+            getattr(self.actions, action)()
 
     @abc.abstractmethod
     def close(self) -> None:

@@ -29,6 +29,7 @@ from traitlets import Any, HasTraits
 
 from .. import compat
 from ..core.colliders import SphereCollider
+from ..core.interaction import ball_reach
 from .control_link import ControlLink
 from ..errors import GrassValueError, ParameterError
 from ..core.params import CheckedBool, RangedFloat
@@ -191,10 +192,9 @@ class BallControl(HasTraits):
 
     def _update_slider_ranges(self):
         """Slider ranges for the current field (a ball outside is brought to the edge)."""
-        pad = 0.1 * self._extent
+        x0, x1, z0, z1 = ball_reach(self._lo, self._hi)  # the field and a margin (the live page's too)
         rmax = round(max(0.5, 0.3 * self._extent), 2)
-        ranges = ((self.x_slider, float(self._lo[0] - pad), float(self._hi[0] + pad)),
-                  (self.z_slider, float(self._lo[2] - pad), float(self._hi[2] + pad)),
+        ranges = ((self.x_slider, x0, x1), (self.z_slider, z0, z1),
                   (self.radius_slider, 0.05, rmax))
         for slider, lo, hi in ranges:
             if lo > slider.max:  # keep min <= max at every moment
@@ -324,9 +324,9 @@ class BallControl(HasTraits):
             if switch_on:
                 self.enabled = True
             return
-        pad = 0.1 * self._extent
-        x = min(max(hit[0], self._lo[0] - pad), self._hi[0] + pad)
-        z = min(max(hit[1], self._lo[2] - pad), self._hi[2] + pad)
+        x0, x1, z0, z1 = ball_reach(self._lo, self._hi)
+        x = min(max(hit[0], x0), x1)
+        z = min(max(hit[1], z0), z1)
         self.move_to(x, z)
         if switch_on:
             self.enabled = True

@@ -29,13 +29,15 @@ render pixel ratio goes down step by step to half, and back up when there is
 headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
 last frame), Save PNG and exports always render at full resolution.
 
-Mouse: drag to orbit, right-drag to pan, wheel to zoom (pygfx's
+Mouse: drag to orbit, right-drag (or ctrl + drag) to pan, wheel to zoom (pygfx's
 ``OrbitController``, held to :class:`~grasswidget.notebook.orbit.OrbitLimits`: the camera
 stays above the ground, the target over the field, the zoom in range), without
 the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
 Shift + drag goes to the ball first. Ctrl (or
 Cmd) + click inspects the blade under the pointer: one pick readback per click
-(the grass material writes pick ids in this view).
+(the grass material writes pick ids in this view); Ctrl (or Cmd) + drag pans, as in
+the browser engine (:mod:`grasswidget.core.interaction`, applied by
+:class:`~grasswidget.notebook.pointer_gesture.KernelPointer`).
 
 Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
@@ -71,6 +73,8 @@ from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTE
 from ..core.blades import Blades
 from ..core.view_api import EngineView
 from .clock import MAX_STEPS_PER_FRAME, SimClock
+from .pointer_gesture import KernelPointer
+from ..core.interaction import MAX_PIXEL_RATIO
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
            "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
@@ -105,7 +109,7 @@ def streaming_defaults(cpu: bool) -> dict:
     """
     if cpu:
         return dict(max_fps=30, target_fps=24.0, quality=70, max_pixel_ratio=1.0, max_blades=CPU_MAX_BLADES)
-    return dict(max_fps=60, target_fps=60.0, quality=85, max_pixel_ratio=2.0, max_blades=GPU_MAX_BLADES)
+    return dict(max_fps=60, target_fps=60.0, quality=85, max_pixel_ratio=MAX_PIXEL_RATIO, max_blades=GPU_MAX_BLADES)
 
 
 def _canvas_class():
@@ -115,7 +119,7 @@ def _canvas_class():
         browser's devicePixelRatio capped to ``max_pixel_ratio``, and reports when a
         frame's pixels arrived (``on_present``) and when it was sent (``on_sent``)."""
 
-        max_pixel_ratio = 2.0
+        max_pixel_ratio = MAX_PIXEL_RATIO
         render_scale = 1.0
         on_sent = None
         #: A lock held for each frame (draw + start of the download), or None.
@@ -185,7 +189,9 @@ class EventsWithoutPicking:
     forwards the same events with ``target=None`` and no ``pick_info``, so
     handlers registered on the renderer (``OrbitController.register_events``)
     work, without picking. ``renderer()`` is called per event, so the renderer
-    may be replaced (a new blade count) while this stays registered.
+    may be replaced (a new blade count) while this stays registered. ``intercept(event)`` sees
+    each event first: True (used, e.g. shift + drag moves the ball), or a list of the events
+    to forward in its place (the ctrl gesture), else the event goes on as it is.
     """
 
     TYPES = ("pointer_down", "pointer_move", "pointer_up", "wheel", "key_down", "key_up")
@@ -200,10 +206,17 @@ class EventsWithoutPicking:
         event_class = compat.pygfx_event_class(event_type)
         if renderer is None or event_class is None:
             return
-        if self._intercept is not None and self._intercept(event):
-            return  # e.g. shift + drag moves the ball
-        ev = event_class(type=event_type, **compat.pygfx_event_fields(event), target=None, root=renderer)
-        renderer.dispatch_event(ev)
+        events = [event]
+        if self._intercept is not None:
+            used = self._intercept(event)
+            if used is True:
+                return  # e.g. shift + drag moves the ball
+            if isinstance(used, list):
+                events = used
+        for one in events:
+            kind = compat.event_type(one)
+            ev = compat.pygfx_event_class(kind)(type=kind, **compat.pygfx_event_fields(one), target=None, root=renderer)
+            renderer.dispatch_event(ev)
 
 
 def orbit_target(scene):
@@ -279,6 +292,7 @@ class KernelView(EngineView):
         self.canvas.resizable = False
         self.canvas.on_present = self._on_present
         self.canvas.on_sent = self._on_sent
+        self.pointer = KernelPointer()  # the pointer rules, the browser engine's too
         self.events = EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
                                            intercept=self._on_pointer)
         self.canvas.add_event_handler(self.events, *EventsWithoutPicking.TYPES)
@@ -778,11 +792,13 @@ class KernelView(EngineView):
     # ------------------------------------------------------------------ events
 
     def _on_pointer(self, event):
-        """Ctrl + click inspects a blade; shift + drag moves the ball; other events go
-        on to the camera controller."""
+        """The pointer rules (grasswidget.core.interaction, as the browser engine's): ctrl + click
+        inspects a blade, ctrl + drag pans; shift + drag moves the ball; other events go on to
+        the camera controller. Returns True (used) or the events the controller gets instead."""
         if self.closed:
             return False
-        if self._is_inspect_click(event):
+        action, events = self.pointer.feed(event)
+        if action == "inspect":
             try:
                 blade = self.pick_blade(event["x"], event["y"])
                 if blade is not None:
@@ -790,8 +806,8 @@ class KernelView(EngineView):
             except Exception as err:  # never let a pointer event break the canvas
                 self.report_error(err)
             return True
-        if self.ball is None:
-            return False
+        if action != "ball" or self.ball is None:
+            return events
         try:
             w, h = self.canvas.get_logical_size()
             view = (w, h) if w > 1 and h > 1 else self.size  # no browser view yet: the asked size
@@ -799,12 +815,6 @@ class KernelView(EngineView):
         except Exception as err:  # never let a pointer event break the canvas
             self.report_error(err)
             return False
-
-    @staticmethod
-    def _is_inspect_click(event):
-        mods = tuple(event.get("modifiers") or ())
-        return (compat.event_type(event) == "pointer_down" and event.get("button", 1) == 1
-                and ("Control" in mods or "Meta" in mods) and "x" in event and "y" in event)
 
     # ------------------------------------------------------------------ closing
 

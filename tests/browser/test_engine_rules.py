@@ -27,7 +27,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.browser import esm
 from grasswidget.browser.view import BrowserEngineWidget
-from grasswidget.core import camera_rules, frame_data
+from grasswidget.core import camera_rules, frame_data, interaction
 from grasswidget.errors import PageBuildError
 from conftest import node_executable
 
@@ -216,3 +216,85 @@ def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
         for literal in ("1 << 24", "1 << 30", "WORKGROUP", "STATS_INTERVAL", "0.008", "1.55", "0.001", "> 100"):
             assert literal not in s, (name, literal)
         assert not re.search(r"\b256\b", s) or name in ("pictures.js", "messages.js"), name  # 256: byte values, row pitch
+
+
+_INPUT_DRIVER = """
+import { readFileSync } from "node:fs";
+import * as R from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const presses = c.presses.map((events) => {
+  const g = new R.PointerGesture(c.input);
+  return events.map(([type, x, y, button, mods]) =>
+    type === "down" ? g.down(x, y, R.domButton(button, c.input), mods) : type === "move" ? g.move(x, y) : g.up(x, y));
+});
+console.log(JSON.stringify({
+  presses,
+  keys: c.keys.map(([k, m]) => R.keyAction(k, m, c.input)),
+  ratios: c.ratios.map(([d, a]) => R.displayRatio(d, a, c.input)),
+}));
+"""
+
+
+def _random_presses(rng, n):
+    """Press, moves, release sequences: DOM buttons, modifiers, moves near and past the click slop."""
+    mods = [[], ["Control"], ["Meta"], ["Shift"], ["Control", "Shift"], ["Alt"], ["Shift", "Meta"]]
+    out = []
+    for _ in range(n):
+        x, y = float(rng.uniform(0, 400)), float(rng.uniform(0, 300))
+        events = [["down", x, y, int(rng.choice([0, 0, 0, 1, 2, 3])), mods[int(rng.integers(len(mods)))]]]
+        scale = float(rng.choice([1.0, 3.0, 10.0]))
+        for _ in range(int(rng.integers(0, 6))):
+            events.append(["move", x + float(rng.normal(0, scale)), y + float(rng.normal(0, scale)), 0, []])
+        events.append(["up", x + float(rng.normal(0, scale)), y + float(rng.normal(0, scale)), 0, []])
+        out.append(events)
+    # exactly at the slop: a drag; just short of it: a click
+    slop = interaction.CLICK_SLOP_PX
+    out.append([["down", 10.0, 10.0, 0, ["Control"]], ["move", 10.0 + slop, 10.0, 0, []], ["up", 10.0, 10.0, 0, []]])
+    out.append([["down", 10.0, 10.0, 0, ["Control"]], ["move", 10.0, 10.0 + 0.99 * slop, 0, []],
+                ["up", 10.0 + 0.99 * slop, 10.0, 0, []]])
+    return out
+
+
+def _python_press(events):
+    g = interaction.PointerGesture(frame_data.frame_rules(gw.GrassParams(), gw.Blades.on_plane(16), 100.0)["input"])
+    got = []
+    for kind, x, y, button, mods in events:
+        if kind == "down":
+            got.append(g.down(x, y, interaction.DOM_BUTTONS[button], mods))
+        else:
+            got.append(g.move(x, y) if kind == "move" else g.up(x, y))
+    return got
+
+
+def test_input_rules_js_decide_what_python_decides():
+    """The pointer gesture (click versus drag, the ctrl gesture), the key map and the pixel ratio
+    cap run in the page from frame_rules.input: under node they give what core.interaction gives,
+    and the page's modules write none of those numbers themselves."""
+    rng = np.random.default_rng(39)
+    rules = frame_data.frame_rules(gw.GrassParams(), gw.Blades.on_plane(16), 100.0)
+    assert rules["input"] == interaction.input_rules()
+    presses = _random_presses(rng, 400)
+    keys = [[k, m] for k in (" ", "s", "S", "r", "R", "Space", "x", "Enter", "spacebar") for m in ([], ["Shift"], ["Control"])]
+    ratios = [[d, a] for d in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0) for a in (0.0, 0.75, 1.0, 3.0)]
+    got = _node(_INPUT_DRIVER % json.dumps((BROWSER_DIR / "js" / "rules.js").as_uri()),
+                dict(presses=presses, keys=keys, ratios=ratios, input=rules["input"]))
+    for events, js in zip(presses, got["presses"]):
+        assert js == _python_press(events), events
+    outcomes = {o for p in got["presses"] for o in p}
+    assert {"pick", "ball", "pan", "orbit", "wait", "pan_start", "inspect", "cancel"} <= outcomes  # all exercised
+    assert got["presses"][-2] == ["pick", "pan_start", "pan"] and got["presses"][-1] == ["pick", "wait", "inspect"]
+    assert got["keys"] == [interaction.key_action(k, m) for k, m in keys]
+    assert got["ratios"] == [interaction.display_ratio(d, a) for d, a in ratios]
+    assert max(got["ratios"]) == 3.0 and interaction.display_ratio(3.0) == interaction.MAX_PIXEL_RATIO == 2.0
+
+    # a JS rule that disagrees fails: the same driver on rules.js with the slop moved
+    changed = dict(rules["input"], click_slop_px=2 * interaction.CLICK_SLOP_PX)
+    off = _node(_INPUT_DRIVER % json.dumps((BROWSER_DIR / "js" / "rules.js").as_uri()),
+                dict(presses=presses, keys=keys, ratios=ratios, input=changed))
+    assert any(js != _python_press(ev) for ev, js in zip(presses, off["presses"]))
+
+    # the numbers are Python's: the modules that read input events write none of them
+    for name in ("js/canvas_view.js", "js/messages.js", "page.js"):
+        code = re.sub(r"//[^\n]*|/\*.*?\*/", "", (BROWSER_DIR / name).read_text(encoding="utf-8"), flags=re.S)
+        assert not re.search(r"<\s*4\b|>\s*60\b|devicePixelRatio[^;]*,\s*2\)|0\.1\s*\*", code), name
+        assert not re.search(r"""key\s*===\s*["'][sr ]["']""", code), name

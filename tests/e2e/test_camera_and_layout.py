@@ -161,6 +161,39 @@ def test_lecture_layout_is_a_large_view_and_one_line(full_hd, lab_server, browse
 
 
 
+def _ctrl_gesture_in_the_page(page, canvas):
+    """The ctrl gesture in Chromium, as in the kernel engine (grasswidget.core.interaction): ctrl +
+    drag pans (camera and target move together, the offset kept), ctrl + click with a move under
+    the click slop inspects a blade and leaves the camera where it was."""
+    box = canvas.bounding_box()
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] * 0.6
+    before = kernel_eval(page, "w.camera_state")
+    page.keyboard.down("Control")
+    try:
+        page.mouse.move(cx, cy)
+        page.mouse.down()
+        page.mouse.move(cx + 80, cy + 10, steps=8)
+        page.mouse.up()
+    finally:
+        page.keyboard.up("Control")
+    moved = lambda c: float(np.linalg.norm(np.subtract(c["target"], before["target"])))  # noqa: E731
+    after = wait_for_kernel(page, "w.camera_state", predicate=lambda c: moved(c) > 0.05, timeout=20)
+    offset = lambda c: np.subtract(c["position"], c["target"])  # noqa: E731
+    assert np.allclose(offset(after), offset(before), atol=1e-3), (before, after)  # a pan, not an orbit
+    kernel_execute(page, "w.inspect([])")
+    page.keyboard.down("Control")
+    try:
+        page.mouse.move(cx, cy)
+        page.mouse.down()
+        page.mouse.move(cx + 2, cy + 1, steps=2)  # under the 4 px slop: still a click
+        page.mouse.up()
+    finally:
+        page.keyboard.up("Control")
+    wait_for_kernel(page, "len(w.inspected)", predicate=lambda n: n == 1, timeout=20)
+    still = kernel_eval(page, "w.camera_state")
+    assert np.allclose(still["position"], after["position"], atol=1e-6)
+
+
 def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_root):
     page = webgpu_browser.page
     write_notebook(browser_root / "camera_browser.ipynb",
@@ -196,6 +229,7 @@ def test_top_button_in_the_browser_engine(webgpu_browser, lab_server, browser_ro
         limits = kernel_eval(page, "w.view.engine_widget.frame_rules['orbit']")
         assert limits["clearance"] > 2.5  # above the tallest tip (2.5 m) + 0.3
         assert top[0] < 0.01
+        _ctrl_gesture_in_the_page(page, canvas)
     except BaseException:
         from .chromium import save_debug_artifacts
 

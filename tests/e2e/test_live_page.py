@@ -152,6 +152,13 @@ def test_live_page_with_webgpu(live_page, webgpu_browser):
         ball = page.evaluate("() => window.grasswidgetPage.controls.ball.position")
         assert np.abs(np.subtract(ball, ball0)).max() > 0.1, (ball0, ball)
         print(f"[live page] ball on, moved from x {ball0[0]:.2f}, z {ball0[1]:.2f} to x {ball[0]:.2f}, z {ball[1]:.2f}")
+        # the keys act as Python's map says (data.input.keys, core.interaction.key_action): space
+        # pauses and plays as the panel's button does (the canvas has the focus since the drag)
+        assert page.locator("button.gw-play").inner_text() == "Pause"
+        page.keyboard.press(" ")
+        poll(lambda: page.locator("button.gw-play").inner_text() == "Play", "space to pause", 10, 0.1, page=page)
+        page.keyboard.press(" ")
+        poll(lambda: page.locator("button.gw-play").inner_text() == "Pause", "space to play", 10, 0.1, page=page)
         assert page.evaluate("() => window.grasswidgetPage.errors") == []
         # self-contained: the page is the only request
         assert static.requests and all(r.startswith("/meadow.html") for r in static.requests), static.requests

@@ -112,6 +112,7 @@ def test_ctrl_click_inspects_the_blade_under_the_pointer():
         assert np.allclose(cam.world.position, pos)  # ctrl + click does not orbit
         # a click on the sky inspects nothing new
         w.view.events(_pointer("pointer_down", SIZE[0] / 2, 2, ("Control",)))
+        w.view.events(_pointer("pointer_up", SIZE[0] / 2, 2, ("Control",)))
         assert w.inspected == (21,)
         # the panel's numbers follow the GPU at each stats refresh
         w.step(30)

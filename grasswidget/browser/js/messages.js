@@ -198,7 +198,7 @@ export class EngineMessages extends EnginePasses {
       // Tell Python how much simulated time passed (it moves a rolling ball).
       this.rollSteps = (this.rollSteps || 0) + n;
       const now = performance.now();
-      if (!this.lastRollReport || now - this.lastRollReport > 60) {
+      if (!this.lastRollReport || now - this.lastRollReport > this.rules().input.steps_report_ms) {
         this.report("steps", "", { steps: this.rollSteps });
         this.rollSteps = 0;
         this.lastRollReport = now;
