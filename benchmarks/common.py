@@ -218,16 +218,18 @@ def summary_ms(samples: dict) -> dict:
 # ------------------------------------------------------------------ the A/B runner
 
 
-def parse_trees(specs: Sequence[str], minimum: int = 2) -> list:
+def parse_trees(specs: Sequence[str], minimum: int = 2, suffixes: Sequence[str] = ()) -> list:
     """``["base=/tmp/old", "new=."]`` -> ``[("base", "/tmp/old"), ("new", ".")]`` (the first is the baseline);
-    each folder must hold a ``grasswidget`` package."""
+    each folder must hold a ``grasswidget`` package. A folder may end in one of ``suffixes`` (e.g. ``":two"``,
+    a variant of the tree the script defines): it is checked without it and kept in the returned folder."""
     trees = []
     for spec in specs:
         name, sep, folder = spec.partition("=")
+        bare = next((folder[: -len(s)] for s in suffixes if folder.endswith(s)), folder)
         if not sep or not name or not folder:
             raise SystemExit(f"--tree takes NAME=DIR; got {spec!r}")
-        if not (Path(folder) / "grasswidget" / "__init__.py").is_file():
-            raise SystemExit(f"--tree {spec}: {folder} holds no grasswidget package")
+        if not (Path(bare) / "grasswidget" / "__init__.py").is_file():
+            raise SystemExit(f"--tree {spec}: {bare} holds no grasswidget package")
         trees.append((name, folder))
     if len({n for n, _ in trees}) != len(trees):
         raise SystemExit(f"--tree names must differ; got {[n for n, _ in trees]}")
@@ -258,9 +260,9 @@ def run_in_tree(folder: str, argv: Sequence[str], timeout: float = 3600) -> dict
     return json.loads(lines[-1][len(RESULT_MARK):])
 
 
-def run_ab(trees: Sequence[tuple], cases: Sequence, rounds: int, measure: Callable[[str, object], dict],
+def run_ab(trees: Sequence[tuple], cases: Sequence, rounds: int, measure: Callable[[str, str, object], dict],
            progress: bool = True) -> list:
-    """Interleave the trees: each round runs, for every case, ``measure(folder, case)`` once per tree in turn,
+    """Interleave the trees: each round runs, for every case, ``measure(name, folder, case)`` once per tree in turn,
     in reverse order every other round (a machine whose speed drifts loads the trees alike).
     Returns one row per (round, case): ``{"round", "case", <tree name>: measure's dict, ...}``."""
     rows = []
@@ -270,7 +272,7 @@ def run_ab(trees: Sequence[tuple], cases: Sequence, rounds: int, measure: Callab
             row = {"round": r, "case": case}
             for name, folder in order:
                 t = time.perf_counter()
-                row[name] = measure(folder, case)
+                row[name] = measure(name, folder, case)
                 if progress:
                     print(f"round {r} {case} {name}: {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
             rows.append(row)

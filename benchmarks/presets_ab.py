@@ -63,7 +63,7 @@ def _child(case, frames):
 
 
 def _measure(frames):
-    def measure(tree, case):
+    def measure(_name, tree, case):
         return common.run_in_tree(tree, [os.path.abspath(__file__), "--child", case, "--frames", str(frames)])
 
     return measure
