@@ -210,6 +210,24 @@ def time_frames(frame: Callable[[], object], frames: int, warmup: int = 3, repea
     return {"wall_ms": wall, "cpu_ms": cpu}
 
 
+def time_pipelined(frame: Callable[[], object], frames: int, sync: Callable[[], object]) -> dict:
+    """``frames`` calls of ``frame()`` back to back (the GPU may run behind, as in a live view), with one
+    ``sync()`` (wait for the GPU) before and one after. Returns ms per frame: ``wall_ms`` (to the final sync),
+    ``cpu_ms`` (this process, all threads), ``main_thread_cpu_ms`` (this thread, the submitting loop alone,
+    before the final sync) and ``fps`` (1000 / ``wall_ms``)."""
+    if frames < 1:
+        raise ValueError(f"frames must be at least 1; got {frames}")
+    sync()
+    t0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
+    for _ in range(frames):
+        frame()
+    main_ms = 1e3 * (time.thread_time() - m0) / frames
+    sync()
+    wall_ms = 1e3 * (time.perf_counter() - t0) / frames
+    return {"wall_ms": wall_ms, "cpu_ms": 1e3 * (time.process_time() - c0) / frames, "main_thread_cpu_ms": main_ms,
+            "fps": 1e3 / wall_ms}
+
+
 def summary_ms(samples: dict) -> dict:
     """Median, p10 and p90 of each list of :func:`time_frames`' result."""
     return {k: {"median": median(v), "p10": percentile(v, 10), "p90": percentile(v, 90)} for k, v in samples.items()}
