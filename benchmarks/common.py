@@ -39,6 +39,14 @@ NO_FILE = "-"
 _CLAIM = re.compile(r"^[a-z0-9][a-z0-9_]*$")
 
 
+def use_this_checkout() -> None:
+    """Put this checkout first on ``sys.path``, so that ``import grasswidget`` (and ``benchmarks.*``) is this
+    checkout's even where another copy is installed. Only for scripts that measure one tree: an A/B child must
+    import the tree it was started in (PYTHONPATH), so the A/B scripts do not call it."""
+    if str(ROOT) not in sys.path[:1]:
+        sys.path.insert(0, str(ROOT))
+
+
 # ------------------------------------------------------------------ naming and the header
 
 
@@ -208,6 +216,23 @@ def time_frames(frame: Callable[[], object], frames: int, warmup: int = 3, repea
         cpu.append(1e3 * (time.process_time() - c0) / repeats)
         wall.append(1e3 * (time.perf_counter() - t0) / repeats)
     return {"wall_ms": wall, "cpu_ms": cpu}
+
+
+def interleave(measures: dict, rounds: int, warmup: int = 1) -> dict:
+    """In one process: call every ``measures[name]()`` (each returns one sample, e.g. ms) ``warmup`` times
+    untimed, then once per round each, in turn (reversed every other round), so that a noisy machine loads them
+    alike. Returns ``{name: [one sample per round]}``."""
+    if rounds < 1:
+        raise ValueError(f"rounds must be at least 1; got {rounds}")
+    names = list(measures)
+    for _ in range(warmup):
+        for name in names:
+            measures[name]()
+    samples = {name: [] for name in names}
+    for r in range(rounds):
+        for name in names if r % 2 == 0 else names[::-1]:
+            samples[name].append(measures[name]())
+    return samples
 
 
 def time_pipelined(frame: Callable[[], object], frames: int, sync: Callable[[], object]) -> dict:
