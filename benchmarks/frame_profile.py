@@ -36,8 +36,6 @@ import pstats
 import statistics
 import sys
 
-import numpy as np
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402  (benchmarks/common.py)
 from raster_profile import Stamps, install_draw_hooks, install_pass_hooks  # noqa: E402

@@ -46,8 +46,9 @@ WEBGPU_FLAGS = ("--enable-unsafe-webgpu", "--enable-features=Vulkan", "--use-vul
 RFB_VIEW = "img.renderview-view"
 #: The browser engine's canvas.
 ENGINE_CANVAS = "canvas.grasswidget-canvas"
-#: JS: the browser engine created last in the page (null if none).
-LAST_ENGINE = "(() => { const es = [...(globalThis.__grasswidgetEngines || [])]; return es[es.length - 1] || null; })()"
+#: JS: the newest open browser engine in the page (null if none; engine.js keeps them in a Map by key).
+LAST_ENGINE = ("(() => { const es = [...(globalThis.__grasswidgetEngines || new Map()).values()]"
+               ".filter((e) => !e.closed); return es[es.length - 1] || null; })()")
 
 
 class DriverError(RuntimeError):
@@ -58,18 +59,22 @@ class DriverTimeout(DriverError, TimeoutError):
     """A condition did not hold within its timeout."""
 
 
-def poll(check: Callable[[], tuple], what: str, timeout: float, interval: float = 0.1) -> Any:
-    """Call ``check()`` (returns ``(ok, value)``) until ``ok``; return that value. After ``timeout`` seconds
-    raise :class:`DriverTimeout` naming ``what`` and the last value seen."""
+def poll(check: Callable[[], Any], what: str, timeout: float, interval: float = 0.1, page=None) -> Any:
+    """Call ``check()`` until it holds and return what it saw: ``check`` returns ``(ok, value)`` or one value
+    taken as its truth. After ``timeout`` seconds raise :class:`DriverTimeout` naming ``what`` and the last value
+    seen. With ``page``, the pauses run through it (its events keep flowing)."""
     deadline = time.monotonic() + timeout
-    last = None
     while True:
-        ok, last = check()
+        got = check()
+        ok, last = got if isinstance(got, tuple) and len(got) == 2 else (bool(got), got)
         if ok:
             return last
         if time.monotonic() >= deadline:
             raise DriverTimeout(f"waited {timeout:.0f} s for {what}; last seen: {str(last)[:500]}")
-        time.sleep(interval)
+        if page is not None:
+            page.wait_for_timeout(interval * 1000)
+        else:
+            time.sleep(interval)
 
 
 def write_notebook(path, cells: Sequence[str]) -> Path:
@@ -393,7 +398,12 @@ def open_notebook(page, server: JupyterLabServer, relpath: str, timeout: float =
 def run_all_cells(page, timeout: float = 180.0) -> None:
     """Run every cell of the current notebook and wait until none runs or waits; a cell's error raises
     DriverError with its traceback."""
-    page.evaluate("() => window.jupyterapp.commands.execute('notebook:run-all-cells')")
+    ran = page.evaluate("""async (ms) => { let timer;
+      const late = new Promise((r) => { timer = setTimeout(() => r('late'), ms); });
+      const r = await Promise.race([window.jupyterapp.commands.execute('notebook:run-all-cells'), late]);
+      clearTimeout(timer); return r === 'late' ? 'late' : 'ran'; }""", int(timeout * 1000))
+    if ran == "late":
+        raise DriverTimeout(f"notebook:run-all-cells did not finish within {timeout:.0f} s")
 
     def done():
         st = page.evaluate(_NOTEBOOK)

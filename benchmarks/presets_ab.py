@@ -32,7 +32,6 @@ DEFAULT_CASES = ["default:4096:on", "cis565:32768:on", "cis565:65536:off", "mead
 
 
 def _child(case, frames):
-    import numpy as np
     import pygfx as gfx
 
     import grasswidget as gw
