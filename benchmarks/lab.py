@@ -308,11 +308,17 @@ class Browser:
                 viewport={"width": self.viewport[0], "height": self.viewport[1]}, timeout=60_000)
             self.context.set_default_timeout(self.timeout * 1000)
             self.page = self.context.pages[0] if self.context.pages else self.context.new_page()
-            self.page.on("dialog", lambda dialog: dialog.dismiss())  # "leave the page?" never blocks
+            # Lab asks "leave the page?" (beforeunload) when the page navigates away: leave; other dialogs: no
+            self.context.on("page", self._answer_dialogs)
+            self._answer_dialogs(self.page)
         except BaseException:
             self.stop()
             raise
         return self
+
+    @staticmethod
+    def _answer_dialogs(page) -> None:
+        page.on("dialog", lambda d: d.accept() if d.type == "beforeunload" else d.dismiss())
 
     @property
     def version(self) -> str:
