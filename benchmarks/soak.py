@@ -17,7 +17,7 @@ the page) in a real JupyterLab + Chromium (driven by benchmarks/lab.py) for
 Interaction, one action every ``--action-every`` seconds in turn: a mouse drag on
 the view (orbit), a ``wind_strength`` slider move, a ``stiffness_scale`` slider
 move, and every fourth action a blade-count change typed into the ``blades``
-slider (alternating ``--blades`` and 1.5x that). The sphere is switched on and
+slider (alternating ``--blades`` and 1.5x that; Apply clicked where the panel asks first). The sphere is switched on and
 set rolling at the start (the ``sphere`` checkbox and the ``Roll`` button) and
 rolls all the time.
 
@@ -38,6 +38,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -56,6 +57,7 @@ from lab import (  # noqa: E402  (benchmarks/lab.py)
     kernel_eval,
     open_notebook,
     panel_label,
+    poll,
     run_all_cells,
     set_checkbox,
     set_slider,
@@ -244,6 +246,14 @@ def main(argv=None):
             else:  # a blade-count change, every fourth action
                 count = counts[(k // 4) % 2]
                 set_slider(page, panel_label("blades"), count)
+                # A count the view would draw under its target frame rate asks first (the panel's Apply):
+                # answer it as a person would, then wait for the kernel to hold the new count.
+                apply = page.locator("button.jupyter-button").filter(has_text=re.compile(r"^\s*Apply\s*$"))
+                asked = poll(lambda: (lambda n, shown: (n == count or shown, shown))(
+                    kernel_eval(page, "w.blade_count"), apply.count() > 0 and apply.first.is_visible()),
+                    f"{count} blades or the question whether to apply them", 60, 0.25, page=page)
+                if asked:
+                    apply.first.click()
                 wait_for_kernel(page, "w.blade_count", count, timeout=120)
             actions += 1
 
