@@ -17,9 +17,9 @@ the page) in a real JupyterLab + Chromium (driven by benchmarks/lab.py) for
 Interaction, one action every ``--action-every`` seconds in turn: a mouse drag on
 the view (orbit), a ``wind_strength`` slider move, a ``stiffness_scale`` slider
 move, and every fourth action a blade-count change typed into the ``blades``
-slider (alternating ``--blades`` and 1.5x that; Apply clicked where the panel asks first). The sphere is switched on and
-set rolling at the start (the ``sphere`` checkbox and the ``Roll`` button) and
-rolls all the time.
+slider (alternating ``--blades`` and 1.5x that; its Apply clicked where the panel
+asks first). The sphere is switched on and set rolling at the start (the
+``sphere`` checkbox and the ``Roll`` button) and rolls all the time.
 
 Targets (issue 20): kernel memory flat after the first minute (growth under
 50 MB over the run), frames/s steady. The summary reports both.
