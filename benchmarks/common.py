@@ -66,7 +66,8 @@ def machine_tag(adapter) -> str:
     for gpu in ("h100", "h200", "a100", "l40s"):
         if gpu in low:
             return gpu
-    slug = re.sub(r"[^a-z0-9]+", "-", low.split("(")[0]).strip("-")[:32].strip("-")
+    name = str((adapter.get("device") or adapter.get("summary") or "") if isinstance(adapter, dict) else text)
+    slug = re.sub(r"[^a-z0-9]+", "-", name.lower().split("(")[0]).strip("-")[:32].strip("-")
     return slug or "unknown"
 
 

@@ -94,6 +94,7 @@ def test_result_path_names_claim_machine_and_day(common):
     ("google swiftshader", "swiftshader"),
     ({"device": "NVIDIA H200", "summary": "NVIDIA H200 (DiscreteGPU) via Vulkan"}, "h200"),
     ("NVIDIA GeForce RTX 4090 (DiscreteGPU) via Vulkan", "nvidia-geforce-rtx-4090"),
+    ({"device": "AMD Radeon 780M", "description": "radv Mesa 24"}, "amd-radeon-780m"),
     (None, "unknown"),
 ])
 def test_machine_tag(common, adapter, tag):
