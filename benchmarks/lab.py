@@ -566,6 +566,18 @@ def set_slider(page, label: str, value: float, timeout: float = 15.0) -> str:
     return poll(shows, f"slider {label!r} to show {value}", timeout)
 
 
+def step_slider(page, label: str, steps: int, timeout: float = 15.0) -> None:
+    """Move the slider labelled ``label`` by ``steps`` stops with the arrow keys on its handle, as a person does
+    (a selection slider, such as the panel's blade count, takes no typed value)."""
+    slider = _only(page.locator(".widget-slider").filter(
+        has=page.locator(".widget-label:not(.widget-readout)", has_text=_labelled(label))), f"slider {label!r}", timeout)
+    handle = slider.locator(".noUi-handle").first
+    handle.scroll_into_view_if_needed()
+    handle.focus()
+    for _ in range(abs(steps)):
+        page.keyboard.press("ArrowRight" if steps > 0 else "ArrowLeft")
+
+
 def click_button(page, text: str, timeout: float = 15.0) -> None:
     """Click the ipywidgets button whose text is ``text``."""
     _only(page.locator("button.jupyter-button").filter(has_text=_labelled(text)), f"button {text!r}", timeout).click()

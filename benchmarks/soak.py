@@ -16,9 +16,9 @@ the page) in a real JupyterLab + Chromium (driven by benchmarks/lab.py) for
 
 Interaction, one action every ``--action-every`` seconds in turn: a mouse drag on
 the view (orbit), a ``wind_strength`` slider move, a ``stiffness_scale`` slider
-move, and every fourth action a blade-count change typed into the ``blades``
-slider (alternating ``--blades`` and 1.5x that; its Apply clicked where the panel
-asks first). The sphere is switched on and set rolling at the start (the
+move, and every fourth action a blade-count change with the arrow keys on the
+``blades`` slider (alternating ``--blades`` and twice that, the control's
+power-of-two stops; its Apply clicked where the panel asks first). The sphere is switched on and set rolling at the start (the
 ``sphere`` checkbox and the ``Roll`` button) and rolls all the time.
 
 Targets (issue 20): kernel memory flat after the first minute (growth under
@@ -61,6 +61,7 @@ from lab import (  # noqa: E402  (benchmarks/lab.py)
     run_all_cells,
     set_checkbox,
     set_slider,
+    step_slider,
     view_locator,
     wait_for_frames,
     wait_for_kernel,
@@ -215,7 +216,7 @@ def main(argv=None):
     ])
     env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
     samples, actions, error = [], 0, None
-    counts = [args.blades, args.blades * 3 // 2]
+    counts = [args.blades, args.blades * 2]  # neighbouring stops of the blade-count control
     with JupyterLabServer(root, env=env) as server, Browser(webgpu=args.engine == "browser") as browser:
         page = browser.page
         open_notebook(page, server, "soak.ipynb")
@@ -244,8 +245,9 @@ def main(argv=None):
             elif not args.blade_changes:
                 set_slider(page, panel_label("gravity"), [9.8, 6.0, 14.0][k % 3])
             else:  # a blade-count change, every fourth action
-                count = counts[(k // 4) % 2]
-                set_slider(page, panel_label("blades"), count)
+                now = kernel_eval(page, "w.blade_count")
+                count = counts[1] if now == counts[0] else counts[0]  # the other of the two stops
+                step_slider(page, panel_label("blades"), 1 if count > now else -1)
                 # A count the view would draw under its target frame rate asks first (the panel's Apply):
                 # answer it as a person would, then wait for the kernel to hold the new count.
                 apply = page.locator("button.jupyter-button").filter(has_text=re.compile(r"^\s*Apply\s*$"))
