@@ -13,26 +13,24 @@ with the chart (``--shot``).
 
 Usage (from the repository root)::
 
-    .venv/bin/python benchmarks/chart_cost.py [--out benchmarks/chart_cost_lavapipe.json] [--shot chart-tip.png]
+    .venv/bin/python benchmarks/chart_cost.py [--out PATH] [--shot chart-tip.png]
 
-Prints the figures and writes the JSON (machine, adapter, per-window frames/s, the ratio).
+Prints the figures and writes benchmarks/results/chart_cost-<machine>-<date>.json (or ``--out``): per-window
+frames/s and the ratio. JupyterLab and Chromium are driven by benchmarks/lab.py.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from tests.e2e.harness import (  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+from lab import (  # noqa: E402  (benchmarks/lab.py)
     Browser,
     JupyterLabServer,
     frames_per_second,
@@ -43,6 +41,9 @@ from tests.e2e.harness import (  # noqa: E402
     wait_for_frames,
     write_notebook,
 )
+
+common.use_this_checkout()
+ROOT = common.ROOT
 
 COUNT_UPDATES = """(seconds) => new Promise((done) => {
   const c = document.querySelector(".gw-trace-chart");
@@ -58,7 +59,7 @@ def main(argv=None):
     ap.add_argument("--blades", type=int, default=4096)
     ap.add_argument("--seconds", type=float, default=5.0, help="length of each window (default 5)")
     ap.add_argument("--rounds", type=int, default=5, help="windows per setting (default 5)")
-    ap.add_argument("--out", default=None, help="JSON file (default: print only)")
+    common.add_out_argument(ap, "chart_cost")
     ap.add_argument("--shot", default=None, help="PNG screenshot of the widget with the tip chart")
     args = ap.parse_args(argv)
 
@@ -112,8 +113,7 @@ def main(argv=None):
 
     off, on = mean(None), mean("tip")
     result = {
-        "benchmark": "chart_cost", "machine": platform.node(), "cpus": os.cpu_count(),
-        "load_average": os.getloadavg(), "adapter": adapter, "blades": args.blades, "size": [640, 480],
+        "benchmark": "chart_cost", "blades": args.blades, "size": [640, 480],
         "seconds_per_window": args.seconds, "windows": windows,
         "frames_per_s_chart_none": round(off, 2), "frames_per_s_chart_tip": round(on, 2),
         "ratio_tip_over_none": round(on / off, 3), "chart_updates_per_s": round(updates, 2),
@@ -122,9 +122,7 @@ def main(argv=None):
         "samples_in_window": samples, "last_stats": stats,
     }
     print(f"chart None {off:.2f} frames/s, 'tip' {on:.2f} frames/s: ratio {on / off:.3f}")
-    if args.out:
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.out}")
+    common.save("chart_cost", result, adapter, args.out)
     return result
 
 

@@ -23,7 +23,7 @@ With GRASSWIDGET_SAVE_BENCH=1 it is also a benchmark: it measures, at 640 x 480 
 default widget and for 2^14 blades, the frames/s reaching Chromium, the kernel's
 render-only rate (step + render + readback, offscreen, at the full size), the
 simulated/wall ratio and the render scale in use, prints them and writes
-benchmarks/browser_fps_<adapter>.json; a plain test run measures only what it asserts.
+benchmarks/results/browser_fps-<adapter>-<date>.json; a plain test run measures only what it asserts.
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def _gw_clocks(w):
 
 
 #: Benchmark mode (GRASSWIDGET_SAVE_BENCH=1): also the render-only rate and the 2^14-blade figures,
-#: written to benchmarks/; a plain test run measures only what it asserts.
+#: written to benchmarks/results/; a plain test run measures only what it asserts.
 BENCH_MODE = os.environ.get("GRASSWIDGET_SAVE_BENCH") == "1"
 
 
@@ -261,6 +261,7 @@ def check_tour(page, folder):
     )
     print("[tour] " + json.dumps(result))
     if BENCH_MODE:
-        out = ROOT / "benchmarks" / f"browser_fps_{_adapter_tag(info)}.json"
-        out.parent.mkdir(exist_ok=True)
+        day = time.strftime("%Y-%m-%d", time.gmtime())
+        out = ROOT / "benchmarks" / "results" / f"browser_fps-{_adapter_tag(info)}-{day}.json"
+        out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(result, indent=2) + "\n")

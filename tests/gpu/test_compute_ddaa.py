@@ -7,7 +7,7 @@ with no anti-aliasing. Measured on lavapipe (320x240): 0.4 % of pixels one level
 colour goes through a half float between the compute and the copy) and 0.02 % further, up to 9
 levels: DDAA's thresholds flip where a texel coordinate differs in its last bit between the
 rasterizer's interpolation and the shader's computation (on the H100 at 1920x1080, 0.22 % and
-0.004 %, the flips up to 88 levels: benchmarks/compute_ddaa_pixels_h100.json). DDAA itself changes
+0.004 %, the flips up to 88 levels: benchmarks/results/compute_ddaa_pixels-h100-2026-11-26.json). DDAA itself changes
 3-5 % of these pixels, so a pass that did nothing, or anti-aliased elsewhere, fails.
 """
 
