@@ -146,15 +146,25 @@ class GrassEngine {
   listen() {
     this.onMsg = (/** @type {any} */ msg, /** @type {any} */ buffers) => { this.onMessage(msg, buffers); };
     this.model.on("msg:custom", this.onMsg);
-    const uniforms = this.rules().engine.uniforms.map(([, trait]) => trait);
-    const names = [...uniforms, "collider_spheres", "collider_grid", "frame_rules", "blade_data", "width", "height",
-      "pixel_ratio", "frustum_lines", "shaders"];
     /** @type {[string, () => void][]} */
-    this.listeners = names.map((name) => {
-      const fn = () => this.onChange(name);
-      this.model.on(`change:${name}`, fn);
-      return /** @type {[string, () => void]} */ ([name, fn]);
-    });
+    this.listeners = [];
+    for (const name of ["collider_spheres", "collider_grid", "frame_rules", "blade_data", "width", "height",
+      "pixel_ratio", "frustum_lines", "shaders"]) this.listenTo(name);
+    this.listenToUniforms();
+  }
+
+  /** @param {string} name a trait whose changes onChange applies */
+  listenTo(name) {
+    if (this.listeners.some(([n]) => n === name)) return;
+    const fn = () => this.onChange(name);
+    this.model.on(`change:${name}`, fn);
+    this.listeners.push([name, fn]);
+  }
+
+  /** The uniforms' traits (frame_rules.engine.uniforms: Python sends frame_rules after the model opens). */
+  listenToUniforms() {
+    const rules = this.rules();
+    if (rules && rules.engine) for (const [, trait] of rules.engine.uniforms) this.listenTo(trait);
   }
 
   // ---------------------------------------------------------------- what CanvasView and tests read
@@ -402,6 +412,7 @@ class GrassEngine {
 
   /** @param {string} name */
   onChange(name) {
+    if (name === "frame_rules") this.listenToUniforms();
     if (name === "width" || name === "height" || name === "pixel_ratio") {
       for (const v of this.views) v.resize();
       return;

@@ -1,3 +1,4 @@
+// @ts-check
 // Exported pictures: the supersampled snapshot filtered down (Python's export_filter executed).
 const SRGB_TO_LINEAR = Float32Array.from({ length: 256 }, (_, i) => {
   const c = i / 255;
