@@ -241,14 +241,14 @@ export class ComputeRaster {
   /**
    * The per-pixel words of a (width, height) view and the bind groups that use them; this frame's
    * render size written into u_cull (cull.wgsl lists thin blades only in renders of that size).
-   * @param {number} width @param {number} height @param {Record<string, GPUBuffer>} buffers the resources'
+   * @param {number} width @param {number} height @param {import("./resources.js").EngineResources} resources
    * @param {Pipe[] & {name: string}[]} sized the compute passes bound per size
    */
-  target(width, height, buffers, sized) {
+  target(width, height, resources, sized) {
     const device = this.gpu.device;
     const spec = this.spec;
-    device.queue.writeBuffer(buffers.u_cull, spec.width_offset, new Float32Array([width]));
-    device.queue.writeBuffer(buffers.u_cull, spec.height_offset, new Float32Array([height]));
+    const buffers = resources.res;
+    resources.writeUniform("u_cull", [[spec.width_offset, "f32", width], [spec.height_offset, "f32", height]]);
     const key = `${width}x${height}`;
     if (this.lastKey !== key) {  // the rows written were another size's: Python's spec, zeros clear the whole view
       device.queue.writeBuffer(buffers.s_raster_args, 4 * spec.rows_at, new Uint32Array(spec.rows_words));

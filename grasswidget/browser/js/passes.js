@@ -33,7 +33,7 @@ export class Simulation {
    * @param {number} stepCount
    */
   writeNow(stepCount) {
-    this.resources.writeUniform("u_sim", { time0: this.windTime(stepCount), steps: 0 });
+    this.resources.writeUniform("u_sim", this.resources.simPatch(this.windTime(stepCount), 0));
   }
 
   /**
@@ -51,7 +51,7 @@ export class Simulation {
     let done = 0;
     while (done < n) {
       const chunk = Math.min(perDispatch, n - done);
-      resources.writeUniform("u_sim", { time0: this.windTime(stepCount + done), steps: chunk });
+      resources.writeUniform("u_sim", resources.simPatch(this.windTime(stepCount + done), chunk));
       const encoder = device.createCommandEncoder();
       const pass = encoder.beginComputePass();
       pass.setPipeline(sim.pipeline);
@@ -137,7 +137,7 @@ export class FramePasses {
     this.writeStdInfo(width, height);
     const twoPhases = this.occlusionOn();
     const sized = pipelines.computePasses.filter((q) => q.sized);
-    const raster = this.rasterOn() ? pipelines.raster.target(width, height, res, sized) : null;
+    const raster = this.rasterOn() ? pipelines.raster.target(width, height, resources, sized) : null;
     const flat = this.flat();
     const depthView = depthTexture.createView();
     const blades = resources.workgroups(resources.n);

@@ -123,22 +123,33 @@ export class EngineResources {
 
   /**
    * Python's packed bytes of a uniform (frame_rules.engine.uniforms: buffer -> trait) into its
-   * buffer, as they are; `patch` sets u_sim's per-dispatch fields at sim_layout's offsets
-   * (time0: f32 seconds, steps: i32) on the way.
-   * @param {string} name the buffer (u_sim, u_cull...) @param {{time0: number, steps: number}} [patch]
+   * buffer, as they are, with `patch`'s fields set on the way: [byte offset, "f32" or "i32", value]
+   * (u_sim's per-dispatch time0 and steps at sim_layout's offsets; u_cull's render size).
+   * @param {string} name the buffer (u_sim, u_cull...) @param {[number, "f32" | "i32", number][]} [patch]
    */
   writeUniform(name, patch) {
     const pair = this.rules().engine.uniforms.find(([buffer]) => buffer === name);
     if (!pair) throw new Error(`the browser engine has no uniform named ${name}`);
     let bytes = bytesOf(this.model.get(/** @type {any} */ (pair[1])));
-    if (patch) {
-      const layout = this.model.get("sim_layout");
+    if (patch && patch.length) {
       bytes = bytes.slice();
       const view = new DataView(bytes.buffer);
-      view.setFloat32(layout.time0[0], patch.time0, true);
-      view.setInt32(layout.steps[0], patch.steps, true);
+      for (const [offset, kind, value] of patch) {
+        if (kind === "f32") view.setFloat32(offset, value, true);
+        else view.setInt32(offset, value, true);
+      }
     }
     this.gpu.device.queue.writeBuffer(this.res[name], 0, bytes);
+  }
+
+  /**
+   * u_sim's per-dispatch fields as a patch (sim_layout's offsets).
+   * @param {number} time0 the wind time of the first step (s) @param {number} steps steps of this dispatch
+   * @returns {[number, "f32" | "i32", number][]}
+   */
+  simPatch(time0, steps) {
+    const layout = this.model.get("sim_layout");
+    return [[layout.time0[0], "f32", time0], [layout.steps[0], "i32", steps]];
   }
 
   /** The buffer a trait's bytes fill (frame_rules.engine.uniforms), or null. @param {string} trait @returns {string | null} */
