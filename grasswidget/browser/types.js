@@ -64,7 +64,6 @@
  * @property {number} inspected_point_bytes one inspected blade's control points
  * @property {number} inspected_force_bytes one inspected blade's forces (vec4 each)
  * @property {string[][]} uniforms [buffer, trait] pairs
- * @property {string[]} per_dispatch the u_sim fields written per dispatch
  */
 
 /**

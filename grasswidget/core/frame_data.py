@@ -630,12 +630,10 @@ def engine_rules() -> dict:
     :data:`grasswidget.core.blades.BLADE_BYTES`), ``inspected_point_bytes`` (one inspected blade's
     control points, :data:`grasswidget.core.teaching.INSPECTED_POINT_BYTES`), ``inspected_force_bytes``
     (its forces, a vec4 each of ``reference.FORCE_NAMES``), ``uniforms`` ([buffer,
-    trait] pairs, :data:`UNIFORM_TRAITS`) and ``per_dispatch`` (the ``u_sim`` fields written per
-    dispatch)."""
+    trait] pairs, :data:`UNIFORM_TRAITS`)."""
     return {"frames_in_flight": FRAMES_IN_FLIGHT, "device_loss_retries": DEVICE_LOSS_RETRIES,
             "frame_times_kept": FRAME_TIMES_KEPT, "ball_vertices": BALL_VERTICES, "blade_bytes": BLADE_BYTES,
-            "inspected_point_bytes": INSPECTED_POINT_BYTES, "inspected_force_bytes": 16 * len(FORCE_NAMES), "uniforms": [list(pair) for pair in UNIFORM_TRAITS],
-            "per_dispatch": ["time0", "steps"]}
+            "inspected_point_bytes": INSPECTED_POINT_BYTES, "inspected_force_bytes": 16 * len(FORCE_NAMES), "uniforms": [list(pair) for pair in UNIFORM_TRAITS]}
 
 
 def frame_rules(params, blades, far, floor="grass") -> dict:
