@@ -277,7 +277,7 @@ export class ComputeRaster {
    * @param {Record<string, GPUBuffer>} buffers
    */
   encodeSecondPhase(cpass, target, buffers) {
-    for (const name of ["second_args", "second_depth", "second_payload"]) {
+    for (const name of /** @type {const} */ (["second_args", "second_depth", "second_payload"])) {
       cpass.setPipeline(this.second[name].pipeline);
       cpass.setBindGroup(0, target.groups.get(name));
       if (name === "second_args") cpass.dispatchWorkgroups(1);  // a thread per blade this phase listed

@@ -30,7 +30,7 @@ export class EngineDevice {
     if (!adapter) return "requestAdapter() gave null";
     /** @type {Record<string, number>} */
     const limits = {};
-    for (const k of ["maxStorageBufferBindingSize", "maxBufferSize"]) limits[k] = adapter.limits[k];
+    for (const k of /** @type {const} */ (["maxStorageBufferBindingSize", "maxBufferSize"])) limits[k] = adapter.limits[k];
     // Occlusion culling's second pass with the compute rasterizer binds 10; WebGPU's default is 8.
     limits.maxStorageBuffersPerShaderStage = Math.min(Math.max(storageBuffers, 8), adapter.limits.maxStorageBuffersPerShaderStage);
     const device = await adapter.requestDevice({ requiredLimits: limits });
