@@ -17,7 +17,8 @@
 //            width, height, pixel_ratio, frustum_lines (the frozen culling camera's 12 edges,
 //            24 x 3 float32; empty: not frozen), inspect_uniform (u_inspect packed) and
 //            inspected (the inspected blade ids).
-//   messages js/messages.js (requests from Python, answers and reports).
+//   messages GrassEngine.messages (requests from Python, kind -> handler; js/messages.js reads the GPU
+//            back for the answers) and js/stats.js (the stats and steps reports).
 //
 // The modules, by role (each a real ES module; grasswidget.browser.esm.engine_module_text
 // assembles them into the one module text anywidget, the live page and the HTML export load):

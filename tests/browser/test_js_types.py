@@ -43,7 +43,7 @@ def _package_modules() -> list:
     return sorted(p.relative_to(ROOT).as_posix() for p in PACKAGE.rglob("*.js") if "vendor" not in p.parts)
 
 
-def test_tsc_checks_every_js_module_of_the_package(node_path=None):
+def test_tsc_checks_every_js_module_of_the_package():
     from conftest import node_executable
 
     config = _config()
