@@ -181,7 +181,7 @@ _PROFILE_JS = """async ({frames, steps, rounds}) => {
   const target = (w, h) => {
     const key = `${w}x${h}`;
     if (!targets.has(key)) {
-      const color = device.createTexture({ size: [w, h], format: e.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
+      const color = device.createTexture({ size: [w, h], format: e.gpu.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
       targets.set(key, { color, view: color.createView(), depth: e.depthFor(w, h) });
     }
     return targets.get(key);
@@ -208,36 +208,36 @@ _PROFILE_JS = """async ({frames, steps, rounds}) => {
     const t0 = performance.now();
     for (let i = 0; i < frames; i++) {
       const enc = device.createCommandEncoder();
-      e.encodeFrame(wrapEncoder(enc, skip), t.view, t.depth, w, h);
+      e.passes.encode(wrapEncoder(enc, skip), t.view, t.depth, w, h);
       device.queue.submit([enc.finish()]);
     }
     await device.queue.onSubmittedWorkDone();
     return (performance.now() - t0) / frames;
   };
   const pipes = (list) => new Set((list || []).filter(Boolean).map((p) => p.pipeline));
-  const o = e.occlusion, r = e.raster;
+  const P = e.pipelines, o = P.occlusion, r = P.raster;
   const variants = {
     "full": () => timeFrames(new Set(), W, H),
     "half_size": () => timeFrames(new Set(), Math.round(W / 2), Math.round(H / 2)),
     "occlusion_off": async () => {
-      const keep = e.occlusionOn;
-      e.occlusionOn = () => false;
-      try { return await timeFrames(new Set(), W, H); } finally { e.occlusionOn = keep; }
+      const keep = e.passes.occlusionOn;
+      e.passes.occlusionOn = () => false;
+      try { return await timeFrames(new Set(), W, H); } finally { e.passes.occlusionOn = keep; }
     },
     "no_draws_or_dispatches": () => timeFrames("all", W, H),
   };
   const skips = {
-    "sky_ground": pipes([e.skyGround]),
-    "ribbons": pipes([...e.bladePipes, ...e.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
-    "culling": pipes([...e.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
+    "sky_ground": pipes([P.skyGround]),
+    "ribbons": pipes([...P.bladePipes, ...P.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
+    "culling": pipes([...P.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
       ...(o ? [o.cull] : [])]),
     "occlusion_pyramid": pipes(o ? o.levels : []),
   };
-  if (e.rasterOn && e.rasterOn()) {
+  if (e.passes.rasterOn()) {
     skips["compute_raster_resolve"] = pipes(r ? [r.resolve, r.resolveFlat] : []);
-    skips["compute_raster_walks"] = pipes([...e.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
-      ...(r ? [r.second_depth, r.second_payload] : [])]);
-    skips["compute_raster_clear"] = pipes(e.computePasses.filter((p) => p.name === "raster_clear"));
+    skips["compute_raster_walks"] = pipes([...P.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
+      ...(r ? [r.second.second_depth, r.second.second_payload] : [])]);
+    skips["compute_raster_clear"] = pipes(P.computePasses.filter((p) => p.name === "raster_clear"));
   }
   for (const [name, skip] of Object.entries(skips)) variants[`without_${name}`] = () => timeFrames(skip, W, H);
   const samples = {};

@@ -34,6 +34,9 @@ and each engine only writes it into its own buffers:
   (``uniform_layouts.GRASS_MATERIAL_LAYOUT``): the browser packs all of them, the
   kernel's GrassField writes the params' looks into its GrassMaterial.
 * :func:`scene_style`: :func:`sky_ground_values` plus the collider balls' colour.
+* :func:`engine_rules`: the browser engine's own numbers (frames in flight, device-loss retries,
+  the frame times kept for "auto", the ball mesh, the blade record's and an inspected blade's
+  bytes, the uniform buffers and the traits that fill them), decided here and sent as data.
 * :func:`frame_rules`: all of the above that a frame needs, with the camera's drag rules
   (:func:`grasswidget.core.camera_rules.drag_rules`) and the pointer, key and display rules
   (:func:`grasswidget.core.interaction.input_rules`), in one JSON-able dict (the browser's
@@ -61,10 +64,12 @@ from .camera_rules import drag_rules
 from .interaction import input_rules
 from .orbit_limits import OrbitLimits
 from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
-from .pays import effective
-from .reference import FAR_ALONG, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
+from .blades import BLADE_BYTES
+from .pays import FRAME_TIMES_KEPT, effective
+from .reference import FAR_ALONG, FORCE_NAMES, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
 from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
 from .reference.sunlight import sun_direction as _sun_direction
+from .teaching import INSPECTED_POINT_BYTES
 from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 from .uniform_layouts import SKY_GROUND_LAYOUT
 
@@ -78,6 +83,8 @@ __all__ = [
     "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
     "stats_freshness", "WAITING_AFTER_S",
+    "FRAMES_IN_FLIGHT", "DEVICE_LOSS_RETRIES", "BALL_RINGS", "BALL_SEGMENTS", "BALL_VERTICES", "UNIFORM_TRAITS",
+    "engine_rules",
 ]
 
 #: The most fixed steps one drawn frame may take while playing, in both engines (a frame
@@ -598,14 +605,47 @@ def scene_style(blades, far, params=None, colliders=()) -> dict:
     return style
 
 
+#: Frames the browser engine lets the GPU queue at once; an animation frame that finds this many
+#: not yet done draws nothing (it keeps the page responsive on a slow adapter).
+FRAMES_IN_FLIGHT = 2
+#: Times the browser engine starts again (from the rest pose) after losing its WebGPU device;
+#: the next loss gives up and says so (``gpu_status`` "unavailable").
+DEVICE_LOSS_RETRIES = 2
+#: The collider balls' UV sphere (``browser/balls.wgsl``'s ``BALL_RINGS`` and ``BALL_SEGMENTS``):
+#: rings from pole to pole, segments around; 6 vertices per quad.
+BALL_RINGS = 16
+BALL_SEGMENTS = 32
+BALL_VERTICES = 6 * BALL_RINGS * BALL_SEGMENTS
+#: The browser engine's uniform buffers (the WGSL's names) and the traits that carry their packed
+#: bytes, all written by one route (``js/resources.js`` ``writeUniform``); ``u_sim`` gets its
+#: per-dispatch fields (``time0``, ``steps``, at ``sim_layout``'s offsets) on the way.
+UNIFORM_TRAITS = (("u_sim", "sim_uniform"), ("u_cull", "cull_uniform"), ("u_material", "material_uniform"),
+                  ("u_sky_ground", "sky_ground_uniform"), ("u_balls", "ball_uniform"), ("u_inspect", "inspect_uniform"))
+
+
+def engine_rules() -> dict:
+    """The browser engine's own numbers, JSON-able (``frame_rules["engine"]``; ``engine.js`` and
+    ``js/*.js`` write none of them): ``frames_in_flight`` (:data:`FRAMES_IN_FLIGHT`),
+    ``device_loss_retries`` (:data:`DEVICE_LOSS_RETRIES`), ``frame_times_kept`` (the newest frame
+    times a stats message carries, :data:`grasswidget.core.pays.FRAME_TIMES_KEPT`), ``ball_vertices``
+    (one ball's triangle list, :data:`BALL_VERTICES`), ``blade_bytes`` (one blade's record,
+    :data:`grasswidget.core.blades.BLADE_BYTES`), ``inspected_point_bytes`` (one inspected blade's
+    control points, :data:`grasswidget.core.teaching.INSPECTED_POINT_BYTES`), ``inspected_force_bytes``
+    (its forces, a vec4 each of ``reference.FORCE_NAMES``), ``uniforms`` ([buffer,
+    trait] pairs, :data:`UNIFORM_TRAITS`)."""
+    return {"frames_in_flight": FRAMES_IN_FLIGHT, "device_loss_retries": DEVICE_LOSS_RETRIES,
+            "frame_times_kept": FRAME_TIMES_KEPT, "ball_vertices": BALL_VERTICES, "blade_bytes": BLADE_BYTES,
+            "inspected_point_bytes": INSPECTED_POINT_BYTES, "inspected_force_bytes": 16 * len(FORCE_NAMES), "uniforms": [list(pair) for pair in UNIFORM_TRAITS]}
+
+
 def frame_rules(params, blades, far, floor="grass") -> dict:
     """``{"clock": clock_rules, "dispatch": dispatch_rules, "orbit": orbit_rules, "drag":
     camera_rules.drag_rules, "input": interaction.input_rules, "counters": counter_layout, "style":
-    scene_style}`` for a field of ``blades`` seen by a camera
-    whose far plane is ``far`` metres, orbiting above the ``floor`` ("grass" or "ground", see
-    :func:`orbit_rules`)."""
+    scene_style, "engine": engine_rules}`` for a field of ``blades`` seen by a camera whose far plane is
+    ``far`` metres, orbiting above the ``floor`` ("grass" or "ground", see :func:`orbit_rules`)."""
     return {"clock": clock_rules(params), "dispatch": dispatch_rules(), "orbit": orbit_rules(blades, far, floor),
-            "drag": drag_rules(), "input": input_rules(), "counters": counter_layout(), "style": scene_style(blades, far, params)}
+            "drag": drag_rules(), "input": input_rules(), "counters": counter_layout(),
+            "style": scene_style(blades, far, params), "engine": engine_rules()}
 
 
 #: A playing view whose newest frame arrived longer ago than this (wall seconds) is "waiting for

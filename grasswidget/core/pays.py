@@ -64,7 +64,7 @@ __all__ = [
     "AUTO", "SWITCHES", "AutoSwitch", "coerce_switch", "Decision", "decide_occlusion", "decide_compute_raster",
     "DecisionContext", "AutoSwitches", "switch_text", "effective",
     "TRIAL_FRAMES", "TRIAL_SETTLE_FRAMES", "MIN_OCCLUDED_FRACTION", "CAMERA_MOVE_FRACTION", "CAMERA_TURN_DEG",
-    "HYSTERESIS", "TRIAL_MIN_MS", "TRIAL_MAX_FRAMES",
+    "HYSTERESIS", "TRIAL_MIN_MS", "TRIAL_MAX_FRAMES", "FRAME_TIMES_KEPT",
 ]
 
 #: The third state of a switch: the view decides by measuring.
@@ -77,6 +77,10 @@ TRIAL_FRAMES = 3
 TRIAL_MIN_MS = 50.0
 #: Timed frames a side at most, whatever TRIAL_MIN_MS asks (two blocks of half).
 TRIAL_MAX_FRAMES = 24
+#: The newest frame times (ms) the browser engine keeps between two stats messages, the window
+#: that feeds a trial (:mod:`grasswidget.browser.auto_switches`); at least a trial's side
+#: (:data:`TRIAL_MAX_FRAMES`), so that one message can carry all of one.
+FRAME_TIMES_KEPT = 32
 #: Frames dropped after a switch flips, before timing (first use compiles or grows buffers).
 TRIAL_SETTLE_FRAMES = 1
 #: Occlusion culling that removes less than this fraction (0..1) of the blades reaching it cannot pay.

@@ -31,6 +31,7 @@ __all__ = [
     "INSPECTOR_COLORS",
     "INSPECTED_BLADE_COLORS",
     "MAX_INSPECTED",
+    "INSPECTED_POINT_BYTES",
     "ARROW_ACCEL_PER_HEIGHT",
     "COLLISION_ARROW_SCALE",
     "hex_to_rgb",
@@ -72,6 +73,9 @@ INSPECTOR_COLORS = {
 INSPECTED_BLADE_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#8c564b"]
 #: The blade inspector draws at most this many blades.
 MAX_INSPECTED = 64
+#: Bytes of one inspected blade's control points as both engines read them back: v0, v1, v2,
+#: three float32 each (the inspector's ``s_points``).
+INSPECTED_POINT_BYTES = 3 * 3 * 4
 #: Inspector arrows: an acceleration of this many m/s^2 is drawn as long as the
 #: blade is high (so default gravity, 9.8 m/s^2 plus front gravity, is about half a blade).
 ARROW_ACCEL_PER_HEIGHT = 20.0

@@ -298,3 +298,105 @@ def test_input_rules_js_decide_what_python_decides():
         code = re.sub(r"//[^\n]*|/\*.*?\*/", "", (BROWSER_DIR / name).read_text(encoding="utf-8"), flags=re.S)
         assert not re.search(r"<\s*4\b|>\s*60\b|devicePixelRatio[^;]*,\s*2\)|0\.1\s*\*", code), name
         assert not re.search(r"""key\s*===\s*["'][sr ]["']""", code), name
+
+
+#: The engine's modules (rules.js and the interaction modules aside): composition of js/*.js.
+_ENGINE_MODULES = ("engine.js", "js/device.js", "js/pipelines.js", "js/culling.js", "js/resources.js", "js/passes.js",
+                   "js/camera.js", "js/stats.js", "js/messages.js")
+#: The only number literals those modules may write, each a fact of WebGPU or of a byte format, not
+#: a rule: 4 bytes a word, 16 a vec4 / indirect args, 128 two mat4 (u_wobject), 256 the copy row
+#: pitch, 255 an opaque alpha, 8 WebGPU's default storage buffers per stage and the depth pyramid's
+#: 8 x 8 workgroup, 12 the grid's first three words, 6 a quad's vertices, 3 sizes kept per target,
+#: 1000 ms a second, 0xFFFFFFFF all bits.
+_FORMAT_LITERALS = {"0", "1", "2", "3", "4", "6", "8", "12", "16", "128", "255", "256", "1000", "0xFFFFFFFF"}
+
+_STATS_DRIVER = """
+import { readFileSync } from "node:fs";
+import { EngineStats } from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const sent = [];
+const stats = new EngineStats((type, message, extra) => sent.push({ type, ...extra }));
+c.frames.forEach(([switches, ms]) => stats.frameDone(switches, ms, c.kept));
+stats.maybeSend(0, { step_count: 7, adapter: "test", views: 1 });
+console.log(JSON.stringify({ sent, frames: stats.frames }));
+"""
+
+
+def test_the_engine_numbers_are_pythons_and_the_modules_write_none():
+    """frame_rules["engine"] (core.frame_data.engine_rules) carries the engine's own numbers, each
+    from its Python owner; the engine's modules write no other number than a format's."""
+    from grasswidget.core.blades import BLADE_BYTES
+    from grasswidget.core.pays import FRAME_TIMES_KEPT, TRIAL_MAX_FRAMES
+    from grasswidget.core.reference import FORCE_NAMES
+    from grasswidget.core.teaching import INSPECTED_POINT_BYTES
+
+    engine = frame_data.engine_rules()
+    assert engine["frame_times_kept"] == FRAME_TIMES_KEPT >= TRIAL_MAX_FRAMES  # a message carries a trial's side
+    assert engine["blade_bytes"] == BLADE_BYTES == 64
+    assert engine["inspected_point_bytes"] == INSPECTED_POINT_BYTES == 36
+    assert engine["inspected_force_bytes"] == 16 * len(FORCE_NAMES)
+    assert engine["frames_in_flight"] == frame_data.FRAMES_IN_FLIGHT >= 1
+    assert engine["device_loss_retries"] == frame_data.DEVICE_LOSS_RETRIES >= 0
+    # the balls' mesh is balls.wgsl's
+    balls = (BROWSER_DIR / "balls.wgsl").read_text(encoding="utf-8")
+    rings = int(re.search(r"const BALL_RINGS: u32 = (\d+)u;", balls).group(1))
+    segments = int(re.search(r"const BALL_SEGMENTS: u32 = (\d+)u;", balls).group(1))
+    assert (rings, segments) == (frame_data.BALL_RINGS, frame_data.BALL_SEGMENTS)
+    assert engine["ball_vertices"] == 6 * rings * segments
+    # the widget sends them
+    view = BrowserEngineWidget(gw.Blades.on_plane(64), size=(160, 120))
+    try:
+        assert view.frame_rules["engine"] == engine
+    finally:
+        view.close()
+    for rel in _ENGINE_MODULES:
+        text = re.sub(r"//[^\n]*|/\*.*?\*/", "", (BROWSER_DIR / rel).read_text(encoding="utf-8"), flags=re.S)
+        text = re.sub(r"`[^`]*`|\"[^\"\n]*\"", "\"\"", text)  # strings and messages aside
+        literals = set(re.findall(r"(?<![\w.$])(0x[0-9A-Fa-f]+|\d+(?:\.\d+)?(?:e[-+]?\d+)?)\b", text))
+        assert literals <= _FORMAT_LITERALS, (rel, sorted(literals - _FORMAT_LITERALS))
+
+
+def test_the_uniforms_reach_the_gpu_by_one_route():
+    """Every uniform Python packs (u_sim among them) is written by resources.js's writeUniform from
+    the trait frame_rules.engine.uniforms names: the table names every packed-uniform trait of the
+    widget and a uniform the WGSL declares, and no module writes a uniform's buffer another way."""
+    synced = set(BrowserEngineWidget.class_trait_names(sync=True))
+    table = dict(frame_data.UNIFORM_TRAITS)
+    assert set(table.values()) == {name for name in synced if name.endswith("_uniform")}
+    view = BrowserEngineWidget(gw.Blades.on_plane(64), size=(160, 120))
+    try:
+        bound = set()
+
+        def walk(node):  # every binding of every shader Python sends: the buffers the engine binds
+            if isinstance(node, dict):
+                if "binding" in node and "name" in node:
+                    bound.add(node.get("resource") or node["name"])
+                for v in node.values():
+                    walk(v)
+            elif isinstance(node, list):
+                for v in node:
+                    walk(v)
+
+        walk(view.shaders)
+        assert view.frame_rules["engine"]["uniforms"] == [list(pair) for pair in frame_data.UNIFORM_TRAITS]
+    finally:
+        view.close()
+    assert set(table) <= bound, set(table) - bound
+    for rel in _ENGINE_MODULES:
+        text = (BROWSER_DIR / rel).read_text(encoding="utf-8")
+        for buffer in table:
+            assert not re.search(rf"writeBuffer\([^)]*\b{buffer}\b", text), (rel, buffer)
+    assert "writeUniform(\"u_sim\"" in (BROWSER_DIR / "js" / "passes.js").read_text(encoding="utf-8")
+
+
+def test_the_stats_carry_pythons_window_of_frame_times():
+    """js/stats.js keeps the newest frame_rules.engine.frame_times_kept frame times of one switch
+    state (restarting when it changes), as the "auto" trial reads them (browser.auto_switches)."""
+    kept = frame_data.engine_rules()["frame_times_kept"]
+    frames = [[[False, False], 1.0]] * 5 + [[[True, False], float(ms)] for ms in range(kept + 9)]
+    got = _node(_STATS_DRIVER % json.dumps((BROWSER_DIR / "js" / "stats.js").as_uri()), {"frames": frames, "kept": kept})
+    (msg,) = got["sent"]
+    assert got["frames"] == len(frames)
+    assert msg["type"] == "stats" and msg["timed_switches"] == [True, False]
+    assert msg["frame_times"] == [float(ms) for ms in range(9, kept + 9)]  # the newest `kept`, of the last state
+    assert msg["step_count"] == 7 and msg["views"] == 1 and msg["adapter"] == "test"
