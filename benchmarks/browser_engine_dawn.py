@@ -118,9 +118,9 @@ def run_matrix(rows, dawn: Path, out: Path, rounds: int, window_s: float, env=No
 
 def engine_module() -> str:
     """The browser engine's ES module, as the anywidget and the live page get it."""
-    from grasswidget.browser.view import BrowserView
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
 
-    return BrowserView._esm
+    return BrowserEngineWidget._esm
 
 
 def _json_or_none(value):

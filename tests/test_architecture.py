@@ -420,5 +420,5 @@ def test_the_test_layer_check_can_fail(tmp_path):
     (tmp_path / "core" / "test_x.py").write_text("import grasswidget as gw\nfrom grasswidget.browser import view\n"
                                                  "def test():\n    gw.GrassWidget(64)\n")
     assert _test_layer_violations("core", tmp_path) == ["core/test_x.py uses grasswidget.browser",
-                                                        "core/test_x.py uses grasswidget.browser.view",
+                                                        "core/test_x.py uses grasswidget.browser.engine_widget",
                                                         "core/test_x.py uses grasswidget.notebook"]

@@ -10,9 +10,10 @@
   camera above the tallest blade's tip; unticked = "ground", down among the blades);
 * "more" / "less": unfolds and folds the rest of the panel (the widget's ``panel_folded``).
 
-It knows the widget only through its traits (``playing``, ``camera_floor``,
-``panel_folded``) and methods (``look_from``, ``toggle_play``); an error from a
-button goes to ``on_error`` (the panel's message line), never into the notebook.
+It knows no widget: it observes and sets a state's traits (``playing``, ``camera_floor``,
+``panel_folded``: a GrassWidget's :class:`~grasswidget.notebook.widget_state.WidgetState`, or a
+comparison) and its buttons call two actions (``look_from(name)``, ``toggle_play()``); an error
+from a button goes to ``on_error`` (the panel's message line), never into the notebook.
 
 :func:`grasswidget.core.camera_presets.floor_for` says which floor a camera needs.
 """
@@ -37,24 +38,25 @@ class CameraBar:
     """One line: [Play] home top low [x] above the grass   more.
 
     Args:
-        owner: the GrassWidget (traits ``playing``, ``camera_floor``, ``panel_folded``;
-            methods ``look_from(name)``, ``toggle_play()``).
+        owner: the state: a HasTraits with ``playing``, ``camera_floor`` and ``panel_folded``.
+        actions: an object with ``look_from(name)`` and ``toggle_play()`` (default: ``owner``).
         on_error: called with an exception a button raised.
 
     Attributes: ``play_button``, ``preset_buttons`` (dict name -> Button),
     ``floor_checkbox``, ``more_button`` (ToggleButton, down = unfolded), ``row`` (the HBox).
     """
 
-    def __init__(self, owner, *, on_error):
+    def __init__(self, owner, actions=None, *, on_error):
         self._owner = owner
+        actions = owner if actions is None else actions
         self._on_error = on_error
         self.play_button = ipw.Button(description="Pause", icon="pause", layout=ipw.Layout(width="90px"),
                                       tooltip="Play / pause the animation (space)")
-        self.play_button.on_click(lambda _b: self._run(owner.toggle_play))
+        self.play_button.on_click(lambda _b: self._run(actions.toggle_play))
         self.preset_buttons = {}
         for name, icon, tip in PRESET_BUTTONS:
             b = ipw.Button(description=name, icon=icon, tooltip=tip, layout=ipw.Layout(width="76px"))
-            b.on_click(lambda _b, name=name: self._run(owner.look_from, name))
+            b.on_click(lambda _b, name=name: self._run(actions.look_from, name))
             self.preset_buttons[name] = b
         self.floor_checkbox = ipw.Checkbox(value=owner.camera_floor == "grass", description="above the grass",
                                            indent=False, layout=ipw.Layout(width="auto", margin="2px 8px"),

@@ -22,10 +22,10 @@ the views).
 
 **One camera.** Orbit, pan or zoom any view and every other view takes the same
 camera (position, orbit target, field of view): each view reports a moved camera to
-its camera listeners (:meth:`~grasswidget.core.view_api.EngineView.add_camera_listener`;
+its camera listeners (:meth:`~grasswidget.views.api.EngineView.add_camera_listener`;
 the kernel engine after each frame it draws, the browser engine when the browser's
 camera arrives) and the comparison hands it to the others with
-:meth:`~grasswidget.core.view_api.EngineView.accept_camera`, which does not report back,
+:meth:`~grasswidget.views.api.EngineView.accept_camera`, which does not report back,
 so there is no echo; a non-blocking lock keeps two views that move at the same moment
 from waiting on each other (the later move is then taken at its next frame).
 
@@ -38,7 +38,7 @@ in every view) act on every view. What "lockstep" guarantees:
   view's ``read_state()`` equals a :class:`~grasswidget.GrassScene` with that view's
   parameters stepped ``n`` steps (tested).
 * playing, kernel engine: the views share one frame clock
-  (:class:`~grasswidget.notebook.clock.SharedClock`): the shared simulated time moves on
+  (:class:`~grasswidget.views.clock.SharedClock`): the shared simulated time moves on
   only when every view has drawn the last one, so the n-th frame of every view shows the
   same simulated time (to within one step where the variants' ``dt`` differ), at the
   pace of the slowest view. ``pause()`` then brings any view still behind up to the
@@ -124,7 +124,7 @@ class Comparison(ipw.VBox):
         params: the shared :class:`GrassParams` (what the panel edits).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` under the views.
         labels: {label: the ipywidgets HTML above each view}.
-        clock: the :class:`~grasswidget.notebook.clock.SharedClock` the kernel engine's views
+        clock: the :class:`~grasswidget.views.clock.SharedClock` the kernel engine's views
             follow (None with the browser engine).
 
     Traits: ``playing``, ``time_scale``, ``culling_frozen`` and ``camera_floor``, applied to every
@@ -207,14 +207,14 @@ class Comparison(ipw.VBox):
             self._link_view(label, w.view)
             w.playing = self.playing
             w.observe(self._on_view_playing, names="playing")
-            # A browser view without WebGPU is replaced by a kernel view, and the widget says so on
-            # its message line: that is when to link the new one.
-            w.message_line.observe(self._on_view_message, names="value")
+            # A browser view without WebGPU is replaced by a kernel view (the engine's "view" event):
+            # that is when to link the new one.
+            w.engine.on("view", self._on_view_replaced)
             w.params.observe(self._on_view_param, names=list(self.differing) or All)
 
     def _link_view(self, label, view):
         """Make ``view`` (the EngineView of view ``label``) follow the shared camera and clock."""
-        from .clock import MAX_STEPS_PER_FRAME, SharedClock
+        from ..views.clock import MAX_STEPS_PER_FRAME, SharedClock
 
         if view.backend == "kernel":
             if self.clock is None:
@@ -222,11 +222,11 @@ class Comparison(ipw.VBox):
             follower = self.clock.follower()
             view.clock = follower  # the view's frame loop now follows the shared time
             self._followers[label] = follower
-        view.actions = self  # keys and ctrl + click act on every view
+        self.views[label].engine.commands = self  # keys and ctrl + click act on every view
         view.add_camera_listener(self._on_view_camera)
         self._linked[label] = view
 
-    def _on_view_message(self, change):
+    def _on_view_replaced(self, _view):
         """A view's GrassWidget may have replaced its view (a browser without WebGPU: the kernel
         streams instead, and the message line says so): link the new one, at the shared camera."""
         for label, w in self.views.items():
@@ -238,7 +238,7 @@ class Comparison(ipw.VBox):
                 self._link_view(label, w.view)
                 others = [v.view for lb, v in self.views.items() if lb != label and v.view is not None]
                 if others:
-                    w.view.accept_camera(others[0].current_camera())
+                    w.view.accept_camera(others[0].camera_state)
 
     def _build_panel(self):
         from .panel import ControlPanel
@@ -263,7 +263,7 @@ class Comparison(ipw.VBox):
         """The label, then the view's GrassWidget with its own panel folded away except its status
         line and message line (what sits between the view and its panel, e.g. a chart, stays)."""
         self.labels[label] = ipw.HTML(value=self._label_html(label), layout=ipw.Layout(max_width=f"{self.size[0]}px"))
-        keep = (w.panel.rows[0], w.message_line)  # the status row (stats line) and the message line
+        keep = (w.panel.rows[0], w.panel.message_line)  # the status row (stats line) and the message line
         for row in w.panel.rows:
             if all(row is not k for k in keep):
                 row.layout.display = "none"
@@ -422,14 +422,13 @@ class Comparison(ipw.VBox):
             self._sync_lock.release()
 
     def _follow(self, source):
-        state = source.current_camera()
-        source.reported_camera = state
+        state = source.camera_state
         for w in self.views.values():
             if w.view is not source and not w.closed:
                 try:
                     w.view.accept_camera(state)
                 except Exception as err:  # never raise into a frame or a comm handler
-                    w.view.report_error(err)
+                    w.view.host.show_error(err)
 
     # ------------------------------------------------------------------ parameters
 
@@ -527,21 +526,27 @@ class Comparison(ipw.VBox):
             return True
         tmp = tempfile.TemporaryDirectory()
         paths = [os.path.join(tmp.name, f"{k}.png") for k in range(len(self.views))]
-        waiting = set(paths)
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         out = os.path.join(os.getcwd(), f"compare-{stamp}.png")
+        futures = [w.view.snapshot(path, size) for w, path in zip(self.views.values(), paths)]
+        finished = []
 
-        def one_done(path):
-            waiting.discard(path)
-            if not waiting:
-                try:
-                    Image.fromarray(self._pictures(size, paths), "RGBA").save(out)
-                finally:
-                    tmp.cleanup()
-                done(out)
+        def one_done(_future):
+            if finished or not all(f.done() for f in futures):
+                return
+            finished.append(True)
+            try:
+                err = next((f.exception() for f in futures if f.exception() is not None), None)
+                if err is not None:
+                    self.panel.show_error(err)
+                    return
+                Image.fromarray(self._pictures(size, paths), "RGBA").save(out)
+            finally:
+                tmp.cleanup()
+            done(out)
 
-        for w, path in zip(self.views.values(), paths):
-            w.view.save_png_later(path, size, one_done)
+        for future in futures:
+            future.add_done_callback(one_done)
         return True
 
     def parts(self) -> tuple:
@@ -583,7 +588,7 @@ class Comparison(ipw.VBox):
             columns = []
             for label, w in self.views.items():
                 head = ControlMirror(ipw.VBox([self.labels[label]]), on_error=self._show_error)
-                status = ControlMirror(ipw.VBox([w.panel.rows[0], w.message_line]), on_error=self._show_error)
+                status = ControlMirror(ipw.VBox([w.panel.rows[0], w.panel.message_line]), on_error=self._show_error)
                 columns.append((head, w.marimo_stage(), status))
             panel = ControlMirror(ipw.VBox([self.camera_bar.row, self._more]), on_error=self._show_error)
             self._marimo = (columns, panel)

@@ -15,7 +15,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
-from grasswidget.browser.view import BrowserEngineWidget, wind_error_from_messages
+from grasswidget.browser.engine_widget import BrowserEngineWidget, wind_error_from_messages
 from grasswidget.browser.browser_wgsl import BrowserShaders, binding_map
 from grasswidget.core.shader_files import shader_dir
 from conftest import node_executable
@@ -366,7 +366,7 @@ def test_browser_export_filter_is_pygfx_supersampling(bgra):
     import json
     import subprocess
 
-    from grasswidget.browser.view import HERE as browser_dir
+    from grasswidget.browser.engine_widget import HERE as browser_dir
     from grasswidget.core.frame_data import export_filter
 
     node = node_executable()

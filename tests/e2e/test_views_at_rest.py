@@ -37,7 +37,7 @@ from .harness import (
     write_notebook,
 )
 
-from grasswidget.notebook.kernel_view import MAX_BUFFERED_FRAMES
+from grasswidget.views.kernel import MAX_BUFFERED_FRAMES
 
 pytestmark = pytest.mark.browser
 

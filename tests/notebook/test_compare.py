@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget.notebook.clock import SharedClock
+from grasswidget.views.clock import SharedClock
 
 pytest.importorskip("jupyter_rfb")
 

@@ -157,14 +157,14 @@ def test_display_in_marimo_shows_anywidgets_only(widget):
 
 
 def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
-    from grasswidget.notebook.marimo_face import esm_for_front_end, running_in_marimo
+    from grasswidget.views.front_end import esm_for_front_end, running_in_marimo
 
     assert not running_in_marimo()  # pytest is no marimo notebook, marimo loaded or not
     assert esm_for_front_end("export default {};") == "export default {};"
     mo = pytest.importorskip("marimo")
     # the classes a message handler may make (the "auto" switch) are the plain ones outside marimo
-    from grasswidget.browser.view import BrowserEngineWidget
-    from grasswidget.notebook.marimo_face import class_for_front_end
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
+    from grasswidget.views.front_end import class_for_front_end
 
     assert class_for_front_end(BrowserEngineWidget) is BrowserEngineWidget
     w = gw.GrassWidget(64, backend="browser", size=(160, 120))
@@ -173,7 +173,7 @@ def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
 
 
 def test_the_browser_view_takes_only_a_browser_engine_widget_class(widget):
-    from grasswidget.browser.engine_view import BrowserEngineView
+    from grasswidget.views.browser import BrowserEngineView
     with pytest.raises(gw.GrassTypeError, match="widget_class must be BrowserEngineWidget or a subclass"):
         BrowserEngineView(16, (160, 120), gw.GrassParams(), playback=widget, actions=widget, on_error=print,
                           on_stats=print, on_unavailable=print, widget_class=ipw.HTML)

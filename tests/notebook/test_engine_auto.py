@@ -9,8 +9,8 @@ import html
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.browser.engine_view import BrowserEngineView
-from grasswidget.notebook.kernel_view import KernelView
+from grasswidget.views.browser import BrowserEngineView
+from grasswidget.views.kernel import KernelView
 
 NVIDIA = {"webgpu": True, "adapter": True, "fallback": False, "vendor": "nvidia", "architecture": "ampere",
           "device": "", "description": "", "detail": ""}

@@ -11,8 +11,8 @@ import pytest
 
 import grasswidget as gw
 from conftest import WIDGET_SIZE, TickingWall
-from grasswidget.notebook.adaptive import SCALES
-from grasswidget.notebook.clock import SimClock
+from grasswidget.views.adaptive import SCALES
+from grasswidget.views.clock import SimClock
 
 pytest.importorskip("jupyter_rfb")
 
@@ -205,7 +205,7 @@ def test_target_fps_defaults_and_bad_values(widget):
 
 
 def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
-    import grasswidget.notebook.kernel_view as kv
+    import grasswidget.views.kernel as kv
 
     monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # no refresh inside the draw: this test refreshes
     _resize(widget)

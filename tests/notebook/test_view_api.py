@@ -1,4 +1,4 @@
-"""One view interface (grasswidget.core.view_api.EngineView) that the kernel
+"""One view interface (grasswidget.views.api.EngineView) that the kernel
 and the browser views implement in full; the widget talks to it only."""
 
 import ast
@@ -12,9 +12,9 @@ import pytest
 pytest.importorskip("ipywidgets")
 
 import grasswidget as gw  # noqa: E402
-from grasswidget.browser.engine_view import BrowserEngineView  # noqa: E402
-from grasswidget.notebook.kernel_view import KernelView  # noqa: E402
-from grasswidget.core.view_api import MAX_STEPS_PER_FRAME, EngineView, check_camera_state  # noqa: E402
+from grasswidget.views.browser import BrowserEngineView  # noqa: E402
+from grasswidget.views.kernel import KernelView  # noqa: E402
+from grasswidget.views.api import MAX_STEPS_PER_FRAME, EngineView, check_camera_state  # noqa: E402
 
 SIZE = (160, 120)
 
@@ -142,7 +142,7 @@ def test_the_widget_forwards_to_its_view_in_one_way_documented_once():
     those are ``ViewMember``s, whose help is the interface's text. Each interface member is documented
     in EngineView only: the kernel and browser views' own definitions carry no docstring."""
     import grasswidget.notebook.widget as widget_module
-    from grasswidget.core.view_api import ViewMember
+    from grasswidget.views.api import ViewMember
 
     assert _hand_written_pass_throughs(Path(widget_module.__file__).read_text(), "GrassWidget") == []
     forwarded = {name for name, member in vars(gw.GrassWidget).items() if isinstance(member, ViewMember)}

@@ -9,7 +9,7 @@
 //   gpu_status trait.
 // Stats {fps, visible (per LOD class), occluded, rastered, step_count, steps, frame_ms, frame_size,
 //   adapter, views, frame_times, timed_switches, counts_switches}: every stats_interval_ms (Python's
-//   trait), decoded in Python by grasswidget.browser.engine_view. frame_times: the ms (start to
+//   trait), decoded in Python by grasswidget.views.browser. frame_times: the ms (start to
 //   onSubmittedWorkDone) of the frames since the last message drawn with the switch state
 //   timed_switches ([occlusion, compute raster] as executed from u_cull; the list restarts when it
 //   changes); counts_switches: the state of the frame the counts are of. Python's "auto" switches
