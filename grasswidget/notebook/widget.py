@@ -146,7 +146,7 @@ class GrassWidget(ipw.VBox):
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a half-built widget.
     _closed = False
-    engine = state = panel = ball = bench = camera_bar = _camera = _layout = _stage = _face = None
+    engine = state = panel = ball = bench = camera_bar = camera_home = _layout = _stage = _face = None
     _links = ()
 
     # The view's members the widget adds nothing to: each *is* the live view's member of that name
@@ -229,7 +229,7 @@ class GrassWidget(ipw.VBox):
                                   max_blades=self.max_blades, ball_row=self.ball.controls,
                                   view_size=(min(self.size[0], PANEL_WIDTH), self.size[1]))
         self.panel.view_size = self.size  # Save PNG multiplies the view's size (the rows fit the column)
-        self._camera = CameraHome(engine, state, self.size)
+        self.camera_home = CameraHome(engine, state, self.size)
         self.bench = LabBench(view, self.size[0], owner=state, name="chart", on_error=engine.show_error)
         state.panel_folded = self.layout_mode == "lecture"
         self.camera_bar = CameraBar(state, actions, on_error=engine.show_error)
@@ -429,7 +429,7 @@ class GrassWidget(ipw.VBox):
         Any other name raises GrassValueError naming the presets.
         """
         self._check_open()
-        self._camera.look_from(name)
+        self.camera_home.look_from(name)
 
     # ------------------------------------------------------------------ lab bench
 
@@ -572,7 +572,7 @@ class GrassWidget(ipw.VBox):
         their ipywidgets, shown or not). Something holding one of them holds the widget (see
         :mod:`grasswidget.notebook.cell_rerun`)."""
         found = (self.engine, self.state, self.view, self.panel, self.ball, self.camera_bar, self.bench,
-                 self._camera, self._layout, self._stage, self._face, *(self._face.made() if self._face else ()))
+                 self.camera_home, self._layout, self._stage, self._face, *(self._face.made() if self._face else ()))
         if self.view is not None:
             found += (self.view.widget, self.scene, self.controller, self.canvas)
         return tuple(p for p in found if p is not None)
@@ -594,7 +594,7 @@ class GrassWidget(ipw.VBox):
                 pass
         for link in self._links:
             link.unlink()
-        for part in (self.bench, self._face, self.panel, self.camera_bar, self._camera, self.engine):
+        for part in (self.bench, self._face, self.panel, self.camera_bar, self.camera_home, self.engine):
             if part is not None:
                 part.close()
         if self.ball is not None:

@@ -79,8 +79,8 @@ def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     soft.look((3.0, 5.0, 9.0), (0.5, 0.5, 0.0), 50.0)  # as the orbit controller moves it in a drag
     soft.draw()  # the frame after the drag reports the move
     for key in ("position", "target", "fov_deg"):
-        assert np.allclose(stiff.current_camera()[key], soft.current_camera()[key], atol=1e-6)
-    assert np.allclose(stiff.current_camera()["position"], (3.0, 5.0, 9.0), atol=1e-5)
+        assert np.allclose(stiff.camera_state[key], soft.camera_state[key], atol=1e-6)
+    assert np.allclose(stiff.camera_state["position"], (3.0, 5.0, 9.0), atol=1e-5)
     stiff.draw()
     soft.draw()
     assert heard == []  # the followed view did not report the camera it was given back
@@ -132,7 +132,7 @@ def test_keys_and_ctrl_click_act_on_every_view(comparison):
     c.views["stiff"].view.on_key({"key": "s", "modifiers": []})
     steps = {w.view.clock.steps for w in c.views.values()}
     assert len(steps) == 1 and steps.pop() >= 1
-    c.views["soft"].view.actions.inspect([5])
+    c.views["soft"].view.host.inspect([5])
     assert all(w.inspected == (5,) for w in c.views.values())
 
 
@@ -186,8 +186,8 @@ def test_browser_engine_views_follow_the_camera_the_browser_sends():
         heard = []
         soft.add_camera_listener(lambda view: heard.append(view))
         soft.engine_widget.camera = dict(soft.engine_widget.camera, position=[3.0, 4.0, 9.0], target=[0.5, 0.5, 0.0])
-        assert np.allclose(stiff.current_camera()["position"], (3.0, 4.0, 9.0))
-        assert np.allclose(stiff.current_camera()["target"], (0.5, 0.5, 0.0))
+        assert np.allclose(stiff.camera_state["position"], (3.0, 4.0, 9.0))
+        assert np.allclose(stiff.camera_state["target"], (0.5, 0.5, 0.0))
         assert len(heard) == 1  # the drag itself; the follower's copy did not come back
         c.pause()
         assert [w.view.engine_widget.playing for w in c.views.values()] == [False, False]
@@ -234,7 +234,7 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
         soft, stiff = c.views["soft"].view, c.views["stiff"].view
         soft.look((4.0, 5.0, 9.0), (0.0, 0.5, 0.0), 45.0)
         soft.draw()
-        assert np.allclose(stiff.current_camera()["position"], (4.0, 5.0, 9.0), atol=1e-5)
+        assert np.allclose(stiff.camera_state["position"], (4.0, 5.0, 9.0), atol=1e-5)
         c.step(24)
         for label, w in c.views.items():
             _assert_same_state(w.read_state(), _scene_state(w.params, 24))

@@ -127,7 +127,7 @@ def test_a_refused_value_snaps_back_and_is_said(widget, mirror):
     mirror.sent.clear()
     mirror.receive({"type": "set", "id": time["id"], "value": "fast"})  # not a number
     assert widget.time_scale == 1.0
-    assert "time" in widget.message_line.value and "fast" in widget.message_line.value
+    assert "time" in widget.panel.message_line.value and "fast" in widget.panel.message_line.value
     assert [m["props"]["value"] for m in mirror.sent if m["id"] == time["id"]] == [1.0]  # the page shows 1.0 again
 
 
@@ -175,8 +175,7 @@ def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
 def test_the_browser_view_takes_only_a_browser_engine_widget_class(widget):
     from grasswidget.views.browser import BrowserEngineView
     with pytest.raises(gw.GrassTypeError, match="widget_class must be BrowserEngineWidget or a subclass"):
-        BrowserEngineView(16, (160, 120), gw.GrassParams(), playback=widget, actions=widget, on_error=print,
-                          on_stats=print, on_unavailable=print, widget_class=ipw.HTML)
+        BrowserEngineView(16, (160, 120), gw.GrassParams(), host=widget.engine, widget_class=ipw.HTML)
 
 
 def test_a_non_widget_root_is_refused():

@@ -178,7 +178,7 @@ def _measure(w, switch, value) -> Record:
     picture = scene.render_at(antialias=False)
     return Record(
         switch, value, picture, bool(p.lod), kept, ref.lod_class(state["v0"], state["v2"], state["height"], view_proj, height),
-        pixels, dict(w.stats), html.unescape(w.stats_line.value), format_details(w.stats), w.traces(), state,
+        pixels, dict(w.stats), html.unescape(w.panel.stats_line.value), format_details(w.stats), w.traces(), state,
         w.view.blades.rest_state(), f.count, str(p.color_by), rest_reason, **gpu)
 
 
@@ -406,7 +406,7 @@ def test_stats_while_playing_are_of_the_frame_their_step_count_names(kernel_widg
             seen.append(drawn)
             assert s["step_count"] == w.view.scene.field.step_count
             assert s["visible"] == drawn, (k, s["visible"], drawn)
-            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.stats_line.value)
+            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.panel.stats_line.value)
     finally:
         w.pause()
         w.view.camera_state = dict(CAMERA)
