@@ -66,7 +66,7 @@ def save_png_later(view, size, done, on_error) -> bool:
     return True
 
 
-def save_animation(view, path, size, camera, params, **film) -> str:
+def save_animation(view, path, view_size, camera, params, **film) -> str:
     """Film ``view`` (see ``GrassWidget.save_animation``) with the kernel engine: the kernel
     view's own scene, or for a browser view a kernel scene holding the browser's state seen
     from ``camera``. ``film``: seconds, fps, size, progress, on_frame. Returns the path."""
@@ -76,7 +76,7 @@ def save_animation(view, path, size, camera, params, **film) -> str:
         out = film_scene(view.scene, path, **film)
         view.request_draw()
         return out
-    with engines.kernel_film_scene(view, size, params, camera) as scene:
+    with engines.kernel_film_scene(view, view_size, params, camera) as scene:
         return film_scene(scene, path, **film)
 
 

@@ -143,10 +143,10 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         # screen, drawing, is fresh and never "waiting for frames" (polled over a second).
         rest = kernel_eval(page, "{k: ws[0].stats[k] for k in ('at_rest', 'stale', 'frame_age_s')}")
         assert rest["at_rest"] and rest["stale"] and rest["frame_age_s"] > 0, rest
-        assert "at rest (out of sight)" in kernel_eval(page, "ws[0].stats_line.value")
+        assert "at rest (out of sight)" in kernel_eval(page, "ws[0].panel.stats_line.value")
         lines = []
         for _ in range(5):
-            lines.append(kernel_eval(page, "(ws[1].stats_line.value, ws[1].stats['at_rest'], ws[1].stats['waiting'])"))
+            lines.append(kernel_eval(page, "(ws[1].panel.stats_line.value, ws[1].stats['at_rest'], ws[1].stats['waiting'])"))
             time.sleep(0.2)  # paces the reads only: each read is checked
         print(f"[views at rest, {backend}] view 1's status line while drawing: {lines[-1][0]}")
         assert not any(at_rest or waiting or "waiting for frames" in line for line, at_rest, waiting in lines), lines

@@ -331,7 +331,7 @@ def check_browser_engine(r: Record, ctx):
     s = bw.stats
     assert s["visible"] == r.visible_count and s["rastered"] == r.drawn["compute"]
     assert s["occluded"] == r.stats["occluded"]
-    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.stats_line.value)
+    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.panel.stats_line.value)
 
 
 #: The measurements: name -> check(record, context). Each runs against every switch value.

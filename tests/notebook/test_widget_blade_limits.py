@@ -26,6 +26,6 @@ def test_widget_blade_count_uses_the_same_check(widget):
 
     fresh = gw.GrassWidget(blades=64, size=(160, 120))
     try:
-        assert max(v for _label, v in fresh.blade_slider.options) <= max_blade_count()
+        assert max(v for _label, v in fresh.panel.blade_slider.options) <= max_blade_count()
     finally:
         fresh.close()
