@@ -27,10 +27,10 @@ from . import engine_auto
 from ..core.blades import Blades
 from ..errors import GrassTypeError, GrassValueError
 from ..views import engines
-from ..views.kernel import KernelView, streaming_defaults
+from ..views.kernel import STATS_INTERVAL, KernelView, streaming_defaults
 from .sunlight_default import SunlightDefault
 
-__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_streaming"]
+__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
 
 #: The engines a GrassWidget can run on (``backend=``).
 BACKENDS = ("kernel", "browser", "auto")
@@ -93,7 +93,15 @@ class EngineSwitch:
 
     def __init__(self, backend, size, state, *, streaming_overrides, preset=None, function_overrides=None,
                  commands=None):
+        from ..core.framing import PRESETS
+        from ..core.wgsl_overrides import FunctionOverrides
+
         self.requested = check_backend(backend)
+        if function_overrides is not None and not isinstance(function_overrides, FunctionOverrides):
+            raise GrassTypeError("function_overrides must be a FunctionOverrides (e.g. gw.exercise(name).overrides(code)) "
+                                 f"or None; got {type(function_overrides).__name__}")
+        if preset is not None and preset not in PRESETS:
+            raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
         self.size = size
         self.play = state  # the ViewHost's play state: a PlayState (the widget's state)
         self.state = state
@@ -193,6 +201,16 @@ class EngineSwitch:
 
     # ------------------------------------------------------------------ views
 
+    def default_params(self):
+        """A new GrassParams for a widget given none: the sunlight's default for the adapter that
+        draws (:func:`~grasswidget.core.params.sunlight_defaults`), then the preset's own values
+        (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them."""
+        from ..core.framing import preset_params
+        from ..core.params import GrassParams, sunlight_defaults
+
+        sun = sunlight_defaults(cpu_adapter=self.cpu is not False)
+        return GrassParams(**{**sun, **(preset_params(self.preset) if self.preset else {})})
+
     def start(self, blades, params, own_params: bool):
         """Make the first view for ``blades`` (checked) with ``params``; the sunlight's default
         follows the adapter that draws while ``own_params`` (the widget made them)."""
@@ -234,8 +252,12 @@ class EngineSwitch:
                                  pixel_ratio=self.overrides.get("max_pixel_ratio"),
                                  target_fps=self.streaming["target_fps"], function_overrides=self.function_overrides)
 
-    def set_target_fps(self, value: float):
-        """The frame rate adaptive resolution aims for, in the live view and any later one."""
+    def set_target_fps(self, value):
+        """The frame rate adaptive resolution aims for, in the live view and any later one (1..240;
+        else GrassValueError naming ``target_fps`` and the range, and the old value stays)."""
+        from ..views.adaptive import check_target_fps
+
+        value = check_target_fps(value)
         if self.view is not None:
             self.view.target_fps = value
         self.streaming["target_fps"] = value

@@ -138,7 +138,9 @@ class LabBench:
 
     @window_s.setter
     def window_s(self, value):
-        self.recorder.window_s = value
+        from ..core.traces import check_window
+
+        self.recorder.window_s = check_window(value, "trace_window")
         self.push()
 
     def traces(self) -> dict:

@@ -67,9 +67,13 @@ def save_png_later(view, size, done, on_error) -> bool:
 
 
 def save_animation(view, path, view_size, camera, params, **film) -> str:
-    """Film ``view`` (see ``GrassWidget.save_animation``) with the kernel engine: the kernel
-    view's own scene, or for a browser view a kernel scene holding the browser's state seen
-    from ``camera``. ``film``: seconds, fps, size, progress, on_frame. Returns the path."""
+    """Film ``view`` with the kernel engine (:func:`grasswidget.tools.export.save_animation`: GIF, or
+    MP4 with imageio-ffmpeg; ``film``: seconds, fps, size, progress, on_frame). It starts from the
+    current state and puts the live state back afterwards; ``on_frame(k, t)`` runs before each
+    frame (with the kernel engine it may move ``w.scene.colliders``, which the film's scene is).
+    A browser view's current blade state is read back and a kernel scene (which needs a WebGPU
+    adapter in the kernel, lavapipe will do) films it from ``camera``; the browser's own animation
+    is not disturbed. Returns the path."""
     from ..tools.export import save_animation as film_scene
 
     if view.backend == "kernel":
@@ -81,7 +85,15 @@ def save_animation(view, path, view_size, camera, params, **film) -> str:
 
 
 def save_html(view, path, *, size, params, ball, playing, time_scale, still, title, camera_floor) -> str:
-    """Write a live page of ``view`` (see ``GrassWidget.save_html``); return the path."""
+    """Write a live page of ``view``: one self-contained HTML file that runs the meadow in any browser
+    with WebGPU, with no Python and no kernel (:mod:`grasswidget.tools.html_export`). The page carries
+    the browser engine, the WGSL and the blades, and starts from the current parameters, camera,
+    ball and play state; it offers orbit, play / pause, wind and culling controls, colour by and
+    the ball (shift + drag). In a browser without WebGPU it shows a still picture of the same view
+    (rendered now in the kernel engine, about a second on a CPU adapter; ``still=False`` leaves it
+    out) and one line saying WebGPU is needed. ``path`` must end in .html in an existing folder,
+    at most ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades (GrassValueError, MissingFileError).
+    Returns the path."""
     from ..tools.html_export import save_html as write_page
 
     engines.check_live_page(path, len(view.blades))

@@ -1,16 +1,14 @@
 """GrassWidget: a live, controllable meadow in a Jupyter notebook.
 
-``GrassWidget`` is an ipywidgets ``VBox`` made of parts, each with one job and its own module;
-they share the widget's state (:class:`~grasswidget.notebook.widget_state.WidgetState`:
-``playing``, ``time_scale``, ``culling_frozen``, ``chart``, ``camera_floor``, ``panel_folded``)
-and the engine switch's events, and none of them holds the widget:
+``GrassWidget`` is an ipywidgets ``VBox`` made of parts, each with one job in its own module. They
+share the widget's state (:class:`~grasswidget.notebook.widget_state.WidgetState`, whose traits
+are linked to the widget's) and the engine switch's events; none of them holds the widget:
 
-* the engine (:class:`~grasswidget.notebook.engine_switch.EngineSwitch`): which engine runs, its
-  view (a :class:`~grasswidget.views.api.EngineView`; the widget talks to it through that
-  interface only), the "auto" rule and the swap at run time;
-* the control panel (:class:`~grasswidget.notebook.panel.ControlPanel`, ``w.panel``): sliders,
-  culling checkboxes, buttons, the stats and message lines, the teaching row;
-* the camera (:class:`~grasswidget.notebook.camera_home.CameraHome`) and its bar
+* the engine (:class:`~grasswidget.notebook.engine_switch.EngineSwitch`): which engine runs and
+  its view (an :class:`~grasswidget.views.api.EngineView`, the widget's only way to an engine),
+  the "auto" rule, the fall back without WebGPU, the swap at run time;
+* the control panel (:class:`~grasswidget.notebook.panel.ControlPanel`, ``w.panel``);
+* the camera (:class:`~grasswidget.notebook.camera_bar.CameraHome`) and its bar
   (:class:`~grasswidget.notebook.camera_bar.CameraBar`);
 * the ball (:class:`~grasswidget.notebook.ball.BallControl`, ``w.ball``);
 * the lab bench (:class:`~grasswidget.notebook.lab_bench.LabBench`, ``w.bench``): traces and chart;
@@ -25,28 +23,14 @@ and the engine switch's events, and none of them holds the widget:
     w                             # (last expression of the cell: shows it)
     w.params.wind_strength = 20   # moves the slider too
     w.save_png("meadow.png")      # 2x the view size by default
-    w.save_animation("wind.gif", seconds=3, fps=15)
     w.close()                     # frees the GPU buffers
 
-Two engines (``backend=``): "kernel" renders in the kernel and streams frames
-(:mod:`grasswidget.views.kernel`); "browser" runs the same WGSL simulation, culling and
-ribbons in the notebook's browser through WebGPU (:mod:`grasswidget.views.browser`), as fast
-as the student's own GPU; "auto" (the default) runs the kernel engine, except where the kernel
-renders on a CPU adapter and the page's browser offers a hardware WebGPU adapter: there the
-browser engine takes over when the widget is first shown (:mod:`grasswidget.notebook.engine_auto`,
-the rule in :mod:`grasswidget.core.engine_choice`). A browser without WebGPU makes a "browser"
-widget fall back to kernel streaming with one line saying so.
-
-Mouse: drag to orbit, right-drag to pan, wheel to zoom (the camera stays above the grass, or
-the ground with ``camera_floor="ground"``, and the field in sight, see
-:mod:`grasswidget.core.orbit_limits`); ``look_from("home" | "top" | "low")`` and the camera
-bar's buttons move it to a named view (:mod:`grasswidget.core.camera_presets`). Layouts
-(:mod:`grasswidget.notebook.layout`): the panel beside the view, or under it in a narrow
-notebook; ``layout="lecture"`` gives a 1280 x 720 view and the panel folded to one line.
-Shift + drag puts the ball (a sphere collider) on the ground under the pointer. Keys, only
-while the canvas has focus: space = play/pause, ``s`` = step one frame, ``r`` = reset the
-camera. Ctrl + click on a blade inspects it (``w.inspect(ids)`` from code); "freeze culling"
-(``w.culling_frozen = True``) freezes culling at the current camera.
+Engines (``backend=``): "kernel" renders in the kernel and streams frames
+(:mod:`grasswidget.views.kernel`); "browser" runs the same WGSL in the notebook's browser through
+WebGPU (:mod:`grasswidget.views.browser`); "auto" (the default) runs the kernel engine unless the
+kernel renders on a CPU adapter and the page offers a hardware WebGPU adapter
+(:mod:`grasswidget.notebook.engine_auto`). Mouse, keys, the ball and the teaching views: see the
+README and docs/.
 """
 
 from __future__ import annotations
@@ -55,14 +39,14 @@ import ipywidgets as ipw
 from traitlets import All, Any, validate
 
 from . import cell_rerun, saving
-from ..core.framing import PRESETS, parse_size, preset_params
+from ..core.framing import parse_size
 from ..core.limits import check_steps
 from ..core.orbit_limits import FLOORS
-from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
-from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
+from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat
+from ..errors import GrassTypeError, WidgetClosedError
 from ..views.api import MAX_STEPS_PER_FRAME, ViewMember
-from ..views.kernel import STATS_INTERVAL, streaming_defaults
-from .engine_switch import BACKENDS, EngineSwitch, check_backend, check_streaming
+from ..views.kernel import STATS_INTERVAL, KernelOnly, streaming_defaults
+from .engine_switch import BACKENDS, EngineSwitch, check_streaming
 from .layout import LAYOUT_VIEW_SIZES, PANEL_WIDTH, WidgetLayout, check_layout, close_widgets
 from .widget_state import WidgetActions, WidgetState, link_state
 
@@ -162,43 +146,37 @@ class GrassWidget(ipw.VBox):
     inspect = ViewMember()
     inspected = ViewMember(no_view=())
     read_inspected = ViewMember()
+    # What only the kernel engine has (None in the browser engine): its GrassScene, jupyter-rfb canvas
+    # and pygfx OrbitController.
+    scene = KernelOnly()
+    canvas = KernelOnly()
+    controller = KernelOnly()
 
     def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None, backend="auto", target_fps=None, layout="default",
                  function_overrides=None):
-        from ..core.wgsl_overrides import FunctionOverrides
-
         #: "default" or "lecture" (see :mod:`grasswidget.notebook.layout`); ``w.layout`` stays ipywidgets' Layout.
         self.layout_mode = check_layout(layout)
-        check_backend(backend)
-        if function_overrides is not None and not isinstance(function_overrides, FunctionOverrides):
-            raise GrassTypeError("function_overrides must be a FunctionOverrides (e.g. gw.exercise(name).overrides(code)) "
-                                 f"or None; got {type(function_overrides).__name__}")
         if params is not None and not isinstance(params, GrassParams):
             raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
-        if preset is not None and preset not in PRESETS:
-            raise GrassValueError(f"preset must be None or one of {', '.join(PRESETS)}; got {preset!r}")
         self.size = parse_size(LAYOUT_VIEW_SIZES[self.layout_mode] if size is None else size)
         overrides = check_streaming(max_fps=max_fps, quality=quality, pixel_ratio=pixel_ratio, target_fps=target_fps)
         self.state = WidgetState()
         self.engine = EngineSwitch(backend, self.size, self.state, streaming_overrides=overrides, preset=preset,
                                    function_overrides=function_overrides)
+        #: The most blades this widget's engine takes here (the blade slider's top).
+        self.max_blades = self.engine.max_blades
         self._blades = self.engine.check_blades(blades)
-        # A preset's own values (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them;
-        # the sunlight's default follows the adapter that draws (core.params.sunlight_defaults).
-        own_params = params is None
-        if own_params:
-            sun = sunlight_defaults(cpu_adapter=self.engine.cpu is not False)
-            params = GrassParams(**{**sun, **(preset_params(preset) if preset else {})})
-        self.params = params
+        self.params = self.engine.default_params() if params is None else params
         self._links = link_state(self, self.state)
         actions = WidgetActions(toggle_play=self.toggle_play, step=self.step, reset_blades=self.reset_blades,
                                 reset_camera=self.reset_camera, look_from=self.look_from, set_blades=self.set_blades,
                                 inspect=lambda ids: self.inspect(ids), target_fps=lambda: self.target_fps,
-                                save_png_later=self._save_png_later)
+                                save_png_later=lambda size, done: saving.save_png_later(self.view, size, done,
+                                                                                        self.engine.show_error))
         self.engine.commands = actions
         try:
-            self._build(actions, own_params)
+            self._build(actions, own_params=params is None)
         except BaseException:
             self.close()
             raise
@@ -215,8 +193,7 @@ class GrassWidget(ipw.VBox):
     def _build(self, actions, own_params):
         """Make the parts and connect them through the state's traits and the engine's events."""
         from .ball import BallControl
-        from .camera_bar import CameraBar
-        from .camera_home import CameraHome
+        from .camera_bar import CameraBar, CameraHome
         from .lab_bench import LabBench
         from .marimo_face import MarimoFace
         from .panel import ControlPanel
@@ -270,21 +247,6 @@ class GrassWidget(ipw.VBox):
         return self.engine.view if self.engine is not None else None
 
     @property
-    def scene(self):
-        """The kernel engine's :class:`GrassScene` (None in the browser engine and after close)."""
-        return self.view.scene if self.backend == "kernel" else None
-
-    @property
-    def canvas(self):
-        """The kernel engine's jupyter-rfb canvas widget (None in the browser engine)."""
-        return self.view.canvas if self.backend == "kernel" else None
-
-    @property
-    def controller(self):
-        """The kernel engine's pygfx ``OrbitController`` (None in the browser engine, which orbits in the page)."""
-        return self.view.controller if self.backend == "kernel" else None
-
-    @property
     def backend(self) -> str:
         """The engine that is live: "kernel" or "browser" (a "browser" widget whose browser
         has no WebGPU adapter turns "kernel"). An "auto" widget says "kernel" until the page
@@ -306,11 +268,6 @@ class GrassWidget(ipw.VBox):
         return self.engine.auto.probe if self.engine.auto is not None else None
 
     @property
-    def max_blades(self) -> int:
-        """The most blades this widget's engine takes here (the blade slider's top)."""
-        return self.engine.max_blades
-
-    @property
     def target_fps(self) -> float:
         """Frames per second adaptive resolution aims for while playing (1..240;
         default 24 on a CPU adapter, 60 on a GPU). A bad value raises ValueError
@@ -322,9 +279,7 @@ class GrassWidget(ipw.VBox):
 
     @target_fps.setter
     def target_fps(self, value):
-        from ..views.adaptive import check_target_fps
-
-        self.engine.set_target_fps(check_target_fps(value))
+        self.engine.set_target_fps(value)
 
     @property
     def blade_count(self) -> int:
@@ -434,19 +389,10 @@ class GrassWidget(ipw.VBox):
     # ------------------------------------------------------------------ lab bench
 
     def traces(self) -> dict:
-        """What simulated time did, sampled while it advances (the lab bench; see
-        :mod:`grasswidget.views.trace_feed` for when samples are taken): NumPy arrays in a dict,
-        over the last :attr:`trace_window` simulated seconds.
-
-        ``t`` (T,) simulated s since reset_blades(); ``step`` (T,) step count; ``ids`` (K,) the blades
-        inspected in the window; ``v0``, ``v2`` (T, K, 3) m in the field's local space;
-        ``tip_offset`` (T, K) m from rest; ``bend_deg`` (T, K) degrees from ``up``; ``collision``
-        (T, K) collision strength eta (0..1); ``force`` {name: (T, K)} magnitudes of gravity,
-        recovery, wind (m/s^2) and the collision push (m per step); ``kept`` {test: (T,)} blades
-        kept after each culling test (orientation, frustum, distance, occlusion); ``drawn``
-        {path: (T,)} drawn as ribbons and in compute; ``frame_ms`` {stage: (T,)}. NaN where a
-        number is unknown (a blade not inspected at that time). See
-        :meth:`grasswidget.core.traces.TraceRecorder.traces`."""
+        """What simulated time did over the last :attr:`trace_window` simulated seconds, sampled while
+        it advances (the lab bench): NumPy arrays in a dict (``t``, ``step``, ``ids``, ``v0``, ``v2``,
+        ``tip_offset``, ``bend_deg``, ``collision``, ``force``, ``kept``, ``drawn``, ``frame_ms``; NaN
+        where unknown), as :meth:`grasswidget.core.traces.TraceRecorder.traces` documents them."""
         self._check_open()
         return self.bench.traces()
 
@@ -465,10 +411,8 @@ class GrassWidget(ipw.VBox):
 
     @trace_window.setter
     def trace_window(self, value):
-        from ..core.traces import check_window
-
         self._check_open()
-        self.bench.window_s = check_window(value, "trace_window")
+        self.bench.window_s = value
 
     # ------------------------------------------------------------------ files
 
@@ -486,47 +430,22 @@ class GrassWidget(ipw.VBox):
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
         return saving.save_png(self.view, path, size)
 
-    def _save_png_later(self, size, done) -> bool:
-        """The Save PNG button's action (see :func:`grasswidget.notebook.saving.save_png_later`)."""
-        self._check_open()
-        return saving.save_png_later(self.view, size, done, self.engine.show_error)
-
     def save_html(self, path, still: bool = True, title: str = "grasswidget meadow") -> str:
-        """Write a live page: one self-contained HTML file that runs this meadow in any
-        browser with WebGPU, with no Python and no kernel. Returns the path.
-
-        The page carries the browser engine, the WGSL and the blades, and starts from
-        the current parameters, camera, ball and play state; it offers orbit, play /
-        pause, wind and culling controls, colour by and the ball (shift + drag). In a
-        browser without WebGPU it shows a still picture of the same view (rendered
-        now in the kernel engine; ``still=False`` leaves it out) and one line saying
-        WebGPU is needed. See :mod:`grasswidget.tools.html_export`.
-
-        Args:
-            path: file name ending in .html, in an existing folder.
-            still: render the still picture (about a second on a CPU adapter).
-            title: the page's title.
-
-        Raises GrassValueError for a name not ending in .html or more than
-        ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades, MissingFileError for a
-        missing folder.
-        """
+        """Write a live page of this meadow (one self-contained HTML file that runs it in any browser
+        with WebGPU, no Python, no kernel; a still picture where WebGPU is missing unless
+        ``still=False``; ``title`` the page's title) and return the path: ``path`` ends in .html in an
+        existing folder, at most ``grasswidget.browser.page.PAGE_MAX_BLADES`` blades (else
+        GrassValueError / MissingFileError). See :func:`grasswidget.notebook.saving.save_html`."""
         self._check_open()
         return saving.save_html(self.view, path, size=self.size, params=self.params, ball=self.ball,
                                 playing=self.playing, time_scale=self.time_scale, still=still, title=title,
                                 camera_floor=self.camera_floor)
 
     def save_animation(self, path, seconds=4.0, fps=20, size=None, progress=True, on_frame=None) -> str:
-        """Export an animation (GIF, or MP4 with imageio-ffmpeg); see
-        :func:`grasswidget.tools.export.save_animation`. It starts from the current
-        state and puts the live state back afterwards. Returns the path.
-        ``on_frame(k, t)`` runs before each frame (see there; with the kernel engine it
-        may move ``w.scene.colliders``, which the film's scene is).
-
-        It always renders with the kernel engine: in browser mode the browser's
-        current blade state is read back and a kernel scene (which needs a WebGPU
-        adapter in the kernel, lavapipe will do) films it from the same camera;
-        the browser's own animation is not disturbed."""
+        """Export an animation (GIF, or MP4 with imageio-ffmpeg) from the current state, deterministic,
+        rendered by the kernel engine (a browser view's state is read back and filmed from the same
+        camera); ``on_frame(k, t)`` runs before each frame. Returns the path. See
+        :func:`grasswidget.notebook.saving.save_animation` and :func:`grasswidget.tools.export.save_animation`."""
         self._check_open()
         return saving.save_animation(self.view, path, self.size, self.camera_state, self.params, seconds=seconds,
                                      fps=fps, size=size, progress=progress, on_frame=on_frame)
