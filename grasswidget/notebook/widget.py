@@ -11,7 +11,7 @@ are linked to the widget's) and the engine switch's events; none of them holds t
 * the camera (:class:`~grasswidget.notebook.camera_bar.CameraHome`) and its bar
   (:class:`~grasswidget.notebook.camera_bar.CameraBar`);
 * the ball (:class:`~grasswidget.notebook.ball.BallControl`, ``w.ball``);
-* the lab bench (:class:`~grasswidget.notebook.lab_bench.LabBench`, ``w.bench``): traces and chart;
+* the lab bench (:class:`~grasswidget.notebook.lab_bench.LabBench`, ``w.lab_bench``): traces and chart;
 * the layout (:class:`~grasswidget.notebook.layout.WidgetLayout`): the panel beside or under the view;
 * marimo's face (:class:`~grasswidget.notebook.marimo_face.MarimoFace`);
 * the files (:mod:`grasswidget.notebook.saving`).
@@ -98,7 +98,8 @@ class GrassWidget(ipw.VBox):
         ball: the :class:`~grasswidget.notebook.ball.BallControl` (``ball.collider``,
             ``ball.enabled``, ``ball.rolling``, ``ball.move_to(x, z)``, ...).
         camera_bar: the :class:`~grasswidget.notebook.camera_bar.CameraBar`.
-        bench: the :class:`~grasswidget.notebook.lab_bench.LabBench` (traces, chart).
+        lab_bench: the :class:`~grasswidget.notebook.lab_bench.LabBench` (traces, chart; "bench" alone is
+            the benchmark, :mod:`grasswidget.tools.bench`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
     ``culling_frozen`` (cull against a copy of the camera taken when it was set),
@@ -130,7 +131,7 @@ class GrassWidget(ipw.VBox):
 
     # Defaults, so close() (also called by ipywidgets' __del__) works on a half-built widget.
     _closed = False
-    engine = state = panel = ball = bench = camera_bar = camera_home = _layout = _stage = _face = None
+    engine = state = panel = ball = lab_bench = camera_bar = camera_home = _layout = _stage = _face = None
     _links = ()
 
     # The view's members the widget adds nothing to: each *is* the live view's member of that name
@@ -207,14 +208,14 @@ class GrassWidget(ipw.VBox):
                                   view_size=(min(self.size[0], PANEL_WIDTH), self.size[1]))
         self.panel.view_size = self.size  # Save PNG multiplies the view's size (the rows fit the column)
         self.camera_home = CameraHome(engine, state, self.size)
-        self.bench = LabBench(view, self.size[0], owner=state, name="chart", on_error=engine.show_error)
+        self.lab_bench = LabBench(view, self.size[0], owner=state, name="chart", on_error=engine.show_error)
         state.panel_folded = self.layout_mode == "lecture"
         self.camera_bar = CameraBar(state, actions, on_error=engine.show_error)
-        self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.bench.control], self.size[0])
+        self._layout = WidgetLayout(self.camera_bar.row, [*self.panel.rows, self.lab_bench.control], self.size[0])
         self._layout.fold(state.panel_folded)
         probe = [engine.auto.probe] if engine.auto is not None and engine.auto.probe is not None else []
         # The view with the lab bench's live chart right under it.
-        self._stage = ipw.VBox([view.widget, self.bench.widget, *probe], layout=ipw.Layout(max_width="100%"))
+        self._stage = ipw.VBox([view.widget, self.lab_bench.widget, *probe], layout=ipw.Layout(max_width="100%"))
         self._face = MarimoFace(self._stage, self._layout.column, engine.show_error)
         for event, show in (("error", self.panel.show_error), ("stats", self.panel.show_stats),
                             ("inspected", self.panel.show_inspected), ("note", self.panel.show_note),
@@ -225,9 +226,9 @@ class GrassWidget(ipw.VBox):
         self.ball.collider.observe(lambda _c: self._request_draw(), names=["center", "radius"])
         self.ball.observe(lambda _c: self._request_draw(), names="enabled")
         state.observe(lambda change: self.panel.show_playing(bool(change["new"])), names="playing")
-        state.observe(lambda change: self.bench.set_playing(bool(change["new"])), names="playing")
-        state.observe(lambda change: self.bench.set_culling_frozen(bool(change["new"])), names="culling_frozen")
-        state.observe(lambda change: self.bench.show(change["new"]), names="chart")
+        state.observe(lambda change: self.lab_bench.set_playing(bool(change["new"])), names="playing")
+        state.observe(lambda change: self.lab_bench.set_culling_frozen(bool(change["new"])), names="culling_frozen")
+        state.observe(lambda change: self.lab_bench.show(change["new"]), names="chart")
         state.observe(lambda change: self._layout.fold(bool(change["new"])), names="panel_folded")
         self.params.observe(self._request_draw, names=All)
         self.panel.show_stats(dict(view.stats, playing=bool(state.playing)))
@@ -237,7 +238,7 @@ class GrassWidget(ipw.VBox):
         self.ball.attach(new)  # into the new engine's colliders first, then the view sends them
         new.attach_ball(self.ball)
         self._stage.children = [new.widget, *self._stage.children[1:]]
-        self.bench.attach(new)
+        self.lab_bench.attach(new)
 
     # ------------------------------------------------------------------ the engine
 
@@ -355,13 +356,13 @@ class GrassWidget(ipw.VBox):
         try:
             self.view.step(n)
         finally:  # interrupted too: the steps that ran get their sample
-            self.bench.after_step()
+            self.lab_bench.after_step()
 
     def reset_blades(self):
         """Every blade back to its rest pose; the simulation clock back to 0; the traces start again."""
         self._check_open()
         self.view.reset_blades()
-        self.bench.after_reset()
+        self.lab_bench.after_reset()
 
     # ------------------------------------------------------------------ camera
 
@@ -394,25 +395,25 @@ class GrassWidget(ipw.VBox):
         ``tip_offset``, ``bend_deg``, ``collision``, ``force``, ``kept``, ``drawn``, ``frame_ms``; NaN
         where unknown), as :meth:`grasswidget.core.traces.TraceRecorder.traces` documents them."""
         self._check_open()
-        return self.bench.traces()
+        return self.lab_bench.traces()
 
     def save_traces(self, path) -> str:
         """Write :meth:`traces` to ``path`` (``.csv``: one row per sample; ``.npz``: the arrays) and
         return the path; ``grasswidget.load_traces(path)`` reads it back. Another extension raises
         GrassValueError naming the allowed ones, a missing folder MissingFileError."""
         self._check_open()
-        return self.bench.save(path)
+        return self.lab_bench.save(path)
 
     @property
     def trace_window(self) -> float:
         """Rolling window of :meth:`traces`, simulated seconds (default 60; 0.1..3600; a value out
         of range raises GrassValueError naming ``trace_window`` and the range, and the old one stays)."""
-        return self.bench.window_s if self.bench is not None else None
+        return self.lab_bench.window_s if self.lab_bench is not None else None
 
     @trace_window.setter
     def trace_window(self, value):
         self._check_open()
-        self.bench.window_s = value
+        self.lab_bench.window_s = value
 
     # ------------------------------------------------------------------ files
 
@@ -490,7 +491,7 @@ class GrassWidget(ipw.VBox):
         ball, the camera bar, the lab bench (chart), the layout and marimo's face (those that exist;
         their ipywidgets, shown or not). Something holding one of them holds the widget (see
         :mod:`grasswidget.notebook.cell_rerun`)."""
-        found = (self.engine, self.state, self.view, self.panel, self.ball, self.camera_bar, self.bench,
+        found = (self.engine, self.state, self.view, self.panel, self.ball, self.camera_bar, self.lab_bench,
                  self.camera_home, self._layout, self._stage, self._face, *(self._face.made() if self._face else ()))
         if self.view is not None:
             found += (self.view.widget, self.scene, self.controller, self.canvas)
@@ -513,7 +514,7 @@ class GrassWidget(ipw.VBox):
                 pass
         for link in self._links:
             link.unlink()
-        for part in (self.bench, self._face, self.panel, self.camera_bar, self.camera_home, self.engine):
+        for part in (self.lab_bench, self._face, self.panel, self.camera_bar, self.camera_home, self.engine):
             if part is not None:
                 part.close()
         if self.ball is not None:

@@ -99,7 +99,7 @@ def test_the_page_drives_params_and_the_widget(widget, mirror):
 
     chart = _node(snap, "dropdown", "chart")
     mirror.receive({"type": "set", "id": chart["id"], "value": 1})
-    assert widget.chart is not None and widget.bench.chart.hidden is False
+    assert widget.chart is not None and widget.lab_bench.chart.hidden is False
     mirror.receive({"type": "set", "id": 10_000, "value": 1})  # an id the page kept from an older snapshot
 
 
@@ -146,13 +146,13 @@ def test_display_in_marimo_shows_anywidgets_only(widget):
     html = mo.as_html(widget).text  # what marimo shows (it asks the widget's display protocol)
     assert "grasswidget-marimo" in html and html.count("<marimo-anywidget") == 2  # the stage and the panel
     stage, mirror = widget.marimo_parts()
-    assert stage.shown == (widget.view.widget, widget.bench.chart)  # the view, then the chart under it
+    assert stage.shown == (widget.view.widget, widget.lab_bench.chart)  # the view, then the chart under it
     assert stage.html.count("<marimo-anywidget") == 2
     assert widget.marimo_parts() == (stage, mirror) and mirror is widget.control_mirror()  # shown again: the same
     # the stage follows a new view (what the fallback to the kernel engine does to the widget's stage)
-    replacement = type(widget.bench.chart)()
+    replacement = type(widget.lab_bench.chart)()
     widget.children[0].children = [replacement, *widget.children[0].children[1:]]
-    assert stage.shown == (replacement, widget.bench.chart)
+    assert stage.shown == (replacement, widget.lab_bench.chart)
     replacement.close()
 
 
