@@ -4,7 +4,7 @@ and its picture against the kernel engine's.
 Python builds what the page of ``GrassWidget(n, preset="meadow", size=..., backend="browser")``
 gets, the meadow preset exactly as a user gets it (the field to the horizon, the preset's camera and
 parameters, the sunlight's default for the page's adapter, ``--adapter``; the engine's ES module,
-``BrowserView._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
+``BrowserEngineWidget._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
 the rendered WGSL, frame rules, camera) at each blade count, and the kernel engine's picture of the
 same state (the same blades and params, ``STEPS`` fixed steps from rest, the preset's camera;
 ``GrassScene.render_at(antialias=False)``, like a live frame) with its count of blades drawn. It writes
@@ -118,9 +118,9 @@ def run_matrix(rows, dawn: Path, out, rounds: int, window_s: float, env=None, no
 
 def engine_module() -> str:
     """The browser engine's ES module, as the anywidget and the live page get it."""
-    from grasswidget.browser.view import BrowserView
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
 
-    return BrowserView._esm
+    return BrowserEngineWidget._esm
 
 
 def _json_or_none(value):

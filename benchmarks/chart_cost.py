@@ -88,14 +88,14 @@ def main(argv=None):
                 print(f"round {r}: chart {chart!s:5}  {fps:6.2f} frames/s  (render scale {scale})")
         kernel_execute(page, "w.chart = 'tip'")
         page.wait_for_timeout(1500)
-        kernel_execute(page, "_p0, _s0, _f0 = w.bench.pushes, w.bench.push_seconds, w.view.stats['fps']")
+        kernel_execute(page, "_p0, _s0, _f0 = w.lab_bench.pushes, w.lab_bench.push_seconds, w.view.stats['fps']")
         before = page.evaluate("() => { const c = document.querySelector('.gw-trace-chart'); "
                                "return [+c.dataset.draws, +c.dataset.drawMs, performance.now()]; }")
         t_kernel = time.monotonic()
         updates = page.evaluate(COUNT_UPDATES, 5)
         after = page.evaluate("() => { const c = document.querySelector('.gw-trace-chart'); "
                               "return [+c.dataset.draws, +c.dataset.drawMs, performance.now()]; }")
-        kernel = kernel_eval(page, "[w.bench.pushes - _p0, w.bench.push_seconds - _s0]")
+        kernel = kernel_eval(page, "[w.lab_bench.pushes - _p0, w.lab_bench.push_seconds - _s0]")
         wall = time.monotonic() - t_kernel
         browser_ms_per_s = (after[1] - before[1]) / ((after[2] - before[2]) / 1000.0)
         kernel_ms_per_s = 1000.0 * kernel[1] / wall

@@ -49,10 +49,10 @@ _MODULES = {
     "shader_files": "grasswidget.core.shader_files", "teaching": "grasswidget.core.teaching",
     "framing": "grasswidget.core.framing", "traces": "grasswidget.core.traces",
     "exercises": "grasswidget.core.exercises", "scene": "grasswidget.gpu.scene",
-    "widget": "grasswidget.notebook.widget", "kernel_view": "grasswidget.notebook.kernel_view",
+    "widget": "grasswidget.notebook.widget", "kernel_view": "grasswidget.views.kernel",
     "panel": "grasswidget.notebook.panel", "control_link": "grasswidget.notebook.control_link",
-    "clock": "grasswidget.notebook.clock", "adaptive": "grasswidget.notebook.adaptive",
-    "orbit": "grasswidget.notebook.orbit", "ball": "grasswidget.notebook.ball",
+    "clock": "grasswidget.views.clock", "adaptive": "grasswidget.views.adaptive",
+    "orbit": "grasswidget.views.orbit", "ball": "grasswidget.notebook.ball",
     "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
     "cli": "grasswidget.tools.cli", "bench": "grasswidget.tools.bench",
     "export": "grasswidget.tools.export", "sweep": "grasswidget.tools.sweep",

@@ -144,7 +144,7 @@ def test_widget_handlers_take_both_event_formats(widget, fmt):
 
 
 def test_held_orbit_controller_hooks_every_step():
-    """The OrbitController hooks (grasswidget.notebook.orbit holds the camera with them) still
+    """The OrbitController hooks (grasswidget.views.orbit holds the camera with them) still
     see every orbit, zoom and pan step, and what they return is what the camera gets."""
     import pygfx as gfx
 

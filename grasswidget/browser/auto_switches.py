@@ -1,7 +1,7 @@
 """The browser engine's side of the "auto" switches (occlusion culling, the compute rasterizer).
 
 The rule and the trial are the kernel engine's: one :class:`grasswidget.core.pays.AutoSwitches`
-per :class:`~grasswidget.browser.view.BrowserEngineWidget`, here fed by the browser's stats
+per :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget`, here fed by the browser's stats
 messages instead of by a render loop. engine.js only executes and measures:
 
 * Python sends the switch state to execute as the two ``u_cull`` words it already reads each

@@ -3,7 +3,7 @@
 // notebook's browser with WebGPU (an anywidget ES module; shipped inside the wheel, nothing is
 // fetched at run time). This file is the entry: anywidget's initialize() and render().
 //
-// The engine only executes what Python describes (grasswidget/browser/view.py):
+// The engine only executes what Python describes (grasswidget/browser/engine_widget.py):
 //   traits   engine_key (one engine per widget model), blade_data (rest pose, N x 64 bytes),
 //            n_blades, shaders (WGSL text + binding maps + the compute passes of a frame, in
 //            order), sim_uniform / cull_uniform / material_uniform / sky_ground_uniform /
@@ -43,7 +43,7 @@
 // A compute pass or an overlay with "only_if" runs while its condition holds ("frozen",
 // "inspecting", "compute_raster"); a pass with sim_uniform "now" gets u_sim for the time of the next
 // step (no steps) first, as the kernel's inspector does. Fixed steps: step(n) runs exactly n steps
-// of dt; playing follows the wall clock with the rules of grasswidget.notebook.clock.SimClock.
+// of dt; playing follows the wall clock with the rules of grasswidget.views.clock.SimClock.
 // Views at rest: a view that is not visible (scrolled away, a collapsed output, a hidden tab: an
 // IntersectionObserver per canvas and document.visibilityState) draws nothing; with no view visible
 // the engine simulates nothing, sends no stats and asks for no animation frame, and its clock stops

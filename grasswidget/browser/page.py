@@ -1,7 +1,7 @@
 """A live page with no kernel: one self-contained HTML file that runs the browser engine.
 
 :func:`page_html` writes the browser engine (its one module text, :func:`grasswidget.browser.esm.engine_module_text`), the synced
-state of a :class:`~grasswidget.browser.view.BrowserEngineWidget` (every synced trait of
+state of a :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget` (every synced trait of
 the engine; binary ones base64), a small page script (``page.js``: a model shim
 with ``get/set/on/off/send/save_changes`` that answers the engine locally, and a
 plain-HTML control panel) and an optional still picture (PNG) into one file.

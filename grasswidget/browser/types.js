@@ -6,7 +6,7 @@
 /** @typedef {DataView<ArrayBuffer>} Bytes a trait's bytes as anywidget gives them */
 
 /**
- * The synced traits of the widget's model: what grasswidget/browser/view.py (BrowserEngineWidget,
+ * The synced traits of the widget's model: what grasswidget/browser/engine_widget.py (BrowserEngineWidget,
  * `tag(sync=True)`) sends and the engine reads (bytes arrive as DataView).
  * @typedef {Object} Traits
  * @property {string} engine_key one engine per widget model

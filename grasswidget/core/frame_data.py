@@ -15,7 +15,7 @@ and each engine only writes it into its own buffers:
   (:func:`grasswidget.core.uniform_layouts.pack`) and writes the bytes as they are.
 * :func:`clock_rules`: the simulation clock's rules (``dt``, the wind period, at
   most ``max_steps_per_frame`` fixed steps per drawn frame, the rest dropped:
-  slow motion). :class:`grasswidget.notebook.clock.SimClock` executes them in the kernel;
+  slow motion). :class:`grasswidget.views.clock.SimClock` executes them in the kernel;
   the browser's clock executes the same rules from this dict.
 * :func:`orbit_rules`: the orbit limits (:class:`grasswidget.core.orbit_limits.OrbitLimits`)
   as a dict; pygfx's held controller and the browser's drag both clamp with them.
@@ -343,7 +343,7 @@ def compute_raster_values(params, n_blades: int, blade_shape: int, tip_threshold
 
 
 def clock_rules(params) -> dict:
-    """The clock's rules for playing by the wall clock (see :class:`grasswidget.notebook.clock.SimClock`):
+    """The clock's rules for playing by the wall clock (see :class:`grasswidget.views.clock.SimClock`):
     ``dt`` (s, the fixed step), ``wind_period`` (s, 0 = none: the wind time of step k
     is ``(k dt) mod wind_period``), ``max_steps_per_frame`` (a frame owed more steps
     gets this many and the rest is dropped: slow motion). While no view of a widget is on

@@ -1,7 +1,7 @@
 """How a user's pointer, keys and display act on a view, decided once for both engines (pure Python).
 
 The kernel engine applies these rules to jupyter-rfb's canvas events in the kernel
-(:mod:`grasswidget.notebook.kernel_view`, :mod:`grasswidget.notebook.ball`); the browser engine
+(:mod:`grasswidget.views.kernel`, :mod:`grasswidget.notebook.ball`); the browser engine
 gets them as data (``frame_rules["input"]``, :func:`input_rules`) and its JS twins in
 ``grasswidget/browser/js/rules.js`` execute them (``tests/browser/test_engine_rules.py`` runs the
 twins under Node.js against these functions). The live page (``browser/page.js``) reads the same

@@ -37,7 +37,7 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert w.params.cull_occlusion == "auto" and w.params.compute_raster == "auto"
         # The trial starts with occlusion culling off.
         assert _executed(ew) == [False, False]
-        assert "auto (" in w.switch_choices["cull_occlusion"].decision_line.value
+        assert "auto (" in w.panel.switch_choices["cull_occlusion"].decision_line.value
         # A message of frames drawn with another state than asked (still in flight) is not used.
         ew.handle_message(_stats([True, False], 9.0, occluded=500))
         assert _executed(ew) == [False, False] and ew.auto_switches.state.decisions == {}
@@ -58,7 +58,7 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert decision.on and "removed 33 % of blades" in decision.reason and "6.0 ms" in decision.reason
         assert _executed(ew) == [True, False]
         assert w.stats["switches"]["cull_occlusion"].startswith("auto (on: removed 33 % of blades")
-        assert "auto (on: removed 33 % of blades" in w.switch_choices["cull_occlusion"].decision_line.value
+        assert "auto (on: removed 33 % of blades" in w.panel.switch_choices["cull_occlusion"].decision_line.value
         ew.handle_message(_stats([True, False], 6.0, occluded=500))
         assert _executed(ew) == [True, True]
         ew.handle_message(_stats([True, True], 5.0, occluded=500, rastered=0))

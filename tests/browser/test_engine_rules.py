@@ -26,7 +26,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.browser import esm
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 from grasswidget.core import camera_rules, frame_data, interaction
 from grasswidget.errors import PageBuildError
 from conftest import node_executable

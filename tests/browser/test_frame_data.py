@@ -4,7 +4,7 @@
   GrassField / Simulation) hold byte for byte what the browser engine is sent
   (``browser.uniforms``), both from ``frame_data``.
 * The clock's rules and the orbit limits: engine.js's ``SimClock`` and ``clampOrbit``
-  (run here with Node.js, the ES module as shipped) give what ``grasswidget.notebook.clock.SimClock``
+  (run here with Node.js, the ES module as shipped) give what ``grasswidget.views.clock.SimClock``
   and ``grasswidget.core.orbit_limits.clamp_orbit`` give, frame by frame and pose by pose.
 * The scene style: GrassScene's sky and ground are the ones the browser is sent.
 """
@@ -22,8 +22,8 @@ import grasswidget as gw
 from conftest import node_executable
 from grasswidget.core import frame_data
 from grasswidget.browser import uniforms
-from grasswidget.browser.view import HERE as BROWSER_DIR
-from grasswidget.notebook.clock import MAX_STEPS_PER_FRAME, SimClock
+from grasswidget.browser.engine_widget import HERE as BROWSER_DIR
+from grasswidget.views.clock import MAX_STEPS_PER_FRAME, SimClock
 from grasswidget.core.orbit_limits import OrbitLimits, clamp_orbit
 from grasswidget.core.uniform_layouts import CULL_LAYOUT, SIM_LAYOUT, pack
 

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "grasswidget"

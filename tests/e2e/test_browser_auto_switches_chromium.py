@@ -37,7 +37,7 @@ def _decided(page, timeout=480):
     words = poll(decided, "the browser engine's decision on occlusion culling", timeout, 1.0, page=page)
 
     def shown():
-        line = kernel_eval(page, "a.switch_choices['cull_occlusion'].decision_line.value")
+        line = kernel_eval(page, "a.panel.switch_choices['cull_occlusion'].decision_line.value")
         return words in line, line
 
     return words, poll(shown, f"the panel showing {words!r}", 30, 0.5, page=page)

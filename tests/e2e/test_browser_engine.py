@@ -211,7 +211,7 @@ print('CROWD', float(np.percentile(e, 99)), float(e.max()), int((e > 1e-3).sum()
                 "culled blades in the cull-test colours", 30, 0.3, page=page)
     kernel_execute(page, "w.params.color_by = 'natural'")
     print(f"[browser engine] colour by lod: {lod:.0%} of the view in LOD colours; by cull: {cull:.1%} in cull colours")
-    assert "not available" not in kernel_eval(page, "w.message_line.value")
+    assert "not available" not in kernel_eval(page, "w.panel.message_line.value")
 
     # 4. A drag on the canvas moves w.camera_state; assigning it moves the view.
     before = kernel_eval(page, "list(w.camera_state['position'])")
@@ -262,7 +262,7 @@ print('DIFF', np.abs(png - aa).mean(), np.abs(png - plain).mean())
 
     # 6. A custom wind that does not compile: its line comes back, the old wind stays.
     kernel_execute(page, "w.params.wind_wgsl = 'let k = 2.0;\\nreturn vec3<f32>(k * oops, 0.0, 0.0);'")
-    msg = wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "wind_wgsl line" in m, timeout=30)
+    msg = wait_for_kernel(page, "w.panel.message_line.value", predicate=lambda m: "wind_wgsl line" in m, timeout=30)
     assert "wind_wgsl line 2" in msg and "browser" in msg, msg
     assert kernel_eval(page, "w.params.wind_wgsl") == ""
     out = kernel_execute(page, """
@@ -307,7 +307,7 @@ print('NANWIND', n_warn, at_rest, int(finite), float(np.abs(s3['v2'] - rest).max
     # 7. A lost device is recovered with a message; a view that is not shown times out.
     _show_view(page)
     kernel_execute(page, "w.play(); w.view.engine_widget.lose_device()")
-    wait_for_kernel(page, "w.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
+    wait_for_kernel(page, "w.panel.message_line.value", predicate=lambda m: "lost its WebGPU device" in m, timeout=30)
     steps = kernel_eval(page, "w.stats['step_count']")
     wait_for_kernel(page, "w.stats['step_count']", predicate=lambda s: s != steps, timeout=60)
     assert kernel_eval(page, "w.view.gpu_status['state']") == "ok"
@@ -333,7 +333,7 @@ def test_browser_without_webgpu_falls_back(browser, lab_server, browser_root):
         open_notebook(page, lab_server, "browser_fallback.ipynb")
         run_all_cells(page, timeout=120)
         wait_for_kernel(page, "w.backend", "kernel", timeout=60)
-        msg = kernel_eval(page, "w.message_line.value")
+        msg = kernel_eval(page, "w.panel.message_line.value")
         print(f"\n[fallback] {msg}")
         assert "WebGPU is not available in this browser" in msg
         wait_for_view(page, 0, timeout=60)

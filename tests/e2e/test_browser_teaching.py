@@ -164,7 +164,7 @@ scene.release()
     out_dir = _artifacts(browser_root)
     iio.imwrite(os.path.join(out_dir, "browser_frozen_frustum.png"),
                 np.concatenate([frozen_lines, unfrozen], axis=1).astype(np.uint8))
-    assert "not available" not in kernel_eval(page, "w.message_line.value")
+    assert "not available" not in kernel_eval(page, "w.panel.message_line.value")
 
 
 def test_inspector_in_the_browser(teaching_page, browser_root):
@@ -250,4 +250,4 @@ print('EXAMPLE', {{k: np.round(v, 4).tolist() if hasattr(v, 'tolist') else v for
 
     iio.imwrite(os.path.join(_artifacts(browser_root), "browser_inspector.png"),
                 np.concatenate([shot, cleared], axis=1).astype(np.uint8))
-    assert "not available" not in kernel_eval(page, "w.message_line.value")
+    assert "not available" not in kernel_eval(page, "w.panel.message_line.value")

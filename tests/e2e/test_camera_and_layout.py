@@ -123,7 +123,7 @@ def test_default_layout_fits_1080p_and_the_top_button_looks_down(full_hd, lab_se
     print(f"[camera] low: eye {low:.2f} m")
     click_button(page, "home")
     wait_for_kernel(page, "[round(x, 3) for x in w.camera_state['position']]",
-                    [round(x, 3) for x in kernel_eval(page, "w._home_camera['position']")], timeout=30)
+                    [round(x, 3) for x in kernel_eval(page, "w.camera_home.home['position']")], timeout=30)
 
 
 def test_lecture_layout_is_a_large_view_and_one_line(full_hd, lab_server, browser_root):

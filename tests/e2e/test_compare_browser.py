@@ -20,7 +20,7 @@ from .kernel_calls import kernel_eval, wait_for_kernel
 from .notebook_actions import open_notebook, run_all_cells, write_notebook
 from .polling import poll
 
-CAMERAS = "[list(w.camera_state['position']) for w in c.views.values()]"
+CAMERAS = "[list(w.camera_state['position']) for w in c.widgets.values()]"
 
 
 def _settled_cameras(page, timeout=40.0):
@@ -41,7 +41,7 @@ def test_drag_in_one_view_orbits_both(page, lab_server, browser_root):
         "import grasswidget as gw",
         "c = gw.compare({'soft': {'stiffness_scale': 0.5}, 'stiff': {'stiffness_scale': 2.0}}, "
         "blades=512, size=(240, 180))\nc.pause()\nc.inspect([17])\n"
-        "for view in c.views.values():\n    view.chart = 'tip'\nc",
+        "for view in c.widgets.values():\n    view.chart = 'tip'\nc",
     ])
     open_notebook(page, lab_server, "compare_views.ipynb")
     old_viewport = page.viewport_size
@@ -68,7 +68,7 @@ def _check(page):
     print(f"[compare] camera positions {np.round(before[0], 2)} -> {np.round(after[0], 2)} and {np.round(after[1], 2)}")
     assert np.allclose(after[0], after[1], atol=1e-4)  # both views moved, equally
     assert np.linalg.norm(after[1] - before[1]) > 0.5 and moved is not None
-    targets = np.array(kernel_eval(page, "[list(w.camera_state['target']) for w in c.views.values()]"))
+    targets = np.array(kernel_eval(page, "[list(w.camera_state['target']) for w in c.widgets.values()]"))
     assert np.allclose(targets[0], targets[1], atol=1e-4)
 
     # the second view's picture follows its camera (the browser got a new frame)
@@ -79,18 +79,18 @@ def _check(page):
 
     # the shared panel's play button plays both views, and pauses both
     page.locator(".grasswidget-compare button:visible", has_text="Play").first.click()
-    wait_for_kernel(page, "[w.playing for w in c.views.values()]", [True, True], timeout=20)
+    wait_for_kernel(page, "[w.playing for w in c.widgets.values()]", [True, True], timeout=20)
     wait_for_kernel(page, "min(c.sim_times.values()) > 0.2", True, timeout=60)
     page.locator(".grasswidget-compare button:visible", has_text="Pause").first.click()
-    wait_for_kernel(page, "[w.playing for w in c.views.values()]", [False, False], timeout=20)
-    times = kernel_eval(page, "[w.view.clock.steps for w in c.views.values()]")
+    wait_for_kernel(page, "[w.playing for w in c.widgets.values()]", [False, False], timeout=20)
+    times = kernel_eval(page, "[w.view.clock.steps for w in c.widgets.values()]")
     assert times[0] == times[1] > 0  # paused at the same simulated time
 
     # a chart under each view, each with its own view's samples
     charts = page.locator(".grasswidget-compare .gw-trace-chart canvas")
     poll(lambda: charts.count() >= 2 and charts.nth(0).is_visible() and charts.nth(1).is_visible(),
          "a chart under each view", 30, 0.5, page=page)
-    counts = kernel_eval(page, "[len(w.traces()['t']) for w in c.views.values()]")
+    counts = kernel_eval(page, "[len(w.traces()['t']) for w in c.widgets.values()]")
     assert min(counts) >= 2, counts
 
     out = Path(os.environ.get("GW_ARTIFACTS_DIR") or tempfile.mkdtemp(prefix="gw-compare-"))

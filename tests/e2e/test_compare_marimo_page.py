@@ -54,13 +54,13 @@ NOTEBOOK = textwrap.dedent('''
         probe = ipw.HTML()
 
         def show(_change=None):
-            state = {label: {"wind": w.params.wind_strength, "playing": w.playing} for label, w in c.views.items()}
+            state = {label: {"wind": w.params.wind_strength, "playing": w.playing} for label, w in c.widgets.items()}
             state["shared"] = {"wind": c.params.wind_strength, "playing": c.playing}
             probe.value = "<code class='kernel-state'>" + html.escape(json.dumps(state)) + "</code>"
 
         c.observe(show, names="playing")
         c.params.observe(show, names="wind_strength")
-        for w in c.views.values():
+        for w in c.widgets.values():
             w.params.observe(show, names="wind_strength")
             w.observe(show, names="playing")
         show()

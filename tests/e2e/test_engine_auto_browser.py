@@ -63,7 +63,7 @@ def test_auto_with_swiftshader_keeps_the_kernel_engine(webgpu_browser, lab_serve
                           "WebGPU adapter is a CPU fallback too (google swiftshader)")
         assert kernel_eval(page, "w.backend") == "kernel"
         assert kernel_eval(page, "w.adapter_probe.report['architecture']") == "swiftshader"
-        assert reason in html.unescape(kernel_eval(page, "w.message_line.value"))
+        assert reason in html.unescape(kernel_eval(page, "w.panel.message_line.value"))
         assert page.locator("canvas.grasswidget-canvas").count() == 0  # no browser engine was started
     finally:
         _finish(page, lab_server)
@@ -81,7 +81,7 @@ def test_auto_with_a_hardware_adapter_runs_the_browser_engine(webgpu_browser, la
         print(f"\n[auto, simulated GPU] {reason}")
         assert reason == ("browser engine: the kernel renders on a CPU adapter (llvmpipe) and this browser offers a "
                           "GPU (nvidia ampere)")
-        assert reason in html.unescape(kernel_eval(page, "w.message_line.value"))
+        assert reason in html.unescape(kernel_eval(page, "w.panel.message_line.value"))
         # The switch really draws: the browser engine's canvas counts frames and shows grass.
         wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=90)
         canvas = page.locator("canvas.grasswidget-canvas").first

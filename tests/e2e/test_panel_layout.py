@@ -85,10 +85,10 @@ MEASURE = """
 
 STATES = {
     "default": "w.pause()",
-    "squeezed": "w.sliders['blades'].layout.width = '150px'; w.pause()",  # not a state a user meets: proves the checks bite
+    "squeezed": "w.panel.sliders['blades'].layout.width = '150px'; w.pause()",  # not a state a user meets: proves the checks bite
     # the blade control shows its top value (as after a drag to the end) and asks before building
     # that many blades: the longest count and question
-    "widest": ("w.blade_slider.value = w.max_blades\n"
+    "widest": ("w.panel.blade_slider.value = w.max_blades\n"
                "w.params.wind_direction = -360; w.params.wind_strength = 200; w.params.wind_speed = 50\n"
                "w.params.gravity = 50; w.params.stiffness_scale = 20; w.time_scale = 10\n"
                "w.ball.enabled = True; w.ball.set_radius(w.ball.radius_slider.max)\n"
@@ -128,7 +128,7 @@ def _check_states(page, size):
     run_all_cells(page, timeout=180)
     wait_for_view(page, 0, timeout=60)
     out = _artifacts()
-    w_slider = kernel_execute(page, "print(w.sliders['blades'].layout.width)").stdout.strip()
+    w_slider = kernel_execute(page, "print(w.panel.sliders['blades'].layout.width)").stdout.strip()
     for state, code in STATES.items():
         kernel_execute(page, code, timeout=120)
         wait_for_kernel(page, "w.playing", False, timeout=30)
@@ -141,7 +141,7 @@ def _check_states(page, size):
         print(f"\n[panel] {size[0]}x{size[1]} {state}: screenshot {shot}")
         if state == "squeezed":  # the measurement sees a clipped readout; then back to the real layout
             assert any("blades" in p or "4096" in p or "256" in p for p in m["problems"]), m["problems"]
-            kernel_execute(page, f"w.sliders['blades'].layout.width = {w_slider!r}", timeout=30)
+            kernel_execute(page, f"w.panel.sliders['blades'].layout.width = {w_slider!r}", timeout=30)
             continue
         assert abs(m["viewWidth"] - size[0]) <= 4, m["viewWidth"]
         assert m["rootWidth"] <= m["viewWidth"] + 0.5, (m["rootWidth"], m["viewWidth"])

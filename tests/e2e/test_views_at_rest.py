@@ -30,7 +30,7 @@ from .kernel_calls import kernel_eval, kernel_execute, wait_for_kernel
 from .notebook_actions import leave_notebook, open_notebook, run_all_cells, write_notebook
 from .polling import poll
 
-from grasswidget.notebook.kernel_view import MAX_BUFFERED_FRAMES
+from grasswidget.views.kernel import MAX_BUFFERED_FRAMES
 
 pytestmark = pytest.mark.browser
 
@@ -136,10 +136,10 @@ def test_views_off_screen_rest(webgpu_browser, lab_server, browser_root, backend
         # screen, drawing, is fresh and never "waiting for frames" (polled over a second).
         rest = kernel_eval(page, "{k: ws[0].stats[k] for k in ('at_rest', 'stale', 'frame_age_s')}")
         assert rest["at_rest"] and rest["stale"] and rest["frame_age_s"] > 0, rest
-        assert "at rest (out of sight)" in kernel_eval(page, "ws[0].stats_line.value")
+        assert "at rest (out of sight)" in kernel_eval(page, "ws[0].panel.stats_line.value")
         lines = []
         for _ in range(5):
-            lines.append(kernel_eval(page, "(ws[1].stats_line.value, ws[1].stats['at_rest'], ws[1].stats['waiting'])"))
+            lines.append(kernel_eval(page, "(ws[1].panel.stats_line.value, ws[1].stats['at_rest'], ws[1].stats['waiting'])"))
             time.sleep(0.2)  # paces the reads only: each read is checked
         print(f"[views at rest, {backend}] view 1's status line while drawing: {lines[-1][0]}")
         assert not any(at_rest or waiting or "waiting for frames" in line for line, at_rest, waiting in lines), lines

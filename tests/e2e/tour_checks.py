@@ -132,7 +132,7 @@ def check_tour(page, folder):
     # checks below find each control of the first widget by its label alone.
     # Run All checked that its view streams new frames; here it also steps and keeps its camera_state.
     wait_for_kernel(page, "wb.backend", "kernel", timeout=90)
-    assert "WebGPU is not available in this browser" in kernel_eval(page, "wb.message_line.value")
+    assert "WebGPU is not available in this browser" in kernel_eval(page, "wb.panel.message_line.value")
     kernel_execute(page, "wb.step(5)")
     assert kernel_eval(page, "wb.scene.field.step_count") >= 5
     assert kernel_eval(page, "sorted(wb.camera_state)") == ["fov_deg", "position", "target"]

@@ -99,7 +99,7 @@ def test_the_page_drives_params_and_the_widget(browser_widget, mirror):
 
     chart = _node(snap, "dropdown", "chart")
     mirror.receive({"type": "set", "id": chart["id"], "value": 1})
-    assert browser_widget.chart is not None and browser_widget.bench.chart.hidden is False
+    assert browser_widget.chart is not None and browser_widget.lab_bench.chart.hidden is False
     mirror.receive({"type": "set", "id": 10_000, "value": 1})  # an id the page kept from an older snapshot
 
 
@@ -127,7 +127,7 @@ def test_a_refused_value_snaps_back_and_is_said(browser_widget, mirror):
     mirror.sent.clear()
     mirror.receive({"type": "set", "id": time["id"], "value": "fast"})  # not a number
     assert browser_widget.time_scale == 1.0
-    assert "time" in browser_widget.message_line.value and "fast" in browser_widget.message_line.value
+    assert "time" in browser_widget.panel.message_line.value and "fast" in browser_widget.panel.message_line.value
     assert [m["props"]["value"] for m in mirror.sent if m["id"] == time["id"]] == [1.0]  # the page shows 1.0 again
 
 
@@ -146,27 +146,26 @@ def test_display_in_marimo_shows_anywidgets_only(browser_widget):
     html = mo.as_html(browser_widget).text  # what marimo shows (it asks the widget's display protocol)
     assert "grasswidget-marimo" in html and html.count("<marimo-anywidget") == 2  # the stage and the panel
     stage, mirror = browser_widget.marimo_parts()
-    # the view, then the chart under it
-    assert stage.shown == (browser_widget.view.widget, browser_widget.bench.chart)
+    assert stage.shown == (browser_widget.view.widget, browser_widget.lab_bench.chart)  # the view, then the chart under it
     assert stage.html.count("<marimo-anywidget") == 2
     # shown again: the same
     assert browser_widget.marimo_parts() == (stage, mirror) and mirror is browser_widget.control_mirror()
     # the stage follows a new view (what the fallback to the kernel engine does to the widget's stage)
-    replacement = type(browser_widget.bench.chart)()
+    replacement = type(browser_widget.lab_bench.chart)()
     browser_widget.children[0].children = [replacement, *browser_widget.children[0].children[1:]]
-    assert stage.shown == (replacement, browser_widget.bench.chart)
+    assert stage.shown == (replacement, browser_widget.lab_bench.chart)
     replacement.close()
 
 
 def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
-    from grasswidget.notebook.marimo_face import esm_for_front_end, running_in_marimo
+    from grasswidget.views.front_end import esm_for_front_end, running_in_marimo
 
     assert not running_in_marimo()  # pytest is no marimo notebook, marimo loaded or not
     assert esm_for_front_end("export default {};") == "export default {};"
     mo = pytest.importorskip("marimo")
     # the classes a message handler may make (the "auto" switch) are the plain ones outside marimo
-    from grasswidget.browser.view import BrowserEngineWidget
-    from grasswidget.notebook.marimo_face import class_for_front_end
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
+    from grasswidget.views.front_end import class_for_front_end
 
     assert class_for_front_end(BrowserEngineWidget) is BrowserEngineWidget
     w = gw.GrassWidget(64, backend="browser", size=(160, 120))
@@ -175,10 +174,9 @@ def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
 
 
 def test_the_browser_view_takes_only_a_browser_engine_widget_class(browser_widget):
-    from grasswidget.browser.engine_view import BrowserEngineView
+    from grasswidget.views.browser import BrowserEngineView
     with pytest.raises(gw.GrassTypeError, match="widget_class must be BrowserEngineWidget or a subclass"):
-        BrowserEngineView(16, (160, 120), gw.GrassParams(), playback=browser_widget, actions=browser_widget,
-                          on_error=print, on_stats=print, on_unavailable=print, widget_class=ipw.HTML)
+        BrowserEngineView(16, (160, 120), gw.GrassParams(), host=browser_widget.engine, widget_class=ipw.HTML)
 
 
 def test_a_non_widget_root_is_refused():

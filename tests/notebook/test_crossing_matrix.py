@@ -178,7 +178,7 @@ def _measure(w, switch, value) -> Record:
     picture = scene.render_at(antialias=False)
     return Record(
         switch, value, picture, bool(p.lod), kept, ref.lod_class(state["v0"], state["v2"], state["height"], view_proj, height),
-        pixels, dict(w.stats), html.unescape(w.stats_line.value), format_details(w.stats), w.traces(), state,
+        pixels, dict(w.stats), html.unescape(w.panel.stats_line.value), format_details(w.stats), w.traces(), state,
         w.view.blades.rest_state(), f.count, str(p.color_by), rest_reason, **gpu)
 
 
@@ -331,7 +331,7 @@ def check_browser_engine(r: Record, ctx):
     s = bw.stats
     assert s["visible"] == r.visible_count and s["rastered"] == r.drawn["compute"]
     assert s["occluded"] == r.stats["occluded"]
-    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.stats_line.value)
+    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.panel.stats_line.value)
 
 
 #: The measurements: name -> check(record, context). Each runs against every switch value.
@@ -406,7 +406,7 @@ def test_stats_while_playing_are_of_the_frame_their_step_count_names(kernel_widg
             seen.append(drawn)
             assert s["step_count"] == w.view.scene.field.step_count
             assert s["visible"] == drawn, (k, s["visible"], drawn)
-            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.stats_line.value)
+            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.panel.stats_line.value)
     finally:
         w.pause()
         w.view.camera_state = dict(CAMERA)

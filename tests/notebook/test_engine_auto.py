@@ -9,8 +9,8 @@ import html
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.browser.engine_view import BrowserEngineView
-from grasswidget.notebook.kernel_view import KernelView
+from grasswidget.views.browser import BrowserEngineView
+from grasswidget.views.kernel import KernelView
 
 NVIDIA = {"webgpu": True, "adapter": True, "fallback": False, "vendor": "nvidia", "architecture": "ampere",
           "device": "", "description": "", "detail": ""}
@@ -26,7 +26,7 @@ def test_auto_is_the_default_and_runs_the_kernel_until_a_view_reports(tmp_path):
         assert w.adapter_probe is not None and w.adapter_probe in w.children[0].children
         assert w.engine_reason.startswith("kernel engine: the kernel renders on a CPU adapter (llvmpipe)")
         assert "no view has reported" in w.engine_reason
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
         path = w.save_png(str(tmp_path / "script.png"), size=(64, 48))
         import imageio.v3 as iio
 
@@ -57,12 +57,12 @@ def test_a_hardware_adapter_report_switches_to_the_browser_engine_keeping_the_st
 
         at = offsets(GRASS_MATERIAL_LAYOUT)["shadows"][0]
         assert w.params.shadows is True
-        assert np.frombuffer(w.view.browser_view.material_uniform[at: at + 4], "<f4")[0] == 1.0
+        assert np.frombuffer(w.view.engine_widget.material_uniform[at: at + 4], "<f4")[0] == 1.0
         assert w.engine_reason == ("browser engine: the kernel renders on a CPU adapter (llvmpipe) and this "
                                    "browser offers a GPU (nvidia ampere)")
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
         assert w.children[0].children[0] is w.view.widget  # the browser engine's view in the kernel view's place
-        bv = w.view.browser_view
+        bv = w.view.engine_widget
         assert bv.params is w.params and bv.playing is False
         assert np.allclose(bv.camera["position"], (1, 3, 9)) and np.allclose(bv.camera["target"], (0, 0.5, 0))
         assert list(bv.inspected) == [3, 5] and len(bv.balls) == 1
@@ -80,7 +80,7 @@ def test_a_fallback_adapter_report_keeps_the_kernel_engine():
         w.adapter_probe.report = SWIFTSHADER
         assert w.backend == "kernel" and w.view is view and w.params.shadows is False
         assert "CPU fallback too (google swiftshader)" in w.engine_reason
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
     finally:
         w.close()
 
@@ -95,7 +95,7 @@ def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
     try:
         assert w.backend == "kernel" and w.adapter_probe is None
         assert w.engine_reason == "kernel engine: the kernel renders on a GPU (NVIDIA H100)"
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
     finally:
         w.close()
     monkeypatch.setattr(engine_auto, "kernel_adapter", lambda: ("none", ""))

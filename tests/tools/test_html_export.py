@@ -22,7 +22,7 @@ import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.esm import engine_module_text
 from grasswidget.browser.page import PAGE_MAX_BLADES, page_html
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 from grasswidget.core.colliders import SphereCollider
 
 

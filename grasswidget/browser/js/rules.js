@@ -4,7 +4,7 @@
 // against its twin on many inputs, as the WGSL twins are checked against NumPy). Every number
 // they use comes from Python as data (the frame_rules trait: grasswidget.core.frame_data.frame_rules).
 //
-//   SimClock            grasswidget.notebook.clock.SimClock (steps owed by the wall clock; slow motion)
+//   SimClock            grasswidget.views.clock.SimClock (steps owed by the wall clock; slow motion)
 //   clampOrbit          grasswidget.core.orbit_limits.clamp_orbit (the orbit limits between two kernel messages)
 //   orbitDrag, panDrag, wheelZoom   grasswidget.core.camera_rules.orbit_drag / pan_drag / wheel_zoom
 //   cameraWorld, perspective        grasswidget.core.camera_rules.camera_world / perspective (a dragged camera)

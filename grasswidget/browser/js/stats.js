@@ -3,7 +3,7 @@
 // the counts read back from the GPU and the frame times that feed "auto", and the steps reports.
 // Stats {fps, visible (per LOD class), occluded, rastered, step_count, steps, frame_ms, frame_size,
 //   adapter, views, frame_times, timed_switches, counts_switches}, decoded in Python by
-//   grasswidget.browser.engine_view. frame_times: the ms (start to onSubmittedWorkDone) of the
+//   grasswidget.views.browser. frame_times: the ms (start to onSubmittedWorkDone) of the
 //   frames since the last message drawn with the switch state timed_switches ([occlusion, compute
 //   raster] as executed from u_cull; the list restarts when it changes; the newest
 //   frame_rules.engine.frame_times_kept kept); counts_switches: the state of the frame the counts

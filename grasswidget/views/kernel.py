@@ -4,11 +4,11 @@
 the :class:`~grasswidget.gpu.scene.GrassScene` drawn into it, the camera's
 ``OrbitController``, the canvas events (orbit, ball drag, keys), the real-time
 clock that advances the simulation while playing and the adaptive render
-scale. It knows nothing of the control panel: the widget that composes them
-tells it what to do (``set_playing``, ``step``, ``set_blades`` ...) and
-receives its stats through ``on_stats``.
+scale. It knows nothing of the control panel: it follows its host's play state
+(``host.play``), is told what to do (``step``, ``set_blades`` ...) and reports its
+stats to the host (``host.show_stats``).
 
-Time (see :class:`~grasswidget.notebook.clock.SimClock`): while playing, simulated time
+Time (see :class:`~grasswidget.views.clock.SimClock`): while playing, simulated time
 follows the wall clock (times ``time_scale``) in whole fixed steps of
 ``params.dt``, at most :data:`MAX_STEPS_PER_FRAME` per frame; when that cap
 binds the stats line says "slow motion 0.6x". Paused, no time passes;
@@ -23,25 +23,25 @@ flight, so the kernel renders the next frame while the last one travels and is
 decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
 CPU adapter, 60 on a GPU).
 
-Adaptive resolution (see :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`):
+Adaptive resolution (see :class:`~grasswidget.views.adaptive.ResolutionGovernor`):
 while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
 render pixel ratio goes down step by step to half, and back up when there is
 headroom. Paused frames (and the lossless picture jupyter-rfb sends after the
 last frame), Save PNG and exports always render at full resolution.
 
 Mouse: drag to orbit, right-drag (or ctrl + drag) to pan, wheel to zoom (pygfx's
-``OrbitController``, held to :class:`~grasswidget.notebook.orbit.OrbitLimits`: the camera
+``OrbitController``, held to :class:`~grasswidget.views.orbit.OrbitLimits`: the camera
 stays above the ground, the target over the field, the zoom in range), without
 the renderer's per-event GPU pick readback (see :class:`EventsWithoutPicking`).
 Shift + drag goes to the ball first. Ctrl (or
 Cmd) + click inspects the blade under the pointer: one pick readback per click
 (the grass material writes pick ids in this view); Ctrl (or Cmd) + drag pans, as in
 the browser engine (:mod:`grasswidget.core.interaction`, applied by
-:class:`~grasswidget.notebook.pointer_gesture.KernelPointer`).
+:class:`~grasswidget.views.pointer_gesture.KernelPointer`).
 
 Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
-shows blades in the inspector; their numbers reach ``on_inspect`` at each stats
+shows blades in the inspector; their numbers reach ``host.show_inspected`` at each stats
 refresh (one small readback, only while blades are inspected).
 
 Threads: JupyterLab 4.4+ sends widget comm messages to a kernel subshell when
@@ -71,13 +71,13 @@ from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.limits import StepsInterrupted, hold_interrupts
 from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTER_S, stats_freshness
 from ..core.blades import Blades
-from ..core.view_api import EngineView
+from .api import EngineView, done_future
 from .clock import MAX_STEPS_PER_FRAME, SimClock
 from .pointer_gesture import KernelPointer
 from ..core.interaction import MAX_PIXEL_RATIO
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
-           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
+           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL", "KernelOnly"]
 
 #: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
 CPU_MAX_BLADES = 1 << 18
@@ -160,7 +160,7 @@ def _canvas_class():
             if self.on_sent is not None:
                 self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
 
-    from .marimo_face import esm_for_front_end
+    from .front_end import esm_for_front_end
 
     GrassCanvas._esm = esm_for_front_end(str(GrassCanvas._esm))  # marimo: made also outside a running cell
     return GrassCanvas
@@ -238,7 +238,7 @@ def orbit_target(scene):
 
 class KernelView(EngineView):
     """A GrassScene rendered in the kernel, streamed by jupyter-rfb, animated by a clock
-    (the kernel engine's :class:`~grasswidget.core.view_api.EngineView`).
+    (the kernel engine's :class:`~grasswidget.views.api.EngineView`).
 
     Args:
         blades: a blade count or a :class:`Blades` for the first scene.
@@ -246,15 +246,14 @@ class KernelView(EngineView):
         params: the :class:`GrassParams` the scene simulates with.
         preset: None or a ``GrassScene.preset`` name.
         streaming: a :func:`streaming_defaults` dict (possibly overridden).
-        playback: a HasTraits with ``playing`` and ``time_scale`` (read, observed by the widget).
-        actions: called by keys: ``toggle_play()``, ``step()``, ``reset_camera()``.
-        on_error: called with an exception or a text to show.
-        on_stats: called with the stats dict whenever it is refreshed.
+        host: the :class:`~grasswidget.views.api.ViewHost` (its ``play`` is read each frame and
+            observed; keys, ctrl + click and reports go to it).
 
-    Attributes: ``widget`` (the ipywidget to show: the canvas), ``canvas``,
-    ``scene``, ``controller``, ``ball`` (set with :meth:`attach_ball`), ``stats``,
-    ``clock`` (the :class:`~grasswidget.notebook.clock.SimClock`), ``governor`` (the
-    :class:`~grasswidget.notebook.adaptive.ResolutionGovernor`), ``timing`` (the
+    Attributes: ``widget`` (the ipywidget to show: the canvas), and what only this engine has:
+    ``canvas`` (the jupyter-rfb canvas), ``scene`` (the GrassScene), ``controller`` (pygfx's
+    orbit controller), ``ball`` (set with :meth:`attach_ball`), ``stats``,
+    ``clock`` (the :class:`~grasswidget.views.clock.SimClock`), ``governor`` (the
+    :class:`~grasswidget.views.adaptive.ResolutionGovernor`), ``timing`` (the
     :class:`FrameTiming` of the frames on their way).
     """
 
@@ -264,10 +263,8 @@ class KernelView(EngineView):
     canvas = None
     _inspect_stale = True  # read_inspected renders first when something changed since the last frame
 
-    def __init__(self, blades, size, params, *, preset=None, streaming, playback, actions, on_error, on_stats,
-                 on_inspect=None):
-        super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
-                         on_inspect=on_inspect)
+    def __init__(self, blades, size, params, *, host, preset=None, streaming):
+        super().__init__(size, params, host=host)
         #: Re-entrant lock held by every frame and every operation on the scene (see
         #: the module docstring, "Threads": controls may run on a comm subshell's thread).
         self.lock = threading.RLock()
@@ -284,7 +281,8 @@ class KernelView(EngineView):
 
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
-        self.canvas = _canvas_class()(size=self.size, update_mode="continuous", max_fps=self.max_fps)
+        self.canvas = _canvas_class()(size=self.size, update_mode="continuous" if self.play.playing else "ondemand",
+                                     max_fps=self.max_fps)
         self.canvas.frame_lock = self.lock
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
@@ -363,7 +361,7 @@ class KernelView(EngineView):
         self.scene = scene
         self.governor.restart()
         if self.ball is not None:
-            self.ball.attach(scene)
+            self.ball.attach(self)
         self._home_state = scene.camera.get_state()
         self._home_target = orbit_target(scene)
         # Orbit, zoom and pan within limits: the camera stays above the ground, the field in sight.
@@ -387,17 +385,12 @@ class KernelView(EngineView):
         self.ball = ball
 
     @property
-    def ball_scene(self):
-        # The GrassScene (the ball lives in its colliders).
-        return self.scene
-
-    @property
     def blades(self):
         # The field's :class:`Blades` (rest pose).
         return self.scene.field.blades
 
     @property
-    def blade_count(self) -> int:
+    def _blade_count(self) -> int:
         # A closed view answers with what it had when it closed (its scene is gone).
         if self.scene is None:
             return self._closed_view["blade_count"]
@@ -446,7 +439,7 @@ class KernelView(EngineView):
         return float(self.canvas.render_scale)
 
     @_exclusive
-    def set_playing(self, playing: bool):
+    def _set_playing(self, playing: bool):
         # Draw continuously (playing) or on demand (paused). Pausing stops the clock
         # at once and puts the render scale back to 1, so the still frame is sharp.
         if not playing:
@@ -456,10 +449,6 @@ class KernelView(EngineView):
         if not self.closed:
             self.canvas.set_update_mode("continuous" if playing else "ondemand")
             self.canvas.request_draw()
-
-    def set_time_scale(self, time_scale: float):
-        # Nothing to do: each frame reads ``time_scale`` from ``playback``.
-        pass
 
     @_exclusive
     def step(self, n: int):
@@ -482,7 +471,7 @@ class KernelView(EngineView):
                         self.ball.advance(chunk * dt)
                     except Exception as err:  # e.g. a user path that raises: stop rolling, keep drawing
                         self.ball.rolling = False
-                        self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+                        self.host.show_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
                 try:
                     self.scene.step(chunk)
                 except StepsInterrupted as err:
@@ -530,7 +519,7 @@ class KernelView(EngineView):
     def orbit_limits(self):
         return self.controller.limits if self.controller is not None else None
 
-    def current_camera(self) -> dict:
+    def _current_camera(self) -> dict:
         # position, target (the orbit centre) and fov_deg (vertical) of the camera; a closed
         # view's is the one it had when it closed.
         if self.scene is None:
@@ -557,7 +546,7 @@ class KernelView(EngineView):
         if self._changed_t is None:
             self._changed_t = time.perf_counter()  # the stats are of an older picture until it is drawn
         if self._at_rest and not self.closed:  # nothing will be drawn: the status line says how old it is
-            self.report_stats(self.current_stats())
+            self.host.show_stats(self.stats)
         if not self.closed:
             self.canvas.request_draw()
 
@@ -580,7 +569,7 @@ class KernelView(EngineView):
         self.scene.inspect(ids)
         self._inspected = tuple(self.scene.inspected)
         if not self._inspected:
-            self.report_inspected([])
+            self.host.show_inspected([])
         self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
         self.request_draw()
 
@@ -612,18 +601,14 @@ class KernelView(EngineView):
         return None
 
     def _report_inspected(self):
-        self.report_inspected(self.scene.read_inspected() if self._inspected else [])
+        self.host.show_inspected(self.scene.read_inspected() if self._inspected else [])
 
     # ------------------------------------------------------------------ pictures
 
     @_exclusive
-    def save_png(self, path, size):
-        # Write a PNG of the current view at ``size`` (w, h) pixels.
-        return self.scene.save_png(path, size=size)  # offscreen and anti-aliased, whatever the canvas
-
-    def save_png_later(self, path, size, done):
-        # The kernel renders at once: write the PNG now and call ``done(path)``.
-        done(self.save_png(path, size))
+    def snapshot(self, path, size):
+        # The kernel renders at once (offscreen and anti-aliased, whatever the canvas): a done Future.
+        return done_future(lambda: self.scene.save_png(path, size=size))
 
     @_exclusive
     def draw(self):
@@ -632,18 +617,18 @@ class KernelView(EngineView):
         if scene is None or scene.renderer is None:
             return
         t0 = time.perf_counter()
-        playing = bool(self.playback.playing)
+        playing = bool(self.play.playing)
         if playing and not self._at_rest:
             if not self.clock.running:
                 self.clock.start()
-            self._simulate(self.clock.frame_steps(self.params.dt, self.playback.time_scale))
+            self._simulate(self.clock.frame_steps(self.params.dt, self.play.time_scale))
         elif self._at_rest:  # a frame asked for while out of sight (e.g. play() from a cell): time stays put
             self.clock.stop()
         scene.draw_frame()
         self._inspect_stale = False
         self._changed_t = None
-        if self.camera_listeners:  # a linked view (a comparison) follows this camera
-            self.report_camera_moved()
+        if self._camera_listeners:  # a linked view (a comparison) follows this camera
+            self._report_camera_moved()
         t1 = time.perf_counter()
         self._drawn_t = t1
         self._draw_ms = 1000.0 * (t1 - t0)
@@ -657,7 +642,7 @@ class KernelView(EngineView):
             self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
-        self.notify_frame()  # the traces' sample of this frame (grasswidget.notebook.trace_feed)
+        self._notify_frame()  # the traces' sample of this frame (grasswidget.views.trace_feed)
 
     def _on_visibility(self, visible: bool):
         """No view of this widget on screen (scrolled away, a collapsed output; a hidden tab stops
@@ -671,7 +656,7 @@ class KernelView(EngineView):
             if not visible:
                 self.clock.stop()
         if not visible:
-            self.report_stats(self.current_stats())  # the status line says it rests, and since when
+            self.host.show_stats(self.stats)  # the status line says it rests, and since when
 
     def _on_frame_arrived(self, _index):
         """The page acknowledged frames: the newest one shown arrived now (to within the comm's delay)."""
@@ -687,13 +672,14 @@ class KernelView(EngineView):
 
     # ------------------------------------------------------------------ stats
 
-    def current_stats(self) -> dict:
+    @property
+    def stats(self) -> dict:
         # The stats dict for the stats line, with what is known now (no readback).
         s = dict(self._stats)
-        s["blades"] = self.blade_count
+        s["blades"] = self._blade_count
         s["scale"] = self.render_scale
         s["target_fps"] = self.target_fps
-        playing = bool(self.playback.playing)
+        playing = bool(self.play.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")
         s["sim_speed"] = self.clock.speed if playing else None
@@ -724,7 +710,7 @@ class KernelView(EngineView):
         if self._frames == self._stats_frames and self._stats["fps"] is not None:
             # No frame since the last window (a refresh right after the one a frame made):
             # nothing new to measure; the last window's figures stand.
-            self.report_stats(self.current_stats())
+            self.host.show_stats(self.stats)
             return
         now = time.perf_counter()
         dt = max(now - self._stats_t, 1e-6)
@@ -778,7 +764,7 @@ class KernelView(EngineView):
             switches=_switch_texts(scene.field), trial=self._trial_window(scene.field),
             **self.timing.averages(),
         )
-        self.report_stats(self.current_stats())
+        self.host.show_stats(self.stats)
         if self._inspected:
             self._report_inspected()
 
@@ -802,30 +788,27 @@ class KernelView(EngineView):
             try:
                 blade = self.pick_blade(event["x"], event["y"])
                 if blade is not None:
-                    self.actions.inspect([int(blade)])
+                    self.host.inspect([int(blade)])
             except Exception as err:  # never let a pointer event break the canvas
-                self.report_error(err)
+                self.host.show_error(err)
             return True
         if action != "ball" or self.ball is None:
             return events
         try:
             w, h = self.canvas.get_logical_size()
             view = (w, h) if w > 1 and h > 1 else self.size  # no browser view yet: the asked size
-            return self.ball.handle_event(event, view)
+            return self.ball.handle_event(event, view, self.scene)
         except Exception as err:  # never let a pointer event break the canvas
-            self.report_error(err)
+            self.host.show_error(err)
             return False
 
     # ------------------------------------------------------------------ closing
 
     @_exclusive
-    def close(self):
+    def _close(self):
         # Close the canvas and release the scene's GPU resources.
-        if self.closed:
-            return
-        self.closed = True
         if self.scene is not None:  # what reading a closed view's stats and camera_state still gives
-            self._closed_view = {"blade_count": self.blade_count, "camera": self.current_camera()}
+            self._closed_view = {"blade_count": self._blade_count, "camera": self._current_camera()}
         canvas = self.canvas
         try:
             canvas.remove_event_handler(self.events, *EventsWithoutPicking.TYPES)
@@ -877,3 +860,19 @@ class FrameTiming:
         for v in self._sums.values():
             v.clear()
         return out
+
+
+class KernelOnly:
+    """An owner's attribute (a GrassWidget's ``scene``, ``canvas``, ``controller``) that is its live
+    view's member of the same name while the kernel engine runs, and None with another engine (which
+    has no such part: the browser keeps its state, canvas and camera in the page)."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+        self.__doc__ = f"The kernel engine's ``{name}`` (see :class:`KernelView`); None in the browser engine."
+
+    def __get__(self, owner, owner_type=None):
+        if owner is None:
+            return self
+        view = owner.view
+        return getattr(view, self.name) if isinstance(view, KernelView) else None

@@ -1,64 +1,52 @@
-"""The one interface between :class:`~grasswidget.GrassWidget` and its view.
+"""The one interface between :class:`~grasswidget.GrassWidget` and the engine that shows its meadow.
 
-A GrassWidget composes a control panel with a *view*: the part that simulates,
-draws and shows the meadow. There are two, one per engine:
+A *view* (:class:`EngineView`) is one engine's view of a widget: the part that simulates,
+draws and shows the meadow. There are two, side by side in this package:
 
-* :class:`grasswidget.notebook.kernel_view.KernelView` ("kernel"): a GrassScene rendered
-  in the kernel and streamed by jupyter-rfb;
-* :class:`grasswidget.browser.engine_view.BrowserEngineView` ("browser"): the
-  same WGSL run in the notebook's browser through WebGPU.
+* :class:`grasswidget.views.kernel.KernelView` ("kernel"): a GrassScene rendered in the
+  kernel and streamed by jupyter-rfb;
+* :class:`grasswidget.views.browser.BrowserEngineView` ("browser"): the same WGSL run in the
+  notebook's browser through WebGPU (its anywidget is
+  :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget`, not a view).
 
-Both subclass :class:`EngineView` and implement every abstract member; the widget
-talks to a view through this interface only (no attribute probing, no reaching
-into a view's parts). Every member is documented here, once: the two views'
-definitions say (in comments) how their engine does it, not what it is. Where the
-widget adds nothing to a member (``w.read_inspected``, ``w.camera_state``, ``w.stats``,
-...), its attribute is a :class:`ViewMember`: the one generic forwarding, whose help
-is this module's text, instead of a hand-written method per member.
+Both implement every member of :class:`EngineView`; no member is faked or empty in one of
+them (tests/notebook/test_view_api.py holds both to that). What only the kernel engine has
+(its GrassScene, canvas and camera controller) is the KernelView's own, not the interface's.
 
-Names: a *view* is one engine's view of a widget (this interface and its two
-implementations). The anywidget that runs engine.js in the page is
-:class:`~grasswidget.browser.view.BrowserEngineWidget` (``BrowserEngineView.engine_widget``);
-the kernel engine's clock is :class:`~grasswidget.notebook.clock.SimClock`; what a view
-reads of the widget's play state is its ``playback`` (:class:`PlaybackState`). The
-names of before (``GrassView``, ``ViewClock``, ``clock_source``) are aliases.
+A view talks back through one object, its *host* (:class:`ViewHost`): the play state it
+follows (:class:`PlayState`: ``playing`` and ``time_scale``, traits the view observes and
+may set; the one channel of play state), what its keys and pointer ask for
+(``toggle_play``, ``step``, ``reset_camera``, ``inspect``) and what it reports
+(``show_error``, ``show_stats``, ``show_inspected``, ``engine_unavailable``,
+``engine_adapter``). A picture is one call, :meth:`EngineView.snapshot`, that returns a
+:class:`concurrent.futures.Future` of the written path (the browser engine's answers
+later; ``result()`` waits for it, handling the notebook's messages meanwhile).
 
-What the two views share is written here once:
-
-* the keys (:meth:`EngineView.on_key`): space = play/pause, ``s`` = step one
-  frame, ``r`` = reset the camera, nothing with a modifier held;
-* the camera setter (:attr:`EngineView.camera_state`): validation by
-  :func:`check_camera_state`, merging with the current camera, position and
-  target apart; the view only aims its camera (:meth:`EngineView.look`);
-* the nominal steps per frame (:meth:`EngineView.nominal_steps`):
-  ``round(time_scale * frame_interval / dt)``, capped to
-  :data:`MAX_STEPS_PER_FRAME`.
-
-Both engines have every feature of the interface (the teaching views included).
-
-Camera listeners (:meth:`EngineView.add_camera_listener`): a view tells them when its camera
-moved, and :meth:`EngineView.accept_camera` moves it without telling them, so views can
-follow each other's camera without echoes (a comparison, :mod:`grasswidget.notebook.compare`).
-
-The view is told what to do by the widget and reports back through callbacks
-given at construction: ``playback`` (:class:`PlaybackState`, the widget's play state), ``actions``
-(:class:`ViewActions`), ``on_error(err)``, ``on_stats(stats)`` and
-``on_inspect(blades)``.
+What the two views share is written here once: the keys (space = play/pause, ``s`` =
+step one frame, ``r`` = reset the camera, nothing with a modifier held); the camera
+setter (:attr:`EngineView.camera_state`, validated by :func:`check_camera_state`); the
+nominal steps per frame (``round(time_scale * frame_interval / dt)``, capped to
+:data:`MAX_STEPS_PER_FRAME`); the camera listeners of a comparison
+(:meth:`EngineView.add_camera_listener`, :meth:`EngineView.accept_camera` moves the camera
+without telling them, so linked views never echo).
 """
 
 from __future__ import annotations
 
 import abc
+import concurrent.futures
 import inspect
 from typing import Callable, Protocol
 
 import numpy as np
+from traitlets import HasTraits
 
+from ..core.frame_data import MAX_STEPS_PER_FRAME
+from ..core.params import CheckedBool, RangedFloat
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
-from .frame_data import MAX_STEPS_PER_FRAME
-from .interaction import key_action
+from ..core.interaction import key_action
 
-__all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state", "GrassView", "ViewClock",
+__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "check_camera_state", "done_future",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -67,27 +55,57 @@ CAMERA_KEYS = ("position", "target", "fov_deg")
 FOV_RANGE_DEG = (1.0, 179.0)
 
 
-class PlaybackState(Protocol):
-    """The widget's play state, as a view reads it (and, for ``playing``, may set it): two of the
-    widget's traits. Not a clock: the kernel engine's clock, which turns wall time into fixed steps,
-    is :class:`grasswidget.notebook.clock.SimClock` (``KernelView.clock``)."""
+class PlayState(HasTraits):
+    """The play state a view follows: the one channel between the widget, its panel and its view.
+    The view observes both traits (and sets ``playing`` when the page's own keys toggle it)."""
 
-    #: Animate (True) or stand still (False).
-    playing: bool
-    #: Simulated seconds per wall-clock second while playing (0..10).
-    time_scale: float
+    playing = CheckedBool(True, help="Animate (True) or stand still (False); pausing stops simulated time at once.")
+    time_scale = RangedFloat(1.0, 0.0, 10.0, "simulated s per s",
+                             help="Simulated seconds per wall-clock second while playing.")
 
 
-class ViewActions(Protocol):
-    """What a view's keys and pointer gestures ask of the widget."""
+class ViewHost(Protocol):
+    """What a view asks of, and reports to, whoever shows it (one object instead of callbacks)."""
 
-    def toggle_play(self) -> None: ...
+    #: The play state the view follows (observed; ``playing`` may be set by the view).
+    play: PlayState
 
-    def step(self, n: int | None = None) -> None: ...
+    def toggle_play(self) -> None:
+        """The view's key asks: play if paused, pause if playing."""
 
-    def reset_camera(self) -> None: ...
+    def step(self) -> None:
+        """The view's key asks: pause and advance one frame's worth of steps."""
 
-    def inspect(self, ids) -> None: ...
+    def reset_camera(self) -> None:
+        """The view's key asks: back to the start camera."""
+
+    def inspect(self, ids) -> None:
+        """A ctrl + click asks: inspect these blade ids (``[]`` clears)."""
+
+    def show_error(self, err) -> None:
+        """Show an exception or a text on the message line (never raises)."""
+
+    def show_stats(self, stats: dict) -> None:
+        """The stats were refreshed (:attr:`EngineView.stats`)."""
+
+    def show_inspected(self, rows: list) -> None:
+        """The inspected blades' numbers (as :meth:`EngineView.read_inspected` gives them; ``[]``: none)."""
+
+    def engine_unavailable(self, reason: str) -> None:
+        """The engine cannot run here (a browser without WebGPU): ``reason`` in words."""
+
+    def engine_adapter(self, detail: str) -> None:
+        """The engine has started on an adapter (the browser engine's report, in words)."""
+
+
+def done_future(fn, *args) -> concurrent.futures.Future:
+    """A Future already holding ``fn(*args)``'s result, or the exception it raised."""
+    future = concurrent.futures.Future()
+    try:
+        future.set_result(fn(*args))
+    except Exception as err:  # noqa: BLE001 - the caller sees it from result()
+        future.set_exception(err)
+    return future
 
 
 def check_camera_state(state) -> dict:
@@ -122,46 +140,52 @@ def check_camera_state(state) -> dict:
 class EngineView(abc.ABC):
     """A GrassWidget's view (see the module docstring); both engines implement all of it.
 
-    Every abstract member below is implemented by both views; concrete members
-    are the shared behaviour. Sizes are CSS pixels, distances metres (world
-    space), times seconds, angles degrees.
-
-    Constructor arguments every view takes (stored by :meth:`__init__`):
-    ``size`` ((w, h) CSS pixels), ``params`` (the shared GrassParams),
-    ``playback`` (:class:`PlaybackState`), ``actions`` (:class:`ViewActions`),
-    ``on_error(err)`` (an exception or a text to show), ``on_stats(dict)``
-    (called whenever the stats are refreshed) and ``on_inspect(blades)`` (the
-    inspected blades' numbers, a list of dicts; ``[]`` when none).
+    Sizes are CSS pixels, distances metres (world space), times seconds, angles degrees.
+    Constructor arguments every view takes: ``size`` ((w, h) CSS pixels), ``params`` (the
+    shared GrassParams) and ``host`` (a :class:`ViewHost`).
     """
 
     #: The engine: "kernel" or "browser".
     backend: str = ""
 
-    def __init__(self, size, params, *, playback: PlaybackState, actions: ViewActions, on_error: Callable,
-                 on_stats: Callable, on_inspect: Callable | None = None):
+    def __init__(self, size, params, *, host: ViewHost):
         self.size = (int(size[0]), int(size[1]))
         self.params = params
-        self.playback = playback
-        self.actions = actions
-        self.report_error = on_error
-        self.report_stats = on_stats
-        self.report_inspected = on_inspect if on_inspect is not None else (lambda blades: None)
+        self.host = host
+        self.play: PlayState = host.play
+        #: True after :meth:`close`.
         self.closed = False
-        #: Functions ``fn(view)`` called when the camera moved (see :meth:`add_camera_listener`).
-        self.camera_listeners = []
-        self.reported_camera = None  # the camera as the listeners last heard of it
+        self._camera_listeners = []
+        self._reported_camera = None  # the camera as the listeners last heard of it
         #: Callables run (no arguments) after each frame the kernel draws, and at each stats message
-        #: of the browser engine: where the traces take their samples (grasswidget.notebook.trace_feed).
+        #: of the browser engine: where the traces take their samples (grasswidget.views.trace_feed).
         self.frame_hooks = []
+        self.play.observe(self._play_changed, names=["playing", "time_scale"])
 
-    def notify_frame(self) -> None:
+    def _play_changed(self, change):
+        if self.closed:
+            return
+        if change["name"] == "playing":
+            self._set_playing(bool(change["new"]))
+        else:
+            self._set_time_scale(float(change["new"]))
+        self.host.show_stats(self.stats)
+
+    @abc.abstractmethod
+    def _set_playing(self, playing: bool) -> None:
+        """The engine's part of ``play.playing`` changing (a view observes it; nobody calls this)."""
+
+    def _set_time_scale(self, time_scale: float) -> None:
+        """The engine's part of ``play.time_scale`` changing; a view that reads it each frame needs none."""
+
+    def _notify_frame(self) -> None:
         """Run :attr:`frame_hooks`; an error in one is reported on the message line, never raised
         into the frame."""
         for hook in list(self.frame_hooks):
             try:
                 hook()
             except Exception as err:  # a broken listener must not stop the view
-                self.report_error(f"traces: {type(err).__name__}: {err}")
+                self.host.show_error(f"traces: {type(err).__name__}: {err}")
 
     # ------------------------------------------------------------------ what the widget shows
 
@@ -169,26 +193,6 @@ class EngineView(abc.ABC):
     @abc.abstractmethod
     def widget(self):
         """The ipywidget to show for this view (the streaming canvas, or the browser engine's anywidget)."""
-
-    @property
-    def scene(self):
-        """The kernel engine's :class:`~grasswidget.gpu.scene.GrassScene` (None in the browser engine, which
-        keeps its state in the browser, and after close)."""
-        return None
-
-    @property
-    def canvas(self):
-        """The kernel engine's jupyter-rfb canvas widget (None in the browser engine)."""
-        return None
-
-    @property
-    def controller(self):
-        """The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine, which orbits
-        in the page)."""
-        return None
-
-    # The attribute's name of before ("clock" also meant the SimClock): the same object.
-    clock_source = property(lambda self: self.playback, doc="The name of before of :attr:`playback`.")
 
     # ------------------------------------------------------------------ the field
 
@@ -198,24 +202,14 @@ class EngineView(abc.ABC):
         """The :class:`~grasswidget.core.blades.Blades` of the field (its rest pose)."""
 
     @property
-    def blade_count(self) -> int:
-        """Number of blades in the field."""
-        return len(self.blades)
-
-    @property
     @abc.abstractmethod
     def colliders(self):
         """The live :class:`~grasswidget.core.colliders.ColliderList` (sphere colliders acting on the grass)."""
 
-    @property
-    @abc.abstractmethod
-    def ball_scene(self):
-        """What :class:`~grasswidget.notebook.ball.BallControl` attaches to: an object with ``field.blades``
-        and ``colliders`` (the kernel's GrassScene; a stand-in in the browser engine)."""
-
     @abc.abstractmethod
     def attach_ball(self, ball) -> None:
-        """Move ``ball`` (a BallControl) with shift + drag and roll it with simulated time from now on."""
+        """Move ``ball`` (a :class:`~grasswidget.notebook.ball.BallControl`, already attached to this
+        view's colliders) with shift + drag and roll it with simulated time from now on."""
 
     @abc.abstractmethod
     def set_blades(self, blades) -> None:
@@ -253,15 +247,10 @@ class EngineView(abc.ABC):
         """Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream
         cap; the browser's nominal display rate, 60)."""
 
-    @property
-    def frame_interval(self) -> float:
-        """Nominal seconds between frames at the stream cap, 1 / max_fps."""
-        return 1.0 / self.max_fps
-
-    def nominal_steps(self) -> int:
+    def _nominal_steps(self) -> int:
         """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
         [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
-        wanted = int(round(float(self.playback.time_scale) * self.frame_interval / float(self.params.dt)))
+        wanted = int(round(float(self.play.time_scale) / self.max_fps / float(self.params.dt)))
         return max(0, min(wanted, MAX_STEPS_PER_FRAME))
 
     @property
@@ -269,7 +258,7 @@ class EngineView(abc.ABC):
         """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped: what
         ``step()`` advances by default. While playing the real-time clock decides each frame's steps
         (``stats["steps_per_frame"]``); the browser engine reports the average of its last frames."""
-        return self.nominal_steps()
+        return self._nominal_steps()
 
     @property
     @abc.abstractmethod
@@ -295,14 +284,6 @@ class EngineView(abc.ABC):
         and exports always render at full resolution."""
 
     @abc.abstractmethod
-    def set_playing(self, playing: bool) -> None:
-        """Animate (True) or stand still (False); pausing stops simulated time at once."""
-
-    @abc.abstractmethod
-    def set_time_scale(self, time_scale: float) -> None:
-        """Simulated seconds per wall-clock second from now on (already validated: 0..10)."""
-
-    @abc.abstractmethod
     def step(self, n: int) -> None:
         """Advance exactly ``n`` (in [0, MAX_STEPS], validated by the widget: ``core.limits.check_steps``)
         fixed steps of ``params.dt`` and redraw. The kernel engine stops on Ctrl-C between two GPU
@@ -324,12 +305,12 @@ class EngineView(abc.ABC):
         is the orbit centre) and ``fov_deg`` (vertical field of view, degrees). A drag in the view updates
         it; assigning a dict with any of the three keys moves the camera, in both engines (validated by
         :func:`check_camera_state`; the keys left out keep their values; position and target must differ)."""
-        return self.current_camera()
+        return self._current_camera()
 
     @camera_state.setter
     def camera_state(self, state):
         state = check_camera_state(state)
-        current = self.current_camera()
+        current = self._current_camera()
         position = state.get("position", current["position"])
         target = state.get("target", current["target"])
         if np.allclose(position, target):
@@ -342,28 +323,28 @@ class EngineView(abc.ABC):
         the kernel engine checks after each frame it draws, the browser engine when the browser's
         camera reaches the kernel. Used to link the cameras of a comparison
         (:mod:`grasswidget.notebook.compare`)."""
-        if fn not in self.camera_listeners:
-            self.camera_listeners.append(fn)
-        if self.reported_camera is None:
-            self.reported_camera = self.current_camera()
+        if fn not in self._camera_listeners:
+            self._camera_listeners.append(fn)
+        if self._reported_camera is None:
+            self._reported_camera = self._current_camera()
 
     def remove_camera_listener(self, fn: Callable) -> None:
         """Stop calling ``fn`` (nothing happens when it was not added)."""
-        if fn in self.camera_listeners:
-            self.camera_listeners.remove(fn)
+        if fn in self._camera_listeners:
+            self._camera_listeners.remove(fn)
 
-    def report_camera_moved(self) -> bool:
+    def _report_camera_moved(self) -> bool:
         """Tell the camera listeners when the camera differs from what they last heard
         (position and target by more than 1e-6 m, the field of view by more than 1e-6 degrees);
         returns whether it did. A view calls this where its camera may have moved."""
-        if not self.camera_listeners or self.closed:
+        if not self._camera_listeners or self.closed:
             return False
-        now = self.current_camera()
-        last = self.reported_camera
+        now = self._current_camera()
+        last = self._reported_camera
         if last is not None and all(np.allclose(now[k], last[k], rtol=0.0, atol=1e-6) for k in CAMERA_KEYS):
             return False
-        self.reported_camera = now
-        for fn in list(self.camera_listeners):
+        self._reported_camera = now
+        for fn in list(self._camera_listeners):
             fn(self)
         return True
 
@@ -371,10 +352,10 @@ class EngineView(abc.ABC):
         """Move the camera to ``state`` (as :attr:`camera_state` takes it) without telling the
         camera listeners: the move came from them (a linked view), so no echo goes back."""
         self.camera_state = state
-        self.reported_camera = self.current_camera()
+        self._reported_camera = self._current_camera()
 
     @abc.abstractmethod
-    def current_camera(self) -> dict:
+    def _current_camera(self) -> dict:
         """The camera now, as :attr:`camera_state` gives it (tuples of floats, fov_deg a float)."""
 
     @property
@@ -432,24 +413,23 @@ class EngineView(abc.ABC):
     # ------------------------------------------------------------------ pictures and stats
 
     @abc.abstractmethod
-    def save_png(self, path: str, size) -> str:
-        """Write a PNG of the current view at ``size`` (w, h) pixels to ``path``; return ``path``
-        (waits for the browser's picture in the browser engine)."""
-
-    @abc.abstractmethod
-    def save_png_later(self, path: str, size, done: Callable[[str], None]) -> None:
-        """Write a PNG like :meth:`save_png` without blocking the kernel, then call ``done(path)``
-        (the Save PNG button, which runs inside a comm message and cannot wait). The kernel engine
-        writes it at once."""
+    def snapshot(self, path: str, size) -> concurrent.futures.Future:
+        """Write a PNG of the current view at ``size`` (w, h) pixels to ``path``, rendered at full
+        resolution; returns a Future of ``path``. The kernel engine writes it now (the Future is done);
+        the browser engine asks the browser and writes it when the picture comes, without blocking
+        (the Save PNG button runs inside a comm message and cannot wait); its ``result(timeout)``
+        waits, handling the notebook's messages meanwhile."""
 
     @property
+    @abc.abstractmethod
     def stats(self) -> dict:
-        """The last stats shown: fps (frames/s delivered to the browser, confirmed by it; frames drawn
-        when there is no browser), target_fps, visible (with rastered and occluded: the counts of one
-        frame; in the kernel engine the frame at step_count, read when the stats are refreshed; in
-        the browser engine the newest the page had read back, a frame or two older), blades, render_ms / readback_ms / encode_send_ms /
-        ack_ms (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls
-        of the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
+        """The stats with what is known now (no GPU readback, no browser round trip): fps (frames/s
+        delivered to the browser, confirmed by it; frames drawn when there is no browser), target_fps,
+        visible (with rastered and occluded: the counts of one frame; in the kernel engine the frame at
+        step_count, read when the stats are refreshed; in the browser engine the newest the page had
+        read back, a frame or two older), blades, render_ms / readback_ms / encode_send_ms / ack_ms
+        (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls of
+        the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
         frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall
         seconds while playing), step_count (simulation steps so far; None until the browser engine's
         first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
@@ -463,15 +443,10 @@ class EngineView(abc.ABC):
         a stats interval, or a change not drawn for longer than one) and waiting (True while playing
         on screen with no frame for ``frame_data.WAITING_AFTER_S``, 2 s). Every key is there from
         the start."""
-        return self.current_stats()
-
-    @abc.abstractmethod
-    def current_stats(self) -> dict:
-        """The stats dict with what is known now (no GPU readback, no browser round trip)."""
 
     @abc.abstractmethod
     def refresh_stats(self) -> None:
-        """Measure what can be measured now and pass the stats to ``on_stats``."""
+        """Measure what can be measured now and pass the stats to the host's ``show_stats``."""
 
     # ------------------------------------------------------------------ keys, closing
 
@@ -482,13 +457,23 @@ class EngineView(abc.ABC):
         :func:`grasswidget.core.interaction.key_action` (the live page runs the same)."""
         action = key_action(event.get("key", ""), tuple(event.get("modifiers") or ()))
         if action is not None:
-            getattr(self.actions, action)()
+            getattr(self.host, action)()
 
-    @abc.abstractmethod
     def close(self) -> None:
         """Release the view's resources (GPU buffers, the canvas or the browser model); idempotent.
         :attr:`closed` is True afterwards."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self.play.unobserve(self._play_changed, names=["playing", "time_scale"])
+        except ValueError:
+            pass
+        self._close()
 
+    @abc.abstractmethod
+    def _close(self) -> None:
+        """The engine's part of :meth:`close` (called once)."""
 
 
 _NO_DEFAULT = object()
@@ -539,8 +524,3 @@ class ViewMember:
         if not self.settable:
             raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
         setattr(self._open_view(owner), self.name, value)
-
-
-#: The names of before (issue 26: "view" and "clock" had several meanings): the same objects.
-GrassView = EngineView
-ViewClock = PlaybackState

@@ -63,7 +63,7 @@ from .esm import engine_module_text
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .browser_wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
 
-__all__ = ["BrowserEngineWidget", "BrowserView", "BrowserTimeoutError", "wind_error_from_messages"]
+__all__ = ["BrowserEngineWidget", "BrowserTimeoutError", "wind_error_from_messages"]
 
 HERE = Path(__file__).resolve().parent
 #: Seconds a request waits for the browser's answer by default.
@@ -607,6 +607,3 @@ def default_camera(blades: Blades, aspect: float) -> dict:
     ``aspect`` is not used: the view is the same at every aspect)."""
     return camera_rules.default_camera(blades.v0)
 
-
-#: The anywidget's name of before (when "view" also named the interface and both engines' views): the same class.
-BrowserView = BrowserEngineWidget

@@ -59,7 +59,7 @@ class _Feed:
 
     def set_culling_frozen(self, frozen: bool):
         """Count culling against the camera of now (frozen) or the live camera (not frozen)."""
-        self.frozen_camera = self.view.current_camera() if frozen else None
+        self.frozen_camera = self.view.camera_state if frozen else None
 
     def _check_blades(self):
         # A new field (another count, or other blades of the same count): new rest pose, new ids,
@@ -71,13 +71,13 @@ class _Feed:
             self._last_step = None
 
     def _counts(self, stats):
-        camera = self.frozen_camera or self.view.current_camera()
+        camera = self.frozen_camera or self.view.camera_state
         visible = stats.get("visible")
         occluded = stats.get("occluded")
         rastered = stats.get("rastered")
         # Paused (a step(n)): the reference counts this very camera before the sample is taken.
         kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded,
-                                 now=not self.view.playback.playing)
+                                 now=not self.view.play.playing)
         drawn = {"ribbons": None if visible is None else visible - (rastered or 0), "compute": rastered}
         return kept, drawn
 
@@ -174,7 +174,7 @@ class KernelTraceFeed(_Feed):
                     self.flush()
                     queued = self.readback.after_render((None, tag))
             except Exception as err:  # noqa: BLE001 - e.g. user WGSL the inspector cannot compile
-                view.report_error(f"traces: the inspected blades could not be read: {err}")
+                view.host.show_error(f"traces: the inspected blades could not be read: {err}")
                 queued = False
             if not queued:
                 self._record(*tag, rows=[])
@@ -190,7 +190,7 @@ class KernelTraceFeed(_Feed):
             return
         self._last_step, self._step_sample = step, False
         stats = dict(view.stats)
-        if scene.stats is not None and not view.playback.playing:
+        if scene.stats is not None and not view.play.playing:
             # Paused (a step(n)): the counts of this very frame, read now (nothing to stall); while
             # playing the newest that arrived (a frame or two before this one: FrameStats.counts_frame).
             scene.stats.settle()
@@ -210,7 +210,7 @@ class KernelTraceFeed(_Feed):
                 return
             self._waiting.append((frame, tag))
             self._record_waiting()
-        elif not view.playback.playing:
+        elif not view.play.playing:
             self.flush()  # paused (a step(n)): no next frame will come to pick it up; nothing to stall
 
     def set_charting(self, charting: bool):
@@ -324,7 +324,7 @@ class BrowserTraceFeed(_Feed):
         if not self._in_flight or self.view.closed:
             return
         from ..browser.kernel_pump import BrowserTimeoutError, wait_for
-        from ..browser.view import ANSWER_TIMEOUT
+        from ..browser.engine_widget import ANSWER_TIMEOUT
 
         missing = self._in_flight
         try:

@@ -1,10 +1,10 @@
-"""The browser engine's view for GrassWidget: a :class:`~grasswidget.core.view_api.EngineView`.
+"""The browser engine's view for GrassWidget: a :class:`~grasswidget.views.api.EngineView`.
 
-:class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.view.BrowserEngineWidget`
+:class:`BrowserEngineView` wraps a :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget`
 (the anywidget that simulates and draws in the browser) so that
 :class:`grasswidget.GrassWidget` drives it through the same interface as the
-kernel view (:mod:`grasswidget.core.view_api`): ``set_playing``, ``step``,
-``reset_blades``, ``reset_camera``, ``save_png``, ``stats``, ``camera_state``,
+kernel view (:mod:`grasswidget.views.api`): the host's play state, ``step``,
+``reset_blades``, ``reset_camera``, ``snapshot``, ``stats``, ``camera_state``,
 the keys, the ball (shift + drag, Roll), and the teaching views (colour by, freeze
 culling, the blade inspector and ``read_inspected``).
 
@@ -12,7 +12,7 @@ Differences, by design:
 
 * Time: the browser plays by the wall clock with the kernel's clock rules
   (:func:`grasswidget.core.frame_data.clock_rules`, executed by engine.js as
-  :class:`grasswidget.notebook.clock.SimClock` does): whole fixed steps of ``params.dt``,
+  :class:`grasswidget.views.clock.SimClock` does): whole fixed steps of ``params.dt``,
   at most ``MAX_STEPS_PER_FRAME`` a frame, the rest dropped (slow motion). The
   kernel's "steps per frame" is an average of the browser's frames here.
 * One engine per widget: displayed twice, both views show the same meadow.
@@ -34,72 +34,71 @@ Differences, by design:
 
 from __future__ import annotations
 
+import concurrent.futures
+
 import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
 from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW, stats_freshness
-from ..core.view_api import EngineView
+from .api import EngineView
+from .engines import BROWSER_MAX_BLADES
+from .front_end import class_for_front_end
 from ..errors import GrassTypeError, GrassValueError
-from .view import BrowserEngineWidget
+from ..browser.engine_widget import ANSWER_TIMEOUT, BrowserEngineWidget
+from ..browser.kernel_pump import BrowserTimeoutError, wait_for
 
 __all__ = ["BrowserEngineView", "BROWSER_MAX_BLADES"]
 
-#: Largest blade count offered with the browser engine (its device limits decide in the end).
-BROWSER_MAX_BLADES = 1 << 22
 
 
-class _BallScene:
-    """What BallControl needs of a scene: ``field.blades`` and ``colliders``."""
+class BrowserAnswer(concurrent.futures.Future):
+    """A Future the browser's answer completes. ``result(timeout)`` handles the notebook's
+    messages while it waits (so it works inside a running cell), at most ``timeout`` seconds
+    (None: ``ANSWER_TIMEOUT``, 30); then it gives up: BrowserTimeoutError (a TimeoutError)
+    naming what was asked, and an answer that comes later is dropped."""
 
-    class _Field:
-        def __init__(self, blades):
-            self.blades = blades
+    def __init__(self, what: str):
+        super().__init__()
+        self.what = what
 
-    def __init__(self, view: BrowserEngineWidget):
-        self._view = view
-        self.field = self._Field(view.blades)
-
-    @property
-    def colliders(self) -> ColliderList:
-        return self._view.colliders
+    def result(self, timeout=None):
+        if not self.done():
+            try:
+                wait_for(lambda: True if self.done() else None, ANSWER_TIMEOUT if timeout is None else timeout,
+                         self.what)
+            except BrowserTimeoutError as err:
+                if not self.done():
+                    self.set_exception(err)
+        return super().result(0)
 
 
 class BrowserEngineView(EngineView):
     """GrassWidget's view when the grass runs in the browser (see the module docstring).
 
-    Args: as :class:`~grasswidget.notebook.kernel_view.KernelView` (blades, size, params,
-    preset, playback, actions, on_error, on_stats, on_inspect), plus ``on_unavailable(reason)``,
-    called once when the browser has no WebGPU adapter (the widget falls back),
-    ``on_adapter(text)`` (optional), called once when the browser engine has started on an
-    adapter (its ``gpu_status`` detail: vendor, architecture, description; the sunlight's default),
-    ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
+    Args: as :class:`~grasswidget.views.kernel.KernelView` (blades, size, params, host,
+    preset); the host's ``engine_unavailable(reason)`` is called once when the browser has no
+    WebGPU adapter (the widget falls back), its ``engine_adapter(text)`` once when the browser
+    engine has started on an adapter (its ``gpu_status`` detail: vendor, architecture,
+    description; the sunlight's default). ``pixel_ratio`` (rendered pixels per CSS pixel; None: the display's, at most 2)
     and ``target_fps`` (kept and reported; the browser draws at its own rate).
-    ``widget_class``: the anywidget to make, BrowserEngineWidget (default) or a subclass
-    (a front end's: marimo's takes the module as a URL, see
-    :func:`grasswidget.notebook.marimo_face.class_for_front_end`).
-    ``on_inspect(blades)`` gets the inspected blades' numbers at each stats message.
+    ``widget_class``: the anywidget to make, a BrowserEngineWidget subclass (default: the one the
+    front end running now can make, :func:`grasswidget.views.front_end.class_for_front_end`).
+    The host's ``show_inspected(rows)`` gets the inspected blades' numbers at each stats message.
 
-    Attributes: ``engine_widget`` (the :class:`~grasswidget.browser.view.BrowserEngineWidget`).
+    Attributes: ``engine_widget`` (the :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget`).
     """
 
     backend = "browser"
-    #: The attribute's name of before (when the anywidget was "BrowserView"): the same object.
-    browser_view = property(lambda self: self.engine_widget,
-                            doc="The name of before of ``engine_widget`` (the BrowserEngineWidget).")
 
-    def __init__(self, blades, size, params, *, preset=None, playback, actions, on_error, on_stats,
-                 on_inspect=None, on_unavailable, on_adapter=None, pixel_ratio=None, target_fps=60.0,
+    def __init__(self, blades, size, params, *, host, preset=None, pixel_ratio=None, target_fps=60.0,
                  function_overrides=None, widget_class=None):
         from ..core.framing import preset_field
 
-        super().__init__(size, params, playback=playback, actions=actions, on_error=on_error, on_stats=on_stats,
-                         on_inspect=on_inspect)
-        self._on_unavailable = on_unavailable
+        super().__init__(size, params, host=host)
         self._target_fps = float(target_fps)
         self._inspect_request_pending = False
         self._unavailable_sent = False
-        self._on_adapter = on_adapter
         self._adapter_sent = False
         self.ball = None
         camera = None
@@ -111,14 +110,13 @@ class BrowserEngineView(EngineView):
         elif not isinstance(blades, Blades):
             blades = Blades.on_plane(int(blades))
         # A front end may hand a subclass (marimo: the module as a URL, grasswidget.notebook.marimo_face).
-        widget_class = BrowserEngineWidget if widget_class is None else widget_class
+        widget_class = class_for_front_end(BrowserEngineWidget) if widget_class is None else widget_class
         if not (isinstance(widget_class, type) and issubclass(widget_class, BrowserEngineWidget)):
             raise GrassTypeError(f"widget_class must be BrowserEngineWidget or a subclass; got {widget_class!r}")
         self.engine_widget = widget_class(blades, params=params, size=self.size, camera=camera,
                                         pixel_ratio=float(pixel_ratio or 0.0), function_overrides=function_overrides)
-        self.engine_widget.playing = bool(playback.playing)
-        self.engine_widget.time_scale = float(playback.time_scale)
-        self._ball_scene = _BallScene(self.engine_widget)
+        self.engine_widget.playing = bool(self.play.playing)
+        self.engine_widget.time_scale = float(self.play.time_scale)
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": len(blades), "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "step_count": None, "switches": None,
                        "trial": False}  # the keys a stats message fills, known from the start
@@ -129,19 +127,19 @@ class BrowserEngineView(EngineView):
         self._at_rest = False
         self.engine_widget.on("stats", self._on_browser_stats)
         self.engine_widget.on("rest", self._on_rest)
-        self.engine_widget.on("error", self.report_error)
-        self.engine_widget.on("device_lost", lambda msg: self.report_error(msg.get("message", "WebGPU device lost")))
+        self.engine_widget.on("error", self.host.show_error)
+        self.engine_widget.on("device_lost", lambda msg: self.host.show_error(msg.get("message", "WebGPU device lost")))
         self.engine_widget.on("ball", self._on_ball_msg)
         self.engine_widget.on("key", self._on_key_msg)
         self.engine_widget.on("steps", self._on_steps_msg)
         self.engine_widget.on("pick", self._on_pick_msg)
         self.engine_widget.observe(self._on_gpu_status, names="gpu_status")
         self.engine_widget.observe(self._on_browser_playing, names="playing")
-        self.engine_widget.observe(lambda _change: self.report_camera_moved(), names="camera")
+        self.engine_widget.observe(lambda _change: self._report_camera_moved(), names="camera")
 
     @property
     def widget(self):
-        # The :class:`~grasswidget.browser.view.BrowserEngineWidget` anywidget (the ipywidget to show).
+        # The :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget` anywidget (the ipywidget to show).
         return self.engine_widget
 
     # ------------------------------------------------------------------ status
@@ -152,30 +150,25 @@ class BrowserEngineView(EngineView):
 
     def _on_gpu_status(self, change):
         state = (change["new"] or {}).get("state")
-        if state == "ok" and self._on_adapter is not None and not self._adapter_sent and not self.closed:
+        if state == "ok" and not self._adapter_sent and not self.closed:
             self._adapter_sent = True
             try:
-                self._on_adapter((change["new"] or {}).get("detail", ""))
+                self.host.engine_adapter((change["new"] or {}).get("detail", ""))
             except Exception as err:  # noqa: BLE001 - never raise into the comm handler
-                self.report_error(err)
+                self.host.show_error(err)
         if state == "unavailable" and not self._unavailable_sent and not self.closed:
             self._unavailable_sent = True
             try:
-                self._on_unavailable((change["new"] or {}).get("detail", ""))
+                self.host.engine_unavailable((change["new"] or {}).get("detail", ""))
             except Exception as err:  # noqa: BLE001 - never raise into the comm handler
-                self.report_error(err)
+                self.host.show_error(err)
 
     def _on_browser_playing(self, change):
         # Space in the browser view toggles the view's playing: tell the widget.
-        if bool(change["new"]) != bool(self.playback.playing):
-            self.playback.playing = bool(change["new"])
+        if bool(change["new"]) != bool(self.play.playing):
+            self.play.playing = bool(change["new"])
 
     # ------------------------------------------------------------------ the ball
-
-    @property
-    def ball_scene(self):
-        # A stand-in scene for the ball: the field's blades and the browser view's colliders.
-        return self._ball_scene
 
     def attach_ball(self, ball):
         self.ball = ball
@@ -212,7 +205,7 @@ class BrowserEngineView(EngineView):
             if msg.get("phase") == "down" and not self.ball.enabled:
                 self.ball.enabled = True
         except Exception as err:  # noqa: BLE001
-            self.report_error(err)
+            self.host.show_error(err)
 
     def _on_steps_msg(self, msg):
         ball = self.ball
@@ -222,7 +215,7 @@ class BrowserEngineView(EngineView):
             ball.advance(int(msg.get("steps", 0)) * self.params.dt)
         except Exception as err:  # noqa: BLE001 - a user path that raises stops the rolling
             ball.rolling = False
-            self.report_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
+            self.host.show_error(f"ball path: {type(err).__name__}: {err}; rolling stopped")
 
     def _on_pick_msg(self, msg):
         """Ctrl + click in the browser: inspect the blade on the pointer's ray (none: nothing)."""
@@ -232,16 +225,16 @@ class BrowserEngineView(EngineView):
         try:
             blade = pick_blade_on_ray(b.v0, b.up, b.height, b.width, msg["origin"], msg["direction"])
             if blade is not None:
-                self.actions.inspect([blade])
+                self.host.inspect([blade])
         except Exception as err:  # noqa: BLE001 - never raise into the comm handler
-            self.report_error(err)
+            self.host.show_error(err)
 
     def _on_key_msg(self, msg):
         """A key pressed in the focused browser view ({"key", "modifiers"}): see :meth:`on_key`."""
         try:
             self.on_key({"key": msg.get("key", ""), "modifiers": tuple(msg.get("modifiers") or ())})
         except Exception as err:  # noqa: BLE001 - never raise into the comm handler
-            self.report_error(err)
+            self.host.show_error(err)
 
     # ------------------------------------------------------------------ blades and time
 
@@ -264,9 +257,8 @@ class BrowserEngineView(EngineView):
             else:
                 blades = Blades.on_plane(int(blades))
         self.engine_widget.set_blades(blades)
-        self._ball_scene.field.blades = blades
         if self.ball is not None:
-            self.ball.attach(self.ball_scene)
+            self.ball.attach(self)
         self._stats["blades"] = len(blades)
 
     @property
@@ -277,11 +269,11 @@ class BrowserEngineView(EngineView):
     @property
     def steps_per_frame(self) -> int:
         # Average fixed steps per presented frame, as the browser last reported it (it follows
-        # the wall clock); before any report, :meth:`nominal_steps`.
+        # the wall clock); before any report, the nominal steps.
         s = self._stats.get("steps_per_frame")
         if s is not None:
             return int(s)
-        return self.nominal_steps()
+        return self._nominal_steps()
 
     @property
     def sim_time(self) -> float | None:
@@ -304,12 +296,12 @@ class BrowserEngineView(EngineView):
         # Always 1: the browser renders at full resolution.
         return 1.0
 
-    def set_playing(self, playing: bool):
+    def _set_playing(self, playing: bool):
         self._last_stats_t = None  # the speed of time is measured afresh
         if not self.closed:
             self.engine_widget.playing = bool(playing)
 
-    def set_time_scale(self, time_scale: float):
+    def _set_time_scale(self, time_scale: float):
         self._last_stats_t = None
         if not self.closed:
             self.engine_widget.time_scale = float(time_scale)
@@ -329,7 +321,7 @@ class BrowserEngineView(EngineView):
 
             self._changed_t = time.perf_counter()
         if self._at_rest and not self.closed:  # nothing will be drawn: the status line says how old it is
-            self.report_stats(self.current_stats())
+            self.host.show_stats(self.stats)
 
     def reset_camera(self):
         self.engine_widget.reset_camera()
@@ -349,7 +341,7 @@ class BrowserEngineView(EngineView):
 
     # ------------------------------------------------------------------ camera
 
-    def current_camera(self) -> dict:
+    def _current_camera(self) -> dict:
         cam = self.engine_widget.camera
         return {"position": tuple(float(x) for x in cam["position"]),
                 "target": tuple(float(x) for x in cam["target"]),
@@ -367,31 +359,27 @@ class BrowserEngineView(EngineView):
 
     # ------------------------------------------------------------------ pictures and state
 
-    def save_png(self, path, size):
+    def snapshot(self, path, size):
         # Rendered by the browser at ``size``, anti-aliased like the kernel engine's exports
-        # (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here (waits for the
-        # browser's answer).
+        # (``EXPORT_SUPERSAMPLE`` times larger, filtered down); written here when it comes.
         import imageio.v3 as iio
 
-        img = self.engine_widget.snapshot(size, supersample=EXPORT_SUPERSAMPLE)
-        iio.imwrite(path, img, extension=".png")
-        return path
-
-    def save_png_later(self, path, size, done):
-        # Ask the browser for a picture; write it and call ``done(path)`` when it arrives
-        # (used by the Save PNG button, which runs inside a comm message and cannot wait).
-        import imageio.v3 as iio
+        future = BrowserAnswer(f"a snapshot ({int(size[0])} x {int(size[1])}) from the browser view")
+        request = self.engine_widget.snapshot_request(size, EXPORT_SUPERSAMPLE)  # a bad size raises here
 
         def write(msg, buffers):
+            if future.done():  # given up (a timeout): a late picture is dropped
+                return
             try:
                 w, h = int(msg["width"]), int(msg["height"])
                 img = np.frombuffer(bytes(buffers[0]), np.uint8).reshape(h, w, 4)
                 iio.imwrite(path, img, extension=".png")
-                done(path)
-            except Exception as err:  # noqa: BLE001
-                self.report_error(err)
+                future.set_result(path)
+            except Exception as err:  # noqa: BLE001 - the Future carries it
+                future.set_exception(err)
 
-        self.engine_widget.request_async(self.engine_widget.snapshot_request(size, EXPORT_SUPERSAMPLE), write)
+        self.engine_widget.request_async(request, write)
+        return future
 
     @property
     def function_overrides(self):
@@ -445,7 +433,7 @@ class BrowserEngineView(EngineView):
         return self.engine_widget.read_inspected() if timeout is None else self.engine_widget.read_inspected(timeout=timeout)
 
     def _report_inspected(self, rows):
-        self.report_inspected(rows)
+        self.host.show_inspected(rows)
 
     def _request_inspected(self):
         """Ask the browser for the inspected numbers; the panel shows them when they come."""
@@ -460,21 +448,22 @@ class BrowserEngineView(EngineView):
                     return
                 self._report_inspected(self.engine_widget.inspected_from_answer(msg, buffers, ids))
             except Exception as err:  # noqa: BLE001
-                self.report_error(err)
+                self.host.show_error(err)
 
         self._inspect_request_pending = True
         self.engine_widget.request_async({"type": "read_inspected"}, done)
 
     # ------------------------------------------------------------------ stats
 
-    def current_stats(self) -> dict:
+    @property
+    def stats(self) -> dict:
         import time
 
         s = dict(self._stats)
-        s["blades"] = self.blade_count
+        s["blades"] = len(self.blades)
         s["target_fps"] = self.target_fps  # as the kernel's (the blade control's estimate aims for it)
         # How old: the newest stats message is the newest frame known to be drawn.
-        s.update(stats_freshness(time.perf_counter(), self._frame_t, playing=bool(self.playback.playing),
+        s.update(stats_freshness(time.perf_counter(), self._frame_t, playing=bool(self.play.playing),
                                  at_rest=self._at_rest, changed_t=self._changed_t,
                                  interval_s=self.engine_widget.stats_interval_ms / 1000.0))
         return s
@@ -485,10 +474,10 @@ class BrowserEngineView(EngineView):
         self._at_rest = True
         if msg.get("step_count") is not None:
             self._stats["step_count"] = msg["step_count"]
-        self.report_stats(self.current_stats())
+        self.host.show_stats(self.stats)
 
     def refresh_stats(self):
-        self.report_stats(self.current_stats())
+        self.host.show_stats(self.stats)
 
     def _sim_speed(self, steps):
         """Simulated seconds per time-scaled wall second since the previous stats message
@@ -499,8 +488,8 @@ class BrowserEngineView(EngineView):
 
         now, last = time.perf_counter(), getattr(self, "_last_stats_t", None)
         self._last_stats_t = now
-        scale = float(self.playback.time_scale)
-        if last is None or not self.playback.playing or scale <= 0 or now - last <= 0:
+        scale = float(self.play.time_scale)
+        if last is None or not self.play.playing or scale <= 0 or now - last <= 0:
             return None
         return steps * float(self.params.dt) / ((now - last) * scale)
 
@@ -524,9 +513,9 @@ class BrowserEngineView(EngineView):
             rastered=rastered,
             # blades culled by occlusion (both phases' draws are in visible); None while it is off
             occluded=int(msg["occluded"]) if msg.get("occluded") is not None else None,
-            blades=self.blade_count,
+            blades=len(self.blades),
             draw_ms=msg.get("frame_ms"),
-            steps_per_frame=int(round(steps / frames)) if self.playback.playing else 0,
+            steps_per_frame=int(round(steps / frames)) if self.play.playing else 0,
             frame_size=tuple(msg.get("frame_size") or ()) or None,
             adapter=msg.get("adapter"),
             step_count=msg.get("step_count"),
@@ -536,10 +525,10 @@ class BrowserEngineView(EngineView):
             switches=self.engine_widget.auto_switches.texts(),
             trial=self._trial_window(),
         )
-        self.report_stats(self.current_stats())
+        self.host.show_stats(self.stats)
         if self.engine_widget.inspected:
             self._request_inspected()
-        self.notify_frame()  # the traces' sample (grasswidget.notebook.trace_feed)
+        self._notify_frame()  # the traces' sample (grasswidget.views.trace_feed)
 
     def _trial_window(self) -> bool:
         """Whether a trial of the "auto" switches ran over the frames of this stats message."""
@@ -551,9 +540,6 @@ class BrowserEngineView(EngineView):
 
     # ------------------------------------------------------------------ keys, closing
 
-    def close(self):
-        if self.closed:
-            return
-        self.closed = True
+    def _close(self):
         self._detach_ball()
         self.engine_widget.close()
