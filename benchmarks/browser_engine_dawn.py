@@ -4,7 +4,7 @@ and its picture against the kernel engine's.
 Python builds what the page of ``GrassWidget(n, preset="meadow", size=..., backend="browser")``
 gets, the meadow preset exactly as a user gets it (the field to the horizon, the preset's camera and
 parameters, the sunlight's default for the page's adapter, ``--adapter``; the engine's ES module,
-``BrowserView._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
+``BrowserEngineWidget._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
 the rendered WGSL, frame rules, camera) at each blade count, and the kernel engine's picture of the
 same state (the same blades and params, ``STEPS`` fixed steps from rest, the preset's camera;
 ``GrassScene.render_at(antialias=False)``, like a live frame) with its count of blades drawn. It writes
@@ -83,7 +83,7 @@ MATRIX_ROWS = ("meadow:65536:1920x1080", "meadow:262144:1920x1080", "meadow:1048
 
 def parse_row(text: str):
     """"preset:blades:WxH" as (preset, blades, (w, h)); a clear error naming --rows otherwise."""
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     parts = text.split(":")
     if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) < 1:
@@ -118,9 +118,9 @@ def run_matrix(rows, dawn: Path, out: Path, rounds: int, window_s: float, env=No
 
 def engine_module() -> str:
     """The browser engine's ES module, as the anywidget and the live page get it."""
-    from grasswidget.browser.view import BrowserView
+    from grasswidget.browser.view import BrowserEngineWidget
 
-    return BrowserView._esm
+    return BrowserEngineWidget._esm
 
 
 def _json_or_none(value):
@@ -347,7 +347,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=None, help="--matrix's rounds (default browser_matrix's)")
     ap.add_argument("--window", type=float, default=None, help="--matrix's seconds a window lasts at least")
     args = ap.parse_args(argv)
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     if args.matrix:
         from benchmarks import browser_matrix

@@ -54,7 +54,7 @@ def _child_live(frames):
     import numpy as np
 
     import grasswidget as gw
-    from grasswidget.scene import GrassScene
+    from grasswidget.gpu.scene import GrassScene
 
     scene = GrassScene(gw.Blades.on_plane(4096, seed=0), size=(640, 480))
     for _ in range(5):
@@ -81,7 +81,7 @@ def _child_export(repeats=3):
     import numpy as np
 
     import grasswidget as gw
-    from grasswidget.scene import GrassScene
+    from grasswidget.gpu.scene import GrassScene
 
     w, h = 640, 360
     scene = GrassScene(gw.Blades.on_plane(65536, seed=0), size=(w, h))

@@ -37,7 +37,7 @@ def _child(case, frames):
 
     import grasswidget as gw
     from grasswidget.gpu.scene import GrassScene
-    from grasswidget.tools.bench import _apply_mode
+    from grasswidget.tools.benchmark import _apply_mode
 
     preset, blades, cull, *size = case.split(":")
     size = tuple(int(v) for v in size[0].split("x")) if size else None

@@ -56,7 +56,7 @@ def main(argv=None):
     from grasswidget import compat
     from grasswidget.gpu.adapter import adapter_info, ensure_device
     from grasswidget.gpu.scene import GrassScene, make_renderer
-    from grasswidget.tools.bench import _apply_mode
+    from grasswidget.tools.benchmark import _apply_mode
     from pygfx.renderers.wgpu import get_shared
 
     ensure_device()

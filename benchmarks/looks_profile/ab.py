@@ -44,7 +44,7 @@ from grasswidget.gpu.adapter import ensure_device
 from grasswidget.gpu.scene import GrassScene
 from grasswidget.gpu import shader_classes, sky_ground
 from grasswidget.core.shader_files import read_shader
-from grasswidget.tools.bench import _apply_mode
+from grasswidget.tools.benchmark import _apply_mode
 from grasswidget import compat
 ensure_device()
 import wgpu

@@ -6,9 +6,9 @@
 //   traits   engine_key (one engine per widget model), blade_data (rest pose, N x 64 bytes),
 //            n_blades, shaders (WGSL text + binding maps + the compute passes of a frame, in
 //            order), sim_uniform / cull_uniform / material_uniform / sky_ground_uniform /
-//            ball_uniform (packed structs, computed in Python: grasswidget.core.frame_data),
+//            ball_uniform (packed structs, computed in Python: grasswidget.core.engine_inputs),
 //            sim_layout / stdinfo_layout (field offsets), frame_rules (every rule of a frame as
-//            data, grasswidget.core.frame_data.frame_rules: {clock, dispatch, orbit, drag, style}),
+//            data, grasswidget.core.engine_inputs.frame_rules: {clock, dispatch, orbit, drag, style}),
 //            playing, time_scale, camera ({position, target, fov_deg, near, far}),
 //            collider_spheres / collider_grid (the colliders and their grid, bytes;
 //            grasswidget.core.collider_grid; the balls are drawn from the spheres),

@@ -2,7 +2,7 @@
 // with a local model in place of the kernel, and a plain-HTML control panel.
 //
 // The data block (written by grasswidget/browser/page.py) holds the engine's
-// source, the synced state of a BrowserView (binary traits base64), and the
+// source, the synced state of a BrowserEngineWidget (binary traits base64), and the
 // controls, each described by Python as patches of that state. This script
 // knows no trait names: it applies what Python described, answers the engine's
 // messages that the kernel would answer (ball, key, stats), and ignores the rest.

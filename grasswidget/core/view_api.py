@@ -20,8 +20,7 @@ Names: a *view* is one engine's view of a widget (this interface and its two
 implementations). The anywidget that runs engine.js in the page is
 :class:`~grasswidget.browser.view.BrowserEngineWidget` (``BrowserEngineView.engine_widget``);
 the kernel engine's clock is :class:`~grasswidget.notebook.clock.SimClock`; what a view
-reads of the widget's play state is its ``playback`` (:class:`PlaybackState`). The
-names of before (``GrassView``, ``ViewClock``, ``clock_source``) are aliases.
+reads of the widget's play state is its ``playback`` (:class:`PlaybackState`).
 
 What the two views share is written here once:
 
@@ -55,9 +54,9 @@ from typing import Callable, Protocol
 import numpy as np
 
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
-from .frame_data import MAX_STEPS_PER_FRAME
+from .engine_inputs import MAX_STEPS_PER_FRAME
 
-__all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state", "GrassView", "ViewClock",
+__all__ = ["EngineView", "PlaybackState", "ViewActions", "ViewMember", "check_camera_state",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -185,9 +184,6 @@ class EngineView(abc.ABC):
         """The kernel engine's pygfx ``OrbitController`` of the camera (None in the browser engine, which orbits
         in the page)."""
         return None
-
-    # The attribute's name of before ("clock" also meant the SimClock): the same object.
-    clock_source = property(lambda self: self.playback, doc="The name of before of :attr:`playback`.")
 
     # ------------------------------------------------------------------ the field
 
@@ -454,13 +450,13 @@ class EngineView(abc.ABC):
         first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
         decided, in words; None before the first window) and trial (True when a trial of the "auto"
         switches ran in the window measured: its frame rate is not the view's); and how old they are
-        (:func:`grasswidget.core.frame_data.stats_freshness`, the same rule in both engines):
+        (:func:`grasswidget.core.engine_inputs.stats_freshness`, the same rule in both engines):
         frame_age_s (wall seconds since the newest frame they describe arrived: acknowledged by the
         browser, or drawn when there is no browser; None before the first), at_rest (True while no
         view is on screen: nothing is drawn, the numbers are the last frame's), stale (True when
         they may not describe what the view would draw now: at rest, playing with a frame older than
         a stats interval, or a change not drawn for longer than one) and waiting (True while playing
-        on screen with no frame for ``frame_data.WAITING_AFTER_S``, 2 s). Every key is there from
+        on screen with no frame for ``engine_inputs.WAITING_AFTER_S``, 2 s). Every key is there from
         the start."""
         return self.current_stats()
 
@@ -543,8 +539,3 @@ class ViewMember:
         if not self.settable:
             raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
         setattr(self._open_view(owner), self.name, value)
-
-
-#: The names of before (issue 26: "view" and "clock" had several meanings): the same objects.
-GrassView = EngineView
-ViewClock = PlaybackState

@@ -64,7 +64,7 @@ from . import cell_rerun
 from .adaptive import check_target_fps
 from ..core.blades import Blades
 from ..core.limits import check_steps
-from ..core.framing import preset_params
+from ..core.presets import preset_params
 from ..core.view_api import MAX_STEPS_PER_FRAME, EngineView, ViewMember
 from ..errors import GrassTypeError, GrassValueError, WidgetClosedError
 from .kernel_view import STATS_INTERVAL, KernelView, streaming_defaults
@@ -74,7 +74,7 @@ from .layout import PANEL_WIDTH, WidgetLayout, close_widgets
 from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
 from ..core.orbit_limits import FLOORS, clamp_orbit
 from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat, sunlight_defaults
-from .sunlight_default import SunlightDefault
+from .shadows_default import ShadowsDefault
 
 __all__ = ["GrassWidget", "streaming_defaults", "MAX_STEPS_PER_FRAME", "STATS_INTERVAL", "BACKENDS"]
 
@@ -143,7 +143,7 @@ class GrassWidget(ipw.VBox):
         step_button, reset_blades_button, reset_camera_button, save_button,
         png_scale, file_line, stats_line, message_line, switch_choices: the panel's controls
             (``blade_slider``: the blade count control's slider, in powers of two, see
-            :mod:`grasswidget.notebook.blade_control`; ``switch_choices``: {trait: SwitchChoice}, the
+            :mod:`grasswidget.notebook.blade_count_control`; ``switch_choices``: {trait: SwitchChoice}, the
             auto / on / off choices of cull_occlusion and compute_raster, :mod:`grasswidget.notebook.switch_choice`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
@@ -221,7 +221,7 @@ class GrassWidget(ipw.VBox):
     def __init__(self, blades=4096, preset=None, size=None, params=None, *, max_fps=None, quality=None,
                  pixel_ratio=None, backend="auto", target_fps=None, layout="default",
                  function_overrides=None):
-        from ..core.framing import PRESETS, parse_size
+        from ..core.presets import PRESETS, parse_size
         from ..core.wgsl_overrides import FunctionOverrides
         from .layout import LAYOUT_VIEW_SIZES, check_layout
 
@@ -293,8 +293,8 @@ class GrassWidget(ipw.VBox):
             params = GrassParams(**{**sun, **(preset_params(preset) if preset else {})})
         self.params = params
         # Later adapters (the browser engine's report, a fall back to the kernel) set it the same way,
-        # while it is the widget's own default (notebook/sunlight_default.py).
-        self._sun_default = SunlightDefault(self.params, own=self._own_params)
+        # while it is the widget's own default (notebook/shadows_default.py).
+        self._sun_default = ShadowsDefault(self.params, own=self._own_params)
 
         try:
             if backend == "kernel":
@@ -607,7 +607,7 @@ class GrassWidget(ipw.VBox):
                 the folder is created).
             size: (width, height) or "WxH"; default twice the view size.
         """
-        from ..core.framing import check_png_path, parse_size
+        from ..core.presets import check_png_path, parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])

@@ -6,7 +6,7 @@
   entry's exports.
 * Every rule of js/rules.js, run with Node.js on many inputs, gives what its Python twin (the
   function that decides it) gives, as the WGSL twins are checked against NumPy. SimClock,
-  clampOrbit and hzbLayout are checked in tests/core/test_frame_data.py the same way.
+  clampOrbit and hzbLayout are checked in tests/core/test_engine_inputs.py the same way.
 * The numbers those rules use come from Python: frame_rules carries them, the modules do not
   write them.
 
@@ -27,7 +27,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.browser import esm
 from grasswidget.browser.view import BrowserEngineWidget
-from grasswidget.core import camera_rules, frame_data
+from grasswidget.core import camera_rules, engine_inputs
 from grasswidget.errors import PageBuildError
 from conftest import node_executable
 
@@ -113,7 +113,7 @@ def test_rules_js_computes_what_its_python_twins_decide():
 
     rng = np.random.default_rng(11)
     blades = gw.Blades.on_plane(300, size=6.0)
-    rules = frame_data.frame_rules(gw.GrassParams(), blades, 100.0)
+    rules = engine_inputs.frame_rules(gw.GrassParams(), blades, 100.0)
     vec = lambda lo, hi: [float(x) for x in rng.uniform(lo, hi, 3)]  # noqa: E731
     cameras = [[vec(-30, 30), vec(-5, 5)] for _ in range(200)]
     cameras += [[[0.0, 9.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, -3.0, 0.0], [0.0, 1.0, 0.0]]]  # straight down and up
@@ -124,7 +124,7 @@ def test_rules_js_computes_what_its_python_twins_decide():
     pans = [[vec(-30, 30), vec(-5, 5), float(rng.uniform(20, 90)), float(rng.normal(0, 50)), float(rng.normal(0, 50)),
              float(rng.integers(100, 1200))] for _ in range(100)]
     wheels = [[vec(-30, 30), vec(-5, 5), float(rng.normal(0, 400))] for _ in range(100)]
-    clocks = [frame_data.clock_rules(gw.GrassParams(wind_field=w, dt=dt)) for w in ("wave", "radial", "vortex", "noise")
+    clocks = [engine_inputs.clock_rules(gw.GrassParams(wind_field=w, dt=dt)) for w in ("wave", "radial", "vortex", "noise")
               for dt in (1 / 120, 1 / 60, 0.0037)]
     clocks.append(dict(clocks[0], wind_period=0.0))  # no period
     winds = [[int(k), clocks[int(rng.integers(len(clocks)))]] for k in rng.integers(0, 10 ** 7, 200)]
@@ -157,12 +157,12 @@ def test_rules_js_computes_what_its_python_twins_decide():
         assert np.allclose(js, camera_rules.wheel_zoom(p, t, d, rules["drag"]), atol=1e-9)
     assert any(abs(d * camera_rules.WHEEL_PER_DELTA) > camera_rules.WHEEL_MAX_LOG for _, _, d in wheels)
     for (k, clock), js in zip(winds, got["wind"]):
-        assert js == frame_data.wind_time(k, clock["dt"], clock["wind_period"]), (k, clock)
+        assert js == engine_inputs.wind_time(k, clock["dt"], clock["wind_period"]), (k, clock)
     assert any(c["wind_period"] > 0 for _, c in winds) and any(c["wind_period"] == 0 for _, c in winds)
-    assert got["perDispatch"] == [frame_data.steps_per_dispatch(n) for n in counts]
+    assert got["perDispatch"] == [engine_inputs.steps_per_dispatch(n) for n in counts]
     assert [tuple(g) for g in got["groups"]] == [workgroups(n)[:2] for n in counts]
     for words, js in zip(readbacks, got["counters"]):
-        want = frame_data.read_counters(np.array(words, np.uint32), layout)
+        want = engine_inputs.read_counters(np.array(words, np.uint32), layout)
         # a sum past 2^32 is a number in JS, not wrapped (a real count stays far below: 2^24 blades)
         assert js == want, words
 
@@ -173,7 +173,7 @@ def test_counter_layout_is_where_both_engines_copy_their_counts():
     from grasswidget.browser.browser_wgsl import BrowserShaders
     from grasswidget.core.reference import LOD_SEGMENTS
 
-    layout = frame_data.counter_layout()
+    layout = engine_inputs.counter_layout()
     c = len(LOD_SEGMENTS)
     assert layout["second_at"] - layout["first_at"] == 4 * c
     assert layout["raster_at"] - layout["second_at"] == BrowserShaders.occlusion()["args_words"]
@@ -183,12 +183,12 @@ def test_counter_layout_is_where_both_engines_copy_their_counts():
     words[[4 * k + 1 for k in range(c)]] = [10 * (k + 1) for k in range(c)]
     words[[4 * c + 4 * k + 1 for k in range(c)]] = [k + 1 for k in range(c)]
     words[8 * c], words[8 * c + 4] = 7, 5
-    assert frame_data.read_counters(words, layout) == {
+    assert engine_inputs.read_counters(words, layout) == {
         "visible_per_class": [11 * (k + 1) for k in range(c)], "occluded": 7, "rastered": 5}
     with pytest.raises(gw.GrassValueError, match="n_classes"):
-        frame_data.counter_layout(0)
+        engine_inputs.counter_layout(0)
     with pytest.raises(gw.GrassValueError, match="words"):
-        frame_data.read_counters(words[:-1], layout)
+        engine_inputs.read_counters(words[:-1], layout)
 
 
 def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
@@ -196,16 +196,16 @@ def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
     workgroup size, the blade steps per dispatch, the drag's rates, the stats interval; the
     engine's modules no longer write the old literals."""
     from grasswidget.core.shader_files import WORKGROUP_SIZE
-    from grasswidget.gpu.simulation import MAX_BLADE_STEPS_PER_DISPATCH
+    from grasswidget.core.engine_inputs import BLADE_STEPS_PER_DISPATCH
 
     blades = gw.Blades.on_plane(64)
     view = BrowserEngineWidget(blades, size=(160, 120))
     try:
         rules = view.frame_rules
         assert rules["dispatch"] == {"workgroup_size": WORKGROUP_SIZE, "max_groups_x": 65535,
-                                     "blade_steps_per_dispatch": MAX_BLADE_STEPS_PER_DISPATCH}
+                                     "blade_steps_per_dispatch": BLADE_STEPS_PER_DISPATCH}
         assert rules["drag"] == camera_rules.drag_rules()
-        assert view.stats_interval_ms == frame_data.STATS_INTERVAL_MS
+        assert view.stats_interval_ms == engine_inputs.STATS_INTERVAL_MS
         assert view.camera == camera_rules.default_camera(blades.v0)
         json.dumps(rules)  # JSON-able, as the comm sends it
     finally:

@@ -1682,9 +1682,9 @@ _JS_SLIDER_LABELS = """() => Array.from(document.querySelectorAll('.widget-slide
 
 def panel_label(trait: str) -> str:
     """The label the widget's panel shows for a GrassParams (or widget) trait, e.g.
-    ``panel_label("gravity") == "gravity (m/s²)"`` (grasswidget.panel.control_label)."""
+    ``panel_label("gravity") == "gravity (m/s²)"`` (grasswidget.notebook.panel.control_label)."""
     import grasswidget as gw
-    from grasswidget.panel import control_label
+    from grasswidget.notebook.panel import control_label
 
     traits = {**gw.GrassWidget.class_traits(), **gw.GrassParams.class_traits()}
     return control_label(trait, traits.get(trait))

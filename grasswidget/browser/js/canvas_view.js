@@ -176,7 +176,7 @@ export class CanvasView {
   }
 
   onKey(e) {
-    // Python decides what a key does (view_api.GrassView.on_key, shared with the kernel engine).
+    // Python decides what a key does (view_api.EngineView.on_key, shared with the kernel engine).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
     if (e.key === " ") e.preventDefault();  // not the page's scroll
     this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });

@@ -1,5 +1,5 @@
 // Occlusion culling and the compute rasterizer of thin blades: Python's shaders.occlusion and
-// shaders.compute_raster (grasswidget.browser.wgsl.BrowserShaders) executed. Kept apart from the
+// shaders.compute_raster (grasswidget.browser.browser_wgsl.BrowserShaders) executed. Kept apart from the
 // rest of the engine: buildPipelines, buildBuffers, makeBindGroups and encodeFrame call in here.
 //
 // Occlusion culling: while u_cull.occlusion_phase (Python's bytes) is 1, each frame is drawn in two
@@ -13,7 +13,7 @@ import { hzbLayout } from "./rules.js";
 /** The occlusion culling's and the compute rasterizer's pipelines, buffers and passes. */
 export class EngineCulling extends EngineResources {
   // ---------------------------------------------------------------- occlusion culling
-  // Python's shaders.occlusion (grasswidget.browser.wgsl.BrowserShaders.occlusion) executed: the
+  // Python's shaders.occlusion (grasswidget.browser.browser_wgsl.BrowserShaders.occlusion) executed: the
   // pyramid's levels, the second culling phase and its draws. Kept apart from the rest of the
   // engine (buildPipelines, buildBuffers, makeBindGroups and encodeFrame each call in here once).
 
@@ -27,7 +27,7 @@ export class EngineCulling extends EngineResources {
     return { spec, levels, cull, blades, flatBlades, targets: new Map() };
   }
 
-  // u_cull.occlusion_phase of Python's bytes (frame_data.cull_uniform_values): 1 = two phases.
+  // u_cull.occlusion_phase of Python's bytes (engine_inputs.cull_uniform_values): 1 = two phases.
   occlusionOn() {
     if (!this.occlusion) return false;
     const cu = this.model.get("cull_uniform");
@@ -161,7 +161,7 @@ export class EngineCulling extends EngineResources {
   }
 
   // ---------------------------------------------------------------- compute rasterizer
-  // Python's shaders.compute_raster (grasswidget.browser.wgsl.BrowserShaders.compute_raster)
+  // Python's shaders.compute_raster (grasswidget.browser.browser_wgsl.BrowserShaders.compute_raster)
   // executed: per view size, the per-pixel depth and payload words and the bind groups of the
   // passes that use them; the resolve draw. The clear and the walks are compute passes of
   // shaders.compute_passes (only_if "compute_raster", "sized").
@@ -176,7 +176,7 @@ export class EngineCulling extends EngineResources {
     return { spec, second_args, second_depth, second_payload, resolve, resolveFlat, targets: new Map() };
   }
 
-  // u_cull.compute_raster of Python's bytes (frame_data.compute_raster_values): 1 = on.
+  // u_cull.compute_raster of Python's bytes (engine_inputs.compute_raster_values): 1 = on.
   rasterOn() {
     if (!this.raster) return false;
     const cu = this.model.get("cull_uniform");

@@ -39,7 +39,7 @@ export class EngineDevice {
   }
 
   /** @returns {{clock: object, orbit: object, drag: object, dispatch: object, stats: object, style: object}}
-   * Python's frame_rules (grasswidget.core.frame_data.frame_rules) */
+   * Python's frame_rules (grasswidget.core.engine_inputs.frame_rules) */
   rules() { return this.model.get("frame_rules"); }
 
   listen() {

@@ -2,7 +2,7 @@
 // trait changes applied, and what the engine tells Python on its own (stats, steps).
 //
 // Requests: step {n}, reset, read_state {id}, snapshot {id, width, height, filter}
-//   (filter: grasswidget.core.frame_data.export_filter, the supersampling), read_inspected {id},
+//   (filter: grasswidget.core.engine_inputs.export_filter, the supersampling), read_inspected {id},
 //   sync {id} (answered at once: "synced"), compile_simulate {id, shader, passes}, lose_device (tests).
 // Answers and reports: state, snapshot, inspected, compiled, synced, stats, steps, pick, ball, key,
 //   rest (no view on screen: nothing is drawn until one is), error and device_lost messages; the
@@ -13,7 +13,7 @@
 //   onSubmittedWorkDone) of the frames since the last message drawn with the switch state
 //   timed_switches ([occlusion, compute raster] as executed from u_cull; the list restarts when it
 //   changes); counts_switches: the state of the frame the counts are of. Python's "auto" switches
-//   (grasswidget.browser.auto_switches) measure by them and answer with new u_cull words.
+//   (grasswidget.browser.trial_feed) measure by them and answer with new u_cull words.
 
 import { EnginePasses } from "./passes.js";
 import { downsample } from "./pictures.js";
@@ -207,7 +207,7 @@ export class EngineMessages extends EnginePasses {
   }
 
   // Milliseconds between stats messages: Python's stats_interval_ms (default
-  // grasswidget.core.frame_data.STATS_INTERVAL_MS; the lab bench asks for 200 while a chart is shown).
+  // grasswidget.core.engine_inputs.STATS_INTERVAL_MS; the lab bench asks for 200 while a chart is shown).
   statsInterval() {
     return this.model.get("stats_interval_ms");
   }

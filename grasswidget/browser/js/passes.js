@@ -26,7 +26,7 @@ export class EnginePasses extends EngineCulling {
     return bytes;
   }
 
-  // The wind time of step k: (k dt) mod wind_period (rules.js windTime, Python's frame_data.wind_time).
+  // The wind time of step k: (k dt) mod wind_period (rules.js windTime, Python's engine_inputs.wind_time).
   windTime(k) { return windTime(k, this.rules().clock); }
 
   // u_sim for "now": the current parameters at the time of the next step, no steps
@@ -185,7 +185,7 @@ export class EnginePasses extends EngineCulling {
       }
       const device = this.device;
       // The switch state this frame executes ([occlusion, compute raster], Python's u_cull words):
-      // its time and counts are reported with it (grasswidget.browser.auto_switches measures by them).
+      // its time and counts are reported with it (grasswidget.browser.trial_feed measures by them).
       const switches = [this.occlusionOn(), this.rasterOn()];
       let first = true;
       for (const view of shown) {

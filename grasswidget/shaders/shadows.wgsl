@@ -2,7 +2,7 @@
 // light under the grass, for the surfaces both engines draw: the ribbons (blade_render.wgsl),
 // the compute rasterizer's resolve (raster_resolve.wgsl) and the ground (sky_ground.wgsl).
 // Included after blade_math.wgsl by shaders whose u_material has the fields of
-// uniform_layouts.SUNLIGHT_LAYOUT (values: frame_data.sunlight_values): light_direction (unit,
+// uniform_layouts.SUNLIGHT_LAYOUT (values: engine_inputs.sunlight_values): light_direction (unit,
 // towards the sun), shadow_balls (the first MAX_SHADOW_BALLS sphere colliders, radius 0 unused),
 // shadow_field (the field's rectangle: xy centre (x, z), zw half sizes), shadow_depths (x the
 // sun's and y the sky's optical depth per metre of grass height, z the layer's height, w the
