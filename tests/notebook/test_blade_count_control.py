@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from grasswidget.notebook.blade_count_control import (BladeCountControl, blade_stops, count_words, estimate_fps,
-                                                       needs_confirmation)
+                                                      needs_confirmation)
 from grasswidget.notebook.panel import format_status
 
 
