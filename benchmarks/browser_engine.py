@@ -136,7 +136,7 @@ def median_ratio(row):
 def occlusion_on_off(page, server, root):
     """Occlusion culling off vs on in the cis565 view, windows interleaved in one run."""
     write_notebook(root / "occlusion.ipynb", [
-        "import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        "import grasswidget as gw\nfrom grasswidget.core.presets import preset_field\n"
         f"w = gw.GrassWidget({OCCLUSION_COUNTS[0]}, preset='cis565', backend='browser', size=(640, 480))\nw",
     ])
     open_notebook(page, server, "occlusion.ipynb")
@@ -272,7 +272,7 @@ def compute_raster_on_off(page, server, root):
     """The compute rasterizer off vs on in the default view, windows interleaved in one run, then
     where a frame's time goes (profile_frame) with it off and on."""
     write_notebook(root / "compute_raster.ipynb", [
-        f"import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        f"import grasswidget as gw\nfrom grasswidget.core.presets import preset_field\n"
         f"w = gw.GrassWidget({RASTER_ROWS[0][1]}, backend='browser', size=(640, 480))\nw",
     ])
     open_notebook(page, server, "compute_raster.ipynb")

@@ -86,7 +86,7 @@ MATRIX_ROWS = ("meadow:65536:1920x1080", "meadow:262144:1920x1080", "meadow:1048
 
 def parse_row(text: str):
     """"preset:blades:WxH" as (preset, blades, (w, h)); a clear error naming --rows otherwise."""
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     parts = text.split(":")
     if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) < 1:
@@ -347,7 +347,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=None, help="--matrix's rounds (default browser_matrix's)")
     ap.add_argument("--window", type=float, default=None, help="--matrix's seconds a window lasts at least")
     args = ap.parse_args(argv)
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     if args.matrix:
         import browser_matrix

@@ -84,7 +84,7 @@ def run(args):
 
     from grasswidget import compat
     from grasswidget.gpu.adapter import adapter_info, ensure_device
-    from grasswidget.gpu.auto_switches import switch_texts
+    from grasswidget.gpu.trial_timing import switch_texts
     from grasswidget.gpu.scene import GrassScene, make_renderer, parse_size
 
     device = ensure_device()

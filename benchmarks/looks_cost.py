@@ -56,7 +56,7 @@ def _scene_class():
     try:  # the package's public name
         from grasswidget import GrassScene
     except ImportError:  # a baseline from before it was public
-        from grasswidget.scene import GrassScene
+        from grasswidget.gpu.scene import GrassScene
     return GrassScene
 
 

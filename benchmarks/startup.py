@@ -1,7 +1,7 @@
 """Start-up benchmark: import time, the widget's first frame, the live page's first frame.
 
 * import: wall time of ``python -c "import grasswidget"`` (the pure core; GPU code
-  loads on first use) and of ``import grasswidget.widget`` (ipywidgets, anywidget,
+  loads on first use) and of ``import grasswidget.notebook.widget`` (ipywidgets, anywidget,
   pygfx, jupyter-rfb), against ``python -c pass``; the median of --repeat runs;
 * the widget's first frame, in JupyterLab + headless Chromium: from "run all cells"
   to the first frame in the page, for the kernel engine (the first jupyter-rfb
@@ -61,7 +61,7 @@ def import_times(repeat):
 
     base = wall("pass")
     return {"python_pass_s": base, "import_grasswidget_s": wall("import grasswidget"),
-            "import_grasswidget_widget_s": wall("import grasswidget.widget")}
+            "import_grasswidget_widget_s": wall("import grasswidget.notebook.widget")}
 
 
 def widget_first_frames(root):

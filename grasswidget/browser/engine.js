@@ -7,9 +7,9 @@
 //   traits   engine_key (one engine per widget model), blade_data (rest pose, N x 64 bytes),
 //            n_blades, shaders (WGSL text + binding maps + the compute passes of a frame, in
 //            order), sim_uniform / cull_uniform / material_uniform / sky_ground_uniform /
-//            ball_uniform (packed structs, computed in Python: grasswidget.core.frame_data),
+//            ball_uniform (packed structs, computed in Python: grasswidget.core.engine_inputs),
 //            sim_layout / stdinfo_layout (field offsets), frame_rules (every rule of a frame as
-//            data, grasswidget.core.frame_data.frame_rules: {clock, dispatch, orbit, drag, style}),
+//            data, grasswidget.core.engine_inputs.frame_rules: {clock, dispatch, orbit, drag, style}),
 //            playing, time_scale, camera ({position, target, fov_deg, near, far}),
 //            collider_spheres / collider_grid (the colliders and their grid, bytes;
 //            grasswidget.core.collider_grid; the balls are drawn from the spheres),
@@ -38,7 +38,7 @@
 //   types.js           the types (Model, FrameRules...) for tsc --checkJs; no code, not in the module text
 // GrassEngine (below) owns the state (step count, clock, views, start-up and device loss) and the
 // frame loop, and holds one of each; each is built with what it needs and reaches into no other.
-// Every number of the engine is Python's: frame_rules.engine (core.frame_data.engine_rules).
+// Every number of the engine is Python's: frame_rules.engine (core.engine_inputs.engine_rules).
 //
 // A compute pass or an overlay with "only_if" runs while its condition holds ("frozen",
 // "inspecting", "compute_raster"); a pass with sim_uniform "now" gets u_sim for the time of the next
@@ -141,7 +141,7 @@ class GrassEngine {
     document.addEventListener("visibilitychange", this.onPageVisibility);
   }
 
-  /** @returns {import("./types.js").FrameRules} Python's frame_rules (grasswidget.core.frame_data.frame_rules) */
+  /** @returns {import("./types.js").FrameRules} Python's frame_rules (grasswidget.core.engine_inputs.frame_rules) */
   rules() { return this.model.get("frame_rules"); }
 
   listen() {
@@ -477,7 +477,7 @@ class GrassEngine {
       const device = this.gpu.device;
       const passes = this.passes;
       // The switch state this frame executes ([occlusion, compute raster], Python's u_cull words):
-      // its time and counts are reported with it (grasswidget.browser.auto_switches measures by them).
+      // its time and counts are reported with it (grasswidget.browser.trial_feed measures by them).
       const switches = [passes.occlusionOn(), passes.rasterOn()];
       let first = true;
       for (const view of shown) {

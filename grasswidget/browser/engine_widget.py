@@ -28,7 +28,7 @@ messages (``jupyter-ui-poll``), so they work inside a running cell; with no view
 answering they raise ``TimeoutError`` naming the browser view.
 
 The "auto" switches (``params.cull_occlusion``, ``params.compute_raster``) are decided here, by
-measuring the browser's frames (:mod:`grasswidget.browser.auto_switches`, the kernel's rule): each
+measuring the browser's frames (:mod:`grasswidget.browser.trial_feed`, the kernel's rule): each
 stats message carries ``frame_times`` (ms), ``timed_switches`` and ``counts_switches``
 (``[occlusion, compute raster]`` as the browser executed them; js/messages.js documents the
 message), and Python answers with the state to execute as ``u_cull``'s ``occlusion_phase`` and
@@ -50,7 +50,7 @@ from ..core.blades import Blades, unpack_state
 from ..core.colliders import ColliderList, collider_array
 from ..core.limits import check_steps, nonfinite_cause, nonfinite_message, warn_nonfinite
 from ..core import camera_rules
-from ..core.frame_data import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
+from ..core.engine_inputs import SKY_GROUND_TRAITS, STATS_INTERVAL_MS, export_filter, frame_rules, scene_style
 from ..core.orbit_limits import OrbitLimits, check_floor
 from ..core.params import SUN_TRAITS, GrassParams
 from ..core.reference import FORCE_NAMES
@@ -58,7 +58,7 @@ from ..core.teaching import FrozenView, check_inspect_ids, frozen_view, inspecte
 from ..core.uniform_layouts import INSPECT_LAYOUT, pack
 from ..core.wgsl_overrides import wind_limit_error
 from . import uniforms
-from .auto_switches import BrowserAutoSwitches
+from .trial_feed import BrowserAutoSwitches
 from .esm import engine_module_text
 from .kernel_pump import BrowserTimeoutError, wait_for
 from .browser_wgsl import USER_WIND_SIGNATURE, BrowserShaders, wind_body, with_function_overrides
@@ -126,7 +126,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     ball_uniform = Bytes(b"").tag(sync=True)
     stdinfo_size = Int(0).tag(sync=True)
     stdinfo_layout = Dict().tag(sync=True)
-    #: grasswidget.core.frame_data.frame_rules: the clock's rules, the orbit limits, the scene style.
+    #: grasswidget.core.engine_inputs.frame_rules: the clock's rules, the orbit limits, the scene style.
     frame_rules = Dict().tag(sync=True)
     playing = Bool(True).tag(sync=True)
     time_scale = Float(1.0).tag(sync=True)
@@ -144,7 +144,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     show_colliders = Bool(True).tag(sync=True)
     #: The browser sends a "steps" message about every 60 ms (the rolling ball follows simulated time).
     report_steps = Bool(False).tag(sync=True)
-    #: Milliseconds between the browser's stats messages (100..2000, default frame_data.STATS_INTERVAL_MS;
+    #: Milliseconds between the browser's stats messages (100..2000, default engine_inputs.STATS_INTERVAL_MS;
     #: the lab bench's traces sample at each).
     stats_interval_ms = Int(STATS_INTERVAL_MS).tag(sync=True)
     #: Rendered pixels per CSS pixel; 0 = the display's devicePixelRatio (at most 2).
@@ -192,13 +192,13 @@ class BrowserEngineWidget(anywidget.AnyWidget):
             self.shaders = self._shader_tree()
             self.inspect_uniform = pack(INSPECT_LAYOUT, {"n_ids": 0})
             self._set_blades(blades)
-            self.camera = dict(camera) if camera else default_camera(blades, self.width / self.height)
+            self.camera = dict(camera) if camera else camera_rules.default_camera(blades.v0)
             self._write_frame_rules()
         self.home_camera = dict(self.camera)
         self.observe(self._on_camera_far, names="camera")
         self.observe(self._on_camera_floor, names="camera_floor")
         self.params.observe(self._on_params)
-        #: The "auto" switches, decided by measuring the browser's frames (grasswidget.browser.auto_switches).
+        #: The "auto" switches, decided by measuring the browser's frames (grasswidget.browser.trial_feed).
         self.auto_switches = BrowserAutoSwitches(self, self._write_switches)
         self.auto_switches.refresh()
         self.observe(lambda _change: self.auto_switches.refresh(), names="camera")  # moved far: decide again
@@ -296,7 +296,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         with self.hold_sync():
             self.sim_uniform = uniforms.sim_uniform(self.params, len(self.blades), self._colliders)
             self._write_colliders()
-            # the balls' shadows (sunlight.wgsl reads them from both materials)
+            # the balls' shadows (shadows.wgsl reads them from both materials)
             self.material_uniform = uniforms.material_uniform(self.params, self.blades, self._colliders)
             if self.camera:
                 self._write_sky_ground()
@@ -470,7 +470,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     def snapshot_request(size, supersample: int = 1) -> dict:
         """The browser's snapshot message for ``size`` (w, h) pixels: rendered
         ``supersample`` times larger (1..4) and filtered down with
-        :func:`grasswidget.core.frame_data.export_filter`, as the kernel engine's exports."""
+        :func:`grasswidget.core.engine_inputs.export_filter`, as the kernel engine's exports."""
         w, h = int(size[0]), int(size[1])
         if w < 1 or h < 1:
             raise GrassValueError(f"size must be (width, height) of at least 1 pixel; got {tuple(size)!r}")
@@ -600,10 +600,3 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         own_layout = self.layout  # a widget of its own, which ipywidgets' close leaves open
         super().close()
         own_layout.close()
-
-
-def default_camera(blades: Blades, aspect: float) -> dict:
-    """GrassScene's default view of a field (:func:`grasswidget.core.camera_rules.default_camera`;
-    ``aspect`` is not used: the view is the same at every aspect)."""
-    return camera_rules.default_camera(blades.v0)
-

@@ -303,7 +303,7 @@ def page_controls(view, ball_radius=None, ball_enabled=False) -> dict:
     for cid, label in (("cull_orientation", "orientation culling"), ("cull_frustum", "frustum culling"),
                        ("cull_distance", "distance culling"), ("lod", "LOD")):
         param_control(cid, label, "checkbox", cid, [False, True])
-    # a three-way switch (core.pays.AutoSwitch): "auto" is the browser engine's own choice
+    # a three-way switch (core.auto_switches.AutoSwitch): "auto" is the browser engine's own choice
     param_control("cull_occlusion", "occlusion culling", "select", "cull_occlusion", ["auto", True, False],
                   labels=["auto", "on", "off"])
     colour = [label for label in ColorBy.labels()]

@@ -13,7 +13,7 @@
  * @property {Bytes} blade_data the rest pose, N records of frame_rules.engine.blade_bytes
  * @property {number} n_blades blades (>= 0)
  * @property {Shaders} shaders WGSL texts, binding maps and the compute passes of a frame
- * @property {Bytes} sim_uniform u_sim packed (frame_data.sim_uniform_values)
+ * @property {Bytes} sim_uniform u_sim packed (engine_inputs.sim_uniform_values)
  * @property {Object<string, number[]>} sim_layout u_sim's fields: name -> [offset, bytes]
  * @property {Bytes} cull_uniform u_cull packed
  * @property {Bytes} material_uniform u_material packed
@@ -21,7 +21,7 @@
  * @property {Bytes} ball_uniform u_balls packed
  * @property {number} stdinfo_size bytes of the camera uniform
  * @property {Object<string, number[]>} stdinfo_layout the camera uniform's fields: name -> [offset, bytes]
- * @property {FrameRules} frame_rules every rule of a frame as data (core.frame_data.frame_rules)
+ * @property {FrameRules} frame_rules every rule of a frame as data (core.engine_inputs.frame_rules)
  * @property {boolean} playing the clock runs
  * @property {number} time_scale simulated seconds per wall second
  * @property {Camera} camera the camera (metres, degrees)
@@ -54,7 +54,7 @@
 /** @typedef {{position: number[], target: number[], fov_deg: number, near: number, far: number}} Camera */
 
 /**
- * The browser engine's own numbers (core.frame_data.engine_rules).
+ * The browser engine's own numbers (core.engine_inputs.engine_rules).
  * @typedef {Object} EngineRules
  * @property {number} frames_in_flight frames queued on the GPU at most
  * @property {number} device_loss_retries restarts after a lost device
@@ -67,15 +67,15 @@
  */
 
 /**
- * core.frame_data.frame_rules.
+ * core.engine_inputs.frame_rules.
  * @typedef {Object} FrameRules
  * @property {{dt: number, max_steps_per_frame: number, wind_period: number}} clock
- * @property {any} dispatch core.frame_data.dispatch_rules
- * @property {any} orbit core.frame_data.orbit_rules
+ * @property {any} dispatch core.engine_inputs.dispatch_rules
+ * @property {any} orbit core.engine_inputs.orbit_rules
  * @property {any} drag core.camera_rules.drag_rules
  * @property {import("./js/rules.js").InputRules} input core.interaction.input_rules
  * @property {{words: number, first_at: number, second_at: number, raster_at: number, visible: number[][], occluded: number, rastered: number}} counters
- * @property {any} style core.frame_data.scene_style
+ * @property {any} style core.engine_inputs.scene_style
  * @property {EngineRules} engine
  */
 

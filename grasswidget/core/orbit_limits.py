@@ -5,7 +5,7 @@
 engines hold their orbit to them: the kernel's
 :class:`grasswidget.views.orbit.GroundOrbitController`, and the browser's
 drag (``browser/js/rules.js`` ``clampOrbit``, with the limits sent as data by
-:func:`grasswidget.core.frame_data.orbit_rules`).
+:func:`grasswidget.core.engine_inputs.orbit_rules`).
 
 The limits, for a field on a y-up ground plane:
 

@@ -165,7 +165,7 @@ class FrozenView:
     """A frozen culling camera as the culling pass sees it (no GPU): ``view_proj``
     (4x4 float64, world to WebGPU clip space, depth 0..1), ``position`` (3,) world
     position (m) and ``viewport_size`` ((w, h) pixels: the aspect it was taken at and
-    the pixel scale of the LOD classes). :func:`grasswidget.core.frame_data.cull_uniform_values`
+    the pixel scale of the LOD classes). :func:`grasswidget.core.engine_inputs.cull_uniform_values`
     writes it into ``u_cull`` for both engines; :meth:`segments` is its view volume as lines.
     """
 

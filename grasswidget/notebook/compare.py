@@ -147,7 +147,7 @@ class Comparison(ipw.VBox):
 
     def __init__(self, variants, blades=4096, preset=None, backend="kernel", size=DEFAULT_VIEW_SIZE, params=None,
                  **widget_options):
-        from ..core.framing import parse_size
+        from ..core.presets import parse_size
         from .widget import GrassWidget
 
         if params is not None and not isinstance(params, GrassParams):
@@ -497,7 +497,7 @@ class Comparison(ipw.VBox):
 
         from PIL import Image
 
-        from ..core.framing import check_png_path, parse_size
+        from ..core.presets import check_png_path, parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])

@@ -28,7 +28,7 @@ from ..core.blades import Blades
 from ..errors import GrassTypeError, GrassValueError
 from ..views import engines
 from ..views.kernel import STATS_INTERVAL, KernelView, streaming_defaults
-from .sunlight_default import SunlightDefault
+from .shadows_default import ShadowsDefault
 
 __all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
 
@@ -93,7 +93,7 @@ class EngineSwitch:
 
     def __init__(self, backend, size, state, *, streaming_overrides, preset=None, function_overrides=None,
                  commands=None):
-        from ..core.framing import PRESETS
+        from ..core.presets import PRESETS
         from ..core.wgsl_overrides import FunctionOverrides
 
         self.requested = check_backend(backend)
@@ -172,7 +172,7 @@ class EngineSwitch:
         if self.view is None or self.view.closed or self.view.backend != "browser":
             return
         try:
-            new = self.kernel_view()
+            new = self.new_kernel_view()
         except Exception as err:  # no adapter in the kernel either
             self.show_error(f"WebGPU is not available in this browser ({reason}), and the kernel cannot "
                             f"render either: {err}")
@@ -205,7 +205,7 @@ class EngineSwitch:
         """A new GrassParams for a widget given none: the sunlight's default for the adapter that
         draws (:func:`~grasswidget.core.params.sunlight_defaults`), then the preset's own values
         (the cis565 preset's 40 m distance culling), as GrassScene.preset gives them."""
-        from ..core.framing import preset_params
+        from ..core.presets import preset_params
         from ..core.params import GrassParams, sunlight_defaults
 
         sun = sunlight_defaults(cpu_adapter=self.cpu is not False)
@@ -216,8 +216,8 @@ class EngineSwitch:
         follows the adapter that draws while ``own_params`` (the widget made them)."""
         self.blades = blades
         self.params = params
-        self.sun_default = SunlightDefault(params, own=own_params)
-        self.view = self.kernel_view() if self.first_engine == "kernel" else self.browser_view()
+        self.sun_default = ShadowsDefault(params, own=own_params)
+        self.view = self.new_kernel_view() if self.first_engine == "kernel" else self.new_browser_view()
         self.state.observe(self._on_culling_frozen, names="culling_frozen")
         return self.view
 
@@ -230,7 +230,7 @@ class EngineSwitch:
         if self.view is not None and not self.view.closed:
             self.view.set_culling_frozen(bool(change["new"]))
 
-    def kernel_view(self):
+    def new_kernel_view(self):
         """A new kernel view of the field (the kernel's adapter is asked now if it was not)."""
         if self.cpu is None:  # a browser widget falling back: now the kernel's adapter matters
             self.cpu = engines.kernel_is_cpu()
@@ -244,7 +244,7 @@ class EngineSwitch:
                 raise
         return view
 
-    def browser_view(self):
+    def new_browser_view(self):
         """A new browser view of the field."""
         from ..views.browser import BrowserEngineView
 
@@ -291,7 +291,7 @@ class EngineSwitch:
             return
         try:
             if choice.engine == "browser" and self.view.backend != "browser":
-                self.replace(self.browser_view())
+                self.replace(self.new_browser_view())
                 self.sun_default.apply(cpu_adapter=False)  # the page's GPU draws now: the sunlight's GPU default
         except Exception as err:  # noqa: BLE001 - never raise into the comm handler; the kernel view stays
             self.show_error(f"{choice.reason}; starting the browser engine failed ({err}): the kernel engine stays")

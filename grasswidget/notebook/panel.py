@@ -32,7 +32,7 @@ import html
 
 import ipywidgets as ipw
 
-from .blade_control import BladeCountControl
+from .blade_count_control import BladeCountControl
 from .control_link import ControlLink
 from .layout import close_widgets
 from .switch_choice import SWITCH_CHOICES, SwitchChoice
@@ -161,13 +161,13 @@ def format_status(stats: dict) -> str:
     Keys of a view's stats dict (each optional, None = unknown): ``fps``,
     ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
     seconds), ``playing`` (False: "paused" instead of the speed of time), and how old
-    the numbers are (:func:`grasswidget.core.frame_data.stats_freshness`): ``at_rest``,
+    the numbers are (:func:`grasswidget.core.engine_inputs.stats_freshness`): ``at_rest``,
     ``waiting``, ``stale`` and ``frame_age_s``. The rest is in :func:`format_details`.
 
     It only says what it knows: paused, ``"paused"`` (no frame rate: a paused view
     draws on demand; ``"paused, out of sight"`` at rest); out of sight, ``"at rest (out of sight)"``; playing before the first
     measured frame (``fps`` None), ``"starting…"``; playing while no frame arrives
-    (``waiting``: none for :data:`~grasswidget.core.frame_data.WAITING_AFTER_S`; without
+    (``waiting``: none for :data:`~grasswidget.core.engine_inputs.WAITING_AFTER_S`; without
     that key, ``fps`` below :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``, and never
     while frames arrive. Stale numbers say their age: ``"last frame 12 s ago"``.
     "real time" or "slow motion" only follow a measured frame rate of fresh stats, and not
@@ -296,7 +296,7 @@ class ControlPanel:
             ``inspect(ids)`` ("Clear": ``inspect([])``) and ``save_png(size=(w, h)) -> path``, or
             ``save_png_later(size, done) -> bool`` (written later, then ``done(path)``).
         blade_count, max_blades: the blade control's count and top (see
-            :mod:`grasswidget.notebook.blade_control`: powers of two, asks before a
+            :mod:`grasswidget.notebook.blade_count_control`: powers of two, asks before a
             count slower than the target frame rate).
         view_size: (w, h) CSS pixels of the view (Save PNG multiplies it).
         ball_row: an ipywidget row (the ball's controls) or None.

@@ -11,7 +11,7 @@ from __future__ import annotations
 import datetime
 import os
 
-from ..core.framing import check_png_path
+from ..core.presets import check_png_path
 from ..views import engines
 
 __all__ = ["PICTURE_FOLDER", "default_picture_folder", "unique_name", "save_png", "save_png_later",

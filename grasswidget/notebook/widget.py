@@ -39,7 +39,7 @@ import ipywidgets as ipw
 from traitlets import All, Any, validate
 
 from . import cell_rerun, saving
-from ..core.framing import parse_size
+from ..core.presets import parse_size
 from ..core.limits import check_steps
 from ..core.orbit_limits import FLOORS
 from ..core.params import CheckedBool, ChoiceTrait, GrassParams, RangedFloat
@@ -99,7 +99,7 @@ class GrassWidget(ipw.VBox):
             ``ball.enabled``, ``ball.rolling``, ``ball.move_to(x, z)``, ...).
         camera_bar: the :class:`~grasswidget.notebook.camera_bar.CameraBar`.
         lab_bench: the :class:`~grasswidget.notebook.lab_bench.LabBench` (traces, chart; "bench" alone is
-            the benchmark, :mod:`grasswidget.tools.bench`).
+            the benchmark, :mod:`grasswidget.tools.benchmark`).
 
     Traits: ``time_scale`` (simulated seconds per real second, 0..10), ``playing``,
     ``culling_frozen`` (cull against a copy of the camera taken when it was set),

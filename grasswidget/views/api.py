@@ -41,7 +41,7 @@ from typing import Callable, Protocol
 import numpy as np
 from traitlets import HasTraits
 
-from ..core.frame_data import MAX_STEPS_PER_FRAME
+from ..core.engine_inputs import MAX_STEPS_PER_FRAME
 from ..core.params import CheckedBool, RangedFloat
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from ..core.interaction import key_action
@@ -435,13 +435,13 @@ class EngineView(abc.ABC):
         first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
         decided, in words; None before the first window) and trial (True when a trial of the "auto"
         switches ran in the window measured: its frame rate is not the view's); and how old they are
-        (:func:`grasswidget.core.frame_data.stats_freshness`, the same rule in both engines):
+        (:func:`grasswidget.core.engine_inputs.stats_freshness`, the same rule in both engines):
         frame_age_s (wall seconds since the newest frame they describe arrived: acknowledged by the
         browser, or drawn when there is no browser; None before the first), at_rest (True while no
         view is on screen: nothing is drawn, the numbers are the last frame's), stale (True when
         they may not describe what the view would draw now: at rest, playing with a frame older than
         a stats interval, or a change not drawn for longer than one) and waiting (True while playing
-        on screen with no frame for ``frame_data.WAITING_AFTER_S``, 2 s). Every key is there from
+        on screen with no frame for ``engine_inputs.WAITING_AFTER_S``, 2 s). Every key is there from
         the start."""
 
     @abc.abstractmethod

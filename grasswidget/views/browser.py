@@ -11,7 +11,7 @@ culling, the blade inspector and ``read_inspected``).
 Differences, by design:
 
 * Time: the browser plays by the wall clock with the kernel's clock rules
-  (:func:`grasswidget.core.frame_data.clock_rules`, executed by engine.js as
+  (:func:`grasswidget.core.engine_inputs.clock_rules`, executed by engine.js as
   :class:`grasswidget.views.clock.SimClock` does): whole fixed steps of ``params.dt``,
   at most ``MAX_STEPS_PER_FRAME`` a frame, the rest dropped (slow motion). The
   kernel's "steps per frame" is an average of the browser's frames here.
@@ -24,7 +24,7 @@ Differences, by design:
   the blades its compute rasterizer drew (``params.compute_raster``), ``occluded`` the
   blades culled by occlusion (None while occlusion culling is off), read back
   asynchronously; ``switches`` what the "auto" switches decided, in words, as the kernel
-  view's (:mod:`grasswidget.browser.auto_switches`: the same rule, fed by the browser's frame times).
+  view's (:mod:`grasswidget.browser.trial_feed`: the same rule, fed by the browser's frame times).
 * Teaching views: freeze culling copies the browser's camera (its matrices
   computed here, :func:`grasswidget.core.teaching.frozen_view`) at the size the
   browser last drew; the inspector's numbers reach ``on_inspect`` at each stats
@@ -40,7 +40,7 @@ import numpy as np
 
 from ..core.blades import Blades
 from ..core.colliders import ColliderList
-from ..core.frame_data import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW, stats_freshness
+from ..core.engine_inputs import EXPORT_SUPERSAMPLE, SLOW_MOTION_BELOW, stats_freshness
 from .api import EngineView
 from .engines import BROWSER_MAX_BLADES
 from .front_end import class_for_front_end
@@ -93,7 +93,7 @@ class BrowserEngineView(EngineView):
 
     def __init__(self, blades, size, params, *, host, preset=None, pixel_ratio=None, target_fps=60.0,
                  function_overrides=None, widget_class=None):
-        from ..core.framing import preset_field
+        from ..core.presets import preset_field
 
         super().__init__(size, params, host=host)
         self._target_fps = float(target_fps)
@@ -121,7 +121,7 @@ class BrowserEngineView(EngineView):
                        "steps_per_frame": None, "frame_size": None, "step_count": None, "switches": None,
                        "trial": False}  # the keys a stats message fills, known from the start
         self._trial_mark = (0, False)  # the "auto" switches' trial frames at the last stats message
-        # How old the stats are (core.frame_data.stats_freshness), perf_counter seconds: the newest
+        # How old the stats are (core.engine_inputs.stats_freshness), perf_counter seconds: the newest
         # stats message (a frame drawn), a change sent since, and whether the engine rests.
         self._frame_t = self._changed_t = None
         self._at_rest = False
@@ -251,7 +251,7 @@ class BrowserEngineView(EngineView):
     def set_blades(self, blades):
         if not isinstance(blades, Blades):  # a count: the preset's field of that many blades (as the kernel's)
             if self._preset is not None:
-                from ..core.framing import preset_field
+                from ..core.presets import preset_field
 
                 blades = preset_field(self._preset, int(blades))[0]
             else:
@@ -521,7 +521,7 @@ class BrowserEngineView(EngineView):
             step_count=msg.get("step_count"),
             sim_speed=sim_speed,
             slow_motion=sim_speed is not None and sim_speed < SLOW_MOTION_BELOW,
-            # what the "auto" switches decided, in words, as the kernel view's (browser.auto_switches)
+            # what the "auto" switches decided, in words, as the kernel view's (browser.trial_feed)
             switches=self.engine_widget.auto_switches.texts(),
             trial=self._trial_window(),
         )

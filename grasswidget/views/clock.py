@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import time
 
-from ..core.frame_data import MAX_STEPS_PER_FRAME  # the rule both engines' clocks follow
+from ..core.engine_inputs import MAX_STEPS_PER_FRAME  # the rule both engines' clocks follow
 from ..errors import GrassValueError
 
 __all__ = ["SimClock", "SharedClock", "FollowerClock", "MAX_STEPS_PER_FRAME"]

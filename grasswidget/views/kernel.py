@@ -69,7 +69,7 @@ import numpy as np
 from .. import compat
 from .adaptive import ResolutionGovernor, check_target_fps
 from ..core.limits import StepsInterrupted, hold_interrupts
-from ..core.frame_data import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTER_S, stats_freshness
+from ..core.engine_inputs import SLOW_MOTION_BELOW, STATS_INTERVAL_MS, WAITING_AFTER_S, stats_freshness
 from ..core.blades import Blades
 from .api import EngineView, done_future
 from .clock import MAX_STEPS_PER_FRAME, SimClock
@@ -84,7 +84,7 @@ CPU_MAX_BLADES = 1 << 18
 #: Largest blade count the slider offers on a GPU.
 GPU_MAX_BLADES = 1 << 22
 #: How often (seconds) the stats line is refreshed (it does one small GPU readback).
-STATS_INTERVAL = STATS_INTERVAL_MS / 1000.0  # s; core.frame_data's, both engines
+STATS_INTERVAL = STATS_INTERVAL_MS / 1000.0  # s; core.engine_inputs's, both engines
 #: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
 MAX_BUFFERED_FRAMES = 3
 
@@ -167,15 +167,15 @@ def _canvas_class():
 
 
 def _switch_texts(field) -> dict:
-    """What the field's "auto" switches decided, in words (grasswidget.gpu.auto_switches.switch_texts)."""
-    from ..gpu.auto_switches import switch_texts
+    """What the field's "auto" switches decided, in words (grasswidget.gpu.trial_timing.switch_texts)."""
+    from ..gpu.trial_timing import switch_texts
 
     return switch_texts(field)
 
 
 def _trial_mark(field) -> tuple:
-    """(trial frames so far, a trial running) of the field's "auto" switches (grasswidget.gpu.auto_switches.trial_mark)."""
-    from ..gpu.auto_switches import trial_mark
+    """(trial frames so far, a trial running) of the field's "auto" switches (grasswidget.gpu.trial_timing.trial_mark)."""
+    from ..gpu.trial_timing import trial_mark
 
     return trial_mark(field)
 
@@ -311,7 +311,7 @@ class KernelView(EngineView):
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
-        # How old the stats are (core.frame_data.stats_freshness), perf_counter seconds: the newest
+        # How old the stats are (core.engine_inputs.stats_freshness), perf_counter seconds: the newest
         # frame drawn, the newest the browser acknowledged, the first one sent (None: none yet),
         # a change not drawn yet, and whether no view is on screen.
         self._drawn_t = self._arrived_t = self._first_sent_t = self._changed_t = None
@@ -688,7 +688,7 @@ class KernelView(EngineView):
         return s
 
     def _freshness(self, playing) -> dict:
-        """``frame_age_s``, ``at_rest``, ``stale``, ``waiting`` (core.frame_data.stats_freshness).
+        """``frame_age_s``, ``at_rest``, ``stale``, ``waiting`` (core.engine_inputs.stats_freshness).
         A frame "arrived" when the browser acknowledged it; with no browser (nothing sent: a
         script, tests) when it was drawn. Sent frames never acknowledged count as waited for
         from the first one sent."""

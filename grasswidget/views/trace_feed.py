@@ -37,10 +37,10 @@ from __future__ import annotations
 from collections import deque
 
 from ..core.cull_counts import CullCounter, gpu_kept
-from ..core.frame_data import STATS_INTERVAL_MS as FRAME_STATS_INTERVAL_MS
+from ..core.engine_inputs import STATS_INTERVAL_MS
 from ..core.traces import TraceSample
 
-__all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed", "CHART_STATS_INTERVAL_MS", "STATS_INTERVAL_MS"]
+__all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed", "CHART_STATS_INTERVAL_MS"]
 
 
 class _Feed:
@@ -258,8 +258,6 @@ class KernelTraceFeed(_Feed):
 
 #: Milliseconds between the browser's stats messages while a chart is shown (5 samples a second).
 CHART_STATS_INTERVAL_MS = 200
-#: ... and otherwise (the browser engine's default).
-STATS_INTERVAL_MS = FRAME_STATS_INTERVAL_MS  # core.frame_data's, both engines
 
 
 class BrowserTraceFeed(_Feed):

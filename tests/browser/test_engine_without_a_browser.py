@@ -367,7 +367,7 @@ def test_browser_export_filter_is_pygfx_supersampling(bgra):
     import subprocess
 
     from grasswidget.browser.engine_widget import HERE as browser_dir
-    from grasswidget.core.frame_data import export_filter
+    from grasswidget.core.engine_inputs import export_filter
 
     node = node_executable()
     f, (w, h) = 2, (9, 7)
@@ -430,7 +430,7 @@ def test_browser_stats_say_how_old_they_are_and_when_the_engine_rests(monkeypatc
     ``w.stats`` and the status line, also after a change made while it rests."""
     import time
 
-    from grasswidget.core.frame_data import WAITING_AFTER_S
+    from grasswidget.core.engine_inputs import WAITING_AFTER_S
 
     wall = [100.0]
     monkeypatch.setattr(time, "perf_counter", lambda: wall[0])

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget.core import frame_data
+from grasswidget.core import engine_inputs
 from grasswidget.core.camera_presets import camera_preset, field_box
-from grasswidget.core.framing import preset_field
+from grasswidget.core.presets import preset_field
 from grasswidget.core.horizon import HorizonLayout, concentric_disc
 from grasswidget.core.orbit_limits import OrbitLimits
 
@@ -114,8 +114,8 @@ def test_bad_reach_is_refused_naming_the_range():
 def test_distance_culling_is_off_for_a_field_that_thins_itself(disc_blades):
     p = gw.GrassParams()
     assert p.cull_distance
-    assert frame_data.cull_uniform_values(p, N)["cull_distance"] == 1
-    assert frame_data.cull_uniform_values(p, N, thinned=True)["cull_distance"] == 0
+    assert engine_inputs.cull_uniform_values(p, N)["cull_distance"] == 1
+    assert engine_inputs.cull_uniform_values(p, N, thinned=True)["cull_distance"] == 0
 
 
 def test_orbit_keeps_the_camera_near_the_middle(disc_blades):
@@ -158,12 +158,12 @@ def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed(count):
 
 
 def test_far_ground_values_follow_the_looks(disc_blades):
-    v = frame_data.sky_ground_values(disc_blades, 400.0, gw.GrassParams())
+    v = engine_inputs.sky_ground_values(disc_blades, 400.0, gw.GrassParams())
     assert v["horizon"] == (0.0, 0.0, REACH, 1.0)
     assert 0.2 < min(v["far_grass"][:3]) <= max(v["far_grass"][:3]) < 1.5
-    drier = frame_data.sky_ground_values(disc_blades, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
+    drier = engine_inputs.sky_ground_values(disc_blades, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
     assert drier["dryness"] == 0.8 and drier["far_blend"][2] == 7.0
-    square = frame_data.sky_ground_values(gw.Blades.on_plane(256), 100.0)
+    square = engine_inputs.sky_ground_values(gw.Blades.on_plane(256), 100.0)
     assert square["horizon"][3] == 0.0
     # the far ground is green (grass), not khaki, in the twin
     from grasswidget.core import reference as ref

@@ -225,8 +225,8 @@ def test_cull_counter_recounts_in_the_background_when_the_camera_moves():
 
 
 def test_stats_freshness_says_how_old_the_stats_are():
-    """Issue 37, item 4 (the rule both engines' stats use, core.frame_data.stats_freshness)."""
-    from grasswidget.core.frame_data import WAITING_AFTER_S, stats_freshness
+    """Issue 37, item 4 (the rule both engines' stats use, core.engine_inputs.stats_freshness)."""
+    from grasswidget.core.engine_inputs import WAITING_AFTER_S, stats_freshness
 
     none_yet = stats_freshness(100.0, None, playing=True)
     assert none_yet == {"frame_age_s": None, "at_rest": False, "stale": False, "waiting": False}

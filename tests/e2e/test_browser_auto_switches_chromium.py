@@ -4,8 +4,8 @@ measures occlusion culling removing most blades and keeps it where it made frame
 decision follows the times it reports; usually on), and the panel shows the decision; from "top"
 (nothing behind anything) it turns it off: too few removed to pay.
 
-The rule is Python's (grasswidget.core.pays, the kernel's); engine.js reports its frame times
-and counts and executes the state Python sends (grasswidget.browser.auto_switches). Screenshots of the
+The rule is Python's (grasswidget.core.auto_switches, the kernel's); engine.js reports its frame times
+and counts and executes the state Python sends (grasswidget.browser.trial_feed). Screenshots of the
 page after each decision: ``auto_switches_browser_close.png`` and ``auto_switches_browser_top.png``
 in ``$GW_ARTIFACTS_DIR`` (else the Lab root's ``artifacts`` folder).
 """

@@ -121,7 +121,7 @@ def test_browser_compute_raster(webgpu_browser, lab_server, browser_root):
     _run(page, lab_server, browser_root, "compute_raster_browser.ipynb", [
         "import grasswidget as gw\n"
         # the dense square meadow (horizon=False), not the sparser field to the horizon
-        f"from grasswidget.core.framing import preset_field\n"
+        f"from grasswidget.core.presets import preset_field\n"
         f"m = gw.GrassWidget(preset_field('meadow', {N_BLADES}, horizon=False)[0], preset='meadow', backend='browser', "
         f"size={SIZE}, pixel_ratio=1)\nm",
     ], check, webgpu_browser)

@@ -168,12 +168,12 @@ LOOKS = {"dryness": 0.3, "fog_density": 0.02, "patch_size": 2.5}
 
 def _expected_ground(x_pixels):
     """The ground beyond the field in the bottom row at these columns, from the NumPy
-    twins (sky_ground.wgsl's field_inside, ground_color, fog_amount) and frame_data's
+    twins (sky_ground.wgsl's field_inside, ground_color, fog_amount) and engine_inputs's
     values: sRGB 0..255 per column, or None where the ray meets the field or its edge."""
     import grasswidget as gw
-    from grasswidget.core import frame_data, reference as ref
+    from grasswidget.core import engine_inputs, reference as ref
 
-    values = frame_data.sky_ground_values(gw.Blades.on_plane(N_BLADES), CAMERA["far"], gw.GrassParams(**LOOKS))
+    values = engine_inputs.sky_ground_values(gw.Blades.on_plane(N_BLADES), CAMERA["far"], gw.GrassParams(**LOOKS))
     pos, target = np.array(CAMERA["position"]), np.array(CAMERA["target"])
     forward = (target - pos) / np.linalg.norm(target - pos)
     right = np.cross(forward, (0.0, 1.0, 0.0))

@@ -108,16 +108,16 @@ def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
 
 
 def test_the_sunlights_default_follows_the_adapter_until_the_user_sets_it():
-    """notebook/sunlight_default.py: an adapter report sets ``shadows`` (a GPU: on, a software
+    """notebook/shadows_default.py: an adapter report sets ``shadows`` (a GPU: on, a software
     adapter by name: off) while it is the widget's default; never params the user passed, never
     after the user set it."""
-    from grasswidget.notebook.sunlight_default import SunlightDefault, engine_adapter_is_cpu
+    from grasswidget.notebook.shadows_default import ShadowsDefault, engine_adapter_is_cpu
 
     assert engine_adapter_is_cpu("google swiftshader Google SwiftShader") and engine_adapter_is_cpu("llvmpipe")
     # as the "auto" rule: an adapter not known as a software one is a GPU
     assert not engine_adapter_is_cpu("nvidia ampere NVIDIA GeForce RTX 4090") and not engine_adapter_is_cpu("")
     params = gw.GrassParams(shadows=False)
-    default = SunlightDefault(params, own=True)
+    default = ShadowsDefault(params, own=True)
     default.apply_engine_adapter("nvidia ampere")
     assert params.shadows is True
     default.apply_engine_adapter("google swiftshader")
@@ -126,6 +126,6 @@ def test_the_sunlights_default_follows_the_adapter_until_the_user_sets_it():
     default.apply(cpu_adapter=True)
     assert params.shadows is True and not default.live
     theirs = gw.GrassParams(shadows=False)
-    SunlightDefault(theirs, own=False).apply(cpu_adapter=False)
+    ShadowsDefault(theirs, own=False).apply(cpu_adapter=False)
     assert theirs.shadows is False
 

@@ -244,7 +244,7 @@ def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_fram
     at once got a KeyError from the browser engine); a window in which the "auto" switches ran a
     trial says so; a refresh right after the one a frame made keeps that window's figures
     (it used to report 0.0 frames/s delivered and no stage times)."""
-    from grasswidget.gpu.auto_switches import switches_of
+    from grasswidget.gpu.trial_timing import switches_of
 
     _resize(widget)
     for key in ("step_count", "switches", "trial", "fps", "render_ms"):

@@ -71,7 +71,7 @@ export class Occlusion {
     this.targets = new Map();
   }
 
-  /** u_cull.occlusion_phase of Python's bytes (frame_data.cull_uniform_values): 1 = two phases. @param {import("../types.js").Bytes} cull */
+  /** u_cull.occlusion_phase of Python's bytes (engine_inputs.cull_uniform_values): 1 = two phases. @param {import("../types.js").Bytes} cull */
   on(cull) { return wordIsOne(cull, this.spec.phase_offset); }
 
   /** The second phase's draws (bound to the resources' buffers). @returns {Pipe[]} */
@@ -215,7 +215,7 @@ export class ComputeRaster {
     this.lastKey = null;
   }
 
-  /** u_cull.compute_raster of Python's bytes (frame_data.compute_raster_values): 1 = on. @param {import("../types.js").Bytes} cull */
+  /** u_cull.compute_raster of Python's bytes (engine_inputs.compute_raster_values): 1 = on. @param {import("../types.js").Bytes} cull */
   on(cull) { return wordIsOne(cull, this.spec.switch_offset); }
 
   /**

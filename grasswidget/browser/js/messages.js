@@ -2,7 +2,7 @@
 // The answers to Python's requests that read the GPU back: the state, the inspected blades, a
 // picture. The requests themselves are GrassEngine's message table (engine.js), kind -> handler:
 //   step {n}, reset, clear_reset_flag, read_state {id}, snapshot {id, width, height, filter}
-//   (filter: grasswidget.core.frame_data.export_filter, the supersampling), read_inspected {id},
+//   (filter: grasswidget.core.engine_inputs.export_filter, the supersampling), read_inspected {id},
 //   sync {id} (answered at once: "synced"), compile_simulate {id, shader, passes}, lose_device (tests).
 // Answers and reports: state, snapshot, inspected, compiled, synced, stats, steps, pick, ball, key,
 //   rest (no view on screen: nothing is drawn until one is), error and device_lost messages; the

@@ -24,7 +24,7 @@ export class Simulation {
     this.model = model;
   }
 
-  /** The wind time (s) of step k: (k dt) mod wind_period (Python's frame_data.wind_time). @param {number} k */
+  /** The wind time (s) of step k: (k dt) mod wind_period (Python's engine_inputs.wind_time). @param {number} k */
   windTime(k) { return windTime(k, this.model.get("frame_rules").clock); }
 
   /**

@@ -21,7 +21,7 @@ function linearToSrgb8(x) {
  * @param {number} width @param {number} height the output size (pixels)
  * @param {number} rowBytes bytes between rows of src
  * @param {boolean} bgra blue first
- * @param {{factor: number, first: number, weights: number[]}} filter grasswidget.core.frame_data.export_filter
+ * @param {{factor: number, first: number, weights: number[]}} filter grasswidget.core.engine_inputs.export_filter
  * @returns {Uint8Array}
  */
 export function downsample(src, width, height, rowBytes, bgra, filter) {

@@ -2,30 +2,30 @@
 // The rules the browser engine must still compute per frame itself, each the twin of one Python
 // function that decides it (a node test, tests/browser/test_engine_rules.py, checks every one
 // against its twin on many inputs, as the WGSL twins are checked against NumPy). Every number
-// they use comes from Python as data (the frame_rules trait: grasswidget.core.frame_data.frame_rules).
+// they use comes from Python as data (the frame_rules trait: grasswidget.core.engine_inputs.frame_rules).
 //
 //   SimClock            grasswidget.views.clock.SimClock (steps owed by the wall clock; slow motion)
 //   clampOrbit          grasswidget.core.orbit_limits.clamp_orbit (the orbit limits between two kernel messages)
 //   orbitDrag, panDrag, wheelZoom   grasswidget.core.camera_rules.orbit_drag / pan_drag / wheel_zoom
 //   cameraWorld, perspective        grasswidget.core.camera_rules.camera_world / perspective (a dragged camera)
 //   hzbLayout           grasswidget.core.reference.hzb_layout (the pyramid of a canvas the browser sized)
-//   windTime            grasswidget.core.frame_data.wind_time (wind time of step k, modulo the period)
-//   stepsPerDispatch    grasswidget.core.frame_data.steps_per_dispatch
-//   workgroups          grasswidget.gpu.wgsl.workgroups (with frame_rules.dispatch's workgroup size)
-//   readCounters        grasswidget.core.frame_data.read_counters (the stats' counts, frame_rules.counters)
+//   windTime            grasswidget.core.engine_inputs.wind_time (wind time of step k, modulo the period)
+//   stepsPerDispatch    grasswidget.core.engine_inputs.steps_per_dispatch
+//   workgroups          grasswidget.gpu.wgsl_templates.workgroups (with frame_rules.dispatch's workgroup size)
+//   readCounters        grasswidget.core.engine_inputs.read_counters (the stats' counts, frame_rules.counters)
 //   PointerGesture      grasswidget.core.interaction.PointerGesture (click or drag; the ctrl gesture)
 //   keyAction, displayRatio, domButton   grasswidget.core.interaction.key_action / display_ratio / DOM_BUTTONS
 
 import { add, clamp, cross, norm, scale, sub } from "./linalg.js";
 
 /**
- * @typedef {object} ClockRules grasswidget.core.frame_data.clock_rules
+ * @typedef {object} ClockRules grasswidget.core.engine_inputs.clock_rules
  * @property {number} dt the fixed step (s)
  * @property {number} wind_period s; 0: no period
  * @property {number} max_steps_per_frame a frame owed more gets this many, the rest is dropped
  */
 /**
- * @typedef {object} DispatchRules grasswidget.core.frame_data.dispatch_rules
+ * @typedef {object} DispatchRules grasswidget.core.engine_inputs.dispatch_rules
  * @property {number} workgroup_size threads per workgroup of the per-blade compute shaders
  * @property {number} max_groups_x workgroups along x before a dispatch folds into y
  * @property {number} blade_steps_per_dispatch blade steps (blades x steps) one simulation dispatch may take
@@ -274,7 +274,7 @@ export function workgroups(items, dispatch) {
 /**
  * The stats' counts of one read-back, where Python's layout puts them (frame_rules.counters).
  * @param {Uint32Array} words
- * @param {{visible: number[][], occluded: number, rastered: number}} layout grasswidget.core.frame_data.counter_layout
+ * @param {{visible: number[][], occluded: number, rastered: number}} layout grasswidget.core.engine_inputs.counter_layout
  * @returns {{visible_per_class: number[], occluded: number, rastered: number}}
  */
 export function readCounters(words, layout) {

@@ -7,7 +7,7 @@
 //   frames since the last message drawn with the switch state timed_switches ([occlusion, compute
 //   raster] as executed from u_cull; the list restarts when it changes; the newest
 //   frame_rules.engine.frame_times_kept kept); counts_switches: the state of the frame the counts
-//   are of. Python's "auto" switches (grasswidget.browser.auto_switches) measure by them.
+//   are of. Python's "auto" switches (grasswidget.browser.trial_feed) measure by them.
 
 import { readCounters } from "./rules.js";
 

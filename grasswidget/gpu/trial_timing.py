@@ -2,7 +2,7 @@
 
 :func:`grasswidget.gpu.render_frame` asks :func:`begin_frame` which value each GrassField's
 switches have for this frame and calls :meth:`FrameSwitches.end` after it rendered. The rule
-and the trial are :class:`grasswidget.core.pays.AutoSwitches` (pure Python, one per field);
+and the trial are :class:`grasswidget.core.auto_switches.AutoSwitches` (pure Python, one per field);
 this module only times the frames and reads the GPU's counts for it: while a field is being
 tried, the frame is GPU-synchronised before and after the render (a 16-byte readback waits for
 the queue), so its time is the render's, and the blades drawn, occluded and drawn in compute
@@ -11,7 +11,7 @@ time on a GPU adapter and the process's CPU time on a CPU adapter (lavapipe rend
 process's threads: its CPU time is the render's work, and moves far less than wall time when
 other processes load the machine). While a field's culling is frozen its switches hold the values
 of the last frame before freezing (the camera flying around a frozen view starts no trial, and a
-trial in progress is suspended until culling is unfrozen: :mod:`grasswidget.core.pays`).
+trial in progress is suspended until culling is unfrozen: :mod:`grasswidget.core.auto_switches`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import weakref
 import numpy as np
 import wgpu
 
-from ..core.pays import SWITCHES, AutoSwitches, DecisionContext
+from ..core.auto_switches import SWITCHES, AutoSwitches, DecisionContext
 from .adapter import ensure_device
 
 __all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts", "trial_mark"]
@@ -32,7 +32,7 @@ _SYNC = {}
 
 
 def switches_of(field) -> AutoSwitches:
-    """The :class:`grasswidget.core.pays.AutoSwitches` of ``field`` (made on first use)."""
+    """The :class:`grasswidget.core.auto_switches.AutoSwitches` of ``field`` (made on first use)."""
     state = _STATE.get(field)
     if state is None:
         state = _STATE[field] = AutoSwitches()
@@ -96,7 +96,7 @@ class FrameSwitches:
             state = switches_of(field)
             settings = {name: getattr(field.params, name) for name in SWITCHES}
             # Culling frozen (a teaching view): the switches hold their values while the camera flies
-            # around it, and a trial in progress is suspended (core.pays: "Frozen culling").
+            # around it, and a trial in progress is suspended (core.auto_switches: "Frozen culling").
             frozen = bool(getattr(field, "culling_frozen", False))
             self.values[field] = state.values(settings, state.context if frozen else context_of(field, camera),
                                               frozen=frozen)
@@ -128,7 +128,7 @@ class FrameSwitches:
 
 def switch_texts(field) -> dict:
     """{switch name: words} for ``field``'s switches: "on", "off", "auto (measuring)",
-    "auto (on: removed 41 % of blades, ...)" (:func:`grasswidget.core.pays.switch_text`)."""
+    "auto (on: removed 41 % of blades, ...)" (:func:`grasswidget.core.auto_switches.switch_text`)."""
     state = switches_of(field)
     return {name: state.text(name, getattr(field.params, name)) for name in SWITCHES}
 

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import GrassValueError
 from .. import compat
 
-__all__ = ["run_bench", "format_table", "CULL_MODES", "OCCLUSION_MODES"]
+__all__ = ["run_benchmark", "format_table", "CULL_MODES", "OCCLUSION_MODES"]
 
 #: Culling modes: "on" (all three tests + LOD), "off" (nothing culled, no LOD), "both" (off, then on, in
 #: one run: their ratio is what culling buys), "each" (on, off, and each test alone).
@@ -182,7 +182,7 @@ def _bench_one(scene, renderer, frames, steps_per_frame):
     return out
 
 
-def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, size=None, cull="on",
+def run_benchmark(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, size=None, cull="on",
               steps_per_frame=1, progress=True, seed=0, occlusion="on", compute_raster="on",
               raster_max_px=None, horizon=True) -> dict:
     """Run the sweep; returns a JSON-ready dict (see module docstring). ``occlusion``
@@ -260,7 +260,7 @@ def run_bench(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30, siz
 
 
 def format_table(report: dict) -> str:
-    """A plain-text table of a run_bench report."""
+    """A plain-text table of a run_benchmark report."""
     head = f"{'blades':>9} {'cull':>11} {'occl':>5} {'cr':>3} {'px':>4} {'frame ms':>9} {'p10':>7} {'p90':>7} {'cpu ms':>7} {'fps':>7} {'sim ms':>7} {'cull+draw':>9} {'gpu sim':>8} {'gpu cull':>8} {'gpu draw':>8} {'visible':>9} {'pipe fps':>8}"
     lines = [f"{report['adapter'].get('summary', '')} - preset {report['preset']}", head]
 

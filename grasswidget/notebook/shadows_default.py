@@ -16,7 +16,7 @@ from __future__ import annotations
 from ..core.engine_choice import page_adapter_kind
 from ..core.params import sunlight_defaults
 
-__all__ = ["SunlightDefault", "engine_adapter_is_cpu"]
+__all__ = ["ShadowsDefault", "engine_adapter_is_cpu"]
 
 
 def engine_adapter_is_cpu(adapter_text: str) -> bool:
@@ -27,7 +27,7 @@ def engine_adapter_is_cpu(adapter_text: str) -> bool:
     return page_adapter_kind(report) != "hardware"
 
 
-class SunlightDefault:
+class ShadowsDefault:
     """Sets ``params``' sunlight to the default of the adapter that draws, while it is a default.
 
     Args:

@@ -31,7 +31,7 @@ default of both) lets each view decide from what it measured:
 
 A view at rest draws no frame, so it runs no trial: a trial advances only with the frames
 an engine renders and records (the browser engine starts one only when the browser reports
-frames drawn while the widget plays, :mod:`grasswidget.browser.auto_switches`; ``values(...,
+frames drawn while the widget plays, :mod:`grasswidget.browser.trial_feed`; ``values(...,
 start_trial=False)`` makes a decision stale without starting one). ``AutoSwitches.trial_frames_run``
 counts the frames recorded in trials, so that a view can tell its frame rate measurements
 that include a trial's (GPU-synchronised, first-use compiling) frames from the others.
@@ -46,7 +46,7 @@ takes that value at once, as the user asked. Unfreezing resumes the trial where 
 
 :class:`AutoSwitches` is the pure state machine an engine drives once per frame: it says
 which value each switch has for the next frame and takes the frame's measurements. No GPU,
-no widgets: the kernel engine runs it in :mod:`grasswidget.gpu.auto_switches`.
+no widgets: the kernel engine runs it in :mod:`grasswidget.gpu.trial_timing`.
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ TRIAL_MIN_MS = 50.0
 #: Timed frames a side at most, whatever TRIAL_MIN_MS asks (two blocks of half).
 TRIAL_MAX_FRAMES = 24
 #: The newest frame times (ms) the browser engine keeps between two stats messages, the window
-#: that feeds a trial (:mod:`grasswidget.browser.auto_switches`); at least a trial's side
+#: that feeds a trial (:mod:`grasswidget.browser.trial_feed`); at least a trial's side
 #: (:data:`TRIAL_MAX_FRAMES`), so that one message can carry all of one.
 FRAME_TIMES_KEPT = 32
 #: Frames dropped after a switch flips, before timing (first use compiles or grows buffers).
@@ -119,7 +119,7 @@ def _numpy_bool(value) -> bool:
 
 class AutoSwitch(traitlets.TraitType):
     """A three-way switch trait: ``True`` (on), ``False`` (off) or ``"auto"`` (decided by
-    measuring, :mod:`grasswidget.core.pays`). Set with a bool as before, or "auto"/"on"/"off";
+    measuring, :mod:`grasswidget.core.auto_switches`). Set with a bool as before, or "auto"/"on"/"off";
     read back as ``True``, ``False`` or ``"auto"``. Syncs to JavaScript as true/false/"auto"."""
 
     info_text = "True, False or 'auto'"

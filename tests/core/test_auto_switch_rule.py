@@ -1,11 +1,11 @@
-"""The "auto" switches' rule (grasswidget.core.pays): each outcome of the decision, the
+"""The "auto" switches' rule (grasswidget.core.auto_switches): each outcome of the decision, the
 trial's schedule, re-deciding when the context changes, and the three-way trait."""
 
 import pytest
 
 from grasswidget.core.params import GrassParams
-from grasswidget.core.pays import (AUTO, AutoSwitches, DecisionContext, decide_compute_raster, decide_occlusion,
-                                   MIN_OCCLUDED_FRACTION, switch_text)
+from grasswidget.core.auto_switches import (AUTO, AutoSwitches, DecisionContext, decide_compute_raster, decide_occlusion,
+                                            MIN_OCCLUDED_FRACTION, switch_text)
 from grasswidget.errors import GrassError
 
 
@@ -105,7 +105,7 @@ def test_switch_trait_keeps_bools_and_takes_auto():
 
 
 def test_a_decision_made_again_changes_only_past_the_hysteresis():
-    from grasswidget.core.pays import HYSTERESIS
+    from grasswidget.core.auto_switches import HYSTERESIS
 
     assert 0 < HYSTERESIS <= 0.05
     # first decision: the faster wins, however close
@@ -164,7 +164,7 @@ def test_trial_sizes_are_checked():
 
 
 def test_fast_frames_are_timed_for_at_least_min_ms_a_side_and_at_most_max_frames():
-    from grasswidget.core.pays import TRIAL_MAX_FRAMES, TRIAL_MIN_MS
+    from grasswidget.core.auto_switches import TRIAL_MAX_FRAMES, TRIAL_MIN_MS
 
     assert TRIAL_MIN_MS >= 3 * 10 and TRIAL_MAX_FRAMES >= 10
     # blocks of 2 (3 a side at least, rounded up to two blocks); of 7 (25 ms: half of 50 ms a side); of 12 at most

@@ -1,7 +1,7 @@
 """Sunlight of the reference: the sun's direction, the balls' shadows, the grass' own
 shadow (on the ground and on the blades) and the darkening towards the roots. Twins of
 ``blade_math.wgsl``'s ``ball_shadow``, ``grass_transmittance``, ``sky_visibility`` and
-``light_share`` (read by ``shaders/sunlight.wgsl`` in both engines' blade, compute-raster
+``light_share`` (read by ``shaders/shadows.wgsl`` in both engines' blade, compute-raster
 resolve and sky/ground shaders; see :mod:`grasswidget.core.reference`).
 
 The model (``GrassParams.shadows``): the sun is a direction ``sun`` (unit, towards it).

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget.core.frame_data import sunlight_values
+from grasswidget.core.engine_inputs import sunlight_values
 
 SIZE = (160, 120)
 

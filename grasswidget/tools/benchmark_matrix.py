@@ -4,7 +4,7 @@
 
 Per blade count, one scene and one offscreen renderer run five settings of occlusion
 culling and the compute rasterizer: the defaults (both "auto", decided by measuring,
-:mod:`grasswidget.core.pays`) and the four fixed combinations (occlusion on/off x compute
+:mod:`grasswidget.core.auto_switches`) and the four fixed combinations (occlusion on/off x compute
 raster on/off). After a warm-up of each setting and the auto decision's own trial (its
 frames counted and reported, not timed), ``rounds`` rounds each run every setting for a
 block of ``block`` timed frames (one dropped first: a switch flipped), in an order rotated
@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-from ..core.pays import AUTO, TRIAL_MAX_FRAMES
+from ..core.auto_switches import AUTO, TRIAL_MAX_FRAMES
 from ..errors import GrassValueError
 
 __all__ = ["SETTINGS", "run_matrix", "format_matrix"]
@@ -60,7 +60,7 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
     import tqdm
 
     from ..gpu.adapter import adapter_info, ensure_device
-    from ..gpu.auto_switches import switches_of, wait_for_queue
+    from ..gpu.trial_timing import switches_of, wait_for_queue
     from ..gpu.scene import GrassScene, make_renderer
 
     for name, value in (("rounds", rounds), ("block", block)):

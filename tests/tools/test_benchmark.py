@@ -3,14 +3,14 @@
 import pytest
 
 from grasswidget.errors import GrassValueError
-from grasswidget.tools.bench import format_table, run_bench
+from grasswidget.tools.benchmark import format_table, run_benchmark
 
 
 def test_raster_max_px_sweep_rows():
     # the square meadow (horizon=False): at 96 x 54 its blades span 1..6 px across; to the horizon nearly
     # every blade is under a pixel there (each far blade's width grows with its distance), so both sweeps
     # would take the same blades
-    report = run_bench("meadow", [4096], frames=1, size=(96, 54), progress=False, compute_raster="both",
+    report = run_benchmark("meadow", [4096], frames=1, size=(96, 54), progress=False, compute_raster="both",
                        raster_max_px=[1, 6], horizon=False)
     assert report["horizon"] is False
     rows = report["results"]
@@ -26,7 +26,7 @@ def test_raster_max_px_sweep_rows():
 
 def test_raster_max_px_out_of_range_names_the_parameter():
     with pytest.raises(GrassValueError, match="compute_raster_max_px"):
-        run_bench("meadow", [64], frames=1, size=(32, 24), progress=False, raster_max_px=[40])
+        run_benchmark("meadow", [64], frames=1, size=(32, 24), progress=False, raster_max_px=[40])
 
 
 def test_compute_raster_on_from_the_first_frame():
@@ -34,7 +34,7 @@ def test_compute_raster_on_from_the_first_frame():
     first frame; the compute rasterizer's first frame sizes its buffers then. Its counters' buffer
     is zeroed in place, not replaced (a replaced one was destroyed while still bound there, and
     the next submit aborted the process: 'Buffer has been destroyed')."""
-    report = run_bench("meadow", [2048], frames=2, size=(96, 54), progress=False, compute_raster="on",
+    report = run_benchmark("meadow", [2048], frames=2, size=(96, 54), progress=False, compute_raster="on",
                        occlusion="off", horizon=False)
     (row,) = report["results"]
     assert row["compute_raster"] is True and 0 < row["rastered"] <= row["visible"]

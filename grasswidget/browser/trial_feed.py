@@ -1,6 +1,6 @@
 """The browser engine's side of the "auto" switches (occlusion culling, the compute rasterizer).
 
-The rule and the trial are the kernel engine's: one :class:`grasswidget.core.pays.AutoSwitches`
+The rule and the trial are the kernel engine's: one :class:`grasswidget.core.auto_switches.AutoSwitches`
 per :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget`, here fed by the browser's stats
 messages instead of by a render loop. engine.js only executes and measures:
 
@@ -17,17 +17,17 @@ messages instead of by a render loop. engine.js only executes and measures:
 :meth:`BrowserAutoSwitches.on_stats` records the message's frame times as the trial's frames
 when the browser ran them with the state the trial asked for (and its counts are of such a
 frame), one by one until the trial asks for another state; then it writes the new state. The
-decision is made again on the kernel's triggers (:class:`grasswidget.core.pays.DecisionContext`):
+decision is made again on the kernel's triggers (:class:`grasswidget.core.auto_switches.DecisionContext`):
 the camera moved or turned, the blade field or any parameter but the two switches changed.
 While culling is frozen the switches hold their values and a trial in progress is suspended until
-culling is unfrozen (as in the kernel engine; :mod:`grasswidget.core.pays`, "Frozen culling"). A trial starts and advances
+culling is unfrozen (as in the kernel engine; :mod:`grasswidget.core.auto_switches`, "Frozen culling"). A trial starts and advances
 only on stats messages that report frames drawn while the widget plays: a view at rest (off
 screen, nothing drawn; or paused, drawing only on demand) runs none, and is never woken by one.
 """
 
 from __future__ import annotations
 
-from ..core.pays import SWITCHES, AutoSwitches, DecisionContext
+from ..core.auto_switches import SWITCHES, AutoSwitches, DecisionContext
 
 __all__ = ["BrowserAutoSwitches"]
 
@@ -35,7 +35,7 @@ __all__ = ["BrowserAutoSwitches"]
 class BrowserAutoSwitches:
     """The "auto" switches of one BrowserEngineWidget (see the module docstring).
 
-    ``state`` is the :class:`~grasswidget.core.pays.AutoSwitches`; ``values`` the switch values
+    ``state`` is the :class:`~grasswidget.core.auto_switches.AutoSwitches`; ``values`` the switch values
     (``{"cull_occlusion": bool, "compute_raster": bool}``) last sent to the browser, or None
     before :meth:`refresh` ran; ``write`` is called with the new values when they change."""
 
@@ -112,6 +112,6 @@ class BrowserAutoSwitches:
 
     def texts(self) -> dict:
         """{switch: words} for the panel: "on", "off", "auto (measuring)", "auto (on: removed
-        41 % of blades, ...)" (:func:`grasswidget.core.pays.switch_text`)."""
+        41 % of blades, ...)" (:func:`grasswidget.core.auto_switches.switch_text`)."""
         settings = self.settings()
         return {name: self.state.text(name, settings[name]) for name in SWITCHES}

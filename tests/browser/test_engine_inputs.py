@@ -2,7 +2,7 @@
 
 * The uniform values: the kernel engine's ``u_sim`` / ``u_cull`` buffers (written by
   GrassField / Simulation) hold byte for byte what the browser engine is sent
-  (``browser.uniforms``), both from ``frame_data``.
+  (``browser.uniforms``), both from ``engine_inputs``.
 * The clock's rules and the orbit limits: engine.js's ``SimClock`` and ``clampOrbit``
   (run here with Node.js, the ES module as shipped) give what ``grasswidget.views.clock.SimClock``
   and ``grasswidget.core.orbit_limits.clamp_orbit`` give, frame by frame and pose by pose.
@@ -20,7 +20,7 @@ import pytest
 
 import grasswidget as gw
 from conftest import node_executable
-from grasswidget.core import frame_data
+from grasswidget.core import engine_inputs
 from grasswidget.browser import uniforms
 from grasswidget.browser.engine_widget import HERE as BROWSER_DIR
 from grasswidget.views.clock import MAX_STEPS_PER_FRAME, SimClock
@@ -88,10 +88,10 @@ def test_kernel_buffers_hold_the_bytes_the_browser_is_sent():
         field.local.rotation = (0.0, 0.0, math.sin(0.3), math.cos(0.3))
         field.local.position = (2.0, 0.0, 1.0)
         field.simulation.write_uniform(1, 0.0)
-        values = frame_data.sim_uniform_values(params, field.count, field.colliders, world_matrix=field.world.matrix,
+        values = engine_inputs.sim_uniform_values(params, field.count, field.colliders, world_matrix=field.world.matrix,
                                                steps=1)
         assert field.simulation.uniform_buffer.data.tobytes() == pack(SIM_LAYOUT, values)
-        assert not np.allclose(values["gravity_dir"][:3], frame_data.sim_uniform_values(params, 1)["gravity_dir"][:3])
+        assert not np.allclose(values["gravity_dir"][:3], engine_inputs.sim_uniform_values(params, 1)["gravity_dir"][:3])
     finally:
         field.release()
 
@@ -102,7 +102,7 @@ def test_pack_refuses_a_field_the_layout_lacks():
 
 
 def test_clock_rules_are_the_kernel_clocks():
-    rules = frame_data.clock_rules(_params())
+    rules = engine_inputs.clock_rules(_params())
     assert rules["max_steps_per_frame"] == MAX_STEPS_PER_FRAME == SimClock().max_steps
     assert rules["dt"] == 0.01 and rules["wind_period"] > 0
 
@@ -122,7 +122,7 @@ def test_scene_style_is_the_kernel_scenes_sky_and_ground():
             mat = scene.sky_ground.material.uniform_buffer.data
             return pack(layout, {k: mat[k] for k, _ in layout})
 
-        style = frame_data.scene_style(blades, scene.camera.depth_range[1], params)
+        style = engine_inputs.scene_style(blades, scene.camera.depth_range[1], params)
         assert uniforms.sky_ground_uniform(style) == kernel_bytes()
         assert style["fog_density"] == 0.02 and 0 < style["cover"] < 1
         lo, hi = blades.v0.min(axis=0), blades.v0.max(axis=0)
@@ -130,7 +130,7 @@ def test_scene_style_is_the_kernel_scenes_sky_and_ground():
         # ground to the horizon: the square reaches past the far plane from the field's far edge
         assert style["ground"][3] >= 0.5 * 6.0 + scene.camera.depth_range[1]
         params.fog_density = 0.0  # a change reaches both engines the same way
-        style = frame_data.scene_style(blades, scene.camera.depth_range[1], params)
+        style = engine_inputs.scene_style(blades, scene.camera.depth_range[1], params)
         assert style["fog_density"] == 0.0 and uniforms.sky_ground_uniform(style) == kernel_bytes()
         scene.ground.visible = False  # the ground switch survives a rewrite of the values
         params.fog_density = 0.01
@@ -141,7 +141,7 @@ def test_scene_style_is_the_kernel_scenes_sky_and_ground():
 
 def test_kernel_grass_material_holds_the_bytes_the_browser_is_sent():
     """The blade material: the kernel's GrassMaterial (looks written by GrassField from
-    the params) and the browser's material_uniform, both from frame_data, byte for byte."""
+    the params) and the browser's material_uniform, both from engine_inputs, byte for byte."""
     from grasswidget.gpu.field import GrassField
 
     params = gw.GrassParams(color_variation=0.8, patch_size=7.5, dryness=0.45, translucency=0.2,
@@ -209,7 +209,7 @@ def test_engine_js_executes_the_python_clock_and_orbit_rules():
         expected.append(clock.frame_steps(dt, scale))
 
     blades = gw.Blades.on_plane(500, size=8.0)
-    limits = frame_data.orbit_rules(blades, 100.0)
+    limits = engine_inputs.orbit_rules(blades, 100.0)
     assert OrbitLimits(**{k: tuple(v) if isinstance(v, list) else v for k, v in limits.items()}) == \
         OrbitLimits.for_field(blades.v0, blades.up, blades.height, 100.0)
     poses = [[list(rng.uniform(-40, 40, 3)), list(rng.uniform(-12, 12, 3))] for _ in range(200)]

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from grasswidget.notebook.blade_control import (BladeCountControl, blade_stops, count_words, estimate_fps,
-                                                needs_confirmation)
+from grasswidget.notebook.blade_count_control import (BladeCountControl, blade_stops, count_words, estimate_fps,
+                                                      needs_confirmation)
 from grasswidget.notebook.panel import format_status
 
 

@@ -65,10 +65,10 @@ from .interaction import input_rules
 from .orbit_limits import OrbitLimits
 from .params import DEFAULT_SUN_DIRECTION, LOOK_TRAITS, GrassParams
 from .blades import BLADE_BYTES
-from .pays import FRAME_TIMES_KEPT, effective
+from .auto_switches import FRAME_TIMES_KEPT, effective
 from .reference import FAR_ALONG, FORCE_NAMES, LOD_SEGMENTS, far_grass_shade, ground_cover, wind_period
-from .reference.sunlight import MAX_SHADOW_BALLS, grass_optical_depths
-from .reference.sunlight import sun_direction as _sun_direction
+from .reference.shadows import MAX_SHADOW_BALLS, grass_optical_depths
+from .reference.shadows import sun_direction as _sun_direction
 from .teaching import INSPECTED_POINT_BYTES
 from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
 from .uniform_layouts import SKY_GROUND_LAYOUT
@@ -78,7 +78,7 @@ __all__ = [
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "far_ground_values", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
     "SKY_GROUND_TRAITS", "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
-    "BALL_COLOR", "BALL_OPACITY", "LIGHT_DIRECTION", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
+    "BALL_COLOR", "BALL_OPACITY", "GROUND_DROP", "MAX_STEPS_PER_FRAME",
     "SLOW_MOTION_BELOW", "STATS_INTERVAL_MS", "BLADE_STEPS_PER_DISPATCH", "MAX_WORKGROUPS_X", "dispatch_rules",
     "wind_time", "steps_per_dispatch", "counter_layout", "read_counters",
     "EXPORT_SUPERSAMPLE", "export_filter", "mitchell",
@@ -115,16 +115,12 @@ SKY_GROUND_TRAITS = ("fog_density", "color_variation", "patch_size", "dryness", 
                      "sun_azimuth")
 #: Width (m) of the soft edge between the soil under the field and the ground beyond.
 FIELD_EDGE = 0.5
-#: Direction towards the sun of the default params (world space, not normalized), both engines:
-#: ``GrassParams.sun_elevation`` and ``sun_azimuth``'s defaults (:func:`sun_direction` of the params
-#: lights the blades, the ground and the balls) and the blade material's default light.
-LIGHT_DIRECTION = DEFAULT_SUN_DIRECTION
 #: The blade material's defaults (both engines; ``GrassMaterial``'s): root and tip
 #: colours (sRGB hex), ambient share (0..1), direction towards the light (world, not
 #: normalized), tau of the triangle-tip shape (0..0.99), fog colour (sRGB hex).
-MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=LIGHT_DIRECTION,
+MATERIAL_DEFAULTS = dict(root_color="#1d4a12", tip_color="#8fc246", ambient=0.4, light_direction=DEFAULT_SUN_DIRECTION,
                          tip_threshold=0.5, fog_color=HORIZON_COLOR)
-_DEFAULT_SUN_Y = LIGHT_DIRECTION[1] / math.sqrt(sum(x * x for x in LIGHT_DIRECTION))
+_DEFAULT_SUN_Y = DEFAULT_SUN_DIRECTION[1] / math.sqrt(sum(x * x for x in DEFAULT_SUN_DIRECTION))
 #: Collider balls: colour (sRGB hex) and opacity (0..1).
 BALL_COLOR = "#dfe8ff"
 BALL_OPACITY = 0.35
@@ -191,7 +187,7 @@ def sim_uniform_values(params, n_blades: int, colliders=(), *, world_matrix=None
     """The ``u_sim`` values (``uniform_layouts.SIM_LAYOUT``) for a dispatch.
 
     Args:
-        params: a :class:`~grasswidget.params.GrassParams`.
+        params: a :class:`~grasswidget.core.params.GrassParams`.
         n_blades: blade count N.
         colliders: sphere colliders (a ColliderList, SphereColliders or a (K, 4) array; at most
             ``MAX_COLLIDERS`` = 1024), in the field's local space. Only their count goes into
@@ -271,7 +267,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
     ``occlusion_phase`` is left out, the engine arms it per render
     (:func:`grasswidget.gpu.frame.render_frame`). ``decided``: the view's values of its
     "auto" switches for the next frames (``{"cull_occlusion": bool, ...}``, what
-    :meth:`grasswidget.core.pays.AutoSwitches.values` said; a forced switch wins), or None
+    :meth:`grasswidget.core.auto_switches.AutoSwitches.values` said; a forced switch wins), or None
     (the fixed defaults of :func:`occlusion_on`).
 
     ``frozen`` is the frozen culling camera or None (cull against each render's
@@ -315,7 +311,7 @@ MAX_RASTER_BLADES = 1 << 24
 
 def occlusion_on(params, decided=None) -> bool:
     """Whether occlusion culling runs: ``params.cull_occlusion`` True, or "auto" and
-    ``decided`` (the view's decision, :mod:`grasswidget.core.pays`) True; "auto" without a
+    ``decided`` (the view's decision, :mod:`grasswidget.core.auto_switches`) True; "auto" without a
     decision runs it (a view that has not measured yet: a BrowserEngineWidget before its first values)."""
     return effective(params.cull_occlusion, True if decided is None else decided)
 
@@ -323,7 +319,7 @@ def occlusion_on(params, decided=None) -> bool:
 def compute_raster_on(params, n_blades: int, decided=None) -> bool:
     """Whether the compute rasterizer draws the thin blades of a field of ``n_blades`` (both
     engines): ``params.compute_raster`` True (or "auto" and ``decided`` True, the view's
-    decision, :mod:`grasswidget.core.pays`; "auto" without a decision: off),
+    decision, :mod:`grasswidget.core.auto_switches`; "auto" without a decision: off),
     ``compute_raster_max_px`` > 0 and at most :data:`MAX_RASTER_BLADES` blades."""
     return (effective(params.compute_raster, decided) and params.compute_raster_max_px > 0
             and int(n_blades) <= MAX_RASTER_BLADES)
@@ -530,7 +526,7 @@ def grass_layer(blades) -> dict:
 
 def sunlight_values(params, blades, colliders=()) -> dict:
     """The sunlight's values of both ``u_material`` structs (``uniform_layouts.SUNLIGHT_VECTORS``
-    with ``light_direction`` and ``shadows``; ``shaders/sunlight.wgsl``), the same for both engines.
+    with ``light_direction`` and ``shadows``; ``shaders/shadows.wgsl``), the same for both engines.
 
     Args:
         params: a :class:`~grasswidget.core.params.GrassParams`: ``shadows`` (1.0 / 0.0), the sun
@@ -627,7 +623,7 @@ def engine_rules() -> dict:
     """The browser engine's own numbers, JSON-able (``frame_rules["engine"]``; ``engine.js`` and
     ``js/*.js`` write none of them): ``frames_in_flight`` (:data:`FRAMES_IN_FLIGHT`),
     ``device_loss_retries`` (:data:`DEVICE_LOSS_RETRIES`), ``frame_times_kept`` (the newest frame
-    times a stats message carries, :data:`grasswidget.core.pays.FRAME_TIMES_KEPT`), ``ball_vertices``
+    times a stats message carries, :data:`grasswidget.core.auto_switches.FRAME_TIMES_KEPT`), ``ball_vertices``
     (one ball's triangle list, :data:`BALL_VERTICES`), ``blade_bytes`` (one blade's record,
     :data:`grasswidget.core.blades.BLADE_BYTES`), ``inspected_point_bytes`` (one inspected blade's
     control points, :data:`grasswidget.core.teaching.INSPECTED_POINT_BYTES`), ``inspected_force_bytes``

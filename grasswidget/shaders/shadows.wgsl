@@ -2,11 +2,11 @@
 // light under the grass, for the surfaces both engines draw: the ribbons (blade_render.wgsl),
 // the compute rasterizer's resolve (raster_resolve.wgsl) and the ground (sky_ground.wgsl).
 // Included after blade_math.wgsl by shaders whose u_material has the fields of
-// uniform_layouts.SUNLIGHT_LAYOUT (values: frame_data.sunlight_values): light_direction (unit,
+// uniform_layouts.SUNLIGHT_LAYOUT (values: engine_inputs.sunlight_values): light_direction (unit,
 // towards the sun), shadow_balls (the first MAX_SHADOW_BALLS sphere colliders, radius 0 unused),
 // shadow_field (the field's rectangle: xy centre (x, z), zw half sizes), shadow_depths (x the
 // sun's and y the sky's optical depth per metre of grass height, z the layer's height, w the
-// rectangle's soft edge, all m) and shadows (0 off, 1 on). Math: reference.sunlight.
+// rectangle's soft edge, all m) and shadows (0 off, 1 on). Math: reference.shadows.
 //
 // Compiled in only while GrassParams.shadows is on (template switch `sunlight`: the kernel's
 // materials set it from the values they write, the browser engine gets the shaders of the params'
@@ -33,7 +33,7 @@ fn sun_and_sky(p: vec3<f32>, height_above: f32) -> vec2<f32> {
 // A blade's point p at `along` (0 root .. 1 tip): (factor of its unlit colour, factor of its tips'
 // glow); (1, 1) with shadows off. The blades narrow towards their tips: the leaf area above a point
 // at `along` is about (1 - along)^2 of the layer's, so its grass above is that share of the layer's
-// height (reference.sunlight.grass_above).
+// height (reference.shadows.grass_above).
 fn blade_sunlight(p: vec3<f32>, along: f32, ambient: f32) -> vec2<f32> {
     var light = vec2<f32>(1.0, 1.0);
     if (u_material.shadows > 0.0 || along < -1.0) {

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from grasswidget.errors import GrassValueError
-from grasswidget.tools.bench_matrix import SETTINGS, format_matrix, run_matrix
+from grasswidget.tools.benchmark_matrix import SETTINGS, format_matrix, run_matrix
 from grasswidget.tools.cli import main
 
 
