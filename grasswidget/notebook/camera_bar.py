@@ -150,7 +150,7 @@ class CameraHome:
         #: The start camera (a camera_state dict): "home".
         self.home = dict(view.camera_state)
         state.camera_floor = floor_for(view.blades, self.home, view.depth_range[1])
-        view.set_camera_floor(state.camera_floor)
+        view.set_options(camera_floor=state.camera_floor)
         state.observe(self._on_floor, names="camera_floor")
 
     def look_from(self, name):
@@ -173,7 +173,7 @@ class CameraHome:
         view = self.engine.view
         if view is None or view.closed:
             return
-        view.set_camera_floor(change["new"])
+        view.set_options(camera_floor=change["new"])
         cam = view.camera_state
         position, target = clamp_orbit(cam["position"], cam["target"], view.orbit_limits)
         if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):

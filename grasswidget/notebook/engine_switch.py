@@ -228,7 +228,7 @@ class EngineSwitch:
 
     def _on_culling_frozen(self, change):
         if self.view is not None and not self.view.closed:
-            self.view.set_culling_frozen(bool(change["new"]))
+            self.view.set_options(culling_frozen=bool(change["new"]))
 
     def new_kernel_view(self):
         """A new kernel view of the field (the kernel's adapter is asked now if it was not)."""
@@ -259,7 +259,7 @@ class EngineSwitch:
 
         value = check_target_fps(value)
         if self.view is not None:
-            self.view.target_fps = value
+            self.view.set_options(target_fps=value)
         self.streaming["target_fps"] = value
         self.overrides["target_fps"] = value
 
@@ -270,7 +270,7 @@ class EngineSwitch:
         old = self.view
         camera, inspected = old.camera_state, tuple(old.inspected)
         self.view = new
-        new.set_camera_floor(self.state.camera_floor)
+        new.set_options(camera_floor=self.state.camera_floor)
         self._emit("view", new)  # the ball joins the new engine's colliders first, then the view sends them
         try:
             new.camera_state = camera
@@ -278,7 +278,7 @@ class EngineSwitch:
             pass
         old.close()
         if self.state.culling_frozen:
-            new.set_culling_frozen(True)
+            new.set_options(culling_frozen=True)
         if inspected:
             try:
                 new.inspect(list(inspected))

@@ -270,12 +270,8 @@ class EngineView(abc.ABC):
     @property
     @abc.abstractmethod
     def target_fps(self) -> float:
-        """Frames per second adaptive resolution aims for while playing (1..240; set through the widget,
-        which validates it)."""
-
-    @target_fps.setter
-    @abc.abstractmethod
-    def target_fps(self, value: float) -> None: ...
+        """Frames per second adaptive resolution aims for while playing (1..240; set by
+        :meth:`set_options` through the widget, which validates it)."""
 
     @property
     @abc.abstractmethod
@@ -315,23 +311,24 @@ class EngineView(abc.ABC):
         target = state.get("target", current["target"])
         if np.allclose(position, target):
             raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
-        self.look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
+        self._look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
         self.request_draw()
 
-    def add_camera_listener(self, fn: Callable) -> None:
+    def add_camera_listener(self, fn: Callable) -> Callable[[], None]:
         """Call ``fn(view)`` whenever this view's camera has moved (a drag, the wheel, a pan, code):
         the kernel engine checks after each frame it draws, the browser engine when the browser's
-        camera reaches the kernel. Used to link the cameras of a comparison
-        (:mod:`grasswidget.notebook.compare`)."""
+        camera reaches the kernel. Returns a function of no arguments that stops the calls
+        (idempotent). Used to link the cameras of a comparison (:mod:`grasswidget.notebook.compare`)."""
         if fn not in self._camera_listeners:
             self._camera_listeners.append(fn)
         if self._reported_camera is None:
             self._reported_camera = self._current_camera()
 
-    def remove_camera_listener(self, fn: Callable) -> None:
-        """Stop calling ``fn`` (nothing happens when it was not added)."""
-        if fn in self._camera_listeners:
-            self._camera_listeners.remove(fn)
+        def remove():
+            if fn in self._camera_listeners:
+                self._camera_listeners.remove(fn)
+
+        return remove
 
     def _report_camera_moved(self) -> bool:
         """Tell the camera listeners when the camera differs from what they last heard
@@ -364,18 +361,45 @@ class EngineView(abc.ABC):
         """(near, far): the camera's clip planes in metres (near > 0, far > near)."""
 
     @abc.abstractmethod
-    def look(self, position, target, fov_deg) -> None:
+    def _look(self, position, target, fov_deg) -> None:
         """Aim the camera from ``position`` at ``target`` (metres; apart, checked) with a vertical field of
-        view of ``fov_deg`` degrees (checked); ``target`` becomes the orbit centre."""
+        view of ``fov_deg`` degrees (checked); ``target`` becomes the orbit centre (:attr:`camera_state`'s
+        setter calls it)."""
 
     @abc.abstractmethod
     def reset_camera(self) -> None:
         """Back to the starting view (position, target, field of view)."""
 
+    def set_options(self, *, camera_floor: str | None = None, culling_frozen: bool | None = None,
+                    target_fps: float | None = None) -> None:
+        """Change the view's options, only those given (None: unchanged), all already checked by the
+        widget's traits:
+
+        - ``camera_floor``: hold the orbit above "grass" (the tallest blade's tip plus 0.3 m) or
+          "ground" (0.3 m above the ground) from now on (:data:`grasswidget.core.orbit_limits.FLOORS`);
+        - ``culling_frozen``: freeze culling at the current camera (True) or cull against the live
+          camera again (False);
+        - ``target_fps``: frames per second adaptive resolution aims for while playing (1..240;
+          :attr:`target_fps` reads it back).
+        """
+        if camera_floor is not None:
+            self._set_camera_floor(camera_floor)
+        if culling_frozen is not None:
+            self._set_culling_frozen(bool(culling_frozen))
+        if target_fps is not None:
+            self._set_target_fps(target_fps)
+
     @abc.abstractmethod
-    def set_camera_floor(self, floor: str) -> None:
-        """Hold the orbit above ``floor`` from now on: "grass" (the tallest blade's tip plus 0.3 m)
-        or "ground" (0.3 m above the ground); already checked (core.orbit_limits.FLOORS)."""
+    def _set_camera_floor(self, floor: str) -> None:
+        """The engine's part of ``set_options(camera_floor=...)``."""
+
+    @abc.abstractmethod
+    def _set_culling_frozen(self, frozen: bool) -> None:
+        """The engine's part of ``set_options(culling_frozen=...)``."""
+
+    @abc.abstractmethod
+    def _set_target_fps(self, value: float) -> None:
+        """The engine's part of ``set_options(target_fps=...)``."""
 
     @property
     @abc.abstractmethod
@@ -383,10 +407,6 @@ class EngineView(abc.ABC):
         """The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to."""
 
     # ------------------------------------------------------------------ teaching views
-
-    @abc.abstractmethod
-    def set_culling_frozen(self, frozen: bool) -> None:
-        """Freeze culling at the current camera (True) or cull against the live camera again (False)."""
 
     @abc.abstractmethod
     def inspect(self, ids) -> None:

@@ -287,8 +287,7 @@ class BrowserEngineView(EngineView):
         # Kept and reported only: the browser presents at its display's rate (no adaptive resolution).
         return self._target_fps
 
-    @target_fps.setter
-    def target_fps(self, value):
+    def _set_target_fps(self, value):
         self._target_fps = float(value)
 
     @property
@@ -326,7 +325,7 @@ class BrowserEngineView(EngineView):
     def reset_camera(self):
         self.engine_widget.reset_camera()
 
-    def set_camera_floor(self, floor: str):
+    def _set_camera_floor(self, floor: str):
         # The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``).
         self.engine_widget.camera_floor = floor
 
@@ -352,7 +351,7 @@ class BrowserEngineView(EngineView):
         cam = self.engine_widget.camera
         return float(cam.get("near", 0.1)), float(cam.get("far", 100.0))
 
-    def look(self, position, target, fov_deg):
+    def _look(self, position, target, fov_deg):
         # Send the browser the new camera (near and far planes kept).
         self.engine_widget.camera = dict(self.engine_widget.camera, position=[float(x) for x in position],
                                         target=[float(x) for x in target], fov_deg=float(fov_deg))
@@ -404,7 +403,7 @@ class BrowserEngineView(EngineView):
 
     # ------------------------------------------------------------------ teaching views
 
-    def set_culling_frozen(self, frozen: bool):
+    def _set_culling_frozen(self, frozen: bool):
         # Freeze culling at the browser's current camera (True) or cull against it again (False).
         if frozen:
             self.engine_widget.freeze_culling()

@@ -39,7 +39,7 @@ Cmd) + click inspects the blade under the pointer: one pick readback per click
 the browser engine (:mod:`grasswidget.core.interaction`, applied by
 :class:`~grasswidget.views.pointer_gesture.KernelPointer`).
 
-Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
+Teaching views: :meth:`KernelView.set_options` (``culling_frozen=True``) freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
 shows blades in the inspector; their numbers reach ``host.show_inspected`` at each stats
 refresh (one small readback, only while blades are inspected).
@@ -271,7 +271,7 @@ class KernelView(EngineView):
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
-        self._camera_floor = "grass"  # what the orbit stays above (set_camera_floor), kept across set_blades
+        self._camera_floor = "grass"  # what the orbit stays above (set_options), kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
         self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
@@ -428,8 +428,7 @@ class KernelView(EngineView):
         # Frames per second adaptive resolution aims for while playing.
         return self.governor.target_fps
 
-    @target_fps.setter
-    def target_fps(self, value):
+    def _set_target_fps(self, value):
         self.governor.target_fps = check_target_fps(value)
         self.governor.restart()
 
@@ -507,7 +506,7 @@ class KernelView(EngineView):
         self.request_draw()
 
     @_exclusive
-    def set_camera_floor(self, floor: str):
+    def _set_camera_floor(self, floor: str):
         # New orbit limits for the controller: above the grass's tips or above the ground.
         from .orbit import OrbitLimits
 
@@ -535,7 +534,7 @@ class KernelView(EngineView):
         return tuple(float(x) for x in self.scene.camera.depth_range)
 
     @_exclusive
-    def look(self, position, target, fov_deg):
+    def _look(self, position, target, fov_deg):
         # Aim the scene's camera; the controller orbits around ``target`` from now on.
         self.scene.look(position, target, fov_deg)
         if self.controller is not None:
@@ -553,7 +552,7 @@ class KernelView(EngineView):
     # ------------------------------------------------------------------ teaching views
 
     @_exclusive
-    def set_culling_frozen(self, frozen: bool):
+    def _set_culling_frozen(self, frozen: bool):
         # Freeze culling at the current camera (True) or cull against it again (False).
         if frozen:
             self.scene.freeze_culling()

@@ -76,7 +76,7 @@ def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
     heard = []
     stiff.add_camera_listener(lambda view: heard.append(view))
-    soft.look((3.0, 5.0, 9.0), (0.5, 0.5, 0.0), 50.0)  # as the orbit controller moves it in a drag
+    soft.camera_state = {"position": (3.0, 5.0, 9.0), "target": (0.5, 0.5, 0.0), "fov_deg": 50.0}  # as a drag moves it
     soft.draw()  # the frame after the drag reports the move
     for key in ("position", "target", "fov_deg"):
         assert np.allclose(stiff.camera_state[key], soft.camera_state[key], atol=1e-6)
@@ -232,7 +232,7 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
         assert c.backend == "kernel" and c.clock is not None
         assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.widgets.values())
         soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
-        soft.look((4.0, 5.0, 9.0), (0.0, 0.5, 0.0), 45.0)
+        soft.camera_state = {"position": (4.0, 5.0, 9.0), "target": (0.0, 0.5, 0.0), "fov_deg": 45.0}
         soft.draw()
         assert np.allclose(stiff.camera_state["position"], (4.0, 5.0, 9.0), atol=1e-5)
         c.step(24)

@@ -26,10 +26,9 @@ def _interface_members():
 #: The interface's public members, counted by hand: what both engines do, nothing one of them fakes.
 INTERFACE = {"backend", "widget", "blades", "colliders", "attach_ball", "set_blades", "read_state", "set_wind_wgsl",
              "set_function_overrides", "max_fps", "steps_per_frame", "sim_time", "target_fps", "render_scale",
-             "step", "reset_blades", "request_draw", "camera_state", "add_camera_listener",
-             "remove_camera_listener", "accept_camera", "depth_range", "look", "reset_camera", "set_camera_floor",
-             "orbit_limits", "set_culling_frozen", "inspect", "inspected", "read_inspected", "snapshot", "stats",
-             "refresh_stats", "on_key", "close"}
+             "step", "reset_blades", "request_draw", "camera_state", "add_camera_listener", "accept_camera",
+             "depth_range", "reset_camera", "set_options", "orbit_limits", "inspect", "inspected", "read_inspected",
+             "snapshot", "stats", "refresh_stats", "on_key", "close"}
 
 
 def test_the_interface_is_narrow_and_has_no_kernel_only_member():
@@ -39,7 +38,8 @@ def test_the_interface_is_narrow_and_has_no_kernel_only_member():
     host (ViewHost) instead of callbacks."""
     assert _interface_members() == INTERFACE
     for gone in ("scene", "canvas", "controller", "ball_scene", "set_playing", "set_time_scale", "save_png",
-                 "save_png_later", "playback", "actions", "clock_source", "current_stats", "nominal_steps"):
+                 "save_png_later", "playback", "actions", "clock_source", "current_stats", "nominal_steps",
+                 "remove_camera_listener", "look", "set_camera_floor", "set_culling_frozen"):
         assert not hasattr(EngineView, gone), gone
     assert list(inspect.signature(EngineView.__init__).parameters) == ["self", "size", "params", "host"]
     assert {n for n in dir(ViewHost) if not n.startswith("_")} | set(ViewHost.__annotations__) == {
