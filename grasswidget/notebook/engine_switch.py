@@ -268,7 +268,7 @@ class EngineSwitch:
         ball, play state, frozen culling and inspected blades carried over; the old view closes.
         The ``"view"`` event tells the other parts (the ball, the chart, the stage)."""
         old = self.view
-        camera, inspected = old.camera_state, tuple(old.inspected)
+        camera, inspected = old.camera_state, tuple(old.readings.inspected)
         self.view = new
         new.set_options(camera_floor=self.state.camera_floor)
         self._emit("view", new)  # the ball joins the new engine's colliders first, then the view sends them

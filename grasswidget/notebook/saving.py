@@ -97,7 +97,7 @@ def save_html(view, path, *, size, params, ball, playing, time_scale, still, tit
     from ..tools.html_export import save_html as write_page
 
     engines.check_live_page(path, len(view.blades))
-    near, far = view.depth_range
+    near, far = view.readings.depth_range
     cam = view.camera_state
     camera = {"position": list(cam["position"]), "target": list(cam["target"]), "fov_deg": float(cam["fov_deg"]),
               "near": near, "far": far}

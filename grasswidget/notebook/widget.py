@@ -137,15 +137,15 @@ class GrassWidget(ipw.VBox):
     # The view's members the widget adds nothing to: each *is* the live view's member of that name
     # (grasswidget.views.api.ViewMember, documented once in EngineView; help() shows that text).
     camera_state = ViewMember(settable=True)
-    max_fps = ViewMember()
-    steps_per_frame = ViewMember()
-    sim_time = ViewMember()
-    render_scale = ViewMember(no_view=1.0)
+    max_fps = ViewMember(reading=True)
+    steps_per_frame = ViewMember(reading=True)
+    sim_time = ViewMember(reading=True)
+    render_scale = ViewMember(reading=True, no_view=1.0)
     stats = ViewMember()
     read_state = ViewMember()
     set_wind_wgsl = ViewMember()
     inspect = ViewMember()
-    inspected = ViewMember(no_view=())
+    inspected = ViewMember(reading=True, no_view=())
     read_inspected = ViewMember()
     # What only the kernel engine has (None in the browser engine): its GrassScene, jupyter-rfb canvas
     # and pygfx OrbitController.
@@ -276,7 +276,7 @@ class GrassWidget(ipw.VBox):
         engine's setting (the browser engine draws at the browser's own rate)."""
         if self.view is None:
             return float(self.engine.streaming["target_fps"])
-        return float(self.view.target_fps)
+        return self.view.readings.target_fps
 
     @target_fps.setter
     def target_fps(self, value):

@@ -34,6 +34,7 @@ without telling them, so linked views never echo).
 from __future__ import annotations
 
 import abc
+import dataclasses
 import concurrent.futures
 import inspect
 from typing import Callable, Protocol
@@ -46,7 +47,7 @@ from ..core.params import CheckedBool, RangedFloat
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from ..core.interaction import key_action
 
-__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "check_camera_state", "done_future",
+__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "ViewReadings", "reading_doc", "check_camera_state", "done_future",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -96,6 +97,44 @@ class ViewHost(Protocol):
 
     def engine_adapter(self, detail: str) -> None:
         """The engine has started on an adapter (the browser engine's report, in words)."""
+
+
+def _doc_field(doc: str):
+    return dataclasses.field(metadata={"doc": doc})
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewReadings:
+    """What a view says now (:attr:`EngineView.readings`), read in one call; each field documented
+    in its ``metadata["doc"]`` (:func:`reading_doc`)."""
+
+    max_fps: float = _doc_field(
+        "Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream cap; "
+        "the browser's nominal display rate, 60).")
+    steps_per_frame: int = _doc_field(
+        "Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped to "
+        "MAX_STEPS_PER_FRAME: what ``step()`` advances by default. While playing the real-time clock decides "
+        "each frame's steps (``stats['steps_per_frame']``); the browser engine reports the average of its "
+        "last frames.")
+    sim_time: float | None = _doc_field(
+        "Simulated seconds since the last ``reset_blades()`` (read-only): every fixed step taken while "
+        "playing or by ``step()`` adds ``params.dt``. None before the browser engine's first stats message; "
+        "there it is as of the last one (about every 0.5 s; its clock runs in the browser).")
+    target_fps: float = _doc_field(
+        "Frames per second adaptive resolution aims for while playing (1..240; set through the widget, "
+        "which validates it; the browser engine keeps and reports it, drawing at the browser's own rate).")
+    render_scale: float = _doc_field(
+        "Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused and always in "
+        "the browser engine). Save PNG and exports always render at full resolution.")
+    depth_range: tuple = _doc_field("(near, far): the camera's clip planes in metres (near > 0, far > near).")
+    orbit_limits: object = _doc_field(
+        "The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to.")
+    inspected: tuple = _doc_field("Ids of the inspected blades (ctrl + click or ``inspect``; ``()`` when none).")
+
+
+def reading_doc(name: str) -> str:
+    """The documentation of the :class:`ViewReadings` field ``name``."""
+    return next(f.metadata["doc"] for f in dataclasses.fields(ViewReadings) if f.name == name)
 
 
 def done_future(fn, *args) -> concurrent.futures.Future:
@@ -239,45 +278,60 @@ class EngineView(abc.ABC):
         now (ExerciseShaderError with the user's line on failure, the old ones stay); the browser
         engine compiles them when it starts and refuses a change later (GrassValueError)."""
 
-    # ------------------------------------------------------------------ time
+    # ------------------------------------------------------------------ readings
 
     @property
+    def readings(self) -> ViewReadings:
+        """What the view says now, in one read (a :class:`ViewReadings`: frame rates, the simulated
+        clock, the render scale, the camera's clip planes and orbit limits, the inspected ids)."""
+        return ViewReadings(**{f.name: self._read(f.name) for f in dataclasses.fields(ViewReadings)})
+
+    def _read(self, name: str):
+        """One field of :attr:`readings` alone (a :class:`ViewMember` of the widget reads just that one)."""
+        value = getattr(self, "_read_" + name)()
+        kind = {"max_fps": float, "steps_per_frame": int, "target_fps": float, "render_scale": float,
+                "inspected": tuple}.get(name)
+        return value if kind is None else kind(value)
+
     @abc.abstractmethod
-    def max_fps(self) -> float:
-        """Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream
-        cap; the browser's nominal display rate, 60)."""
+    def _read_max_fps(self) -> float:
+        """The engine's :attr:`ViewReadings.max_fps`."""
+
+    def _read_steps_per_frame(self) -> int:
+        """The engine's :attr:`ViewReadings.steps_per_frame` (the nominal steps unless it knows better)."""
+        return self._nominal_steps()
+
+    @abc.abstractmethod
+    def _read_sim_time(self) -> float | None:
+        """The engine's :attr:`ViewReadings.sim_time`."""
+
+    @abc.abstractmethod
+    def _read_target_fps(self) -> float:
+        """The engine's :attr:`ViewReadings.target_fps`."""
+
+    @abc.abstractmethod
+    def _read_render_scale(self) -> float:
+        """The engine's :attr:`ViewReadings.render_scale`."""
+
+    @abc.abstractmethod
+    def _read_depth_range(self) -> tuple:
+        """The engine's :attr:`ViewReadings.depth_range`."""
+
+    @abc.abstractmethod
+    def _read_orbit_limits(self):
+        """The engine's :attr:`ViewReadings.orbit_limits`."""
+
+    @abc.abstractmethod
+    def _read_inspected(self) -> tuple:
+        """The engine's :attr:`ViewReadings.inspected`."""
+
+    # ------------------------------------------------------------------ time
 
     def _nominal_steps(self) -> int:
         """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
         [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
-        wanted = int(round(float(self.play.time_scale) / self.max_fps / float(self.params.dt)))
+        wanted = int(round(float(self.play.time_scale) / self._read_max_fps() / float(self.params.dt)))
         return max(0, min(wanted, MAX_STEPS_PER_FRAME))
-
-    @property
-    def steps_per_frame(self) -> int:
-        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped: what
-        ``step()`` advances by default. While playing the real-time clock decides each frame's steps
-        (``stats["steps_per_frame"]``); the browser engine reports the average of its last frames."""
-        return self._nominal_steps()
-
-    @property
-    @abc.abstractmethod
-    def sim_time(self) -> float | None:
-        """Simulated seconds since the last ``reset_blades()`` (read-only): every fixed step taken while
-        playing or by ``step()`` adds ``params.dt``. None before the browser engine's first stats message;
-        there it is as of the last one (about every 0.5 s; its clock runs in the browser)."""
-
-    @property
-    @abc.abstractmethod
-    def target_fps(self) -> float:
-        """Frames per second adaptive resolution aims for while playing (1..240; set by
-        :meth:`set_options` through the widget, which validates it)."""
-
-    @property
-    @abc.abstractmethod
-    def render_scale(self) -> float:
-        """Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused). Save PNG
-        and exports always render at full resolution."""
 
     @abc.abstractmethod
     def step(self, n: int) -> None:
@@ -355,11 +409,6 @@ class EngineView(abc.ABC):
     def _current_camera(self) -> dict:
         """The camera now, as :attr:`camera_state` gives it (tuples of floats, fov_deg a float)."""
 
-    @property
-    @abc.abstractmethod
-    def depth_range(self) -> tuple:
-        """(near, far): the camera's clip planes in metres (near > 0, far > near)."""
-
     @abc.abstractmethod
     def _look(self, position, target, fov_deg) -> None:
         """Aim the camera from ``position`` at ``target`` (metres; apart, checked) with a vertical field of
@@ -401,11 +450,6 @@ class EngineView(abc.ABC):
     def _set_target_fps(self, value: float) -> None:
         """The engine's part of ``set_options(target_fps=...)``."""
 
-    @property
-    @abc.abstractmethod
-    def orbit_limits(self):
-        """The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to."""
-
     # ------------------------------------------------------------------ teaching views
 
     @abc.abstractmethod
@@ -413,11 +457,6 @@ class EngineView(abc.ABC):
         """Show blades in the inspector (v0, v1, v2, control polygon, force arrows); ``[]`` clears.
         At most 64 ids in [0, blade_count - 1], integers; anything else raises GrassValueError naming
         the limit (nothing changes then)."""
-
-    @property
-    @abc.abstractmethod
-    def inspected(self) -> tuple:
-        """Ids of the inspected blades (ctrl + click or :meth:`inspect`; ``()`` when none)."""
 
     @abc.abstractmethod
     def read_inspected(self, timeout: float | None = None) -> list:
@@ -504,7 +543,8 @@ class ViewMember:
     :class:`EngineView`: a class attribute ``name = ViewMember()`` of the owner *is* the view's member
     of the same name, written and documented once, in :class:`EngineView` (``help()`` shows that text).
 
-    Reading gives ``owner.view.<name>``: a property's value, or the view's bound method (called as the
+    Reading gives ``owner.view.<name>`` (with ``reading=True``: ``owner.view.readings.<name>``, read
+    alone): a property's value, or the view's bound method (called as the
     owner's). Assigning sets it on the view (only where ``settable``). A method, or an assignment, on an
     owner whose view is closed raises :class:`~grasswidget.errors.WidgetClosedError`. A property read
     with no view (a half-built owner) gives ``no_view`` (None unless given).
@@ -513,12 +553,19 @@ class ViewMember:
     path, state the owner keeps) stays a method of the owner.
     """
 
-    def __init__(self, *, settable: bool = False, no_view=None):
+    def __init__(self, *, settable: bool = False, no_view=None, reading: bool = False):
         self.settable = bool(settable)
         self.no_view = no_view
+        #: True: the member is the field of that name of the view's :attr:`~EngineView.readings`.
+        self.reading = bool(reading)
         self.name = None
 
     def __set_name__(self, owner, name):
+        if self.reading:
+            if name not in {f.name for f in dataclasses.fields(ViewReadings)}:
+                raise GrassValueError(f"ViewMember {owner.__name__}.{name}: ViewReadings has no field {name!r}")
+            self.name, self.is_method, self.__doc__ = name, False, reading_doc(name)
+            return
         if not hasattr(EngineView, name):
             raise GrassValueError(f"ViewMember {owner.__name__}.{name}: EngineView has no member {name!r}")
         self.name = name
@@ -538,7 +585,9 @@ class ViewMember:
         if self.is_method:
             return getattr(self._open_view(owner), self.name)
         view = owner.view
-        return self.no_view if view is None else getattr(view, self.name)
+        if view is None:
+            return self.no_view
+        return view._read(self.name) if self.reading else getattr(view, self.name)
 
     def __set__(self, owner, value):
         if not self.settable:

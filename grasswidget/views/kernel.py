@@ -282,7 +282,7 @@ class KernelView(EngineView):
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
         self.canvas = _canvas_class()(size=self.size, update_mode="continuous" if self.play.playing else "ondemand",
-                                     max_fps=self.max_fps)
+                                     max_fps=self._read_max_fps())
         self.canvas.frame_lock = self.lock
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
@@ -307,7 +307,7 @@ class KernelView(EngineView):
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
-                       "target_fps": self.target_fps, "step_count": 0, "switches": None, "trial": False,
+                       "target_fps": self._read_target_fps(), "step_count": 0, "switches": None, "trial": False,
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
@@ -413,18 +413,15 @@ class KernelView(EngineView):
 
     # ------------------------------------------------------------------ time
 
-    @property
-    def max_fps(self) -> float:
+    def _read_max_fps(self) -> float:
         # The stream cap: frames per second asked of the canvas scheduler.
         return float(self._streaming["max_fps"])
 
-    @property
-    def sim_time(self) -> float:
+    def _read_sim_time(self) -> float:
         # Simulated seconds since the last reset_blades().
         return self.clock.sim_time
 
-    @property
-    def target_fps(self) -> float:
+    def _read_target_fps(self) -> float:
         # Frames per second adaptive resolution aims for while playing.
         return self.governor.target_fps
 
@@ -432,8 +429,7 @@ class KernelView(EngineView):
         self.governor.target_fps = check_target_fps(value)
         self.governor.restart()
 
-    @property
-    def render_scale(self) -> float:
+    def _read_render_scale(self) -> float:
         # Fraction of the full pixel ratio the live frames render at (1 when paused).
         return float(self.canvas.render_scale)
 
@@ -514,8 +510,7 @@ class KernelView(EngineView):
         if self.controller is not None and self.scene is not None:
             self.controller.limits = OrbitLimits.for_scene(self.scene, floor)
 
-    @property
-    def orbit_limits(self):
+    def _read_orbit_limits(self):
         return self.controller.limits if self.controller is not None else None
 
     def _current_camera(self) -> dict:
@@ -529,8 +524,7 @@ class KernelView(EngineView):
                 "target": tuple(float(x) for x in target),
                 "fov_deg": self.scene.vertical_fov()}
 
-    @property
-    def depth_range(self) -> tuple:
+    def _read_depth_range(self) -> tuple:
         return tuple(float(x) for x in self.scene.camera.depth_range)
 
     @_exclusive
@@ -572,8 +566,7 @@ class KernelView(EngineView):
         self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
         self.request_draw()
 
-    @property
-    def inspected(self) -> tuple:
+    def _read_inspected(self) -> tuple:
         return self._inspected
 
     @_exclusive
@@ -676,8 +669,8 @@ class KernelView(EngineView):
         # The stats dict for the stats line, with what is known now (no readback).
         s = dict(self._stats)
         s["blades"] = self._blade_count
-        s["scale"] = self.render_scale
-        s["target_fps"] = self.target_fps
+        s["scale"] = self._read_render_scale()
+        s["target_fps"] = self._read_target_fps()
         playing = bool(self.play.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")

@@ -100,7 +100,7 @@ def test_playing_frames_show_the_same_simulated_time_and_pause_aligns(comparison
         wall[0] += 0.05
         soft.draw()
         stiff.draw()
-        assert soft.sim_time == pytest.approx(stiff.sim_time)
+        assert soft.readings.sim_time == pytest.approx(stiff.readings.sim_time)
     assert soft.clock.steps == stiff.clock.steps > 0
     # one view draws on alone: it waits for the other (the shared time holds) ...
     before = soft.clock.steps
