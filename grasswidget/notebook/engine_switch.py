@@ -30,7 +30,7 @@ from ..views import engines
 from ..views.kernel import STATS_INTERVAL, KernelView, streaming_defaults
 from .shadows_default import ShadowsDefault
 
-__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
+__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_params", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
 
 #: The engines a GrassWidget can run on (``backend=``).
 BACKENDS = ("kernel", "browser", "auto")
@@ -66,6 +66,15 @@ def check_streaming(*, max_fps=None, quality=None, pixel_ratio=None, target_fps=
     if target_fps is not None:
         out["target_fps"] = check_target_fps(target_fps)
     return out
+
+
+def check_params(params):
+    """``params`` if it is None or a GrassParams; anything else raises GrassTypeError naming ``params``."""
+    from ..core.params import GrassParams
+
+    if params is not None and not isinstance(params, GrassParams):
+        raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+    return params
 
 
 def check_backend(backend) -> str:
@@ -200,6 +209,11 @@ class EngineSwitch:
         return int(blades)
 
     # ------------------------------------------------------------------ views
+
+    def request_draw(self, _change=None):
+        """Ask the live view for a new frame (a parameter or the ball changed); nothing once closed."""
+        if self.view is not None and not self.view.closed:
+            self.view.request_draw()
 
     def default_params(self):
         """A new GrassParams for a widget given none: the sunlight's default for the adapter that
