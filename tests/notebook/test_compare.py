@@ -74,8 +74,9 @@ def test_shared_parameters_reach_every_view_and_labels_show_the_differing_ones(c
 def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     c = comparison
     soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
-    heard = []
+    heard, heard_soft = [], []
     stiff.add_camera_listener(lambda view: heard.append(view))
+    stop = soft.add_camera_listener(lambda view: heard_soft.append(view))
     soft.camera_state = {"position": (3.0, 5.0, 9.0), "target": (0.5, 0.5, 0.0), "fov_deg": 50.0}  # as a drag moves it
     soft.draw()  # the frame after the drag reports the move
     for key in ("position", "target", "fov_deg"):
@@ -84,6 +85,12 @@ def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     stiff.draw()
     soft.draw()
     assert heard == []  # the followed view did not report the camera it was given back
+    assert heard_soft == [soft]
+    stop()  # add_camera_listener's remover: no more calls (and a second call does nothing)
+    stop()
+    soft.camera_state = {"position": (3.5, 5.0, 9.0)}
+    soft.draw()
+    assert heard_soft == [soft] and np.allclose(stiff.camera_state["position"], (3.5, 5.0, 9.0), atol=1e-5)
     c.camera_state = {"position": (0.0, 6.0, 12.0)}
     assert all(np.allclose(w.camera_state["position"], (0.0, 6.0, 12.0)) for w in c.widgets.values())
     with pytest.raises(gw.GrassValueError, match="fov_deg"):

@@ -147,6 +147,12 @@ def test_readings_are_one_read_that_agrees_with_the_widget(both):
     assert (r.sim_time is None) if w.backend == "browser" else r.sim_time == w.sim_time
     w.inspect([])
     assert w.view.readings.inspected == ()
+    before = w.view.readings.target_fps
+    w.view.set_options()  # nothing given: nothing changes
+    assert w.view.readings.target_fps == before
+    w.target_fps = 30  # the widget checks it, the view takes it through set_options
+    assert w.view.readings.target_fps == 30.0 == w.target_fps
+    w.target_fps = before
     assert all(reading_doc(f.name) for f in dataclasses.fields(ViewReadings))
 
 
