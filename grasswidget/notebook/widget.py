@@ -28,8 +28,7 @@ from traitlets import All
 from . import cell_rerun, saving
 from ..core.limits import check_steps
 from ..errors import GrassTypeError, WidgetClosedError
-from ..views.api import MAX_STEPS_PER_FRAME, ViewMember
-from ..views.kernel import KernelOnly
+from ..views.api import MAX_STEPS_PER_FRAME, KernelOnly, ViewMember
 from .engine_switch import BACKENDS, STATS_INTERVAL, EngineSwitch, check_params, check_streaming, streaming_defaults
 from .layout import PANEL_WIDTH, WidgetLayout, check_layout, close_widgets, make_stage, show_view, view_size
 from .widget_state import SharedTraits, WidgetActions, WidgetState, link_state

@@ -47,7 +47,7 @@ from ..core.params import CheckedBool, RangedFloat
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from ..core.interaction import key_action
 
-__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "ViewReadings", "reading_doc", "check_camera_state", "done_future",
+__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "KernelOnly", "ViewReadings", "reading_doc", "check_camera_state", "done_future",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -593,3 +593,20 @@ class ViewMember:
         if not self.settable:
             raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
         setattr(self._open_view(owner), self.name, value)
+
+
+class KernelOnly:
+    """An owner's attribute (a GrassWidget's ``scene``, ``canvas``, ``controller``) that is its live
+    view's member of the same name while the kernel engine runs (``view.backend == "kernel"``: a
+    :class:`~grasswidget.views.kernel.KernelView`), and None with another engine (which has no such
+    part: the browser keeps its state, canvas and camera in the page). Not part of the interface."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+        self.__doc__ = f"The kernel engine's ``{name}`` (see :class:`KernelView`); None in the browser engine."
+
+    def __get__(self, owner, owner_type=None):
+        if owner is None:
+            return self
+        view = owner.view
+        return getattr(view, self.name) if view is not None and view.backend == "kernel" else None

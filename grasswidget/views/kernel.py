@@ -77,7 +77,7 @@ from .pointer_gesture import KernelPointer
 from ..core.interaction import MAX_PIXEL_RATIO
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
-           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL", "KernelOnly"]
+           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
 
 #: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
 CPU_MAX_BLADES = 1 << 18
@@ -852,19 +852,3 @@ class FrameTiming:
         for v in self._sums.values():
             v.clear()
         return out
-
-
-class KernelOnly:
-    """An owner's attribute (a GrassWidget's ``scene``, ``canvas``, ``controller``) that is its live
-    view's member of the same name while the kernel engine runs, and None with another engine (which
-    has no such part: the browser keeps its state, canvas and camera in the page)."""
-
-    def __set_name__(self, owner, name):
-        self.name = name
-        self.__doc__ = f"The kernel engine's ``{name}`` (see :class:`KernelView`); None in the browser engine."
-
-    def __get__(self, owner, owner_type=None):
-        if owner is None:
-            return self
-        view = owner.view
-        return getattr(view, self.name) if isinstance(view, KernelView) else None
