@@ -146,6 +146,12 @@ class BallControl(HasTraits):
         if self.enabled and self.collider not in view.colliders:
             view.colliders.append(self.collider)
 
+    def join(self, view):
+        """:meth:`attach` to ``view`` and let it move the ball with shift + drag and roll it with
+        simulated time (the widget's first view, and each after an engine switch)."""
+        self.attach(view)
+        view.attach_ball(self)
+
     def detach(self):
         """Take the ball out of the view's colliders and unlink the controls (the widget closes)."""
         self.rolling = False

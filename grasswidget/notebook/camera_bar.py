@@ -149,8 +149,8 @@ class CameraHome:
         view = engine.view
         #: The start camera (a camera_state dict): "home".
         self.home = dict(view.camera_state)
-        state.camera_floor = floor_for(view.blades, self.home, view.depth_range[1])
-        view.set_camera_floor(state.camera_floor)
+        state.camera_floor = floor_for(view.blades, self.home, view.readings.depth_range[1])
+        view.set_options(camera_floor=state.camera_floor)
         state.observe(self._on_floor, names="camera_floor")
 
     def look_from(self, name):
@@ -163,9 +163,9 @@ class CameraHome:
             blades = view.blades
             view.camera_state = camera_preset(name, blades.v0, blades.height, home=self.home,
                                               aspect=self.size[0] / self.size[1], fov_deg=view.camera_state["fov_deg"],
-                                              limits=view.orbit_limits, horizon=blades.horizon)
+                                              limits=view.readings.orbit_limits, horizon=blades.horizon)
         if self.state.camera_floor == "grass" and floor_for(view.blades, view.camera_state,
-                                                            view.depth_range[1]) == "ground":
+                                                            view.readings.depth_range[1]) == "ground":
             self.state.camera_floor = "ground"
 
     def _on_floor(self, change):
@@ -173,9 +173,9 @@ class CameraHome:
         view = self.engine.view
         if view is None or view.closed:
             return
-        view.set_camera_floor(change["new"])
+        view.set_options(camera_floor=change["new"])
         cam = view.camera_state
-        position, target = clamp_orbit(cam["position"], cam["target"], view.orbit_limits)
+        position, target = clamp_orbit(cam["position"], cam["target"], view.readings.orbit_limits)
         if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):
             view.camera_state = {"position": tuple(position), "target": tuple(target)}
 

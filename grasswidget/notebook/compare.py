@@ -162,6 +162,7 @@ class Comparison(ipw.VBox):
         self.clock = None
         self._followers = {}
         self._linked = {}
+        self._unlink = {}  # label -> the function that stops its view's camera calls
         try:
             for label, changes in self.variants.items():
                 own = apply_changes(self.params.copy(), changes, where=f"variant {label!r}")
@@ -223,7 +224,7 @@ class Comparison(ipw.VBox):
             view.clock = follower  # the view's frame loop now follows the shared time
             self._followers[label] = follower
         self.widgets[label].engine.commands = self  # keys and ctrl + click act on every view
-        view.add_camera_listener(self._on_view_camera)
+        self._unlink[label] = view.add_camera_listener(self._on_view_camera)
         self._linked[label] = view
 
     def _on_view_replaced(self, _view):
@@ -231,9 +232,8 @@ class Comparison(ipw.VBox):
         streams instead, and the message line says so): link the new one, at the shared camera."""
         for label, w in self.widgets.items():
             if w.view is not None and w.view is not self._linked.get(label) and not w.closed:
-                old = self._linked.get(label)
-                if old is not None:
-                    old.remove_camera_listener(self._on_view_camera)
+                if label in self._unlink:
+                    self._unlink.pop(label)()
                 self._followers.pop(label, None)
                 self._link_view(label, w.view)
                 others = [v.view for lb, v in self.widgets.items() if lb != label and v.view is not None]

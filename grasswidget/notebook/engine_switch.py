@@ -30,7 +30,7 @@ from ..views import engines
 from ..views.kernel import STATS_INTERVAL, KernelView, streaming_defaults
 from .shadows_default import ShadowsDefault
 
-__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
+__all__ = ["EngineSwitch", "BACKENDS", "check_backend", "check_params", "check_streaming", "streaming_defaults", "STATS_INTERVAL"]
 
 #: The engines a GrassWidget can run on (``backend=``).
 BACKENDS = ("kernel", "browser", "auto")
@@ -66,6 +66,15 @@ def check_streaming(*, max_fps=None, quality=None, pixel_ratio=None, target_fps=
     if target_fps is not None:
         out["target_fps"] = check_target_fps(target_fps)
     return out
+
+
+def check_params(params):
+    """``params`` if it is None or a GrassParams; anything else raises GrassTypeError naming ``params``."""
+    from ..core.params import GrassParams
+
+    if params is not None and not isinstance(params, GrassParams):
+        raise GrassTypeError(f"params must be a GrassParams or None, not {type(params).__name__}")
+    return params
 
 
 def check_backend(backend) -> str:
@@ -201,6 +210,11 @@ class EngineSwitch:
 
     # ------------------------------------------------------------------ views
 
+    def request_draw(self, _change=None):
+        """Ask the live view for a new frame (a parameter or the ball changed); nothing once closed."""
+        if self.view is not None and not self.view.closed:
+            self.view.request_draw()
+
     def default_params(self):
         """A new GrassParams for a widget given none: the sunlight's default for the adapter that
         draws (:func:`~grasswidget.core.params.sunlight_defaults`), then the preset's own values
@@ -228,7 +242,7 @@ class EngineSwitch:
 
     def _on_culling_frozen(self, change):
         if self.view is not None and not self.view.closed:
-            self.view.set_culling_frozen(bool(change["new"]))
+            self.view.set_options(culling_frozen=bool(change["new"]))
 
     def new_kernel_view(self):
         """A new kernel view of the field (the kernel's adapter is asked now if it was not)."""
@@ -259,7 +273,7 @@ class EngineSwitch:
 
         value = check_target_fps(value)
         if self.view is not None:
-            self.view.target_fps = value
+            self.view.set_options(target_fps=value)
         self.streaming["target_fps"] = value
         self.overrides["target_fps"] = value
 
@@ -268,9 +282,9 @@ class EngineSwitch:
         ball, play state, frozen culling and inspected blades carried over; the old view closes.
         The ``"view"`` event tells the other parts (the ball, the chart, the stage)."""
         old = self.view
-        camera, inspected = old.camera_state, tuple(old.inspected)
+        camera, inspected = old.camera_state, tuple(old.readings.inspected)
         self.view = new
-        new.set_camera_floor(self.state.camera_floor)
+        new.set_options(camera_floor=self.state.camera_floor)
         self._emit("view", new)  # the ball joins the new engine's colliders first, then the view sends them
         try:
             new.camera_state = camera
@@ -278,7 +292,7 @@ class EngineSwitch:
             pass
         old.close()
         if self.state.culling_frozen:
-            new.set_culling_frozen(True)
+            new.set_options(culling_frozen=True)
         if inspected:
             try:
                 new.inspect(list(inspected))

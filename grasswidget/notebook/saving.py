@@ -11,7 +11,7 @@ from __future__ import annotations
 import datetime
 import os
 
-from ..core.presets import check_png_path
+from ..core.presets import check_png_path, parse_size
 from ..views import engines
 
 __all__ = ["PICTURE_FOLDER", "default_picture_folder", "unique_name", "save_png", "save_png_later",
@@ -41,9 +41,10 @@ def unique_name(folder, stem, ext) -> str:
     return path
 
 
-def save_png(view, path, size) -> str:
-    """Write a PNG of ``view`` at ``size`` (w, h) to ``path`` (None: a new name in
-    :func:`default_picture_folder`), waiting for it; return the path."""
+def save_png(view, path, size=None) -> str:
+    """Write a PNG of ``view`` at ``size`` ((w, h) or "WxH"; None: twice the view's size) to ``path``
+    (None: a new name in :func:`default_picture_folder`), waiting for it; return the path."""
+    size = parse_size(size) if size is not None else (2 * view.size[0], 2 * view.size[1])
     if path is None:
         path = unique_name(default_picture_folder(), "grass", ".png")
     path = check_png_path(path)
@@ -97,7 +98,7 @@ def save_html(view, path, *, size, params, ball, playing, time_scale, still, tit
     from ..tools.html_export import save_html as write_page
 
     engines.check_live_page(path, len(view.blades))
-    near, far = view.depth_range
+    near, far = view.readings.depth_range
     cam = view.camera_state
     camera = {"position": list(cam["position"]), "target": list(cam["target"]), "fov_deg": float(cam["fov_deg"]),
               "near": near, "far": far}

@@ -18,24 +18,40 @@ from ..core.params import CheckedBool, ChoiceTrait
 from ..views.api import PlayState
 from .lab_bench import check_chart
 
-__all__ = ["WidgetState", "WidgetActions", "STATE_TRAITS", "link_state"]
+__all__ = ["SharedTraits", "WidgetState", "WidgetActions", "STATE_TRAITS", "link_state"]
 
 #: The traits a GrassWidget shares with its state, by name.
 STATE_TRAITS = ("playing", "time_scale", "culling_frozen", "chart", "camera_floor", "panel_folded")
 
 
-class WidgetState(PlayState):
-    """What a GrassWidget's parts share (see the module docstring). ``playing`` and ``time_scale``
-    come from :class:`~grasswidget.views.api.PlayState`."""
+class SharedTraits(PlayState):
+    """The traits a GrassWidget and its :class:`WidgetState` both have (:data:`STATE_TRAITS`),
+    defined once: the widget's are its public API, the state's what its parts observe and set;
+    :func:`link_state` keeps the two alike. ``playing`` and ``time_scale`` are the views'
+    :class:`~grasswidget.views.api.PlayState`."""
 
-    culling_frozen = CheckedBool(False, help="Cull against a copy of the camera taken when this was set.")
-    chart = Any(None, allow_none=True, help='The live chart under the view: None, "tip", "bend", "culling" or "frame".')
-    camera_floor = ChoiceTrait("grass", FLOORS, help='What the orbit keeps the camera above: "grass" or "ground".')
-    panel_folded = CheckedBool(False, help="Show only the camera bar under or beside the view.")
+    playing = CheckedBool(True, help="Animate (continuous drawing) or pause (draw on demand).")
+    culling_frozen = CheckedBool(False, help="Cull against a copy of the camera taken when this was set "
+                                 "(see GrassScene.freeze_culling).")
+    chart = Any(None, allow_none=True,
+                help='The live chart under the view: None (hidden), "tip" (tip offset of each inspected blade), '
+                     '"bend" (bend angle), "culling" (blades kept after each culling test) or "frame" (where '
+                     "a frame's time goes), against simulated time (see grasswidget.notebook.lab_bench).")
+    camera_floor = ChoiceTrait("grass", FLOORS, help='What the orbit keeps the camera above: "grass" (0.3 m above '
+                               'the tallest blade\'s tip, so never inside the field) or "ground" (0.3 m above the '
+                               'ground, down among the blades). A widget whose start camera is lower than the grass '
+                               'starts with "ground".')
+    panel_folded = CheckedBool(False, help="Show only the camera bar (play/pause, camera presets, more) under or "
+                               "beside the view; True from the start with layout='lecture'.")
 
     @validate("chart")
     def _valid_chart(self, proposal):
         return check_chart(proposal["value"])
+
+
+class WidgetState(SharedTraits):
+    """What a GrassWidget's parts share (see the module docstring): the widget's traits of the same
+    names, in an object the parts may hold (they never hold the widget)."""
 
 
 def link_state(owner, state: WidgetState) -> list:

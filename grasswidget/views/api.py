@@ -34,6 +34,7 @@ without telling them, so linked views never echo).
 from __future__ import annotations
 
 import abc
+import dataclasses
 import concurrent.futures
 import inspect
 from typing import Callable, Protocol
@@ -46,7 +47,7 @@ from ..core.params import CheckedBool, RangedFloat
 from ..errors import GrassTypeError, GrassValueError, ReadOnlyAttributeError, WidgetClosedError
 from ..core.interaction import key_action
 
-__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "check_camera_state", "done_future",
+__all__ = ["EngineView", "PlayState", "ViewHost", "ViewMember", "KernelOnly", "ViewReadings", "reading_doc", "check_camera_state", "done_future",
            "MAX_STEPS_PER_FRAME", "CAMERA_KEYS", "FOV_RANGE_DEG"]
 
 #: The keys of a camera state dict.
@@ -96,6 +97,44 @@ class ViewHost(Protocol):
 
     def engine_adapter(self, detail: str) -> None:
         """The engine has started on an adapter (the browser engine's report, in words)."""
+
+
+def _doc_field(doc: str):
+    return dataclasses.field(metadata={"doc": doc})
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewReadings:
+    """What a view says now (:attr:`EngineView.readings`), read in one call; each field documented
+    in its ``metadata["doc"]`` (:func:`reading_doc`)."""
+
+    max_fps: float = _doc_field(
+        "Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream cap; "
+        "the browser's nominal display rate, 60).")
+    steps_per_frame: int = _doc_field(
+        "Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped to "
+        "MAX_STEPS_PER_FRAME: what ``step()`` advances by default. While playing the real-time clock decides "
+        "each frame's steps (``stats['steps_per_frame']``); the browser engine reports the average of its "
+        "last frames.")
+    sim_time: float | None = _doc_field(
+        "Simulated seconds since the last ``reset_blades()`` (read-only): every fixed step taken while "
+        "playing or by ``step()`` adds ``params.dt``. None before the browser engine's first stats message; "
+        "there it is as of the last one (about every 0.5 s; its clock runs in the browser).")
+    target_fps: float = _doc_field(
+        "Frames per second adaptive resolution aims for while playing (1..240; set through the widget, "
+        "which validates it; the browser engine keeps and reports it, drawing at the browser's own rate).")
+    render_scale: float = _doc_field(
+        "Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused and always in "
+        "the browser engine). Save PNG and exports always render at full resolution.")
+    depth_range: tuple = _doc_field("(near, far): the camera's clip planes in metres (near > 0, far > near).")
+    orbit_limits: object = _doc_field(
+        "The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to.")
+    inspected: tuple = _doc_field("Ids of the inspected blades (ctrl + click or ``inspect``; ``()`` when none).")
+
+
+def reading_doc(name: str) -> str:
+    """The documentation of the :class:`ViewReadings` field ``name``."""
+    return next(f.metadata["doc"] for f in dataclasses.fields(ViewReadings) if f.name == name)
 
 
 def done_future(fn, *args) -> concurrent.futures.Future:
@@ -239,49 +278,60 @@ class EngineView(abc.ABC):
         now (ExerciseShaderError with the user's line on failure, the old ones stay); the browser
         engine compiles them when it starts and refuses a change later (GrassValueError)."""
 
-    # ------------------------------------------------------------------ time
+    # ------------------------------------------------------------------ readings
 
     @property
+    def readings(self) -> ViewReadings:
+        """What the view says now, in one read (a :class:`ViewReadings`: frame rates, the simulated
+        clock, the render scale, the camera's clip planes and orbit limits, the inspected ids)."""
+        return ViewReadings(**{f.name: self._read(f.name) for f in dataclasses.fields(ViewReadings)})
+
+    def _read(self, name: str):
+        """One field of :attr:`readings` alone (a :class:`ViewMember` of the widget reads just that one)."""
+        value = getattr(self, "_read_" + name)()
+        kind = {"max_fps": float, "steps_per_frame": int, "target_fps": float, "render_scale": float,
+                "inspected": tuple}.get(name)
+        return value if kind is None else kind(value)
+
     @abc.abstractmethod
-    def max_fps(self) -> float:
-        """Frames per second asked of the canvas scheduler, the nominal frame rate (the kernel's stream
-        cap; the browser's nominal display rate, 60)."""
+    def _read_max_fps(self) -> float:
+        """The engine's :attr:`ViewReadings.max_fps`."""
+
+    def _read_steps_per_frame(self) -> int:
+        """The engine's :attr:`ViewReadings.steps_per_frame` (the nominal steps unless it knows better)."""
+        return self._nominal_steps()
+
+    @abc.abstractmethod
+    def _read_sim_time(self) -> float | None:
+        """The engine's :attr:`ViewReadings.sim_time`."""
+
+    @abc.abstractmethod
+    def _read_target_fps(self) -> float:
+        """The engine's :attr:`ViewReadings.target_fps`."""
+
+    @abc.abstractmethod
+    def _read_render_scale(self) -> float:
+        """The engine's :attr:`ViewReadings.render_scale`."""
+
+    @abc.abstractmethod
+    def _read_depth_range(self) -> tuple:
+        """The engine's :attr:`ViewReadings.depth_range`."""
+
+    @abc.abstractmethod
+    def _read_orbit_limits(self):
+        """The engine's :attr:`ViewReadings.orbit_limits`."""
+
+    @abc.abstractmethod
+    def _read_inspected(self) -> tuple:
+        """The engine's :attr:`ViewReadings.inspected`."""
+
+    # ------------------------------------------------------------------ time
 
     def _nominal_steps(self) -> int:
         """Fixed steps of one nominal frame: ``round(time_scale * frame_interval / dt)``, in
         [0, :data:`MAX_STEPS_PER_FRAME`] (the one place this formula is written)."""
-        wanted = int(round(float(self.play.time_scale) / self.max_fps / float(self.params.dt)))
+        wanted = int(round(float(self.play.time_scale) / self._read_max_fps() / float(self.params.dt)))
         return max(0, min(wanted, MAX_STEPS_PER_FRAME))
-
-    @property
-    def steps_per_frame(self) -> int:
-        """Fixed steps of one nominal frame, round(time_scale * frame_interval / dt), capped: what
-        ``step()`` advances by default. While playing the real-time clock decides each frame's steps
-        (``stats["steps_per_frame"]``); the browser engine reports the average of its last frames."""
-        return self._nominal_steps()
-
-    @property
-    @abc.abstractmethod
-    def sim_time(self) -> float | None:
-        """Simulated seconds since the last ``reset_blades()`` (read-only): every fixed step taken while
-        playing or by ``step()`` adds ``params.dt``. None before the browser engine's first stats message;
-        there it is as of the last one (about every 0.5 s; its clock runs in the browser)."""
-
-    @property
-    @abc.abstractmethod
-    def target_fps(self) -> float:
-        """Frames per second adaptive resolution aims for while playing (1..240; set through the widget,
-        which validates it)."""
-
-    @target_fps.setter
-    @abc.abstractmethod
-    def target_fps(self, value: float) -> None: ...
-
-    @property
-    @abc.abstractmethod
-    def render_scale(self) -> float:
-        """Fraction of the full pixel ratio live frames render at now (0.5..1; 1 while paused). Save PNG
-        and exports always render at full resolution."""
 
     @abc.abstractmethod
     def step(self, n: int) -> None:
@@ -315,23 +365,24 @@ class EngineView(abc.ABC):
         target = state.get("target", current["target"])
         if np.allclose(position, target):
             raise GrassValueError(f"camera_state position and target must differ; both are {tuple(position)}")
-        self.look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
+        self._look(tuple(position), tuple(target), state.get("fov_deg", current["fov_deg"]))
         self.request_draw()
 
-    def add_camera_listener(self, fn: Callable) -> None:
+    def add_camera_listener(self, fn: Callable) -> Callable[[], None]:
         """Call ``fn(view)`` whenever this view's camera has moved (a drag, the wheel, a pan, code):
         the kernel engine checks after each frame it draws, the browser engine when the browser's
-        camera reaches the kernel. Used to link the cameras of a comparison
-        (:mod:`grasswidget.notebook.compare`)."""
+        camera reaches the kernel. Returns a function of no arguments that stops the calls
+        (idempotent). Used to link the cameras of a comparison (:mod:`grasswidget.notebook.compare`)."""
         if fn not in self._camera_listeners:
             self._camera_listeners.append(fn)
         if self._reported_camera is None:
             self._reported_camera = self._current_camera()
 
-    def remove_camera_listener(self, fn: Callable) -> None:
-        """Stop calling ``fn`` (nothing happens when it was not added)."""
-        if fn in self._camera_listeners:
-            self._camera_listeners.remove(fn)
+        def remove():
+            if fn in self._camera_listeners:
+                self._camera_listeners.remove(fn)
+
+        return remove
 
     def _report_camera_moved(self) -> bool:
         """Tell the camera listeners when the camera differs from what they last heard
@@ -358,46 +409,54 @@ class EngineView(abc.ABC):
     def _current_camera(self) -> dict:
         """The camera now, as :attr:`camera_state` gives it (tuples of floats, fov_deg a float)."""
 
-    @property
     @abc.abstractmethod
-    def depth_range(self) -> tuple:
-        """(near, far): the camera's clip planes in metres (near > 0, far > near)."""
-
-    @abc.abstractmethod
-    def look(self, position, target, fov_deg) -> None:
+    def _look(self, position, target, fov_deg) -> None:
         """Aim the camera from ``position`` at ``target`` (metres; apart, checked) with a vertical field of
-        view of ``fov_deg`` degrees (checked); ``target`` becomes the orbit centre."""
+        view of ``fov_deg`` degrees (checked); ``target`` becomes the orbit centre (:attr:`camera_state`'s
+        setter calls it)."""
 
     @abc.abstractmethod
     def reset_camera(self) -> None:
         """Back to the starting view (position, target, field of view)."""
 
-    @abc.abstractmethod
-    def set_camera_floor(self, floor: str) -> None:
-        """Hold the orbit above ``floor`` from now on: "grass" (the tallest blade's tip plus 0.3 m)
-        or "ground" (0.3 m above the ground); already checked (core.orbit_limits.FLOORS)."""
+    def set_options(self, *, camera_floor: str | None = None, culling_frozen: bool | None = None,
+                    target_fps: float | None = None) -> None:
+        """Change the view's options, only those given (None: unchanged), all already checked by the
+        widget's traits:
 
-    @property
+        - ``camera_floor``: hold the orbit above "grass" (the tallest blade's tip plus 0.3 m) or
+          "ground" (0.3 m above the ground) from now on (:data:`grasswidget.core.orbit_limits.FLOORS`);
+        - ``culling_frozen``: freeze culling at the current camera (True) or cull against the live
+          camera again (False);
+        - ``target_fps``: frames per second adaptive resolution aims for while playing (1..240;
+          :attr:`target_fps` reads it back).
+        """
+        if camera_floor is not None:
+            self._set_camera_floor(camera_floor)
+        if culling_frozen is not None:
+            self._set_culling_frozen(bool(culling_frozen))
+        if target_fps is not None:
+            self._set_target_fps(target_fps)
+
     @abc.abstractmethod
-    def orbit_limits(self):
-        """The :class:`~grasswidget.core.orbit_limits.OrbitLimits` every drag, pan and wheel step is held to."""
+    def _set_camera_floor(self, floor: str) -> None:
+        """The engine's part of ``set_options(camera_floor=...)``."""
+
+    @abc.abstractmethod
+    def _set_culling_frozen(self, frozen: bool) -> None:
+        """The engine's part of ``set_options(culling_frozen=...)``."""
+
+    @abc.abstractmethod
+    def _set_target_fps(self, value: float) -> None:
+        """The engine's part of ``set_options(target_fps=...)``."""
 
     # ------------------------------------------------------------------ teaching views
-
-    @abc.abstractmethod
-    def set_culling_frozen(self, frozen: bool) -> None:
-        """Freeze culling at the current camera (True) or cull against the live camera again (False)."""
 
     @abc.abstractmethod
     def inspect(self, ids) -> None:
         """Show blades in the inspector (v0, v1, v2, control polygon, force arrows); ``[]`` clears.
         At most 64 ids in [0, blade_count - 1], integers; anything else raises GrassValueError naming
         the limit (nothing changes then)."""
-
-    @property
-    @abc.abstractmethod
-    def inspected(self) -> tuple:
-        """Ids of the inspected blades (ctrl + click or :meth:`inspect`; ``()`` when none)."""
 
     @abc.abstractmethod
     def read_inspected(self, timeout: float | None = None) -> list:
@@ -484,7 +543,8 @@ class ViewMember:
     :class:`EngineView`: a class attribute ``name = ViewMember()`` of the owner *is* the view's member
     of the same name, written and documented once, in :class:`EngineView` (``help()`` shows that text).
 
-    Reading gives ``owner.view.<name>``: a property's value, or the view's bound method (called as the
+    Reading gives ``owner.view.<name>`` (with ``reading=True``: ``owner.view.readings.<name>``, read
+    alone): a property's value, or the view's bound method (called as the
     owner's). Assigning sets it on the view (only where ``settable``). A method, or an assignment, on an
     owner whose view is closed raises :class:`~grasswidget.errors.WidgetClosedError`. A property read
     with no view (a half-built owner) gives ``no_view`` (None unless given).
@@ -493,12 +553,19 @@ class ViewMember:
     path, state the owner keeps) stays a method of the owner.
     """
 
-    def __init__(self, *, settable: bool = False, no_view=None):
+    def __init__(self, *, settable: bool = False, no_view=None, reading: bool = False):
         self.settable = bool(settable)
         self.no_view = no_view
+        #: True: the member is the field of that name of the view's :attr:`~EngineView.readings`.
+        self.reading = bool(reading)
         self.name = None
 
     def __set_name__(self, owner, name):
+        if self.reading:
+            if name not in {f.name for f in dataclasses.fields(ViewReadings)}:
+                raise GrassValueError(f"ViewMember {owner.__name__}.{name}: ViewReadings has no field {name!r}")
+            self.name, self.is_method, self.__doc__ = name, False, reading_doc(name)
+            return
         if not hasattr(EngineView, name):
             raise GrassValueError(f"ViewMember {owner.__name__}.{name}: EngineView has no member {name!r}")
         self.name = name
@@ -518,9 +585,28 @@ class ViewMember:
         if self.is_method:
             return getattr(self._open_view(owner), self.name)
         view = owner.view
-        return self.no_view if view is None else getattr(view, self.name)
+        if view is None:
+            return self.no_view
+        return view._read(self.name) if self.reading else getattr(view, self.name)
 
     def __set__(self, owner, value):
         if not self.settable:
             raise ReadOnlyAttributeError(f"{type(owner).__name__}.{self.name} can only be read")
         setattr(self._open_view(owner), self.name, value)
+
+
+class KernelOnly:
+    """An owner's attribute (a GrassWidget's ``scene``, ``canvas``, ``controller``) that is its live
+    view's member of the same name while the kernel engine runs (``view.backend == "kernel"``: a
+    :class:`~grasswidget.views.kernel.KernelView`), and None with another engine (which has no such
+    part: the browser keeps its state, canvas and camera in the page). Not part of the interface."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+        self.__doc__ = f"The kernel engine's ``{name}`` (see :class:`KernelView`); None in the browser engine."
+
+    def __get__(self, owner, owner_type=None):
+        if owner is None:
+            return self
+        view = owner.view
+        return getattr(view, self.name) if view is not None and view.backend == "kernel" else None

@@ -261,13 +261,11 @@ class BrowserEngineView(EngineView):
             self.ball.attach(self)
         self._stats["blades"] = len(blades)
 
-    @property
-    def max_fps(self) -> float:
+    def _read_max_fps(self) -> float:
         # The browser presents up to its display rate; 60 is the nominal figure.
         return 60.0
 
-    @property
-    def steps_per_frame(self) -> int:
+    def _read_steps_per_frame(self) -> int:
         # Average fixed steps per presented frame, as the browser last reported it (it follows
         # the wall clock); before any report, the nominal steps.
         s = self._stats.get("steps_per_frame")
@@ -275,24 +273,20 @@ class BrowserEngineView(EngineView):
             return int(s)
         return self._nominal_steps()
 
-    @property
-    def sim_time(self) -> float | None:
+    def _read_sim_time(self) -> float | None:
         # Simulated seconds since the last reset as of the browser's last stats message (about
         # every 0.5 s): its step count times ``params.dt``; None before the first one.
         count = self._stats.get("step_count")
         return None if count is None else int(count) * float(self.params.dt)
 
-    @property
-    def target_fps(self) -> float:
+    def _read_target_fps(self) -> float:
         # Kept and reported only: the browser presents at its display's rate (no adaptive resolution).
         return self._target_fps
 
-    @target_fps.setter
-    def target_fps(self, value):
+    def _set_target_fps(self, value):
         self._target_fps = float(value)
 
-    @property
-    def render_scale(self) -> float:
+    def _read_render_scale(self) -> float:
         # Always 1: the browser renders at full resolution.
         return 1.0
 
@@ -326,12 +320,11 @@ class BrowserEngineView(EngineView):
     def reset_camera(self):
         self.engine_widget.reset_camera()
 
-    def set_camera_floor(self, floor: str):
+    def _set_camera_floor(self, floor: str):
         # The browser gets the floor as new orbit numbers (``frame_rules["orbit"]``).
         self.engine_widget.camera_floor = floor
 
-    @property
-    def orbit_limits(self):
+    def _read_orbit_limits(self):
         return self.engine_widget.orbit_limits
 
     def request_draw(self):
@@ -347,12 +340,11 @@ class BrowserEngineView(EngineView):
                 "target": tuple(float(x) for x in cam["target"]),
                 "fov_deg": float(cam["fov_deg"])}
 
-    @property
-    def depth_range(self) -> tuple:
+    def _read_depth_range(self) -> tuple:
         cam = self.engine_widget.camera
         return float(cam.get("near", 0.1)), float(cam.get("far", 100.0))
 
-    def look(self, position, target, fov_deg):
+    def _look(self, position, target, fov_deg):
         # Send the browser the new camera (near and far planes kept).
         self.engine_widget.camera = dict(self.engine_widget.camera, position=[float(x) for x in position],
                                         target=[float(x) for x in target], fov_deg=float(fov_deg))
@@ -404,7 +396,7 @@ class BrowserEngineView(EngineView):
 
     # ------------------------------------------------------------------ teaching views
 
-    def set_culling_frozen(self, frozen: bool):
+    def _set_culling_frozen(self, frozen: bool):
         # Freeze culling at the browser's current camera (True) or cull against it again (False).
         if frozen:
             self.engine_widget.freeze_culling()
@@ -424,8 +416,7 @@ class BrowserEngineView(EngineView):
         else:
             self._request_inspected()
 
-    @property
-    def inspected(self) -> tuple:
+    def _read_inspected(self) -> tuple:
         return tuple(self.engine_widget.inspected)
 
     def read_inspected(self, timeout=None) -> list:
@@ -461,7 +452,7 @@ class BrowserEngineView(EngineView):
 
         s = dict(self._stats)
         s["blades"] = len(self.blades)
-        s["target_fps"] = self.target_fps  # as the kernel's (the blade control's estimate aims for it)
+        s["target_fps"] = self._read_target_fps()  # as the kernel's (the blade control's estimate aims for it)
         # How old: the newest stats message is the newest frame known to be drawn.
         s.update(stats_freshness(time.perf_counter(), self._frame_t, playing=bool(self.play.playing),
                                  at_rest=self._at_rest, changed_t=self._changed_t,

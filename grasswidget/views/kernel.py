@@ -39,7 +39,7 @@ Cmd) + click inspects the blade under the pointer: one pick readback per click
 the browser engine (:mod:`grasswidget.core.interaction`, applied by
 :class:`~grasswidget.views.pointer_gesture.KernelPointer`).
 
-Teaching views: :meth:`KernelView.set_culling_frozen` freezes culling at the
+Teaching views: :meth:`KernelView.set_options` (``culling_frozen=True``) freezes culling at the
 current camera (kept across a new blade count), :meth:`KernelView.inspect`
 shows blades in the inspector; their numbers reach ``host.show_inspected`` at each stats
 refresh (one small readback, only while blades are inspected).
@@ -77,7 +77,7 @@ from .pointer_gesture import KernelPointer
 from ..core.interaction import MAX_PIXEL_RATIO
 
 __all__ = ["KernelView", "streaming_defaults", "EventsWithoutPicking", "MAX_STEPS_PER_FRAME",
-           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL", "KernelOnly"]
+           "CPU_MAX_BLADES", "GPU_MAX_BLADES", "STATS_INTERVAL"]
 
 #: Largest blade count the slider offers on a CPU adapter (about 0.6 s a frame on lavapipe).
 CPU_MAX_BLADES = 1 << 18
@@ -271,7 +271,7 @@ class KernelView(EngineView):
         self._preset = preset
         self._streaming = dict(streaming)
         self._frozen_camera = None  # the frozen culling camera, kept across set_blades
-        self._camera_floor = "grass"  # what the orbit stays above (set_camera_floor), kept across set_blades
+        self._camera_floor = "grass"  # what the orbit stays above (set_options), kept across set_blades
         self._inspected = ()
         self._report_pending = False  # report the inspected numbers after the next frame
         self._inspect_stale = True    # read_inspected renders first (something changed since the last frame)
@@ -282,7 +282,7 @@ class KernelView(EngineView):
         self.clock = SimClock(MAX_STEPS_PER_FRAME)
         self.governor = ResolutionGovernor(self._streaming["target_fps"])
         self.canvas = _canvas_class()(size=self.size, update_mode="continuous" if self.play.playing else "ondemand",
-                                     max_fps=self.max_fps)
+                                     max_fps=self._read_max_fps())
         self.canvas.frame_lock = self.lock
         self.canvas.max_pixel_ratio = self._streaming["max_pixel_ratio"]
         self.canvas.quality = self._streaming["quality"]
@@ -307,7 +307,7 @@ class KernelView(EngineView):
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
                        "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
-                       "target_fps": self.target_fps, "step_count": 0, "switches": None, "trial": False,
+                       "target_fps": self._read_target_fps(), "step_count": 0, "switches": None, "trial": False,
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
@@ -413,28 +413,23 @@ class KernelView(EngineView):
 
     # ------------------------------------------------------------------ time
 
-    @property
-    def max_fps(self) -> float:
+    def _read_max_fps(self) -> float:
         # The stream cap: frames per second asked of the canvas scheduler.
         return float(self._streaming["max_fps"])
 
-    @property
-    def sim_time(self) -> float:
+    def _read_sim_time(self) -> float:
         # Simulated seconds since the last reset_blades().
         return self.clock.sim_time
 
-    @property
-    def target_fps(self) -> float:
+    def _read_target_fps(self) -> float:
         # Frames per second adaptive resolution aims for while playing.
         return self.governor.target_fps
 
-    @target_fps.setter
-    def target_fps(self, value):
+    def _set_target_fps(self, value):
         self.governor.target_fps = check_target_fps(value)
         self.governor.restart()
 
-    @property
-    def render_scale(self) -> float:
+    def _read_render_scale(self) -> float:
         # Fraction of the full pixel ratio the live frames render at (1 when paused).
         return float(self.canvas.render_scale)
 
@@ -507,7 +502,7 @@ class KernelView(EngineView):
         self.request_draw()
 
     @_exclusive
-    def set_camera_floor(self, floor: str):
+    def _set_camera_floor(self, floor: str):
         # New orbit limits for the controller: above the grass's tips or above the ground.
         from .orbit import OrbitLimits
 
@@ -515,8 +510,7 @@ class KernelView(EngineView):
         if self.controller is not None and self.scene is not None:
             self.controller.limits = OrbitLimits.for_scene(self.scene, floor)
 
-    @property
-    def orbit_limits(self):
+    def _read_orbit_limits(self):
         return self.controller.limits if self.controller is not None else None
 
     def _current_camera(self) -> dict:
@@ -530,12 +524,11 @@ class KernelView(EngineView):
                 "target": tuple(float(x) for x in target),
                 "fov_deg": self.scene.vertical_fov()}
 
-    @property
-    def depth_range(self) -> tuple:
+    def _read_depth_range(self) -> tuple:
         return tuple(float(x) for x in self.scene.camera.depth_range)
 
     @_exclusive
-    def look(self, position, target, fov_deg):
+    def _look(self, position, target, fov_deg):
         # Aim the scene's camera; the controller orbits around ``target`` from now on.
         self.scene.look(position, target, fov_deg)
         if self.controller is not None:
@@ -553,7 +546,7 @@ class KernelView(EngineView):
     # ------------------------------------------------------------------ teaching views
 
     @_exclusive
-    def set_culling_frozen(self, frozen: bool):
+    def _set_culling_frozen(self, frozen: bool):
         # Freeze culling at the current camera (True) or cull against it again (False).
         if frozen:
             self.scene.freeze_culling()
@@ -573,8 +566,7 @@ class KernelView(EngineView):
         self._report_pending = bool(self._inspected)  # the numbers exist after the next frame
         self.request_draw()
 
-    @property
-    def inspected(self) -> tuple:
+    def _read_inspected(self) -> tuple:
         return self._inspected
 
     @_exclusive
@@ -677,8 +669,8 @@ class KernelView(EngineView):
         # The stats dict for the stats line, with what is known now (no readback).
         s = dict(self._stats)
         s["blades"] = self._blade_count
-        s["scale"] = self.render_scale
-        s["target_fps"] = self.target_fps
+        s["scale"] = self._read_render_scale()
+        s["target_fps"] = self._read_target_fps()
         playing = bool(self.play.playing)
         s["steps_per_frame"] = self.clock.last_steps if playing else 0
         s["step_count"] = int(self.scene.field.step_count) if self.scene is not None else s.get("step_count")
@@ -860,19 +852,3 @@ class FrameTiming:
         for v in self._sums.values():
             v.clear()
         return out
-
-
-class KernelOnly:
-    """An owner's attribute (a GrassWidget's ``scene``, ``canvas``, ``controller``) that is its live
-    view's member of the same name while the kernel engine runs, and None with another engine (which
-    has no such part: the browser keeps its state, canvas and camera in the page)."""
-
-    def __set_name__(self, owner, name):
-        self.name = name
-        self.__doc__ = f"The kernel engine's ``{name}`` (see :class:`KernelView`); None in the browser engine."
-
-    def __get__(self, owner, owner_type=None):
-        if owner is None:
-            return self
-        view = owner.view
-        return getattr(view, self.name) if isinstance(view, KernelView) else None

@@ -76,8 +76,8 @@ class _Feed:
         occluded = stats.get("occluded")
         rastered = stats.get("rastered")
         # Paused (a step(n)): the reference counts this very camera before the sample is taken.
-        kept = self.counter.kept(camera, self.view.depth_range, self.view.size, visible=visible, occluded=occluded,
-                                 now=not self.view.play.playing)
+        kept = self.counter.kept(camera, self.view.readings.depth_range, self.view.size, visible=visible,
+                                 occluded=occluded, now=not self.view.play.playing)
         drawn = {"ribbons": None if visible is None else visible - (rastered or 0), "compute": rastered}
         return kept, drawn
 
@@ -164,7 +164,7 @@ class KernelTraceFeed(_Feed):
             tag = (step * float(view.params.dt), step, kept, drawn, self._frame_ms({}))
             self._last_step, self._step_sample = step, True
             inspector = scene.field.inspector
-            if not view.inspected or inspector is None:
+            if not view.readings.inspected or inspector is None:
                 self._record(*tag, rows=[])
                 return
             try:
@@ -205,8 +205,8 @@ class KernelTraceFeed(_Feed):
         # The frame's own counts replace the newest ones when they arrive (while playing, a frame or
         # two later; paused, they are here already): the sample says what this frame drew.
         frame = scene.stats.frames if scene.stats is not None else None
-        if not view.inspected or not self.readback.after_render((frame, tag)):
-            if view.inspected:  # the ring is full: the frame is skipped
+        if not view.readings.inspected or not self.readback.after_render((frame, tag)):
+            if view.readings.inspected:  # the ring is full: the frame is skipped
                 return
             self._waiting.append((frame, tag))
             self._record_waiting()
@@ -290,7 +290,7 @@ class BrowserTraceFeed(_Feed):
         view = self.view
         if view.closed:
             return
-        ids = list(view.inspected)
+        ids = list(view.readings.inspected)
         stats = dict(view.stats)
         kept, drawn = self._counts(stats)
         frame_ms = self._frame_ms(stats)

@@ -74,9 +74,10 @@ def test_shared_parameters_reach_every_view_and_labels_show_the_differing_ones(c
 def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     c = comparison
     soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
-    heard = []
+    heard, heard_soft = [], []
     stiff.add_camera_listener(lambda view: heard.append(view))
-    soft.look((3.0, 5.0, 9.0), (0.5, 0.5, 0.0), 50.0)  # as the orbit controller moves it in a drag
+    stop = soft.add_camera_listener(lambda view: heard_soft.append(view))
+    soft.camera_state = {"position": (3.0, 5.0, 9.0), "target": (0.5, 0.5, 0.0), "fov_deg": 50.0}  # as a drag moves it
     soft.draw()  # the frame after the drag reports the move
     for key in ("position", "target", "fov_deg"):
         assert np.allclose(stiff.camera_state[key], soft.camera_state[key], atol=1e-6)
@@ -84,6 +85,12 @@ def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     stiff.draw()
     soft.draw()
     assert heard == []  # the followed view did not report the camera it was given back
+    assert heard_soft == [soft]
+    stop()  # add_camera_listener's remover: no more calls (and a second call does nothing)
+    stop()
+    soft.camera_state = {"position": (3.5, 5.0, 9.0)}
+    soft.draw()
+    assert heard_soft == [soft] and np.allclose(stiff.camera_state["position"], (3.5, 5.0, 9.0), atol=1e-5)
     c.camera_state = {"position": (0.0, 6.0, 12.0)}
     assert all(np.allclose(w.camera_state["position"], (0.0, 6.0, 12.0)) for w in c.widgets.values())
     with pytest.raises(gw.GrassValueError, match="fov_deg"):
@@ -100,7 +107,7 @@ def test_playing_frames_show_the_same_simulated_time_and_pause_aligns(comparison
         wall[0] += 0.05
         soft.draw()
         stiff.draw()
-        assert soft.sim_time == pytest.approx(stiff.sim_time)
+        assert soft.readings.sim_time == pytest.approx(stiff.readings.sim_time)
     assert soft.clock.steps == stiff.clock.steps > 0
     # one view draws on alone: it waits for the other (the shared time holds) ...
     before = soft.clock.steps
@@ -232,7 +239,7 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
         assert c.backend == "kernel" and c.clock is not None
         assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.widgets.values())
         soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
-        soft.look((4.0, 5.0, 9.0), (0.0, 0.5, 0.0), 45.0)
+        soft.camera_state = {"position": (4.0, 5.0, 9.0), "target": (0.0, 0.5, 0.0), "fov_deg": 45.0}
         soft.draw()
         assert np.allclose(stiff.camera_state["position"], (4.0, 5.0, 9.0), atol=1e-5)
         c.step(24)

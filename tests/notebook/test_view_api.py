@@ -14,7 +14,8 @@ pytest.importorskip("ipywidgets")
 import grasswidget as gw  # noqa: E402
 from grasswidget.views.browser import BrowserEngineView  # noqa: E402
 from grasswidget.views.kernel import KernelView  # noqa: E402
-from grasswidget.views.api import MAX_STEPS_PER_FRAME, EngineView, ViewHost, check_camera_state  # noqa: E402
+from grasswidget.views.api import (MAX_STEPS_PER_FRAME, EngineView, ViewHost, ViewReadings, check_camera_state,  # noqa: E402
+                                   reading_doc)
 
 SIZE = (160, 120)
 
@@ -25,11 +26,9 @@ def _interface_members():
 
 #: The interface's public members, counted by hand: what both engines do, nothing one of them fakes.
 INTERFACE = {"backend", "widget", "blades", "colliders", "attach_ball", "set_blades", "read_state", "set_wind_wgsl",
-             "set_function_overrides", "max_fps", "steps_per_frame", "sim_time", "target_fps", "render_scale",
-             "step", "reset_blades", "request_draw", "camera_state", "add_camera_listener",
-             "remove_camera_listener", "accept_camera", "depth_range", "look", "reset_camera", "set_camera_floor",
-             "orbit_limits", "set_culling_frozen", "inspect", "inspected", "read_inspected", "snapshot", "stats",
-             "refresh_stats", "on_key", "close"}
+             "set_function_overrides", "readings", "step", "reset_blades", "request_draw", "camera_state",
+             "add_camera_listener", "accept_camera", "reset_camera", "set_options", "inspect", "read_inspected",
+             "snapshot", "stats", "refresh_stats", "on_key", "close"}
 
 
 def test_the_interface_is_narrow_and_has_no_kernel_only_member():
@@ -39,7 +38,10 @@ def test_the_interface_is_narrow_and_has_no_kernel_only_member():
     host (ViewHost) instead of callbacks."""
     assert _interface_members() == INTERFACE
     for gone in ("scene", "canvas", "controller", "ball_scene", "set_playing", "set_time_scale", "save_png",
-                 "save_png_later", "playback", "actions", "clock_source", "current_stats", "nominal_steps"):
+                 "save_png_later", "playback", "actions", "clock_source", "current_stats", "nominal_steps",
+                 "remove_camera_listener", "look", "set_camera_floor", "set_culling_frozen", "max_fps",
+                 "steps_per_frame", "sim_time", "target_fps", "render_scale", "depth_range", "orbit_limits",
+                 "inspected"):
         assert not hasattr(EngineView, gone), gone
     assert list(inspect.signature(EngineView.__init__).parameters) == ["self", "size", "params", "host"]
     assert {n for n in dir(ViewHost) if not n.startswith("_")} | set(ViewHost.__annotations__) == {
@@ -117,13 +119,41 @@ def both(request):
 def test_shared_steps_per_frame_formula(both):
     w = both
     w.time_scale = 1.0
-    expected = round(1.0 * (1.0 / w.view.max_fps) / w.params.dt)
+    expected = round(1.0 * (1.0 / w.view.readings.max_fps) / w.params.dt)
     assert w.steps_per_frame == expected  # (the browser's average of its frames once it reports; none here)
     w.time_scale = 10.0
-    assert w.steps_per_frame == min(round(10.0 / w.view.max_fps / w.params.dt), MAX_STEPS_PER_FRAME)
+    assert w.steps_per_frame == min(round(10.0 / w.view.readings.max_fps / w.params.dt), MAX_STEPS_PER_FRAME)
     w.time_scale = 0.0
     assert w.steps_per_frame == 0
     w.time_scale = 1.0
+
+
+def test_readings_are_one_read_that_agrees_with_the_widget(both):
+    """``view.readings`` gathers the view's read-only figures in one value, the same the widget's
+    members give, each field documented."""
+    import dataclasses
+
+    w = both
+    w.inspect([3, 1])
+    r = w.view.readings
+    assert isinstance(r, ViewReadings)
+    assert (r.max_fps, r.steps_per_frame, r.render_scale, r.inspected) == (
+        w.max_fps, w.steps_per_frame, w.render_scale, w.inspected)
+    assert r.target_fps == w.target_fps and 1 <= r.target_fps <= 240
+    assert set(r.inspected) == {1, 3}
+    near, far = r.depth_range
+    assert 0 < near < far
+    assert r.orbit_limits is not None
+    assert (r.sim_time is None) if w.backend == "browser" else r.sim_time == w.sim_time
+    w.inspect([])
+    assert w.view.readings.inspected == ()
+    before = w.view.readings.target_fps
+    w.view.set_options()  # nothing given: nothing changes
+    assert w.view.readings.target_fps == before
+    w.target_fps = 30  # the widget checks it, the view takes it through set_options
+    assert w.view.readings.target_fps == 30.0 == w.target_fps
+    w.target_fps = before
+    assert all(reading_doc(f.name) for f in dataclasses.fields(ViewReadings))
 
 
 def test_shared_camera_setter(both):
@@ -200,9 +230,11 @@ def test_the_widget_forwards_to_its_view_in_one_way_documented_once():
 
     assert _hand_written_pass_throughs(Path(widget_module.__file__).read_text(), "GrassWidget") == []
     forwarded = {name for name, member in vars(gw.GrassWidget).items() if isinstance(member, ViewMember)}
-    assert {"read_inspected", "read_state", "inspect", "camera_state", "stats"} <= forwarded
+    assert {"read_inspected", "read_state", "inspect", "camera_state", "stats", "sim_time", "inspected"} <= forwarded
     for name in forwarded:
-        assert inspect.getdoc(vars(gw.GrassWidget)[name]) == inspect.getdoc(inspect.getattr_static(EngineView, name))
+        member = vars(gw.GrassWidget)[name]
+        interface_doc = reading_doc(name) if member.reading else inspect.getattr_static(EngineView, name).__doc__
+        assert inspect.getdoc(member) == inspect.cleandoc(interface_doc)
     redocumented = []
     for view_class in (KernelView, BrowserEngineView):
         for name in _interface_members():
