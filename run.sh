@@ -42,6 +42,18 @@ install() {
   "$VENV/bin/python" -m pip install -q -e ".[test]"
 }
 
+test_tools() {
+  # TypeScript checks the package's JavaScript in the suite (tests/browser/test_js_types.py): a test
+  # tool only, pinned in package.json / package-lock.json, installed into ./node_modules. Debian's
+  # nodejs comes without npm (its own package); NodeSource's nodejs has it.
+  if [ "${GRASSWIDGET_SKIP_INSTALL:-0}" = 1 ]; then return; fi
+  if ! command -v npm >/dev/null 2>&1; then
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq npm >/dev/null
+  fi
+  npm ci --no-audit --no-fund --loglevel=error
+}
+
 lab() {
   # JupyterLab refuses to run as root without --allow-root (containers, fresh VMs run as root);
   # on a server without a display there is no browser to open: JupyterLab prints the URL instead.
@@ -65,6 +77,7 @@ case "$cmd" in
     ;;
   test)
     install
+    test_tools
     exec "$VENV/bin/python" -m pytest -q "$@"
     ;;
   snapshot)

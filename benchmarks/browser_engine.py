@@ -29,12 +29,14 @@ WebGPU on the CPU), shows ``GrassWidget(backend="browser")`` at 640 x 480 and
 
 Usage (from the repository root)::
 
-    .venv/bin/python benchmarks/browser_engine.py [--out benchmarks/browser_engine_swiftshader.json]
-    .venv/bin/python benchmarks/browser_engine.py --occlusion-only [--out benchmarks/browser_occlusion_swiftshader.json]
-    .venv/bin/python benchmarks/browser_engine.py --compute-raster-only [--out benchmarks/browser_compute_raster_swiftshader.json]
-    .venv/bin/python benchmarks/browser_engine.py --matrix [--out benchmarks/browser_matrix_swiftshader.json]
+    .venv/bin/python benchmarks/browser_engine.py [--out PATH]
+    .venv/bin/python benchmarks/browser_engine.py --occlusion-only [--out PATH]
+    .venv/bin/python benchmarks/browser_engine.py --compute-raster-only [--out PATH]
+    .venv/bin/python benchmarks/browser_engine.py --matrix [--out PATH]
 
-Prints a table and writes the JSON (machine, browser, adapter and figures).
+Prints a table and writes benchmarks/results/<claim>-swiftshader-<date>.json (claim browser_engine,
+browser_occlusion, browser_compute_raster or browser_matrix; or ``--out``): the browser and the figures.
+JupyterLab and Chromium are driven by benchmarks/lab.py.
 """
 
 from __future__ import annotations
@@ -42,17 +44,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from benchmarks import browser_matrix  # noqa: E402
-from tests.browser.harness import (  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import browser_matrix  # noqa: E402  (benchmarks/browser_matrix.py)
+import common  # noqa: E402  (benchmarks/common.py)
+from lab import (  # noqa: E402  (benchmarks/lab.py)
     Browser,
     JupyterLabServer,
     kernel_eval,
@@ -63,6 +63,11 @@ from tests.browser.harness import (  # noqa: E402
     wait_for_kernel,
     write_notebook,
 )
+
+common.use_this_checkout()
+ROOT = common.ROOT
+#: The adapter of these runs: Chromium's WebGPU on SwiftShader (lab.WEBGPU_FLAGS).
+CHROMIUM_ADAPTER = "Chromium WebGPU, SwiftShader (CPU)"
 
 COUNTS = (4096, 1 << 14, 1 << 16)
 STARTUP_BLADES = 1 << 18
@@ -131,7 +136,7 @@ def median_ratio(row):
 def occlusion_on_off(page, server, root):
     """Occlusion culling off vs on in the cis565 view, windows interleaved in one run."""
     write_notebook(root / "occlusion.ipynb", [
-        "import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        "import grasswidget as gw\nfrom grasswidget.core.presets import preset_field\n"
         f"w = gw.GrassWidget({OCCLUSION_COUNTS[0]}, preset='cis565', backend='browser', size=(640, 480))\nw",
     ])
     open_notebook(page, server, "occlusion.ipynb")
@@ -176,7 +181,7 @@ _PROFILE_JS = """async ({frames, steps, rounds}) => {
   const target = (w, h) => {
     const key = `${w}x${h}`;
     if (!targets.has(key)) {
-      const color = device.createTexture({ size: [w, h], format: e.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
+      const color = device.createTexture({ size: [w, h], format: e.gpu.format, usage: GPUTextureUsage.RENDER_ATTACHMENT });
       targets.set(key, { color, view: color.createView(), depth: e.depthFor(w, h) });
     }
     return targets.get(key);
@@ -203,36 +208,36 @@ _PROFILE_JS = """async ({frames, steps, rounds}) => {
     const t0 = performance.now();
     for (let i = 0; i < frames; i++) {
       const enc = device.createCommandEncoder();
-      e.encodeFrame(wrapEncoder(enc, skip), t.view, t.depth, w, h);
+      e.passes.encode(wrapEncoder(enc, skip), t.view, t.depth, w, h);
       device.queue.submit([enc.finish()]);
     }
     await device.queue.onSubmittedWorkDone();
     return (performance.now() - t0) / frames;
   };
   const pipes = (list) => new Set((list || []).filter(Boolean).map((p) => p.pipeline));
-  const o = e.occlusion, r = e.raster;
+  const P = e.pipelines, o = P.occlusion, r = P.raster;
   const variants = {
     "full": () => timeFrames(new Set(), W, H),
     "half_size": () => timeFrames(new Set(), Math.round(W / 2), Math.round(H / 2)),
     "occlusion_off": async () => {
-      const keep = e.occlusionOn;
-      e.occlusionOn = () => false;
-      try { return await timeFrames(new Set(), W, H); } finally { e.occlusionOn = keep; }
+      const keep = e.passes.occlusionOn;
+      e.passes.occlusionOn = () => false;
+      try { return await timeFrames(new Set(), W, H); } finally { e.passes.occlusionOn = keep; }
     },
     "no_draws_or_dispatches": () => timeFrames("all", W, H),
   };
   const skips = {
-    "sky_ground": pipes([e.skyGround]),
-    "ribbons": pipes([...e.bladePipes, ...e.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
-    "culling": pipes([...e.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
+    "sky_ground": pipes([P.skyGround]),
+    "ribbons": pipes([...P.bladePipes, ...P.flatBladePipes, ...(o ? [...o.blades, ...o.flatBlades] : [])]),
+    "culling": pipes([...P.computePasses.filter((p) => p.name.startsWith("cull") || p.name === "prefix_bands" || p.name === "reset_args"),
       ...(o ? [o.cull] : [])]),
     "occlusion_pyramid": pipes(o ? o.levels : []),
   };
-  if (e.rasterOn && e.rasterOn()) {
+  if (e.passes.rasterOn()) {
     skips["compute_raster_resolve"] = pipes(r ? [r.resolve, r.resolveFlat] : []);
-    skips["compute_raster_walks"] = pipes([...e.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
-      ...(r ? [r.second_depth, r.second_payload] : [])]);
-    skips["compute_raster_clear"] = pipes(e.computePasses.filter((p) => p.name === "raster_clear"));
+    skips["compute_raster_walks"] = pipes([...P.computePasses.filter((p) => p.name === "raster_depth" || p.name === "raster_payload"),
+      ...(r ? [r.second.second_depth, r.second.second_payload] : [])]);
+    skips["compute_raster_clear"] = pipes(P.computePasses.filter((p) => p.name === "raster_clear"));
   }
   for (const [name, skip] of Object.entries(skips)) variants[`without_${name}`] = () => timeFrames(skip, W, H);
   const samples = {};
@@ -267,7 +272,7 @@ def compute_raster_on_off(page, server, root):
     """The compute rasterizer off vs on in the default view, windows interleaved in one run, then
     where a frame's time goes (profile_frame) with it off and on."""
     write_notebook(root / "compute_raster.ipynb", [
-        f"import grasswidget as gw\nfrom grasswidget.core.framing import preset_field\n"
+        f"import grasswidget as gw\nfrom grasswidget.core.presets import preset_field\n"
         f"w = gw.GrassWidget({RASTER_ROWS[0][1]}, backend='browser', size=(640, 480))\nw",
     ])
     open_notebook(page, server, "compute_raster.ipynb")
@@ -354,8 +359,7 @@ class ChromiumPage:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default=None, help="JSON path (default benchmarks/browser_engine_swiftshader.json, "
-                                                 "with --occlusion-only benchmarks/browser_occlusion_swiftshader.json)")
+    common.add_out_argument(ap, "browser_<part>")
     ap.add_argument("--occlusion-only", action="store_true", help="only occlusion culling off vs on (cis565 view)")
     ap.add_argument("--compute-raster-only", action="store_true",
                     help="only the compute rasterizer off vs on, and where a frame's time goes (default view)")
@@ -363,44 +367,31 @@ def main(argv=None):
                     help="only the defaults ('auto') against every fixed combination of occlusion culling and the "
                          "compute rasterizer, per preset and blade count, interleaved")
     args = ap.parse_args(argv)
-    if args.out is None:
-        name = ("browser_occlusion_swiftshader.json" if args.occlusion_only else
-                "browser_matrix_swiftshader.json" if args.matrix else
-                "browser_compute_raster_swiftshader.json" if args.compute_raster_only else
-                "browser_engine_swiftshader.json")
-        args.out = str(ROOT / "benchmarks" / name)
     root = Path(tempfile.mkdtemp(prefix="gw-bench-browser-"))
     if args.compute_raster_only:
         env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-        result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                              "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d")}
+        result = {}
         with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
-            result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+            result["browser"] = browser.version
             result["compute_raster"] = compute_raster_on_off(browser.page, server, root)
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.out}")
+        common.save("browser_compute_raster", result, CHROMIUM_ADAPTER, args.out)
         return
     if args.matrix:
         env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-        result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                              "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d %H:%M"),
-                  "load_average_before": list(os.getloadavg())}
+        result = {}
         with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
-            result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+            result["browser"] = browser.version
             result["matrix"] = browser_matrix.run_matrix(ChromiumPage(browser.page, server, root), MATRIX_ROWS)
         result["load_average_after"] = list(os.getloadavg())
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.out}")
+        common.save("browser_matrix", result, CHROMIUM_ADAPTER, args.out)
         return
     if args.occlusion_only:
         env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-        result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                              "cpus": os.cpu_count()}}
+        result = {}
         with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
-            result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+            result["browser"] = browser.version
             result["occlusion"] = occlusion_on_off(browser.page, server, root)
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.out}")
+        common.save("browser_occlusion", result, CHROMIUM_ADAPTER, args.out)
         return
     write_notebook(root / "fps.ipynb", [
         "import grasswidget as gw\nw = gw.GrassWidget(4096, backend='browser', size=(640, 480))\nw",
@@ -411,12 +402,10 @@ def main(argv=None):
         "kernel_s = time.perf_counter() - t0\nw",
     ])
     env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
-    result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                          "cpus": os.cpu_count()},
-              "view": [640, 480], "window_s": WINDOW_S, "fps": {}}
+    result = {"view": [640, 480], "window_s": WINDOW_S, "fps": {}}
     with JupyterLabServer(root, env=env) as server, Browser(webgpu=True) as browser:
         page = browser.page
-        result["browser"] = browser.context.browser.version if browser.context.browser else "chromium"
+        result["browser"] = browser.version
         open_notebook(page, server, "fps.ipynb")
         run_all_cells(page, timeout=120)
         wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=60)
@@ -440,7 +429,7 @@ def main(argv=None):
         fps = presented_fps(page, WINDOW_S)
         result["fps"]["65536@pixel_ratio_0.5"] = {"frames_per_s": round(fps, 2)}
         print(f"   65536 blades at pixel_ratio 0.5: {fps:6.2f} frames/s presented")
-        result["adapter"] = engine_info(page)["adapter"]
+        adapter = engine_info(page)["adapter"] or CHROMIUM_ADAPTER
         kernel_execute(page, "w.close()")
         page.goto("about:blank")
         server.shutdown_kernels()
@@ -466,12 +455,11 @@ def main(argv=None):
             "browser_first_frame_s": round((t["first_frame"] - t["buffers"]) / 1000, 2),
         }
         print("start-up at 2^18 blades:", json.dumps(result["startup"]))
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+        common.save("browser_engine", result, adapter, args.out)
         try:  # the page may still be busy drawing 2^18 blades on a CPU adapter
             page.goto("about:blank", timeout=120_000)
         finally:
             server.shutdown_kernels()
-    print(f"wrote {args.out}")
 
 
 if __name__ == "__main__":

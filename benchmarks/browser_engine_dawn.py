@@ -4,7 +4,7 @@ and its picture against the kernel engine's.
 Python builds what the page of ``GrassWidget(n, preset="meadow", size=..., backend="browser")``
 gets, the meadow preset exactly as a user gets it (the field to the horizon, the preset's camera and
 parameters, the sunlight's default for the page's adapter, ``--adapter``; the engine's ES module,
-``BrowserView._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
+``BrowserEngineWidget._esm``; every synced trait of the widget's BrowserEngineWidget: blades, packed uniforms,
 the rendered WGSL, frame rules, camera) at each blade count, and the kernel engine's picture of the
 same state (the same blades and params, ``STEPS`` fixed steps from rest, the preset's camera;
 ``GrassScene.render_at(antialias=False)``, like a live frame) with its count of blades drawn. It writes
@@ -25,13 +25,14 @@ plays the meadow and measures:
 Usage (from the repository root)::
 
     # here (SwiftShader through Debian's Chromium's Vulkan driver), a small case:
-    .venv/bin/python benchmarks/browser_engine_dawn.py --blades 4096 --size 320x240 \\
-        --out benchmarks/browser_engine_dawn_swiftshader.json
+    .venv/bin/python benchmarks/browser_engine_dawn.py --blades 4096 --size 320x240
     # the states alone (for another machine): --prepare-only --states DIR
     # the GPU machine: benchmarks/dawn/prepare_device.sh here, then the command it prints there.
     # issue 28's matrix (the "auto" defaults against every fixed combination), Python answering the engine:
-    .venv/bin/python benchmarks/browser_engine_dawn.py --matrix --rows meadow:16384:320x240 \
-        --out benchmarks/browser_matrix_dawn_swiftshader.json
+    .venv/bin/python benchmarks/browser_engine_dawn.py --matrix --rows meadow:16384:320x240
+
+Results: benchmarks/results/browser_engine_dawn-<machine>-<date>.json (``--matrix``: browser_matrix_dawn-...;
+``--out`` names another file), the machine named after Dawn's adapter (``swiftshader`` here).
 
 ``--matrix`` runs no written state: the Python widget itself (``GrassWidget(backend="browser")``) is
 the kernel of a page in node (:class:`benchmarks.dawn_page.DawnPage`, ``benchmarks/dawn/serve_engine.mjs``),
@@ -49,7 +50,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -59,8 +59,11 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+
+common.use_this_checkout()
+ROOT = common.ROOT
 
 #: The npm package (Dawn as a node addon) and where it is unpacked.
 DAWN_PACKAGE = "webgpu@0.6.2"
@@ -83,7 +86,7 @@ MATRIX_ROWS = ("meadow:65536:1920x1080", "meadow:262144:1920x1080", "meadow:1048
 
 def parse_row(text: str):
     """"preset:blades:WxH" as (preset, blades, (w, h)); a clear error naming --rows otherwise."""
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     parts = text.split(":")
     if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) < 1:
@@ -91,36 +94,33 @@ def parse_row(text: str):
     return parts[0], int(parts[1]), tuple(parse_size(parts[2]))
 
 
-def run_matrix(rows, dawn: Path, out: Path, rounds: int, window_s: float, env=None, node=None) -> dict:
-    """Issue 28's matrix through Dawn (see the module docstring): the JSON (also written to ``out``),
-    shaped as ``browser_engine.py --matrix``'s."""
-    from benchmarks import browser_matrix
-    from benchmarks.dawn_page import DawnPage
+def run_matrix(rows, dawn: Path, out, rounds: int, window_s: float, env=None, node=None) -> dict:
+    """Issue 28's matrix through Dawn (see the module docstring): the JSON (also written to ``out``; None:
+    benchmarks/results/browser_matrix_dawn-<machine>-<date>.json), shaped as ``browser_engine.py --matrix``'s."""
+    import browser_matrix
+    from dawn_page import DawnPage
 
-    result = {"machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                          "cpus": os.cpu_count()}, "date": time.strftime("%Y-%m-%d %H:%M"),
-              "load_average_before": list(os.getloadavg())}
-    out.parent.mkdir(parents=True, exist_ok=True)
+    result = {"load_average_before": list(os.getloadavg())}
+    written = {"path": out}
 
-    def save(matrix):  # after each row: what was measured survives a later row's failure
+    def save(matrix):  # after each row, to the same file: what was measured survives a later row's failure
         result["matrix"] = matrix
         result["load_average_after"] = list(os.getloadavg())
-        out.write_text(json.dumps(result, indent=2) + "\n")
+        written["path"] = common.save("browser_matrix_dawn", result, result["dawn"]["adapter"], written["path"])
 
     with DawnPage(dawn, env=env, node=node) as page:
         result["dawn"] = {"package": DAWN_PACKAGE, "node": page.ready.get("node"), "adapter": page.ready["adapter"]}
         print(f"Dawn adapter: {page.ready['adapter']}", flush=True)
         save(browser_matrix.run_matrix(page, rows, rounds=rounds, window_s=window_s, on_row=save))
     print(browser_matrix.markdown_table(result["matrix"]))
-    print(f"wrote {out}")
     return result
 
 
 def engine_module() -> str:
     """The browser engine's ES module, as the anywidget and the live page get it."""
-    from grasswidget.browser.view import BrowserView
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
 
-    return BrowserView._esm
+    return BrowserEngineWidget._esm
 
 
 def _json_or_none(value):
@@ -335,7 +335,7 @@ def main(argv=None):
     ap.add_argument("--adapter", choices=sorted(ADAPTER_WORDS), default=None,
                     help="the adapter the page reports to the widget, for the sunlight's default (default: "
                          "swiftshader here, gpu for --bundle)")
-    ap.add_argument("--out", default="benchmarks/browser_engine_dawn.json")
+    common.add_out_argument(ap, "browser_engine_dawn")
     ap.add_argument("--bundle", default=None, help="write the GPU machine's bundles into this folder "
                                                    "(benchmarks/dawn/prepare_device.sh uses it)")
     ap.add_argument("--node", default=shutil.which("node") or "", help="the node binary to carry (--bundle)")
@@ -347,10 +347,10 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=None, help="--matrix's rounds (default browser_matrix's)")
     ap.add_argument("--window", type=float, default=None, help="--matrix's seconds a window lasts at least")
     args = ap.parse_args(argv)
-    from grasswidget.core.framing import parse_size
+    from grasswidget.core.presets import parse_size
 
     if args.matrix:
-        from benchmarks import browser_matrix
+        import browser_matrix
 
         if args.rounds is not None and args.rounds < 1:
             ap.error(f"--rounds must be an integer >= 1; got {args.rounds}")
@@ -358,8 +358,7 @@ def main(argv=None):
             ap.error(f"--window must be seconds > 0; got {args.window}")
 
         dawn = Path(args.dawn) if args.dawn else fetch_dawn()
-        out = Path(args.out if args.out != ap.get_default("out") else "benchmarks/browser_matrix_dawn.json")
-        run_matrix([parse_row(r) for r in args.rows], dawn, out,
+        run_matrix([parse_row(r) for r in args.rows], dawn, args.out,
                    args.rounds if args.rounds is not None else browser_matrix.MATRIX_ROUNDS,
                    args.window if args.window is not None else browser_matrix.MATRIX_WINDOW_S,
                    env=swiftshader_env(), node=args.node or None)
@@ -385,9 +384,7 @@ def main(argv=None):
     if args.prepare_only:
         return 0
     dawn = Path(args.dawn) if args.dawn else fetch_dawn()
-    out = Path(args.out)
-    result = run_node(manifest, out, dawn, args.seconds, env=swiftshader_env())
-    result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
+    result = run_node(manifest, states / "dawn_result.json", dawn, args.seconds, env=swiftshader_env())
     import imageio.v3 as iio
 
     counts_agree = True
@@ -408,8 +405,8 @@ def main(argv=None):
         picture = states / f"{case['name']}_kernel_dawn.png"
         iio.imwrite(picture, frame)
         print(f"{case['name']}: kernel | Dawn side by side: {picture}")
-    out.write_text(json.dumps(result, indent=1))
-    print(f"wrote {out}")
+    adapter = result.pop("adapter")
+    common.save("browser_engine_dawn", result, adapter, args.out)
     return 0 if counts_agree and all(c.get("picture", {}).get("pass", True) for c in result["cases"]) else 1
 
 

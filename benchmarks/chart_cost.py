@@ -13,26 +13,24 @@ with the chart (``--shot``).
 
 Usage (from the repository root)::
 
-    .venv/bin/python benchmarks/chart_cost.py [--out benchmarks/chart_cost_lavapipe.json] [--shot chart-tip.png]
+    .venv/bin/python benchmarks/chart_cost.py [--out PATH] [--shot chart-tip.png]
 
-Prints the figures and writes the JSON (machine, adapter, per-window frames/s, the ratio).
+Prints the figures and writes benchmarks/results/chart_cost-<machine>-<date>.json (or ``--out``): per-window
+frames/s and the ratio. JupyterLab and Chromium are driven by benchmarks/lab.py.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from tests.browser.harness import (  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+from lab import (  # noqa: E402  (benchmarks/lab.py)
     Browser,
     JupyterLabServer,
     frames_per_second,
@@ -43,6 +41,9 @@ from tests.browser.harness import (  # noqa: E402
     wait_for_frames,
     write_notebook,
 )
+
+common.use_this_checkout()
+ROOT = common.ROOT
 
 COUNT_UPDATES = """(seconds) => new Promise((done) => {
   const c = document.querySelector(".gw-trace-chart");
@@ -58,7 +59,7 @@ def main(argv=None):
     ap.add_argument("--blades", type=int, default=4096)
     ap.add_argument("--seconds", type=float, default=5.0, help="length of each window (default 5)")
     ap.add_argument("--rounds", type=int, default=5, help="windows per setting (default 5)")
-    ap.add_argument("--out", default=None, help="JSON file (default: print only)")
+    common.add_out_argument(ap, "chart_cost")
     ap.add_argument("--shot", default=None, help="PNG screenshot of the widget with the tip chart")
     args = ap.parse_args(argv)
 
@@ -87,14 +88,14 @@ def main(argv=None):
                 print(f"round {r}: chart {chart!s:5}  {fps:6.2f} frames/s  (render scale {scale})")
         kernel_execute(page, "w.chart = 'tip'")
         page.wait_for_timeout(1500)
-        kernel_execute(page, "_p0, _s0, _f0 = w.bench.pushes, w.bench.push_seconds, w.view.stats['fps']")
+        kernel_execute(page, "_p0, _s0, _f0 = w.lab_bench.pushes, w.lab_bench.push_seconds, w.view.stats['fps']")
         before = page.evaluate("() => { const c = document.querySelector('.gw-trace-chart'); "
                                "return [+c.dataset.draws, +c.dataset.drawMs, performance.now()]; }")
         t_kernel = time.monotonic()
         updates = page.evaluate(COUNT_UPDATES, 5)
         after = page.evaluate("() => { const c = document.querySelector('.gw-trace-chart'); "
                               "return [+c.dataset.draws, +c.dataset.drawMs, performance.now()]; }")
-        kernel = kernel_eval(page, "[w.bench.pushes - _p0, w.bench.push_seconds - _s0]")
+        kernel = kernel_eval(page, "[w.lab_bench.pushes - _p0, w.lab_bench.push_seconds - _s0]")
         wall = time.monotonic() - t_kernel
         browser_ms_per_s = (after[1] - before[1]) / ((after[2] - before[2]) / 1000.0)
         kernel_ms_per_s = 1000.0 * kernel[1] / wall
@@ -112,8 +113,7 @@ def main(argv=None):
 
     off, on = mean(None), mean("tip")
     result = {
-        "benchmark": "chart_cost", "machine": platform.node(), "cpus": os.cpu_count(),
-        "load_average": os.getloadavg(), "adapter": adapter, "blades": args.blades, "size": [640, 480],
+        "benchmark": "chart_cost", "blades": args.blades, "size": [640, 480],
         "seconds_per_window": args.seconds, "windows": windows,
         "frames_per_s_chart_none": round(off, 2), "frames_per_s_chart_tip": round(on, 2),
         "ratio_tip_over_none": round(on / off, 3), "chart_updates_per_s": round(updates, 2),
@@ -122,9 +122,7 @@ def main(argv=None):
         "samples_in_window": samples, "last_stats": stats,
     }
     print(f"chart None {off:.2f} frames/s, 'tip' {on:.2f} frames/s: ratio {on / off:.3f}")
-    if args.out:
-        Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-        print(f"wrote {args.out}")
+    common.save("chart_cost", result, adapter, args.out)
     return result
 
 

@@ -6,7 +6,7 @@ at seeded random places, the same first K balls for every K. Per K, one sample i
 ``--steps`` steps in one ``field.step()`` dispatch, GPU-synchronised (a small
 readback waits for the queue); the colliders' upload happens before the timing (the
 grid is built once per K, when the balls change). The K values are interleaved,
-round after round, in one process, so that a noisy machine loads them alike; the
+round after round, in one process (common.interleave), so that a noisy machine loads them alike; the
 ratios to one ball are of the medians.
 
 Also per K: the grid (cells, list entries), the spheres a blade tests on average
@@ -15,8 +15,8 @@ strength > 0), so that the cost can be read against the work.
 
 Usage (repository root)::
 
-    python benchmarks/colliders.py --blades 65536 --out benchmarks/colliders_lavapipe.json
-    python benchmarks/colliders.py --blades 1048576 --steps 128 --rounds 20 --no-grid --out benchmarks/colliders_h100.json
+    python benchmarks/colliders.py --blades 65536
+    python benchmarks/colliders.py --blades 1048576 --steps 128 --rounds 20 --no-grid
 
 (On the GPU machine a step of 2^20 blades should take well under a millisecond, so a sample of 128
 steps in one dispatch keeps the readback that ends each sample to a few percent of it.
@@ -24,24 +24,22 @@ The benchmark imports only the core and GPU layers: no anywidget, no notebook.)
 
 ``--no-grid`` also times each K with a one-cell grid (every blade tests every ball), interleaved.
 
-Prints a table and writes the JSON (machine, adapter, figures).
+Prints a table and writes benchmarks/results/colliders-<machine>-<date>.json (or ``--out``).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import socket
-import statistics
+import os
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+
+common.use_this_checkout()
 
 import grasswidget as gw  # noqa: E402
 from grasswidget.core.collider_grid import MAX_GRID_CELLS, build_collider_grid, root_bounds  # noqa: E402
@@ -65,7 +63,7 @@ def main(argv=None):
     ap.add_argument("--balls", type=int, nargs="+", default=list(BALLS))
     ap.add_argument("--steps", type=int, default=4, help="steps per timed sample (one dispatch)")
     ap.add_argument("--rounds", type=int, default=12, help="interleaved rounds (samples per K)")
-    ap.add_argument("--out", type=Path, default=None, help="JSON file to write")
+    common.add_out_argument(ap, "colliders")
     ap.add_argument("--no-grid", action="store_true",
                     help="also time every K with a one-cell grid (each blade tests every ball: the paper's loop)")
     args = ap.parse_args(argv)
@@ -92,19 +90,18 @@ def main(argv=None):
         sync()
         return (time.perf_counter() - t) * 1000.0 / args.steps
 
-    for k in args.balls:  # warm-up
-        run(k)
-    samples = {k: [] for k in args.balls}
-    looped = {k: [] for k in args.balls}
-    for _ in range(args.rounds):
-        for k in args.balls:
-            samples[k].append(run(k))
-            if args.no_grid:
-                looped[k].append(run(k, cells=1))
+    measures = {}
+    for k in args.balls:
+        measures[k] = lambda k=k: run(k)
+        if args.no_grid:
+            measures[k, "no grid"] = lambda k=k: run(k, cells=1)
+    timed = common.interleave(measures, args.rounds, warmup=1)
+    samples = {k: timed[k] for k in args.balls}
+    looped = {k: timed.get((k, "no grid"), []) for k in args.balls}
 
     rows = []
     bounds, h_max = root_bounds(blades.v0), float(blades.height.max())
-    base = statistics.median(samples[args.balls[0]])
+    base = common.median(samples[args.balls[0]])
     base_p10 = float(np.percentile(samples[args.balls[0]], 10))
     for k in args.balls:
         grid = build_collider_grid(balls[:k], bounds, h_max)
@@ -113,24 +110,24 @@ def main(argv=None):
         field.colliders.set_array(balls[:k])
         field.step(30)
         touched = float((field.read_state()["collision"] > 0).mean())
-        med = statistics.median(samples[k])
+        med = common.median(samples[k])
         rows.append(dict(balls=k, step_ms_median=med, step_ms_p10=float(np.percentile(samples[k], 10)),
                          step_ms_p90=float(np.percentile(samples[k], 90)), ratio_to_first=med / base,
                          ratio_to_first_p10=float(np.percentile(samples[k], 10)) / base_p10,
                          grid_cells=[grid.nx, grid.nz], grid_entries=int(len(grid.items)),
                          spheres_tested_per_blade=float(tested), blades_touched=touched))
         if args.no_grid:
-            rows[-1]["no_grid_step_ms_median"] = statistics.median(looped[k])
-            rows[-1]["no_grid_ratio_to_first"] = statistics.median(looped[k]) / base
+            rows[-1]["no_grid_step_ms_median"] = common.median(looped[k])
+            rows[-1]["no_grid_ratio_to_first"] = common.median(looped[k]) / base
+    adapter = device.adapter.summary
     report = dict(
         benchmark="colliders", blades=args.blades, size_m=args.size, steps_per_sample=args.steps,
         rounds=args.rounds, collider_reach_heights=COLLIDER_REACH, blade_height_m=[0.5, 1.0],
-        ball_radius_m=[0.3, 0.7], adapter=device.adapter.summary, host=socket.gethostname(),
-        machine=platform.platform(), time=time.strftime("%Y-%m-%d %H:%M:%S"), rows=rows,
+        ball_radius_m=[0.3, 0.7], rows=rows,
         note="ratios of medians (and of 10th percentiles, less moved by other processes) to the first K, "
              "measured interleaved in one process",
     )
-    print(f"{report['adapter']} - {args.blades} blades on {args.size:g} m, {args.steps} steps/sample, "
+    print(f"{adapter} - {args.blades} blades on {args.size:g} m, {args.steps} steps/sample, "
           f"{args.rounds} interleaved rounds")
     print(f"{'balls':>6} {'ms/step':>9} {'p10':>7} {'p90':>7} {'x first':>8} {'x p10':>6} {'cells':>7} {'entries':>8} "
           f"{'tested':>7} {'touched':>8}")
@@ -140,9 +137,7 @@ def main(argv=None):
               f"{r['spheres_tested_per_blade']:>7.2f} {r['blades_touched']:>8.1%}"
               + (f"   no grid: {r['no_grid_step_ms_median']:.3f} ms, x{r['no_grid_ratio_to_first']:.2f}"
                  if args.no_grid else ""))
-    if args.out:
-        args.out.write_text(json.dumps(report, indent=2) + "\n")
-        print(f"wrote {args.out}")
+    common.save("colliders", report, adapter, args.out)
     return report
 
 

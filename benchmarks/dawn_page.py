@@ -6,7 +6,7 @@ a :class:`PipeComm`, which carries the Jupyter widget protocol's comm messages (
 trait updates, custom messages, binary buffers in base64) to node over stdin and brings the
 engine's back over stdout (its stats, ``gpu_status``, answers), where ipywidgets hands them to the
 widget as a kernel would. So everything Python decides for the engine is decided by the same code
-as in a notebook: above all the "auto" switches (:mod:`grasswidget.browser.auto_switches`: the
+as in a notebook: above all the "auto" switches (:mod:`grasswidget.browser.trial_feed`: the
 trial fed by the engine's frame times, the decision sent back as the ``u_cull`` words engine.js
 executes). Messages are handled on the thread that calls :meth:`DawnPage.pump` (a reader thread
 only queues them), as a kernel handles comm messages between cells.

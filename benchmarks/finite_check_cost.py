@@ -4,29 +4,28 @@ Two fields of the same ``--blades`` blades in one process: the stock simulation,
 simulation with ``validate_finite`` replaced (through ``GrassField.set_function_overrides``) by
 one that passes every blade through unchecked, i.e. the step as it was before the check. One
 sample is ``--steps`` steps in one ``field.step()``, GPU-synchronised (a 4-byte readback waits for
-the queue). The two are interleaved, round after round, so that a noisy machine loads them alike;
+the queue). The two are interleaved, round after round (common.interleave), so that a noisy machine loads them alike;
 the ratio is of the medians. The default wave wind, no colliders.
 
 Usage (repository root)::
 
-    python benchmarks/finite_check_cost.py --blades 65536 --out benchmarks/finite_check_cost_lavapipe.json
+    python benchmarks/finite_check_cost.py --blades 65536
 
-Prints the figures and writes the JSON (machine, adapter, figures). Imports only the core and
+Prints the figures and writes benchmarks/results/finite_check_cost-<machine>-<date>.json (or ``--out``). Imports only the core and
 GPU layers.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import statistics
+import os
 import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+
+common.use_this_checkout()
 
 #: validate_finite without the check: what a step did before it.
 UNCHECKED = """fn validate_finite(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, up: vec3<f32>, height: f32, eta: f32) -> Settled {
@@ -40,7 +39,7 @@ def main(argv=None):
     parser.add_argument("--blades", type=int, default=65536)
     parser.add_argument("--steps", type=int, default=32)
     parser.add_argument("--rounds", type=int, default=15)
-    parser.add_argument("--out", type=Path, default=None)
+    common.add_out_argument(parser, "finite_check_cost")
     args = parser.parse_args(argv)
 
     import grasswidget as gw
@@ -61,18 +60,12 @@ def main(argv=None):
         device.queue.read_buffer(sync_buffer(field.collision_buffer), 0, 4)
         return (time.perf_counter() - t) * 1000.0 / args.steps
 
-    for field in fields.values():  # compile and warm up
-        sample(field)
-    times = {name: [] for name in fields}
-    for _ in range(args.rounds):
-        for name, field in fields.items():
-            times[name].append(sample(field))
-    med = {name: statistics.median(v) for name, v in times.items()}
-    info = device.adapter.info if hasattr(device, "adapter") else {}
+    times = common.interleave({name: (lambda f=field: sample(f)) for name, field in fields.items()}, args.rounds)
+    med = {name: common.median(v) for name, v in times.items()}
+    info = dict(device.adapter.info)
+    info["summary"] = device.adapter.summary
     result = {
         "benchmark": "finite_check_cost",
-        "machine": platform.node(), "python": platform.python_version(),
-        "adapter": {k: info.get(k) for k in ("device", "vendor", "adapter_type", "backend_type")} if info else None,
         "blades": args.blades, "steps_per_sample": args.steps, "rounds": args.rounds,
         "ms_per_step_median": med,
         "ms_per_step_samples": times,
@@ -83,8 +76,7 @@ def main(argv=None):
     print(f"{args.blades} blades, {args.steps} steps a sample, {args.rounds} rounds: "
           f"checked {med['checked']:.3f} ms/step, unchecked (before) {med['unchecked']:.3f} ms/step, "
           f"ratio {result['ratio_checked_to_unchecked']:.3f}")
-    if args.out:
-        args.out.write_text(json.dumps(result, indent=1) + "\n")
+    common.save("finite_check_cost", result, info, args.out)
     for field in fields.values():
         field.release()
     return result

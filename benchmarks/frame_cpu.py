@@ -1,6 +1,6 @@
 """Where a frame's CPU time goes, and what compute_raster_max_px does to the look.
 
-``python benchmarks/frame_cpu.py --blades 1048576 --json out.json [--png-dir DIR]``
+``python benchmarks/frame_cpu.py --blades 1048576 [--out PATH] [--png-dir DIR]``
 
 1. CPU breakdown (kernel engine, meadow preset, its own size unless ``--size``): frames
    submitted back to back as in ``grasswidget bench``'s pipelined figure (one
@@ -14,7 +14,7 @@
    4 x 4-pixel block means (0..255, tests/gpu/test_compute_raster.py's measure), the
    share of grass pixels on and off, and the blades each path drew.
 
-Prints a summary and writes JSON (and PNGs of the pictures with ``--png-dir``). Imports no
+Prints a summary and writes benchmarks/results/frame_cpu-<machine>-<date>.json (or ``--out``; and PNGs of the pictures with ``--png-dir``). Imports no
 browser or notebook package: it runs on a headless GPU machine.
 """
 
@@ -24,14 +24,15 @@ import argparse
 import collections
 import cProfile
 import io
-import json
 import os
-import platform
 import pstats
 import sys
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 
 def _mean_difference(a, b, block=4):
@@ -102,14 +103,13 @@ def cpu_breakdown(scene, renderer, frames, profile_top=25):
     parts.wrap(occlusion.OcclusionCulling, "second_phase", "occlusion second phase")
     parts.wrap(type(field), "step", "field.step")
     parts.wrap(device.queue, "submit", "queue.submit (inside the others)")
+    def frame():
+        field.step(1)
+        scene.draw_into(renderer)
+
     try:
-        t0, c0 = time.perf_counter(), time.process_time()
-        for _ in range(frames):
-            field.step(1)
-            scene.draw_into(renderer)
-        sync()
-        wall = 1e3 * (time.perf_counter() - t0) / frames
-        cpu = 1e3 * (time.process_time() - c0) / frames
+        timed = common.time_pipelined(frame, frames, sync)
+        wall, cpu = timed["wall_ms"], timed["cpu_ms"]
     finally:
         parts.restore()
     out = dict(pipelined_ms=wall, pipelined_fps=1e3 / wall, process_cpu_ms=cpu,
@@ -182,7 +182,7 @@ def main(argv=None):
     ap.add_argument("--raster-max-px", type=float, nargs="*", default=[2.0, 3.0, 4.0, 6.0, 8.0])
     ap.add_argument("--steps", type=int, default=60, help="simulation steps before the pictures")
     ap.add_argument("--png-dir", default=None)
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "frame_cpu")
     ap.add_argument("--profile", action="store_true", help="print the cProfile tables too (always in the JSON)")
     ap.add_argument("--only-cpu", action="store_true", help="skip the look part")
     args = ap.parse_args(argv)
@@ -197,9 +197,8 @@ def main(argv=None):
     w, h = scene.size
     target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
     renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
-    report = dict(adapter=adapter_info(), blades=args.blades, size=f"{w}x{h}", frames=args.frames,
-                  machine=dict(platform=platform.platform(), python=platform.python_version()),
-                  date=time.strftime("%Y-%m-%d %H:%M:%S"), cpu={})
+    adapter = adapter_info()
+    report = dict(blades=args.blades, size=f"{w}x{h}", frames=args.frames, cpu={})
     if args.cpu_raster_max_px is not None:
         scene.params.compute_raster_max_px = args.cpu_raster_max_px
     report["cpu_raster_max_px"] = scene.params.compute_raster_max_px
@@ -213,7 +212,7 @@ def main(argv=None):
             os.makedirs(args.png_dir, exist_ok=True)
         report["look"] = look(scene, args.raster_max_px, args.png_dir)
 
-    print(f"{report['adapter'].get('summary', '')}: meadow {args.blades} blades {w}x{h}")
+    print(f"{adapter.get('summary', '')}: meadow {args.blades} blades {w}x{h}")
     for key, row in report["cpu"].items():
         print(f"compute raster {key}: {row['pipelined_fps']:.1f} fps pipelined, {row['pipelined_ms']:.2f} ms/frame, "
               f"process CPU {row['process_cpu_ms']:.2f} ms/frame")
@@ -229,9 +228,7 @@ def main(argv=None):
     for r in report["look"]:
         print(f"{r['compute_raster_max_px']:6g} {r['mean_block_difference']:10.3f} {r['grass_share_on']:8.4f} "
               f"{r['grass_share_off']:9.4f} {r['drawn_hardware']:9d} {r['drawn_compute']:8d}")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(report, f, indent=2)
+    common.save("frame_cpu", report, adapter, args.out)
     return 0
 
 

@@ -1,9 +1,9 @@
 """The kernel engine's host work per frame: this tree against a baseline tree, in one run.
 
-    python benchmarks/frame_host.py --blades 1048576 --json benchmarks/frame_host_meadow_h100.json
+    python benchmarks/frame_host.py --blades 1048576 [--out PATH]
     python benchmarks/frame_host.py --blades 256 --size 64x36 --rounds 6          # lavapipe: GPU work tiny
 
-Each round runs one child process per tree, in turns (base, new, new, base, ...), so that a
+Each round runs one child process per tree, in turns (base, new, new, base, ...: common.run_ab), so that a
 machine whose speed drifts (other processes, thermal) loads both alike; the ratio new / base is
 taken round by round and its median reported. The baseline is ``--base`` (a git revision,
 checked out into a temporary worktree) or ``--base-tree`` (a directory holding a plain copy
@@ -31,7 +31,7 @@ adapter), with GrassScene's defaults
   ``map_async`` requests and blocking reads (``queue.read_buffer``, ``map_sync``), render bundles
   executed and the calls recorded into them (only when one is recorded), and their sum.
 
-Prints a table and writes JSON (``--json``). Imports no browser or notebook package: it runs
+Prints a table and writes benchmarks/results/frame_host-<machine>-<date>.json (or ``--out``). Imports no browser or notebook package: it runs
 on a headless GPU machine.
 """
 
@@ -39,14 +39,13 @@ from __future__ import annotations
 
 import argparse
 import collections
-import json
 import os
-import platform
-import statistics
 import subprocess
 import sys
 import tempfile
-import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
@@ -103,22 +102,13 @@ def _child(args):
 
     for _ in range(10):  # warm-up: pipelines, buffers
         frame()
-    sync()
-    frames = args.frames
-    t0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
-    for _ in range(frames):
-        frame()
-    main_ms = 1e3 * (time.thread_time() - m0) / frames
-    sync()
-    wall_ms = 1e3 * (time.perf_counter() - t0) / frames
-    cpu_ms = 1e3 * (time.process_time() - c0) / frames
+    timed = common.time_pipelined(frame, args.frames, sync)
 
-    synced = []  # each frame followed by a GPU sync: the GPU's work shows here too
-    for _ in range(max(10, frames // 4)):
-        t = time.perf_counter()
+    def synced_frame():  # each frame followed by a GPU sync: the GPU's work shows here too
         frame()
         sync()
-        synced.append(1e3 * (time.perf_counter() - t))
+
+    synced = common.time_frames(synced_frame, max(10, args.frames // 4), warmup=0)["wall_ms"]
 
     calls, nbytes = collections.Counter(), collections.Counter()
     undo = []
@@ -162,8 +152,9 @@ def _child(args):
     return dict(adapter=adapter_info().get("summary", ""), size=f"{w}x{h}", blades=field.count,
                 grasswidget=os.path.dirname(os.path.abspath(grasswidget.__file__)),
                 occlusion=bool(scene.params.cull_occlusion), compute_raster=bool(scene.params.compute_raster),
-                main_thread_cpu_ms=main_ms, process_cpu_ms=cpu_ms, pipelined_ms=wall_ms,
-                pipelined_fps=1e3 / wall_ms, synced_ms=statistics.median(synced), per_frame=per_frame)
+                main_thread_cpu_ms=timed["main_thread_cpu_ms"], process_cpu_ms=timed["cpu_ms"],
+                pipelined_ms=timed["wall_ms"], pipelined_fps=timed["fps"], synced_ms=common.median(synced),
+                per_frame=per_frame)
 
 
 def _gpu(buffer):
@@ -173,11 +164,6 @@ def _gpu(buffer):
 
 
 # ------------------------------------------------------------------ parent
-
-
-def _tree_env(tree):
-    rest = os.environ.get("PYTHONPATH", "")
-    return dict(os.environ, PYTHONPATH=tree + (os.pathsep + rest if rest else ""))
 
 
 def _child_argv(args):
@@ -191,29 +177,21 @@ def _child_argv(args):
     return out
 
 
-def _run_child(tree, args):
-    proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", *_child_argv(args)],
-                          cwd=tree, env=_tree_env(tree), capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        raise SystemExit(f"child in {tree} failed:\n{proc.stderr[-3000:]}")
-    return json.loads(proc.stdout.strip().splitlines()[-1])
-
-
 TIMES = ("main_thread_cpu_ms", "process_cpu_ms", "pipelined_ms", "pipelined_fps", "synced_ms")
 
 
 def _summary(rows, labels):
     out = {}
     for key in TIMES:
-        out[key] = {label: statistics.median(row[label][key] for row in rows) for label in labels}
+        out[key] = {label: common.median(row[label][key] for row in rows) for label in labels}
         if "base" in labels:
-            out[key]["ratio_new_base"] = statistics.median(row["new"][key] / row["base"][key] for row in rows)
+            out[key]["ratio_new_base"] = common.median(row["new"][key] / row["base"][key] for row in rows)
     return out
 
 
-def _print(report):
+def _print(report, adapter):
     labels = report["labels"]
-    print(f"{report['adapter']}: {report['preset']} {report['blades']} blades {report['size']}, occlusion "
+    print(f"{adapter}: {report['preset']} {report['blades']} blades {report['size']}, occlusion "
           f"{report['occlusion']}, compute raster {report['compute_raster']}, {report['rounds_run']} rounds (medians)")
     head = f"{'':34s}" + "".join(f"{label:>12s}" for label in labels) + ("   new/base" if "base" in labels else "")
     print(head)
@@ -242,11 +220,11 @@ def main(argv=None):
     p.add_argument("--rounds", type=int, default=3, help="rounds of (base, new) children (default 3)")
     p.add_argument("--base", default=None, help="git revision of the baseline (checked out in a temporary worktree)")
     p.add_argument("--base-tree", default=None, help="a directory holding the baseline's grasswidget package")
-    p.add_argument("--json", default=None)
+    common.add_out_argument(p, "frame_host")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        print(json.dumps(_child(args)))
+        common.emit(_child(args))
         return 0
 
     own_tree = args.base is not None and args.base_tree is None
@@ -259,43 +237,26 @@ def main(argv=None):
         base_tree = os.path.abspath(args.base_tree)
     try:
         trees = [("base", base_tree), ("new", REPO)] if base_tree else [("new", REPO)]
-        rows = []
-        for r in range(args.rounds):
-            order = list(reversed(trees)) if r % 2 else list(trees)
-            row = {"round": r}
-            for label, tree in order:
-                row[label] = _run_child(tree, args)
-            rows.append(row)
-            print(json.dumps({k: (v if k == "round" else {t: round(v[t], 3) for t in TIMES}) for k, v in row.items()}),
-                  flush=True)
+
+        def measure(_name, tree, _case):
+            return common.run_in_tree(tree, [os.path.abspath(__file__), "--child", *_child_argv(args)])
+
+        rows = common.run_ab(trees, [args.preset], args.rounds, measure)
         labels = [label for label, _ in trees]
         first = rows[0]["new"]
         report = dict(what="the kernel engine's host work per frame (benchmarks/frame_host.py)",
-                      adapter=first["adapter"], preset=args.preset, blades=first["blades"], size=first["size"],
+                      preset=args.preset, blades=first["blades"], size=first["size"],
                       occlusion=first["occlusion"], compute_raster=first["compute_raster"],
                       live_stats=args.live_stats, frames=args.frames, rounds_run=len(rows), labels=labels,
-                      base=args.base or args.base_tree, head=_git(["rev-parse", "--short", "HEAD"]),
-                      machine=dict(platform=platform.platform(), python=platform.python_version()),
-                      date=time.strftime("%Y-%m-%d %H:%M:%S"), summary=_summary(rows, labels), rounds=rows,
+                      base=args.base or args.base_tree, summary=_summary(rows, labels), rounds=rows,
                       note="medians over rounds; ratios new / base taken round by round, one run on one machine")
-        _print(report)
-        if args.json:
-            os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-            with open(args.json, "w") as f:
-                json.dump(report, f, indent=1)
-            print(f"wrote {args.json}")
+        _print(report, first["adapter"])
+        common.save("frame_host", report, first["adapter"], args.out)
     finally:
         if own_tree:
             subprocess.run(["git", "worktree", "remove", "--force", base_tree], cwd=REPO, check=False,
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return 0
-
-
-def _git(cmd):
-    try:
-        return subprocess.run(["git", *cmd], cwd=REPO, capture_output=True, text=True).stdout.strip()
-    except FileNotFoundError:  # no git (the GPU machine)
-        return None
 
 
 if __name__ == "__main__":

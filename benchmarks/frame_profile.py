@@ -1,6 +1,6 @@
 """Is the kernel engine's pipelined frame bound by the host or by the GPU, and where does each spend it?
 
-    python benchmarks/frame_profile.py --preset meadow --blades 1048576 16777216 --json out.json   # GPU machine
+    python benchmarks/frame_profile.py --preset meadow --blades 1048576 16777216   # GPU machine
     python benchmarks/frame_profile.py --blades 4096 --size 320x240 --frames 20                     # lavapipe
 
 Per blade count, one GrassScene of ``--preset`` (its defaults: the "auto" switches, unless
@@ -22,7 +22,7 @@ renderer with that post-process anti-aliasing instead), after ``--warmup`` GPU-s
    functions with the most own time and cumulative time. ``--host-only``: 1 (and 4 with
    ``--cprofile``) alone, with no timestamp hooks installed (their wrappers would be in the profile).
 
-Writes JSON (``--json``) and prints tables. Imports no notebook or browser package.
+Writes benchmarks/results/frame_profile-<machine>-<date>.json (or ``--out``) and prints tables. Imports no notebook or browser package.
 """
 
 from __future__ import annotations
@@ -31,18 +31,14 @@ import argparse
 import cProfile
 import collections
 import io
-import json
 import os
-import platform
 import pstats
 import statistics
 import sys
-import time
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from raster_profile import _Stamps, install_draw_hooks, install_pass_hooks  # noqa: E402
+import common  # noqa: E402  (benchmarks/common.py)
+from raster_profile import Stamps, install_draw_hooks, install_pass_hooks  # noqa: E402
 
 
 def _frame_fn(scene):
@@ -56,14 +52,7 @@ def _frame_fn(scene):
 
 
 def _pipelined(frame, renderer, sync, frames):
-    sync()
-    t0, m0 = time.perf_counter(), time.thread_time()
-    for _ in range(frames):
-        frame(renderer)
-    main_ms = 1e3 * (time.thread_time() - m0) / frames
-    sync()
-    wall_ms = 1e3 * (time.perf_counter() - t0) / frames
-    return dict(wall_ms=wall_ms, fps=1e3 / wall_ms, main_thread_cpu_ms=main_ms)
+    return common.time_pipelined(lambda: frame(renderer), frames, sync)
 
 
 def _split_frames(raw, frames):
@@ -95,19 +84,17 @@ def run(args):
 
     from grasswidget import compat
     from grasswidget.gpu.adapter import adapter_info, ensure_device
-    from grasswidget.gpu.auto_switches import switch_texts
+    from grasswidget.gpu.trial_timing import switch_texts
     from grasswidget.gpu.scene import GrassScene, make_renderer, parse_size
 
     device = ensure_device()
-    stamps = _Stamps(device, count=4096)
+    stamps = Stamps(device, count=4096)
     stamps.enabled = False
     if not args.host_only:
         install_draw_hooks(stamps, {"skip": set()})
         install_pass_hooks(stamps)
     ppaa = args.ppaa
-    report = dict(what="benchmarks/frame_profile.py", adapter=adapter_info(), preset=args.preset, ppaa=ppaa,
-                  date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                  machine=dict(platform=platform.platform(), cpus=os.cpu_count()), rows=[])
+    report = dict(what="benchmarks/frame_profile.py", preset=args.preset, ppaa=ppaa, rows=[])
     for n in args.blades:
         size = parse_size(args.size) if args.size else None
         scene = GrassScene.preset(args.preset, blades=n, size=size)
@@ -178,10 +165,7 @@ def run(args):
         report["rows"].append(row)
         _print_row(row)
         del scene, renderer, frame
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(report, f, indent=1)
-        print("wrote", args.json)
+    common.save("frame_profile", report, adapter_info(), args.out)
     return report
 
 
@@ -220,7 +204,7 @@ def main(argv=None):
     ap.add_argument("--host-only", action="store_true",
                     help="no GPU timestamps (no hooks installed): pipelined frames and the host profile only")
     ap.add_argument("--top", type=int, default=30, help="functions listed by the host profile (default 30)")
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "frame_profile")
     run(ap.parse_args(argv))
     return 0
 

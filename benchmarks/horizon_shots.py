@@ -1,6 +1,7 @@
 """The meadow before (square field, ``horizon=False``) and after (grass to the horizon) from
 three cameras: the preset's, low near the ground, high looking far (the same three for both,
-inside the orbit limits of the field to the horizon). Writes PNGs and a side-by-side sheet.
+inside the orbit limits of the field to the horizon). Writes PNGs, a side-by-side sheet and
+``shots.json`` (the header of common.py and each picture's camera) into OUT_DIR.
 
     python benchmarks/horizon_shots.py OUT_DIR [--blades N] [--size WxH] [--steps S]
 """
@@ -13,6 +14,9 @@ import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 
 def cameras(scene):
@@ -35,8 +39,8 @@ def cameras(scene):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser()
-    ap.add_argument("out")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", help="folder for the PNGs (pictures, not a measured figure: nothing goes to results/)")
     ap.add_argument("--blades", type=int, default=1 << 20)
     ap.add_argument("--size", default="640x360")
     ap.add_argument("--steps", type=int, default=60)
@@ -47,6 +51,7 @@ def main(argv=None):
     size = parse_size(args.size)
     os.makedirs(args.out, exist_ok=True)
     cams = None
+    shots = {}
     for horizon in (True, False):  # the cameras of the field to the horizon (its orbit limits), for both
         scene = GrassScene.preset("meadow", blades=args.blades, size=size, horizon=horizon)
         scene.step(args.steps)
@@ -56,6 +61,7 @@ def main(argv=None):
             path = os.path.join(args.out, f"meadow_{'after' if horizon else 'before'}_{name}.png")
             write_image(path, scene.render_at(size))
             print("wrote", path, "camera", np.round(p, 2), "->", np.round(t, 2), flush=True)
+            shots[os.path.basename(path)] = {"position": [float(v) for v in p], "target": [float(v) for v in t]}
         scene.release()
     import imageio.v3 as iio
 
@@ -65,6 +71,10 @@ def main(argv=None):
         rows += [np.concatenate([a, np.full((a.shape[0], 8, 3), 255, np.uint8), b], axis=1)]
         rows += [np.full((8, rows[-1].shape[1], 3), 255, np.uint8)]
     iio.imwrite(os.path.join(args.out, "meadow_before_after_side_by_side.png"), np.concatenate(rows[:-1], axis=0))
+    from grasswidget.gpu.adapter import adapter_info
+
+    common.save("horizon_shots", {"blades": args.blades, "size": list(size), "steps": args.steps, "shots": shots},
+                adapter_info(), os.path.join(args.out, "shots.json"))
 
 
 if __name__ == "__main__":

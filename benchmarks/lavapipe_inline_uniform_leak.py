@@ -22,6 +22,7 @@ storage 0 KB and 0.2-0.8 ms (3.5-5x faster in each run). NVIDIA's Vulkan driver
 has no such pass (the issue's H100 probe kept 0.000 MB per render).
 
     python benchmarks/lavapipe_inline_uniform_leak.py [--dispatches 300] [--out PATH]
+        (default benchmarks/results/inline_uniform_leak-<machine>-<date>.json)
 """
 
 from __future__ import annotations
@@ -29,10 +30,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
-from pathlib import Path
 
 import wgpu
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 SHADER = """
 struct Params {{ flag: i32, pad0: i32, pad1: i32, pad2: i32 }};
@@ -105,20 +109,19 @@ def measure(device, address_space: str, dispatches: int) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dispatches", type=int, default=300, help="dispatches per variant (default 300)")
-    ap.add_argument("--out", default=str(Path(__file__).with_suffix(".json")), help="JSON file to write")
+    common.add_out_argument(ap, "inline_uniform_leak")
     args = ap.parse_args(argv)
     if args.dispatches < 1:
         ap.error(f"--dispatches must be >= 1; got {args.dispatches}")
     adapter = wgpu.gpu.request_adapter_sync(power_preference="high-performance")
     device = adapter.request_device_sync()
     result = {
-        "adapter": adapter.summary,
         "wgpu": wgpu.__version__,
         "uniform": measure(device, "uniform", args.dispatches),
         "storage": measure(device, "storage, read", args.dispatches),
     }
     print(json.dumps(result, indent=2))
-    Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+    common.save("inline_uniform_leak", result, adapter.summary, args.out)
     return result
 
 

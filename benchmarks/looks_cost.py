@@ -1,8 +1,8 @@
 """What the meadow's looks cost: this tree against the code before them, in one run.
 
-    python benchmarks/looks_cost.py live    [--rounds 6] [--json benchmarks/looks_cost_live_lavapipe.json]
-    python benchmarks/looks_cost.py export  [--rounds 3] [--json benchmarks/looks_cost_export_lavapipe.json]
-    python benchmarks/looks_cost.py meadow  [--rounds 3] [--json benchmarks/looks_cost_meadow_h100.json]
+    python benchmarks/looks_cost.py live    [--rounds 6] [--out PATH]
+    python benchmarks/looks_cost.py export  [--rounds 3] [--out PATH]
+    python benchmarks/looks_cost.py meadow  [--rounds 3] [--out PATH]
 
 On a machine without git (the GPU machine): check the baseline out beforehand, e.g.
 ``git worktree add --detach looks-base 6c319ec`` in the repository, and pass
@@ -11,8 +11,8 @@ On a machine without git (the GPU machine): check the baseline out beforehand, e
 The baseline is ``--base`` (default ``6c319ec``, main before the looks: flat brown
 ground, one colour ramp, no fog, exports without anti-aliasing), checked out in a
 temporary git worktree. Each round runs one child process per tree, in turns (base,
-new, new, base, ...), so that a machine whose speed drifts loads both alike; the
-ratio new / base is taken round by round and its median reported.
+new, new, base, ...: common.run_ab), so that a machine whose speed drifts loads both alike;
+the ratio new / base is taken round by round and its median reported.
 
 - ``live``: the widget's default view (4096 blades, 640 x 480, default camera):
   one step + one render with its pixel readback per frame, as the kernel view
@@ -28,7 +28,7 @@ ratio new / base is taken round by round and its median reported.
   each tree (frame ms, GPU-synchronised, no readback). For the GPU machine; goal
   within 10 %.
 
-Writes the JSON given by ``--json`` (rounds, medians, ratios, adapter).
+Writes benchmarks/results/looks_cost_<kind>-<machine>-<date>.json (or ``--out``): rounds, medians, ratios.
 """
 
 from __future__ import annotations
@@ -36,11 +36,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
@@ -50,24 +52,25 @@ DEFAULT_BASE = "6c319ec"
 # ------------------------------------------------------------------ children (run inside one tree)
 
 
+def _scene_class():
+    try:  # the package's public name
+        from grasswidget import GrassScene
+    except ImportError:  # a baseline from before it was public
+        from grasswidget.gpu.scene import GrassScene
+    return GrassScene
+
+
 def _child_live(frames):
-    import numpy as np
-
     import grasswidget as gw
-    from grasswidget.scene import GrassScene
 
-    scene = GrassScene(gw.Blades.on_plane(4096, seed=0), size=(640, 480))
-    for _ in range(5):
+    scene = _scene_class()(gw.Blades.on_plane(4096, seed=0), size=(640, 480))
+
+    def frame():
         scene.step(1)
         scene.render()
-    wall, cpu = [], []
-    for _ in range(frames):
-        t0, c0 = time.perf_counter(), time.process_time()
-        scene.step(1)
-        scene.render()
-        wall.append(1e3 * (time.perf_counter() - t0))
-        cpu.append(1e3 * (time.process_time() - c0))
-    return dict(frame_ms=float(np.median(wall)), frame_cpu_ms=float(np.median(cpu)))
+
+    times = common.time_frames(frame, frames, warmup=5)
+    return dict(frame_ms=common.median(times["wall_ms"]), frame_cpu_ms=common.median(times["cpu_ms"]))
 
 
 def _render_at(scene, size, antialias):
@@ -81,10 +84,9 @@ def _child_export(repeats=3):
     import numpy as np
 
     import grasswidget as gw
-    from grasswidget.scene import GrassScene
 
     w, h = 640, 360
-    scene = GrassScene(gw.Blades.on_plane(65536, seed=0), size=(w, h))
+    scene = _scene_class()(gw.Blades.on_plane(65536, seed=0), size=(w, h))
     scene.step(240)
     ref = _render_at(scene, (4 * w, 4 * h), False)[..., :3].astype(np.float64)
     ref = ref.reshape(h, 4, w, 4, 3).mean(axis=(1, 3))
@@ -116,32 +118,6 @@ def _child_meadow(frames):
 # ------------------------------------------------------------------ parent
 
 
-def _tree_env(tree):
-    """The environment of a child run in ``tree``: the tree first on the import path,
-    then whatever the caller had there (the GPU machine's wheels)."""
-    rest = os.environ.get("PYTHONPATH", "")
-    return dict(os.environ, PYTHONPATH=tree + (os.pathsep + rest if rest else ""))
-
-
-def _run_child(tree, kind, frames):
-    env = _tree_env(tree)
-    proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", kind, "--frames", str(frames)],
-                          cwd=tree, env=env, capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        raise SystemExit(f"child in {tree} failed:\n{proc.stderr[-3000:]}")
-    return json.loads(proc.stdout.strip().splitlines()[-1])
-
-
-def _adapter(tree):
-    code = "from grasswidget.gpu.adapter import adapter_info; import json; print(json.dumps(adapter_info()))"
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tree, env=_tree_env(tree),
-                          capture_output=True, text=True, check=False)
-    try:
-        return json.loads(proc.stdout.strip().splitlines()[-1])
-    except (IndexError, ValueError):
-        return None
-
-
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("kind", nargs="?", choices=["live", "export", "meadow"], default="live")
@@ -150,14 +126,16 @@ def main(argv=None):
                    help="an existing checkout of the baseline (instead of --base; for a machine without git)")
     p.add_argument("--rounds", type=int, default=None, help="rounds (default: live 6, export 3, meadow 3)")
     p.add_argument("--frames", type=int, default=None, help="frames per child (default: live 30, meadow 30)")
-    p.add_argument("--json", default=None, help="write the report here")
+    common.add_out_argument(p, "looks_cost_<kind>")
     p.add_argument("--child", choices=["live", "export", "meadow"], default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
         frames = args.frames or 30
         out = {"live": lambda: _child_live(frames), "export": _child_export,
                "meadow": lambda: _child_meadow(frames)}[args.child]()
-        print(json.dumps(out))
+        from grasswidget.gpu.adapter import adapter_info
+
+        common.emit({**out, "adapter": adapter_info()})
         return 0
 
     kind = args.kind
@@ -169,51 +147,30 @@ def main(argv=None):
         subprocess.run(["git", "worktree", "add", "--detach", base_tree, args.base], cwd=REPO, check=True,
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        rows = []
-        for r in range(rounds):
-            order = [("base", base_tree), ("new", REPO)]
-            if r % 2:
-                order.reverse()
-            row = {"round": r}
-            for label, tree in order:
-                row[label] = _run_child(tree, kind, frames)
-            rows.append(row)
-            print(json.dumps(row), flush=True)
+        trees = [("base", base_tree), ("new", REPO)]
+
+        def measure(_name, tree, _case):
+            return common.run_in_tree(tree, [os.path.abspath(__file__), "--child", kind, "--frames", str(frames)])
+
+        rows = common.run_ab(trees, [kind], rounds, measure)
         keys = sorted(k for k, v in rows[0]["new"].items() if isinstance(v, (int, float)) and k in rows[0]["base"])
-        summary = {}
-        for k in keys:
-            new = [row["new"][k] for row in rows]
-            base = [row["base"][k] for row in rows]
-            ratios = [n / b for n, b in zip(new, base) if b]
-            summary[k] = dict(new_median=statistics.median(new), base_median=statistics.median(base),
-                              ratio_median=statistics.median(ratios) if ratios else None, ratios=ratios)
+        summary = common.ab_summary(rows, trees, keys)[kind]
         if kind == "export":
             new = rows[0]["new"]
-            summary["export_vs_base_plain_time_ratio"] = statistics.median(
-                [row["new"]["export_s"] / row["base"]["plain_s"] for row in rows])
+            summary["export_vs_base_plain_time_ratio"] = common.median(
+                row["new"]["export_s"] / row["base"]["plain_s"] for row in rows)
             summary["diff_to_4x"] = dict(base=rows[0]["base"]["plain_diff_to_4x"], new_export=new["export_diff_to_4x"],
                                          new_plain=new["plain_diff_to_4x"])
-        report = dict(kind=kind, base=args.base if own_tree else args.base_tree, head=_git(["rev-parse", "--short", "HEAD"]),
-                      adapter=_adapter(REPO), rounds=rows, summary=summary,
-                      note="ratios are new / base, round by round, in one run on one machine")
         print(json.dumps(summary, indent=1))
-        if args.json:
-            os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-            with open(args.json, "w") as f:
-                json.dump(report, f, indent=1)
-            print(f"wrote {args.json}")
+        common.save(f"looks_cost_{kind}", dict(kind=kind, base=args.base if own_tree else args.base_tree,
+                                                 rounds=rows, summary=summary,
+                                                 note="ratios are new / base, round by round, in one run on one machine"),
+                    rows[0]["new"]["adapter"], args.out)
     finally:
         if own_tree:
             subprocess.run(["git", "worktree", "remove", "--force", base_tree], cwd=REPO, check=False,
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return 0
-
-
-def _git(cmd):
-    try:
-        return subprocess.run(["git", *cmd], cwd=REPO, capture_output=True, text=True).stdout.strip()
-    except FileNotFoundError:  # no git (the GPU machine)
-        return None
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ every scene compiled its render pipelines anew into pygfx's caches), 0.36 MiB a 
     python benchmarks/memory_flat.py [--calls 1000] [--widgets 500] [--draw-every 10]
                                      [--loops widget_set_blades,scene_set_blades,widget_create_close]
                                      [--out PATH]
+
+Writes benchmarks/results/memory_flat-<machine>-<date>.json unless ``--out`` says otherwise.
 """
 
 from __future__ import annotations
@@ -32,7 +34,9 @@ import json
 import os
 import sys
 import time
-from pathlib import Path
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 #: The blade counts the set_blades loops cycle through (1,024 - 16,384).
 COUNTS = (1024, 4096, 16384, 2048, 8192, 1536, 12288)
@@ -131,7 +135,7 @@ def main(argv=None):
     ap.add_argument("--warmup", type=int, default=50, help="calls before the first measurement (default 50)")
     ap.add_argument("--draw-every", type=int, default=10, help="draw a frame every N-th call (default 10)")
     ap.add_argument("--loops", default=",".join(LOOPS), help=f"comma-separated, of {', '.join(LOOPS)}")
-    ap.add_argument("--out", default=None, help="JSON file to write (default: print only)")
+    common.add_out_argument(ap, "memory_flat")
     args = ap.parse_args(argv)
     loops = [name for name in args.loops.split(",") if name]
     for name in loops:
@@ -147,13 +151,10 @@ def main(argv=None):
         calls = args.widgets if name == "widget_create_close" else args.calls
         results.append(measure(name, calls, args.warmup, args.draw_every))
         print(json.dumps(results[-1]), flush=True)
-    summary = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": f"{os.cpu_count()} cores",
-               "python": sys.version.split()[0], "loops": results}
     from grasswidget.gpu.adapter import ensure_device
 
-    summary["adapter"] = ensure_device().adapter.summary
-    if args.out:
-        Path(args.out).write_text(json.dumps(summary, indent=2) + "\n")
+    summary = {"loops": results}
+    common.save("memory_flat", summary, ensure_device().adapter.summary, args.out)
     return summary
 
 

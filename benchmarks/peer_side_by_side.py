@@ -1,7 +1,7 @@
 """Seed 004's C++/Vulkan peer against grasswidget trees, interleaved, in the cis565 view (640 x 480).
 
     python benchmarks/peer_side_by_side.py --peer /tmp/peer004 --tree main=/tmp/trees/main \
-        --tree looks=/tmp/trees/looks [--rounds 3] [--json benchmarks/peer_side_by_side_lavapipe.json]
+        --tree looks=/tmp/trees/looks [--rounds 3] [--out PATH]
 
 The peer is built as ``/work/shared/peer-seed004/README.md`` says (``run_peer.sh BLADES CULL``: CULL 0
 off, 2 on with the paper's orientation test). Each ``--tree NAME=DIR`` is a folder holding a
@@ -13,7 +13,8 @@ Per round, per blade count (2^13, 2^15, 2^16) and culling mode, the peer and the
 run once, the trees' order alternating from round to round, so that a machine whose load drifts
 weighs on all alike. Reported: each run's median frame ms and drawn blades, and per
 configuration the median over rounds of peer ms / tree ms (above 1: the tree is faster).
-The JSON is rewritten after every run (a cut-short run keeps its rounds).
+The JSON (benchmarks/results/peer_side_by_side-<machine>-<date>.json unless ``--out``) is rewritten
+after every run (a cut-short run keeps its rounds).
 """
 
 from __future__ import annotations
@@ -22,11 +23,12 @@ import argparse
 import json
 import os
 import re
-import statistics
 import subprocess
 import sys
 import tempfile
-import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 
 def run_peer(peer_dir, blades, cull, frames, warmup):
@@ -49,8 +51,11 @@ def run_tree(tree_dir, python, blades, cull, frames):
     try:
         if p.returncode:
             return dict(ms=None, error=p.stderr[-500:])
-        row = json.load(open(out))["results"][0]
-        return dict(ms=row["frame_ms"]["median"], cpu_ms=row["frame_cpu_ms"], visible=row["visible"])
+        with open(out) as f:
+            data = json.load(f)
+        row = data["results"][0]
+        return dict(ms=row["frame_ms"]["median"], cpu_ms=row["frame_cpu_ms"], visible=row["visible"],
+                    adapter=data.get("adapter"))
     finally:
         os.unlink(out)
 
@@ -61,14 +66,14 @@ def summary(runs, trees):
     for blades, cull in keys:
         mine = [r for r in runs if r["blades"] == blades and r["cull"] == cull]
         row = dict(blades=blades, cull=cull, rounds=len(mine),
-                   peer_ms=statistics.median(r["peer"]["ms"] for r in mine if r["peer"]["ms"]),
+                   peer_ms=common.median(r["peer"]["ms"] for r in mine if r["peer"]["ms"]),
                    peer_visible=mine[-1]["peer"]["visible"])
         for t in trees:
             ok = [r for r in mine if r["peer"]["ms"] and r.get(t, {}).get("ms")]
             if ok:
-                row[f"{t}_ms"] = statistics.median(r[t]["ms"] for r in ok)
+                row[f"{t}_ms"] = common.median(r[t]["ms"] for r in ok)
                 row[f"{t}_visible"] = ok[-1][t]["visible"]
-                row[f"peer_over_{t}"] = statistics.median(r["peer"]["ms"] / r[t]["ms"] for r in ok)
+                row[f"peer_over_{t}"] = common.median(r["peer"]["ms"] / r[t]["ms"] for r in ok)
         rows.append(row)
     return rows
 
@@ -83,12 +88,16 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=6, help="grasswidget bench frames (after its 3 warm-up frames)")
     ap.add_argument("--peer-frames", type=int, default=8)
     ap.add_argument("--peer-warmup", type=int, default=5)
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "peer_side_by_side")
     a = ap.parse_args(argv)
-    trees = dict(t.split("=", 1) for t in a.tree)
+    if not os.path.isfile(os.path.join(a.peer, "run_peer.sh")):
+        ap.error(f"--peer {a.peer}: no run_peer.sh there")
+    trees = dict(common.parse_trees(a.tree, minimum=1))
     runs = []
-    report = dict(view="cis565 640x480", started=time.strftime("%Y-%m-%d %H:%M:%S"), trees=trees, rounds=a.rounds,
+    report = dict(view="cis565 640x480", trees=trees, rounds=a.rounds,
                   frames=a.frames, peer_frames=a.peer_frames, peer_warmup=a.peer_warmup, runs=runs)
+    out = a.out
+    adapter = None
     for rnd in range(a.rounds):
         order = list(trees) if rnd % 2 == 0 else list(trees)[::-1]
         for blades in a.blades:
@@ -103,10 +112,9 @@ def main(argv=None):
                 print(f"round {rnd} 2^{blades.bit_length() - 1} cull {cull:>3}: peer {run['peer']['ms'] or float('nan'):8.1f} ms "
                       f"({run['peer']['visible']}) | {line} | load {run['load']:.1f}", flush=True)
                 report["summary"] = summary(runs, list(trees))
-                report["finished"] = time.strftime("%Y-%m-%d %H:%M:%S")
-                if a.json:
-                    with open(a.json, "w") as f:
-                        json.dump(report, f, indent=2)
+                adapter = adapter or next((run[t].get("adapter") for t in trees if run[t].get("adapter")), None)
+                if out != common.NO_FILE:  # the same file after every run
+                    out = common.save("peer_side_by_side", report, adapter, out)
     for row in report["summary"]:
         ratios = "  ".join(f"peer/{t} {row.get(f'peer_over_{t}', float('nan')):.2f}x" for t in trees)
         print(f"2^{row['blades'].bit_length() - 1} cull {row['cull']:>3} ({row['rounds']} rounds): {ratios}")

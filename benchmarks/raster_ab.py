@@ -1,9 +1,9 @@
 """The compute rasterizer on and off, two source trees interleaved (issue 28 item 2's before/after).
 
 ``python benchmarks/raster_ab.py --tree before=/path/to/old/checkout --tree after=. --rounds 3 --frames 3
---json benchmarks/raster_ab_lavapipe.json``
+[--out PATH]`` (default benchmarks/results/raster_ab-<machine>-<date>.json)
 
-Each round runs every tree once, in turn (before, after, before, after, ...), each in a fresh Python
+Each round runs every tree once, in turn (reversed every other round: common.run_ab), each in a fresh Python
 process whose ``grasswidget`` is that tree's (PYTHONPATH). A process draws every view with the compute
 rasterizer off and on, alternating frame by frame after a warm-up: a frame is ``field.step(1)``, a GPU
 sync, ``GrassScene.draw_into`` and a GPU sync (as ``grasswidget bench``'s frame ms; ``draw_ms`` is the
@@ -21,13 +21,12 @@ culling, LOD and occlusion culling on), the cis565 view at 2^15 culled (defaults
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
-import statistics
-import subprocess
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 VIEWS = {
     "default (cis565 2^16 640x480)": ("cis565", 1 << 16, (640, 480), "on"),
@@ -35,13 +34,6 @@ VIEWS = {
     "cis565 2^15 unculled": ("cis565", 1 << 15, (640, 480), "off"),
     "meadow 2^18 1280x720": ("meadow", 1 << 18, (1280, 720), "on"),
 }
-
-
-def _cull_mode(params, mode):
-    on = mode == "on"
-    params.cull_orientation = params.cull_frustum = params.cull_distance = on
-    params.lod = on
-    params.cull_occlusion = on
 
 
 def worker(frames, views, raster_max_px):
@@ -58,9 +50,7 @@ def worker(frames, views, raster_max_px):
         if views and not any(v in view for v in views):
             continue
         scene = GrassScene.preset(preset, blades=n, size=size)
-        _cull_mode(scene.params, cull)
-        if raster_max_px is not None:
-            scene.params.compute_raster_max_px = raster_max_px
+        common.set_culling(scene.params, cull, occlusion=cull == "on", raster_max_px=raster_max_px)
         w, h = size
         target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
         renderer = gfx.WgpuRenderer(target, pixel_ratio=1, ppaa="none", enable_events=False)
@@ -95,31 +85,26 @@ def worker(frames, views, raster_max_px):
         out["views"][view] = {"rows": rows, "listed_for_compute": listed,
                               "compute_raster_max_px": float(field.params.compute_raster_max_px)}
         del scene, renderer
-    print("RESULT " + json.dumps(out), flush=True)
+    from grasswidget.gpu.adapter import adapter_info
 
-
-def _median(values):
-    return statistics.median(values) if values else float("nan")
+    out["adapter"] = adapter_info().get("summary", "")
+    common.emit(out)
 
 
 def drive(trees, rounds, frames, views, raster_max_px, out_path):
-    runs = []
-    for r in range(rounds):
-        for name, path in trees:
-            env = dict(os.environ, PYTHONPATH=os.path.abspath(path))
-            cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--frames", str(frames)]
-            if views:
-                cmd += ["--view", *views]
-            if raster_max_px is not None:
-                cmd += ["--raster-max-px", str(raster_max_px)]
-            t = time.perf_counter()
-            proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=os.path.abspath(path))
-            line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-            if proc.returncode or not line:
-                raise RuntimeError(f"worker failed ({name}, round {r}): {proc.stderr[-3000:]}")
-            data = json.loads(line[-1][len("RESULT "):])
-            runs.append({"round": r, "tree": name, "seconds": time.perf_counter() - t, **data})
-            print(f"round {r} {name}: {time.perf_counter() - t:.0f} s", flush=True)
+    def measure(name, path, _case):
+        cmd = [os.path.abspath(__file__), "--worker", "--frames", str(frames)]
+        if views:
+            cmd += ["--view", *views]
+        if raster_max_px is not None:
+            cmd += ["--raster-max-px", str(raster_max_px)]
+        t = time.perf_counter()
+        data = common.run_in_tree(path, cmd)
+        return {"seconds": time.perf_counter() - t, **data}
+
+    runs = [{"round": row["round"], "tree": name, **row[name]}
+            for row in common.run_ab(trees, ["all views"], rounds, measure) for name, _ in trees]
+    _median = common.median
     summary = {}
     for name, _ in trees:
         mine = [x for x in runs if x["tree"] == name]
@@ -134,9 +119,7 @@ def drive(trees, rounds, frames, views, raster_max_px, out_path):
             s["listed_for_compute"] = mine[-1]["views"][view]["listed_for_compute"]
             s["compute_raster_max_px"] = mine[-1]["views"][view]["compute_raster_max_px"]
             summary.setdefault(view, {})[name] = s
-    report = {"date": time.strftime("%Y-%m-%d %H:%M:%S"), "trees": dict(trees), "rounds": rounds, "frames": frames,
-              "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_end": os.getloadavg()},
-              "summary": summary, "runs": runs}
+    report = {"trees": dict(trees), "rounds": rounds, "frames": frames, "summary": summary, "runs": runs}
     for key in ("frame_ms", "frame_cpu_ms"):
         print(f"\n{key}\n{'view':32s} {'tree':8s} {'off ms':>9s} {'on ms':>9s} {'on/off':>7s} {'rounds':>18s} {'listed':>7s}")
         for view, by_tree in summary.items():
@@ -145,10 +128,7 @@ def drive(trees, rounds, frames, views, raster_max_px, out_path):
                 rr = ",".join(f"{x:.2f}" for x in f["on_over_off_per_round"])
                 print(f"{view:32s} {name:8s} {f['off']:9.1f} {f['on']:9.1f} {f['on_over_off']:7.2f} {rr:>18s} "
                       f"{s['listed_for_compute']:7d}")
-    if out_path:
-        with open(out_path, "w") as fh:
-            json.dump(report, fh, indent=1)
-        print("wrote", out_path)
+    common.save("raster_ab", report, runs[0]["adapter"], out_path)
 
 
 def main(argv=None):
@@ -158,13 +138,13 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=3)
     ap.add_argument("--view", nargs="*", default=None, help="substrings of the views to run (default all)")
     ap.add_argument("--raster-max-px", type=float, default=None)
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "raster_ab")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.worker:
         return worker(a.frames, a.view, a.raster_max_px)
-    trees = [tuple(t.split("=", 1)) for t in (a.tree or ["after=."])]
-    drive(trees, a.rounds, a.frames, a.view, a.raster_max_px, a.json)
+    trees = common.parse_trees(a.tree or ["after=."], minimum=1)
+    drive(trees, a.rounds, a.frames, a.view, a.raster_max_px, a.out)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Where the compute rasterizer's time goes (issue 28 item 2): every GPU pass of a frame timed.
 
-``python benchmarks/raster_profile.py [--frames 6] [--json benchmarks/raster_profile_lavapipe.json]``
+``python benchmarks/raster_profile.py [--frames 6] [--out PATH]``
 
 For each view (the default view: cis565 preset, 2^16 blades, 640x480; the meadow: 2^18 blades,
 1280x720; occlusion culling on, as GrassParams' default), with the compute rasterizer on and off:
@@ -19,21 +19,22 @@ For each view (the default view: cis565 preset, 2^16 blades, 640x480; the meadow
    interleaved frame by frame, medians.
 3. What the walks did: blades listed, pixels covered (depth words read back).
 
-Writes JSON and prints a table. CPU adapters only make sense here (the issue is lavapipe's).
+Writes benchmarks/results/raster_profile-<machine>-<date>.json (or ``--out``) and prints a table. CPU adapters only make sense here (the issue is lavapipe's).
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
-import json
 import os
-import platform
 import statistics
 import sys
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 VIEWS = {
     "default 2^16 640x480": ("cis565", 1 << 16, (640, 480)),
@@ -41,7 +42,7 @@ VIEWS = {
 }
 
 
-class _Stamps:
+class Stamps:
     """A timestamp query set written around every dispatch / draw; labels in order."""
 
     def __init__(self, device, count=512):
@@ -217,12 +218,10 @@ def run(frames, views, out_path, raster_max_px=None):
     ensure_device()
 
     device = get_shared().device
-    stamps = _Stamps(device)
+    stamps = Stamps(device)
     knockout = {"skip": set()}
     install_draw_hooks(stamps, knockout)
-    report = dict(adapter=adapter_info(), date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                  machine=dict(platform=platform.platform(), cpus=os.cpu_count(), load=os.getloadavg()),
-                  frames=frames, views={})
+    report = dict(frames=frames, views={})
     for view, (preset, n, size) in VIEWS.items():
         if views and not any(v in view for v in views):
             continue
@@ -296,10 +295,7 @@ def run(frames, views, out_path, raster_max_px=None):
         for label in labels:
             print(f"{label[:58]:58s} " + " ".join(f"{entry['gpu_ms'][m].get(label, float('nan')):12.2f}" for m in modes))
         del scene, renderer
-    if out_path:
-        with open(out_path, "w") as f:
-            json.dump(report, f, indent=1)
-        print("wrote", out_path)
+    common.save("raster_profile", report, adapter_info(), out_path)
     return report
 
 
@@ -308,9 +304,9 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=6)
     ap.add_argument("--view", nargs="*", default=None, help="substring(s) of the views to run (default all)")
     ap.add_argument("--raster-max-px", type=float, default=None, help="compute_raster_max_px (default: the params')")
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "raster_profile")
     a = ap.parse_args(argv)
-    run(a.frames, a.view, a.json, a.raster_max_px)
+    run(a.frames, a.view, a.out, a.raster_max_px)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 trees interleaved (issue 28 item 2: the walk written like the thin-blade probe's).
 
 ``python benchmarks/raster_walk_cpu.py --tree before=/path/to/old/checkout --tree after=. --tree two=.:two
---rounds 2 --json benchmarks/raster_walk_cpu_lavapipe.json``
+--rounds 2 [--out PATH]``
 
 A tree given as ``NAME=PATH:two`` runs with ``raster_walks.prefer_two_walks(True)``: the two walks (the
 browser engine's layout) of a tree that would walk once.
@@ -12,20 +12,19 @@ at 2^18 blades, 1280x720, ``compute_raster_max_px`` ``--raster-max-px`` (default
 go to the compute path), occlusion culling off (one list); two frames drawn, then the tree's walk steps
 (one "packed" walk, or "depth" and "payload") dispatched again from the same indirect arguments,
 ``--repeats`` times per submission, ``--samples`` submissions; CPU (the process's, lavapipe's threads
-included) and wall milliseconds per walk of the whole list, medians. The words already hold the
+included) and wall milliseconds per walk of the whole list, medians. Writes
+benchmarks/results/raster_walk_cpu-<machine>-<date>.json unless ``--out`` says otherwise. The words already hold the
 frame's winners, so the atomics do the same work as in the frame (a compare-exchange per pixel).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
-import statistics
-import subprocess
 import sys
-import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 
 def worker(raster_max_px, repeats, samples, two_walks=False):
@@ -64,16 +63,13 @@ def worker(raster_max_px, repeats, samples, two_walks=False):
         device.queue.submit([encoder.finish()])
         device.queue.read_buffer(compat.gpu_buffer(field.args_buffer))
 
-    walk(1)
-    cpu, wall = [], []
-    for _ in range(samples):
-        t, c = time.perf_counter(), time.process_time()
-        walk(repeats)
-        wall.append(1e3 * (time.perf_counter() - t) / repeats)
-        cpu.append(1e3 * (time.process_time() - c) / repeats)
-    out = {"grasswidget": os.path.dirname(grasswidget.__file__), "steps": steps, "listed": field.read_raster_count(),
-           "cpu_ms": cpu, "wall_ms": wall, "compute_raster_max_px": raster_max_px}
-    print("RESULT " + json.dumps(out), flush=True)
+    times = common.time_frames(lambda: walk(repeats), samples, warmup=1)
+    from grasswidget.gpu.adapter import adapter_info
+
+    common.emit({"grasswidget": os.path.dirname(grasswidget.__file__), "steps": steps,
+                 "listed": field.read_raster_count(), "cpu_ms": [v / repeats for v in times["cpu_ms"]],
+                 "wall_ms": [v / repeats for v in times["wall_ms"]], "compute_raster_max_px": raster_max_px,
+                 "adapter": adapter_info().get("summary", "")})
 
 
 def main(argv=None):
@@ -83,41 +79,34 @@ def main(argv=None):
     ap.add_argument("--raster-max-px", type=float, default=8.0)
     ap.add_argument("--repeats", type=int, default=4)
     ap.add_argument("--samples", type=int, default=5)
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "raster_walk_cpu")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--two-walks", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
         worker(args.raster_max_px, args.repeats, args.samples, args.two_walks)
         return 0
-    trees = [t.split("=", 1) for t in args.tree] or [["this", os.getcwd()]]
-    runs = []
-    for r in range(args.rounds):
-        for name, spec in trees:
-            path, two = (spec[:-4], True) if spec.endswith(":two") else (spec, False)
-            env = dict(os.environ, PYTHONPATH=os.path.abspath(path))
-            cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--raster-max-px", str(args.raster_max_px),
-                   "--repeats", str(args.repeats), "--samples", str(args.samples)] + (["--two-walks"] if two else [])
-            proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=os.path.abspath(path))
-            line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-            if proc.returncode or not line:
-                raise RuntimeError(f"worker failed ({name}, round {r}): {proc.stderr[-3000:]}")
-            data = json.loads(line[-1][len("RESULT "):])
-            runs.append({"round": r, "tree": name, **data})
-            print(f"round {r} {name:8s} steps {'+'.join(data['steps']):14s} listed {data['listed']:6d} "
-                  f"walk CPU ms {statistics.median(data['cpu_ms']):7.1f}  wall ms {statistics.median(data['wall_ms']):7.1f}",
-                  flush=True)
-    summary = {name: {key: statistics.median([statistics.median(x[key]) for x in runs if x["tree"] == name])
-                      for key in ("cpu_ms", "wall_ms")} for name, _ in trees}
-    print("medians over rounds: " + "; ".join(f"{n} CPU {s['cpu_ms']:.1f} ms, wall {s['wall_ms']:.1f} ms"
-                                              for n, s in summary.items()))
-    if args.json:
-        report = {"date": time.strftime("%Y-%m-%d %H:%M:%S"), "trees": dict(trees), "rounds": args.rounds,
-                  "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_at_end": os.getloadavg()},
-                  "summary": summary, "runs": runs}
-        with open(args.json, "w") as fh:
-            json.dump(report, fh, indent=1)
-        print("wrote", args.json)
+    trees = common.parse_trees(args.tree or [f"this={os.getcwd()}"], minimum=1, suffixes=(":two",))
+
+    def measure(name, spec, _case):
+        path, two = (spec[:-4], True) if spec.endswith(":two") else (spec, False)
+        data = common.run_in_tree(path, [os.path.abspath(__file__), "--worker", "--raster-max-px",
+                                         str(args.raster_max_px), "--repeats", str(args.repeats), "--samples",
+                                         str(args.samples)] + (["--two-walks"] if two else []))
+        print(f"{name:8s} steps {'+'.join(data['steps']):14s} listed {data['listed']:6d} walk CPU ms "
+              f"{common.median(data['cpu_ms']):7.1f}  wall ms {common.median(data['wall_ms']):7.1f}", flush=True)
+        return data
+
+    rows = common.run_ab(trees, ["meadow 2^18 1280x720"], args.rounds, measure)
+    for row in rows:
+        for name, _ in trees:
+            row[name]["cpu_ms_median"] = common.median(row[name]["cpu_ms"])
+            row[name]["wall_ms_median"] = common.median(row[name]["wall_ms"])
+    summary = common.ab_summary(rows, trees, ("cpu_ms_median", "wall_ms_median"))
+    print("medians over rounds: " + "; ".join(f"{n} CPU {s['cpu_ms_median']:.1f} ms, wall {s['wall_ms_median']:.1f} ms"
+                                              for n, s in next(iter(summary.values())).items()))
+    common.save("raster_walk_cpu", {"trees": dict(trees), "rounds": args.rounds, "summary": summary, "runs": rows},
+                rows[0][trees[0][0]]["adapter"], args.out)
     return 0
 
 

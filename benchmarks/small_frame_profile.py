@@ -1,6 +1,7 @@
 """Where a small culled frame's time goes on a CPU adapter (issue 28 item 4): the cis565 view.
 
-``python benchmarks/small_frame_profile.py [--blades 8192] [--frames 12] [--json benchmarks/small_frame_profile_lavapipe.json]``
+``python benchmarks/small_frame_profile.py [--blades 8192] [--frames 12] [--out PATH]``
+(default benchmarks/results/small_frame_profile-<machine>-<date>.json)
 
 The frame is ``grasswidget bench``'s: ``field.step(1)``, a readback, ``scene.draw_into(renderer)``
 (occlusion culling's two phases), a readback; culling on (every test, occlusion forced on), the
@@ -22,9 +23,7 @@ from __future__ import annotations
 import argparse
 import collections
 import cProfile
-import json
 import os
-import platform
 import pstats
 import statistics
 import sys
@@ -32,6 +31,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import common  # noqa: E402  (benchmarks/common.py)
 import raster_profile as rp  # noqa: E402
 
 KNOCKOUTS = {
@@ -47,7 +47,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--blades", type=int, default=8192)
     ap.add_argument("--frames", type=int, default=12)
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "small_frame_profile")
     a = ap.parse_args(argv)
 
     import numpy as np
@@ -56,17 +56,16 @@ def main(argv=None):
     from grasswidget import compat
     from grasswidget.gpu.adapter import adapter_info, ensure_device
     from grasswidget.gpu.scene import GrassScene, make_renderer
-    from grasswidget.tools.bench import _apply_mode
     from pygfx.renderers.wgpu import get_shared
 
     ensure_device()
     device = get_shared().device
-    stamps = rp._Stamps(device, count=1024)
+    stamps = rp.Stamps(device, count=1024)
     knockout = {"skip": set()}
     rp.install_draw_hooks(stamps, knockout)
     rp.install_pass_hooks(stamps)
     scene = GrassScene.preset("cis565", blades=a.blades, size=(640, 480))
-    _apply_mode(scene.params, "on", occlusion=True, compute_raster=False)
+    common.set_culling(scene.params, "on", occlusion=True, compute_raster=False)
     w, h = scene.size
     renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm"))
     field = scene.field
@@ -128,9 +127,7 @@ def main(argv=None):
     by_own = sorted(rows, key=lambda r: -r["own_ms"])[:30]
     by_cum = sorted(rows, key=lambda r: -r["cum_ms"])[:45]
     drawn = int(field.read_draw_args()[:, 1].sum())
-    report = dict(adapter=adapter_info(), date=time.strftime("%Y-%m-%d %H:%M:%S"),
-                  machine=dict(platform=platform.platform(), cpus=os.cpu_count(), load=os.getloadavg()),
-                  blades=a.blades, size=f"{w}x{h}", drawn=drawn, frames=a.frames, gpu_ms=gpu_ms, timing=timing,
+    report = dict(blades=a.blades, size=f"{w}x{h}", drawn=drawn, frames=a.frames, gpu_ms=gpu_ms, timing=timing,
                   host_own=by_own, host_cum=by_cum)
     print(f"cis565 2^{a.blades.bit_length() - 1} culled (occlusion on, compute raster off), {w}x{h}; drawn {drawn}; "
           f"load {os.getloadavg()[0]:.1f}")
@@ -146,10 +143,7 @@ def main(argv=None):
     print("\nhost, cumulative ms per frame:")
     for r in by_cum:
         print(f"  {r['cum_ms']:7.3f} {r['calls']:7.1f}x  {r['function']}")
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump(report, f, indent=1)
-        print("wrote", a.json)
+    common.save("small_frame_profile", report, adapter_info(), a.out)
 
 
 if __name__ == "__main__":

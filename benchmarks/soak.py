@@ -3,7 +3,7 @@
 Issue 20: the default ``GrassWidget(blades=8192)`` left playing grew the kernel
 by about 16 MB a second on lavapipe. This runs the widget (``--engine kernel``:
 pygfx renders in the kernel and streams frames; ``--engine browser``: WebGPU in
-the page) in a real JupyterLab + Chromium (tests/browser/harness.py) for
+the page) in a real JupyterLab + Chromium (driven by benchmarks/lab.py) for
 ``--minutes``, interacting all the time, and samples every ``--interval`` seconds:
 
 * the kernel's resident memory (``/proc/<kernel pid>/statm``, MB);
@@ -16,10 +16,10 @@ the page) in a real JupyterLab + Chromium (tests/browser/harness.py) for
 
 Interaction, one action every ``--action-every`` seconds in turn: a mouse drag on
 the view (orbit), a ``wind_strength`` slider move, a ``stiffness_scale`` slider
-move, and every fourth action a blade-count change typed into the ``blades``
-slider (alternating ``--blades`` and 1.5x that). The sphere is switched on and
-set rolling at the start (the ``sphere`` checkbox and the ``Roll`` button) and
-rolls all the time.
+move, and every fourth action a blade-count change with the arrow keys on the
+``blades`` slider (alternating ``--blades`` and twice that, the control's
+power-of-two stops; its Apply clicked where the panel asks first). The sphere is switched on and set rolling at the start (the
+``sphere`` checkbox and the ``Roll`` button) and rolls all the time.
 
 Targets (issue 20): kernel memory flat after the first minute (growth under
 50 MB over the run), frames/s steady. The summary reports both.
@@ -29,8 +29,8 @@ Usage (from the repository root)::
     .venv/bin/python benchmarks/soak.py --engine kernel --minutes 10
     .venv/bin/python benchmarks/soak.py --engine browser --minutes 10
 
-Prints one line per sample and a summary, and writes JSON (default
-``benchmarks/soak_<engine>_<adapter kind>.json``).
+Prints one line per sample and a summary, and writes benchmarks/results/soak_<engine>-<machine>-<date>.json
+(or ``--out``).
 """
 
 from __future__ import annotations
@@ -38,32 +38,38 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
+import re
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from tests.browser.harness import (  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+from lab import (  # noqa: E402  (benchmarks/lab.py)
+    ENGINE_CANVAS,
     Browser,
     JupyterLabServer,
     click_button,
     drag,
+    engine_state,
     frame_count,
     kernel_eval,
     open_notebook,
-    run_all_cells,
     panel_label,
+    poll,
+    run_all_cells,
+    set_checkbox,
     set_slider,
-    toggle_checkbox,
+    step_slider,
     view_locator,
     wait_for_frames,
     wait_for_kernel,
     write_notebook,
 )
+
+common.use_this_checkout()
+ROOT = common.ROOT
 
 #: Kernel memory may grow at most this much (MB) from the sample at one minute to the end.
 GROWTH_TARGET_MB = 50.0
@@ -71,8 +77,7 @@ GROWTH_TARGET_MB = 50.0
 #: within this band count as steady.
 STEADY_BAND = (0.75, 1.33)
 
-_ENGINE_FRAMES = """() => { const es = [...(globalThis.__grasswidgetEngines || [])];
-  const e = es[es.length - 1]; return e ? e.frames : null; }"""
+
 
 
 # ---------------------------------------------------------------- /proc readings
@@ -144,13 +149,13 @@ def chromium_memory() -> dict:
 def frames_delivered(page, engine) -> int:
     if engine == "kernel":
         return frame_count(page)
-    return int(page.evaluate(_ENGINE_FRAMES) or 0)
+    return int(engine_state(page, "e && e.frames") or 0)
 
 
 def view_of(page, engine):
     if engine == "kernel":
         return view_locator(page, 0)
-    return page.locator("canvas.grasswidget-canvas").first
+    return page.locator(ENGINE_CANVAS).first
 
 
 def summarize(samples, minutes) -> dict:
@@ -196,7 +201,7 @@ def main(argv=None):
     ap.add_argument("--blade-changes", action=argparse.BooleanOptionalAction, default=True,
                     help="every fourth action changes the blade count (default on; --no-blade-changes: "
                          "that action moves the gravity slider instead)")
-    ap.add_argument("--out", default=None, help="JSON file (default benchmarks/soak_<engine>_<adapter>.json)")
+    common.add_out_argument(ap, "soak_<engine>")
     args = ap.parse_args(argv)
     for name in ("minutes", "interval", "action_every"):
         if not getattr(args, name) > 0:
@@ -211,7 +216,7 @@ def main(argv=None):
     ])
     env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
     samples, actions, error = [], 0, None
-    counts = [args.blades, args.blades * 3 // 2]
+    counts = [args.blades, args.blades * 2]  # neighbouring stops of the blade-count control
     with JupyterLabServer(root, env=env) as server, Browser(webgpu=args.engine == "browser") as browser:
         page = browser.page
         open_notebook(page, server, "soak.ipynb")
@@ -222,11 +227,9 @@ def main(argv=None):
             wait_for_kernel(page, "w.view.gpu_status['state']", "ok", timeout=120)
         kernel_pid = int(kernel_eval(page, "os.getpid()"))
         adapter = kernel_eval(page, "__import__('grasswidget.gpu.adapter', fromlist=['x']).ensure_device()"
-                                    ".adapter.summary") if args.engine == "kernel" else page.evaluate(
-            "() => { const es = [...(globalThis.__grasswidgetEngines || [])]; "
-            "return es.length ? es[es.length - 1].adapterText : null; }")
+                                    ".adapter.summary") if args.engine == "kernel" else engine_state(page, "e && e.adapterText")
         cdp = browser.context.new_cdp_session(page)
-        toggle_checkbox(page, "sphere", True)
+        set_checkbox(page, "sphere", True)
         click_button(page, "Roll")
         wait_for_kernel(page, "w.ball.rolling", True, timeout=30)
 
@@ -242,8 +245,17 @@ def main(argv=None):
             elif not args.blade_changes:
                 set_slider(page, panel_label("gravity"), [9.8, 6.0, 14.0][k % 3])
             else:  # a blade-count change, every fourth action
-                count = counts[(k // 4) % 2]
-                set_slider(page, panel_label("blades"), count)
+                now = kernel_eval(page, "w.blade_count")
+                count = counts[1] if now == counts[0] else counts[0]  # the other of the two stops
+                step_slider(page, panel_label("blades"), 1 if count > now else -1)
+                # A count the view would draw under its target frame rate asks first (the panel's Apply):
+                # answer it as a person would, then wait for the kernel to hold the new count.
+                apply = page.locator("button.jupyter-button").filter(has_text=re.compile(r"^\s*Apply\s*$"))
+                asked = poll(lambda: (lambda n, shown: (n == count or shown, shown))(
+                    kernel_eval(page, "w.blade_count"), apply.count() > 0 and apply.first.is_visible()),
+                    f"{count} blades or the question whether to apply them", 60, 0.25, page=page)
+                if asked:
+                    apply.first.click()
                 wait_for_kernel(page, "w.blade_count", count, timeout=120)
             actions += 1
 
@@ -302,16 +314,14 @@ def main(argv=None):
                      "server_log_tail": server.log_text(8000)}
             print(f"stopped at {error['at_s']} s: kernel alive: {error['kernel_alive']}\n{error['message']}\n"
                   f"--- server log tail ---\n{error['server_log_tail']}", file=sys.stderr)
-        browser_version = browser.context.browser.version if browser.context.browser else "chromium"
+        browser_version = browser.version
         server.shutdown_kernels()
 
     result = {
         "engine": args.engine,
         "widget": f"GrassWidget(blades={args.blades}{backend})",
-        "adapter": adapter,
         "browser": browser_version,
-        "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
-                    "note": "shared with other engineers' test runs: load_avg_1min in each sample"},
+        "load_note": "shared with other engineers' test runs: load_avg_1min in each sample",
         "interval_s": args.interval,
         "action_every_s": args.action_every,
         "interaction": "drag, wind_strength slider, stiffness_scale slider, "
@@ -321,12 +331,8 @@ def main(argv=None):
         "error": error,
         "samples": samples,
     }
-    kind = "lavapipe" if "llvmpipe" in str(adapter).lower() else (
-        "swiftshader" if "swiftshader" in str(adapter).lower() else "gpu")
-    out = Path(args.out) if args.out else ROOT / "benchmarks" / f"soak_{args.engine}_{kind}.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result["summary"], indent=2))
-    print(f"wrote {out}")
+    common.save(f"soak_{args.engine}", result, adapter, args.out)
     if error is not None:
         sys.exit(f"the soak stopped early ({error['at_s']} s): {error['message'][:300]}")
     return result

@@ -1,7 +1,7 @@
 """Start-up benchmark: import time, the widget's first frame, the live page's first frame.
 
 * import: wall time of ``python -c "import grasswidget"`` (the pure core; GPU code
-  loads on first use) and of ``import grasswidget.widget`` (ipywidgets, anywidget,
+  loads on first use) and of ``import grasswidget.notebook.widget`` (ipywidgets, anywidget,
   pygfx, jupyter-rfb), against ``python -c pass``; the median of --repeat runs;
 * the widget's first frame, in JupyterLab + headless Chromium: from "run all cells"
   to the first frame in the page, for the kernel engine (the first jupyter-rfb
@@ -13,33 +13,30 @@
 
 Usage (from the repository root)::
 
-    .venv/bin/python benchmarks/startup.py [--out benchmarks/startup_lavapipe_swiftshader.json]
+    .venv/bin/python benchmarks/startup.py [--repeat 5] [--out PATH]
 
-Prints a table and writes the JSON. On this machine (CPU Vulkan, SwiftShader) the
+Prints a table and writes benchmarks/results/startup-lavapipe+swiftshader-<date>.json (the kernel's adapter,
+then the browser's; or ``--out``). JupyterLab and Chromium are driven by benchmarks/lab.py. On this machine (CPU Vulkan, SwiftShader) the
 absolute times say little about a GPU; compare ratios within one run.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from tests.browser.harness import (  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
+from lab import (  # noqa: E402  (benchmarks/lab.py)
     Browser,
     JupyterLabServer,
     StaticServer,
-    install_frame_counter,
+    engine_state,
     open_notebook,
     poll,
     run_all_cells,
@@ -47,7 +44,8 @@ from tests.browser.harness import (  # noqa: E402
     write_notebook,
 )
 
-_ENGINE = "(() => { const es = [...(globalThis.__grasswidgetEngines || [])]; return es[es.length - 1]; })()"
+common.use_this_checkout()
+ROOT = common.ROOT
 SIZE = (640, 480)
 WIDGET_BLADES = 4096
 PAGE_BLADES = (4096, 1 << 16)
@@ -57,20 +55,13 @@ def import_times(repeat):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
 
     def wall(code):
-        runs = []
-        for _ in range(repeat):
-            t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT, capture_output=True)
-            runs.append(time.perf_counter() - t0)
-        return round(statistics.median(runs), 3)
+        runs = common.time_frames(lambda: subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT,
+                                                         capture_output=True), repeat, warmup=0)
+        return round(common.median(runs["wall_ms"]) / 1e3, 3)
 
     base = wall("pass")
     return {"python_pass_s": base, "import_grasswidget_s": wall("import grasswidget"),
-            "import_grasswidget_widget_s": wall("import grasswidget.widget")}
-
-
-def engine_timing(page):
-    return page.evaluate(f"() => {{ const e = {_ENGINE}; return e ? {{timing: e.timing, frames: e.frames}} : null; }}")
+            "import_grasswidget_widget_s": wall("import grasswidget.notebook.widget")}
 
 
 def widget_first_frames(root):
@@ -78,11 +69,11 @@ def widget_first_frames(root):
     write_notebook(root / "kernel.ipynb", [f"import grasswidget as gw\nw = gw.GrassWidget({WIDGET_BLADES}, size={SIZE})\nw"])
     write_notebook(root / "browser.ipynb", [
         f"import grasswidget as gw\nw = gw.GrassWidget({WIDGET_BLADES}, backend='browser', size={SIZE})\nw"])
-    with JupyterLabServer(root) as server:
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    with JupyterLabServer(root, env=env) as server:
         with Browser() as b:
             page = b.page
-            open_notebook(page, server, "kernel.ipynb")
-            install_frame_counter(page)
+            open_notebook(page, server, "kernel.ipynb")  # counts the kernel engine's frames from here
             t0 = time.perf_counter()
             run_all_cells(page, timeout=180)
             wait_for_frames(page, 1, timeout=120, index=0)
@@ -94,8 +85,8 @@ def widget_first_frames(root):
             open_notebook(page, server, "browser.ipynb")
             t0 = time.perf_counter()
             run_all_cells(page, timeout=180)
-            info = poll(lambda: (lambda e: (bool(e and e["timing"].get("first_frame")), e))(engine_timing(page)),
-                        "the browser engine's first frame", 180, 0.05, page=page)
+            info = poll(lambda: (lambda e: (bool(e and e["timing"].get("first_frame")), e))(engine_state(page)),
+                        "the browser engine's first frame", 180, 0.05)
             out["browser_engine_run_to_first_frame_s"] = round(time.perf_counter() - t0, 2)
             t = info["timing"]
             out["browser_engine_created_to_first_frame_s"] = round((t["first_frame"] - t["created"]) / 1000, 2)
@@ -119,10 +110,11 @@ def live_pages(root):
             t_still = time.perf_counter() - t0
             page = b.page
             page.goto(static.url_for(path.name))
-            info = poll(lambda: (lambda e: (bool(e and e["timing"].get("first_frame")), e))(engine_timing(page)),
-                        f"the live page's first frame at {n} blades", 180, 0.05, page=page)
+            info = poll(lambda: (lambda e: (bool(e and e["timing"].get("first_frame")), e))(engine_state(page)),
+                        f"the live page's first frame at {n} blades", 180, 0.05)
             t = info["timing"]
-            rows.append({"blades": n, "page_mib": round(path.stat().st_size / 2 ** 20, 2),
+            rows.append({"blades": n, "adapter": engine_state(page, "e && e.adapterText"),
+                         "page_mib": round(path.stat().st_size / 2 ** 20, 2),
                          "save_s": round(t_plain, 2), "save_with_still_s": round(t_still, 2),
                          "navigation_to_first_frame_s": round(t["first_frame"] / 1000, 2),
                          "engine_created_s": round(t["created"] / 1000, 2),
@@ -133,11 +125,12 @@ def live_pages(root):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "startup_lavapipe_swiftshader.json"))
-    ap.add_argument("--repeat", type=int, default=5)
+    common.add_out_argument(ap, "startup")
+    ap.add_argument("--repeat", type=int, default=5, help="runs of each import timed (median; default 5)")
     args = ap.parse_args(argv)
-    report = {"machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "python": platform.python_version(),
-                          "gpu": "lavapipe (kernel), SwiftShader (Chromium WebGPU)"}}
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1; got {args.repeat}")
+    report = {}
     report["import"] = import_times(args.repeat)
     with tempfile.TemporaryDirectory(prefix="gw-startup-") as tmp:
         report["widget_first_frame"] = widget_first_frames(Path(tmp))
@@ -147,8 +140,9 @@ def main(argv=None):
             print(f"{section:20s} {k:45s} {v}")
     for row in report["live_page"]:
         print("live_page           ", row)
-    Path(args.out).write_text(json.dumps(report, indent=2) + "\n")
-    print(f"wrote {args.out}")
+    kernel = common.kernel_adapter()
+    common.save("startup", report, {"kernel": kernel, "browser": report["live_page"][0].get("adapter")}, args.out,
+                machine=f"{common.machine_tag(kernel)}+swiftshader")
 
 
 if __name__ == "__main__":

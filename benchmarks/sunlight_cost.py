@@ -1,7 +1,7 @@
 """What the sunlight (GrassParams.shadows) costs a frame, shadows off and on interleaved in one run.
 
-    python benchmarks/sunlight_cost.py [--views live,cis565] [--rounds 5] [--frames 8] [--json out.json]
-    python benchmarks/sunlight_cost.py --views meadow --blades 1048576,16777216 --size 1920x1080 --json out.json
+    python benchmarks/sunlight_cost.py [--views live,cis565] [--rounds 5] [--frames 8] [--out PATH]
+    python benchmarks/sunlight_cost.py --views meadow --blades 1048576,16777216 --size 1920x1080
 
 One process, one GrassScene per view; each round renders ``--frames`` frames with the shadows
 off, then on, then on again, then off (ABBA), a ball in the field; the per-round ratio
@@ -19,26 +19,30 @@ Views:
 
 ``--parts``: the grass layer with the roots and the balls' shadows apart (see ``measure_parts``).
 
-Writes ``--json`` (every round's numbers, the medians and ratios, the adapter).
+Writes benchmarks/results/sunlight_cost-<machine>-<date>.json (or ``--out``): every round's numbers, the
+medians and ratios.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import statistics
-import time
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (benchmarks/common.py)
 
 
 def _frames(scene, frames):
-    wall, cpu = [], []
-    for _ in range(frames):
-        w0, c0 = time.perf_counter(), time.process_time()
+    """Median wall and CPU ms of ``frames`` frames (one step and one render with its readback)."""
+
+    def frame():
         scene.step(1)
         scene.render()
-        wall.append(1e3 * (time.perf_counter() - w0))
-        cpu.append(1e3 * (time.process_time() - c0))
-    return statistics.median(wall), statistics.median(cpu)
+
+    times = common.time_frames(frame, frames, warmup=0)
+    return common.median(times["wall_ms"]), common.median(times["cpu_ms"])
 
 
 def _scene(view, blades, size):
@@ -76,7 +80,7 @@ def measure(view, blades, size, rounds, frames):
                               "ratio_wall": on[0] / off[0], "ratio_cpu": on[1] / off[1]})
     scene.release()
     for key in ("off_wall_ms", "on_wall_ms", "off_cpu_ms", "on_cpu_ms", "ratio_wall", "ratio_cpu"):
-        out[key] = statistics.median(r[key] for r in out["rounds"])
+        out[key] = common.median(r[key] for r in out["rounds"])
     return out
 
 
@@ -120,7 +124,7 @@ def measure_parts(view, blades, size, rounds, frames):
     full.release()
     no_balls.release()
     for key in out["rounds"][0]:
-        out[key] = statistics.median(r[key] for r in out["rounds"])
+        out[key] = common.median(r[key] for r in out["rounds"])
     return out
 
 
@@ -133,11 +137,9 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--parts", action="store_true",
                     help="split the cost: the grass layer and roots vs the balls' shadows (wall ms)")
-    ap.add_argument("--json", default=None)
+    common.add_out_argument(ap, "sunlight_cost")
     args = ap.parse_args(argv)
-    from grasswidget.gpu.adapter import ensure_device
-
-    adapter = str(getattr(ensure_device().adapter, "info", {}) or "")
+    adapter = common.kernel_adapter()
     size = tuple(int(x) for x in args.size.lower().split("x"))
     results = []
     for view in args.views.split(","):
@@ -158,9 +160,8 @@ def main(argv=None):
                   f"({r['off_cpu_ms']:7.2f} CPU ms), on {r['on_wall_ms']:7.2f} ms ({r['on_cpu_ms']:7.2f} CPU ms); "
                   f"on/off {r['ratio_wall']:.3f} wall, {r['ratio_cpu']:.3f} CPU (median of {args.rounds} rounds)",
                   flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"adapter": adapter, "results": results}, f, indent=1)
+    common.save("sunlight_cost_parts" if args.parts else "sunlight_cost",
+                {"views": args.views, "rounds": args.rounds, "frames": args.frames, "results": results}, adapter, args.out)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ in the page), :mod:`.notebook` (the widget and its views) and :mod:`.tools`
 (CLI, benchmarks, export). GPU classes (``GrassField``, ``GrassMaterial``,
 ``GrassScene``) and the widget load on first use. The public modules are
 attributes too, loaded on first use: ``gw.reference``, ``gw.teaching``,
-``gw.bench``, ...
+``gw.benchmark``, ...
 """
 
 from .core.runtime_dir import ensure_runtime_dir
@@ -41,71 +41,23 @@ _LAZY = {
 }
 
 #: Modules reachable as attributes of the package (``gw.reference``), loaded on first use (full names
-#: written out, so tests/test_architecture.py's import graph sees these lazy imports).
+#: written out, so tests/test_architecture.py's import graph sees these lazy imports). Each module
+#: has one import path, its full name (``import grasswidget.core.reference``): no import hook, no alias.
 _MODULES = {
     "blades": "grasswidget.core.blades", "params": "grasswidget.core.params", "enums": "grasswidget.core.enums",
     "colliders": "grasswidget.core.colliders", "reference": "grasswidget.core.reference",
     "memory": "grasswidget.core.memory", "uniform_layouts": "grasswidget.core.uniform_layouts",
     "shader_files": "grasswidget.core.shader_files", "teaching": "grasswidget.core.teaching",
-    "framing": "grasswidget.core.framing", "traces": "grasswidget.core.traces",
+    "presets": "grasswidget.core.presets", "traces": "grasswidget.core.traces",
     "exercises": "grasswidget.core.exercises", "scene": "grasswidget.gpu.scene",
-    "widget": "grasswidget.notebook.widget", "kernel_view": "grasswidget.notebook.kernel_view",
+    "widget": "grasswidget.notebook.widget", "kernel_view": "grasswidget.views.kernel",
     "panel": "grasswidget.notebook.panel", "control_link": "grasswidget.notebook.control_link",
-    "clock": "grasswidget.notebook.clock", "adaptive": "grasswidget.notebook.adaptive",
-    "orbit": "grasswidget.notebook.orbit", "ball": "grasswidget.notebook.ball",
-    "widget_ball": "grasswidget.notebook.ball",  # its name before the layout
-    "cli": "grasswidget.tools.cli", "bench": "grasswidget.tools.bench",
+    "clock": "grasswidget.views.clock", "adaptive": "grasswidget.views.adaptive",
+    "orbit": "grasswidget.views.orbit", "ball": "grasswidget.notebook.ball",
+    "cli": "grasswidget.tools.cli", "benchmark": "grasswidget.tools.benchmark",
     "export": "grasswidget.tools.export", "sweep": "grasswidget.tools.sweep",
     "grading": "grasswidget.tools.grading",
 }
-
-
-
-#: Modules renamed inside a subpackage: old full name -> new full name (one meaning per name:
-#: "shaders" is the WGSL folder, "wgsl" no longer names two modules, runtime_dir is stdlib only).
-_RENAMED = {
-    "grasswidget.gpu.shaders": "grasswidget.gpu.shader_classes",
-    "grasswidget.gpu.wgsl": "grasswidget.gpu.wgsl_templates",
-    "grasswidget.gpu.runtime_dir": "grasswidget.core.runtime_dir",
-    "grasswidget.browser.wgsl": "grasswidget.browser.browser_wgsl",
-}
-
-
-class _OldPathFinder:
-    """Keeps the import paths of before working: ``import grasswidget.reference``,
-    ``from grasswidget.scene import GrassScene`` (before the subpackages) or
-    ``import grasswidget.gpu.shaders`` (before a rename, :data:`_RENAMED`) give the
-    module under its new path (``grasswidget.core.reference``, ``grasswidget.gpu.scene``,
-    ``grasswidget.gpu.shader_classes``; the same module object)."""
-
-    @staticmethod
-    def find_spec(fullname, path=None, target=None):
-        prefix, _, name = fullname.partition(".")
-        if prefix != "grasswidget":
-            return None
-        new = _RENAMED.get(fullname) or _MODULES.get(name)
-        if new is None:
-            return None
-        import importlib.machinery
-
-        return importlib.machinery.ModuleSpec(fullname, _OldPathFinder, origin=new)
-
-    @staticmethod
-    def create_module(spec):
-        return None
-
-    @staticmethod
-    def exec_module(module):
-        import importlib
-        import sys
-
-        sys.modules[module.__name__] = importlib.import_module(module.__spec__.origin)
-
-
-import sys as _sys  # noqa: E402
-
-if not any(isinstance(f, type) and f.__name__ == "_OldPathFinder" for f in _sys.meta_path):
-    _sys.meta_path.append(_OldPathFinder)
 
 __all__ = [
     "Blades", "GrassParams", "SphereCollider", "MAX_COLLIDERS", "CULL_COLORS", "LOD_COLORS", "EXERCISES",

@@ -23,13 +23,20 @@ import pytest  # noqa: E402
 _TEST_TIMES = {"path": os.devnull, "running": {}}
 
 
+def _is_worker(config) -> bool:
+    """Whether this process is one of pytest-xdist's workers (the controller writes the times file)."""
+    return hasattr(config, "workerinput")
+
+
 def pytest_configure(config):
-    _TEST_TIMES["path"] = os.environ.get("GW_TEST_TIMES") or os.path.join(str(config.rootpath), ".test-times.log")
+    if not _is_worker(config) and not config.option.collectonly:
+        _TEST_TIMES["path"] = os.environ.get("GW_TEST_TIMES") or os.path.join(str(config.rootpath), ".test-times.log")
 
 
 def pytest_sessionstart(session):
-    with open(_TEST_TIMES["path"], "w") as f:
-        f.write("# total_s setup_s call_s teardown_s load1 outcome test\n")
+    if not _is_worker(session.config) and not session.config.option.collectonly:  # --collect-only times nothing
+        with open(_TEST_TIMES["path"], "w") as f:
+            f.write("# total_s setup_s call_s teardown_s load1 outcome test\n")
 
 
 def pytest_runtest_logreport(report):
@@ -46,6 +53,91 @@ def pytest_runtest_logreport(report):
     with open(_TEST_TIMES["path"], "a") as f:
         f.write(f"{setup + call + teardown:8.2f} {setup:7.2f} {call:7.2f} {teardown:7.2f} "
                 f"{os.getloadavg()[0]:5.1f} {phases['outcome']:<13} {report.nodeid}\n")
+
+
+# ---------------------------------------------------------------- two workers (pytest-xdist)
+#
+# A whole run (``./run.sh test``, ``pytest`` with no file named) uses two pytest-xdist workers
+# (``-n auto --dist loadscope --no-loadscope-reorder`` where no ``-n`` is given and pytest-xdist, of the
+# ``test`` extra, is installed; without it the run is serial, as before). Every test that drives
+# a real browser (tests/e2e) is one unit of work that one worker runs first, one test after the other
+# in collection order, with the session's one JupyterLab and Chromium, as in a serial run; the other
+# worker takes the remaining modules, each module whole (its module fixtures, GPU fields and scenes,
+# are built once), and the first worker joins it when the browser tests are done. A run of files or
+# node ids only, or of tests/e2e alone, uses no workers: nothing to share out. ``-n 0`` runs
+# everything in one process; ``PYTEST_XDIST_AUTO_NUM_WORKERS=N`` picks N workers.
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+_E2E = os.path.join(_HERE, "e2e")
+
+#: The unit of work of the tests that drive a browser: one worker runs them all, in order.
+E2E_UNIT = "tests/e2e"
+
+#: Set on the controller's config when this file chose how the run is shared out.
+_SHARED = pytest.StashKey[bool]()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config):
+    """``-n auto --dist loadscope --no-loadscope-reorder`` unless the command line says ``-n``
+    (before pytest-xdist reads them; nothing where pytest-xdist is not installed). Never in a worker, nor
+    in a pytest that a worker's test starts (``PYTEST_XDIST_WORKER`` is set there): a worker starts no workers."""
+    if _is_worker(config) or os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    if getattr(config.option, "numprocesses", False) is None and not config.option.collectonly:
+        config.option.numprocesses = "auto"
+        if config.option.dist == "no":
+            config.option.dist = "loadscope"
+            config.option.loadscopereorder = False
+            config.stash[_SHARED] = True
+
+
+@pytest.hookimpl(optionalhook=True)  # pytest-xdist's hook: unknown where it is not installed
+def pytest_xdist_auto_num_workers(config):
+    """Workers for ``-n auto``: 2 (or the CPU count if smaller) for a run that names a folder other
+    than tests/e2e (or nothing: the whole suite), none for a run of files or node ids only, or of tests/e2e alone."""
+    env = os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS")
+    if env:
+        return int(env)
+    args = [a for a in config.args if not a.startswith("-")] or [str(config.rootpath)]
+    folders = [os.path.abspath(a) for a in args if "::" not in a and os.path.isdir(a)]
+    spread = [f for f in folders if f != _E2E and not f.startswith(_E2E + os.sep)]
+    if not spread:
+        return 0
+    return max(0, min(2, os.cpu_count() or 1))
+
+
+@pytest.hookimpl(optionalhook=True, tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """The units of work: tests/e2e as one, every other module as one (pytest-xdist's ``loadscope``
+    with its scope so widened; its ``loadgroup`` cannot name groups under pytest 9)."""
+    if not config.stash.get(_SHARED, False):
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class E2EThenModules(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            path = nodeid.split("::", 1)[0]
+            return E2E_UNIT if path.startswith(E2E_UNIT + "/") else path
+
+    return E2EThenModules(config, log)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    """Tell each worker how the run is shared out (its options come from the command line alone)."""
+    node.workerinput["gw_shared"] = node.config.stash.get(_SHARED, False)
+
+
+def _in_e2e(item) -> bool:
+    return str(item.path).startswith(_E2E + os.sep)
+
+
+def pytest_collection_modifyitems(config, items):
+    """In a worker of a run shared out here: the browser tests first (the first unit of work handed
+    out: they are the longest part of a run), the rest in collection order."""
+    if _is_worker(config) and config.workerinput.get("gw_shared"):
+        items.sort(key=lambda item: not _in_e2e(item))
 
 
 def grass_mask(img):
@@ -121,10 +213,13 @@ def blades(request):
 
 @pytest.fixture(scope="module")
 def field(request, blades):
-    """A GrassField of the module's blades with ``GrassParams(**FIELD_PARAMS)``."""
+    """A GrassField of the module's blades with ``GrassParams(**FIELD_PARAMS)``; its GPU buffers
+    are freed after the module."""
     import grasswidget as gw
 
-    return gw.GrassField(blades, params=gw.GrassParams(**_module_spec(request, "FIELD_PARAMS")))
+    field = gw.GrassField(blades, params=gw.GrassParams(**_module_spec(request, "FIELD_PARAMS")))
+    yield field
+    field.release()
 
 
 @pytest.fixture
@@ -147,15 +242,18 @@ def fresh(request, field):
 @pytest.fixture(scope="module")
 def scene(request):
     """The module's GrassScene, from its ``SCENE`` dict (a preset, or the module's
-    ``blades`` at ``size`` with ``params``)."""
+    ``blades`` at ``size`` with ``params``); its GPU buffers are freed after the module."""
     import grasswidget as gw
 
     spec = _module_spec(request, "SCENE")
     if "preset" in spec:
-        return gw.GrassScene.preset(spec.pop("preset"), **spec)
-    params = spec.pop("params", None)
-    return gw.GrassScene(request.getfixturevalue("blades"), params=gw.GrassParams(**params) if params else None,
-                         **spec)
+        scene = gw.GrassScene.preset(spec.pop("preset"), **spec)
+    else:
+        params = spec.pop("params", None)
+        scene = gw.GrassScene(request.getfixturevalue("blades"),
+                              params=gw.GrassParams(**params) if params else None, **spec)
+    yield scene
+    scene.release()
 
 
 #: View size of the test widgets (CSS pixels).
@@ -231,7 +329,8 @@ def param_extremes():
 
 def _run_compute(code, words_in, words_out, n):
     """Run WGSL ``code`` (entry point ``main``, workgroup 64, bindings 0: ``array<u32>``
-    in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words."""
+    in, 1: ``array<u32>`` out) over n items on the project's device; returns the out words.
+    Both buffers are destroyed before it returns (or raises)."""
     import wgpu
 
     from grasswidget.gpu.adapter import ensure_device
@@ -241,6 +340,15 @@ def _run_compute(code, words_in, words_out, n):
     data = np.ascontiguousarray(words_in, np.uint32)
     b_in = device.create_buffer_with_data(data=data.tobytes() or b"\0\0\0\0", usage=usage.STORAGE)
     b_out = device.create_buffer(size=max(4 * words_out * n, 4), usage=usage.STORAGE | usage.COPY_SRC)
+    try:
+        return _dispatch(device, code, b_in, b_out, words_out, n)
+    finally:
+        b_in.destroy()
+        b_out.destroy()
+
+
+def _dispatch(device, code, b_in, b_out, words_out, n):
+    """One dispatch of ``code`` over n items reading ``b_in`` and writing ``b_out``; its out words."""
     pipeline = device.create_compute_pipeline(
         layout="auto", compute={"module": device.create_shader_module(code=code), "entry_point": "main"}
     )

@@ -1,6 +1,6 @@
 """What each notebook must print and write when it runs, checked on the outputs of a real run.
 
-The Run All test (``tests/browser/test_notebooks_run_all.py``) runs every notebook in
+The Run All test (``tests/e2e/test_notebooks_run_all.py``) runs every notebook in
 JupyterLab, saves it, and hands its outputs here: one run of each notebook serves both
 "every widget is alive and drawing" and "the notebook computed what its text says".
 """
@@ -24,7 +24,7 @@ def _look():  # offscreen at the view's size, without the supersample (the live 
     return w.scene.render_at(antialias=False), w.scene.visible_count()
 print(f"LIVE start {_look()[1]}")
 def _control(_name):  # a checkbox, or occlusion culling's auto / on / off choice
-    return w.switch_choices[_name].dropdown if _name in w.switch_choices else w.checkboxes[_name]
+    return w.panel.switch_choices[_name].dropdown if _name in w.panel.switch_choices else w.panel.checkboxes[_name]
 def _is_on(_name):
     _v = _control(_name).value
     return _v == "on" if isinstance(_v, str) else _v

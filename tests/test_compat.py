@@ -144,7 +144,7 @@ def test_widget_handlers_take_both_event_formats(widget, fmt):
 
 
 def test_held_orbit_controller_hooks_every_step():
-    """The OrbitController hooks (grasswidget.notebook.orbit holds the camera with them) still
+    """The OrbitController hooks (grasswidget.views.orbit holds the camera with them) still
     see every orbit, zoom and pan step, and what they return is what the camera gets."""
     import pygfx as gfx
 
@@ -352,7 +352,7 @@ def test_renderer_depth_texture():
 
 def test_jupyter_rfb_front_end_gets_its_typing_error_corrected():
     """jupyter-rfb 1.0.2's renderview.js clears its hidden key input through an undefined
-    ``this.focus_el`` (a page error per typed character, tests/browser/test_ball_page_error.py
+    ``this.focus_el`` (a page error per typed character, tests/e2e
     shows it in Chromium); the kernel canvas ships the corrected module."""
     from jupyter_rfb import RemoteFrameBuffer
 

@@ -73,7 +73,7 @@ def test_cpu_notice_in_the_widget_stats_line(widget):
 
     note = cpu_notice(short=True)
     details = widget.panel.details_line.value
-    assert "CPU adapter" not in widget.stats_line.value  # the one-line status speaks to students
+    assert "CPU adapter" not in widget.panel.stats_line.value  # the one-line status speaks to students
     if note is None:
         assert "CPU adapter" not in details
     else:

@@ -31,4 +31,4 @@ export VK_ICD_FILENAMES=/tmp/nvidia_icd.json
 # shellcheck disable=SC2086
 python3 "$TREE/benchmarks/browser_engine_dawn.py" --matrix --node "$U/node/node" --dawn "$U/webgpu" \
   ${ROWS:+--rows $ROWS} ${ROUNDS:+--rounds $ROUNDS} ${WINDOW:+--window $WINDOW} \
-  --out "$OUT_DIR/browser_matrix_dawn_h100.json"
+  --out "$OUT_DIR/browser_matrix_dawn-${MACHINE:-gpu}-$(date -u +%F).json"

@@ -3,7 +3,7 @@
 # benchmark (benchmarks/dawn/run_engine.mjs); that machine has no network, no node, no Vulkan loader.
 #   .device/dawn/common.tar.xz     node (this machine's, the nodesource 20 build: needs only glibc and
 #                                  libstdc++), dawn.node + index.js of the npm package webgpu 0.6.2,
-#                                  Debian's libvulkan1 loader, the engine module (BrowserView._esm)
+#                                  Debian's libvulkan1 loader, the engine module (BrowserEngineWidget._esm)
 #   .device/dawn/case_<N>.tar.xz   per blade count: the traits GrassWidget(N, preset="meadow",
 #                                  backend="browser") sends at 1920x1080 when its page reports a GPU (the
 #                                  meadow as shipped: to the horizon, the sunlight on) and the kernel

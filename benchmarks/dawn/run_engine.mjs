@@ -3,8 +3,8 @@
 //   node benchmarks/dawn/run_engine.mjs --manifest STATES/manifest.json --out result.json \
 //        --dawn path/to/unpacked/webgpu/package [--seconds 5] [--profile-frames 30]
 //
-// STATES is written by benchmarks/browser_engine_dawn.py: engine.mjs (BrowserView._esm), and per
-// case the synced traits a BrowserView sends (traits.json, *.bin for the byte traits) and the kernel
+// STATES is written by benchmarks/browser_engine_dawn.py: engine.mjs (BrowserEngineWidget._esm), and per
+// case the synced traits a BrowserEngineWidget sends (traits.json, *.bin for the byte traits) and the kernel
 // engine's picture of the same state (kernel.rgba). For each case this script shows the widget once
 // through a small shim (an `el`, a canvas whose WebGPU context draws into a device texture,
 // requestAnimationFrame driven by this loop, the model's get/set/on/send), then
@@ -258,7 +258,7 @@ const module = await import(pathToFileURL(join(root, manifest.engine)).href);
 const adapter = await gpu.requestAdapter();
 const info = adapter.info;
 const result = {
-  what: "the browser engine (BrowserView._esm) on Dawn in node, meadow preset, playing",
+  what: "the browser engine (BrowserEngineWidget._esm) on Dawn in node, meadow preset, playing",
   dawn: "webgpu (npm) 0.6.2",
   adapter: { vendor: info.vendor, architecture: info.architecture, device: info.device, description: info.description,
     timestamp_query: adapter.features.has("timestamp-query") },

@@ -2,7 +2,9 @@
 # On the GPU machine, from the project root, with .device/dawn/*.tar.xz carried (see prepare_device.sh):
 # unpack what is new into /tmp/gw-dawn (kept while the machine stays warm, so a second call may carry
 # only the next case), point the Vulkan loader at NVIDIA's driver, run every carried case.
-# CASES="N ..." runs only those blade counts. Results: $OUT/browser_engine_dawn_<case>.json (and the frames read back, .rgba) or benchmarks/.dawn/out.
+# CASES="N ..." runs only those blade counts. Results: $OUT (default benchmarks/.dawn/out)/
+# browser_engine_dawn_<case>-$MACHINE-<date>.json (MACHINE default gpu, e.g. MACHINE=h200; the name
+# benchmarks/results/ wants) and the frames read back (.rgba) beside them.
 set -euo pipefail
 U=/tmp/gw-dawn
 OUT_DIR=${OUT:-benchmarks/.dawn/out}
@@ -26,5 +28,5 @@ for f in .device/dawn/case_*.tar.xz; do
   n=$(basename "$f" .tar.xz); n=${n#case_}
   if [ -n "${CASES:-}" ] && [[ " $CASES " != *" $n "* ]]; then continue; fi  # CASES="1048576": only those
   "$U/node/node" benchmarks/dawn/run_engine.mjs --manifest "$U/states/manifest_$n.json" \
-    --out "$OUT_DIR/browser_engine_dawn_$n.json" --dawn "$U/webgpu" --seconds "${SECONDS_MEASURED:-5}"
+    --out "$OUT_DIR/browser_engine_dawn_$n-${MACHINE:-gpu}-$(date -u +%F).json" --dawn "$U/webgpu" --seconds "${SECONDS_MEASURED:-5}"
 done

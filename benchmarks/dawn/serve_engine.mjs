@@ -1,6 +1,6 @@
 // The browser engine's ES module on Dawn in node, as a page with Python as its kernel: the widget's
 // comm runs over this process's stdin / stdout, one JSON object a line, so the Python widget
-// (grasswidget.browser.view.BrowserEngineWidget, with everything it decides: the "auto" switches'
+// (grasswidget.browser.engine_widget.BrowserEngineWidget, with everything it decides: the "auto" switches'
 // trials and decisions, the u_cull words the engine executes) answers the engine's messages as it
 // does in a notebook. Python's side: benchmarks/browser_engine_dawn.py (DawnPage).
 //

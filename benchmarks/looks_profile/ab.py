@@ -1,6 +1,7 @@
 """Interleaved, in-process A/B of blade and sky/ground shader variants on the adapter at hand (lavapipe).
 
     PYTHONPATH=. python benchmarks/looks_profile/ab.py PRESET BLADES CULL ROUNDS VARIANT [VARIANT ...] [--tree NAME=DIR ...]
+        [--out PATH]  (default benchmarks/results/looks_profile_ab-<machine>-<date>.json; '-': print only)
     e.g. git archive cad432f grasswidget | tar -x -C /tmp/trees/cad432f  (in the repository), then
     PYTHONPATH=. python benchmarks/looks_profile/ab.py cis565 8192 off 10 main frag_const no_blades --tree main=/tmp/trees/cad432f
 
@@ -17,19 +18,27 @@ loaded machine). Most substitutions were written against the per-fragment shader
 the per-vertex candidates (``pervertex``, ``pv_nosrgb``, ``pv_noshade``) are this tree's own shader and edits of it. This is the scratch profiler behind the
 benchmarks/README.md section "The looks' fragment cost on lavapipe".
 """
-import os, sys, time, statistics, importlib.util
-import numpy as np
+import os, sys, time, importlib.util
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import common  # noqa: E402  (benchmarks/common.py)
+if {"-h", "--help"} & set(sys.argv[1:]):
+    print(__doc__)
+    sys.exit(0)
 import pygfx as gfx
-args, trees = [], {}
+args, trees, out = [], {}, None
 _argv = iter(sys.argv[1:])
 for _a in _argv:
-    if _a == "--tree" or _a.startswith("--tree="):
+    if _a == "--out" or _a.startswith("--out="):
+        out = _a.split("=", 1)[1] if "=" in _a else next(_argv)
+    elif _a == "--tree" or _a.startswith("--tree="):
         _name, _, _dir = (_a.split("=", 1)[1] if "=" in _a and _a.startswith("--tree=") else next(_argv)).partition("=")
         trees[_name] = os.path.join(_dir, "grasswidget", "shaders", "blade_render.wgsl")
         if not _dir or not os.path.isfile(trees[_name]):
             raise SystemExit(f"--tree {_name}={_dir}: no grasswidget/shaders/blade_render.wgsl there")
     else:
         args.append(_a)
+if len(args) < 5:
+    raise SystemExit("usage: ab.py PRESET BLADES CULL ROUNDS VARIANT [VARIANT ...] [--tree NAME=DIR ...] [--out PATH]")
 preset, n, cull, rounds = args[0], int(args[1]), args[2], int(args[3])
 names = args[4:]
 spec = importlib.util.spec_from_file_location("variants", os.environ.get("VARIANTS", os.path.join(os.path.dirname(os.path.abspath(__file__)), "variants.py")))
@@ -44,7 +53,6 @@ from grasswidget.gpu.adapter import ensure_device
 from grasswidget.gpu.scene import GrassScene
 from grasswidget.gpu import shader_classes, sky_ground
 from grasswidget.core.shader_files import read_shader
-from grasswidget.tools.bench import _apply_mode
 from grasswidget import compat
 ensure_device()
 import wgpu
@@ -103,7 +111,7 @@ for name in names:
     w, h = s.size
     scenes_dev.append(s.field.stats.device)
     r = gfx.WgpuRenderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm"), pixel_ratio=1, ppaa="none", enable_events=False)
-    _apply_mode(s.params, cull, cull == "on", False, None)
+    common.set_culling(s.params, cull, occlusion=cull == "on", compute_raster=False)
     if "setup" in V.VARIANTS[name]:
         V.VARIANTS[name]["setup"](s)
     for _ in range(3):
@@ -123,6 +131,12 @@ for i in range(rounds):
 b = names[0]
 print(f"{preset} {n} cull={cull} rounds={rounds}  (median cpu ms, wall ms; ratio = median of per-round ratios to {b})")
 for name in names:
-    rc = statistics.median(x / y for x, y in zip(cpu[name], cpu[b]))
-    rw = statistics.median(x / y for x, y in zip(wall[name], wall[b]))
-    print(f"{name:>22} cpu {statistics.median(cpu[name]):7.1f} wall {statistics.median(wall[name]):7.1f}  ratio cpu {rc:.3f} wall {rw:.3f}", flush=True)
+    rc = common.median(x / y for x, y in zip(cpu[name], cpu[b]))
+    rw = common.median(x / y for x, y in zip(wall[name], wall[b]))
+    print(f"{name:>22} cpu {common.median(cpu[name]):7.1f} wall {common.median(wall[name]):7.1f}  ratio cpu {rc:.3f} wall {rw:.3f}", flush=True)
+from grasswidget.gpu.adapter import adapter_info
+common.save("looks_profile_ab", {"preset": preset, "blades": n, "cull": cull, "rounds": rounds, "variants": names,
+                                 "trees": trees, "cpu_ms": cpu, "wall_ms": wall,
+                                 "cpu_ratio_to_first": {k: common.median(x / y for x, y in zip(cpu[k], cpu[b])) for k in names},
+                                 "wall_ratio_to_first": {k: common.median(x / y for x, y in zip(wall[k], wall[b])) for k in names}},
+            adapter_info(), out)

@@ -73,6 +73,6 @@ VARIANTS["main"] = VARIANTS["base"]
 # "looks" (this tree: compiled out while shadows are off); ribbons and sky/ground alike.
 from grasswidget.core.shader_files import read_shader as _read_shader
 
-_SUN_INC = "{$ include 'grasswidget.sunlight.wgsl' $}"
-_SUN_IN = (_SUN_INC, _read_shader("sunlight.wgsl").replace("$$ if sunlight\n", "$$ if True\n"))
+_SUN_INC = "{$ include 'grasswidget.shadows.wgsl' $}"
+_SUN_IN = (_SUN_INC, _read_shader("shadows.wgsl").replace("$$ if sunlight\n", "$$ if True\n"))
 VARIANTS["sunlight_compiled_in"] = {"blade": [_SUN_IN], "sky": [_SUN_IN]}

@@ -1,5 +1,5 @@
 """The browser engine: the project's WGSL simulation, culling and ribbons in the
-notebook's browser through WebGPU (an anywidget; see :mod:`grasswidget.browser.view`).
+notebook's browser through WebGPU (an anywidget; see :mod:`grasswidget.browser.engine_widget`).
 
 :mod:`grasswidget.browser.browser_wgsl` renders the shader files for the browser's
 bindings and :mod:`grasswidget.browser.uniforms` packs the uniforms; neither
@@ -14,7 +14,7 @@ __all__ = ["BrowserEngineWidget", "BrowserTimeoutError"]
 
 def __getattr__(name):
     if name == "BrowserEngineWidget":
-        from .view import BrowserEngineWidget
+        from .engine_widget import BrowserEngineWidget
 
         return BrowserEngineWidget
     if name == "BrowserTimeoutError":

@@ -30,7 +30,7 @@ __all__ = ["AdapterProbe"]
 class AdapterProbe(anywidget.AnyWidget):
     """Reports the page's WebGPU adapter in ``report`` (empty until a view has rendered)."""
 
-    # The module's text, not its path (see BrowserView._esm).
+    # The module's text, not its path (see BrowserEngineWidget._esm).
     _esm = (Path(__file__).resolve().parent / "adapter_probe.js").read_text(encoding="utf-8")
 
     #: What the browser said (see the module docstring); {} until the first view has rendered.

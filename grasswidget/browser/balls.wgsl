@@ -1,7 +1,7 @@
 // The browser engine's translucent collider balls (the kernel engine draws them
 // with pygfx's Phong spheres, grasswidget.gpu.collider_view). Sky and ground are
 // shaders/sky_ground.wgsl, drawn by both engines. StdInfo and BallStyle
-// (grasswidget.browser.uniforms.BALL_LAYOUT) are prepended by grasswidget.browser.wgsl.
+// (grasswidget.browser.uniforms.BALL_LAYOUT) are prepended by grasswidget.browser.browser_wgsl.
 
 @group(0) @binding(0) var<uniform> u_stdinfo: StdInfo;
 @group(0) @binding(1) var<uniform> u_balls: BallStyle;

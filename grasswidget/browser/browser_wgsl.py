@@ -32,7 +32,7 @@ from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTE
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
                              MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
 from ..core.uniform_layouts import INSPECT_LAYOUT
-from .uniforms import (BALL_LAYOUT, CULL_LAYOUT, MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, STDINFO_LAYOUT,
+from .uniforms import (BALL_LAYOUT, CULL_LAYOUT, GRASS_MATERIAL_LAYOUT, SIM_LAYOUT, SKY_GROUND_LAYOUT, STDINFO_LAYOUT,
                        WOBJECT_LAYOUT, offsets, wgsl_struct)
 
 __all__ = ["BrowserShaders", "render_shader", "binding_map", "USER_WIND_SIGNATURE", "HERE"]
@@ -49,7 +49,7 @@ _UNIFORMS = {
     "u_cull": ("CullUniforms", CULL_LAYOUT),
     "u_stdinfo": ("StdInfo", STDINFO_LAYOUT),
     "u_wobject": ("WorldObject", WOBJECT_LAYOUT),
-    "u_material": ("GrassMaterialUniforms", MATERIAL_LAYOUT),
+    "u_material": ("GrassMaterialUniforms", GRASS_MATERIAL_LAYOUT),
     "u_inspect": ("InspectUniforms", INSPECT_LAYOUT),
 }
 
@@ -257,7 +257,7 @@ class BrowserShaders:
 
     ``simulate(wind_wgsl)`` depends on the custom wind; the draws (ribbons, the compute
     rasterizer's resolve, sky and ground) on ``sunlight``: ``GrassParams.shadows``, whose maths
-    (``shaders/sunlight.wgsl``) they compile in only while it is on, as the kernel engine's do
+    (``shaders/shadows.wgsl``) they compile in only while it is on, as the kernel engine's do
     (a change of the switch sends the other set; the engine compiles what it is sent); the
     others are fixed.
     ``sky_ground()`` is the kernel engine's sky and ground file (its ``u_material``
@@ -398,7 +398,7 @@ class BrowserShaders:
            culled blades' draw (colour by cull) and the collider balls.
 
         The pyramid's layout follows :func:`grasswidget.core.reference.hzb_layout` (the
-        engine's ``hzbLayout``, same rule, held to it by tests/core/test_frame_data.py):
+        engine's ``hzbLayout``, same rule, held to it by tests/core/test_engine_inputs.py):
         ``row_align`` is its HZB_ROW_ALIGN; ``s_hzb_levels`` holds (levels, width, height, 0),
         then (offset, width, height, pitch) per level, ``max_levels`` + 1 entries in all.
         ``flag_words_per_workgroup``: ``s_occlusion_flags`` holds that many u32 per culling

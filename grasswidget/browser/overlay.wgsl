@@ -5,7 +5,7 @@
 // written by Python (the frustum, grasswidget.core.teaching.frustum_segments) or by
 // inspect.wgsl on the GPU. Every item is a screen-space quad (two triangles) of
 // SIZE_PX physical pixels across; colours repeat every PERIOD vertices.
-// grasswidget.browser.wgsl.BrowserShaders.overlay renders this template (primitive,
+// grasswidget.browser.browser_wgsl.BrowserShaders.overlay renders this template (primitive,
 // size_px, colours) and prepends StdInfo.
 
 @group(0) @binding(0) var<uniform> u_stdinfo: StdInfo;

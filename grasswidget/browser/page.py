@@ -1,7 +1,7 @@
 """A live page with no kernel: one self-contained HTML file that runs the browser engine.
 
 :func:`page_html` writes the browser engine (its one module text, :func:`grasswidget.browser.esm.engine_module_text`), the synced
-state of a :class:`~grasswidget.browser.view.BrowserEngineWidget` (every synced trait of
+state of a :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget` (every synced trait of
 the engine; binary ones base64), a small page script (``page.js``: a model shim
 with ``get/set/on/off/send/save_changes`` that answers the engine locally, and a
 plain-HTML control panel) and an optional still picture (PNG) into one file.
@@ -38,6 +38,7 @@ import numpy as np
 
 from ..core.colliders import SphereCollider
 from ..core.enums import ColorBy
+from ..core.interaction import ball_reach, input_rules
 from ..core.params import GrassParams
 from ..errors import GrassTypeError, GrassValueError, MissingFileError, PageBuildError
 from .esm import engine_module_text
@@ -302,7 +303,7 @@ def page_controls(view, ball_radius=None, ball_enabled=False) -> dict:
     for cid, label in (("cull_orientation", "orientation culling"), ("cull_frustum", "frustum culling"),
                        ("cull_distance", "distance culling"), ("lod", "LOD")):
         param_control(cid, label, "checkbox", cid, [False, True])
-    # a three-way switch (core.pays.AutoSwitch): "auto" is the browser engine's own choice
+    # a three-way switch (core.auto_switches.AutoSwitch): "auto" is the browser engine's own choice
     param_control("cull_occlusion", "occlusion culling", "select", "cull_occlusion", ["auto", True, False],
                   labels=["auto", "on", "off"])
     colour = [label for label in ColorBy.labels()]
@@ -340,7 +341,7 @@ def page_controls(view, ball_radius=None, ball_enabled=False) -> dict:
         raise PageBuildError("the ball control did not restore the state it started from")
     controls.append(dict(c, id="ball", label="ball (shift + drag to move it)", kind="ball", values=[False, True],
                          value=1 if ball_enabled else 0, slots=slots, position=[x0, z0],
-                         bounds=[float(lo[0]), float(hi[0]), float(lo[2]), float(hi[2])]))
+                         reach=[float(v) for v in ball_reach(lo, hi)]))
     _overlap_check(controls)
     # the home view: the camera as it is now ("reset view" and the r key)
     home = {"json": {k: v for k, v in base.items() if k == _camera_trait(view)}}
@@ -361,6 +362,7 @@ def page_html(view, *, title="grasswidget meadow", still_png: bytes | None = Non
         "engine": engine_module_text(),
         **page_state(view),
         **page_controls(view, ball_radius=ball_radius, ball_enabled=ball_enabled),
+        "input": input_rules(),  # the keys' actions (as a view's, core.interaction.key_action)
         "still": _b64(still_png) if still_png else None,
         "size": [int(view.width), int(view.height)],
         "blades": len(view.blades),

@@ -1,3 +1,4 @@
+// @ts-check
 // The lab bench's live chart (grasswidget.browser.trace_chart.TraceChart): draws the series
 // Python sends in the "data" trait with uPlot (prepended to this module by Python, vendored
 // in grasswidget/browser/vendor/uplot). No rule lives here: Python decides what is drawn,
@@ -8,14 +9,43 @@
 // (labels joined by "|"), so a page (and the tests) can see what is drawn, and data-draws /
 // data-draw-ms (updates drawn, milliseconds spent drawing them: the chart's cost in the page).
 
+/**
+ * One line of the chart (Python's: grasswidget.core.traces' chart series).
+ * @typedef {object} Series
+ * @property {string} label
+ * @property {string} color CSS colour "#rrggbb"
+ * @property {(number | null)[]} values null: a gap
+ * @property {boolean} [fill] fill under the line
+ */
+/**
+ * The "data" trait.
+ * @typedef {object} ChartData
+ * @property {number[]} [x]
+ * @property {string} [x_label]
+ * @property {string} [y_label]
+ * @property {boolean} [y_zero] the y axis starts at 0
+ * @property {Series[]} [series]
+ */
+/**
+ * anywidget's model handle for the chart.
+ * @typedef {object} ChartModel
+ * @property {(name: string) => any} get "data" (ChartData), "width", "height" (px), "hidden"
+ * @property {(event: string, fn: () => void) => void} on
+ * @property {(event: string, fn: () => void) => void} off
+ */
+
+/** @param {{model: ChartModel, el: HTMLElement}} view @returns {() => void} */
 function render({ model, el }) {
   const box = document.createElement("div");
   box.className = "gw-trace-chart";
   el.appendChild(box);
+  /** @type {any} a uPlot (its types are not vendored) */
   let plot = null;
   let shape = "";
 
-  let draws = 0, drawMs = 0, started = null;
+  let draws = 0, drawMs = 0;
+  /** @type {number | null} */
+  let started = null;
 
   // uPlot paints in a microtask after setData: time from the update to its "draw" hook.
   function painted() {
@@ -33,6 +63,7 @@ function render({ model, el }) {
   }
 
   function paint() {
+    /** @type {ChartData} */
     const d = model.get("data") || {};
     const series = d.series || [];
     const x = d.x || [];
@@ -50,10 +81,14 @@ function render({ model, el }) {
     }
     if (plot) plot.destroy();
     shape = key;
+    // @ts-expect-error uPlot: the vendored IIFE Python puts before this module (vendor/uplot)
     plot = new uPlot({
       width, height,
       // y_zero: the y axis starts at 0 (counts, distances, angles, times), else it fits the data
-      scales: { x: { time: false }, y: d.y_zero ? { range: (u, lo, hi) => [0, hi > 0 ? hi * 1.05 : 1] } : {} },
+      scales: {
+        x: { time: false },
+        y: d.y_zero ? { range: (/** @type {any} */ _u, /** @type {number} */ _lo, /** @type {number} */ hi) => [0, hi > 0 ? hi * 1.05 : 1] } : {},
+      },
       legend: { live: false },
       hooks: { draw: [painted] },
       cursor: { drag: { x: false, y: false } },

@@ -6,7 +6,7 @@ engines (the widget hands the result to its view as a ``camera_state``):
 
 - ``"home"``: the start camera (the scene's own view, as ``reset_camera()``).
 - ``"top"``: straight down over the middle of the field (1.5 degrees short of
-  vertical, the highest the orbit allows, :data:`TOP_ELEVATION_DEG`), high enough
+  vertical, the highest the orbit allows, :data:`MAX_ELEVATION_DEG`), high enough
   that the whole field, tips included, fits the picture with a margin: the view
   for the freeze-culling demo (freeze at "home", then look from "top"). The far
   side of the field (seen from home) is at the top of the picture.
@@ -30,13 +30,11 @@ import numpy as np
 from .orbit_limits import GRASS_CLEARANCE, MAX_ELEVATION_DEG, OrbitLimits, clamp_orbit, grass_top
 from ..errors import GrassValueError
 
-__all__ = ["CAMERA_PRESETS", "TOP_ELEVATION_DEG", "TOP_MARGIN", "LOW_EYE_ABOVE_GRASS", "check_camera_preset",
+__all__ = ["CAMERA_PRESETS", "TOP_MARGIN", "LOW_EYE_ABOVE_GRASS", "check_camera_preset",
            "camera_preset", "field_box", "floor_for"]
 
 #: The names :func:`camera_preset` (and ``GrassWidget.look_from``) knows.
 CAMERA_PRESETS = ("home", "top", "low")
-#: Elevation of the "top" camera above the field's horizon, degrees (the orbit limits' highest).
-TOP_ELEVATION_DEG = MAX_ELEVATION_DEG
 #: The "top" picture holds the field's footprint times this (a margin around the field).
 TOP_MARGIN = 1.08
 #: Height of the "low" camera above the "grass" orbit floor (the tallest tip + GRASS_CLEARANCE), metres.
@@ -129,7 +127,7 @@ def _top(box, cx, cz, half_x, half_z, toward_home, fov, aspect):
     tan_v = math.tan(math.radians(fov) / 2.0)
     above_tips = TOP_MARGIN * max(half_z / tan_v, half_x / (aspect * tan_v), 1.0)
     target = np.array([cx, box["ground"], cz])
-    el = math.radians(TOP_ELEVATION_DEG)
+    el = math.radians(MAX_ELEVATION_DEG)
     distance = (box["top"] - box["ground"] + above_tips) / math.sin(el)
     # the camera leans 1.5 degrees towards home, so "up" in the picture is the far side seen from home
     position = target + distance * (math.cos(el) * toward_home + np.array([0.0, math.sin(el), 0.0]))

@@ -59,11 +59,14 @@ class CullCounter:
         params: the :class:`GrassParams` (its ``cull_*`` traits are read at each count).
         background: recount on a worker thread (the default), so a frame never waits for it;
             the first count of a field is always done at once.
+        clock: the clock (a function returning seconds) that the interval between two recounts
+            and a count's duration are measured on; default ``time.perf_counter``.
     """
 
-    def __init__(self, blades, params, background=True):
+    def __init__(self, blades, params, background=True, clock=time.perf_counter):
         self.params = params
         self.background = background
+        self.clock = clock
         self._lock = threading.Lock()
         self._generation = 0
         self.set_blades(blades)
@@ -80,7 +83,7 @@ class CullCounter:
             self._running = False
 
     def _count(self, generation, key, state, params, camera, depth_range, size):
-        t0 = time.perf_counter()
+        t0 = self.clock()
         near, far = depth_range
         view_proj = camera_view_proj(camera["position"], camera["target"], camera["fov_deg"], near, far,
                                      size[0] / max(size[1], 1))
@@ -94,7 +97,7 @@ class CullCounter:
             if generation == self._generation:
                 self._counts = counts
                 # A large field's count takes longer: wait 10 times as long as it took (a tenth of a core).
-                self._interval = max(RECOUNT_INTERVAL_S, 10.0 * (time.perf_counter() - t0))
+                self._interval = max(RECOUNT_INTERVAL_S, 10.0 * (self.clock() - t0))
 
     def kept(self, camera: dict, depth_range, size, visible=None, occluded=None, now=False) -> dict:
         """Blades kept after each test (see the module docstring).
@@ -116,7 +119,7 @@ class CullCounter:
                tuple(values.values()))
         if now:
             self.wait()
-        at = time.perf_counter()
+        at = self.clock()
         with self._lock:
             first = self._counts is None and not self._running
             due = key != self._key and not self._running and (now or at - self._started_at >= self._interval)

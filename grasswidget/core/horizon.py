@@ -20,7 +20,7 @@ holds ``N r0 / (2 R - r0)`` (the density is continuous at ``r0``), and
 
 Beyond ``R`` the ground is coloured like the grass seen from afar
 (``shaders/sky_ground.wgsl`` ``ground_albedo``, values from
-:func:`grasswidget.core.frame_data.sky_ground_values`); the orbit keeps the camera over
+:func:`grasswidget.core.engine_inputs.sky_ground_values`); the orbit keeps the camera over
 the near disc and close enough to it (:meth:`HorizonLayout.max_camera_offset`) that the
 edge at ``R`` is always far away, where the blades are a few pixels and the ground
 there already has the grass's colour.

@@ -3,9 +3,9 @@
 :class:`OrbitLimits` describes what a meadow view allows; :func:`clamp_orbit`
 (NumPy) puts a camera position and orbit target back inside those limits. Both
 engines hold their orbit to them: the kernel's
-:class:`grasswidget.notebook.orbit.GroundOrbitController`, and the browser's
+:class:`grasswidget.views.orbit.GroundOrbitController`, and the browser's
 drag (``browser/js/rules.js`` ``clampOrbit``, with the limits sent as data by
-:func:`grasswidget.core.frame_data.orbit_rules`).
+:func:`grasswidget.core.engine_inputs.orbit_rules`).
 
 The limits, for a field on a y-up ground plane:
 

@@ -17,7 +17,7 @@ import traitlets
 from traitlets import Bool, HasTraits, Unicode
 
 from .limits import MAX_COORDINATE
-from .pays import AutoSwitch
+from .auto_switches import AutoSwitch
 from .enums import BladeShape, ColorBy, GravityMode, WindField
 from ..errors import ParameterError, UnknownNameError
 
@@ -39,8 +39,9 @@ COLOR_BY = ColorBy.labels()
 LOOK_TRAITS = ("color_variation", "patch_size", "dryness", "translucency", "fog_density")
 #: The traits of the sunlight (drawing only): the shadows' switch and the sun's direction.
 SUN_TRAITS = ("shadows", "sun_elevation", "sun_azimuth")
-#: Direction towards the sun of the default params (world space, not normalized): elevation
-#: 63.4 degrees, azimuth 36.9 degrees (``core.frame_data.LIGHT_DIRECTION``).
+#: Direction towards the sun of the default params (world space, not normalized), both engines:
+#: elevation 63.4 degrees, azimuth 36.9 degrees (``sun_elevation`` and ``sun_azimuth``'s defaults;
+#: the blade material's default light, ``core.engine_inputs.MATERIAL_DEFAULTS``).
 DEFAULT_SUN_DIRECTION = (4.0, 10.0, 3.0)
 _SUN_ELEVATION = math.degrees(math.atan2(DEFAULT_SUN_DIRECTION[1], math.hypot(DEFAULT_SUN_DIRECTION[0], DEFAULT_SUN_DIRECTION[2])))
 _SUN_AZIMUTH = math.degrees(math.atan2(DEFAULT_SUN_DIRECTION[2], DEFAULT_SUN_DIRECTION[0]))
@@ -276,9 +277,9 @@ class GrassParams(StrictTraits):
     cull_distance = CheckedBool(True, help="Thin the field with distance on the ground.").tag(sync=True)
     cull_distance_max = RangedFloat(100.0, 0.01, 1e6, "m", help="Ground distance at which every blade is culled.").tag(sync=True)
     cull_buckets = RangedInt(100, 1, 4096, help="Number of distance buckets n (paper/author: 100).").tag(sync=True)
-    cull_occlusion = AutoSwitch("auto", help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
+    cull_occlusion = AutoSwitch("auto", help="Cull blades hidden behind nearer geometry (a max-depth pyramid of this frame's first draws, conservative: the picture is the one without it). True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.auto_switches). Kernel engine; a plain renderer.render() without grasswidget.gpu.render_frame draws as if it were off.").tag(sync=True)
     lod = CheckedBool(True, help="Use fewer segments per blade where a blade covers few pixels.").tag(sync=True)
-    compute_raster = AutoSwitch("auto", help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve once with a 64-bit atomic depth test where the device has 64-bit atomics, else twice with 32-bit ones; then a resolve over the rows written that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.pays). Slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md).").tag(sync=True)
+    compute_raster = AutoSwitch("auto", help="Draw thin blades (projected width under compute_raster_max_px) with a compute rasterizer (one thread per blade walks its curve once with a 64-bit atomic depth test where the device has 64-bit atomics, else twice with 32-bit ones; then a resolve over the rows written that writes colour and depth) instead of the hardware rasterizer, which is slowest exactly there. Same picture up to sub-pixel coverage. Both engines: the kernel's through grasswidget.gpu.render_frame (GrassScene and the widget use it), the browser engine's with the same WGSL. True (on), False (off) or 'auto' (the default: each view, in either engine, measures whether it pays and decides, see grasswidget.core.auto_switches). Slower on a CPU adapter (lavapipe: the cis565 view at 2^14 blades 1.8x the frame time; SwiftShader: the default view has no blade that thin, see benchmarks/README.md).").tag(sync=True)
     compute_raster_max_px = RangedFloat(2.0, 0.0, 16.0, "px", help="Blades narrower than this on screen (full width at the blade's middle, physical pixels) go to the compute rasterizer when compute_raster is on; 0 sends none. GrassScene's own params on a GPU adapter use 4 (measured on an H100: more frames, the same look).").tag(sync=True)
 
     # ---- teaching views -----------------------------------------------------------

@@ -135,7 +135,7 @@ def template_vars() -> dict:
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
                             LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
                             RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
-    from .reference.sunlight import BALL_PENUMBRA, GROUND_AMBIENT, MAX_SHADOW_BALLS, SKY_FLOOR, SUN_MIN_Y, TRANSMITTANCE_TAPS
+    from .reference.shadows import BALL_PENUMBRA, GROUND_AMBIENT, MAX_SHADOW_BALLS, SKY_FLOOR, SUN_MIN_Y, TRANSMITTANCE_TAPS
 
     return {
         **WindField.template_vars("wind_field"),
@@ -157,7 +157,7 @@ def template_vars() -> dict:
         "lod_min_pixels": [f"{p:.1f}" for p in LOD_MIN_PIXELS[:-1]],
         "blades_writable": False,
         "teaching_views": False,
-        "sunlight": False,  # sunlight.wgsl: the shadows' maths compiled in (GrassParams.shadows on)
+        "sunlight": False,  # shadows.wgsl: the shadows' maths compiled in (GrassParams.shadows on)
         "bands": 0,  # cull.wgsl: 0 = one pass, list order by blade id; > 0 = draw order by distance band
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),

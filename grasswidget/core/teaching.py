@@ -31,6 +31,7 @@ __all__ = [
     "INSPECTOR_COLORS",
     "INSPECTED_BLADE_COLORS",
     "MAX_INSPECTED",
+    "INSPECTED_POINT_BYTES",
     "ARROW_ACCEL_PER_HEIGHT",
     "COLLISION_ARROW_SCALE",
     "hex_to_rgb",
@@ -72,6 +73,9 @@ INSPECTOR_COLORS = {
 INSPECTED_BLADE_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#8c564b"]
 #: The blade inspector draws at most this many blades.
 MAX_INSPECTED = 64
+#: Bytes of one inspected blade's control points as both engines read them back: v0, v1, v2,
+#: three float32 each (the inspector's ``s_points``).
+INSPECTED_POINT_BYTES = 3 * 3 * 4
 #: Inspector arrows: an acceleration of this many m/s^2 is drawn as long as the
 #: blade is high (so default gravity, 9.8 m/s^2 plus front gravity, is about half a blade).
 ARROW_ACCEL_PER_HEIGHT = 20.0
@@ -161,7 +165,7 @@ class FrozenView:
     """A frozen culling camera as the culling pass sees it (no GPU): ``view_proj``
     (4x4 float64, world to WebGPU clip space, depth 0..1), ``position`` (3,) world
     position (m) and ``viewport_size`` ((w, h) pixels: the aspect it was taken at and
-    the pixel scale of the LOD classes). :func:`grasswidget.core.frame_data.cull_uniform_values`
+    the pixel scale of the LOD classes). :func:`grasswidget.core.engine_inputs.cull_uniform_values`
     writes it into ``u_cull`` for both engines; :meth:`segments` is its view volume as lines.
     """
 

@@ -2,7 +2,7 @@
 
 A :class:`TraceRecorder` keeps one :class:`TraceSample` per sample the view
 takes while simulated time advances (the views' sampling rule: see
-:mod:`grasswidget.notebook.trace_feed`) and turns them into NumPy arrays
+:mod:`grasswidget.views.trace_feed`) and turns them into NumPy arrays
 (:meth:`TraceRecorder.traces`), into the series a chart draws
 (:meth:`TraceRecorder.chart_series`) and into a file (:meth:`TraceRecorder.save`,
 CSV or .npz; :func:`load_traces` reads either back).

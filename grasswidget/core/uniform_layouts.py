@@ -10,10 +10,10 @@ the order given), so both engines put every field at the same byte offset;
 ``tests/core/test_uniform_layouts.py`` checks that field for field.
 
 The values are computed once too, for both engines, by
-:mod:`grasswidget.core.frame_data` (``sim_uniform_values``, ``cull_uniform_values``):
+:mod:`grasswidget.core.engine_inputs` (``sim_uniform_values``, ``cull_uniform_values``):
 the kernel copies them into its pygfx arrays, the browser gets them as bytes
 from :func:`pack`. To add a uniform field: one line here, its value in
-``frame_data``, and read it in the WGSL as ``u_sim.<field>`` or ``u_cull.<field>``.
+``engine_inputs``, and read it in the WGSL as ``u_sim.<field>`` or ``u_cull.<field>``.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import GrassValueError
-from .reference.sunlight import MAX_SHADOW_BALLS
+from .reference.shadows import MAX_SHADOW_BALLS
 
 __all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "SUNLIGHT_VECTORS", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
            "wgsl_shadertype", "offsets",
@@ -79,8 +79,8 @@ CULL_LAYOUT = (
 )
 
 #: The sunlight's vector fields of both ``u_material`` structs (the blades' and the sky/ground's),
-#: read by ``shaders/sunlight.wgsl`` with ``light_direction`` and ``shadows`` (values:
-#: ``frame_data.sunlight_values``).
+#: read by ``shaders/shadows.wgsl`` with ``light_direction`` and ``shadows`` (values:
+#: ``engine_inputs.sunlight_values``).
 SUNLIGHT_VECTORS = (
     ("shadow_balls", f"array<vec4<f32>, {MAX_SHADOW_BALLS}>"),  # the first reference.MAX_SHADOW_BALLS colliders (x, y, z, r; r 0 unused)
     ("shadow_field", "vec4<f32>"),        # the field's rectangle for the grass' shadow: xy centre (x, z), zw half sizes (m)
@@ -88,7 +88,7 @@ SUNLIGHT_VECTORS = (
 )
 
 #: ``u_material`` of ``shaders/sky_ground.wgsl`` (both engines draw sky and ground with it;
-#: values: ``frame_data.sky_ground_values``).
+#: values: ``engine_inputs.sky_ground_values``).
 SKY_GROUND_LAYOUT = (
     ("horizon_color", "vec4<f32>"),       # sRGB 0..1: the sky at the horizon, also the fog's colour
     ("zenith_color", "vec4<f32>"),        # sRGB 0..1: the sky straight up
@@ -110,13 +110,13 @@ SKY_GROUND_LAYOUT = (
     ("field_edge", "f32"),                # width of the soft edge between soil and ground beyond (m)
     ("color_variation", "f32"),           # GrassParams.color_variation (the far grass's patches)
     ("dryness", "f32"),                   # GrassParams.dryness
-    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (sunlight.wgsl)
+    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (shadows.wgsl)
     ("ground_sun", "f32"),                # the ground's sunlit share relative to the default sun (sun height ratio)
 )
 
 #: ``u_material`` of ``shaders/blade_render.wgsl``: the grass material (kernel:
 #: ``grasswidget.gpu.material.GrassMaterial``, whose pygfx base adds ``opacity`` and
-#: ``alpha_test`` at these places; values: ``frame_data.material_values``).
+#: ``alpha_test`` at these places; values: ``engine_inputs.material_values``).
 GRASS_MATERIAL_LAYOUT = (
     ("root_color", "vec4<f32>"),          # sRGB 0..1, blade root
     ("tip_color", "vec4<f32>"),           # sRGB 0..1, blade tip
@@ -133,7 +133,7 @@ GRASS_MATERIAL_LAYOUT = (
     ("ambient", "f32"),                   # ambient light share (0..1)
     ("tip_threshold", "f32"),             # tau of the triangle-tip shape (0..0.99)
     ("blade_shape", "i32"),               # enums.BladeShape
-    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (sunlight.wgsl)
+    ("shadows", "f32"),                   # GrassParams.shadows: 1 on, 0 off (shadows.wgsl)
 )
 
 #: ``u_inspect``: the blade inspector's ids (inspect.wgsl): up to ``teaching.MAX_INSPECTED`` (64)
@@ -222,7 +222,7 @@ def layout_description(layout) -> dict:
 
 def pack(layout, values: dict) -> bytes:
     """The struct's bytes from ``values`` ({field: number or array}, e.g.
-    ``frame_data.sim_uniform_values(...)``); fields missing from ``values`` are zero,
+    ``engine_inputs.sim_uniform_values(...)``); fields missing from ``values`` are zero,
     names not in the layout raise GrassValueError."""
     unknown = set(values) - {name for name, _ in layout}
     if unknown:

@@ -19,15 +19,10 @@ import this package (it loads no pygfx/wgpu; :mod:`grasswidget.core.runtime_dir`
 sets the Vulkan loader's directory).
 """
 
-from . import occlusion
 from .field import GrassField
 from .material import GrassMaterial
 from . import shader_classes  # noqa: F401  (registers the render functions of (GrassField, GrassMaterial))
 from .frame import render_frame
 from .scene import GrassScene
-
-#: The frame entry point at its path of before (``grasswidget.gpu.occlusion.render_frame``); set
-#: here because occlusion.py may not import frame.py (frame.py imports it).
-occlusion.render_frame = render_frame
 
 __all__ = ["GrassField", "GrassMaterial", "GrassScene", "render_frame"]

@@ -23,8 +23,8 @@ from ..core.memory import check_blade_count, check_gpu_blade_count, max_blades_f
 from ..core.observers import WeakObserver
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.reference import LOD_SEGMENTS
-from ..core.frame_data import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
-from ..core.frame_data import grass_layer, sunlight_values
+from ..core.engine_inputs import MAX_RASTER_BLADES, compute_raster_on, cull_uniform_values, look_values  # noqa: F401 (MAX_RASTER_BLADES: kept here too)
+from ..core.engine_inputs import grass_layer, sunlight_values
 from ..core.uniform_layouts import CULL_LAYOUT, shadertype, write_values
 from . import indirect
 from .adapter import ensure_device
@@ -36,7 +36,7 @@ from .raster_walks import raster_packed
 from .material import GrassMaterial
 from .occlusion import OcclusionCulling
 from .simulation import Simulation
-from .wgsl_templates import WORKGROUP, workgroups
+from .wgsl_templates import WORKGROUP_SIZE, workgroups
 
 __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", "check_blade_count_fits",
            "max_blade_count"]
@@ -146,7 +146,7 @@ class GrassField(gfx.WorldObject):
         # words), and the second phase's draw args + occluded count (see cull.wgsl).
         # All seen at first: the first frame draws everything the other tests keep in
         # its first phase, and culling frozen before any frame hides nothing.
-        words = workgroups(n)[0] * workgroups(n)[1] * (WORKGROUP // 32)
+        words = workgroups(n)[0] * workgroups(n)[1] * (WORKGROUP_SIZE // 32)
         self._store.occlusion_flags_buffer = gfx.Buffer(
             np.full(words, 0xFFFFFFFF, np.uint32), usage=usage.STORAGE | usage.COPY_SRC | usage.COPY_DST
         )
@@ -343,7 +343,7 @@ class GrassField(gfx.WorldObject):
             self._warned_cause = None  # a new snippet that fails is worth its own warning
 
     def _write_cull_uniform(self):
-        """``u_cull`` from the params and the frozen camera (values: frame_data.cull_uniform_values)."""
+        """``u_cull`` from the params and the frozen camera (values: engine_inputs.cull_uniform_values)."""
         p = self.params
         if p.color_by == "cull" and self.culled_buffer.nitems < self.count:
             self._store.culled_buffer = gfx.Buffer(
@@ -473,7 +473,7 @@ class GrassField(gfx.WorldObject):
             self.cull_uniform_buffer.update_full()
 
     def sunlight_values(self) -> dict:
-        """The sunlight's values of this field's material now (``core.frame_data.sunlight_values``
+        """The sunlight's values of this field's material now (``core.engine_inputs.sunlight_values``
         of the params, the blades and the colliders): what :meth:`prepare_sunlight` writes, and
         what a sky and ground drawn with the field take (``SkyGroundMaterial.set_values``)."""
         return sunlight_values(self.params, self._grass_layer, self._colliders)
@@ -645,7 +645,7 @@ class GrassField(gfx.WorldObject):
         """Advance the physics by ``n`` fixed steps of ``params.dt`` (n >= 0).
 
         The steps run in one dispatch of one GPU submission (the loop is in the shader;
-        blades are independent) up to ``core.frame_data.BLADE_STEPS_PER_DISPATCH`` blade
+        blades are independent) up to ``core.engine_inputs.BLADE_STEPS_PER_DISPATCH`` blade
         steps, in several beyond. Step k uses wind time ``(k * dt) mod wind_period`` like
         the NumPy reference.
 

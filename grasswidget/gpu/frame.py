@@ -14,7 +14,7 @@ from __future__ import annotations
 import pygfx as gfx
 
 from ..errors import GrassValueError
-from .auto_switches import begin_frame
+from .trial_timing import begin_frame
 from .occlusion import OcclusionCulling
 from .sky_ground import SkyGround
 
@@ -50,7 +50,7 @@ def render_frame(renderer, scene, camera, late=()):
     """Render ``scene`` with ``camera`` like ``renderer.render(scene, camera)``, with
     occlusion culling for every visible GrassField of the scene whose
     ``params.cull_occlusion`` is on: True, or "auto" and the field's measured decision on
-    (:mod:`grasswidget.gpu.auto_switches`; :mod:`grasswidget.gpu.occlusion` describes the phases).
+    (:mod:`grasswidget.gpu.trial_timing`; :mod:`grasswidget.gpu.occlusion` describes the phases).
 
     ``late``: direct children of ``scene`` drawn after the second phase (translucent
     objects that write no depth, e.g. collider balls), with the scene's lights. With
@@ -62,7 +62,7 @@ def render_frame(renderer, scene, camera, late=()):
     the sun, ``params.shadows``, the balls), which every visible SkyGround takes from the first.
     """
     all_fields = _fields(scene)
-    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.pays)
+    switches = begin_frame(all_fields, camera)  # "auto" switches decided by measuring (core.auto_switches)
     for field in all_fields:  # what this frame runs: its counts are read with it (gpu.stats)
         field.frame_switches = dict(switches.values[field])
     try:

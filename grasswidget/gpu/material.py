@@ -13,7 +13,7 @@ import pygfx as gfx
 
 from ..core.enums import BladeShape
 from ..errors import GrassValueError
-from ..core.frame_data import MATERIAL_DEFAULTS
+from ..core.engine_inputs import MATERIAL_DEFAULTS
 from ..core.params import LOOK_TRAITS, GrassParams
 from ..core.uniform_layouts import GRASS_MATERIAL_LAYOUT, shadertype
 
@@ -82,11 +82,11 @@ class GrassMaterial(gfx.Material):
     def sunlight(self) -> bool:
         """True while the sunlight written last (:meth:`set_sunlight`) has ``shadows`` on: the
         ribbon and resolve shaders compile the shadows' maths in only then (tracked by pygfx:
-        a change rebuilds their pipelines; ``shaders/sunlight.wgsl``). False until then."""
+        a change rebuilds their pipelines; ``shaders/shadows.wgsl``). False until then."""
         return self._store.sunlight
 
     def set_sunlight(self, values: dict):
-        """Write the sunlight's values (``core.frame_data.sunlight_values``: ``light_direction``,
+        """Write the sunlight's values (``core.engine_inputs.sunlight_values``: ``light_direction``,
         ``shadow_balls``, ``shadow_field``, ``shadow_depths``, ``shadows``) as they are;
         ``GrassField.prepare_sunlight`` does it before every frame."""
         names = {"light_direction", "shadow_balls", "shadow_field", "shadow_depths", "shadows"}

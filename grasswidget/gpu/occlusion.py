@@ -48,13 +48,11 @@ from .draw_bundles import DrawBundle
 from .raster_walks import raster_walk_steps
 from .wgsl_templates import workgroups
 
-__all__ = ["OcclusionDraws", "OcclusionCulling", "MAX_HZB_LEVELS", "register_second_phase_shaders"]
+__all__ = ["OcclusionDraws", "OcclusionCulling", "register_second_phase_shaders"]
 
 #: Blade draws per object and render: one per LOD class, one of the culled blades.
 N_CLASSES = len(LOD_SEGMENTS)
 
-#: Levels of the depth pyramid the level table holds (views up to 2^15 pixels wide).
-MAX_HZB_LEVELS = HZB_MAX_LEVELS
 
 
 #: The compute shader classes the second phase dispatches ("cull", "hzb_level", "raster"), registered
@@ -132,7 +130,7 @@ class OcclusionCulling:
         #: The max-depth pyramid, all levels in one float32 buffer (reference.hzb_layout).
         self.hzb_buffer = gfx.Buffer(nbytes=4, nitems=1, format="f4", usage=usage.STORAGE | usage.COPY_DST)
         #: [levels, width, height, 0], then (offset, width, height, pitch) per level (u32).
-        self.levels_buffer = gfx.Buffer(np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32), usage=usage.STORAGE)
+        self.levels_buffer = gfx.Buffer(np.zeros((HZB_MAX_LEVELS + 1, 4), np.uint32), usage=usage.STORAGE)
         #: Set by GrassField.freeze_culling: a copy of the frozen camera whose view the
         #: next render_frame renders once to find the blades it hides (then None).
         self.capture_camera = None
@@ -180,8 +178,8 @@ class OcclusionCulling:
         if self.size == (width, height):
             return
         layout = hzb_layout(width, height)
-        if len(layout) > MAX_HZB_LEVELS:
-            raise GrassValueError(f"occlusion culling supports views up to {2 ** (MAX_HZB_LEVELS - 1)} pixels wide "
+        if len(layout) > HZB_MAX_LEVELS:
+            raise GrassValueError(f"occlusion culling supports views up to {2 ** (HZB_MAX_LEVELS - 1)} pixels wide "
                                   f"and high; got {width} x {height}")
         last = layout[-1]
         total = last[0] + last[1] * last[2]
@@ -190,7 +188,7 @@ class OcclusionCulling:
         self.hzb_buffer = gfx.Buffer(nbytes=4 * total, nitems=total, format="f4",
                                      usage=usage.STORAGE | usage.COPY_DST | usage.COPY_SRC)
         destroy_buffers([old])
-        table = np.zeros((MAX_HZB_LEVELS + 1, 4), np.uint32)
+        table = np.zeros((HZB_MAX_LEVELS + 1, 4), np.uint32)
         table[0] = (len(layout), width, height, 0)
         table[1: len(layout) + 1] = layout
         self.levels_buffer.data[:] = table

@@ -21,17 +21,17 @@ from .collider_view import ColliderBalls
 from .compute_ddaa import use_compute_ddaa
 from .field import GrassField, GrassMaterial, check_blade_count_fits
 from .frame import render_frame
-from ..core import frame_data
+from ..core import engine_inputs
 from ..core.camera_rules import DEFAULT_FAR, DEFAULT_FOV_DEG, DEFAULT_NEAR, default_camera
-from ..core.frame_data import SKY_GROUND_TRAITS, ground_square, sky_ground_values, sun_direction
-from ..core.framing import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
-from ..core.framing import check_png_path
+from ..core.engine_inputs import SKY_GROUND_TRAITS, ground_square, sky_ground_values, sun_direction
+from ..core.presets import PRESETS, parse_size, preset_field, preset_params  # pure helpers, re-exported here
+from ..core.presets import check_png_path
 from .sky_ground import GroundSwitch, SkyGround, SkyGroundMaterial
 from ..core.observers import WeakObserver
 from ..core.params import GrassParams, sunlight_defaults
 
 __all__ = ["GrassScene", "parse_size", "PRESETS", "set_vertical_fov", "preset_field", "make_renderer",
-           "EXPORT_SUPERSAMPLE", "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
+           "adapter_params", "GPU_COMPUTE_RASTER_MAX_PX"]
 
 #: The cis565 preset's distance-culling reach (m) when it makes its own params.
 CIS565_DISTANCE_MAX = preset_params("cis565")["cull_distance_max"]
@@ -54,7 +54,7 @@ def adapter_params(**values) -> GrassParams:
     """GrassParams with this adapter's defaults for what GrassScene makes itself: the
     compute rasterizer's width limit on a GPU adapter (``compute_raster_max_px``
     :data:`GPU_COMPUTE_RASTER_MAX_PX`; whether it runs is ``compute_raster`` "auto", decided
-    by measuring, :mod:`grasswidget.core.pays`), and the sunlight's shadows on a GPU adapter,
+    by measuring, :mod:`grasswidget.core.auto_switches`), and the sunlight's shadows on a GPU adapter,
     off on a CPU adapter (:func:`grasswidget.core.params.sunlight_defaults`); ``values`` set
     any params besides."""
     gpu = not is_cpu_adapter()
@@ -74,18 +74,13 @@ def set_vertical_fov(camera, fov_deg, aspect):
     camera.aspect = aspect
 
 
-#: Supersampling of exported pictures (both engines; see ``core.frame_data``):
-#: pygfx renders at this pixel ratio and filters down with its Mitchell filter.
-EXPORT_SUPERSAMPLE = frame_data.EXPORT_SUPERSAMPLE
-
-
 def make_renderer(canvas, *, export=False):
     """A pygfx WgpuRenderer for ``canvas`` with this project's per-adapter settings.
 
     Live view (``export=False``): pixel ratio 1, no post-process anti-aliasing on a
     CPU adapter (pygfx's default one on a GPU), no picking events. Export
     (``export=True``): anti-aliased on every adapter: rendered at
-    :data:`EXPORT_SUPERSAMPLE` times the size in each direction and filtered down
+    :data:`~grasswidget.core.engine_inputs.EXPORT_SUPERSAMPLE` times the size in each direction and filtered down
     (supersampling), plus pygfx's default post-process anti-aliasing on a GPU.
     ``canvas``: a rendercanvas canvas or a pygfx Texture (offscreen, as the benchmarks use).
 
@@ -96,7 +91,7 @@ def make_renderer(canvas, *, export=False):
     cpu = is_cpu_adapter()
     if cpu:
         announce_cpu_defaults()
-    ratio = EXPORT_SUPERSAMPLE if export else 1
+    ratio = engine_inputs.EXPORT_SUPERSAMPLE if export else 1
     renderer = gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
     use_compute_ddaa(renderer)
     return renderer
@@ -156,7 +151,7 @@ class GrassScene:
         sun = compat.still_directional_light_class()(intensity=2.0)
         self.scene.add(sun)
         self.light = sun
-        self._aim_sun()  # the params' sun (core.frame_data.sun_direction), both engines
+        self._aim_sun()  # the params' sun (core.engine_inputs.sun_direction), both engines
         self._observers.append(WeakObserver(self.params, self._aim_sun, names=["sun_elevation", "sun_azimuth"]))
 
         self.camera = gfx.PerspectiveCamera(DEFAULT_FOV_DEG, self.size[0] / self.size[1],
@@ -226,7 +221,7 @@ class GrassScene:
 
     def _write_sky_ground(self, change=None):
         """Write the sky/ground values both engines use
-        (:func:`grasswidget.core.frame_data.sky_ground_values`: the ground square to the
+        (:func:`grasswidget.core.engine_inputs.sky_ground_values`: the ground square to the
         far plane, the soil under this field, the params' fog), keeping ``ground.visible``."""
         far = float(self.camera.depth_range[1]) if self.camera.depth_range else None
         self.sky_ground.material.set_values(sky_ground_values(self.field.blades, far, self.params,

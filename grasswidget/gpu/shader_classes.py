@@ -7,8 +7,7 @@ they draw, never the other way round: importing this module registers
 decorator, and the occlusion culling's second-phase classes with
 :func:`grasswidget.gpu.occlusion.register_second_phase_shaders`. The package
 ``grasswidget.gpu`` imports it, so any use of the GPU layer has them registered.
-(Its name before: ``grasswidget.gpu.shaders``, still importable.) It composes the passes pygfx runs in
-every ``renderer.render()``:
+It composes the passes pygfx runs in every ``renderer.render()``:
 
 1. ``ResetArgsShader`` (compute): zero the per-LOD-class instance counts and
    the distance-band counters.
@@ -57,11 +56,11 @@ from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
 from .raster_walks import raster_walk_steps
-from .wgsl_templates import WORKGROUP, GrassComputeShader, shader_vars, storage_struct_code, workgroups
+from .wgsl_templates import WORKGROUP_SIZE, GrassComputeShader, shader_vars, storage_struct_code, workgroups
 
 __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
            "grass_render_function", "occlusion_render_function",
-           "workgroups", "WORKGROUP", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE", "U_CULL_SLOT",
+           "workgroups", "CULLED_SEGMENTS", "DISTANCE_BANDS", "BAND_RANGE", "U_CULL_SLOT",
            "U_CULL_CODE", "cull_binding"]
 
 #: Binding slot of ``u_cull`` in the culling and ribbon shaders. It is a read-only

@@ -20,7 +20,7 @@ from pygfx.utils import array_from_shadertype
 from ..core.collider_grid import GRID_WORDS, MAX_GRID_CELLS
 from ..core.colliders import MAX_COLLIDERS, collider_array
 from ..core.limits import StepsInterrupted, hold_interrupts
-from ..core.frame_data import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
+from ..core.engine_inputs import BLADE_STEPS_PER_DISPATCH, collider_grid, sim_uniform_values, steps_per_dispatch, wind_time
 from ..core.shader_files import render_wgsl
 from ..core.wgsl_overrides import parse_functions, wind_limit_error
 from ..errors import ExerciseShaderError, IsolatedRunError, WindShaderError
@@ -34,8 +34,6 @@ from .wgsl_templates import GrassComputeShader, naga_error_parts, overrides_erro
 
 __all__ = ["Simulation", "SimulateShader", "SIM_UNIFORM", "wind_shader_error"]
 
-#: Steps x blades of one dispatch; larger requests are split (keeps one dispatch short).
-MAX_BLADE_STEPS_PER_DISPATCH = BLADE_STEPS_PER_DISPATCH  # core.frame_data's, both engines
 
 #: ``u_sim`` as pygfx's shadertype (the layout: ``grasswidget.core.uniform_layouts.SIM_LAYOUT``).
 SIM_UNIFORM = shadertype(SIM_LAYOUT)
@@ -200,7 +198,7 @@ class Simulation:
 
     def uniform_values(self, steps=0, time0=0.0) -> dict:
         """The ``u_sim`` values for a dispatch of ``steps`` steps from ``time0`` s
-        (:func:`grasswidget.core.frame_data.sim_uniform_values` of the params, colliders and world matrix).
+        (:func:`grasswidget.core.engine_inputs.sim_uniform_values` of the params, colliders and world matrix).
 
         The values other than ``steps`` and ``time0`` are worked out again only when the params
         changed (:meth:`forget_uniform_values`, called by the field's params observer), the field
@@ -226,7 +224,7 @@ class Simulation:
         device.queue.write_buffer(sync_buffer(self.uniform_buffer), 0, d.tobytes())
 
     def write_colliders(self):
-        """Upload the spheres and their grid (:func:`grasswidget.core.frame_data.collider_grid`) when
+        """Upload the spheres and their grid (:func:`grasswidget.core.engine_inputs.collider_grid`) when
         the colliders changed since the last upload."""
         colliders = self.field.colliders
         key = (colliders.version if hasattr(colliders, "version") else collider_array(colliders).tobytes(),

@@ -2,7 +2,7 @@
 
 ``shaders/sky_ground.wgsl`` is drawn by both engines (the browser engine renders
 it for its own bindings); GrassScene writes the values both engines use,
-:func:`grasswidget.core.frame_data.sky_ground_values` (colours, ground square,
+:func:`grasswidget.core.engine_inputs.sky_ground_values` (colours, ground square,
 field rectangle, cover, far plane, fog), with :meth:`SkyGroundMaterial.set_values`.
 
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
@@ -23,7 +23,7 @@ import wgpu
 from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
 
 from ..errors import GrassValueError
-from ..core.frame_data import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR, ground_sun
+from ..core.engine_inputs import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR, ground_sun
 from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
@@ -85,7 +85,7 @@ class SkyGroundMaterial(gfx.Material):
 
     def set_values(self, values: dict):
         """Write values of ``uniform_layouts.SKY_GROUND_LAYOUT`` fields as they are, e.g.
-        :func:`grasswidget.core.frame_data.sky_ground_values` (what the browser engine
+        :func:`grasswidget.core.engine_inputs.sky_ground_values` (what the browser engine
         is sent too)."""
         unknown = set(values) - {name for name, _ in SKY_GROUND_LAYOUT}
         if unknown:
@@ -130,7 +130,7 @@ class SkyGroundMaterial(gfx.Material):
     def sunlight(self) -> bool:
         """True while the ``shadows`` written last (:meth:`set_sunlight`, :meth:`set_values`) is on: the
         shader compiles the ground's shadows in only then (tracked by pygfx: a change rebuilds
-        its pipeline; ``shaders/sunlight.wgsl``). False until then."""
+        its pipeline; ``shaders/shadows.wgsl``). False until then."""
         return self._store.sunlight
 
     @property

@@ -20,7 +20,7 @@ import numpy as np
 import wgpu
 
 from .. import compat
-from ..core.frame_data import counter_layout, read_counters
+from ..core.engine_inputs import counter_layout, read_counters
 from .adapter import ensure_device
 
 __all__ = ["FrameStats", "read_staging"]
@@ -200,7 +200,7 @@ class FrameStats:
         engine's stats; unknown ({}, a frame drawn without render_frame): taken as counted)."""
         switches = switches or {}
         nargs = 16 * self.n_classes
-        layout = counter_layout(self.n_classes)  # the staging layout above, both engines' (core.frame_data)
+        layout = counter_layout(self.n_classes)  # the staging layout above, both engines' (core.engine_inputs)
         counts = read_counters(raw[: 4 * layout["words"]].view(np.uint32), layout)
         self.visible_per_class = counts["visible_per_class"]
         self.rastered = counts["rastered"] if switches.get("compute_raster", True) else 0

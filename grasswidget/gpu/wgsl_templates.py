@@ -24,23 +24,21 @@ import re
 import jinja2
 from pygfx.renderers.wgpu import BaseShader, register_wgsl_loader
 
-from ..core.frame_data import MAX_WORKGROUPS_X
+from ..core.engine_inputs import MAX_WORKGROUPS_X
 from ..core.shader_files import WORKGROUP_SIZE, shader_dir, template_vars
 from ..core.uniform_layouts import wgsl_struct
 from ..errors import ExerciseShaderError
 
-__all__ = ["WORKGROUP", "workgroups", "GrassComputeShader", "shader_vars", "storage_struct_code",
+__all__ = ["workgroups", "GrassComputeShader", "shader_vars", "storage_struct_code",
            "naga_error_parts", "overrides_error"]
 
-#: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
-WORKGROUP = WORKGROUP_SIZE
 
 register_wgsl_loader("grasswidget", jinja2.FileSystemLoader(str(shader_dir())))
 
 
 def workgroups(n_items, limit=MAX_WORKGROUPS_X):
-    """Dispatch size for ``n_items`` threads in groups of WORKGROUP, folded into y past ``limit``."""
-    groups = max(1, -(-int(n_items) // WORKGROUP))
+    """Dispatch size for ``n_items`` threads in groups of WORKGROUP_SIZE, folded into y past ``limit``."""
+    groups = max(1, -(-int(n_items) // WORKGROUP_SIZE))
     x = min(groups, limit)
     y = -(-groups // x)
     return x, y, 1

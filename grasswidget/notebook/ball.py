@@ -29,6 +29,7 @@ from traitlets import Any, HasTraits
 
 from .. import compat
 from ..core.colliders import SphereCollider
+from ..core.interaction import ball_reach
 from .control_link import ControlLink
 from ..errors import GrassValueError, ParameterError
 from ..core.params import CheckedBool, RangedFloat
@@ -74,7 +75,9 @@ class BallControl(HasTraits):
     """A sphere collider on the ground of a GrassScene, with its controls.
 
     Args:
-        scene: the :class:`GrassScene` to act on (see :meth:`attach`).
+        view: what the ball acts on: an object with ``blades`` (a Blades: the ground and the field's
+            extent) and ``colliders`` (the live ColliderList), e.g. an
+            :class:`~grasswidget.views.api.EngineView` (see :meth:`attach`).
         on_error: called with the exception when a control is given a value the
             collider refuses (the control goes back to the old value).
 
@@ -94,15 +97,16 @@ class BallControl(HasTraits):
     roll_speed = RangedFloat(2.0, 0.1, 20.0, "m/s", help="Rolling speed, metres per simulated second.")
     path = Any(None, help="None (circle around the field's centre) or a callable s -> (x, z).")
 
-    def __init__(self, scene, on_error=None):
+    def __init__(self, view, on_error=None):
         super().__init__()
         self._on_error = on_error or (lambda err: None)
         self._dragging = False
         self._rolled = 0.0  # metres rolled along the current path
         self._circle = None  # (cx, cz, R, angle0) of the current circular path
         self._advancing = False  # the ball moves along its path (not by hand)
-        self.scene = None
-        self._set_bounds(scene)
+        self.view = None
+        self._colliders = None  # the ColliderList the ball was last put in (or taken out of)
+        self._set_bounds(view)
         radius = round(max(0.1, 0.1 * self._extent), 2)
         self.collider = SphereCollider(center=(self._center[0], self._ground_y + radius, self._center[1]),
                                        radius=radius)
@@ -111,7 +115,7 @@ class BallControl(HasTraits):
         self.observe(self._on_path, names="path")
         self.collider.observe(self._on_collider, names=["center", "radius"])
         self._build_controls()
-        self.attach(scene)
+        self.attach(view)
 
     @property
     def roll_center(self) -> tuple:
@@ -120,33 +124,40 @@ class BallControl(HasTraits):
 
     # ------------------------------------------------------------------ scene
 
-    def _set_bounds(self, scene):
-        v0 = np.asarray(scene.field.blades.v0, np.float64)
+    def _set_bounds(self, view):
+        v0 = np.asarray(view.blades.v0, np.float64)
         lo, hi = v0.min(axis=0), v0.max(axis=0)
         self._lo, self._hi = lo, hi
         self._center = (0.5 * (lo[0] + hi[0]), 0.5 * (lo[2] + hi[2]))
         self._extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))
         self._ground_y = float(np.median(v0[:, 1]))
 
-    def attach(self, scene):
-        """Act on ``scene`` (a new field after a blade-count change): the ball keeps
-        its place and size; it is put in the new scene's colliders if enabled."""
-        old = self.scene
-        if old is not None and old is not scene and self.collider in old.colliders:
-            old.colliders.remove(self.collider)
-        self.scene = scene
-        self._set_bounds(scene)
+    def attach(self, view):
+        """Act on ``view`` (after a blade-count change, or another engine's view): the ball keeps
+        its place and size; it leaves the colliders it was in and, if enabled, joins ``view.colliders``."""
+        old = self._colliders
+        if old is not None and old is not view.colliders and self.collider in old:
+            old.remove(self.collider)
+        self.view = view
+        self._colliders = view.colliders
+        self._set_bounds(view)
         if hasattr(self, "x_slider"):
             self._update_slider_ranges()
-        if self.enabled and self.collider not in scene.colliders:
-            scene.colliders.append(self.collider)
+        if self.enabled and self.collider not in view.colliders:
+            view.colliders.append(self.collider)
+
+    def join(self, view):
+        """:meth:`attach` to ``view`` and let it move the ball with shift + drag and roll it with
+        simulated time (the widget's first view, and each after an engine switch)."""
+        self.attach(view)
+        view.attach_ball(self)
 
     def detach(self):
-        """Take the ball out of the scene and unlink the controls (the widget closes)."""
+        """Take the ball out of the view's colliders and unlink the controls (the widget closes)."""
         self.rolling = False
-        if self.scene is not None and self.collider in self.scene.colliders:
-            self.scene.colliders.remove(self.collider)
-        self.scene = None
+        if self._colliders is not None and self.collider in self._colliders:
+            self._colliders.remove(self.collider)
+        self.view = self._colliders = None
         for link in self._links:
             link.unlink()
         self._links = []
@@ -191,10 +202,9 @@ class BallControl(HasTraits):
 
     def _update_slider_ranges(self):
         """Slider ranges for the current field (a ball outside is brought to the edge)."""
-        pad = 0.1 * self._extent
+        x0, x1, z0, z1 = ball_reach(self._lo, self._hi)  # the field and a margin (the live page's too)
         rmax = round(max(0.5, 0.3 * self._extent), 2)
-        ranges = ((self.x_slider, float(self._lo[0] - pad), float(self._hi[0] + pad)),
-                  (self.z_slider, float(self._lo[2] - pad), float(self._hi[2] + pad)),
+        ranges = ((self.x_slider, x0, x1), (self.z_slider, z0, z1),
                   (self.radius_slider, 0.05, rmax))
         for slider, lo, hi in ranges:
             if lo > slider.max:  # keep min <= max at every moment
@@ -229,12 +239,12 @@ class BallControl(HasTraits):
             self._circle = None  # moved by hand: a new path from here
 
     def _on_enabled(self, change):
-        scene = self.scene
-        if scene is not None:
-            if change["new"] and self.collider not in scene.colliders:
-                scene.colliders.append(self.collider)
-            elif not change["new"] and self.collider in scene.colliders:
-                scene.colliders.remove(self.collider)
+        colliders = self._colliders
+        if colliders is not None:
+            if change["new"] and self.collider not in colliders:
+                colliders.append(self.collider)
+            elif not change["new"] and self.collider in colliders:
+                colliders.remove(self.collider)
         if not change["new"]:
             self.rolling = False
 
@@ -294,39 +304,37 @@ class BallControl(HasTraits):
 
     # ------------------------------------------------------------------ pointer
 
-    def handle_event(self, event, view_size):
-        """Shift + left-drag moves the ball over the ground. Returns True when the
-        event was used (then it must not reach the camera controller)."""
+    def handle_event(self, event, view_size, scene):
+        """Shift + left-drag moves the ball over the ground of ``scene`` (the kernel engine's
+        GrassScene: its camera and the field's placement turn the pointer into a ground point).
+        Returns True when the event was used (then it must not reach the camera controller)."""
         kind = compat.event_type(event)
         if kind == "pointer_down":
             if event.get("button") == 1 and "Shift" in tuple(event.get("modifiers") or ()):
                 self._dragging = True
                 self.rolling = False
-                self._drag_to(event, view_size, switch_on=True)
+                self._drag_to(event, view_size, scene, switch_on=True)
                 return True
             return False
         if kind == "pointer_move" and self._dragging:
-            self._drag_to(event, view_size)
+            self._drag_to(event, view_size, scene)
             return True
         if kind == "pointer_up" and self._dragging:
             self._dragging = False
-            self._drag_to(event, view_size)
+            self._drag_to(event, view_size, scene)
             return True
         return False
 
-    def _drag_to(self, event, view_size, switch_on=False):
-        scene = self.scene
-        if scene is None:
-            return
+    def _drag_to(self, event, view_size, scene, switch_on=False):
         hit = ground_point(scene.camera, float(event.get("x", 0.0)), float(event.get("y", 0.0)), view_size,
                            self._ground_y, np.asarray(scene.field.world.inverse_matrix))
         if hit is None:  # on the sky: the ball stays where it is (a press there still switches it on)
             if switch_on:
                 self.enabled = True
             return
-        pad = 0.1 * self._extent
-        x = min(max(hit[0], self._lo[0] - pad), self._hi[0] + pad)
-        z = min(max(hit[1], self._lo[2] - pad), self._hi[2] + pad)
+        x0, x1, z0, z1 = ball_reach(self._lo, self._hi)
+        x = min(max(hit[0], x0), x1)
+        z = min(max(hit[1], z0), z1)
         self.move_to(x, z)
         if switch_on:
             self.enabled = True

@@ -1,4 +1,4 @@
-"""The camera bar: one line of the panel with the camera presets, the floor and "more".
+"""A widget's camera: its start and named views (:class:`CameraHome`), and the camera bar.
 
 :class:`CameraBar` is the first line of a GrassWidget's panel, in both layouts
 (see :mod:`grasswidget.notebook.layout`):
@@ -10,20 +10,28 @@
   camera above the tallest blade's tip; unticked = "ground", down among the blades);
 * "more" / "less": unfolds and folds the rest of the panel (the widget's ``panel_folded``).
 
-It knows the widget only through its traits (``playing``, ``camera_floor``,
-``panel_folded``) and methods (``look_from``, ``toggle_play``); an error from a
-button goes to ``on_error`` (the panel's message line), never into the notebook.
+It knows no widget: it observes and sets a state's traits (``playing``, ``camera_floor``,
+``panel_folded``: a GrassWidget's :class:`~grasswidget.notebook.widget_state.WidgetState`, or a
+comparison) and its buttons call two actions (``look_from(name)``, ``toggle_play()``); an error
+from a button goes to ``on_error`` (the panel's message line), never into the notebook.
 
+:class:`CameraHome` remembers the start camera of the first view, moves the live view's
+camera to a named view (:func:`grasswidget.core.camera_presets.camera_preset`) and follows the
+state's ``camera_floor``: a new floor gives the view new orbit limits and lifts a camera now below
+them; a camera lower than the "grass" floor allows lowers it to "ground", nothing raises it.
 :func:`grasswidget.core.camera_presets.floor_for` says which floor a camera needs.
 """
 
 from __future__ import annotations
 
 import ipywidgets as ipw
+import numpy as np
 
+from ..core.camera_presets import camera_preset, check_camera_preset, floor_for
+from ..core.orbit_limits import clamp_orbit
 from .layout import close_widgets
 
-__all__ = ["CameraBar", "PRESET_BUTTONS", "floor_for"]
+__all__ = ["CameraBar", "CameraHome", "PRESET_BUTTONS", "floor_for"]
 
 #: The preset buttons: (preset name, icon, tooltip), one per core.camera_presets.CAMERA_PRESETS.
 PRESET_BUTTONS = (
@@ -37,24 +45,25 @@ class CameraBar:
     """One line: [Play] home top low [x] above the grass   more.
 
     Args:
-        owner: the GrassWidget (traits ``playing``, ``camera_floor``, ``panel_folded``;
-            methods ``look_from(name)``, ``toggle_play()``).
+        owner: the state: a HasTraits with ``playing``, ``camera_floor`` and ``panel_folded``.
+        actions: an object with ``look_from(name)`` and ``toggle_play()`` (default: ``owner``).
         on_error: called with an exception a button raised.
 
     Attributes: ``play_button``, ``preset_buttons`` (dict name -> Button),
     ``floor_checkbox``, ``more_button`` (ToggleButton, down = unfolded), ``row`` (the HBox).
     """
 
-    def __init__(self, owner, *, on_error):
+    def __init__(self, owner, actions=None, *, on_error):
         self._owner = owner
+        actions = owner if actions is None else actions
         self._on_error = on_error
         self.play_button = ipw.Button(description="Pause", icon="pause", layout=ipw.Layout(width="90px"),
                                       tooltip="Play / pause the animation (space)")
-        self.play_button.on_click(lambda _b: self._run(owner.toggle_play))
+        self.play_button.on_click(lambda _b: self._run(actions.toggle_play))
         self.preset_buttons = {}
         for name, icon, tip in PRESET_BUTTONS:
             b = ipw.Button(description=name, icon=icon, tooltip=tip, layout=ipw.Layout(width="76px"))
-            b.on_click(lambda _b, name=name: self._run(owner.look_from, name))
+            b.on_click(lambda _b, name=name: self._run(actions.look_from, name))
             self.preset_buttons[name] = b
         self.floor_checkbox = ipw.Checkbox(value=owner.camera_floor == "grass", description="above the grass",
                                            indent=False, layout=ipw.Layout(width="auto", margin="2px 8px"),
@@ -122,3 +131,57 @@ class CameraBar:
             except ValueError:
                 pass
         close_widgets(self.play_button, *self.preset_buttons.values(), self.floor_checkbox, self.more_button, self.row)
+
+
+class CameraHome:
+    """The camera of a GrassWidget: start, named views, floor (see the module docstring).
+
+    Args:
+        engine: the EngineSwitch (its ``view`` is the live view).
+        state: the WidgetState (``camera_floor`` is observed and set here).
+        size: (w, h) CSS pixels of the view (the presets' aspect).
+    """
+
+    def __init__(self, engine, state, size):
+        self.engine = engine
+        self.state = state
+        self.size = size
+        view = engine.view
+        #: The start camera (a camera_state dict): "home".
+        self.home = dict(view.camera_state)
+        state.camera_floor = floor_for(view.blades, self.home, view.readings.depth_range[1])
+        view.set_options(camera_floor=state.camera_floor)
+        state.observe(self._on_floor, names="camera_floor")
+
+    def look_from(self, name):
+        """Move the live camera to the named view ``name`` (see ``GrassWidget.look_from``)."""
+        check_camera_preset(name)
+        view = self.engine.view
+        if name == "home":
+            view.reset_camera()
+        else:
+            blades = view.blades
+            view.camera_state = camera_preset(name, blades.v0, blades.height, home=self.home,
+                                              aspect=self.size[0] / self.size[1], fov_deg=view.camera_state["fov_deg"],
+                                              limits=view.readings.orbit_limits, horizon=blades.horizon)
+        if self.state.camera_floor == "grass" and floor_for(view.blades, view.camera_state,
+                                                            view.readings.depth_range[1]) == "ground":
+            self.state.camera_floor = "ground"
+
+    def _on_floor(self, change):
+        """A new floor: new orbit limits in the view; a camera now below them rises at once."""
+        view = self.engine.view
+        if view is None or view.closed:
+            return
+        view.set_options(camera_floor=change["new"])
+        cam = view.camera_state
+        position, target = clamp_orbit(cam["position"], cam["target"], view.readings.orbit_limits)
+        if not (np.allclose(position, cam["position"]) and np.allclose(target, cam["target"])):
+            view.camera_state = {"position": tuple(position), "target": tuple(target)}
+
+    def close(self):
+        """Stop following the state."""
+        try:
+            self.state.unobserve(self._on_floor, names="camera_floor")
+        except ValueError:
+            pass

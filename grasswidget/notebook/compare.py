@@ -6,7 +6,7 @@
     c = gw.compare({"soft": {"stiffness_scale": 0.5}, "stiff": {"stiffness_scale": 2.0}})
     c                                   # the views side by side, one panel under them
     c.step(240)                         # every view advances exactly 240 steps
-    c.views["soft"].read_state()        # each view is a GrassWidget: params, read_state, inspect ...
+    c.widgets["soft"].read_state()      # each view is a GrassWidget: params, read_state, inspect ...
     c.params.wind_strength = 30         # a shared parameter: every view gets it
     c.camera_state = {"position": (0, 6, 14)}   # every view's camera
 
@@ -22,10 +22,10 @@ the views).
 
 **One camera.** Orbit, pan or zoom any view and every other view takes the same
 camera (position, orbit target, field of view): each view reports a moved camera to
-its camera listeners (:meth:`~grasswidget.core.view_api.EngineView.add_camera_listener`;
+its camera listeners (:meth:`~grasswidget.views.api.EngineView.add_camera_listener`;
 the kernel engine after each frame it draws, the browser engine when the browser's
 camera arrives) and the comparison hands it to the others with
-:meth:`~grasswidget.core.view_api.EngineView.accept_camera`, which does not report back,
+:meth:`~grasswidget.views.api.EngineView.accept_camera`, which does not report back,
 so there is no echo; a non-blocking lock keeps two views that move at the same moment
 from waiting on each other (the later move is then taken at its next frame).
 
@@ -38,7 +38,7 @@ in every view) act on every view. What "lockstep" guarantees:
   view's ``read_state()`` equals a :class:`~grasswidget.GrassScene` with that view's
   parameters stepped ``n`` steps (tested).
 * playing, kernel engine: the views share one frame clock
-  (:class:`~grasswidget.notebook.clock.SharedClock`): the shared simulated time moves on
+  (:class:`~grasswidget.views.clock.SharedClock`): the shared simulated time moves on
   only when every view has drawn the last one, so the n-th frame of every view shows the
   same simulated time (to within one step where the variants' ``dt`` differ), at the
   pace of the slowest view. ``pause()`` then brings any view still behind up to the
@@ -48,8 +48,8 @@ in every view) act on every view. What "lockstep" guarantees:
   (the browser reports its time only every half second). Use ``reset_blades()`` then
   ``step(n)`` for an exact comparison there.
 
-Each view keeps its own ball (shift + drag; ``c.views[label].ball``), traces and chart
-(``c.views[label].chart``), as any GrassWidget. A browser view whose page has no WebGPU
+Each view keeps its own ball (shift + drag; ``c.widgets[label].ball``), traces and chart
+(``c.widgets[label].chart``), as any GrassWidget. A browser view whose page has no WebGPU
 falls back to kernel streaming as a GrassWidget does, and is linked again (camera, clock).
 
 Bad input (an unknown parameter, a value out of range, fewer than two or more than four
@@ -116,7 +116,7 @@ class Comparison(ipw.VBox):
     """Views of the same blades with different parameters, one camera, one clock (see the module).
 
     Attributes:
-        views: {label: :class:`~grasswidget.notebook.widget.GrassWidget`}, in the given order:
+        widgets: {label: :class:`~grasswidget.notebook.widget.GrassWidget`}, in the given order:
             each has ``params`` (its own GrassParams), ``read_state()``, ``inspect``,
             ``save_png``, ``camera_state`` ... (and, like any GrassWidget, traces and charts).
         variants: {label: {trait: value}}: each view's changes to the shared parameters.
@@ -124,7 +124,7 @@ class Comparison(ipw.VBox):
         params: the shared :class:`GrassParams` (what the panel edits).
         panel: the :class:`~grasswidget.notebook.panel.ControlPanel` under the views.
         labels: {label: the ipywidgets HTML above each view}.
-        clock: the :class:`~grasswidget.notebook.clock.SharedClock` the kernel engine's views
+        clock: the :class:`~grasswidget.views.clock.SharedClock` the kernel engine's views
             follow (None with the browser engine).
 
     Traits: ``playing``, ``time_scale``, ``culling_frozen`` and ``camera_floor``, applied to every
@@ -140,14 +140,14 @@ class Comparison(ipw.VBox):
     culling_frozen = CheckedBool(False, help="Freeze culling in every view at its current camera (the shared one).")
 
     _closed = False
-    views: dict = {}
+    widgets: dict = {}
     panel = None
     camera_bar = None
     _marimo = None  # (columns, panel mirror): what marimo shows, made on first display there
 
     def __init__(self, variants, blades=4096, preset=None, backend="kernel", size=DEFAULT_VIEW_SIZE, params=None,
                  **widget_options):
-        from ..core.framing import parse_size
+        from ..core.presets import parse_size
         from .widget import GrassWidget
 
         if params is not None and not isinstance(params, GrassParams):
@@ -156,23 +156,24 @@ class Comparison(ipw.VBox):
         self.variants = check_variants(variants, self.params)  # before any view (or GPU buffer) exists
         self.differing = tuple(sorted({name for changes in self.variants.values() for name in changes}))
         self.size = parse_size(size)
-        self.views = {}
+        self.widgets = {}
         self.labels = {}
         self._sync_lock = threading.Lock()
         self.clock = None
         self._followers = {}
         self._linked = {}
+        self._unlink = {}  # label -> the function that stops its view's camera calls
         try:
             for label, changes in self.variants.items():
                 own = apply_changes(self.params.copy(), changes, where=f"variant {label!r}")
-                self.views[label] = GrassWidget(blades, preset=preset, size=self.size, params=own, backend=backend,
+                self.widgets[label] = GrassWidget(blades, preset=preset, size=self.size, params=own, backend=backend,
                                                 **widget_options)
             self._link_views()
             self._build_panel()
         except BaseException:
             self.close()
             raise
-        columns = [self._column(label, w) for label, w in self.views.items()]
+        columns = [self._column(label, w) for label, w in self.widgets.items()]
         per_row = 2 if len(columns) > 2 else len(columns)
         grid = ipw.GridBox(columns, layout=ipw.Layout(
             grid_template_columns=f"repeat({per_row}, {self.size[0]}px)", grid_gap="6px 10px", width="auto"))
@@ -203,18 +204,18 @@ class Comparison(ipw.VBox):
     # ------------------------------------------------------------------ building
 
     def _link_views(self):
-        for label, w in self.views.items():
+        for label, w in self.widgets.items():
             self._link_view(label, w.view)
             w.playing = self.playing
             w.observe(self._on_view_playing, names="playing")
-            # A browser view without WebGPU is replaced by a kernel view, and the widget says so on
-            # its message line: that is when to link the new one.
-            w.message_line.observe(self._on_view_message, names="value")
+            # A browser view without WebGPU is replaced by a kernel view (the engine's "view" event):
+            # that is when to link the new one.
+            w.engine.on("view", self._on_view_replaced)
             w.params.observe(self._on_view_param, names=list(self.differing) or All)
 
     def _link_view(self, label, view):
         """Make ``view`` (the EngineView of view ``label``) follow the shared camera and clock."""
-        from .clock import MAX_STEPS_PER_FRAME, SharedClock
+        from ..views.clock import MAX_STEPS_PER_FRAME, SharedClock
 
         if view.backend == "kernel":
             if self.clock is None:
@@ -222,30 +223,29 @@ class Comparison(ipw.VBox):
             follower = self.clock.follower()
             view.clock = follower  # the view's frame loop now follows the shared time
             self._followers[label] = follower
-        view.actions = self  # keys and ctrl + click act on every view
-        view.add_camera_listener(self._on_view_camera)
+        self.widgets[label].engine.commands = self  # keys and ctrl + click act on every view
+        self._unlink[label] = view.add_camera_listener(self._on_view_camera)
         self._linked[label] = view
 
-    def _on_view_message(self, change):
+    def _on_view_replaced(self, _view):
         """A view's GrassWidget may have replaced its view (a browser without WebGPU: the kernel
         streams instead, and the message line says so): link the new one, at the shared camera."""
-        for label, w in self.views.items():
+        for label, w in self.widgets.items():
             if w.view is not None and w.view is not self._linked.get(label) and not w.closed:
-                old = self._linked.get(label)
-                if old is not None:
-                    old.remove_camera_listener(self._on_view_camera)
+                if label in self._unlink:
+                    self._unlink.pop(label)()
                 self._followers.pop(label, None)
                 self._link_view(label, w.view)
-                others = [v.view for lb, v in self.views.items() if lb != label and v.view is not None]
+                others = [v.view for lb, v in self.widgets.items() if lb != label and v.view is not None]
                 if others:
-                    w.view.accept_camera(others[0].current_camera())
+                    w.view.accept_camera(others[0].camera_state)
 
     def _build_panel(self):
         from .panel import ControlPanel
 
-        first = next(iter(self.views.values()))
+        first = next(iter(self.widgets.values()))
         self.panel = ControlPanel(self.params, self, self, blade_count=first.blade_count,
-                                  max_blades=min(w.max_blades for w in self.views.values()),
+                                  max_blades=min(w.max_blades for w in self.widgets.values()),
                                   view_size=self.size)
         controls = {**self.panel.sliders, **self.panel.look_sliders, **self.panel.checkboxes,
                     **{n: c.dropdown for n, c in self.panel.switch_choices.items()},
@@ -263,7 +263,7 @@ class Comparison(ipw.VBox):
         """The label, then the view's GrassWidget with its own panel folded away except its status
         line and message line (what sits between the view and its panel, e.g. a chart, stays)."""
         self.labels[label] = ipw.HTML(value=self._label_html(label), layout=ipw.Layout(max_width=f"{self.size[0]}px"))
-        keep = (w.panel.rows[0], w.message_line)  # the status row (stats line) and the message line
+        keep = (w.panel.rows[0], w.panel.message_line)  # the status row (stats line) and the message line
         for row in w.panel.rows:
             if all(row is not k for k in keep):
                 row.layout.display = "none"
@@ -273,7 +273,7 @@ class Comparison(ipw.VBox):
         return ipw.VBox([self.labels[label], w], layout=ipw.Layout(width=f"{self.size[0]}px"))
 
     def _label_html(self, label) -> str:
-        w = self.views[label]
+        w = self.widgets[label]
         parts = [f"{html.escape(name)} = {html.escape(_value_text(getattr(w.params, name)))}" for name in self.differing]
         tail = " · ".join(parts) if parts else "shared parameters"
         return f"<b>{html.escape(label)}</b> <small style='color:#555'>{tail}</small>"
@@ -288,12 +288,12 @@ class Comparison(ipw.VBox):
     @property
     def backend(self) -> str:
         """The engine of the views: "kernel" or "browser" (as each GrassWidget's ``backend``)."""
-        return next(iter(self.views.values())).backend
+        return next(iter(self.widgets.values())).backend
 
     @property
     def blade_count(self) -> int:
         """Blades in each view; setting it rebuilds every view's field (:meth:`set_blades`)."""
-        return next(iter(self.views.values())).blade_count
+        return next(iter(self.widgets.values())).blade_count
 
     @blade_count.setter
     def blade_count(self, count):
@@ -304,24 +304,24 @@ class Comparison(ipw.VBox):
         """The shared camera: position and target (metres, world space) and fov_deg (vertical
         field of view, degrees). A drag in any view moves it; assigning a dict (any of the three
         keys; validated as ``GrassWidget.camera_state``) moves every view's camera."""
-        return next(iter(self.views.values())).camera_state
+        return next(iter(self.widgets.values())).camera_state
 
     @camera_state.setter
     def camera_state(self, state):
         self._check_open()
-        views = list(self.views.values())
+        views = list(self.widgets.values())
         views[0].camera_state = state  # validates; bad input raises here, nothing moved
         self._follow(views[0].view)
 
     @property
     def steps_per_frame(self) -> int:
         """Fixed steps of one nominal frame of the first view: what ``step()`` advances by default."""
-        return next(iter(self.views.values())).steps_per_frame
+        return next(iter(self.widgets.values())).steps_per_frame
 
     @property
     def sim_times(self) -> dict:
         """{label: simulated seconds since that view's last reset} (as each view's ``sim_time``)."""
-        return {label: w.sim_time for label, w in self.views.items()}
+        return {label: w.sim_time for label, w in self.widgets.items()}
 
     # ------------------------------------------------------------------ the clock
 
@@ -344,14 +344,14 @@ class Comparison(ipw.VBox):
             n = max(1, self.steps_per_frame)
         n = check_steps(n)  # [0, MAX_STEPS], before any view moves
         self.playing = False
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.step(int(n))
         self._realign_shared_time()
 
     def reset_blades(self):
         """Every blade of every view back to its rest pose; every view's clock back to 0."""
         self._check_open()
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.reset_blades()
 
     def reset_camera(self):
@@ -362,14 +362,14 @@ class Comparison(ipw.VBox):
         """Move the shared camera to a named view ("home", "top", "low"; as
         ``GrassWidget.look_from``): every view looks from there."""
         self._check_open()
-        first = next(iter(self.views.values()))
+        first = next(iter(self.widgets.values()))
         first.look_from(name)  # checks the name; may lower the floor (then every view's follows)
         self._follow(first.view)
         if first.camera_floor != self.camera_floor:
             self.camera_floor = first.camera_floor
 
     def _on_camera_floor(self, change):
-        for w in self.views.values():
+        for w in self.widgets.values():
             if w.camera_floor != change["new"]:
                 w.camera_floor = change["new"]
 
@@ -377,7 +377,7 @@ class Comparison(ipw.VBox):
         playing = bool(change["new"])
         if self.panel is not None:
             self.panel.show_playing(playing)
-        for w in self.views.values():
+        for w in self.widgets.values():
             if bool(w.playing) != playing:
                 w.playing = playing
         if not playing:
@@ -388,8 +388,8 @@ class Comparison(ipw.VBox):
         """Paused kernel views still behind the shared time take the steps they owe."""
         for label, follower in self._followers.items():
             owed = follower.owed()
-            if owed > 0 and not self.views[label].closed:
-                self.views[label].step(owed)
+            if owed > 0 and not self.widgets[label].closed:
+                self.widgets[label].step(owed)
 
     def _realign_shared_time(self):
         """After explicit steps, the shared time is where the views stand (so playing on
@@ -403,11 +403,11 @@ class Comparison(ipw.VBox):
             self.playing = bool(change["new"])
 
     def _on_time_scale(self, change):
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.time_scale = change["new"]
 
     def _on_culling_frozen(self, change):
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.culling_frozen = bool(change["new"])
 
     # ------------------------------------------------------------------ the camera
@@ -422,21 +422,20 @@ class Comparison(ipw.VBox):
             self._sync_lock.release()
 
     def _follow(self, source):
-        state = source.current_camera()
-        source.reported_camera = state
-        for w in self.views.values():
+        state = source.camera_state
+        for w in self.widgets.values():
             if w.view is not source and not w.closed:
                 try:
                     w.view.accept_camera(state)
                 except Exception as err:  # never raise into a frame or a comm handler
-                    w.view.report_error(err)
+                    w.view.host.show_error(err)
 
     # ------------------------------------------------------------------ parameters
 
     def _on_shared_param(self, change):
         """A shared parameter changed: every view that does not vary it takes it."""
         name = change["name"]
-        for label, w in self.views.items():
+        for label, w in self.widgets.items():
             if name not in self.variants[label]:
                 try:
                     setattr(w.params, name, change["new"])
@@ -444,7 +443,7 @@ class Comparison(ipw.VBox):
                     self._show_error(err)
 
     def _on_view_param(self, change):
-        label = next((lb for lb, w in self.views.items() if w.params is change["owner"]), None)
+        label = next((lb for lb, w in self.widgets.items() if w.params is change["owner"]), None)
         if label is not None and label in self.labels:
             self.labels[label].value = self._label_html(label)
 
@@ -453,7 +452,7 @@ class Comparison(ipw.VBox):
     def set_blades(self, blades):
         """Replace every view's field (a blade count or a Blades); cameras and params are kept."""
         self._check_open()
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.set_blades(blades)
         if self.panel is not None:
             self.panel.show_blade_count(self.blade_count)
@@ -462,13 +461,13 @@ class Comparison(ipw.VBox):
     def inspect(self, ids):
         """Inspect the same blades in every view (ctrl + click in any view; ``[]`` clears)."""
         self._check_open()
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.inspect(ids)
 
     def read_states(self, timeout: float = 30.0) -> dict:
         """{label: that view's ``read_state()``}."""
         self._check_open()
-        return {label: w.read_state(timeout=timeout) for label, w in self.views.items()}
+        return {label: w.read_state(timeout=timeout) for label, w in self.widgets.items()}
 
     def _pictures(self, size, paths):
         from ..tools.sheet import labelled_sheet
@@ -480,13 +479,13 @@ class Comparison(ipw.VBox):
         per_row = 2 if len(pictures) > 2 else len(pictures)
         rows = -(-len(pictures) // per_row)
         cells = np.full((rows, per_row, h, w, 4), 255, np.uint8)
-        labels = list(self.views)
+        labels = list(self.widgets)
         notes = [[""] * per_row for _ in range(rows)]
         for k, img in enumerate(pictures):
             rgba = img if img.shape[-1] == 4 else np.dstack([img, np.full(img.shape[:2], 255, np.uint8)])
             cells[k // per_row, k % per_row] = rgba[:h, :w]
             notes[k // per_row][k % per_row] = labels[k] + (": " + ", ".join(
-                f"{n} = {_value_text(getattr(self.views[labels[k]].params, n))}" for n in self.differing)
+                f"{n} = {_value_text(getattr(self.widgets[labels[k]].params, n))}" for n in self.differing)
                 if self.differing else "")
         return labelled_sheet(cells, title=f"{self.blade_count} blades", notes=notes)
 
@@ -498,7 +497,7 @@ class Comparison(ipw.VBox):
 
         from PIL import Image
 
-        from ..core.framing import check_png_path, parse_size
+        from ..core.presets import check_png_path, parse_size
 
         self._check_open()
         size = parse_size(size) if size is not None else (2 * self.size[0], 2 * self.size[1])
@@ -509,7 +508,7 @@ class Comparison(ipw.VBox):
                 path, k = os.path.join(os.getcwd(), f"compare-{stamp}-{k}.png"), k + 1
         path = check_png_path(path)
         with tempfile.TemporaryDirectory() as tmp:
-            paths = [w.save_png(os.path.join(tmp, f"{k}.png"), size=size) for k, w in enumerate(self.views.values())]
+            paths = [w.save_png(os.path.join(tmp, f"{k}.png"), size=size) for k, w in enumerate(self.widgets.values())]
             Image.fromarray(self._pictures(size, paths), "RGBA").save(path)
         return path
 
@@ -526,29 +525,35 @@ class Comparison(ipw.VBox):
             done(self.save_png(size=size))
             return True
         tmp = tempfile.TemporaryDirectory()
-        paths = [os.path.join(tmp.name, f"{k}.png") for k in range(len(self.views))]
-        waiting = set(paths)
+        paths = [os.path.join(tmp.name, f"{k}.png") for k in range(len(self.widgets))]
         stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
         out = os.path.join(os.getcwd(), f"compare-{stamp}.png")
+        futures = [w.view.snapshot(path, size) for w, path in zip(self.widgets.values(), paths)]
+        finished = []
 
-        def one_done(path):
-            waiting.discard(path)
-            if not waiting:
-                try:
-                    Image.fromarray(self._pictures(size, paths), "RGBA").save(out)
-                finally:
-                    tmp.cleanup()
-                done(out)
+        def one_done(_future):
+            if finished or not all(f.done() for f in futures):
+                return
+            finished.append(True)
+            try:
+                err = next((f.exception() for f in futures if f.exception() is not None), None)
+                if err is not None:
+                    self.panel.show_error(err)
+                    return
+                Image.fromarray(self._pictures(size, paths), "RGBA").save(out)
+            finally:
+                tmp.cleanup()
+            done(out)
 
-        for w, path in zip(self.views.values(), paths):
-            w.view.save_png_later(path, size, one_done)
+        for future in futures:
+            future.add_done_callback(one_done)
         return True
 
     def parts(self) -> tuple:
         """What this comparison is made of and owns: its views (GrassWidgets) and their parts,
         and the panel (see :mod:`grasswidget.notebook.cell_rerun`)."""
         found = [p for p in (self.panel, self.camera_bar) if p is not None]
-        for w in self.views.values():
+        for w in self.widgets.values():
             found += [w, *w.parts()]
         for bar in [self.camera_bar]:
             if bar is not None:  # its Play button is off the page while the panel is unfolded
@@ -581,9 +586,9 @@ class Comparison(ipw.VBox):
         self._check_open()
         if self._marimo is None:
             columns = []
-            for label, w in self.views.items():
+            for label, w in self.widgets.items():
                 head = ControlMirror(ipw.VBox([self.labels[label]]), on_error=self._show_error)
-                status = ControlMirror(ipw.VBox([w.panel.rows[0], w.message_line]), on_error=self._show_error)
+                status = ControlMirror(ipw.VBox([w.panel.rows[0], w.panel.message_line]), on_error=self._show_error)
                 columns.append((head, w.marimo_stage(), status))
             panel = ControlMirror(ipw.VBox([self.camera_bar.row, self._more]), on_error=self._show_error)
             self._marimo = (columns, panel)
@@ -610,7 +615,7 @@ class Comparison(ipw.VBox):
             panel.close()
         if self.panel is not None:
             self.panel.close()
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.close()
         from .layout import close_widgets
 
@@ -633,30 +638,30 @@ class Comparison(ipw.VBox):
     def _show_summary(self):
         if self.panel is not None:
             state = "playing" if self.playing else "paused"
-            self.panel.stats_line.value = (f"<small>{len(self.views)} views · {self.blade_count:,} blades each · "
+            self.panel.stats_line.value = (f"<small>{len(self.widgets)} views · {self.blade_count:,} blades each · "
                                            f"{state} · one camera, one clock</small>")
 
     def __repr__(self):
         state = "closed" if self._closed else ("playing" if self.playing else "paused")
-        return f"<Comparison {', '.join(self.views)}: {self.blade_count} blades, {state}>"
+        return f"<Comparison {', '.join(self.widgets)}: {self.blade_count} blades, {state}>"
 
 
 class SideBySide(ipw.HBox):
     """GrassWidgets in a row, each under its title (``ex.compare(code, backend="browser")``):
-    ``views`` is {title: GrassWidget}. An ipywidgets HBox in Jupyter; in marimo each widget as
+    ``widgets`` is {title: GrassWidget}. An ipywidgets HBox in Jupyter; in marimo each widget as
     marimo shows it alone, under its title. :meth:`close` closes the widgets."""
 
-    def __init__(self, views: dict):
-        self.views = dict(views)
-        super().__init__([ipw.VBox([ipw.HTML(f"<b>{html.escape(title)}</b>"), w]) for title, w in self.views.items()])
+    def __init__(self, widgets: dict):
+        self.widgets = dict(widgets)
+        super().__init__([ipw.VBox([ipw.HTML(f"<b>{html.escape(title)}</b>"), w]) for title, w in self.widgets.items()])
 
     @property
     def closed(self) -> bool:
         """True once :meth:`close` ran or any of the row's widgets was closed."""
-        return any(w.closed for w in self.views.values())
+        return any(w.closed for w in self.widgets.values())
 
     def __repr__(self):
-        titles = ", ".join(self.views)
+        titles = ", ".join(self.widgets)
         return f"<SideBySide {titles}: {'closed' if self.closed else 'open'}>"
 
     def _display_(self):
@@ -666,9 +671,9 @@ class SideBySide(ipw.HBox):
 
         if self.closed:
             return repr(self)
-        return marimo_row_display(list(self.views.items()))
+        return marimo_row_display(list(self.widgets.items()))
 
     def close(self):
-        for w in self.views.values():
+        for w in self.widgets.values():
             w.close()
         super().close()

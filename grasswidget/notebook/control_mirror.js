@@ -1,16 +1,75 @@
+// @ts-check
 // The panel's ipywidgets drawn as plain HTML controls (see control_mirror.py).
 // The kernel sends a description of the tree ("snapshot") and patches of single controls;
 // this module draws them and sends back what the user did ("set" a value, "click" a button).
 // It knows no control of the panel by name: kinds, labels, ranges and options all come from
 // the description.
 
+/**
+ * One control of the tree as the kernel describes it (control_mirror.py): its kind and id, and
+ * the properties of its kind (a patch carries some of them anew).
+ * @typedef {object} MirrorNode
+ * @property {number} id
+ * @property {string} kind "box" | "slider" | "selection_slider" | "dropdown" | "checkbox" | "button" | "toggle" | "html" | "text", else shown as not supported
+ * @property {string} [class_name] the ipywidget's class (for one not shown)
+ * @property {string} [direction] a box: "row" | "column"
+ * @property {MirrorNode[]} [children] a box's
+ * @property {string} [description] the label
+ * @property {string} [label_width] CSS width of the label
+ * @property {string} [tooltip]
+ * @property {boolean} [disabled]
+ * @property {any} [value] the value (a number, a boolean, HTML or text)
+ * @property {number} [index] a selection's index
+ * @property {string[]} [labels] a selection's option labels
+ * @property {number} [min]
+ * @property {number} [max]
+ * @property {number} [step]
+ * @property {string} [readout_format] e.g. ".2f"
+ * @property {boolean} [continuous_update] false: a slider sends on release only
+ * @property {string} [button_style]
+ * @property {MirrorLayout} [layout]
+ */
+/**
+ * The part of an ipywidgets Layout the mirror applies.
+ * @typedef {object} MirrorLayout
+ * @property {string} [display]
+ * @property {string} [width]
+ * @property {string} [max_width]
+ * @property {string} [min_height]
+ * @property {string} [margin]
+ * @property {string} [flex_flow]
+ * @property {string} [justify_content]
+ * @property {string} [align_items]
+ */
+/**
+ * What the kernel gets back: a value set, or a button clicked, or the mirror ready.
+ * @typedef {{type: "set", id: number, value: number | boolean} | {type: "click", id: number} | {type: "ready"}} MirrorMessage
+ */
+/**
+ * One drawn control: its description now, its element and how to redraw it from a description.
+ * @typedef {object} MirrorItem
+ * @property {MirrorNode} node
+ * @property {HTMLElement} dom
+ * @property {(p: MirrorNode) => void} update
+ */
+/**
+ * anywidget's model handle for the mirror.
+ * @typedef {object} MirrorModel
+ * @property {(msg: MirrorMessage) => void} send
+ * @property {(event: string, fn: (msg: any) => void) => void} on
+ * @property {(event: string, fn: (msg: any) => void) => void} off
+ */
+
+/** @param {any} value @param {string | undefined} format @returns {string} */
 function fmt(value, format) {
   // ipywidgets' readout formats the panel uses: ".2f", ".0f", ... (else the number as is)
   const m = /^\.(\d+)f$/.exec(format || "");
   return m ? Number(value).toFixed(Number(m[1])) : String(value);
 }
 
+/** @param {HTMLElement} dom @param {MirrorLayout | undefined} layout @param {string} baseDisplay */
 function applyLayout(dom, layout, baseDisplay) {
+  /** @type {MirrorLayout} */
   const l = layout || {};
   dom.style.display = l.display === "none" ? "none" : baseDisplay;
   dom.style.width = l.width || "";
@@ -22,6 +81,7 @@ function applyLayout(dom, layout, baseDisplay) {
   if (l.align_items) dom.style.alignItems = l.align_items;
 }
 
+/** @param {MirrorNode} props @returns {HTMLSpanElement} */
 function label(props) {
   const span = document.createElement("span");
   span.className = "gwm-label";
@@ -31,14 +91,19 @@ function label(props) {
   return span;
 }
 
+/**
+ * @param {MirrorNode} node @param {(msg: MirrorMessage) => void} send
+ * @param {Map<number, MirrorItem>} registry @returns {HTMLElement}
+ */
 function build(node, send, registry) {
   const kind = node.kind;
   const dom = document.createElement("div");
   dom.className = `gwm gwm-${kind}`;
   dom.dataset.gwmId = String(node.id);
-  const item = { node, dom, update: null };
+  /** @type {MirrorItem} */
+  const item = { node, dom, update: () => {} };
   if (kind === "box") {
-    dom.style.flexDirection = node.direction;
+    dom.style.flexDirection = node.direction || "";
     dom.style.flexWrap = node.direction === "row" ? "wrap" : "nowrap";
     for (const child of node.children || []) dom.appendChild(build(child, send, registry));
     item.update = (p) => applyLayout(dom, p.layout, "flex");
@@ -68,11 +133,11 @@ function build(node, send, registry) {
     item.update = (p) => {
       lab.textContent = p.description || "";
       if (kind === "selection_slider") {
-        input.min = 0; input.max = Math.max(0, (p.labels || []).length - 1); input.step = 1;
-        if (!dragging) input.value = p.index;
+        input.min = "0"; input.max = String(Math.max(0, (p.labels || []).length - 1)); input.step = "1";
+        if (!dragging) input.value = String(p.index);
       } else {
-        input.min = p.min; input.max = p.max; input.step = p.step;
-        if (!dragging) input.value = p.value;
+        input.min = String(p.min); input.max = String(p.max); input.step = String(p.step);
+        if (!dragging) input.value = String(p.value);
       }
       input.disabled = !!p.disabled;
       dom.title = p.tooltip || "";
@@ -146,12 +211,16 @@ function build(node, send, registry) {
   return dom;
 }
 
+/** @param {{model: MirrorModel, el: HTMLElement}} view @returns {() => void} */
 function render({ model, el }) {
   const root = document.createElement("div");
   root.className = "gwm-root grasswidget-panel";
   el.appendChild(root);
+  /** @type {Map<number, MirrorItem>} */
   let registry = new Map();
+  /** @param {MirrorMessage} msg */
   const send = (msg) => model.send(msg);
+  /** @param {any} msg a snapshot {type, root} or a patch {type, id, props} */
   const onMessage = (msg) => {
     if (!msg || typeof msg !== "object") return;
     if (msg.type === "snapshot") {

@@ -18,22 +18,9 @@ one line the widget shows) and, where the page can still change it, the adapter 
 from __future__ import annotations
 
 from ..core.engine_choice import EngineChoice, choose_engine
+from ..views.engines import adapter_probe, kernel_adapter
 
 __all__ = ["AutoEngine", "kernel_adapter"]
-
-
-def kernel_adapter() -> tuple:
-    """(kind, name) of the kernel's adapter: kind "gpu", "cpu" or "none" (no usable adapter,
-    :class:`~grasswidget.errors.NoGPUAdapterError`), name e.g. "llvmpipe" or "NVIDIA H100"."""
-    from ..errors import NoGPUAdapterError
-    from ..gpu.adapter import adapter_info
-
-    try:
-        info = adapter_info()
-    except NoGPUAdapterError:
-        return "none", ""
-    name = str(info.get("device") or info.get("summary") or "").split(" (")[0]
-    return ("cpu" if info.get("adapter_type") == "CPU" else "gpu"), name
 
 
 class AutoEngine:
@@ -58,9 +45,7 @@ class AutoEngine:
         self.decided = kernel_kind != "cpu"
         self.probe = None
         if not self.decided:
-            from ..browser.adapter_probe import AdapterProbe
-
-            self.probe = AdapterProbe()
+            self.probe = adapter_probe()
             self.probe.on_report(self._on_report)
 
     @property

@@ -152,11 +152,11 @@ class Exercise:
 
         Kernel engine (default): a :func:`gw.compare <grasswidget.notebook.compare.compare>`
         comparison: one camera, one clock (``c.step(n)`` advances both exactly n steps), one
-        panel on the shared parameters; ``c.views["yours"]`` runs the student's functions.
+        panel on the shared parameters; ``c.widgets["yours"]`` runs the student's functions.
         ``backend="browser"`` or ``"auto"``: the browser compiles user functions only when a
         view starts, which a comparison's views cannot be given, so the two GrassWidgets stand
         in a :class:`~grasswidget.notebook.compare.SideBySide` (an HBox) instead, sharing one
-        GrassParams (no linked camera or clock; marimo shows it too); ``.views``
+        GrassParams (no linked camera or clock; marimo shows it too); ``.widgets``
         holds them too. The code is checked first (ExerciseShaderError with the line)."""
         from .compare import compare
         from .widget import GrassWidget
@@ -170,7 +170,7 @@ class Exercise:
             comparison = compare({"yours": {}, "reference": {}}, blades=blades, size=size, params=params,
                                  backend="kernel")
             try:
-                comparison.views["yours"].set_function_overrides(overrides)
+                comparison.widgets["yours"].set_function_overrides(overrides)
             except BaseException:
                 comparison.close()
                 raise

@@ -1,9 +1,9 @@
 """The lab bench of a live view: its traces and the live chart under it.
 
-:class:`LabBench` puts together, for one :class:`~grasswidget.core.view_api.EngineView`:
+:class:`LabBench` puts together, for one :class:`~grasswidget.views.api.EngineView`:
 
 * a :class:`~grasswidget.core.traces.TraceRecorder` (the rolling window of samples),
-* the feed that fills it for the view's engine (:mod:`grasswidget.notebook.trace_feed`),
+* the feed that fills it for the view's engine (:mod:`grasswidget.views.trace_feed`),
 * a :class:`~grasswidget.browser.trace_chart.TraceChart` (uPlot in the browser;
   :attr:`LabBench.widget`, to put under the view) and the "chart" dropdown that picks
   what it shows (:attr:`LabBench.control`, a row for the owner's control panel).
@@ -105,7 +105,7 @@ class LabBench:
 
     def attach(self, view):
         """Sample ``view`` from now on (a new engine: the traces start again)."""
-        from .trace_feed import make_feed
+        from ..views.trace_feed import make_feed
 
         if self.feed is not None:
             self.feed.detach()
@@ -138,7 +138,9 @@ class LabBench:
 
     @window_s.setter
     def window_s(self, value):
-        self.recorder.window_s = value
+        from ..core.traces import check_window
+
+        self.recorder.window_s = check_window(value, "trace_window")
         self.push()
 
     def traces(self) -> dict:

@@ -44,6 +44,24 @@ def check_layout(layout) -> str:
     return layout
 
 
+def view_size(layout: str, size) -> tuple:
+    """The view's (width, height) in CSS pixels: ``size`` ((w, h) or "WxH"), or the layout's
+    default (:data:`LAYOUT_VIEW_SIZES`) when None."""
+    from ..core.presets import parse_size
+
+    return parse_size(LAYOUT_VIEW_SIZES[layout] if size is None else size)
+
+
+def make_stage(view, *below) -> ipw.VBox:
+    """The stage: ``view``'s widget with ``below`` (the lab bench's chart, the adapter probe) right under it."""
+    return ipw.VBox([view.widget, *below], layout=ipw.Layout(max_width="100%"))
+
+
+def show_view(stage, view) -> None:
+    """Put ``view``'s widget first on ``stage`` in place of the one before (an engine switch)."""
+    stage.children = [view.widget, *stage.children[1:]]
+
+
 def close_widgets(*widgets) -> None:
     """Close each ipywidget in ``widgets`` and the ``layout`` and ``style`` it holds.
 

@@ -10,7 +10,7 @@ What marimo then shows is made of anywidgets only, each drawn by marimo itself:
 
 * :class:`MarimoStage`: the widget's stage (the live view, then the lab bench's chart),
   as marimo's anywidget elements: the browser engine's
-  :class:`~grasswidget.browser.view.BrowserEngineWidget` or the kernel engine's jupyter-rfb
+  :class:`~grasswidget.browser.engine_widget.BrowserEngineWidget` or the kernel engine's jupyter-rfb
   canvas (jupyter-rfb 1.0's ``RemoteFrameBuffer`` is an anywidget; shown directly,
   without its Output context), and the :class:`~grasswidget.browser.trace_chart.TraceChart`
   (hidden while no chart is chosen). When the widget changes its view (a browser without
@@ -25,8 +25,6 @@ wide enough, under it otherwise (as in Jupyter, :mod:`grasswidget.notebook.layou
 
 from __future__ import annotations
 
-import base64
-import sys
 from pathlib import Path
 
 import anywidget
@@ -35,56 +33,12 @@ from traitlets import Unicode
 
 from ..compat import marimo_anywidget_element
 from .layout import PANEL_WIDTH
+from ..views.front_end import class_for_front_end, esm_for_front_end, running_in_marimo
 
-__all__ = ["marimo_display", "marimo_compare_display", "marimo_row_display", "MarimoStage", "running_in_marimo",
+__all__ = ["MarimoFace", "marimo_display", "marimo_compare_display", "marimo_row_display", "MarimoStage", "running_in_marimo",
            "esm_for_front_end", "class_for_front_end"]
 
 HERE = Path(__file__).resolve().parent
-
-
-def running_in_marimo() -> bool:
-    """True in the kernel of a marimo notebook (``marimo edit`` or ``marimo run``). Never imports
-    marimo: where nothing has loaded it, this is not marimo."""
-    mo = sys.modules.get("marimo")
-    if mo is None:
-        return False
-    try:
-        return bool(mo.running_in_notebook())
-    except Exception:  # an older or half-initialised marimo: not a notebook we can serve
-        return False
-
-
-def esm_for_front_end(esm: str) -> str:
-    """An anywidget's ES module text as the front end running now takes it: unchanged in Jupyter; in
-    marimo as a ``data:text/javascript;base64,`` URL. marimo 0.25 turns module text into a file of
-    the running cell, so a widget made outside a cell (the kernel engine's view made when a browser
-    turns out to have no WebGPU, in a widget message's handler) fails with an AssertionError; a
-    JavaScript data URL it loads as it is. Jupyter's anywidget would take a data URL for module
-    text, hence only in marimo."""
-    if not running_in_marimo() or esm.startswith("data:"):
-        return esm
-    return "data:text/javascript;base64," + base64.b64encode(esm.encode("utf-8")).decode("ascii")
-
-
-#: The subclasses made by class_for_front_end, one per anywidget class.
-_MARIMO_CLASSES: dict = {}
-
-
-def class_for_front_end(widget_class):
-    """An anywidget class as the front end running now can make it also outside a running cell:
-    ``widget_class`` itself in Jupyter; in marimo a subclass (made once) whose module is
-    :func:`esm_for_front_end`'s URL. For anywidgets that a widget message's handler may make (the
-    browser engine's view when backend="auto" switches engines, after the page reported its adapter)."""
-    if not running_in_marimo():
-        return widget_class
-    subclass = _MARIMO_CLASSES.get(widget_class)
-    if subclass is None:
-        subclass = type(widget_class.__name__, (widget_class,), {"__module__": widget_class.__module__,
-                                                                  "__doc__": widget_class.__doc__})
-        # set after the class is made: anywidget would take a module text at class creation for a path
-        subclass._esm = esm_for_front_end(str(widget_class._esm))
-        _MARIMO_CLASSES[widget_class] = subclass
-    return subclass
 
 
 class MarimoStage(anywidget.AnyWidget):
@@ -136,6 +90,42 @@ class MarimoStage(anywidget.AnyWidget):
             box.unobserve(self._refresh, names="children")
         self._boxes, self._elements = [], []
         super().close()
+
+
+class MarimoFace:
+    """The front-end face of one GrassWidget for marimo: its stage (:class:`MarimoStage`) and its
+    panel column as a :class:`~grasswidget.notebook.control_mirror.ControlMirror`, each made on
+    first use (needs marimo for the stage) and then the same one.
+
+    Args:
+        stage: the widget's stage box (view, chart).
+        column: the widget's panel column (camera bar and rows).
+        on_error: where a value the mirror's controls refuse is reported.
+    """
+
+    def __init__(self, stage, column, on_error):
+        self._box, self._column, self._on_error = stage, column, on_error
+        self._stage = self._mirror = None
+
+    def stage(self) -> MarimoStage:
+        if self._stage is None:
+            self._stage = MarimoStage(self._box)
+        return self._stage
+
+    def mirror(self):
+        from .control_mirror import ControlMirror
+
+        if self._mirror is None:
+            self._mirror = ControlMirror(self._column, on_error=self._on_error)
+        return self._mirror
+
+    def made(self) -> tuple:
+        """The anywidgets made so far."""
+        return tuple(p for p in (self._stage, self._mirror) if p is not None)
+
+    def close(self):
+        for part in self.made():
+            part.close()
 
 
 def marimo_display(widget):

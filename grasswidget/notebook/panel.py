@@ -2,8 +2,8 @@
 
 :class:`ControlPanel` builds the ipywidgets controls and links them, both ways,
 to traits: the :class:`~grasswidget.GrassParams` sliders, dropdown and culling
-checkboxes to ``params``; the ``time_scale`` slider to the widget's trait.
-It knows nothing of how the meadow is drawn: buttons call the widget's actions
+checkboxes to ``params``; the ``time_scale`` slider to the widget's state.
+It knows nothing of how the meadow is drawn: buttons call actions
 (``toggle_play``, ``step``, ``reset_blades``, ``reset_camera``, ``set_blades``,
 and a save function), and the view hands it a stats dict to show with
 :meth:`ControlPanel.show_stats`. So any view (the kernel's jupyter-rfb stream or
@@ -32,7 +32,7 @@ import html
 
 import ipywidgets as ipw
 
-from .blade_control import BladeCountControl
+from .blade_count_control import BladeCountControl
 from .control_link import ControlLink
 from .layout import close_widgets
 from .switch_choice import SWITCH_CHOICES, SwitchChoice
@@ -161,13 +161,13 @@ def format_status(stats: dict) -> str:
     Keys of a view's stats dict (each optional, None = unknown): ``fps``,
     ``visible``, ``blades``, ``slow_motion`` and ``sim_speed`` (simulated / wall
     seconds), ``playing`` (False: "paused" instead of the speed of time), and how old
-    the numbers are (:func:`grasswidget.core.frame_data.stats_freshness`): ``at_rest``,
+    the numbers are (:func:`grasswidget.core.engine_inputs.stats_freshness`): ``at_rest``,
     ``waiting``, ``stale`` and ``frame_age_s``. The rest is in :func:`format_details`.
 
     It only says what it knows: paused, ``"paused"`` (no frame rate: a paused view
     draws on demand; ``"paused, out of sight"`` at rest); out of sight, ``"at rest (out of sight)"``; playing before the first
     measured frame (``fps`` None), ``"starting…"``; playing while no frame arrives
-    (``waiting``: none for :data:`~grasswidget.core.frame_data.WAITING_AFTER_S`; without
+    (``waiting``: none for :data:`~grasswidget.core.engine_inputs.WAITING_AFTER_S`; without
     that key, ``fps`` below :data:`NO_FRAMES_BELOW`), ``"waiting for frames"``, and never
     while frames arrive. Stale numbers say their age: ``"last frame 12 s ago"``.
     "real time" or "slow motion" only follow a measured frame rate of fresh stats, and not
@@ -288,13 +288,15 @@ class ControlPanel:
 
     Args:
         params: the :class:`GrassParams` the sliders, dropdown and checkboxes edit.
-        playback: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (the
-            widget) for the ``time_scale`` slider and the "freeze culling" checkbox.
+        state: a HasTraits with ``time_scale`` and ``culling_frozen`` traits (a GrassWidget's
+            :class:`~grasswidget.notebook.widget_state.WidgetState`, or a comparison) for the
+            ``time_scale`` slider and the "freeze culling" checkbox.
         actions: the object whose methods the buttons call: ``toggle_play()``,
-            ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``,
-            ``save_png(size=(w, h)) -> path`` and ``inspect(ids)`` ("Clear": ``inspect([])``).
+            ``step()``, ``reset_blades()``, ``reset_camera()``, ``set_blades(n)``, ``target_fps``,
+            ``inspect(ids)`` ("Clear": ``inspect([])``) and ``save_png(size=(w, h)) -> path``, or
+            ``save_png_later(size, done) -> bool`` (written later, then ``done(path)``).
         blade_count, max_blades: the blade control's count and top (see
-            :mod:`grasswidget.notebook.blade_control`: powers of two, asks before a
+            :mod:`grasswidget.notebook.blade_count_control`: powers of two, asks before a
             count slower than the target frame rate).
         view_size: (w, h) CSS pixels of the view (Save PNG multiplies it).
         ball_row: an ipywidget row (the ball's controls) or None.
@@ -311,7 +313,7 @@ class ControlPanel:
     (the list of ipywidgets to put under the view).
     """
 
-    def __init__(self, params, playback, actions, *, blade_count, max_blades, view_size, ball_row=None):
+    def __init__(self, params, state, actions, *, blade_count, max_blades, view_size, ball_row=None):
         self.params = params
         self._actions = actions
         self.view_size = tuple(view_size)
@@ -328,8 +330,8 @@ class ControlPanel:
         for name, step, fmt in PARAM_SLIDERS:
             self.sliders[name] = s = _slider(name, params, step, fmt, column)
             self._links.append(ControlLink(s, params, name, err))
-        self.sliders["time_scale"] = ts = _slider("time_scale", playback, 0.05, ".2f", column)
-        self._links.append(ControlLink(ts, playback, "time_scale", err))
+        self.sliders["time_scale"] = ts = _slider("time_scale", state, 0.05, ".2f", column)
+        self._links.append(ControlLink(ts, state, "time_scale", err))
         #: The "looks" row's sliders (dict trait -> slider): colour variety, patches, dry grass, sunlit tips, fog,
         #: the sun's height and direction.
         self.look_sliders = {}
@@ -370,11 +372,11 @@ class ControlPanel:
                                               style=_DESC, layout=ipw.Layout(width="240px"),
                                               tooltip=params.traits()["color_by"].help)
         self._links.append(ControlLink(self.color_by_dropdown, params, "color_by", err))
-        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(playback, "culling_frozen", False)),
+        self.freeze_checkbox = ipw.Checkbox(value=bool(getattr(state, "culling_frozen", False)),
                                             description="freeze culling", indent=False,
                                             layout=ipw.Layout(width="auto", margin="2px 12px 2px 8px"))
-        if playback.has_trait("culling_frozen"):
-            self._links.append(ControlLink(self.freeze_checkbox, playback, "culling_frozen", err))
+        if state.has_trait("culling_frozen"):
+            self._links.append(ControlLink(self.freeze_checkbox, state, "culling_frozen", err))
         self.legend_line = ipw.HTML(value=legend_html(params.color_by),
                                     layout=ipw.Layout(min_height="20px", max_width="100%"))
         params.observe(self._on_color_by, names="color_by")

@@ -1,7 +1,7 @@
 """The panel's three-way choice for a switch decided by measuring (auto / on / off).
 
 ``GrassParams.cull_occlusion`` and ``GrassParams.compute_raster`` are True, False or "auto"
-(:mod:`grasswidget.core.pays`). :class:`SwitchChoice` shows one as a dropdown ("auto", "on",
+(:mod:`grasswidget.core.auto_switches`). :class:`SwitchChoice` shows one as a dropdown ("auto", "on",
 "off") linked both ways to the trait, and beside it what "auto" currently decided, e.g.
 "auto (on: removed 41 % of blades, ...)", from the view's stats (``stats["switches"]``).
 """
@@ -12,7 +12,7 @@ import html
 
 import ipywidgets as ipw
 
-from ..core.pays import AUTO, switch_text
+from ..core.auto_switches import AUTO, switch_text
 from .control_link import ControlLink
 
 __all__ = ["SwitchChoice", "SWITCH_CHOICES"]

@@ -488,7 +488,7 @@ fn blade_shade(normal: vec3<f32>, to_eye: vec3<f32>, along: f32, base: vec3<f32>
     return mix(rgb, fog_color, fog);
 }
 
-// ---------------------------------------------------------------- sunlight (reference.sunlight)
+// ---------------------------------------------------------------- sunlight (reference.shadows)
 
 // How much of the sun (unit direction `sun`) point p sees past one ball (x, y, z, r), 0 (core of
 // its shadow) .. 1; r <= 0 (an unused slot) casts none. Soft edge: a penumbra of

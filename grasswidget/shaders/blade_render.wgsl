@@ -11,7 +11,7 @@
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
-{$ include 'grasswidget.sunlight.wgsl' $}
+{$ include 'grasswidget.shadows.wgsl' $}
 
 const SEGMENTS: u32 = {{ segments }}u;
 const LOD_CLASS: u32 = {{ lod_class }}u;
@@ -108,7 +108,7 @@ fn vs_main(in: VertexInput) -> Varyings {
     let eye_distance = max(length(eye), 1e-12);
     let to_eye = eye / eye_distance;
     let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), v, u_material.translucency);
-    // The sunlight's shadows and darkened roots (sunlight.wgsl; (1, 1) with shadows off), per vertex too.
+    // The sunlight's shadows and darkened roots (shadows.wgsl; (1, 1) with shadows off), per vertex too.
     let sunlit = blade_sunlight(world_pos.xyz / world_pos.w, v, u_material.ambient);
     var rgb = blade_shade(world_normal, to_eye, v, base * sunlit.x, glow * sunlit.y,
                           fog_amount(eye_distance, u_material.fog_density), u_material.fog_color.rgb,
@@ -143,7 +143,7 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
     let to_eye = normalize(cam_pos - varyings.world_pos);
     let glow = backlight(to_eye, normalize(u_material.light_direction.xyz), varyings.along, u_material.translucency);
-    // The sunlight's shadows and darkened roots (sunlight.wgsl; (1, 1) with shadows off).
+    // The sunlight's shadows and darkened roots (shadows.wgsl; (1, 1) with shadows off).
     let sunlit = blade_sunlight(varyings.world_pos, varyings.along, u_material.ambient);
     // Two-sided diffuse and translucency, the tips' glow against the sun and the fog
     // (blade_math.blade_shade; base colour and fog from the vertices).

@@ -16,7 +16,7 @@
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
-{$ include 'grasswidget.sunlight.wgsl' $}
+{$ include 'grasswidget.shadows.wgsl' $}
 
 $$ if teaching_views
 const RASTER_COLOR = vec3<f32>({{ raster_color }});
@@ -90,7 +90,7 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
                                 u_material.color_variation, u_material.dryness);
     let glow = backlight(normalize(eye), normalize(u_material.light_direction.xyz), v, u_material.translucency);
     let fog = fog_amount(length(eye), u_material.fog_density);
-    let sunlit = blade_sunlight(world_pos, v, u_material.ambient);  // sunlight.wgsl, as the ribbons
+    let sunlit = blade_sunlight(world_pos, v, u_material.ambient);  // shadows.wgsl, as the ribbons
     var rgb = blade_shade(world_normal, normalize(eye), v, base * sunlit.x, glow * sunlit.y, fog, u_material.fog_color.rgb,
                           u_material.light_direction.xyz, u_material.ambient);
     $$ if teaching_views

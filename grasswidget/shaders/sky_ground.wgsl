@@ -7,11 +7,11 @@
 // (flat colours: a noise here cost a third of a lavapipe frame), fading towards the horizon colour near
 // the far plane and with distance fog; else the sky, from the horizon colour up
 // to the zenith colour by the ray's elevation (functions: blade_math.wgsl, looks). With
-// GrassParams.shadows the ground is lit past the balls and the grass (sunlight.wgsl).
+// GrassParams.shadows the ground is lit past the balls and the grass (shadows.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
-{$ include 'grasswidget.sunlight.wgsl' $}
+{$ include 'grasswidget.shadows.wgsl' $}
 
 struct VertexInput {
     @builtin(vertex_index) index : u32,
@@ -40,7 +40,7 @@ fn vs_main(in: VertexInput) -> Varyings {
 // takes over with the camera's distance (m.far_blend.x..y) and wholly past the last blades
 // (m.horizon.z): the blades' colour at m.far_blend.w of their height, in the same patches
 // (clump_noise of size m.far_blend.z) as the blades, times their mean shade (m.far_grass).
-// `sunlight` (sunlight.wgsl's ground_sunlight, 1 with shadows off) lights the soil and the ground
+// `sunlight` (shadows.wgsl's ground_sunlight, 1 with shadows off) lights the soil and the ground
 // beyond; the far grass is the grass's top, lit as the blades are.
 fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
     let m = u_material;
@@ -83,7 +83,7 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
             if (abs(hit.x - g.x) <= g.w && abs(hit.z - g.z) <= g.w && clip.z <= clip.w) {
                 let cam = u_stdinfo.cam_transform_inv[3].xyz;
                 let dist = length(hit - cam);
-                // lit by the sun past the balls and the grass (sunlight.wgsl; 1 with shadows off)
+                // lit by the sun past the balls and the grass (shadows.wgsl; 1 with shadows off)
                 let ground = ground_albedo(hit, dist, ground_sunlight(hit, m.ground_sun));
                 // the ground fades into the horizon over the last 40 % before the far plane
                 // (view depth clip.w; m.far_distance), and into the fog

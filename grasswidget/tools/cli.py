@@ -351,7 +351,7 @@ def _html(args):
     if args.preset == "default":
         blades, size = Blades.on_plane(args.blades, seed=args.seed), args.size or (960, 540)
     else:
-        from ..core.framing import preset_field
+        from ..core.presets import preset_field
 
         blades, preset_size, view = preset_field(args.preset, args.blades, seed=args.seed)
         size = args.size or preset_size
@@ -389,13 +389,13 @@ def _sweep(args):
 
 
 def _bench(args):
-    from .bench import format_table, run_bench, save_json
+    from .benchmark import format_table, run_benchmark, save_json
 
     blades = args.blades
     if blades is None:
         blades = [1 << k for k in (range(10, 18) if args.preset == "cis565" else range(16, 23))]
     if args.matrix:
-        from .bench_matrix import format_matrix, run_matrix
+        from .benchmark_matrix import format_matrix, run_matrix
 
         report = run_matrix(args.preset, blades, size=args.size, rounds=args.rounds, block=args.block,
                             progress=not args.no_progress)
@@ -404,7 +404,7 @@ def _bench(args):
         save_json(report, path)
         print(f"wrote {path}")
         return 0
-    report = run_bench(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
+    report = run_benchmark(args.preset, blades, frames=args.frames, size=args.size, cull=args.cull,
                        progress=not args.no_progress, occlusion=args.occlusion, compute_raster=args.compute_raster,
                        raster_max_px=args.raster_max_px, horizon=not args.no_horizon)
     print(format_table(report))

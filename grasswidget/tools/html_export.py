@@ -68,7 +68,7 @@ def save_html(path, blades, params: GrassParams | None = None, *, size=(640, 480
         camera_floor: what the page's orbit keeps the camera above, "grass" or "ground"
             (default: "grass" unless the camera is lower than the grass, as the cis565 view).
     """
-    from ..browser.view import BrowserEngineWidget
+    from ..browser.engine_widget import BrowserEngineWidget
     from ..core.camera_presets import floor_for
     from ..core.orbit_limits import check_floor
 

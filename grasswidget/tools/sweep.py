@@ -34,7 +34,7 @@ import numpy as np
 from ..core.limits import MAX_STEPS
 from ..core.blade_response import response_summary
 from ..core.blades import Blades
-from ..core.framing import PRESETS, check_png_path, parse_size
+from ..core.presets import PRESETS, check_png_path, parse_size
 from ..core.params import GrassParams
 from ..core.variants import apply_changes, check_sweep_axes
 from ..errors import GrassTypeError, GrassValueError

@@ -1,6 +1,6 @@
 """The browser engine's "auto" switches without a browser: recorded stats messages fed to
 the view, the switch state it sends back (the two ``u_cull`` words engine.js executes), the
-decision (grasswidget.core.pays's rule, the kernel's) and the panel's words.
+decision (grasswidget.core.auto_switches's rule, the kernel's) and the panel's words.
 
 Not marked ``browser``: the messages are what engine.js sends (js/messages.js's protocol comment).
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.core.pays import TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
+from grasswidget.core.auto_switches import TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
 from grasswidget.core.uniform_layouts import CULL_LAYOUT, offsets
 
 _AT = offsets(CULL_LAYOUT)
@@ -37,7 +37,7 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert w.params.cull_occlusion == "auto" and w.params.compute_raster == "auto"
         # The trial starts with occlusion culling off.
         assert _executed(ew) == [False, False]
-        assert "auto (" in w.switch_choices["cull_occlusion"].decision_line.value
+        assert "auto (" in w.panel.switch_choices["cull_occlusion"].decision_line.value
         # A message of frames drawn with another state than asked (still in flight) is not used.
         ew.handle_message(_stats([True, False], 9.0, occluded=500))
         assert _executed(ew) == [False, False] and ew.auto_switches.state.decisions == {}
@@ -58,13 +58,13 @@ def test_browser_auto_switches_decide_from_the_browsers_frames():
         assert decision.on and "removed 33 % of blades" in decision.reason and "6.0 ms" in decision.reason
         assert _executed(ew) == [True, False]
         assert w.stats["switches"]["cull_occlusion"].startswith("auto (on: removed 33 % of blades")
-        assert "auto (on: removed 33 % of blades" in w.switch_choices["cull_occlusion"].decision_line.value
+        assert "auto (on: removed 33 % of blades" in w.panel.switch_choices["cull_occlusion"].decision_line.value
         ew.handle_message(_stats([True, False], 6.0, occluded=500))
         assert _executed(ew) == [True, True]
         ew.handle_message(_stats([True, True], 5.0, occluded=500, rastered=0))
         assert _executed(ew) == [True, False]
         ew.handle_message(_stats([True, False], 6.0, occluded=500))
-        assert ew.auto_switches.state.decisions["compute_raster"] == gw.core.pays.Decision(
+        assert ew.auto_switches.state.decisions["compute_raster"] == gw.core.auto_switches.Decision(
             False, "took over no blade (none thin enough)")
         assert _executed(ew) == [True, False]
         assert w.stats["switches"] == {"cull_occlusion": w.stats["switches"]["cull_occlusion"],

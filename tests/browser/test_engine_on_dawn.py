@@ -47,7 +47,7 @@ def test_browser_engine_on_dawn_draws_the_kernel_engines_picture(tmp_path):
     assert result["adapter"]["architecture"] == "swiftshader", result["adapter"]
     # the meadow as a user gets it: GrassWidget(BLADES, preset="meadow", backend="browser") on this adapter
     scene = json.loads(manifest.read_text())["cases"][0]["scene"]
-    from grasswidget.core.framing import preset_field
+    from grasswidget.core.presets import preset_field
 
     view = preset_field("meadow", BLADES)[2]
     assert scene["horizon"] is True and scene["shadows"] is False, scene  # to the horizon; a CPU's sunlight default

@@ -6,7 +6,7 @@
   entry's exports.
 * Every rule of js/rules.js, run with Node.js on many inputs, gives what its Python twin (the
   function that decides it) gives, as the WGSL twins are checked against NumPy. SimClock,
-  clampOrbit and hzbLayout are checked in tests/core/test_frame_data.py the same way.
+  clampOrbit and hzbLayout are checked in tests/core/test_engine_inputs.py the same way.
 * The numbers those rules use come from Python: frame_rules carries them, the modules do not
   write them.
 
@@ -26,8 +26,8 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.browser import esm
-from grasswidget.browser.view import BrowserEngineWidget
-from grasswidget.core import camera_rules, frame_data
+from grasswidget.browser.engine_widget import BrowserEngineWidget
+from grasswidget.core import camera_rules, engine_inputs, interaction
 from grasswidget.errors import PageBuildError
 from conftest import node_executable
 
@@ -113,7 +113,7 @@ def test_rules_js_computes_what_its_python_twins_decide():
 
     rng = np.random.default_rng(11)
     blades = gw.Blades.on_plane(300, size=6.0)
-    rules = frame_data.frame_rules(gw.GrassParams(), blades, 100.0)
+    rules = engine_inputs.frame_rules(gw.GrassParams(), blades, 100.0)
     vec = lambda lo, hi: [float(x) for x in rng.uniform(lo, hi, 3)]  # noqa: E731
     cameras = [[vec(-30, 30), vec(-5, 5)] for _ in range(200)]
     cameras += [[[0.0, 9.0, 0.0], [0.0, 0.0, 0.0]], [[0.0, -3.0, 0.0], [0.0, 1.0, 0.0]]]  # straight down and up
@@ -124,7 +124,7 @@ def test_rules_js_computes_what_its_python_twins_decide():
     pans = [[vec(-30, 30), vec(-5, 5), float(rng.uniform(20, 90)), float(rng.normal(0, 50)), float(rng.normal(0, 50)),
              float(rng.integers(100, 1200))] for _ in range(100)]
     wheels = [[vec(-30, 30), vec(-5, 5), float(rng.normal(0, 400))] for _ in range(100)]
-    clocks = [frame_data.clock_rules(gw.GrassParams(wind_field=w, dt=dt)) for w in ("wave", "radial", "vortex", "noise")
+    clocks = [engine_inputs.clock_rules(gw.GrassParams(wind_field=w, dt=dt)) for w in ("wave", "radial", "vortex", "noise")
               for dt in (1 / 120, 1 / 60, 0.0037)]
     clocks.append(dict(clocks[0], wind_period=0.0))  # no period
     winds = [[int(k), clocks[int(rng.integers(len(clocks)))]] for k in rng.integers(0, 10 ** 7, 200)]
@@ -157,12 +157,12 @@ def test_rules_js_computes_what_its_python_twins_decide():
         assert np.allclose(js, camera_rules.wheel_zoom(p, t, d, rules["drag"]), atol=1e-9)
     assert any(abs(d * camera_rules.WHEEL_PER_DELTA) > camera_rules.WHEEL_MAX_LOG for _, _, d in wheels)
     for (k, clock), js in zip(winds, got["wind"]):
-        assert js == frame_data.wind_time(k, clock["dt"], clock["wind_period"]), (k, clock)
+        assert js == engine_inputs.wind_time(k, clock["dt"], clock["wind_period"]), (k, clock)
     assert any(c["wind_period"] > 0 for _, c in winds) and any(c["wind_period"] == 0 for _, c in winds)
-    assert got["perDispatch"] == [frame_data.steps_per_dispatch(n) for n in counts]
+    assert got["perDispatch"] == [engine_inputs.steps_per_dispatch(n) for n in counts]
     assert [tuple(g) for g in got["groups"]] == [workgroups(n)[:2] for n in counts]
     for words, js in zip(readbacks, got["counters"]):
-        want = frame_data.read_counters(np.array(words, np.uint32), layout)
+        want = engine_inputs.read_counters(np.array(words, np.uint32), layout)
         # a sum past 2^32 is a number in JS, not wrapped (a real count stays far below: 2^24 blades)
         assert js == want, words
 
@@ -173,7 +173,7 @@ def test_counter_layout_is_where_both_engines_copy_their_counts():
     from grasswidget.browser.browser_wgsl import BrowserShaders
     from grasswidget.core.reference import LOD_SEGMENTS
 
-    layout = frame_data.counter_layout()
+    layout = engine_inputs.counter_layout()
     c = len(LOD_SEGMENTS)
     assert layout["second_at"] - layout["first_at"] == 4 * c
     assert layout["raster_at"] - layout["second_at"] == BrowserShaders.occlusion()["args_words"]
@@ -183,12 +183,12 @@ def test_counter_layout_is_where_both_engines_copy_their_counts():
     words[[4 * k + 1 for k in range(c)]] = [10 * (k + 1) for k in range(c)]
     words[[4 * c + 4 * k + 1 for k in range(c)]] = [k + 1 for k in range(c)]
     words[8 * c], words[8 * c + 4] = 7, 5
-    assert frame_data.read_counters(words, layout) == {
+    assert engine_inputs.read_counters(words, layout) == {
         "visible_per_class": [11 * (k + 1) for k in range(c)], "occluded": 7, "rastered": 5}
     with pytest.raises(gw.GrassValueError, match="n_classes"):
-        frame_data.counter_layout(0)
+        engine_inputs.counter_layout(0)
     with pytest.raises(gw.GrassValueError, match="words"):
-        frame_data.read_counters(words[:-1], layout)
+        engine_inputs.read_counters(words[:-1], layout)
 
 
 def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
@@ -196,16 +196,16 @@ def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
     workgroup size, the blade steps per dispatch, the drag's rates, the stats interval; the
     engine's modules no longer write the old literals."""
     from grasswidget.core.shader_files import WORKGROUP_SIZE
-    from grasswidget.gpu.simulation import MAX_BLADE_STEPS_PER_DISPATCH
+    from grasswidget.gpu.simulation import BLADE_STEPS_PER_DISPATCH
 
     blades = gw.Blades.on_plane(64)
     view = BrowserEngineWidget(blades, size=(160, 120))
     try:
         rules = view.frame_rules
         assert rules["dispatch"] == {"workgroup_size": WORKGROUP_SIZE, "max_groups_x": 65535,
-                                     "blade_steps_per_dispatch": MAX_BLADE_STEPS_PER_DISPATCH}
+                                     "blade_steps_per_dispatch": BLADE_STEPS_PER_DISPATCH}
         assert rules["drag"] == camera_rules.drag_rules()
-        assert view.stats_interval_ms == frame_data.STATS_INTERVAL_MS
+        assert view.stats_interval_ms == engine_inputs.STATS_INTERVAL_MS
         assert view.camera == camera_rules.default_camera(blades.v0)
         json.dumps(rules)  # JSON-able, as the comm sends it
     finally:
@@ -216,3 +216,187 @@ def test_the_frame_rules_carry_the_numbers_and_the_modules_do_not_write_them():
         for literal in ("1 << 24", "1 << 30", "WORKGROUP", "STATS_INTERVAL", "0.008", "1.55", "0.001", "> 100"):
             assert literal not in s, (name, literal)
         assert not re.search(r"\b256\b", s) or name in ("pictures.js", "messages.js"), name  # 256: byte values, row pitch
+
+
+_INPUT_DRIVER = """
+import { readFileSync } from "node:fs";
+import * as R from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const presses = c.presses.map((events) => {
+  const g = new R.PointerGesture(c.input);
+  return events.map(([type, x, y, button, mods]) =>
+    type === "down" ? g.down(x, y, R.domButton(button, c.input), mods) : type === "move" ? g.move(x, y) : g.up(x, y));
+});
+console.log(JSON.stringify({
+  presses,
+  keys: c.keys.map(([k, m]) => R.keyAction(k, m, c.input)),
+  ratios: c.ratios.map(([d, a]) => R.displayRatio(d, a, c.input)),
+}));
+"""
+
+
+def _random_presses(rng, n):
+    """Press, moves, release sequences: DOM buttons, modifiers, moves near and past the click slop."""
+    mods = [[], ["Control"], ["Meta"], ["Shift"], ["Control", "Shift"], ["Alt"], ["Shift", "Meta"]]
+    out = []
+    for _ in range(n):
+        x, y = float(rng.uniform(0, 400)), float(rng.uniform(0, 300))
+        events = [["down", x, y, int(rng.choice([0, 0, 0, 1, 2, 3])), mods[int(rng.integers(len(mods)))]]]
+        scale = float(rng.choice([1.0, 3.0, 10.0]))
+        for _ in range(int(rng.integers(0, 6))):
+            events.append(["move", x + float(rng.normal(0, scale)), y + float(rng.normal(0, scale)), 0, []])
+        events.append(["up", x + float(rng.normal(0, scale)), y + float(rng.normal(0, scale)), 0, []])
+        out.append(events)
+    # exactly at the slop: a drag; just short of it: a click
+    slop = interaction.CLICK_SLOP_PX
+    out.append([["down", 10.0, 10.0, 0, ["Control"]], ["move", 10.0 + slop, 10.0, 0, []], ["up", 10.0, 10.0, 0, []]])
+    out.append([["down", 10.0, 10.0, 0, ["Control"]], ["move", 10.0, 10.0 + 0.99 * slop, 0, []],
+                ["up", 10.0 + 0.99 * slop, 10.0, 0, []]])
+    return out
+
+
+def _python_press(events):
+    g = interaction.PointerGesture(engine_inputs.frame_rules(gw.GrassParams(), gw.Blades.on_plane(16), 100.0)["input"])
+    got = []
+    for kind, x, y, button, mods in events:
+        if kind == "down":
+            got.append(g.down(x, y, interaction.DOM_BUTTONS[button], mods))
+        else:
+            got.append(g.move(x, y) if kind == "move" else g.up(x, y))
+    return got
+
+
+def test_input_rules_js_decide_what_python_decides():
+    """The pointer gesture (click versus drag, the ctrl gesture), the key map and the pixel ratio
+    cap run in the page from frame_rules.input: under node they give what core.interaction gives,
+    and the page's modules write none of those numbers themselves."""
+    rng = np.random.default_rng(39)
+    rules = engine_inputs.frame_rules(gw.GrassParams(), gw.Blades.on_plane(16), 100.0)
+    assert rules["input"] == interaction.input_rules()
+    presses = _random_presses(rng, 400)
+    keys = [[k, m] for k in (" ", "s", "S", "r", "R", "Space", "x", "Enter", "spacebar") for m in ([], ["Shift"], ["Control"])]
+    ratios = [[d, a] for d in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0) for a in (0.0, 0.75, 1.0, 3.0)]
+    got = _node(_INPUT_DRIVER % json.dumps((BROWSER_DIR / "js" / "rules.js").as_uri()),
+                dict(presses=presses, keys=keys, ratios=ratios, input=rules["input"]))
+    for events, js in zip(presses, got["presses"]):
+        assert js == _python_press(events), events
+    outcomes = {o for p in got["presses"] for o in p}
+    assert {"pick", "ball", "pan", "orbit", "wait", "pan_start", "inspect", "cancel"} <= outcomes  # all exercised
+    assert got["presses"][-2] == ["pick", "pan_start", "pan"] and got["presses"][-1] == ["pick", "wait", "inspect"]
+    assert got["keys"] == [interaction.key_action(k, m) for k, m in keys]
+    assert got["ratios"] == [interaction.display_ratio(d, a) for d, a in ratios]
+    assert max(got["ratios"]) == 3.0 and interaction.display_ratio(3.0) == interaction.MAX_PIXEL_RATIO == 2.0
+
+    # a JS rule that disagrees fails: the same driver on rules.js with the slop moved
+    changed = dict(rules["input"], click_slop_px=2 * interaction.CLICK_SLOP_PX)
+    off = _node(_INPUT_DRIVER % json.dumps((BROWSER_DIR / "js" / "rules.js").as_uri()),
+                dict(presses=presses, keys=keys, ratios=ratios, input=changed))
+    assert any(js != _python_press(ev) for ev, js in zip(presses, off["presses"]))
+
+    # the numbers are Python's: the modules that read input events write none of them
+    for name in ("js/canvas_view.js", "js/messages.js", "page.js"):
+        code = re.sub(r"//[^\n]*|/\*.*?\*/", "", (BROWSER_DIR / name).read_text(encoding="utf-8"), flags=re.S)
+        assert not re.search(r"<\s*4\b|>\s*60\b|devicePixelRatio[^;]*,\s*2\)|0\.1\s*\*", code), name
+        assert not re.search(r"""key\s*===\s*["'][sr ]["']""", code), name
+
+
+#: The engine's modules (rules.js and the interaction modules aside): composition of js/*.js.
+_ENGINE_MODULES = ("engine.js", "js/device.js", "js/pipelines.js", "js/culling.js", "js/resources.js", "js/passes.js",
+                   "js/camera.js", "js/stats.js", "js/messages.js")
+#: The only number literals those modules may write, each a fact of WebGPU or of a byte format, not
+#: a rule: 4 bytes a word, 16 a vec4 / indirect args, 128 two mat4 (u_wobject), 256 the copy row
+#: pitch, 255 an opaque alpha, 8 WebGPU's default storage buffers per stage and the depth pyramid's
+#: 8 x 8 workgroup, 12 the grid's first three words, 6 a quad's vertices, 3 sizes kept per target,
+#: 1000 ms a second, 0xFFFFFFFF all bits.
+_FORMAT_LITERALS = {"0", "1", "2", "3", "4", "6", "8", "12", "16", "128", "255", "256", "1000", "0xFFFFFFFF"}
+
+_STATS_DRIVER = """
+import { readFileSync } from "node:fs";
+import { EngineStats } from %s;
+const c = JSON.parse(readFileSync(0, "utf8"));
+const sent = [];
+const stats = new EngineStats((type, message, extra) => sent.push({ type, ...extra }));
+c.frames.forEach(([switches, ms]) => stats.frameDone(switches, ms, c.kept));
+stats.maybeSend(0, { step_count: 7, adapter: "test", views: 1 });
+console.log(JSON.stringify({ sent, frames: stats.frames }));
+"""
+
+
+def test_the_engine_numbers_are_pythons_and_the_modules_write_none():
+    """frame_rules["engine"] (core.engine_inputs.engine_rules) carries the engine's own numbers, each
+    from its Python owner; the engine's modules write no other number than a format's."""
+    from grasswidget.core.blades import BLADE_BYTES
+    from grasswidget.core.auto_switches import FRAME_TIMES_KEPT, TRIAL_MAX_FRAMES
+    from grasswidget.core.reference import FORCE_NAMES
+    from grasswidget.core.teaching import INSPECTED_POINT_BYTES
+
+    engine = engine_inputs.engine_rules()
+    assert engine["frame_times_kept"] == FRAME_TIMES_KEPT >= TRIAL_MAX_FRAMES  # a message carries a trial's side
+    assert engine["blade_bytes"] == BLADE_BYTES == 64
+    assert engine["inspected_point_bytes"] == INSPECTED_POINT_BYTES == 36
+    assert engine["inspected_force_bytes"] == 16 * len(FORCE_NAMES)
+    assert engine["frames_in_flight"] == engine_inputs.FRAMES_IN_FLIGHT >= 1
+    assert engine["device_loss_retries"] == engine_inputs.DEVICE_LOSS_RETRIES >= 0
+    # the balls' mesh is balls.wgsl's
+    balls = (BROWSER_DIR / "balls.wgsl").read_text(encoding="utf-8")
+    rings = int(re.search(r"const BALL_RINGS: u32 = (\d+)u;", balls).group(1))
+    segments = int(re.search(r"const BALL_SEGMENTS: u32 = (\d+)u;", balls).group(1))
+    assert (rings, segments) == (engine_inputs.BALL_RINGS, engine_inputs.BALL_SEGMENTS)
+    assert engine["ball_vertices"] == 6 * rings * segments
+    # the widget sends them
+    view = BrowserEngineWidget(gw.Blades.on_plane(64), size=(160, 120))
+    try:
+        assert view.frame_rules["engine"] == engine
+    finally:
+        view.close()
+    for rel in _ENGINE_MODULES:
+        text = re.sub(r"//[^\n]*|/\*.*?\*/", "", (BROWSER_DIR / rel).read_text(encoding="utf-8"), flags=re.S)
+        text = re.sub(r"`[^`]*`|\"[^\"\n]*\"", "\"\"", text)  # strings and messages aside
+        literals = set(re.findall(r"(?<![\w.$])(0x[0-9A-Fa-f]+|\d+(?:\.\d+)?(?:e[-+]?\d+)?)\b", text))
+        assert literals <= _FORMAT_LITERALS, (rel, sorted(literals - _FORMAT_LITERALS))
+
+
+def test_the_uniforms_reach_the_gpu_by_one_route():
+    """Every uniform Python packs (u_sim among them) is written by resources.js's writeUniform from
+    the trait frame_rules.engine.uniforms names: the table names every packed-uniform trait of the
+    widget and a uniform the WGSL declares, and no module writes a uniform's buffer another way."""
+    synced = set(BrowserEngineWidget.class_trait_names(sync=True))
+    table = dict(engine_inputs.UNIFORM_TRAITS)
+    assert set(table.values()) == {name for name in synced if name.endswith("_uniform")}
+    view = BrowserEngineWidget(gw.Blades.on_plane(64), size=(160, 120))
+    try:
+        bound = set()
+
+        def walk(node):  # every binding of every shader Python sends: the buffers the engine binds
+            if isinstance(node, dict):
+                if "binding" in node and "name" in node:
+                    bound.add(node.get("resource") or node["name"])
+                for v in node.values():
+                    walk(v)
+            elif isinstance(node, list):
+                for v in node:
+                    walk(v)
+
+        walk(view.shaders)
+        assert view.frame_rules["engine"]["uniforms"] == [list(pair) for pair in engine_inputs.UNIFORM_TRAITS]
+    finally:
+        view.close()
+    assert set(table) <= bound, set(table) - bound
+    for rel in _ENGINE_MODULES:
+        text = (BROWSER_DIR / rel).read_text(encoding="utf-8")
+        for buffer in table:
+            assert not re.search(rf"writeBuffer\([^)]*\b{buffer}\b", text), (rel, buffer)
+    assert "writeUniform(\"u_sim\"" in (BROWSER_DIR / "js" / "passes.js").read_text(encoding="utf-8")
+
+
+def test_the_stats_carry_pythons_window_of_frame_times():
+    """js/stats.js keeps the newest frame_rules.engine.frame_times_kept frame times of one switch
+    state (restarting when it changes), as the "auto" trial reads them (browser.trial_feed)."""
+    kept = engine_inputs.engine_rules()["frame_times_kept"]
+    frames = [[[False, False], 1.0]] * 5 + [[[True, False], float(ms)] for ms in range(kept + 9)]
+    got = _node(_STATS_DRIVER % json.dumps((BROWSER_DIR / "js" / "stats.js").as_uri()), {"frames": frames, "kept": kept})
+    (msg,) = got["sent"]
+    assert got["frames"] == len(frames)
+    assert msg["type"] == "stats" and msg["timed_switches"] == [True, False]
+    assert msg["frame_times"] == [float(ms) for ms in range(9, kept + 9)]  # the newest `kept`, of the last state
+    assert msg["step_count"] == 7 and msg["views"] == 1 and msg["adapter"] == "test"

@@ -2,7 +2,7 @@
 uniforms it packs, errors, and the GrassWidget backend choice.
 
 Runs without Chromium (not marked ``browser``); the engine in a real page is
-tested in tests/browser/test_browser_engine.py.
+tested in tests/e2e/test_browser_engine.py.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.kernel_pump import BrowserTimeoutError, wait_for
-from grasswidget.browser.view import BrowserEngineWidget, wind_error_from_messages
+from grasswidget.browser.engine_widget import BrowserEngineWidget, wind_error_from_messages
 from grasswidget.browser.browser_wgsl import BrowserShaders, binding_map
 from grasswidget.core.shader_files import shader_dir
 from conftest import node_executable
@@ -290,10 +290,10 @@ def test_browser_messages_move_the_ball_and_never_raise():
         assert 0.9 * arc < moved <= arc + 1e-9
         assert view.balls == [list(map(float, w.ball.collider.as_vec4()))]
         view.handle_message({"type": "ball", "phase": "move", "x": "nowhere"})
-        assert "could not convert" in w.message_line.value
+        assert "could not convert" in w.panel.message_line.value
         view.handle_message({"type": "stats", "fps": 12.5, "visible": [1, 2, 3, 4], "steps": 30,
                                     "step_count": 99, "frame_size": [320, 240]})
-        assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.stats_line.value
+        assert w.stats["fps"] == 12.5 and w.stats["visible"] == 10 and "12.5 frames/s" in w.panel.stats_line.value
         view.handle_message({"type": "gpu_status"}, None)   # unknown kinds are ignored
     finally:
         w.close()
@@ -311,14 +311,14 @@ def test_browser_stats_measure_the_speed_of_time(monkeypatch):
     view = w.view.engine_widget
     try:
         view.handle_message({"type": "stats", "fps": 30.0, "visible": [10], "steps": 60, "step_count": 60})
-        assert w.stats["sim_speed"] is None and "real time" not in w.stats_line.value  # first message
+        assert w.stats["sim_speed"] is None and "real time" not in w.panel.stats_line.value  # first message
         wall[0] += 0.5
         view.handle_message({"type": "stats", "fps": 30.0, "visible": [10], "steps": 60, "step_count": 120})
         assert w.stats["sim_speed"] == pytest.approx(60 * w.params.dt / 0.5)
-        assert "30.0 frames/s" in w.stats_line.value and "real time" in w.stats_line.value
+        assert "30.0 frames/s" in w.panel.stats_line.value and "real time" in w.panel.stats_line.value
         wall[0] += 10.0  # one frame in 10 s, capped at 64 steps
         view.handle_message({"type": "stats", "fps": 0.1, "visible": [10], "steps": 64, "step_count": 184})
-        assert "0.1 frames/s" in w.stats_line.value and "slow motion 0.05x" in w.stats_line.value, w.stats_line.value
+        assert "0.1 frames/s" in w.panel.stats_line.value and "slow motion 0.05x" in w.panel.stats_line.value, w.panel.stats_line.value
     finally:
         w.close()
 
@@ -366,8 +366,8 @@ def test_browser_export_filter_is_pygfx_supersampling(bgra):
     import json
     import subprocess
 
-    from grasswidget.browser.view import HERE as browser_dir
-    from grasswidget.core.frame_data import export_filter
+    from grasswidget.browser.engine_widget import HERE as browser_dir
+    from grasswidget.core.engine_inputs import export_filter
 
     node = node_executable()
     f, (w, h) = 2, (9, 7)
@@ -430,7 +430,7 @@ def test_browser_stats_say_how_old_they_are_and_when_the_engine_rests(monkeypatc
     ``w.stats`` and the status line, also after a change made while it rests."""
     import time
 
-    from grasswidget.core.frame_data import WAITING_AFTER_S
+    from grasswidget.core.engine_inputs import WAITING_AFTER_S
 
     wall = [100.0]
     monkeypatch.setattr(time, "perf_counter", lambda: wall[0])
@@ -444,7 +444,7 @@ def test_browser_stats_say_how_old_they_are_and_when_the_engine_rests(monkeypatc
         assert s["frame_age_s"] is None and not s["stale"] and not s["at_rest"] and not s["waiting"]
         page.handle_message(msg)
         s = w.stats
-        assert s["frame_age_s"] == 0.0 and not s["stale"] and "12.5 frames/s" in w.stats_line.value
+        assert s["frame_age_s"] == 0.0 and not s["stale"] and "12.5 frames/s" in w.panel.stats_line.value
         wall[0] += 0.3
         assert w.stats["frame_age_s"] == pytest.approx(0.3) and not w.stats["stale"]
         wall[0] += 0.5  # no message for longer than the stats interval (0.5 s) while playing
@@ -455,15 +455,15 @@ def test_browser_stats_say_how_old_they_are_and_when_the_engine_rests(monkeypatc
         assert not w.stats["stale"] and not w.stats["waiting"]
         page.handle_message({"type": "rest", "message": "", "step_count": 6})  # scrolled out of sight
         s = w.stats
-        assert s["at_rest"] and s["stale"] and "at rest (out of sight)" in w.stats_line.value
+        assert s["at_rest"] and s["stale"] and "at rest (out of sight)" in w.panel.stats_line.value
         wall[0] += 30.0
         w.params.cull_orientation = False  # from a cell, while it rests: nothing is drawn
         s = w.stats
         assert s["visible"] == 10 and s["stale"] and s["frame_age_s"] == pytest.approx(30.0)
-        line = w.stats_line.value
+        line = w.panel.stats_line.value
         assert "at rest (out of sight)" in line and "10 of 256 blades drawn" in line and "last frame 30 s ago" in line
         page.handle_message(msg)  # back in sight: a frame drawn
         s = w.stats
-        assert not s["at_rest"] and not s["stale"] and "at rest" not in w.stats_line.value
+        assert not s["at_rest"] and not s["stale"] and "at rest" not in w.panel.stats_line.value
     finally:
         w.close()

@@ -10,7 +10,7 @@ The engine in a real page is tested with the rest of the browser engine (tests/b
 import pytest
 
 import grasswidget as gw
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 from grasswidget.browser.browser_wgsl import BrowserShaders
 from grasswidget.core.wgsl_overrides import OVERRIDE_MARKER
 

@@ -10,7 +10,7 @@ import warnings
 import pytest
 
 import grasswidget as gw
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 from grasswidget.core.limits import MAX_STEPS, NonFiniteStateWarning
 
 

@@ -56,7 +56,7 @@ def test_grass_material_struct_is_the_layout_byte_for_byte():
               if not name.startswith("__") and arr.dtype.fields[name][0].itemsize}
     assert kernel == {name: off for name, (off, _d, _c) in browser_uniforms.offsets(layout).items()}
     assert arr.dtype.itemsize == browser_uniforms.struct_size(layout)
-    assert browser_uniforms.MATERIAL_LAYOUT is layout
+    assert browser_uniforms.GRASS_MATERIAL_LAYOUT is layout
 
 
 def test_the_engines_import_the_one_layout():

@@ -134,7 +134,7 @@ def test_every_on_off_param_refuses_what_is_not_a_bool_as_a_parameter_error():
     stays."""
     from traitlets import Bool
 
-    from grasswidget.core.pays import AutoSwitch
+    from grasswidget.core.auto_switches import AutoSwitch
 
     p = GrassParams()
     names = [n for n, t in p.traits().items() if isinstance(t, (Bool, AutoSwitch)) and not n.startswith("_")]
@@ -154,10 +154,10 @@ def test_every_on_off_param_refuses_what_is_not_a_bool_as_a_parameter_error():
 
 def test_preset_params_are_one_table_for_scene_and_widget():
     """GrassScene.preset and GrassWidget(preset=...) take a preset's own parameter values from
-    core.framing.preset_params: the cis565 preset culls by distance to zero at 40 m in both."""
+    core.presets.preset_params: the cis565 preset culls by distance to zero at 40 m in both."""
     import pytest
 
-    from grasswidget.core.framing import PRESETS, preset_params
+    from grasswidget.core.presets import PRESETS, preset_params
     from grasswidget.errors import GrassValueError
 
     assert preset_params("cis565") == {"cull_distance_max": 40.0}

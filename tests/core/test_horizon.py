@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget.core import frame_data
+from grasswidget.core import engine_inputs
 from grasswidget.core.camera_presets import camera_preset, field_box
-from grasswidget.core.framing import preset_field
+from grasswidget.core.presets import preset_field
 from grasswidget.core.horizon import HorizonLayout, concentric_disc
 from grasswidget.core.orbit_limits import OrbitLimits
 
@@ -21,7 +21,7 @@ WIDTH = (0.02, 0.04)
 
 
 @pytest.fixture(scope="module")
-def field():
+def disc_blades():
     return gw.Blades.on_plane(N, size=SIZE, reach=REACH, seed=5, width=WIDTH, height=(0.5, 1.0))
 
 
@@ -29,23 +29,23 @@ def _radius(blades):
     return np.hypot(blades.v0[:, 0].astype(np.float64), blades.v0[:, 2].astype(np.float64))
 
 
-def test_the_count_is_the_users_and_every_blade_lies_on_the_disc(field):
-    r = _radius(field)
-    assert len(field) == N and field.horizon == HorizonLayout((0.0, 0.0), SIZE / 2, REACH)
+def test_the_count_is_the_users_and_every_blade_lies_on_the_disc(disc_blades):
+    r = _radius(disc_blades)
+    assert len(disc_blades) == N and disc_blades.horizon == HorizonLayout((0.0, 0.0), SIZE / 2, REACH)
     assert r.max() <= REACH * (1 + 1e-6) and r.max() > 0.99 * REACH
-    assert np.all(field.v0[:, 1] == 0) and np.all(field.up[:, 1] == 1)
+    assert np.all(disc_blades.v0[:, 1] == 0) and np.all(disc_blades.up[:, 1] == 1)
     # the same arguments, the same field; another reach, the same count
     again = gw.Blades.on_plane(N, size=SIZE, reach=REACH, seed=5, width=WIDTH, height=(0.5, 1.0))
-    assert np.array_equal(again.v0, field.v0) and np.array_equal(again.width, field.width)
+    assert np.array_equal(again.v0, disc_blades.v0) and np.array_equal(again.width, disc_blades.width)
     assert len(gw.Blades.on_plane(N, size=SIZE, reach=4 * REACH, seed=5)) == N
 
 
-def test_density_per_band_halves_as_the_analytic_expectation(field):
+def test_density_per_band_halves_as_the_analytic_expectation(disc_blades):
     """Blades per distance band (each twice as far out as the last, beyond the near disc) against
     the integral of rho0 r0 / r: within 3 standard deviations of a Poisson count (the placement is
     stratified, so it is much closer), and the mean density halves from band to band."""
-    r = _radius(field)
-    layout = field.horizon
+    r = _radius(disc_blades)
+    layout = disc_blades.horizon
     r0 = layout.near_radius
     edges = [0.0, r0, 2 * r0, 4 * r0, 8 * r0, 16 * r0]
     densities = []
@@ -67,21 +67,21 @@ def test_density_per_band_halves_as_the_analytic_expectation(field):
     assert outside == pytest.approx(inside, rel=0.06)
 
 
-def test_width_doubles_per_band_and_the_covered_area_per_band_is_constant(field):
+def test_width_doubles_per_band_and_the_covered_area_per_band_is_constant(disc_blades):
     """Each blade's width is its near width times max(1, r / r0); the leaf area per square metre
     of ground (sum of width x height over the band's area) is the same in every band, to 3 %."""
-    r = _radius(field)
-    r0 = field.horizon.near_radius
+    r = _radius(disc_blades)
+    r0 = disc_blades.horizon.near_radius
     near = r < r0
-    assert field.width[near].min() >= WIDTH[0] * 0.999 and field.width[near].max() <= WIDTH[1] * 1.001
-    unscaled = field.width / np.maximum(1.0, r / r0)
+    assert disc_blades.width[near].min() >= WIDTH[0] * 0.999 and disc_blades.width[near].max() <= WIDTH[1] * 1.001
+    unscaled = disc_blades.width / np.maximum(1.0, r / r0)
     assert unscaled.min() >= WIDTH[0] * 0.999 and unscaled.max() <= WIDTH[1] * 1.001
     edges = [0.0, r0, 2 * r0, 4 * r0, 8 * r0, 16 * r0]
     cover, widths = [], []
     for a, b in zip(edges[:-1], edges[1:]):
         band = (r >= a) & (r < b)
-        cover.append(float(np.sum(field.width[band] * field.height[band])) / (math.pi * (b * b - a * a)))
-        widths.append(float(np.mean(field.width[band])))
+        cover.append(float(np.sum(disc_blades.width[band] * disc_blades.height[band])) / (math.pi * (b * b - a * a)))
+        widths.append(float(np.mean(disc_blades.width[band])))
     assert max(cover) / min(cover) < 1.03, cover
     for k in range(2, len(widths)):
         assert widths[k] / widths[k - 1] == pytest.approx(2.0, rel=0.03), widths
@@ -111,27 +111,28 @@ def test_bad_reach_is_refused_naming_the_range():
         HorizonLayout((0.0, 0.0), 0.0, 10.0)
 
 
-def test_distance_culling_is_off_for_a_field_that_thins_itself(field):
+def test_distance_culling_is_off_for_a_field_that_thins_itself(disc_blades):
     p = gw.GrassParams()
     assert p.cull_distance
-    assert frame_data.cull_uniform_values(p, N)["cull_distance"] == 1
-    assert frame_data.cull_uniform_values(p, N, thinned=True)["cull_distance"] == 0
+    assert engine_inputs.cull_uniform_values(p, N)["cull_distance"] == 1
+    assert engine_inputs.cull_uniform_values(p, N, thinned=True)["cull_distance"] == 0
 
 
-def test_orbit_keeps_the_camera_near_the_middle(field):
+def test_orbit_keeps_the_camera_near_the_middle(disc_blades):
     """Whatever the drag, the camera stays within half the reach of the centre (the edge of the
     blades is at least half the reach away), over the near disc's target box."""
-    limits = OrbitLimits.for_field(field.v0, field.up, field.height, 400.0, horizon=field.horizon)
-    r0 = field.horizon.near_radius
+    limits = OrbitLimits.for_field(disc_blades.v0, disc_blades.up, disc_blades.height, 400.0,
+                                   horizon=disc_blades.horizon)
+    r0 = disc_blades.horizon.near_radius
     assert limits.hi[0] == pytest.approx(r0 + 0.2 * r0) and limits.lo[1] == pytest.approx(-1.2 * r0)
     rng = np.random.default_rng(0)
     from grasswidget.core.orbit_limits import clamp_orbit
     for _ in range(300):
         p, t = clamp_orbit(rng.normal(0, 300, 3), rng.normal(0, 100, 3), limits)
-        assert math.hypot(p[0], p[2]) <= field.horizon.max_camera_offset() + 1e-6
+        assert math.hypot(p[0], p[2]) <= disc_blades.horizon.max_camera_offset() + 1e-6
     # the ground blend is done before the nearest the edge can be
-    start, end = field.horizon.ground_blend()
-    assert 0 < start < end <= REACH - field.horizon.max_camera_offset()
+    start, end = disc_blades.horizon.ground_blend()
+    assert 0 < start < end <= REACH - disc_blades.horizon.max_camera_offset()
 
 
 @pytest.mark.parametrize("count", [1 << 14, 1 << 20])  # 2^20: the preset's default, a near disc of 32 m
@@ -156,13 +157,13 @@ def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed(count):
     assert box["hi"][0] == pytest.approx(blades.horizon.near_radius)
 
 
-def test_far_ground_values_follow_the_looks(field):
-    v = frame_data.sky_ground_values(field, 400.0, gw.GrassParams())
+def test_far_ground_values_follow_the_looks(disc_blades):
+    v = engine_inputs.sky_ground_values(disc_blades, 400.0, gw.GrassParams())
     assert v["horizon"] == (0.0, 0.0, REACH, 1.0)
     assert 0.2 < min(v["far_grass"][:3]) <= max(v["far_grass"][:3]) < 1.5
-    drier = frame_data.sky_ground_values(field, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
+    drier = engine_inputs.sky_ground_values(disc_blades, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
     assert drier["dryness"] == 0.8 and drier["far_blend"][2] == 7.0
-    square = frame_data.sky_ground_values(gw.Blades.on_plane(256), 100.0)
+    square = engine_inputs.sky_ground_values(gw.Blades.on_plane(256), 100.0)
     assert square["horizon"][3] == 0.0
     # the far ground is green (grass), not khaki, in the twin
     from grasswidget.core import reference as ref

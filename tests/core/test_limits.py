@@ -14,7 +14,7 @@ import grasswidget as gw
 from conftest import param_extremes
 from grasswidget.core import reference as ref
 from grasswidget.core.colliders import ColliderList, collider_array
-from grasswidget.core.frame_data import sim_uniform_values
+from grasswidget.core.engine_inputs import sim_uniform_values
 from grasswidget.core.limits import (MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE,
                                      MAX_STEPS, StepsInterrupted, check_steps, hold_interrupts)
 

@@ -88,5 +88,5 @@ def test_the_packages_all_is_its_modules_own():
               if not name.startswith("_") and not isinstance(value, types.ModuleType) and name != "annotations"}
     assert len(reference.__all__) == len(set(reference.__all__))
     assert set(reference.__all__) == public
-    for module in (reference.physics, reference.culling, reference.looks, reference.raster, reference.sunlight):
+    for module in (reference.physics, reference.culling, reference.looks, reference.raster, reference.shadows):
         assert set(module.__all__) <= public

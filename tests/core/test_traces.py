@@ -8,10 +8,11 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.core import reference
-from grasswidget.core.cull_counts import CullCounter
+from grasswidget.core.cull_counts import RECOUNT_INTERVAL_S, CullCounter
 from grasswidget.core.teaching import camera_view_proj
 from grasswidget.core.traces import (CHART_KINDS, CULL_TESTS, MAX_SAMPLES, TraceRecorder, TraceSample, bend_degrees,
                                      load_traces, tip_offset)
+from conftest import TickingWall
 
 
 def _sample(t, step, ids, rng, kept=None):
@@ -210,14 +211,13 @@ def test_cull_counter_against_the_reference_on_the_rest_pose():
 
 def test_cull_counter_recounts_in_the_background_when_the_camera_moves():
     blades = gw.Blades.on_plane(2000, seed=5)
-    counter = CullCounter(blades, gw.GrassParams(cull_occlusion=False))
+    clock = TickingWall()  # a clock that moves only when told
+    counter = CullCounter(blades, gw.GrassParams(cull_occlusion=False), clock=clock)
     near = {"position": [0.0, 4.0, 14.0], "target": [0.0, 0.0, 0.0], "fov_deg": 50.0}
     away = {"position": [0.0, 4.0, -14.0], "target": [0.0, 0.0, -40.0], "fov_deg": 50.0}  # looking off the field
     first = counter.kept(near, (0.1, 200.0), (320, 240))  # the first count is done at once
     assert first["frustum"] > 0
-    import time
-
-    time.sleep(0.3)  # past RECOUNT_INTERVAL_S
+    clock.advance(RECOUNT_INTERVAL_S)
     # a moved camera starts a recount on a worker thread, answering with the last counts meanwhile
     counter.kept(away, (0.1, 200.0), (320, 240))
     counter.wait()
@@ -225,8 +225,8 @@ def test_cull_counter_recounts_in_the_background_when_the_camera_moves():
 
 
 def test_stats_freshness_says_how_old_the_stats_are():
-    """Issue 37, item 4 (the rule both engines' stats use, core.frame_data.stats_freshness)."""
-    from grasswidget.core.frame_data import WAITING_AFTER_S, stats_freshness
+    """Issue 37, item 4 (the rule both engines' stats use, core.engine_inputs.stats_freshness)."""
+    from grasswidget.core.engine_inputs import WAITING_AFTER_S, stats_freshness
 
     none_yet = stats_freshness(100.0, None, playing=True)
     assert none_yet == {"frame_age_s": None, "at_rest": False, "stale": False, "waiting": False}

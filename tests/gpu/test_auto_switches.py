@@ -6,13 +6,13 @@ GPU reports for a frame with occlusion on."""
 import pytest
 
 import grasswidget as gw
-from grasswidget.core.pays import AUTO, MIN_OCCLUDED_FRACTION, TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
+from grasswidget.core.auto_switches import AUTO, MIN_OCCLUDED_FRACTION, TRIAL_MAX_FRAMES, TRIAL_SETTLE_FRAMES
 from grasswidget.gpu.adapter import is_cpu_adapter
-from grasswidget.gpu.auto_switches import switches_of
+from grasswidget.gpu.trial_timing import switches_of
 
 pytestmark = pytest.mark.slow
 
-#: The most frames the rule takes to decide both switches (core.pays): at most 4 trials (each switch once,
+#: The most frames the rule takes to decide both switches (core.auto_switches): at most 4 trials (each switch once,
 #: the first again when the second changed what it was tried with), each of 4 blocks of at most half of
 #: TRIAL_MAX_FRAMES and a settling frame at each flip. A trial is 11 frames on lavapipe (its 100 ms frames
 #: fill a block's milliseconds at once); on a GPU (1.7 ms frames on an H200) every block runs to its frame cap,

@@ -7,7 +7,7 @@ with no anti-aliasing. Measured on lavapipe (320x240): 0.4 % of pixels one level
 colour goes through a half float between the compute and the copy) and 0.02 % further, up to 9
 levels: DDAA's thresholds flip where a texel coordinate differs in its last bit between the
 rasterizer's interpolation and the shader's computation (on the H100 at 1920x1080, 0.22 % and
-0.004 %, the flips up to 88 levels: benchmarks/compute_ddaa_pixels_h100.json). DDAA itself changes
+0.004 %, the flips up to 88 levels: benchmarks/results/compute_ddaa_pixels-h100-2026-11-26.json). DDAA itself changes
 3-5 % of these pixels, so a pass that did nothing, or anti-aliased elsewhere, fails.
 """
 
@@ -24,7 +24,7 @@ from grasswidget.gpu.scene import GrassScene
 
 
 @pytest.fixture(scope="module")
-def scene():
+def stepped_meadow():
     scene = GrassScene.preset("meadow", blades=1024, size=(160, 120))
     scene.field.step(3)
     yield scene
@@ -42,12 +42,12 @@ def _render(scene, size, passes):
         canvas.close()
 
 
-def test_compute_ddaa_gives_pygfx_ddaa_picture(scene):
+def test_compute_ddaa_gives_pygfx_ddaa_picture(stepped_meadow):
     ours = DDAAPass()
     for size in ((160, 120), (200, 100)):  # the same pass at a second size: its texture follows
-        plain = _render(scene, size, [])
-        fragment = _render(scene, size, [PygfxDDAAPass()])
-        computed = _render(scene, size, [ours])
+        plain = _render(stepped_meadow, size, [])
+        fragment = _render(stepped_meadow, size, [PygfxDDAAPass()])
+        computed = _render(stepped_meadow, size, [ours])
         assert computed.shape == (size[1], size[0], 3)
         aa = np.abs(fragment - plain).max(axis=-1)
         assert (aa > 0).mean() > 0.01 and aa.max() >= 8, "DDAA changed too little for this test to mean anything"

@@ -16,7 +16,7 @@ import pytest
 
 import grasswidget as gw
 from conftest import param_extremes
-from grasswidget.core import frame_data
+from grasswidget.core import engine_inputs
 from grasswidget.core import reference as ref
 from grasswidget.core.limits import (MAX_BLADE_HEIGHT, MAX_BLADE_STIFFNESS, MAX_BLADE_WIDTH, MAX_COORDINATE, MAX_STEPS,
                                      NonFiniteStateWarning, StepsInterrupted)
@@ -261,7 +261,7 @@ def test_grass_scene_step_refuses_2_to_the_40():
 def test_ctrl_c_between_submissions_stops_with_the_steps_counted(fresh, blades, monkeypatch, ctrl_c_enabled):
     """A run of 40 dispatches of 4 steps; SIGINT during the 3rd: the 3rd completes, then
     StepsInterrupted; step_count and the state are those of 12 steps."""
-    monkeypatch.setattr(frame_data, "BLADE_STEPS_PER_DISPATCH", 4 * fresh.count)
+    monkeypatch.setattr(engine_inputs, "BLADE_STEPS_PER_DISPATCH", 4 * fresh.count)
     calls = []
     write = fresh.simulation.write_uniform
 
@@ -287,7 +287,7 @@ def test_ctrl_c_between_submissions_stops_with_the_steps_counted(fresh, blades, 
 
 def test_widget_step_interrupted_counts_the_steps_done(widget, monkeypatch, ctrl_c_enabled):
     field = widget.view.scene.field
-    monkeypatch.setattr(frame_data, "BLADE_STEPS_PER_DISPATCH", 8 * field.count)
+    monkeypatch.setattr(engine_inputs, "BLADE_STEPS_PER_DISPATCH", 8 * field.count)
     calls = []
     write = field.simulation.write_uniform
 

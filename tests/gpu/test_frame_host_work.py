@@ -16,7 +16,7 @@ import pytest
 
 import grasswidget as gw
 from grasswidget import compat
-from grasswidget.core.frame_data import sim_uniform_values
+from grasswidget.core.engine_inputs import sim_uniform_values
 from grasswidget.gpu.frame import render_frame
 from conftest import grass_mask
 

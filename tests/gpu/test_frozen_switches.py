@@ -3,8 +3,8 @@ their values, so the blades drawn under a frozen view do not change when the occ
 trial would have decided; unfreezing resumes the trial, which then decides."""
 
 import grasswidget as gw
-from grasswidget.core.pays import AUTO
-from grasswidget.gpu.auto_switches import switches_of
+from grasswidget.core.auto_switches import AUTO
+from grasswidget.gpu.trial_timing import switches_of
 
 
 def test_a_trial_in_progress_is_suspended_while_culling_is_frozen_and_resumes_after():

@@ -38,10 +38,12 @@ KHAKI_HUE_MAX = 68.0
 
 
 @pytest.fixture(scope="module")
-def scene():
+def horizon_scene():
+    """The meadow preset (a field to the horizon) at W x H, 30 steps in; released after the module."""
     s = gw.GrassScene.preset("meadow", blades=N_BLADES, size=(W, H))
     s.step(30)
-    return s
+    yield s
+    s.release()
 
 
 def _cameras(scene):
@@ -113,23 +115,23 @@ def _picture(scene):
 
 
 @pytest.mark.slow
-def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
-    reach = scene.field.blades.horizon.reach
+def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(horizon_scene):
+    reach = horizon_scene.field.blades.horizon.reach
     drawn = []
-    for name, (position, target, fov) in _cameras(scene).items():
-        scene.look(position=position, target=target, fov_deg=fov)
-        img = _picture(scene)
-        dist = _row_distances(scene)
+    for name, (position, target, fov) in _cameras(horizon_scene).items():
+        horizon_scene.look(position=position, target=target, fov_deg=fov)
+        img = _picture(horizon_scene)
+        dist = _row_distances(horizon_scene)
         rows, grass, _ring, _steps = _band_measures(img, dist, reach)
         # the ring and the steps without the fog (which would hide them: it only blends towards one colour)
-        scene.params.fog_density = 0.0
+        horizon_scene.params.fog_density = 0.0
         try:
-            clear = _picture(scene)
+            clear = _picture(horizon_scene)
         finally:
-            scene.params.fog_density = gw.GrassParams().fog_density
+            horizon_scene.params.fog_density = gw.GrassParams().fog_density
         _rows, clear_grass, ring, steps = _band_measures(clear, dist, reach)
         save_test_picture(f"horizon_{name}", np.concatenate([img, clear], axis=0))  # fog on, off
-        drawn.append(scene.visible_count())
+        drawn.append(horizon_scene.visible_count())
         print(f"[horizon] {name}: {rows} band rows, {grass:.1%} grass-coloured, ring {ring}/255, "
               f"largest row step {steps:.1f}/255, {drawn[-1]} blades drawn")
         assert rows >= 2, name
@@ -137,16 +139,16 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
         assert ring is None or ring <= RING_TOLERANCE, (name, ring)
         assert steps <= STEP_TOLERANCE, (name, steps)
         # the control: the far ground off (khaki beyond the reach, the look of before) fails the checks
-        values = scene.sky_ground.material.uniform_buffer.data
+        values = horizon_scene.sky_ground.material.uniform_buffer.data
         saved, saved_field = values["horizon"].copy(), values["field"].copy()
         half = reach / math.sqrt(2.0)  # soil on the square inside the reach's circle, khaki beyond it
-        scene.params.fog_density = 0.0  # (rewrites the sky/ground's values: first)
-        scene.sky_ground.material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0), "field": (0.0, 0.0, half, half)})
+        horizon_scene.params.fog_density = 0.0  # (rewrites the sky/ground's values: first)
+        horizon_scene.sky_ground.material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0), "field": (0.0, 0.0, half, half)})
         try:
-            bare = _picture(scene)
+            bare = _picture(horizon_scene)
         finally:
-            scene.params.fog_density = gw.GrassParams().fog_density
-            scene.sky_ground.material.set_values({"horizon": tuple(float(x) for x in saved),
+            horizon_scene.params.fog_density = gw.GrassParams().fog_density
+            horizon_scene.sky_ground.material.set_values({"horizon": tuple(float(x) for x in saved),
                                                   "field": tuple(float(x) for x in saved_field)})
         _rows, bare_grass, bare_ring, bare_steps = _band_measures(bare, dist, reach)
         print(f"[horizon] {name}, the control (khaki beyond the blades, no far grass): {bare_grass:.1%} "
@@ -155,23 +157,23 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(scene):
             assert bare_grass < grass - 0.03, (name, bare_grass)
             assert bare_ring > RING_TOLERANCE and bare_steps > STEP_TOLERANCE, (name, bare_ring, bare_steps)
     # memory and work bounded by the field, not by the view
-    assert scene.field.count == N_BLADES and max(drawn) <= N_BLADES
+    assert horizon_scene.field.count == N_BLADES and max(drawn) <= N_BLADES
 
 
-def test_far_grass_is_compiled_in_only_for_a_field_to_the_horizon(scene):
+def test_far_grass_is_compiled_in_only_for_a_field_to_the_horizon(horizon_scene):
     """The ground's far grass (sky_ground.wgsl, template switch ``far_grass``) is in the kernel's
     shader only while the field reaches the horizon (``horizon.w`` non-zero): lavapipe paid its
     noise on every ground pixel of a square field. Switched off and on again through the values
     both engines get, the pipeline follows (the far ground goes, then comes back pixel for pixel)."""
-    material = scene.sky_ground.material
+    material = horizon_scene.sky_ground.material
     assert material.far_grass
     assert not gw.GrassScene.preset("cis565", blades=64, size=(32, 24)).sky_ground.material.far_grass
-    with_far_grass = scene.render().copy()
+    with_far_grass = horizon_scene.render().copy()
     saved = tuple(float(x) for x in material.uniform_buffer.data["horizon"])
     material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0)})
     assert not material.far_grass
-    without = scene.render().copy()
+    without = horizon_scene.render().copy()
     assert np.abs(without.astype(int) - with_far_grass).max() > 20  # the bare ground where the far grass was
     material.set_values({"horizon": saved})
     assert material.far_grass
-    assert_same_picture(scene.render(), with_far_grass, "far grass compiled in again")
+    assert_same_picture(horizon_scene.render(), with_far_grass, "far grass compiled in again")

@@ -198,7 +198,9 @@ def planet(planet_blades):
         gravity_mode="point", gravity_center=(0.0, 0.0, 0.0), wind_field="noise", wind_strength=25.0,
         wind_wavelength=2.0,
     )
-    return gw.GrassField(planet_blades, params=params)
+    field = gw.GrassField(planet_blades, params=params)
+    yield field
+    field.release()
 
 
 @pytest.mark.parametrize("steps", [1, 200])

@@ -6,7 +6,7 @@ a picture. ``tests/data/pictures_before_house2/`` holds the exports that
 ``python -m grasswidget snapshot OUT.png --preset P --blades 16384 --size 320x240
 --steps 60 --seed 3`` wrote at commit 9f5380a (before any of those moves), on
 lavapipe. The same command now must give the same picture. The browser engine's
-picture is held to the kernel's by tests/browser/test_engines_alike.py, so the
+picture is held to the kernel's by tests/e2e/test_engines_alike.py, so the
 two tests together cover both engines.
 
 Tolerance: lavapipe renders these exports bit for bit alike from run to run (the

@@ -98,10 +98,12 @@ def test_widget_draw_loop_keeps_memory_flat(widget):
     canvas.handle_event({"event_type": "resize", "width": w, "height": h, "pixel_ratio": 1.0})
     sent = []
     send = canvas.send_frame
+    frame_out = threading.Event()
 
     def counting_send(array):
         sent.append(array.shape)
         send(array)
+        frame_out.set()
 
     canvas.send_frame = counting_send
     widget.ball.enabled = True
@@ -122,12 +124,11 @@ def test_widget_draw_loop_keeps_memory_flat(widget):
         for i in range(start, start + frames):
             interact(i)
             count = len(sent)
+            frame_out.clear()
             canvas.request_draw()
             canvas.get_frame()  # what jupyter_rfb calls when the browser is ready for a frame
-            for _ in range(2000):  # the pixels arrive through the GPU download's promise
-                if len(sent) > count:
-                    break
-                await asyncio.sleep(0.001)
+            # the pixels arrive through the GPU download's promise, which this loop resolves meanwhile
+            await asyncio.to_thread(frame_out.wait, 10.0)
             assert len(sent) > count, f"frame {i} was never sent"
 
     async def soak():

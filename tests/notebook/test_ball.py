@@ -227,7 +227,7 @@ def test_roll_follows_a_circle_with_simulated_time(widget):
     # a path that fails stops the rolling with a message; the widget goes on
     ball.path = lambda dist: 1 / 0
     widget.view.draw()
-    assert not ball.rolling and "ball path: ZeroDivisionError" in widget.message_line.value
+    assert not ball.rolling and "ball path: ZeroDivisionError" in widget.panel.message_line.value
     steps = widget.scene.field.step_count
     widget.view.draw()
     assert widget.scene.field.step_count == steps + widget.steps_per_frame

@@ -31,7 +31,7 @@ SWAPS = 6
 COUNTS = (2048, 3072)
 
 SCRIPT = r"""
-import asyncio, json, logging, sys, threading, time
+import asyncio, json, logging, sys, threading
 import numpy as np
 import pygfx, rendercanvas, wgpu  # noqa: F401  (their loggers exist before ours are attached)
 import grasswidget as gw
@@ -55,10 +55,15 @@ async def main():
     w.ball.rolling = True
     w.playing = True
     sent = []
+    sent_more = threading.Condition()  # notified at each frame sent
+    wake = threading.Event()  # set at each frame sent, and when the subshell is done
     send = canvas.send_frame
     def counting_send(array):
-        sent.append(np.asarray(array).copy())
+        with sent_more:
+            sent.append(np.asarray(array).copy())
+            sent_more.notify_all()
         send(array)
+        wake.set()
     canvas.send_frame = counting_send
     in_frame = threading.Event()
     get_frame = canvas.get_frame
@@ -83,28 +88,27 @@ async def main():
                 mid_frame.append(in_frame.is_set())  # the race this test is about: a swap during a frame
                 w.set_blades(count)
                 swaps.append(count)
-                t_end = time.monotonic() + 60
-                while len(sent) < before + 2 and time.monotonic() < t_end:
-                    time.sleep(0.01)  # a frame of the new field reaches the browser
+                with sent_more:  # two frames of the new field reach the browser (at most a minute)
+                    sent_more.wait_for(lambda: len(sent) >= before + 2, timeout=60)
         except BaseException as exc:
             thread_errors.append(repr(exc))
         finally:
             done.set()
+            wake.set()
 
     worker = threading.Thread(target=subshell, name="comm-subshell")
     worker.start()
     while not done.is_set():
-        count = len(sent)
+        wake.clear()
         canvas.get_frame()
-        for _ in range(2000):  # the pixels arrive through the GPU download's promise
-            if len(sent) > count or done.is_set():
-                break
-            await asyncio.sleep(0.001)
+        # the pixels arrive through the GPU download's promise, which this loop resolves meanwhile
+        await asyncio.to_thread(wake.wait, 2.0)
     worker.join()
     count = len(sent)
+    wake.clear()
     canvas.get_frame()
-    while len(sent) == count:
-        await asyncio.sleep(0.001)
+    await asyncio.to_thread(wake.wait, 60.0)
+    assert len(sent) > count, "the last frame was never sent"
     last = sent[-1][..., :3].astype(np.int32)
     grass = (last[..., 1] > last[..., 0] + 8) & (last[..., 1] > last[..., 2] + 8)
     print("RESULT " + json.dumps({

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import grasswidget as gw
-from grasswidget.notebook.clock import SharedClock
+from grasswidget.views.clock import SharedClock
 
 pytest.importorskip("jupyter_rfb")
 
@@ -18,7 +18,7 @@ VARIANTS = {"soft": {"stiffness_scale": 0.5}, "stiff": {"stiffness_scale": 2.0, 
 @pytest.fixture
 def comparison():
     c = gw.compare(VARIANTS, blades=BLADES, size=SIZE)
-    for w in c.views.values():  # what the browser sends when a view appears
+    for w in c.widgets.values():  # what the browser sends when a view appears
         w.canvas.handle_event({"event_type": "resize", "width": SIZE[0], "height": SIZE[1], "pixel_ratio": 1.0})
     yield c
     c.close()
@@ -44,13 +44,13 @@ def _assert_same_state(a, b, atol=0.0):
 
 def test_step_n_equals_a_grass_scene_per_variant(comparison):
     c = comparison
-    assert list(c.views) == ["soft", "stiff"] and c.differing == ("stiffness_scale", "wind_strength")
-    assert c.views["soft"].params.stiffness_scale == 0.5 and c.views["stiff"].params.wind_strength == 30.0
-    assert c.views["soft"].params.wind_strength == c.params.wind_strength == gw.GrassParams().wind_strength
+    assert list(c.widgets) == ["soft", "stiff"] and c.differing == ("stiffness_scale", "wind_strength")
+    assert c.widgets["soft"].params.stiffness_scale == 0.5 and c.widgets["stiff"].params.wind_strength == 30.0
+    assert c.widgets["soft"].params.wind_strength == c.params.wind_strength == gw.GrassParams().wind_strength
     c.step(48)
-    assert not c.playing and not any(w.playing for w in c.views.values())
+    assert not c.playing and not any(w.playing for w in c.widgets.values())
     states = c.read_states()
-    for label, w in c.views.items():
+    for label, w in c.widgets.items():
         _assert_same_state(states[label], _scene_state(w.params, 48))
         assert w.sim_time == pytest.approx(48 * w.params.dt)
     assert np.abs(states["soft"]["v2"] - states["stiff"]["v2"]).max() > 0.01  # the variants differ
@@ -59,33 +59,40 @@ def test_step_n_equals_a_grass_scene_per_variant(comparison):
 def test_shared_parameters_reach_every_view_and_labels_show_the_differing_ones(comparison):
     c = comparison
     c.params.gravity = 5.0
-    assert [w.params.gravity for w in c.views.values()] == [5.0, 5.0]
+    assert [w.params.gravity for w in c.widgets.values()] == [5.0, 5.0]
     c.params.stiffness_scale = 3.0  # varied by every view: theirs stay
-    assert [w.params.stiffness_scale for w in c.views.values()] == [0.5, 2.0]
+    assert [w.params.stiffness_scale for w in c.widgets.values()] == [0.5, 2.0]
     assert "stiffness_scale = 0.5" in c.labels["soft"].value and "wind_strength = 30" in c.labels["stiff"].value
-    c.views["soft"].params.stiffness_scale = 0.75
+    c.widgets["soft"].params.stiffness_scale = 0.75
     assert "stiffness_scale = 0.75" in c.labels["soft"].value
     assert c.panel.sliders["stiffness_scale"].disabled and c.panel.sliders["wind_strength"].disabled
     assert not c.panel.sliders["gravity"].disabled
     c.panel.sliders["gravity"].value = 7.0  # the shared panel edits the shared params
-    assert [w.params.gravity for w in c.views.values()] == [7.0, 7.0]
+    assert [w.params.gravity for w in c.widgets.values()] == [7.0, 7.0]
 
 
 def test_a_camera_move_in_one_view_reaches_the_others_without_echo(comparison):
     c = comparison
-    soft, stiff = c.views["soft"].view, c.views["stiff"].view
-    heard = []
+    soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
+    heard, heard_soft = [], []
     stiff.add_camera_listener(lambda view: heard.append(view))
-    soft.look((3.0, 5.0, 9.0), (0.5, 0.5, 0.0), 50.0)  # as the orbit controller moves it in a drag
+    stop = soft.add_camera_listener(lambda view: heard_soft.append(view))
+    soft.camera_state = {"position": (3.0, 5.0, 9.0), "target": (0.5, 0.5, 0.0), "fov_deg": 50.0}  # as a drag moves it
     soft.draw()  # the frame after the drag reports the move
     for key in ("position", "target", "fov_deg"):
-        assert np.allclose(stiff.current_camera()[key], soft.current_camera()[key], atol=1e-6)
-    assert np.allclose(stiff.current_camera()["position"], (3.0, 5.0, 9.0), atol=1e-5)
+        assert np.allclose(stiff.camera_state[key], soft.camera_state[key], atol=1e-6)
+    assert np.allclose(stiff.camera_state["position"], (3.0, 5.0, 9.0), atol=1e-5)
     stiff.draw()
     soft.draw()
     assert heard == []  # the followed view did not report the camera it was given back
+    assert heard_soft == [soft]
+    stop()  # add_camera_listener's remover: no more calls (and a second call does nothing)
+    stop()
+    soft.camera_state = {"position": (3.5, 5.0, 9.0)}
+    soft.draw()
+    assert heard_soft == [soft] and np.allclose(stiff.camera_state["position"], (3.5, 5.0, 9.0), atol=1e-5)
     c.camera_state = {"position": (0.0, 6.0, 12.0)}
-    assert all(np.allclose(w.camera_state["position"], (0.0, 6.0, 12.0)) for w in c.views.values())
+    assert all(np.allclose(w.camera_state["position"], (0.0, 6.0, 12.0)) for w in c.widgets.values())
     with pytest.raises(gw.GrassValueError, match="fov_deg"):
         c.camera_state = {"fov_deg": 500}
 
@@ -94,13 +101,13 @@ def test_playing_frames_show_the_same_simulated_time_and_pause_aligns(comparison
     c = comparison
     wall = [100.0]
     c.clock.now = lambda: wall[0]
-    soft, stiff = c.views["soft"].view, c.views["stiff"].view
+    soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
     c.play()
     for _frame in range(5):
         wall[0] += 0.05
         soft.draw()
         stiff.draw()
-        assert soft.sim_time == pytest.approx(stiff.sim_time)
+        assert soft.readings.sim_time == pytest.approx(stiff.readings.sim_time)
     assert soft.clock.steps == stiff.clock.steps > 0
     # one view draws on alone: it waits for the other (the shared time holds) ...
     before = soft.clock.steps
@@ -113,7 +120,7 @@ def test_playing_frames_show_the_same_simulated_time_and_pause_aligns(comparison
     c.pause()
     assert soft.clock.steps == stiff.clock.steps
     states = c.read_states()
-    for label, w in c.views.items():
+    for label, w in c.widgets.items():
         _assert_same_state(states[label], _scene_state(w.params, w.view.clock.steps), atol=1e-5)
     # stepping after playing keeps them together, and playing on does not stall
     c.step(3)
@@ -127,13 +134,13 @@ def test_playing_frames_show_the_same_simulated_time_and_pause_aligns(comparison
 
 def test_keys_and_ctrl_click_act_on_every_view(comparison):
     c = comparison
-    c.views["soft"].view.on_key({"key": " ", "modifiers": []})  # space in one view
-    assert c.playing is False and not any(w.playing for w in c.views.values())
-    c.views["stiff"].view.on_key({"key": "s", "modifiers": []})
-    steps = {w.view.clock.steps for w in c.views.values()}
+    c.widgets["soft"].view.on_key({"key": " ", "modifiers": []})  # space in one view
+    assert c.playing is False and not any(w.playing for w in c.widgets.values())
+    c.widgets["stiff"].view.on_key({"key": "s", "modifiers": []})
+    steps = {w.view.clock.steps for w in c.widgets.values()}
     assert len(steps) == 1 and steps.pop() >= 1
-    c.views["soft"].view.actions.inspect([5])
-    assert all(w.inspected == (5,) for w in c.views.values())
+    c.widgets["soft"].view.host.inspect([5])
+    assert all(w.inspected == (5,) for w in c.widgets.values())
 
 
 def test_shared_clock_stall_limit():
@@ -182,17 +189,17 @@ def test_browser_engine_views_follow_the_camera_the_browser_sends():
     c = gw.compare(VARIANTS, blades=BLADES, size=SIZE, backend="browser")
     try:
         assert c.backend == "browser" and c.clock is None
-        soft, stiff = c.views["soft"].view, c.views["stiff"].view
+        soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
         heard = []
         soft.add_camera_listener(lambda view: heard.append(view))
         soft.engine_widget.camera = dict(soft.engine_widget.camera, position=[3.0, 4.0, 9.0], target=[0.5, 0.5, 0.0])
-        assert np.allclose(stiff.current_camera()["position"], (3.0, 4.0, 9.0))
-        assert np.allclose(stiff.current_camera()["target"], (0.5, 0.5, 0.0))
+        assert np.allclose(stiff.camera_state["position"], (3.0, 4.0, 9.0))
+        assert np.allclose(stiff.camera_state["target"], (0.5, 0.5, 0.0))
         assert len(heard) == 1  # the drag itself; the follower's copy did not come back
         c.pause()
-        assert [w.view.engine_widget.playing for w in c.views.values()] == [False, False]
+        assert [w.view.engine_widget.playing for w in c.widgets.values()] == [False, False]
         c.play()
-        assert [w.view.engine_widget.playing for w in c.views.values()] == [True, True]
+        assert [w.view.engine_widget.playing for w in c.widgets.values()] == [True, True]
     finally:
         c.close()
 
@@ -213,8 +220,8 @@ def test_rerunning_the_cell_closes_the_earlier_comparison_and_its_views(monkeypa
         first = shell.user_ns["c"]
         shell.run_cell(make, store_history=True).raise_error()
         second = shell.user_ns["c"]
-        assert first.closed and all(w.closed for w in first.views.values())
-        assert not second.closed and not any(w.closed for w in second.views.values())
+        assert first.closed and all(w.closed for w in first.widgets.values())
+        assert not second.closed and not any(w.closed for w in second.widgets.values())
     finally:
         shell.user_ns["c"].close()
         shell.reset()
@@ -227,16 +234,16 @@ def test_views_that_fall_back_to_the_kernel_stay_linked():
     c = gw.compare(VARIANTS, blades=BLADES, size=SIZE, backend="browser")
     try:
         c.camera_state = {"position": (2.0, 5.0, 11.0)}
-        for w in c.views.values():  # what a page without WebGPU reports
+        for w in c.widgets.values():  # what a page without WebGPU reports
             w.view.engine_widget.gpu_status = {"state": "unavailable", "detail": "no adapter (test)"}
         assert c.backend == "kernel" and c.clock is not None
-        assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.views.values())
-        soft, stiff = c.views["soft"].view, c.views["stiff"].view
-        soft.look((4.0, 5.0, 9.0), (0.0, 0.5, 0.0), 45.0)
+        assert all(np.allclose(w.camera_state["position"], (2.0, 5.0, 11.0), atol=1e-5) for w in c.widgets.values())
+        soft, stiff = c.widgets["soft"].view, c.widgets["stiff"].view
+        soft.camera_state = {"position": (4.0, 5.0, 9.0), "target": (0.0, 0.5, 0.0), "fov_deg": 45.0}
         soft.draw()
-        assert np.allclose(stiff.current_camera()["position"], (4.0, 5.0, 9.0), atol=1e-5)
+        assert np.allclose(stiff.camera_state["position"], (4.0, 5.0, 9.0), atol=1e-5)
         c.step(24)
-        for label, w in c.views.items():
+        for label, w in c.widgets.items():
             _assert_same_state(w.read_state(), _scene_state(w.params, 24))
     finally:
         c.close()
@@ -247,11 +254,11 @@ def test_camera_presets_move_every_view(comparison):
     c = comparison
     home = c.camera_state
     c.look_from("top")
-    top = [w.camera_state for w in c.views.values()]
+    top = [w.camera_state for w in c.widgets.values()]
     assert np.allclose(top[0]["position"], top[1]["position"]) and top[0]["position"][1] > home["position"][1] + 1
-    c.views["stiff"].view.on_key({"key": "r", "modifiers": []})
-    assert all(np.allclose(w.camera_state["position"], home["position"], atol=1e-5) for w in c.views.values())
+    c.widgets["stiff"].view.on_key({"key": "r", "modifiers": []})
+    assert all(np.allclose(w.camera_state["position"], home["position"], atol=1e-5) for w in c.widgets.values())
     c.camera_floor = "ground"
-    assert [w.camera_floor for w in c.views.values()] == ["ground", "ground"]
+    assert [w.camera_floor for w in c.widgets.values()] == ["ground", "ground"]
     with pytest.raises(gw.GrassValueError):
         c.look_from("sideways")

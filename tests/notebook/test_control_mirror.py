@@ -32,15 +32,15 @@ def _nodes(node):
 
 
 @pytest.fixture
-def widget():
+def browser_widget():
     w = gw.GrassWidget(256, backend="browser", size=(320, 240))  # the kernel needs no GPU for this engine
     yield w
     w.close()
 
 
 @pytest.fixture
-def mirror(widget):
-    m = RecordingMirror(_column(widget), on_error=widget.panel.show_error)
+def mirror(browser_widget):
+    m = RecordingMirror(_column(browser_widget), on_error=browser_widget.panel.show_error)
     yield m
     m.close()
 
@@ -56,78 +56,78 @@ def _node(snapshot, kind, description):
     return found[0]
 
 
-def test_the_description_carries_every_control_with_the_traits_ranges(widget):
-    snap = describe(_column(widget))
+def test_the_description_carries_every_control_with_the_traits_ranges(browser_widget):
+    snap = describe(_column(browser_widget))
     traits = gw.GrassParams.class_traits()
     for name, step, fmt in (*PARAM_SLIDERS, *LOOK_SLIDERS):
         node = _node(snap, "slider", control_label(name, traits[name]))
         assert (node["min"], node["max"], node["step"]) == (traits[name].lo, traits[name].hi, step)
-        assert node["readout_format"] == fmt and node["value"] == getattr(widget.params, name)
+        assert node["readout_format"] == fmt and node["value"] == getattr(browser_widget.params, name)
     for label, name in CULL_CHECKBOXES:
-        assert _node(snap, "checkbox", label)["value"] is getattr(widget.params, name)
+        assert _node(snap, "checkbox", label)["value"] is getattr(browser_widget.params, name)
     for button in ("Pause", "Step", "Reset blades", "Reset camera", "Save PNG", "home", "top", "low", "Clear"):
         assert _node(snap, "button", button)["layout"].get("display") != "none" or button == "Pause"
     colour = _node(snap, "dropdown", control_label("color_by"))
-    assert colour["labels"][colour["index"]] == widget.params.color_by
+    assert colour["labels"][colour["index"]] == browser_widget.params.color_by
     blades = _node(snap, "selection_slider", control_label("blades"))
-    assert blades["labels"][blades["index"]] == f"{widget.blade_count:,}"
+    assert blades["labels"][blades["index"]] == f"{browser_widget.blade_count:,}"
     assert not [n for n in _nodes(snap) if n["kind"] == "unsupported"]
     assert len({n["id"] for n in _nodes(snap)}) == len(list(_nodes(snap)))  # one number per control
 
 
-def test_the_page_drives_params_and_the_widget(widget, mirror):
+def test_the_page_drives_params_and_the_widget(browser_widget, mirror):
     mirror.receive({"type": "ready"})
     snap = mirror.sent[-1]["root"]
     assert mirror.sent[-1]["type"] == "snapshot"
     wind = _node(snap, "slider", control_label("wind_strength", gw.GrassParams.class_traits()["wind_strength"]))
     mirror.receive({"type": "set", "id": wind["id"], "value": 12.5})
-    assert widget.params.wind_strength == 12.5
+    assert browser_widget.params.wind_strength == 12.5
 
     colour = _node(snap, "dropdown", control_label("color_by"))
     mirror.receive({"type": "set", "id": colour["id"], "value": colour["labels"].index("lod")})
-    assert widget.params.color_by == "lod"
+    assert browser_widget.params.color_by == "lod"
 
     lod = _node(snap, "checkbox", "LOD")
     mirror.receive({"type": "set", "id": lod["id"], "value": False})
-    assert widget.params.lod is False
+    assert browser_widget.params.lod is False
 
     pause = [n for n in _nodes(snap) if n["kind"] == "button" and n.get("description") == "Pause"
              and n["layout"].get("display") != "none"]
-    assert widget.playing
+    assert browser_widget.playing
     mirror.receive({"type": "click", "id": pause[0]["id"]})
-    assert widget.playing is False
+    assert browser_widget.playing is False
 
     chart = _node(snap, "dropdown", "chart")
     mirror.receive({"type": "set", "id": chart["id"], "value": 1})
-    assert widget.chart is not None and widget.bench.chart.hidden is False
+    assert browser_widget.chart is not None and browser_widget.lab_bench.chart.hidden is False
     mirror.receive({"type": "set", "id": 10_000, "value": 1})  # an id the page kept from an older snapshot
 
 
-def test_python_moves_the_page(widget, mirror):
+def test_python_moves_the_page(browser_widget, mirror):
     snap = mirror.snapshot()
     wind = _node(snap, "slider", control_label("wind_strength", gw.GrassParams.class_traits()["wind_strength"]))
     mirror.sent.clear()
-    widget.params.wind_strength = 20.0
+    browser_widget.params.wind_strength = 20.0
     patches = [m for m in mirror.sent if m["type"] == "patch" and m["id"] == wind["id"]]
     assert patches and patches[-1]["props"]["value"] == 20.0
 
     mirror.sent.clear()
-    widget.pause()  # the play button's text follows
+    browser_widget.pause()  # the play button's text follows
     texts = {m["props"].get("description") for m in mirror.sent if m["type"] == "patch"}
     assert "Play" in texts
 
     mirror.sent.clear()
-    widget.panel_folded = True  # rows hidden through layout.display: the page hides them too
+    browser_widget.panel_folded = True  # rows hidden through layout.display: the page hides them too
     assert any(m["props"]["layout"].get("display") == "none" for m in mirror.sent if m["type"] == "patch")
 
 
-def test_a_refused_value_snaps_back_and_is_said(widget, mirror):
+def test_a_refused_value_snaps_back_and_is_said(browser_widget, mirror):
     snap = mirror.snapshot()
     time = _node(snap, "slider", control_label("time_scale", gw.GrassWidget.class_traits()["time_scale"]))
     mirror.sent.clear()
     mirror.receive({"type": "set", "id": time["id"], "value": "fast"})  # not a number
-    assert widget.time_scale == 1.0
-    assert "time" in widget.message_line.value and "fast" in widget.message_line.value
+    assert browser_widget.time_scale == 1.0
+    assert "time" in browser_widget.panel.message_line.value and "fast" in browser_widget.panel.message_line.value
     assert [m["props"]["value"] for m in mirror.sent if m["id"] == time["id"]] == [1.0]  # the page shows 1.0 again
 
 
@@ -141,30 +141,31 @@ def test_marimo_is_optional_and_asked_only_at_display_time():
     assert r.returncode == 0, r.stderr
 
 
-def test_display_in_marimo_shows_anywidgets_only(widget):
+def test_display_in_marimo_shows_anywidgets_only(browser_widget):
     mo = pytest.importorskip("marimo")
-    html = mo.as_html(widget).text  # what marimo shows (it asks the widget's display protocol)
+    html = mo.as_html(browser_widget).text  # what marimo shows (it asks the widget's display protocol)
     assert "grasswidget-marimo" in html and html.count("<marimo-anywidget") == 2  # the stage and the panel
-    stage, mirror = widget.marimo_parts()
-    assert stage.shown == (widget.view.widget, widget.bench.chart)  # the view, then the chart under it
+    stage, mirror = browser_widget.marimo_parts()
+    assert stage.shown == (browser_widget.view.widget, browser_widget.lab_bench.chart)  # the view, then the chart under it
     assert stage.html.count("<marimo-anywidget") == 2
-    assert widget.marimo_parts() == (stage, mirror) and mirror is widget.control_mirror()  # shown again: the same
+    # shown again: the same
+    assert browser_widget.marimo_parts() == (stage, mirror) and mirror is browser_widget.control_mirror()
     # the stage follows a new view (what the fallback to the kernel engine does to the widget's stage)
-    replacement = type(widget.bench.chart)()
-    widget.children[0].children = [replacement, *widget.children[0].children[1:]]
-    assert stage.shown == (replacement, widget.bench.chart)
+    replacement = type(browser_widget.lab_bench.chart)()
+    browser_widget.children[0].children = [replacement, *browser_widget.children[0].children[1:]]
+    assert stage.shown == (replacement, browser_widget.lab_bench.chart)
     replacement.close()
 
 
 def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
-    from grasswidget.notebook.marimo_face import esm_for_front_end, running_in_marimo
+    from grasswidget.views.front_end import esm_for_front_end, running_in_marimo
 
     assert not running_in_marimo()  # pytest is no marimo notebook, marimo loaded or not
     assert esm_for_front_end("export default {};") == "export default {};"
     mo = pytest.importorskip("marimo")
     # the classes a message handler may make (the "auto" switch) are the plain ones outside marimo
-    from grasswidget.browser.view import BrowserEngineWidget
-    from grasswidget.notebook.marimo_face import class_for_front_end
+    from grasswidget.browser.engine_widget import BrowserEngineWidget
+    from grasswidget.views.front_end import class_for_front_end
 
     assert class_for_front_end(BrowserEngineWidget) is BrowserEngineWidget
     w = gw.GrassWidget(64, backend="browser", size=(160, 120))
@@ -172,11 +173,10 @@ def test_outside_marimo_modules_go_as_text_and_a_closed_widget_shows_its_repr():
     assert "closed" in mo.as_html(w).text
 
 
-def test_the_browser_view_takes_only_a_browser_engine_widget_class(widget):
-    from grasswidget.browser.engine_view import BrowserEngineView
+def test_the_browser_view_takes_only_a_browser_engine_widget_class(browser_widget):
+    from grasswidget.views.browser import BrowserEngineView
     with pytest.raises(gw.GrassTypeError, match="widget_class must be BrowserEngineWidget or a subclass"):
-        BrowserEngineView(16, (160, 120), gw.GrassParams(), playback=widget, actions=widget, on_error=print,
-                          on_stats=print, on_unavailable=print, widget_class=ipw.HTML)
+        BrowserEngineView(16, (160, 120), gw.GrassParams(), host=browser_widget.engine, widget_class=ipw.HTML)
 
 
 def test_a_non_widget_root_is_refused():

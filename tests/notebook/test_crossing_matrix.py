@@ -13,7 +13,7 @@ assert on that record. The independent counts: the NumPy reference (``reference.
 the state the GPU drew, for the camera that culls (the frozen one while frozen), minus what
 occlusion removed as the GPU counted it. The browser engine's part runs without a browser: its view
 gets the stats message its engine would send for the same frame (the same counter words, read with
-``frame_data.read_counters`` as engine.js's twin does) and must show the same numbers.
+``engine_inputs.read_counters`` as engine.js's twin does) and must show the same numbers.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def _measure(w, switch, value) -> Record:
     p = w.params
     if w.view.blades.horizon is not None:
         # A field to the horizon thins itself with distance: distance culling is off for it
-        # (core.frame_data.cull_uniform_values, "thinned"), whatever cull_distance says.
+        # (core.engine_inputs.cull_uniform_values, "thinned"), whatever cull_distance says.
         p = p.copy()
         p.cull_distance = False
     kept = ref.cull(state, p, view_proj, cam_pos)
@@ -178,7 +178,7 @@ def _measure(w, switch, value) -> Record:
     picture = scene.render_at(antialias=False)
     return Record(
         switch, value, picture, bool(p.lod), kept, ref.lod_class(state["v0"], state["v2"], state["height"], view_proj, height),
-        pixels, dict(w.stats), html.unescape(w.stats_line.value), format_details(w.stats), w.traces(), state,
+        pixels, dict(w.stats), html.unescape(w.panel.stats_line.value), format_details(w.stats), w.traces(), state,
         w.view.blades.rest_state(), f.count, str(p.color_by), rest_reason, **gpu)
 
 
@@ -314,7 +314,7 @@ def check_picture(r: Record, ctx):
 def check_browser_engine(r: Record, ctx):
     """The browser engine's view, given the stats message its engine sends for this frame (the same
     counter words), shows the same numbers in its stats and its status line."""
-    from grasswidget.core.frame_data import counter_layout, read_counters
+    from grasswidget.core.engine_inputs import counter_layout, read_counters
 
     bw = ctx["browser"]()
     layout = counter_layout(len(r.per_class))
@@ -331,7 +331,7 @@ def check_browser_engine(r: Record, ctx):
     s = bw.stats
     assert s["visible"] == r.visible_count and s["rastered"] == r.drawn["compute"]
     assert s["occluded"] == r.stats["occluded"]
-    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.stats_line.value)
+    assert f"{r.visible_count:,} of {bw.blade_count:,} blades drawn" in html.unescape(bw.panel.stats_line.value)
 
 
 #: The measurements: name -> check(record, context). Each runs against every switch value.
@@ -406,7 +406,7 @@ def test_stats_while_playing_are_of_the_frame_their_step_count_names(kernel_widg
             seen.append(drawn)
             assert s["step_count"] == w.view.scene.field.step_count
             assert s["visible"] == drawn, (k, s["visible"], drawn)
-            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.stats_line.value)
+            assert f"{drawn:,} of {BLADES:,} blades drawn" in html.unescape(w.panel.stats_line.value)
     finally:
         w.pause()
         w.view.camera_state = dict(CAMERA)

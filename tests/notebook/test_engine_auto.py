@@ -1,6 +1,6 @@
 """backend="auto" in the kernel (no browser): the default widget, and what the page's adapter
 report does to it. The page's side (the probe in a real Chromium) is tested in
-tests/browser/test_engine_auto_browser.py."""
+tests/e2e/test_engine_auto_browser.py."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import html
 import numpy as np
 
 import grasswidget as gw
-from grasswidget.browser.engine_view import BrowserEngineView
-from grasswidget.notebook.kernel_view import KernelView
+from grasswidget.views.browser import BrowserEngineView
+from grasswidget.views.kernel import KernelView
 
 NVIDIA = {"webgpu": True, "adapter": True, "fallback": False, "vendor": "nvidia", "architecture": "ampere",
           "device": "", "description": "", "detail": ""}
@@ -26,7 +26,7 @@ def test_auto_is_the_default_and_runs_the_kernel_until_a_view_reports(tmp_path):
         assert w.adapter_probe is not None and w.adapter_probe in w.children[0].children
         assert w.engine_reason.startswith("kernel engine: the kernel renders on a CPU adapter (llvmpipe)")
         assert "no view has reported" in w.engine_reason
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
         path = w.save_png(str(tmp_path / "script.png"), size=(64, 48))
         import imageio.v3 as iio
 
@@ -57,12 +57,12 @@ def test_a_hardware_adapter_report_switches_to_the_browser_engine_keeping_the_st
 
         at = offsets(GRASS_MATERIAL_LAYOUT)["shadows"][0]
         assert w.params.shadows is True
-        assert np.frombuffer(w.view.browser_view.material_uniform[at: at + 4], "<f4")[0] == 1.0
+        assert np.frombuffer(w.view.engine_widget.material_uniform[at: at + 4], "<f4")[0] == 1.0
         assert w.engine_reason == ("browser engine: the kernel renders on a CPU adapter (llvmpipe) and this "
                                    "browser offers a GPU (nvidia ampere)")
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
         assert w.children[0].children[0] is w.view.widget  # the browser engine's view in the kernel view's place
-        bv = w.view.browser_view
+        bv = w.view.engine_widget
         assert bv.params is w.params and bv.playing is False
         assert np.allclose(bv.camera["position"], (1, 3, 9)) and np.allclose(bv.camera["target"], (0, 0.5, 0))
         assert list(bv.inspected) == [3, 5] and len(bv.balls) == 1
@@ -80,7 +80,7 @@ def test_a_fallback_adapter_report_keeps_the_kernel_engine():
         w.adapter_probe.report = SWIFTSHADER
         assert w.backend == "kernel" and w.view is view and w.params.shadows is False
         assert "CPU fallback too (google swiftshader)" in w.engine_reason
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
     finally:
         w.close()
 
@@ -95,7 +95,7 @@ def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
     try:
         assert w.backend == "kernel" and w.adapter_probe is None
         assert w.engine_reason == "kernel engine: the kernel renders on a GPU (NVIDIA H100)"
-        assert w.engine_reason in html.unescape(w.message_line.value)
+        assert w.engine_reason in html.unescape(w.panel.message_line.value)
     finally:
         w.close()
     monkeypatch.setattr(engine_auto, "kernel_adapter", lambda: ("none", ""))
@@ -108,16 +108,16 @@ def test_kernel_on_a_gpu_or_with_no_adapter_decides_at_once(monkeypatch):
 
 
 def test_the_sunlights_default_follows_the_adapter_until_the_user_sets_it():
-    """notebook/sunlight_default.py: an adapter report sets ``shadows`` (a GPU: on, a software
+    """notebook/shadows_default.py: an adapter report sets ``shadows`` (a GPU: on, a software
     adapter by name: off) while it is the widget's default; never params the user passed, never
     after the user set it."""
-    from grasswidget.notebook.sunlight_default import SunlightDefault, engine_adapter_is_cpu
+    from grasswidget.notebook.shadows_default import ShadowsDefault, engine_adapter_is_cpu
 
     assert engine_adapter_is_cpu("google swiftshader Google SwiftShader") and engine_adapter_is_cpu("llvmpipe")
     # as the "auto" rule: an adapter not known as a software one is a GPU
     assert not engine_adapter_is_cpu("nvidia ampere NVIDIA GeForce RTX 4090") and not engine_adapter_is_cpu("")
     params = gw.GrassParams(shadows=False)
-    default = SunlightDefault(params, own=True)
+    default = ShadowsDefault(params, own=True)
     default.apply_engine_adapter("nvidia ampere")
     assert params.shadows is True
     default.apply_engine_adapter("google swiftshader")
@@ -126,6 +126,6 @@ def test_the_sunlights_default_follows_the_adapter_until_the_user_sets_it():
     default.apply(cpu_adapter=True)
     assert params.shadows is True and not default.live
     theirs = gw.GrassParams(shadows=False)
-    SunlightDefault(theirs, own=False).apply(cpu_adapter=False)
+    ShadowsDefault(theirs, own=False).apply(cpu_adapter=False)
     assert theirs.shadows is False
 

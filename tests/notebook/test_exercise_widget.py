@@ -60,8 +60,8 @@ def test_compare_runs_yours_next_to_the_reference_in_lockstep():
     ex = gw.exercise("forces")
     c = ex.compare(ex.solution().replace(*UPWARD), blades=128, size=SIZE)
     try:
-        assert list(c.views) == ["yours", "reference"]
-        mine, ref = c.views["yours"], c.views["reference"]
+        assert list(c.widgets) == ["yours", "reference"]
+        mine, ref = c.widgets["yours"], c.widgets["reference"]
         assert mine.function_overrides is not None and ref.function_overrides is None
         c.params.wind_strength = 0.0  # shared: reaches both views
         assert mine.params.wind_strength == ref.params.wind_strength == 0.0
@@ -79,7 +79,7 @@ def test_compare_runs_yours_next_to_the_reference_in_lockstep():
 def test_compare_in_the_browser_engine_is_two_widgets_on_one_set_of_params():
     ex = gw.exercise("culling")
     box = ex.compare(ex.starter, blades=128, size=SIZE, backend="browser")
-    mine, ref = box.views["yours"], box.views["reference"]
+    mine, ref = box.widgets["yours"], box.widgets["reference"]
     try:
         assert mine.params is ref.params and mine.params.color_by == "cull"
         assert mine.function_overrides is not None and ref.function_overrides is None

@@ -101,10 +101,10 @@ def test_every_step_call_is_sampled_whether_or_not_a_frame_is_drawn(widget):
     finally:
         scene.release()
     _show(widget)
-    version = widget.bench.recorder.version
+    version = widget.lab_bench.recorder.version
     widget.view.draw()  # a frame at the same step count: its sample replaces the last one
     again = widget.traces()
-    assert widget.bench.recorder.version > version
+    assert widget.lab_bench.recorder.version > version
     assert list(again["step"]) == list(tr["step"])
     np.testing.assert_array_equal(again["v2"], tr["v2"])
     widget.view.draw()
@@ -167,7 +167,7 @@ def test_save_traces_round_trip_and_bad_extension(widget, tmp_path):
 
 def test_chart_trait_dropdown_and_series(widget):
     _show(widget)
-    bench = widget.bench
+    bench = widget.lab_bench
     assert widget.chart is None and bench.chart.layout.display == "none"
     assert bench.dropdown.value == "none" and bench.dropdown.label == "none"
     widget.inspect([5, 6])
@@ -207,7 +207,7 @@ def test_chart_updates_are_bounded_while_playing(widget):
     _show(widget)
     widget.chart = "frame"
     pushes = []
-    widget.bench.chart.observe(lambda c: pushes.append(c), names="data")
+    widget.lab_bench.chart.observe(lambda c: pushes.append(c), names="data")
     widget.play()
     frames = 12
     import time
@@ -219,7 +219,7 @@ def test_chart_updates_are_bounded_while_playing(widget):
     assert len(widget.traces()["t"]) == frames
     assert 1 <= len(pushes) <= 1 + elapsed * 5.0 + 1
     widget.pause()  # the newest samples reach the chart when playing stops
-    assert widget.bench.chart.data["x"][-1] == pytest.approx(widget.traces()["t"][-1])
+    assert widget.lab_bench.chart.data["x"][-1] == pytest.approx(widget.traces()["t"][-1])
 
 
 def test_the_panel_marks_each_inspected_blade_in_its_chart_colour(widget):

@@ -1,5 +1,5 @@
 """The widget's layouts on the Python side: names, view sizes, folding and the camera bar's
-two-way links (the pixels are measured in Chromium by tests/browser/test_camera_and_layout.py)."""
+two-way links (the pixels are measured in Chromium by tests/e2e/test_camera_and_layout.py)."""
 
 import pytest
 
@@ -18,7 +18,7 @@ def test_lecture_layout_folds_the_panel_and_more_unfolds_it():
         assert bar.play_button in bar.row.children and bar.more_button.description == "more"
         assert w.children[0].children[0] is w.view.widget and w.children[1].children[0] is bar.row
         more = w.children[1].children[1]
-        assert more.layout.display == "none" and list(more.children) == [*w.panel.rows, w.bench.control]
+        assert more.layout.display == "none" and list(more.children) == [*w.panel.rows, w.lab_bench.control]
         bar.more_button.value = True  # the "more" click
         assert not w.panel_folded and more.layout.display == "" and bar.play_button not in bar.row.children
         w.panel_folded = True  # from code: the button follows

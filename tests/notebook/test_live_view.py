@@ -11,8 +11,8 @@ import pytest
 
 import grasswidget as gw
 from conftest import WIDGET_SIZE, TickingWall
-from grasswidget.notebook.adaptive import SCALES
-from grasswidget.notebook.clock import SimClock
+from grasswidget.views.adaptive import SCALES
+from grasswidget.views.clock import SimClock
 
 pytest.importorskip("jupyter_rfb")
 
@@ -111,7 +111,7 @@ def test_slow_motion_in_the_stats_line(widget):
         wall.advance(0.1)
         widget.view.draw()
     widget.view.refresh_stats()
-    line = widget.stats_line.value
+    line = widget.panel.stats_line.value
     assert "slow motion 0.5x" in line, line
     assert widget.stats["steps_per_frame"] == gw.widget.MAX_STEPS_PER_FRAME
     widget.time_scale = 1.0
@@ -119,7 +119,7 @@ def test_slow_motion_in_the_stats_line(widget):
         wall.advance(0.1)
         widget.view.draw()
     widget.view.refresh_stats()
-    assert "slow motion" not in widget.stats_line.value
+    assert "slow motion" not in widget.panel.stats_line.value
 
 
 def test_adaptive_scale_goes_down_when_slow_and_back_up_when_fast(widget, tmp_path, monkeypatch):
@@ -205,7 +205,7 @@ def test_target_fps_defaults_and_bad_values(widget):
 
 
 def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
-    import grasswidget.notebook.kernel_view as kv
+    import grasswidget.views.kernel as kv
 
     monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # no refresh inside the draw: this test refreshes
     _resize(widget)
@@ -225,7 +225,7 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     line = widget.panel.details_line.value
     for word in ("frames/s delivered", "render", "readback 4", "encode+send 6", "scale 1.00", "steps/frame"):
         assert word in line, (word, line)
-    status = widget.stats_line.value  # one line in words; the timings wait behind "details"
+    status = widget.panel.stats_line.value  # one line in words; the timings wait behind "details"
     assert "frames/s" in status and "blades drawn" in status and "real time" in status, status
     assert "readback" not in status and "ms" not in status
     assert widget.panel.details_line.layout.display == "none"
@@ -234,9 +234,9 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     widget.panel.details_button.value = False
     assert math.isfinite(s["fps"])
     widget.pause()  # paused, the status says so (not "real time" at a stale rate)
-    assert "paused" in widget.stats_line.value and "real time" not in widget.stats_line.value
+    assert "paused" in widget.panel.stats_line.value and "real time" not in widget.panel.stats_line.value
     widget.play()
-    assert "paused" not in widget.stats_line.value
+    assert "paused" not in widget.panel.stats_line.value
 
 
 def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_frame(widget):
@@ -244,7 +244,7 @@ def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_fram
     at once got a KeyError from the browser engine); a window in which the "auto" switches ran a
     trial says so; a refresh right after the one a frame made keeps that window's figures
     (it used to report 0.0 frames/s delivered and no stage times)."""
-    from grasswidget.gpu.auto_switches import switches_of
+    from grasswidget.gpu.trial_timing import switches_of
 
     _resize(widget)
     for key in ("step_count", "switches", "trial", "fps", "render_ms"):

@@ -11,7 +11,7 @@ For every notebook in notebooks/ (a glob: notebooks added later are covered too)
 * **names** exist: ``VAR.attr`` where ``VAR`` is a widget, scene or params object made in the
   notebook's code (``w = gw.GrassWidget(...)``, ``scene = gw.GrassScene...``, ``p = scene.params``)
   or ``params``, in backticks in markdown and anywhere in code; ``VAR.params.name`` and
-  ``GrassParams(name=...)``; ``w.sliders["name"]``; and every snake_case name in backticks in
+  ``GrassParams(name=...)``; ``w.panel.sliders["name"]``; and every snake_case name in backticks in
   markdown must be a ``GrassParams`` trait, a ``GrassWidget`` / ``GrassScene`` / ``GrassField``
   attribute, a public name of a grasswidget module, or a name the notebook's own code defines.
 """

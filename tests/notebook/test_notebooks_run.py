@@ -1,7 +1,7 @@
 """The notebooks as files: the course's five come first, they are committed without outputs, what
 they write is ignored by git, and the READMEs name no machine's folders.
 
-Running them is ``tests/browser/test_notebooks_run_all.py``: Run All of every notebook in
+Running them is ``tests/e2e/test_notebooks_run_all.py``: Run All of every notebook in
 JupyterLab, its widgets alive and drawing, and what each computed (``tests/notebook_outputs.py``).
 """
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import WIDGET_SIZE, grass_mask, sky_mask
-from grasswidget.notebook.orbit import OrbitLimits, clamp_orbit
+from grasswidget.views.orbit import OrbitLimits, clamp_orbit
 
 pytest.importorskip("jupyter_rfb")
 

@@ -112,6 +112,7 @@ def test_ctrl_click_inspects_the_blade_under_the_pointer():
         assert np.allclose(cam.world.position, pos)  # ctrl + click does not orbit
         # a click on the sky inspects nothing new
         w.view.events(_pointer("pointer_down", SIZE[0] / 2, 2, ("Control",)))
+        w.view.events(_pointer("pointer_up", SIZE[0] / 2, 2, ("Control",)))
         assert w.inspected == (21,)
         # the panel's numbers follow the GPU at each stats refresh
         w.step(30)
@@ -147,7 +148,7 @@ def test_inspect_from_code_and_bad_input(widget):
 
 
 def test_browser_widget_teaching_views_without_a_browser():
-    """The browser engine's teaching views, the Python side (the page: tests/browser/
+    """The browser engine's teaching views, the Python side (the page: tests/e2e/
     test_browser_teaching.py): freezing sends the frozen camera in u_cull and its frustum
     as line data; inspect sends the ids; bad ids change nothing; read_inspected with no
     browser answering names the browser view; ctrl + click picks the blade on the ray."""

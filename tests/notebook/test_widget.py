@@ -32,22 +32,22 @@ def test_layout_and_labels(widget):
     assert isinstance(widget, ipywidgets.VBox)
     assert isinstance(widget.canvas, RenderCanvas)
     assert widget.children[0].children[0] is widget.canvas  # the view, with the lab bench under it
-    labels = {s.description for s in widget.sliders.values()}
+    labels = {s.description for s in widget.panel.sliders.values()}
     assert labels == {"blades", "wind strength (m/s²)", "wind direction (°)", "gust speed (m/s)", "gravity (m/s²)",
                       "stiffness ×", "time (× real time)"}
     looks = {s.description for s in widget.panel.look_sliders.values()}
     assert looks == {"colour variety", "patch size (m)", "dry grass", "sunlit tips", "fog (1/m)", "sun height (°)",
                      "sun direction (°)"}
-    tip = widget.sliders["wind_strength"].tooltip
+    tip = widget.panel.sliders["wind_strength"].tooltip
     assert tip.startswith(gw.GrassParams.class_traits()["wind_strength"].help) and "0 to 200 m/s²" in tip
-    assert [c.description for c in widget.checkboxes.values()] == [
+    assert [c.description for c in widget.panel.checkboxes.values()] == [
         "orientation culling", "frustum culling", "distance culling", "LOD"]
-    choices = widget.switch_choices  # the switches decided by measuring: auto / on / off
+    choices = widget.panel.switch_choices  # the switches decided by measuring: auto / on / off
     assert [(c.dropdown.description, c.dropdown.value) for c in choices.values()] == [
         ("occlusion culling", "auto"), ("compute raster", "auto")]
-    assert widget.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)
-    texts = {b.description for b in (widget.play_button, widget.step_button, widget.reset_blades_button,
-                                      widget.reset_camera_button, widget.save_button)}
+    assert widget.panel.wind_field_dropdown.options == tuple(gw.params.WIND_FIELDS)
+    texts = {b.description for b in (widget.panel.play_button, widget.panel.step_button, widget.panel.reset_blades_button,
+                                      widget.panel.reset_camera_button, widget.panel.save_button)}
     assert texts == {"Pause", "Step", "Reset blades", "Reset camera", "Save PNG"}
     assert widget.scene.params is widget.params
     assert widget.canvas.quality in range(1, 101)
@@ -80,22 +80,22 @@ def test_pixel_ratio_override():
 
 def test_controls_change_params_and_back(widget):
     p = widget.params
-    widget.sliders["wind_strength"].value = 33.5
+    widget.panel.sliders["wind_strength"].value = 33.5
     assert p.wind_strength == 33.5
     p.wind_strength = 12.0
-    assert widget.sliders["wind_strength"].value == 12.0
-    widget.sliders["stiffness_scale"].value = 2.5
+    assert widget.panel.sliders["wind_strength"].value == 12.0
+    widget.panel.sliders["stiffness_scale"].value = 2.5
     assert p.stiffness_scale == 2.5
     p.gravity = 20.0
-    assert widget.sliders["gravity"].value == 20.0
+    assert widget.panel.sliders["gravity"].value == 20.0
     p.wind_direction = -90
-    assert widget.sliders["wind_direction"].value == -90
-    for name, cb in widget.checkboxes.items():
+    assert widget.panel.sliders["wind_direction"].value == -90
+    for name, cb in widget.panel.checkboxes.items():
         cb.value = False
         assert getattr(p, name) is False
         setattr(p, name, True)
         assert cb.value is True
-    for name, choice in widget.switch_choices.items():
+    for name, choice in widget.panel.switch_choices.items():
         choice.dropdown.value = "off"
         assert getattr(p, name) is False
         setattr(p, name, True)
@@ -103,15 +103,15 @@ def test_controls_change_params_and_back(widget):
         setattr(p, name, "auto")
         assert choice.dropdown.value == "auto"
     widget.time_scale = 0.5
-    assert widget.sliders["time_scale"].value == 0.5
-    widget.sliders["time_scale"].value = 2.0
+    assert widget.panel.sliders["time_scale"].value == 0.5
+    widget.panel.sliders["time_scale"].value = 2.0
     assert widget.time_scale == 2.0
     assert widget.steps_per_frame == round(2.0 / widget.max_fps / p.dt)
     # ipywidgets.link from user code works both ways too
     other = ipywidgets.FloatSlider(min=0, max=50)
     link = ipywidgets.link((other, "value"), (p, "wind_speed"))
     other.value = 7.0
-    assert p.wind_speed == 7.0 and widget.sliders["wind_speed"].value == 7.0
+    assert p.wind_speed == 7.0 and widget.panel.sliders["wind_speed"].value == 7.0
     p.wind_speed = 4.0
     assert other.value == 4.0
     link.unlink()
@@ -144,7 +144,7 @@ def test_sun_controls_in_the_looks_row(widget):
     height.max = 120  # a value the control allows but the trait refuses
     height.value = 100
     assert p.sun_elevation == 30.0 and height.value == 30.0
-    assert "sun_elevation" in widget.message_line.value
+    assert "sun_elevation" in widget.panel.message_line.value
     height.max = 90
     # the picture follows: a low sun from the other side lights the field differently
     p.shadows = True
@@ -167,7 +167,7 @@ def test_bad_values_raise_and_widget_keeps_working(widget, tmp_path):
     for bad in (float("nan"), float("inf"), -1.0, 1e9, "heavy"):
         with pytest.raises(TraitError, match="gravity"):
             p.gravity = bad
-    assert p.gravity == before and widget.sliders["gravity"].value == before
+    assert p.gravity == before and widget.panel.sliders["gravity"].value == before
     with pytest.raises(TraitError, match="wind_field"):
         p.wind_field = "tornado"
     with pytest.raises(TraitError, match="time_scale"):
@@ -178,17 +178,17 @@ def test_bad_values_raise_and_widget_keeps_working(widget, tmp_path):
         widget.save_png(tmp_path / "x.png", size=(0, 5))
     # A value the control allows but the trait refuses (as if the slider's range
     # were wider): the control snaps back and the message line says why.
-    s = widget.sliders["gravity"]
+    s = widget.panel.sliders["gravity"]
     s.max = 100
     s.value = 80
     assert p.gravity == before and s.value == before
-    assert "gravity" in widget.message_line.value
+    assert "gravity" in widget.panel.message_line.value
     # A huge number typed into a readout is clamped by the slider itself.
-    widget.sliders["wind_speed"].value = 1e12
-    assert p.wind_speed == widget.sliders["wind_speed"].max
+    widget.panel.sliders["wind_speed"].value = 1e12
+    assert p.wind_speed == widget.panel.sliders["wind_speed"].max
     # ...and a later valid change still applies, and drawing still works.
     p.gravity = 12.5
-    assert widget.sliders["gravity"].value == 12.5
+    assert widget.panel.sliders["gravity"].value == 12.5
     _resize(widget)
     widget.view.draw()
     img = widget.scene.render_at(SIZE)
@@ -211,12 +211,12 @@ def test_shared_params_object():
     w = gw.GrassWidget(blades=256, size=SIZE, params=p)
     try:
         assert w.params is p and w.scene.params is p
-        assert w.sliders["wind_strength"].value == 42.0
+        assert w.panel.sliders["wind_strength"].value == 42.0
     finally:
         w.close()
     # closing unhooks the controls: p keeps working on its own
     p.wind_strength = 3.0
-    assert w.sliders["wind_strength"].value == 42.0
+    assert w.panel.sliders["wind_strength"].value == 42.0
 
 
 def test_play_pause_step_reset(widget):
@@ -226,18 +226,18 @@ def test_play_pause_step_reset(widget):
     widget.view.draw()  # a frame while playing advances steps_per_frame steps
     assert f.step_count == widget.steps_per_frame
     widget.pause()
-    assert widget.play_button.description == "Play"
+    assert widget.panel.play_button.description == "Play"
     n = f.step_count
     widget.view.draw()
     assert f.step_count == n
-    widget.step_button.click()
+    widget.panel.step_button.click()
     assert f.step_count == n + max(1, widget.steps_per_frame) and not widget.playing
     widget.step(5)
     assert f.step_count == n + max(1, widget.steps_per_frame) + 5
-    widget.reset_blades_button.click()
+    widget.panel.reset_blades_button.click()
     assert f.step_count == 0
-    widget.play_button.click()
-    assert widget.playing and widget.play_button.description == "Pause"
+    widget.panel.play_button.click()
+    assert widget.playing and widget.panel.play_button.description == "Pause"
 
 
 def test_orbit_without_picking_and_keys(widget, monkeypatch):
@@ -277,7 +277,7 @@ def test_stats_line(widget):
     widget.view.refresh_stats()
     s = widget.stats
     assert s["blades"] == 1024 and s["visible"] is not None and 0 <= s["visible"] <= 1024
-    line = widget.stats_line.value
+    line = widget.panel.stats_line.value
     assert "blades drawn" in line and "0.0 frames/s" not in line, line
     if s["fps"] < 0.05:  # a frame was sent and no browser confirmed it: said in words, no "real time"
         assert "waiting for frames" in line and "real time" not in line, line
@@ -297,13 +297,13 @@ def test_stats_say_how_old_they_are_and_a_view_at_rest_says_so(widget):
     widget.view.refresh_stats()
     s = widget.stats
     assert 0.0 <= s["frame_age_s"] < 60.0 and not s["stale"] and not s["at_rest"] and not s["waiting"]
-    assert "at rest" not in widget.stats_line.value and "ago" not in widget.stats_line.value
+    assert "at rest" not in widget.panel.stats_line.value and "ago" not in widget.panel.stats_line.value
     compat.set_view_visibility(widget.canvas, True)
     compat.set_view_visibility(widget.canvas, False)  # scrolled out of sight
     s = widget.stats
     assert s["at_rest"] and s["stale"] and s["frame_age_s"] >= 0.0
     widget.params.cull_orientation = not widget.params.cull_orientation  # from a cell: nothing is drawn
-    line = widget.stats_line.value
+    line = widget.panel.stats_line.value
     assert widget.stats["stale"] and line.startswith("<small>paused, out of sight") and " ago" in line, line
     compat.set_view_visibility(widget.canvas, True)
     widget.view.draw()  # back on screen: jupyter-rfb asks for a frame
@@ -313,16 +313,16 @@ def test_stats_say_how_old_they_are_and_a_view_at_rest_says_so(widget):
 
 def test_blade_count_slider_rebuilds(widget):
     cam_before = np.array(widget.scene.camera.world.position)
-    widget.blade_slider.value = 512  # fewer blades: at once
+    widget.panel.blade_slider.value = 512  # fewer blades: at once
     assert widget.blade_count == 512 and widget.scene.field.count == 512
     # more blades than the measured frame rate allows at target_fps (here: none measured yet) ask first
-    widget.blade_slider.value = 2048
+    widget.panel.blade_slider.value = 2048
     assert widget.blade_count == 512 and widget.panel.blade_control.pending == 2048
     widget.panel.blade_control.apply_button.click()
     assert widget.blade_count == 2048 and widget.scene.field.count == 2048
     assert np.allclose(widget.scene.camera.world.position, cam_before)
     widget.blade_count = 512
-    assert widget.blade_slider.value == 512 and widget.scene.field.count == 512
+    assert widget.panel.blade_slider.value == 512 and widget.scene.field.count == 512
     _resize(widget)
     widget.view.draw()
 
@@ -338,14 +338,14 @@ def test_save_png_from_code_and_button(widget, tmp_path, monkeypatch):
     assert grass_mask(img).mean() > 0.1
     # default: twice the view; the button writes into output/ under the working directory (created)
     monkeypatch.chdir(tmp_path)
-    widget.save_button.click()
+    widget.panel.save_button.click()
     assert not list(tmp_path.glob("grass-*.png"))
     pngs = sorted((tmp_path / "output").glob("grass-*.png"))
-    assert len(pngs) == 1, widget.message_line.value
+    assert len(pngs) == 1, widget.panel.message_line.value
     assert iio.imread(pngs[0]).shape[:2] == (2 * SIZE[1], 2 * SIZE[0])
-    assert pngs[0].name in widget.file_line.value
-    widget.png_scale.value = 1
-    widget.save_button.click()
+    assert pngs[0].name in widget.panel.file_line.value
+    widget.panel.png_scale.value = 1
+    widget.panel.save_button.click()
     assert len(sorted((tmp_path / "output").glob("grass-*.png"))) == 2
     # save_png() without a path: the same folder, a new name
     own = widget.save_png(size=(64, 48))

@@ -19,13 +19,13 @@ def test_widget_blade_count_uses_the_same_check(widget):
     control.choose(10**12)  # as if the control offered it: more blades than measured for, so it asks
     assert control.pending == 10**12 and widget.blade_count == old
     control.confirm()  # Apply
-    assert "count=1,000,000,000,000" in widget.message_line.value
-    assert widget.blade_slider.value == old and widget.blade_count == old
+    assert "count=1,000,000,000,000" in widget.panel.message_line.value
+    assert widget.panel.blade_slider.value == old and widget.blade_count == old
     # the slider never offers more than fits
     from grasswidget.gpu.field import max_blade_count
 
     fresh = gw.GrassWidget(blades=64, size=(160, 120))
     try:
-        assert max(v for _label, v in fresh.blade_slider.options) <= max_blade_count()
+        assert max(v for _label, v in fresh.panel.blade_slider.options) <= max_blade_count()
     finally:
         fresh.close()

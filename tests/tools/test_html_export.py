@@ -3,7 +3,7 @@
 The page's controls are state patches computed in Python; here they are applied
 the way page.js applies them and compared with what the kernel side would send
 (the uniforms packed by grasswidget.browser.uniforms for the changed params).
-Chromium runs the page in tests/browser/test_live_page.py.
+Chromium runs the page in tests/e2e/test_live_page.py.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import grasswidget as gw
 from grasswidget.browser import uniforms
 from grasswidget.browser.esm import engine_module_text
 from grasswidget.browser.page import PAGE_MAX_BLADES, page_html
-from grasswidget.browser.view import BrowserEngineWidget
+from grasswidget.browser.engine_widget import BrowserEngineWidget
 from grasswidget.core.colliders import SphereCollider
 
 
@@ -116,6 +116,16 @@ def test_controls_send_what_the_kernel_would(page_data):
     assert {"playing", "wind_strength", "wind_direction", "wind_field", "cull_orientation", "cull_frustum",
             "cull_distance", "lod", "color_by", "ball"} <= set(controls)
     state = {k: base64.b64decode(v) if k in data["binary"] else v for k, v in data["state"].items()}
+    # what the page's keys and ball drag follow is Python's: the key map, and where the ball may go
+    # (the kernel's BallControl clamps to the same ball_reach: the field and a tenth of its extent)
+    from grasswidget.core.interaction import ball_reach, input_rules
+
+    assert data["input"] == input_rules() and data["input"]["keys"]["s"] == "step"
+    v0 = view.blades.v0
+    extent = max(np.ptp(v0[:, 0]), np.ptp(v0[:, 2]), 1.0)
+    assert np.allclose(controls["ball"]["reach"], [v0[:, 0].min() - 0.1 * extent, v0[:, 0].max() + 0.1 * extent,
+                                                   v0[:, 2].min() - 0.1 * extent, v0[:, 2].max() + 0.1 * extent])
+    assert controls["ball"]["reach"] == list(ball_reach(v0.min(axis=0), v0.max(axis=0)))
     # several controls at once: culling off, LOD colours, a stronger wind from 90 degrees, paused
     ws, wd = controls["wind_strength"], controls["wind_direction"]
     _apply(state, controls["cull_orientation"], controls["cull_orientation"]["values"].index(False))

@@ -112,7 +112,7 @@ def test_wheel_alone_in_a_fresh_venv(wheel, tmp_path):
                                 "print('FILE', gw.__file__); print('PREFIX', sys.prefix)\n"
                                 "k = gw.GrassWidget(256, size=(160, 120)); b = gw.GrassWidget(256, backend='browser', size=(160, 120))\n"
                                 "k.step(3); print('ENGINES', k.backend, b.backend, k.scene.field.step_count)\n"
-                                "k.chart = 'tip'; print('CHART', k.bench.chart.data['y_label'])\n"
+                                "k.chart = 'tip'; print('CHART', k.lab_bench.chart.data['y_label'])\n"
                                 "k.close(); b.close()"))
     procs = [start("-m", "grasswidget", "snapshot", "snap.png", "--blades", "1024", "--size", "160x120",
                    "--steps", "10"),

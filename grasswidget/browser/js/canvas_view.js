@@ -1,38 +1,84 @@
+// @ts-check
 // One display of the widget: a canvas of the engine (anywidget's render() makes one per display)
 // and its input (orbit, pan and zoom drags, Shift-drag of the ball, Ctrl-click picks, keys).
-// What a drag does to the camera is rules.js's (Python's numbers, frame_rules.drag); what a key
-// does Python decides (the "key" message).
+// What a press does is Python's rule (grasswidget.core.interaction, frame_rules.input, executed by
+// rules.js's PointerGesture, the same as the kernel engine's); what a drag does to the camera is
+// rules.js's (Python's numbers, frame_rules.drag); what a key does Python decides (the "key" message).
 
 import { add, invert4, mul4, scale, sub } from "./linalg.js";
-import { orbitDrag, panDrag, wheelZoom } from "./rules.js";
+import { PointerGesture, displayRatio, domButton, keyAction, orbitDrag, panDrag, wheelZoom } from "./rules.js";
 
-/** A canvas that draws the engine's meadow (one per display of the widget). */
+/**
+ * What a CanvasView needs of the engine that draws into it (the widget's GrassEngine, engine.js).
+ * @typedef {object} CanvasEngine
+ * @property {string} noteText the line shown over the canvas
+ * @property {() => void} visibilityChanged a view came on or went off screen
+ * @property {(width: number, height: number) => GPUTexture} depthFor a depth target of this size
+ * @property {(aspect: number) => {view: ArrayLike<number>, proj: ArrayLike<number>}} matrices the camera's, column-major
+ * @property {() => import("./rules.js").Camera} camera the camera now
+ * @property {(camera: import("./rules.js").Camera, sync: boolean) => void} setCamera move it (sync: tell Python now)
+ * @property {() => {drag: import("./rules.js").DragRules, input: import("./rules.js").InputRules,
+ *   style: {ground: number[]}}} rules Python's frame_rules
+ * @property {(type: string, message: string, extra?: object) => void} report a message to Python
+ */
+/**
+ * A display's model handle (anywidget's; the live page's shim has the same methods).
+ * @typedef {object} ViewModel
+ * @property {(name: string) => any} get a synced trait's value
+ */
+/**
+ * A press in progress: where the pointer was when a drag last moved the camera.
+ * @typedef {object} Press
+ * @property {number} x CSS px
+ * @property {number} y CSS px
+ * @property {PointerGesture} gesture
+ */
+
+/** The modifier names (jupyter-rfb's, as the rules name them) held during a DOM event.
+ * @param {MouseEvent | KeyboardEvent} e @returns {string[]} */
+function modifiersOf(e) {
+  const held = [];
+  if (e.shiftKey) held.push("Shift");
+  if (e.ctrlKey) held.push("Control");
+  if (e.altKey) held.push("Alt");
+  if (e.metaKey) held.push("Meta");
+  return held;
+}
+
 export class CanvasView {
   /**
-   * @param {object} engine the widget's GrassEngine (engine.js)
-   * @param {object} model this display's model handle (the same model as the engine's)
+   * @param {CanvasEngine} engine the widget's GrassEngine (engine.js)
+   * @param {ViewModel} model this display's model handle (the same model as the engine's)
    * @param {HTMLElement} el where anywidget renders the display
    */
   constructor(engine, model, el) {
     this.engine = engine;
     this.model = model;       // this view's model handle (the same model as the engine's)
     this.el = el;
+    /** @type {(() => void)[]} */
     this.handlers = [];
+    /** @type {GPUCanvasContext | null} */
     this.context = null;
+    /** @type {GPUTexture | null} */
     this.depth = null;
+    /** @type {Press | null} */
+    this.drag = null;
     this.onScreen = false;    // some pixel of the canvas is inside the viewport (IntersectionObserver)
     this.framesDrawn = 0;     // frames drawn into this canvas (also canvas.grasswidgetFramesDrawn, for tests)
+    this.wrapper = document.createElement("div");
+    this.canvas = /** @type {HTMLCanvasElement & {grasswidgetFramesDrawn?: number}} */ (document.createElement("canvas"));
+    this.note = document.createElement("div");
+    this.observer = new IntersectionObserver((entries) => {
+      // Only changed entries come; the last one of this canvas says where it is now.
+      for (const entry of entries) this.onScreen = entry.isIntersecting;
+      this.engine.visibilityChanged();
+    });
     this.buildDom();
     this.watchVisibility();
   }
 
   // At rest off screen: a view scrolled away, in a collapsed output or a hidden tab draws nothing.
   watchVisibility() {
-    this.observer = new IntersectionObserver((entries) => {
-      // Only changed entries come; the last one of this canvas says where it is now.
-      for (const entry of entries) this.onScreen = entry.isIntersecting;
-      this.engine.visibilityChanged();
-    });
     this.observer.observe(this.canvas);
   }
 
@@ -48,14 +94,11 @@ export class CanvasView {
 
   buildDom() {
     const w = this.model.get("width"), h = this.model.get("height");
-    this.wrapper = document.createElement("div");
     this.wrapper.className = "grasswidget-browser-view";
     this.wrapper.style.cssText = `position:relative;width:${w}px;height:${h}px;background:#cfe0ee;`;
-    this.canvas = document.createElement("canvas");
     this.canvas.className = "grasswidget-canvas";
     this.canvas.tabIndex = 0;
     this.canvas.style.cssText = `width:${w}px;height:${h}px;display:block;outline:none;touch-action:none;`;
-    this.note = document.createElement("div");
     this.note.className = "grasswidget-note";
     this.note.style.cssText = "position:absolute;left:8px;top:6px;font:12px sans-serif;color:#333;";
     this.note.textContent = this.engine.noteText;
@@ -63,32 +106,43 @@ export class CanvasView {
     this.el.append(this.wrapper);
     this.resize();
 
-    const on = (target, type, fn, opts) => {
-      target.addEventListener(type, fn, opts);
-      this.handlers.push(() => target.removeEventListener(type, fn, opts));
+    /**
+     * @template {keyof HTMLElementEventMap} K
+     * @param {K} type @param {(e: HTMLElementEventMap[K]) => void} fn @param {AddEventListenerOptions} [opts]
+     */
+    const on = (type, fn, opts) => {
+      this.canvas.addEventListener(type, fn, opts);
+      this.handlers.push(() => this.canvas.removeEventListener(type, fn, opts));
     };
-    on(this.canvas, "pointerdown", (e) => this.onPointerDown(e));
-    on(this.canvas, "pointermove", (e) => this.onPointerMove(e));
-    on(this.canvas, "pointerup", (e) => this.onPointerUp(e));
-    on(this.canvas, "pointercancel", (e) => this.onPointerUp(e));
-    on(this.canvas, "wheel", (e) => this.onWheel(e), { passive: false });
-    on(this.canvas, "contextmenu", (e) => e.preventDefault());
-    on(this.canvas, "keydown", (e) => this.onKey(e));
+    on("pointerdown", (e) => this.onPointerDown(e));
+    on("pointermove", (e) => this.onPointerMove(e));
+    on("pointerup", (e) => this.onPointerUp(e));
+    on("pointercancel", (e) => this.onPointerUp(e));
+    on("wheel", (e) => this.onWheel(e), { passive: false });
+    on("contextmenu", (e) => e.preventDefault());
+    on("keydown", (e) => this.onKey(e));
   }
 
-  // The engine's device is ready (again): draw into this canvas with it.
+  /**
+   * The engine's device is ready (again): draw into this canvas with it.
+   * @param {GPUDevice} device @param {GPUTextureFormat} format
+   */
   configure(device, format) {
-    this.context = this.canvas.getContext("webgpu");
-    this.context.configure({ device, format, alphaMode: "opaque" });
+    const context = /** @type {GPUCanvasContext} */ (this.canvas.getContext("webgpu"));
+    this.context = context;
+    context.configure({ device, format, alphaMode: "opaque" });
     if (this.depth) this.depth.destroy();
     this.depth = null;
   }
 
   resize() {
     const w = this.model.get("width"), h = this.model.get("height");
-    // Rendered pixels per CSS pixel: the widget's pixel_ratio, else the display's (at most 2).
+    // Rendered pixels per CSS pixel: the widget's pixel_ratio, else the display's (at most
+    // Python's max_pixel_ratio: frame_rules.input).
+    const rules = this.model.get("frame_rules");
     const asked = this.model.get("pixel_ratio");
-    const ratio = asked > 0 ? asked : Math.min(window.devicePixelRatio || 1, 2);
+    const ratio = rules && rules.input ? displayRatio(window.devicePixelRatio || 1, asked, rules.input)
+      : (asked > 0 ? asked : 1);  // before Python's rules came: the CSS size
     this.wrapper.style.width = `${w}px`;
     this.wrapper.style.height = `${h}px`;
     this.canvas.style.width = `${w}px`;
@@ -97,26 +151,36 @@ export class CanvasView {
     this.canvas.height = Math.max(1, Math.round(h * ratio));
   }
 
-  // This view's colour and depth targets for a frame (the depth texture follows the canvas size).
+  /**
+   * This view's colour and depth targets for a frame (the depth texture follows the canvas size).
+   * @returns {{color: GPUTextureView, depth: GPUTexture, w: number, h: number}}
+   */
   targets() {
     const w = this.canvas.width, h = this.canvas.height;
-    if (!this.depth || this.depth.width !== w || this.depth.height !== h) {
-      if (this.depth) this.depth.destroy();
-      this.depth = this.engine.depthFor(w, h);
+    let depth = this.depth;
+    if (!depth || depth.width !== w || depth.height !== h) {
+      if (depth) depth.destroy();
+      depth = this.depth = this.engine.depthFor(w, h);
     }
-    return { color: this.context.getCurrentTexture().createView(), depth: this.depth, w, h };
+    const context = /** @type {GPUCanvasContext} */ (this.context);  // configured before any frame
+    return { color: context.getCurrentTexture().createView(), depth, w, h };
   }
 
+  /** @param {MouseEvent} e @returns {number[]} the pointer in normalized device coordinates */
   pointerNdc(e) {
     const r = this.canvas.getBoundingClientRect();
     return [((e.clientX - r.left) / r.width) * 2 - 1, 1 - ((e.clientY - r.top) / r.height) * 2];
   }
 
-  // The view ray through the pointer: its points on the near (a) and far (b) planes.
+  /**
+   * The view ray through the pointer: its points on the near (a) and far (b) planes.
+   * @param {MouseEvent} e @returns {number[][]} [a, b]
+   */
   pointerRay(e) {
     const [x, y] = this.pointerNdc(e);
     const { view, proj } = this.engine.matrices(this.canvas.width / this.canvas.height);
     const inv = invert4(mul4(proj, view));
+    /** @param {number} z @returns {number[]} */
     const unproject = (z) => {
       const p = [0, 1, 2, 3].map((r) => inv[r] * x + inv[4 + r] * y + inv[8 + r] * z + inv[12 + r]);
       return [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
@@ -124,7 +188,10 @@ export class CanvasView {
     return [unproject(0), unproject(1)];
   }
 
-  // Where the view ray through the pointer meets the ground plane, or null (sky).
+  /**
+   * Where the view ray through the pointer meets the ground plane, or null (sky).
+   * @param {MouseEvent} e @returns {number[] | null} [x, z]
+   */
   groundPoint(e) {
     const [a, b] = this.pointerRay(e);
     const gy = this.model.get("frame_rules").style.ground[1];
@@ -136,22 +203,27 @@ export class CanvasView {
     return [hit[0], hit[2]];
   }
 
+  /** What a press does is Python's rule (frame_rules.input), the kernel engine's too. @param {PointerEvent} e */
   onPointerDown(e) {
     this.canvas.focus();
     this.canvas.setPointerCapture(e.pointerId);
-    this.drag = { x: e.clientX, y: e.clientY, x0: e.clientX, y0: e.clientY, button: e.button,
-      ball: e.shiftKey && e.button === 0, pick: (e.ctrlKey || e.metaKey) && e.button === 0 };
-    if (this.drag.ball) this.sendBall(e, "down");
+    const rules = this.engine.rules().input;
+    const gesture = new PointerGesture(rules);
+    this.drag = { x: e.clientX, y: e.clientY, gesture };
+    if (gesture.down(e.clientX, e.clientY, domButton(e.button, rules), modifiersOf(e)) === "ball") this.sendBall(e, "down");
   }
 
+  /** @param {PointerEvent} e */
   onPointerMove(e) {
     const d = this.drag;
     if (!d) return;
+    const act = d.gesture.move(e.clientX, e.clientY);
+    if (act === "ball") { this.sendBall(e, "move"); return; }
+    if (act !== "pan" && act !== "pan_start" && act !== "orbit") return;  // a ctrl press still a click
     const dx = e.clientX - d.x, dy = e.clientY - d.y;
     d.x = e.clientX; d.y = e.clientY;
-    if (d.ball) { this.sendBall(e, "move"); return; }
     const cam = this.engine.camera();
-    if (d.button === 2 || e.ctrlKey) {  // pan: move target and camera in the view plane
+    if (act !== "orbit") {  // pan: move target and camera in the view plane
       const [position, target] = panDrag(cam.position, cam.target, cam.fov_deg, dx, dy, this.canvas.clientHeight);
       this.engine.setCamera({ ...cam, position, target }, false);
       return;
@@ -160,34 +232,40 @@ export class CanvasView {
     this.engine.setCamera({ ...cam, position: orbitDrag(cam.position, cam.target, dx, dy, this.engine.rules().drag) }, false);
   }
 
+  /** @param {PointerEvent} e */
   onPointerUp(e) {
     const d = this.drag;
     this.drag = null;
     if (!d) return;
-    if (d.ball) this.sendBall(e, "up");
-    else if (d.pick && Math.hypot(e.clientX - d.x0, e.clientY - d.y0) < 4) this.sendPick(e);
-    else this.engine.setCamera({ ...this.engine.camera() }, true);
+    const act = d.gesture.up(e.clientX, e.clientY);
+    if (act === "ball") this.sendBall(e, "up");
+    else if (act === "inspect") this.sendPick(e);
+    else if (act !== "cancel") this.engine.setCamera({ ...this.engine.camera() }, true);
   }
 
+  /** @param {WheelEvent} e */
   onWheel(e) {
     e.preventDefault();
     const cam = this.engine.camera();
     this.engine.setCamera({ ...cam, position: wheelZoom(cam.position, cam.target, e.deltaY, this.engine.rules().drag) }, true);
   }
 
+  /** @param {KeyboardEvent} e */
   onKey(e) {
-    // Python decides what a key does (view_api.GrassView.on_key, shared with the kernel engine).
+    // Python decides what a key does (grasswidget.core.interaction.key_action, the kernel engine's too).
     if (e.ctrlKey || e.altKey || e.metaKey) return;
-    if (e.key === " ") e.preventDefault();  // not the page's scroll
+    // the play key (space) must not scroll the page as well
+    if (keyAction(e.key, [], this.engine.rules().input) === "toggle_play") e.preventDefault();
     this.engine.report("key", "", { key: e.key, modifiers: e.shiftKey ? ["Shift"] : [] });
   }
 
-  // Ctrl + click: Python picks the blade on this ray and inspects it.
+  /** Ctrl + click: Python picks the blade on this ray and inspects it. @param {MouseEvent} e */
   sendPick(e) {
     const [a, b] = this.pointerRay(e);
     this.engine.report("pick", "", { origin: a, direction: sub(b, a) });
   }
 
+  /** @param {MouseEvent} e @param {"down" | "move" | "up"} phase */
   sendBall(e, phase) {
     const hit = this.groundPoint(e);  // null on the sky: Python decides (a press still switches the ball on)
     if (hit || phase === "down") this.engine.report("ball", "", { phase, x: hit ? hit[0] : null, z: hit ? hit[1] : null });

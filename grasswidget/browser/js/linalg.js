@@ -1,3 +1,4 @@
+// @ts-check
 // Small vector and 4 x 4 matrix math of the browser engine (column-major, as WGSL reads it).
 // No rule of the frame lives here: the rules that use it are in rules.js.
 

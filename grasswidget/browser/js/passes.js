@@ -1,103 +1,154 @@
-// The passes of a frame: the simulation's fixed steps, Python's compute passes (culling, LOD
-// binning, draw order), the ribbon, sky-and-ground, ball and overlay draws; the animation frame
-// that runs the clock's steps once and draws every visible view; the counters read back for stats.
+// @ts-check
+// The passes of a frame: the simulation's fixed steps (Simulation), and one frame of the current
+// state encoded for a view (FramePasses): Python's compute passes (culling, LOD binning, draw
+// order), the ribbon, sky-and-ground, ball and overlay draws, occlusion culling's second phase and
+// the compute rasterizer's resolve (culling.js) while they are on.
 
-import { EngineCulling } from "./culling.js";
+import { stepsPerDispatch, windTime } from "./rules.js";
 import { invert4 } from "./linalg.js";
-import { cameraWorld, perspective, readCounters, stepsPerDispatch, windTime } from "./rules.js";
 
-/** At most this many frames are queued on the GPU; a later animation frame draws nothing. */
-const MAX_FRAMES_IN_FLIGHT = 2;
+/** @typedef {import("../types.js").Model} Model */
+/** @typedef {import("../types.js").Pipe} Pipe */
+/** @typedef {import("./device.js").EngineDevice} EngineDevice */
+/** @typedef {import("./pipelines.js").EnginePipelines} EnginePipelines */
+/** @typedef {import("./resources.js").EngineResources} EngineResources */
+/** @typedef {import("./camera.js").CameraRig} CameraRig */
 
-/** Simulation, culling and drawing (the resources: EngineResources; occlusion: EngineCulling). */
-export class EnginePasses extends EngineCulling {
-  // ---------------------------------------------------------------- simulation
-
-  // Exactly n fixed steps of dt, like GrassField.step (wind time (k dt) mod period).
-  // Python's u_sim bytes with this dispatch's time0 (s) and steps.
-  simUniformBytes(time0, steps) {
-    const layout = this.model.get("sim_layout");
-    const base = this.model.get("sim_uniform");
-    const bytes = new Uint8Array(base.byteLength);
-    bytes.set(new Uint8Array(base.buffer, base.byteOffset, base.byteLength));
-    const view = new DataView(bytes.buffer);
-    view.setFloat32(layout.time0[0], time0, true);
-    view.setInt32(layout.steps[0], steps, true);
-    return bytes;
+/** The simulation's dispatches: exactly n fixed steps of dt, like GrassField.step. */
+export class Simulation {
+  /** @param {EngineDevice} gpu @param {EnginePipelines} pipelines @param {EngineResources} resources @param {Model} model */
+  constructor(gpu, pipelines, resources, model) {
+    this.gpu = gpu;
+    this.pipelines = pipelines;
+    this.resources = resources;
+    this.model = model;
   }
 
-  // The wind time of step k: (k dt) mod wind_period (rules.js windTime, Python's frame_data.wind_time).
-  windTime(k) { return windTime(k, this.rules().clock); }
+  /** The wind time (s) of step k: (k dt) mod wind_period (Python's engine_inputs.wind_time). @param {number} k */
+  windTime(k) { return windTime(k, this.model.get("frame_rules").clock); }
 
-  // u_sim for "now": the current parameters at the time of the next step, no steps
-  // (what the kernel's inspector writes before its pass: gpu.inspector.refresh_uniforms).
-  writeSimNow() {
-    this.device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), 0));
+  /**
+   * u_sim for "now": the current parameters at the time of step `stepCount`, no steps (what the
+   * kernel's inspector writes before its pass: gpu.inspector.refresh_uniforms).
+   * @param {number} stepCount
+   */
+  writeNow(stepCount) {
+    this.resources.writeUniform("u_sim", this.resources.simPatch(this.windTime(stepCount), 0));
   }
 
-  simulate(n) {
+  /**
+   * `n` steps from step `stepCount`, in dispatches of at most Python's steps per dispatch.
+   * @param {number} n @param {number} stepCount
+   */
+  run(n, stepCount) {
     if (n <= 0) return;
-    const device = this.device;
-    const perDispatch = stepsPerDispatch(this.n, this.rules().dispatch);
-    const [gx, gy] = this.workgroups(this.n);
+    const device = this.gpu.device;
+    const resources = this.resources;
+    const sim = this.pipelines.sim;
+    const dispatch = this.model.get("frame_rules").dispatch;
+    const perDispatch = stepsPerDispatch(resources.n, dispatch);
+    const [gx, gy] = resources.workgroups(resources.n);
     let done = 0;
     while (done < n) {
       const chunk = Math.min(perDispatch, n - done);
-      device.queue.writeBuffer(this.res.u_sim, 0, this.simUniformBytes(this.windTime(this.stepCount), chunk));
+      resources.writeUniform("u_sim", resources.simPatch(this.windTime(stepCount + done), chunk));
       const encoder = device.createCommandEncoder();
       const pass = encoder.beginComputePass();
-      pass.setPipeline(this.sim.pipeline);
-      pass.setBindGroup(0, this.sim.group);
+      pass.setPipeline(sim.pipeline);
+      pass.setBindGroup(0, sim.group);
       pass.dispatchWorkgroups(gx, gy);
       pass.end();
       device.queue.submit([encoder.finish()]);
-      this.stepCount += chunk;
       done += chunk;
     }
   }
+}
 
-  // ---------------------------------------------------------------- drawing
-
-  // The camera's matrices (rules.js, Python's core.camera_rules): camera to world, world to
-  // camera, the projection; for this frame's camera, which a drag may have moved since Python's.
-  matrices(aspect) {
-    const cam = this.camera();
-    const world = cameraWorld(cam.position, cam.target);
-    const view = invert4(world);
-    const proj = perspective(cam.fov_deg, aspect, cam.near, cam.far);
-    return { world, view, proj };
+/** One frame of the current state encoded for a view of a given size. */
+export class FramePasses {
+  /**
+   * @param {{gpu: EngineDevice, pipelines: EnginePipelines, resources: EngineResources, rig: CameraRig,
+   *   model: Model, active: (condition: string | undefined) => boolean, writeSimNow: () => void}} parts
+   *   `active`: whether a pass or overlay with this "only_if" runs now; `writeSimNow`: u_sim for "now"
+   */
+  constructor({ gpu, pipelines, resources, rig, model, active, writeSimNow }) {
+    this.gpu = gpu;
+    this.pipelines = pipelines;
+    this.resources = resources;
+    this.rig = rig;
+    this.model = model;
+    this.active = active;
+    this.writeSimNow = writeSimNow;
   }
 
-  // The camera uniform (pygfx's StdInfo) at the offsets Python's layout gives.
+  /** Whether occlusion culling's two phases run (Python's u_cull word). */
+  occlusionOn() {
+    const o = this.pipelines.occlusion;
+    return !!o && o.on(this.model.get("cull_uniform"));
+  }
+
+  /** Whether the compute rasterizer runs (Python's u_cull word). */
+  rasterOn() {
+    const r = this.pipelines.raster;
+    return !!r && r.on(this.model.get("cull_uniform"));
+  }
+
+  /** Whether the colour-by ribbons draw (u_cull.color_by, at shaders.color_by_offset, is not 0: natural). */
+  flat() {
+    const off = this.model.get("shaders").color_by_offset;
+    const cu = this.model.get("cull_uniform");
+    const colorBy = off === undefined ? 1 : new DataView(cu.buffer, cu.byteOffset, cu.byteLength).getInt32(off, true);
+    return colorBy !== 0 && this.pipelines.flatBladePipes !== this.pipelines.bladePipes;
+  }
+
+  /**
+   * The depth texture of a (width, height) target (COPY_SRC: occlusion culling copies it into its pyramid).
+   * @param {number} width @param {number} height @returns {GPUTexture}
+   */
+  depthFor(width, height) {
+    return this.gpu.device.createTexture({ size: [width, height], format: this.pipelines.depthFormat,
+      usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
+  }
+
+  /** The camera uniform (pygfx's StdInfo) at the offsets Python's layout gives. @param {number} width @param {number} height */
   writeStdInfo(width, height) {
-    const { world, view, proj } = this.matrices(width / height);
+    const { world, view, proj } = this.rig.matrices(width / height);
     const at = this.model.get("stdinfo_layout");
     const f = new Float32Array(this.model.get("stdinfo_size") / 4);
+    /** @param {string} name @param {ArrayLike<number>} values */
     const put = (name, values) => f.set(values, at[name][0] / 4);
     put("cam_transform", view); put("cam_transform_inv", world);
     put("projection_transform", proj); put("projection_transform_inv", invert4(proj));
     put("physical_size", [width, height]); put("logical_size", [width, height]);
     put("ndc_offset", [1, 1, 0, 0]);
-    this.device.queue.writeBuffer(this.res.u_stdinfo, 0, f);
+    this.gpu.device.queue.writeBuffer(this.resources.res.u_stdinfo, 0, f);
   }
 
-  // Encode one frame of the current state into a colour view of (width, height): Python's
-  // compute passes (culling) for this view's camera, then the draws. Submit before the next call
-  // (the camera uniform is written now, for this encoder).
-  encodeFrame(encoder, colorView, depthTexture, width, height) {
+  /**
+   * Encode one frame of the current state into a colour view of (width, height): Python's
+   * compute passes (culling) for this view's camera, then the draws. Submit before the next call
+   * (the camera uniform is written now, for this encoder).
+   * @param {GPUCommandEncoder} encoder @param {GPUTextureView} colorView @param {GPUTexture} depthTexture
+   * @param {number} width @param {number} height
+   */
+  encode(encoder, colorView, depthTexture, width, height) {
+    const { pipelines, resources } = this;
+    const res = resources.res;
     this.writeStdInfo(width, height);
     const twoPhases = this.occlusionOn();
-    const raster = this.rasterOn() ? this.rasterTarget(width, height) : null;
+    const sized = pipelines.computePasses.filter((q) => q.sized);
+    const raster = this.rasterOn() ? pipelines.raster.target(width, height, resources, sized) : null;
+    const flat = this.flat();
     const depthView = depthTexture.createView();
-    const blades = this.workgroups(this.n);
+    const blades = resources.workgroups(resources.n);
     const cpass = encoder.beginComputePass();
-    for (const p of this.computePasses) {
+    for (const p of pipelines.computePasses) {
       if (!this.active(p.onlyIf)) continue;
       if (p.simNow) this.writeSimNow();
       cpass.setPipeline(p.pipeline);
       cpass.setBindGroup(0, p.sized ? raster.groups.get(p.name) : p.group);
       if (p.dispatch === "blades") cpass.dispatchWorkgroups(blades[0], blades[1]);
-      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(this.res.s_raster_dispatch, p.indirectOffset);
+      else if (p.dispatch === "raster_listed") cpass.dispatchWorkgroupsIndirect(res.s_raster_dispatch, p.indirectOffset);
       else cpass.dispatchWorkgroups(1);
     }
     cpass.end();
@@ -106,37 +157,40 @@ export class EnginePasses extends EngineCulling {
       depthStencilAttachment: { view: depthView, depthLoadOp: "clear", depthClearValue: 1,
         depthStoreOp: twoPhases ? "store" : "discard" },
     });
-    this.ribbonPipes().forEach((p, k) => {
+    const ribbons = flat ? pipelines.flatBladePipes : pipelines.bladePipes;
+    ribbons.forEach((p, k) => {
       if (p.shader.culled && twoPhases) return;  // the culled blades are listed by the second phase
       pass.setPipeline(p.pipeline);
       pass.setBindGroup(0, p.group);
-      if (p.shader.culled) pass.drawIndirect(this.res.s_culled_args, 0);  // color_by "cull": the culled blades
-      else pass.drawIndirect(this.res.s_args, 16 * k);
+      if (p.shader.culled) pass.drawIndirect(res.s_culled_args, 0);  // color_by "cull": the culled blades
+      else pass.drawIndirect(res.s_args, 16 * k);
     });
-    if (raster) this.encodeRasterResolve(pass, raster);
-    pass.setPipeline(this.skyGround.pipeline);
-    pass.setBindGroup(0, this.skyGround.group);
+    if (raster) pipelines.raster.encodeResolve(pass, raster, flat);
+    pass.setPipeline(pipelines.skyGround.pipeline);
+    pass.setBindGroup(0, pipelines.skyGround.group);
     pass.draw(4);
     if (twoPhases) {
       pass.end();
-      this.encodeOcclusionSecondPhase(encoder, depthTexture, width, height, raster);
-      const second = this.beginOcclusionDrawPass(encoder, colorView, depthView);
-      if (raster) this.encodeRasterResolve(second, raster);
+      const o = pipelines.occlusion;
+      o.encodeSecondPhase(encoder, depthTexture, width, height, res, blades, raster ? { raster: pipelines.raster, target: raster } : null);
+      const culled = flat ? pipelines.flatBladePipes.find((p) => p.shader.culled) || null : null;
+      const second = o.beginDrawPass(encoder, colorView, depthView, res, flat, culled);
+      if (raster) pipelines.raster.encodeResolve(second, raster, flat);
       this.encodeBalls(second);
       return;
     }
     this.encodeBalls(pass);
   }
 
-  // The translucent collider balls (after every blade), then the pass ends.
+  /** The translucent collider balls (after every blade), the overlays, then the pass ends. @param {GPURenderPassEncoder} pass */
   encodeBalls(pass) {
-    const balls = this.nBalls || 0;
-    if (balls > 0 && this.model.get("show_colliders")) {
-      pass.setPipeline(this.balls.pipeline);
-      pass.setBindGroup(0, this.balls.group);
-      pass.draw(6 * 16 * 32, balls);
+    const { pipelines, resources } = this;
+    if (resources.nBalls > 0 && this.model.get("show_colliders")) {
+      pass.setPipeline(pipelines.balls.pipeline);
+      pass.setBindGroup(0, pipelines.balls.group);
+      pass.draw(this.model.get("frame_rules").engine.ball_vertices, resources.nBalls);
     }
-    for (const o of this.overlays) {
+    for (const o of pipelines.overlays) {
       if (!this.active(o.onlyIf)) continue;
       pass.setPipeline(o.pipeline);
       pass.setBindGroup(0, o.group);
@@ -145,101 +199,21 @@ export class EnginePasses extends EngineCulling {
     pass.end();
   }
 
-  depthFor(width, height) {
-    // COPY_SRC: occlusion culling copies the depth into its pyramid.
-    return this.device.createTexture({ size: [width, height], format: this.depthFormat,
-      usage: GPUTextureUsage.RENDER_ATTACHMENT | GPUTextureUsage.COPY_SRC });
-  }
-
-  scheduleFrame() {
-    if (this.closed || this.raf || !this.visibleViews().length) return;
-    this.raf = requestAnimationFrame((t) => { this.raf = null; this.frame(t); });
-  }
-
-  // One animation frame: the clock's steps (once, whatever the number of views), then every visible
-  // view drawn. With no view visible nothing runs and no new frame is asked for: the engine rests
-  // until visibilityChanged() finds a view in sight again.
-  frame(now) {
-    if (!this.ready || this.closed) return;
-    if (this.rebuilding) return;  // rebuildPipelines asks for the next frame when done
-    const shown = this.visibleViews();
-    if (!shown.length) { this.rest(); return; }
-    if (this.resting) {
-      // Back in sight: frames/s is measured from now, not over the time at rest.
-      this.resting = false;
-      this.statsTime = performance.now();
-      this.statsFrames = this.frames;
+  /**
+   * The counters the stats read, copied where Python's layout (frame_rules.counters) puts them:
+   * the first phase's args, the second's with the occluded count, the compute rasterizer's.
+   * @param {GPUCommandEncoder} encoder
+   */
+  encodeCounters(encoder) {
+    const { pipelines, resources } = this;
+    const at = this.model.get("frame_rules").counters;
+    const res = resources.res;
+    encoder.copyBufferToBuffer(res.s_args, 0, resources.argsRead, 4 * at.first_at, 16 * pipelines.lodSegments.length);
+    if (pipelines.occlusion) {
+      encoder.copyBufferToBuffer(res.s_occlusion_args, 0, resources.argsRead, 4 * at.second_at, 4 * pipelines.occlusion.spec.args_words);
     }
-    this.scheduleFrame();
-    if (this.inFlight >= MAX_FRAMES_IN_FLIGHT) return;
-    const t0 = performance.now();
-    try {
-      const rules = this.rules().clock;
-      this.clock.maxSteps = rules.max_steps_per_frame;
-      if (this.model.get("playing")) {
-        this.clock.start(now / 1000);
-        const n = this.clock.frameSteps(now / 1000, rules.dt, this.model.get("time_scale"));
-        if (n > 0) { this.onSteps(n); this.simulate(n); }
-      } else {
-        this.clock.stop();
-      }
-      const device = this.device;
-      // The switch state this frame executes ([occlusion, compute raster], Python's u_cull words):
-      // its time and counts are reported with it (grasswidget.browser.auto_switches measures by them).
-      const switches = [this.occlusionOn(), this.rasterOn()];
-      let first = true;
-      for (const view of shown) {
-        if (!view.context) continue;
-        const { color, depth, w, h } = view.targets();
-        const encoder = device.createCommandEncoder();
-        this.encodeFrame(encoder, color, depth, w, h);
-        const readArgs = first && !this.argsReadPending && performance.now() - (this.lastArgsRead || 0) > this.statsInterval() / 2;
-        if (readArgs) this.encodeArgsRead(encoder);
-        device.queue.submit([encoder.finish()]);
-        if (readArgs) this.readArgs(switches);
-        if (first) this.frameSize = [w, h];
-        first = false;
-        view.countFrame();
-      }
-      this.inFlight += 1;
-      device.queue.onSubmittedWorkDone().then(() => {
-        this.inFlight -= 1;
-        this.frames += 1;
-        if (!this.timing.first_frame) this.timing.first_frame = performance.now();
-        this.lastFrameMs = performance.now() - t0;
-        this.timeFrame(switches, this.lastFrameMs);
-      }, () => { this.inFlight = 0; });
-    } catch (err) {
-      this.report("error", `browser frame failed: ${err.message || err}`);
+    if (pipelines.raster) {
+      encoder.copyBufferToBuffer(res.s_raster_args, 0, resources.argsRead, 4 * at.raster_at, 4 * pipelines.raster.spec.args_words);
     }
-    this.maybeSendStats();
-  }
-
-  // The frame times (ms) since the last stats message of frames drawn with the state `switches`;
-  // the list restarts when the state changes (at most 32 kept: the newest).
-  timeFrame(switches, ms) {
-    const same = this.timedSwitches && this.timedSwitches[0] === switches[0] && this.timedSwitches[1] === switches[1];
-    if (!same) { this.timedSwitches = switches; this.frameTimes = []; }
-    this.frameTimes.push(ms);
-    if (this.frameTimes.length > 32) this.frameTimes.shift();
-  }
-
-  readArgs(switches) {
-    const buf = this.argsRead;
-    this.argsReadPending = true;
-    this.lastArgsRead = performance.now();
-    buf.mapAsync(GPUMapMode.READ).then(() => {
-      const counts = readCounters(new Uint32Array(buf.getMappedRange().slice(0)), this.rules().counters);
-      buf.unmap();
-      // Both occlusion phases' draws; occluded null while occlusion culling is off (as the kernel's stats).
-      this.visible = counts.visible_per_class;
-      const [occlusionWasOn, rasterWasOn] = switches || [this.occlusionOn(), this.rasterOn()];
-      this.occluded = this.occlusion && occlusionWasOn ? counts.occluded : null;
-      // Blades drawn by the compute rasterizer (both phases); 0 while it is off (as the kernel's stats).
-      this.rastered = this.raster ? (rasterWasOn ? counts.rastered : 0) : null;
-      this.countsSwitches = switches || null;  // the state of the frame counted
-      this.visibleAt = performance.now();
-      this.argsReadPending = false;
-    }, () => { this.argsReadPending = false; });
   }
 }

@@ -1,9 +1,11 @@
+// @ts-check
 // Exported pictures: the supersampled snapshot filtered down (Python's export_filter executed).
 const SRGB_TO_LINEAR = Float32Array.from({ length: 256 }, (_, i) => {
   const c = i / 255;
   return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4);
 });
 
+/** @param {number} x linear light, 0..1 (held to it) @returns {number} the sRGB byte */
 function linearToSrgb8(x) {
   const c = Math.min(Math.max(x, 0), 1);
   const s = c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055;
@@ -19,14 +21,14 @@ function linearToSrgb8(x) {
  * @param {number} width @param {number} height the output size (pixels)
  * @param {number} rowBytes bytes between rows of src
  * @param {boolean} bgra blue first
- * @param {{factor: number, first: number, weights: number[]}} filter grasswidget.core.frame_data.export_filter
+ * @param {{factor: number, first: number, weights: number[]}} filter grasswidget.core.engine_inputs.export_filter
  * @returns {Uint8Array}
  */
 export function downsample(src, width, height, rowBytes, bgra, filter) {
   const f = filter.factor, first = filter.first, wts = filter.weights, taps = wts.length;
   const sw = width * f, sh = height * f;
   const rx = bgra ? 2 : 0, bx = bgra ? 0 : 2;
-  const clampTo = (i, n) => (i < 0 ? 0 : i >= n ? n - 1 : i);
+  const clampTo = (/** @type {number} */ i, /** @type {number} */ n) => (i < 0 ? 0 : i >= n ? n - 1 : i);
   const rows = new Float32Array(width * sh * 3);  // filtered along x, all source rows
   for (let y = 0; y < sh; y++) {
     const line = y * rowBytes;

@@ -1,28 +1,31 @@
+// @ts-check
 // The rules the browser engine must still compute per frame itself, each the twin of one Python
 // function that decides it (a node test, tests/browser/test_engine_rules.py, checks every one
 // against its twin on many inputs, as the WGSL twins are checked against NumPy). Every number
-// they use comes from Python as data (the frame_rules trait: grasswidget.core.frame_data.frame_rules).
+// they use comes from Python as data (the frame_rules trait: grasswidget.core.engine_inputs.frame_rules).
 //
-//   SimClock            grasswidget.notebook.clock.SimClock (steps owed by the wall clock; slow motion)
+//   SimClock            grasswidget.views.clock.SimClock (steps owed by the wall clock; slow motion)
 //   clampOrbit          grasswidget.core.orbit_limits.clamp_orbit (the orbit limits between two kernel messages)
 //   orbitDrag, panDrag, wheelZoom   grasswidget.core.camera_rules.orbit_drag / pan_drag / wheel_zoom
 //   cameraWorld, perspective        grasswidget.core.camera_rules.camera_world / perspective (a dragged camera)
 //   hzbLayout           grasswidget.core.reference.hzb_layout (the pyramid of a canvas the browser sized)
-//   windTime            grasswidget.core.frame_data.wind_time (wind time of step k, modulo the period)
-//   stepsPerDispatch    grasswidget.core.frame_data.steps_per_dispatch
-//   workgroups          grasswidget.gpu.wgsl.workgroups (with frame_rules.dispatch's workgroup size)
-//   readCounters        grasswidget.core.frame_data.read_counters (the stats' counts, frame_rules.counters)
+//   windTime            grasswidget.core.engine_inputs.wind_time (wind time of step k, modulo the period)
+//   stepsPerDispatch    grasswidget.core.engine_inputs.steps_per_dispatch
+//   workgroups          grasswidget.gpu.wgsl_templates.workgroups (with frame_rules.dispatch's workgroup size)
+//   readCounters        grasswidget.core.engine_inputs.read_counters (the stats' counts, frame_rules.counters)
+//   PointerGesture      grasswidget.core.interaction.PointerGesture (click or drag; the ctrl gesture)
+//   keyAction, displayRatio, domButton   grasswidget.core.interaction.key_action / display_ratio / DOM_BUTTONS
 
 import { add, clamp, cross, norm, scale, sub } from "./linalg.js";
 
 /**
- * @typedef {object} ClockRules grasswidget.core.frame_data.clock_rules
+ * @typedef {object} ClockRules grasswidget.core.engine_inputs.clock_rules
  * @property {number} dt the fixed step (s)
  * @property {number} wind_period s; 0: no period
  * @property {number} max_steps_per_frame a frame owed more gets this many, the rest is dropped
  */
 /**
- * @typedef {object} DispatchRules grasswidget.core.frame_data.dispatch_rules
+ * @typedef {object} DispatchRules grasswidget.core.engine_inputs.dispatch_rules
  * @property {number} workgroup_size threads per workgroup of the per-blade compute shaders
  * @property {number} max_groups_x workgroups along x before a dispatch folds into y
  * @property {number} blade_steps_per_dispatch blade steps (blades x steps) one simulation dispatch may take
@@ -34,6 +37,29 @@ import { add, clamp, cross, norm, scale, sub } from "./linalg.js";
  * @property {number} wheel_per_delta
  * @property {number} wheel_max_log
  * @property {number} sync_ms
+ */
+/**
+ * @typedef {object} InputRules grasswidget.core.interaction.input_rules (frame_rules.input)
+ * @property {number} click_slop_px a press released nearer than this (CSS px) to where it was pressed is a click
+ * @property {string[]} pick_modifiers modifier names that make a left press the ctrl gesture
+ * @property {string} ball_modifier the modifier that makes a left press move the ball
+ * @property {{left: number, right: number, middle: number}} buttons the rules' button numbers
+ * @property {number[]} dom_buttons the rules' number of each DOM PointerEvent.button
+ * @property {number} max_pixel_ratio rendered pixels per CSS pixel, at most, when following the display
+ * @property {number} steps_report_ms while a ball rolls, the steps are reported at most this often (ms)
+ * @property {number} ball_margin the ball may go this fraction of the field's extent past its edges
+ * @property {Object<string, string>} keys each key's action (lower-case DOM key names)
+ */
+/**
+ * @typedef {object} OrbitRules grasswidget.core.orbit_limits.OrbitLimits as a dict (frame_rules.orbit)
+ * @property {number[]} lo (x, z) corner of the area the target may move in, m
+ * @property {number[]} hi (x, z) corner, m
+ * @property {number|null} ground_y the ground's height (m); null: no ground
+ * @property {number} top_y the highest the target may go, m
+ * @property {number} min_distance m
+ * @property {number} max_distance m
+ * @property {number} clearance the camera's least height above the ground, m
+ * @property {number} max_elevation_deg degrees
  */
 /**
  * @typedef {object} Camera the camera trait
@@ -82,7 +108,7 @@ export class SimClock {
    */
   frameSteps(now, dt, timeScale) {
     if (!this.running) { this.lastSteps = 0; this.capped = false; return 0; }
-    const wall = Math.max(0, now - this.last) * Math.max(0, timeScale);
+    const wall = Math.max(0, now - (this.last ?? now)) * Math.max(0, timeScale);
     this.last = now;
     this.acc += wall;
     let n = Math.floor(this.acc / dt + 1e-9);
@@ -97,7 +123,7 @@ export class SimClock {
  * (position, target) moved the least way into the limits: target into its box (the camera
  * follows), distance into the zoom range, elevation into its range (keeping the azimuth).
  * @param {number[]} position @param {number[]} target
- * @param {object} limits an OrbitLimits as a dict (frame_rules.orbit)
+ * @param {OrbitRules} limits an OrbitLimits as a dict (frame_rules.orbit)
  * @returns {[number[], number[]]} [position, target]
  */
 export function clampOrbit(position, target, limits) {
@@ -114,7 +140,7 @@ export function clampOrbit(position, target, limits) {
   const el = Math.asin(clamp(dir[1] / Math.max(Math.hypot(...dir), 1e-12), -1, 1));
   let loEl;
   if (floor === -Infinity) loEl = -(L.max_elevation_deg * Math.PI) / 180;
-  else loEl = Math.asin(clamp((L.ground_y + L.clearance - c[1]) / Math.max(dNew, 1e-9), -1, 1));
+  else loEl = Math.asin(clamp((floor + L.clearance - c[1]) / Math.max(dNew, 1e-9), -1, 1));
   const hiEl = (L.max_elevation_deg * Math.PI) / 180;
   const elNew = Math.min(Math.max(el, loEl), hiEl);
   if (elNew !== el) {
@@ -248,7 +274,7 @@ export function workgroups(items, dispatch) {
 /**
  * The stats' counts of one read-back, where Python's layout puts them (frame_rules.counters).
  * @param {Uint32Array} words
- * @param {{visible: number[][], occluded: number, rastered: number}} layout grasswidget.core.frame_data.counter_layout
+ * @param {{visible: number[][], occluded: number, rastered: number}} layout grasswidget.core.engine_inputs.counter_layout
  * @returns {{visible_per_class: number[], occluded: number, rastered: number}}
  */
 export function readCounters(words, layout) {
@@ -257,4 +283,100 @@ export function readCounters(words, layout) {
     occluded: words[layout.occluded],
     rastered: words[layout.rastered],
   };
+}
+
+/**
+ * The rules' number of a DOM PointerEvent.button (0 left, 1 middle, 2 right, ...).
+ * @param {number} b the DOM button @param {InputRules} rules @returns {number} (0: none the rules name)
+ */
+export function domButton(b, rules) {
+  return rules.dom_buttons[b] ?? 0;
+}
+
+/**
+ * What a key does: "toggle_play", "step", "reset_camera", or null (not ours: any modifier held, or another key).
+ * @param {string} key the DOM key name @param {string[]} modifiers held modifier names
+ * @param {InputRules} rules @returns {string|null}
+ */
+export function keyAction(key, modifiers, rules) {
+  if (modifiers.length) return null;
+  const action = rules.keys[String(key).toLowerCase()];
+  return action === undefined ? null : action;
+}
+
+/**
+ * Rendered pixels per CSS pixel: asked when positive, else the display's ratio (not positive: 1)
+ * held to at most max_pixel_ratio.
+ * @param {number} deviceRatio window.devicePixelRatio @param {number} asked the pixel_ratio trait (0: the display's)
+ * @param {InputRules} rules @returns {number}
+ */
+export function displayRatio(deviceRatio, asked, rules) {
+  if (asked > 0) return asked;
+  return Math.min(deviceRatio > 0 ? deviceRatio : 1, rules.max_pixel_ratio);
+}
+
+/** One press of a pointer button, press to release (the twin of PointerGesture in Python:
+ * the press's kind, then what each move and the release do; positions in CSS pixels). */
+export class PointerGesture {
+  /** @param {InputRules} rules */
+  constructor(rules) {
+    this.rules = rules;
+    /** @type {string|null} "pick" | "ball" | "pan" | "orbit", null between presses */
+    this.kind = null;
+    /** @type {number[]} where the press was */
+    this.start = [0, 0];
+    this.dragging = false;
+  }
+
+  /**
+   * A press: returns its kind ("pick": left + Ctrl/Cmd, "ball": left + Shift, "pan": right, else "orbit").
+   * @param {number} x @param {number} y @param {number} button the rules' number @param {string[]} modifiers
+   * @returns {string}
+   */
+  down(x, y, button, modifiers) {
+    const r = this.rules;
+    const left = button === r.buttons.left;
+    let kind = "orbit";
+    if (left && modifiers.some((m) => r.pick_modifiers.includes(m))) kind = "pick";
+    else if (left && modifiers.includes(r.ball_modifier)) kind = "ball";
+    else if (button === r.buttons.right) kind = "pan";
+    this.kind = kind;
+    this.start = [x, y];
+    this.dragging = kind !== "pick";
+    return kind;
+  }
+
+  /** @param {number} x @param {number} y @returns {boolean} */
+  far(x, y) {
+    return Math.hypot(x - this.start[0], y - this.start[1]) >= this.rules.click_slop_px;
+  }
+
+  /**
+   * A move with the button held: "wait" (a pick still a click), "pan_start", "pan", the kind, or null.
+   * @param {number} x @param {number} y @returns {string|null}
+   */
+  move(x, y) {
+    if (this.kind === null) return null;
+    if (this.kind !== "pick") return this.kind;
+    if (this.dragging) return "pan";
+    if (this.far(x, y)) { this.dragging = true; return "pan_start"; }
+    return "wait";
+  }
+
+  /**
+   * The release: "inspect" (a pick that stayed a click), "pan" or "cancel" (a pick that did
+   * not), the kind of any other press, or null.
+   * @param {number} x @param {number} y @returns {string|null}
+   */
+  up(x, y) {
+    const kind = this.kind;
+    if (kind === null) return null;
+    const click = kind === "pick" && !this.dragging && !this.far(x, y);
+    const started = this.dragging;
+    this.kind = null;
+    this.dragging = false;
+    if (kind !== "pick") return kind;
+    if (click) return "inspect";
+    return started ? "pan" : "cancel";
+  }
 }

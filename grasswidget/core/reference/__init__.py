@@ -26,7 +26,7 @@ collisions, one step, the inspector's forces), :mod:`~grasswidget.core.reference
 (the culling tests, level of detail, occlusion and the depth pyramid),
 :mod:`~grasswidget.core.reference.looks` (blade shapes, colours, fog, sky and ground,
 shading), :mod:`~grasswidget.core.reference.raster` (the compute rasterizer) and
-:mod:`~grasswidget.core.reference.sunlight` (the sun, the balls' and the grass' shadows), with
+:mod:`~grasswidget.core.reference.shadows` (the sun, the balls' and the grass' shadows), with
 :mod:`~grasswidget.core.reference.vectors` (two vector helpers they share).
 """
 
@@ -36,11 +36,11 @@ from .physics import *  # noqa: F401,F403
 from .culling import *  # noqa: F401,F403
 from .looks import *  # noqa: F401,F403
 from .raster import *  # noqa: F401,F403
-from .sunlight import *  # noqa: F401,F403
+from .shadows import *  # noqa: F401,F403
 from .vectors import safe_normalize  # noqa: F401
-from . import culling, looks, physics, raster, sunlight, vectors  # noqa: F401
+from . import culling, looks, physics, raster, shadows, vectors  # noqa: F401
 
 #: The package's public names: each subject module's own ``__all__`` (what the star imports above
 #: bring), and the shared ``safe_normalize`` (vectors' other helpers stay the modules' own).
-__all__ = [*physics.__all__, *culling.__all__, *looks.__all__, *raster.__all__, *sunlight.__all__, "safe_normalize"]
+__all__ = [*physics.__all__, *culling.__all__, *looks.__all__, *raster.__all__, *shadows.__all__, "safe_normalize"]
 

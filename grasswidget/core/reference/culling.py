@@ -11,8 +11,7 @@ import numpy as np
 from ..enums import BladeShape, GravityMode
 from ...errors import GrassValueError
 from .physics import width_direction
-from .vectors import dot as _dot
-from .vectors import safe_normalize as _normalize
+from .vectors import dot, safe_normalize
 
 __all__ = [
     "LOD_SEGMENTS",
@@ -59,8 +58,8 @@ LOD_MIN_PIXELS = (192.0, 64.0, 20.0, 0.0)
 
 def orientation_cull(v0, t1, cam_pos, threshold=0.9):
     """True where a blade is seen edge-on: |dot(normalize(v0 - cam), t1)| > threshold."""
-    dir_c = _normalize(np.asarray(v0, np.float64) - np.asarray(cam_pos, np.float64))
-    return np.abs(_dot(dir_c, t1)) > threshold
+    dir_c = safe_normalize(np.asarray(v0, np.float64) - np.asarray(cam_pos, np.float64))
+    return np.abs(dot(dir_c, t1)) > threshold
 
 
 def _clip(points, view_proj):
@@ -78,15 +77,12 @@ def clip_outside(clip, tol):
     return ~inside
 
 
-_outside = clip_outside
-
-
 def frustum_cull(v0, v1, v2, view_proj, tol=0.5):
     """True where v0, the curve midpoint m = v0/4 + v1/2 + v2/4 and v2 are all
     outside the view: a clip-space point is inside when |x|, |y| <= w + tol and
     0 <= z <= w (WebGPU depth range). ``view_proj`` maps world to clip (4x4)."""
     m = 0.25 * v0 + 0.5 * v1 + 0.25 * v2
-    return _outside(_clip(v0, view_proj), tol) & _outside(_clip(m, view_proj), tol) & _outside(_clip(v2, view_proj), tol)
+    return clip_outside(_clip(v0, view_proj), tol) & clip_outside(_clip(m, view_proj), tol) & clip_outside(_clip(v2, view_proj), tol)
 
 
 def distance_cull(v0, up, cam_pos, ids, buckets=100, d_max=100.0):
@@ -96,7 +92,7 @@ def distance_cull(v0, up, cam_pos, ids, buckets=100, d_max=100.0):
         cull if id mod n >= ceil(n * max(1 - d_proj / d_max, 0))
     """
     d = np.asarray(v0, np.float64) - np.asarray(cam_pos, np.float64)
-    d_proj = np.linalg.norm(d - up * _dot(d, up)[..., None], axis=-1)
+    d_proj = np.linalg.norm(d - up * dot(d, up)[..., None], axis=-1)
     keep = np.ceil(buckets * np.maximum(1.0 - d_proj / d_max, 0.0))
     return (np.asarray(ids) % buckets) >= keep
 

@@ -11,9 +11,7 @@ import numpy as np
 from ..enums import BladeShape, GravityMode
 from ...errors import GrassValueError
 from .physics import simplex_noise2
-from .vectors import U32_MASK as _M32
-from .vectors import dot as _dot
-from .vectors import safe_normalize
+from .vectors import U32_MASK, dot, safe_normalize
 
 __all__ = [
     "blade_shape_t",
@@ -59,9 +57,9 @@ def blade_shape_t(u, v, shape, tau):
 def hash01(x):
     """Hash of blade ids (u32) to [0, 1), for per-blade colour variation (PCG-style;
     every product wraps modulo 2^32 like WGSL u32 arithmetic)."""
-    h = (np.asarray(x, np.int64).astype(np.uint64) & _M32)
-    h = (h * np.uint64(747796405) + np.uint64(2891336453)) & _M32
-    h = (((h >> ((h >> np.uint64(28)) + np.uint64(4))) ^ h) * np.uint64(277803737)) & _M32
+    h = (np.asarray(x, np.int64).astype(np.uint64) & U32_MASK)
+    h = (h * np.uint64(747796405) + np.uint64(2891336453)) & U32_MASK
+    h = (((h >> ((h >> np.uint64(28)) + np.uint64(4))) ^ h) * np.uint64(277803737)) & U32_MASK
     h = (h >> np.uint64(22)) ^ h
     return h.astype(np.float64) / 4294967296.0
 
@@ -179,12 +177,12 @@ def blade_shade(normal, to_eye, along, base, glow, fog, fog_color, light_directi
     clamped to 0..1; then a share ``fog`` (:func:`fog_amount`) of ``fog_color``."""
     n = safe_normalize(np.asarray(normal, np.float64))
     to_eye = np.asarray(to_eye, np.float64)
-    n = np.where((_dot(n, to_eye) < 0.0)[..., None], -n, n)
+    n = np.where((dot(n, to_eye) < 0.0)[..., None], -n, n)
     a = np.clip(np.asarray(along, np.float64), 0.0, 1.0)[..., None]
     base = np.asarray(base, np.float64)
     light = safe_normalize(np.asarray(light_direction, np.float64))
-    diffuse = np.maximum(_dot(n, light), 0.0)[..., None]
-    translucency = 0.35 * np.maximum(-_dot(n, light), 0.0)[..., None]
+    diffuse = np.maximum(dot(n, light), 0.0)[..., None]
+    translucency = 0.35 * np.maximum(-dot(n, light), 0.0)[..., None]
     ao = 0.55 + 0.45 * a
     amb = np.asarray(ambient, np.float64)[..., None]
     shade = (amb + (1.0 - amb) * (diffuse + translucency)) * ao
@@ -244,7 +242,7 @@ def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, ho
     (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the
     last ``2 edge`` m): :func:`blade_base_color` at ``far_blend[3]`` along, variation 0.5, of
     the patches :func:`clump_noise` of size ``far_blend[2]`` gives at (x, z), times
-    ``far_grass`` (:func:`far_grass_shade`). ``sunlight`` (0..1, sunlight.wgsl's ``ground_sunlight``;
+    ``far_grass`` (:func:`far_grass_shade`). ``sunlight`` (0..1, shadows.wgsl's ``ground_sunlight``;
     1 with shadows off) lights the soil and the ground beyond, not the far grass (the grass's top)."""
     x, z, dist = (np.asarray(a, np.float64) for a in (x, z, dist))
     inside = field_inside(x, z, field_c, field_half, edge)

@@ -11,9 +11,7 @@ import numpy as np
 
 from ..enums import BladeShape, GravityMode
 from ...errors import GrassValueError
-from .vectors import U32_MASK as _M32
-from .vectors import dot as _dot
-from .vectors import safe_normalize
+from .vectors import U32_MASK, dot, safe_normalize
 
 __all__ = [
     "tangent_basis",
@@ -67,9 +65,6 @@ __all__ = [
 # --------------------------------------------------------------------------- geometry
 
 
-_normalize = safe_normalize
-
-
 def tangent_basis(up):
     """Two unit vectors (e1, e2) spanning the plane orthogonal to ``up``.
 
@@ -81,7 +76,7 @@ def tangent_basis(up):
     near_x = np.abs(up[..., 0]) > 0.9
     ref[..., 0] = np.where(near_x, 0.0, 1.0)
     ref[..., 2] = np.where(near_x, 1.0, 0.0)
-    e1 = _normalize(ref - up * _dot(ref, up)[..., None])
+    e1 = safe_normalize(ref - up * dot(ref, up)[..., None])
     e2 = np.cross(e1, up)
     return e1, e2
 
@@ -95,7 +90,7 @@ def width_direction(up, theta):
 
 def front_direction(up, t1):
     """Front direction f = normalize(cross(up, t1)), the way the blade faces."""
-    return _normalize(np.cross(np.asarray(up, np.float64), t1))
+    return safe_normalize(np.cross(np.asarray(up, np.float64), t1))
 
 
 # --------------------------------------------------------------------------- forces
@@ -123,7 +118,7 @@ def environmental_gravity(v0, gravity_mode, direction=None, center=None, magnitu
                 raise GrassValueError("environmental_gravity needs the roots v0 (N, 3) when gravity_mode is 'point'")
             v0 = np.zeros((int(v0), 3))
         # Only the direction counts: scaled by its largest component first, so that a
-        # direction like (1e300, 0, 0) does not overflow its length (as frame_data does for the GPU).
+        # direction like (1e300, 0, 0) does not overflow its length (as engine_inputs does for the GPU).
         direction = np.asarray(params.gravity_direction, np.float64)
         direction = direction / max(float(np.abs(direction).max()), 1e-300)
         return environmental_gravity(v0, mode, direction, params.gravity_center, params.gravity)
@@ -186,9 +181,6 @@ def wind_pulse(dist, t, speed, wavelength):
     return 0.7 + 0.3 * np.sin(2.0 * math.pi * (dist - speed * t) / wavelength)
 
 
-_pulse = wind_pulse
-
-
 def wind_radial(p, t, strength, center, radius, speed, wavelength):
     """The "radial" wind field: away from ``center`` (helicopter downwash).
 
@@ -204,7 +196,7 @@ def wind_radial(p, t, strength, center, radius, speed, wavelength):
     r = p - np.asarray(center, np.float64)
     dist = np.linalg.norm(r, axis=-1)
     rho = dist / radius
-    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * _pulse(dist, t, speed, wavelength)
+    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * wind_pulse(dist, t, speed, wavelength)
     return r * k[..., None]
 
 
@@ -219,7 +211,7 @@ def wind_vortex(p, t, strength, center, radius, speed, wavelength):
     r = p - np.asarray(center, np.float64)
     dist = np.linalg.norm(r, axis=-1)
     rho = dist / radius
-    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * _pulse(dist, t, speed, wavelength)
+    k = strength * 2.0 / (radius * (1.0 + rho * rho)) * wind_pulse(dist, t, speed, wavelength)
     tangent = np.stack([-r[..., 2], np.zeros_like(dist), r[..., 0]], axis=-1)
     return tangent * k[..., None]
 
@@ -236,13 +228,13 @@ def noise_hash(i, j):
     Two's-complement u32 of i and j, combined and mixed with Wellons' lowbias32;
     every product wraps modulo 2^32 exactly like WGSL u32 arithmetic.
     """
-    iu = np.asarray(i, np.int64).astype(np.uint64) & _M32
-    ju = np.asarray(j, np.int64).astype(np.uint64) & _M32
-    h = ((iu * np.uint64(0x8DA6B343)) & _M32) ^ ((ju * np.uint64(0xD8163841)) & _M32)
+    iu = np.asarray(i, np.int64).astype(np.uint64) & U32_MASK
+    ju = np.asarray(j, np.int64).astype(np.uint64) & U32_MASK
+    h = ((iu * np.uint64(0x8DA6B343)) & U32_MASK) ^ ((ju * np.uint64(0xD8163841)) & U32_MASK)
     h ^= h >> np.uint64(16)
-    h = (h * np.uint64(0x7FEB352D)) & _M32
+    h = (h * np.uint64(0x7FEB352D)) & U32_MASK
     h ^= h >> np.uint64(15)
-    h = (h * np.uint64(0x846CA68B)) & _M32
+    h = (h * np.uint64(0x846CA68B)) & U32_MASK
     h ^= h >> np.uint64(16)
     return h
 
@@ -254,9 +246,6 @@ def simplex_corner(x, y, i, j):
     angle = (noise_hash(i, j) & np.uint64(7)).astype(np.float64) * (0.25 * math.pi)
     t2 = np.maximum(t, 0.0) ** 2
     return t2 * t2 * (np.cos(angle) * x + np.sin(angle) * y)
-
-
-_simplex_corner = simplex_corner
 
 
 def simplex_noise2(x, y):
@@ -283,9 +272,9 @@ def simplex_noise2(x, y):
     y2 = y0 - 1.0 + 2.0 * _G2
     ii, jj = i.astype(np.int64), j.astype(np.int64)
     n = (
-        _simplex_corner(x0, y0, ii, jj)
-        + _simplex_corner(x1, y1, ii + i1.astype(np.int64), jj + j1.astype(np.int64))
-        + _simplex_corner(x2, y2, ii + 1, jj + 1)
+        simplex_corner(x0, y0, ii, jj)
+        + simplex_corner(x1, y1, ii + i1.astype(np.int64), jj + j1.astype(np.int64))
+        + simplex_corner(x2, y2, ii + 1, jj + 1)
     )
     return NOISE_SCALE * n
 
@@ -352,9 +341,9 @@ def wind_force(W, v0, v2, up, height):
     W = np.asarray(W, np.float64)
     wlen = np.linalg.norm(W, axis=-1)
     wdir = W / np.maximum(wlen, 1e-12)[..., None]
-    blade = _normalize(v2 - v0)
-    fd = 1.0 - np.abs(_dot(wdir, blade))
-    fr = _dot(v2 - v0, up) / height
+    blade = safe_normalize(v2 - v0)
+    fd = 1.0 - np.abs(dot(wdir, blade))
+    fr = dot(v2 - v0, up) / height
     return W * (fd * fr)[..., None] * (wlen > 1e-12)[..., None]
 
 
@@ -377,7 +366,7 @@ def integrate_tip(v2, iv2, stiffness, accel, dt):
 
 def validate_ground(v0, v2, up):
     """Keep v2 above the ground plane of the blade: v2 -= up * min(dot(up, v2 - v0), 0)."""
-    return v2 - up * np.minimum(_dot(up, v2 - v0), 0.0)[..., None]
+    return v2 - up * np.minimum(dot(up, v2 - v0), 0.0)[..., None]
 
 
 def validate_v1(v0, v2, up, height):
@@ -387,7 +376,7 @@ def validate_v1(v0, v2, up, height):
         v1 = v0 + h up max(1 - l_proj / h, 0.05 max(l_proj / h, 1))
     """
     d = v2 - v0
-    l_proj = np.linalg.norm(d - up * _dot(d, up)[..., None], axis=-1)
+    l_proj = np.linalg.norm(d - up * dot(d, up)[..., None], axis=-1)
     ratio = l_proj / height
     k = np.maximum(1.0 - ratio, 0.05 * np.maximum(ratio, 1.0))
     return v0 + up * (height * k)[..., None]
@@ -450,7 +439,7 @@ def collide_sphere(v0, v1, v2, sphere):
     v2 = v2 + d_tip
     d_mid = sphere_push(0.25 * v0 + 0.5 * v1 + 0.25 * v2, center, radius)
     v2 = v2 + 4.0 * d_mid
-    add = _dot(d_tip, d_tip) + _dot(d_mid, d_mid)
+    add = dot(d_tip, d_tip) + dot(d_mid, d_mid)
     return v2, add, add > 0
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from ..enums import BladeShape, GravityMode
 from ...errors import GrassValueError
 from .looks import blade_shape_t, hash01
-from .vectors import U32_MASK as _M32
+from .vectors import U32_MASK
 
 __all__ = [
     "clip_to_pixel",
@@ -112,7 +112,7 @@ def raster_cover(blade, sample, span_px):
     clamped to [0, RASTER_MAX_ACROSS]: on average span_px, the same every frame."""
     blade = np.asarray(blade, np.int64).astype(np.uint64)
     sample = np.asarray(sample, np.int64).astype(np.uint64)
-    key = (blade * np.uint64(2654435761) + sample * np.uint64(40503)) & _M32
+    key = (blade * np.uint64(2654435761) + sample * np.uint64(40503)) & U32_MASK
     h = hash01(key).astype(np.float32)
     total = (np.asarray(span_px, np.float32) + h).astype(np.float64)
     return np.clip(np.floor(total), 0, RASTER_MAX_ACROSS).astype(np.int64)
