@@ -407,7 +407,7 @@ def main(argv=None):
         print(f"{case['name']}: kernel | Dawn side by side: {picture}")
     adapter = result.pop("adapter")
     common.save("browser_engine_dawn", result, adapter, args.out)
-    return 0 if counts_agree and all(c.get("picture", {}).get("pass", True) for c in result["cases"]) else 1
+    return 0 if counts_agree and all((c.get("picture") or {}).get("pass", True) for c in result["cases"]) else 1
 
 
 if __name__ == "__main__":
