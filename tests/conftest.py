@@ -72,6 +72,11 @@ _E2E = os.path.join(_HERE, "e2e")
 
 #: The unit of work of the tests that drive a browser: one worker runs them all, in order.
 E2E_UNIT = "tests/e2e"
+#: The browser tests that need no JupyterLab (marimo's servers, Notebook 7 and Voila of their own, and
+#: a Chromium): a second unit of work, handed out second, so that the other worker runs them beside the
+#: first unit (about 140 s of the 670 s of tests/e2e on CI's 2 cores; the two workers then end together).
+E2E_SECOND_UNIT = "tests/e2e (own servers)"
+E2E_SECOND_MODULES = ("test_marimo.py", "test_compare_marimo_page.py", "test_front_ends.py")
 
 #: Set on the controller's config when this file chose how the run is shared out.
 _SHARED = pytest.StashKey[bool]()
@@ -118,7 +123,9 @@ def pytest_xdist_make_scheduler(config, log):
     class E2EThenModules(LoadScopeScheduling):
         def _split_scope(self, nodeid):
             path = nodeid.split("::", 1)[0]
-            return E2E_UNIT if path.startswith(E2E_UNIT + "/") else path
+            if not path.startswith(E2E_UNIT + "/"):
+                return path
+            return E2E_SECOND_UNIT if path.rsplit("/", 1)[-1] in E2E_SECOND_MODULES else E2E_UNIT
 
     return E2EThenModules(config, log)
 
@@ -134,10 +141,11 @@ def _in_e2e(item) -> bool:
 
 
 def pytest_collection_modifyitems(config, items):
-    """In a worker of a run shared out here: the browser tests first (the first unit of work handed
-    out: they are the longest part of a run), the rest in collection order."""
+    """In a worker of a run shared out here: the browser tests first (the first two units of work
+    handed out: they are the longest part of a run), those of :data:`E2E_UNIT` before those of
+    :data:`E2E_SECOND_UNIT`, the rest in collection order."""
     if _is_worker(config) and config.workerinput.get("gw_shared"):
-        items.sort(key=lambda item: not _in_e2e(item))
+        items.sort(key=lambda item: (not _in_e2e(item), item.path.name in E2E_SECOND_MODULES))
 
 
 def grass_mask(img):
