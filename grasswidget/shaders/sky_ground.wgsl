@@ -116,8 +116,9 @@ fn vs_main(in: VertexInput) -> Varyings {
 // m.far_blend.z) as the blades, times their mean shade (m.far_grass.rgb); for a field to the
 // horizon (m.horizon.w != 0) the far grass also takes over the soil with the camera's distance
 // (m.far_blend.x..y) and wholly past the last blades (m.horizon.z). `sunlight` (shadows.wgsl's
-// ground_sunlight, 1 with shadows off) lights the soil and the bare plain; the far grass is the
-// grass's top, lit as the blades are.
+// ground_sunlight, 1 with shadows off) lights the soil and the ground beyond the field (far grass or
+// plain: the balls' shadows fall on it); the far grass over a field to the horizon is the grass's
+// top, lit as the blades are.
 fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
     let m = u_material;
     let inside = field_inside(hit.x, hit.z, m.field.xy, m.field.zw, m.field_edge);
@@ -132,7 +133,9 @@ fn ground_albedo(hit: vec3<f32>, dist: f32, sunlight: f32) -> vec3<f32> {
     let clump = clump_noise(hit.x, hit.z, m.far_blend.z);
     let grass = blade_base_color(m.grass_root.rgb, m.grass_tip.rgb, m.far_blend.w, 0.5, clump,
                                  m.color_variation, m.dryness) * m.far_grass.rgb;
-    let beyond = mix(m.beyond_color.rgb * sunlight, grass, m.far_grass.w);
+    // beyond the field the far grass takes the bare plain's place, lit as it was (the balls' shadows, the
+    // field's shadow past its edge); over a field to the horizon it is the grass's top (`far`, unlit)
+    let beyond = mix(m.beyond_color.rgb, grass, m.far_grass.w) * sunlight;
     let ground = ground_color(soil, beyond, inside, m.cover);
     let r = length(hit.xz - m.horizon.xy);
     let far = m.horizon.w * max(smoothstep(m.far_blend.x, m.far_blend.y, dist),

@@ -244,14 +244,15 @@ def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, ho
     reach, on), on != 0) the far grass also takes over the soil by the camera's distance
     (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the last
     ``2 edge`` m). ``sunlight`` (0..1, shadows.wgsl's ``ground_sunlight``; 1 with shadows off) lights
-    the soil and the bare plain, not the far grass (the grass's top)."""
+    the soil and the ground beyond the field (far grass or plain), not the far grass over a field to
+    the horizon (the grass's top)."""
     x, z, dist = (np.asarray(a, np.float64) for a in (x, z, dist))
     sun = np.asarray(sunlight, np.float64)[..., None]
     far_grass = np.asarray(far_grass, np.float64)
     inside = field_inside(x, z, field_c, field_half, edge)
     clump = clump_noise(x, z, far_blend[2])
     grass = blade_base_color(root, tip, far_blend[3], 0.5, clump, color_variation, dryness) * far_grass[:3]
-    beyond = _mix(np.asarray(beyond, np.float64) * sun, grass, far_grass[3])
+    beyond = _mix(np.asarray(beyond, np.float64), grass, far_grass[3]) * sun
     ground = ground_color(np.asarray(soil, np.float64) * sun, beyond, inside, cover)
     if horizon[3] == 0:
         return ground
