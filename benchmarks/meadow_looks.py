@@ -236,8 +236,11 @@ def main(argv=None):
         for path in args.sheet:
             with open(path) as f:
                 res = json.load(f)
-            res.setdefault("name", os.path.splitext(os.path.basename(path))[0])
-            results.append(res)
+            name = os.path.splitext(os.path.basename(path))[0]
+            # a run of --tree holds one result per tree
+            for one in res.get("trees", [res]):
+                one.setdefault("name", name)
+                results.append(one)
         sheet(results, args.sheet_out or os.path.join(results[0]["shots"], "meadow_looks_sheet.png"))
         return 0
     if not args.shots:
