@@ -7,9 +7,10 @@ field rectangle, cover, far plane, fog), with :meth:`SkyGroundMaterial.set_value
 
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
-lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
+lavapipe frame). :class:`SkyGround` draws both with one material, *after* the grass,
 at the far depth with the "<" depth test, so the pixels the grass covers are
-never shaded. The ground is already lit (one normal, one sun): soil under the
+never shaded; in the kernel engine as two pieces of the screen (the sky's, the
+ground's: :class:`GroundPart`), so that no sky pixel pays for the ground's maths. The ground is already lit (one normal, one sun): soil under the
 field, darker the more the grass covers it, and beyond it the grass seen from afar in the
 blades' colour patches (their noise a pixel; a noise texture there once cost a third of a
 lavapipe frame, see SkyGroundMaterial.far_grass); it fades into the sky's horizon colour
