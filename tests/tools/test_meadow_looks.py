@@ -64,6 +64,7 @@ def _rays_on_rectangle(scene, half):
     return float(on.mean())
 
 
+@pytest.mark.slow  # 2.5-4.5 s on lavapipe (the scene's first pipelines, four renders)
 def test_soil_share_counts_the_bare_field_and_nothing_else(looks, bare_scene):
     scene = bare_scene
     scene.look(position=(0.0, 9.0, 9.0), target=(0.0, 0.0, 0.0), fov_deg=50)
