@@ -421,11 +421,13 @@ class BrowserShaders:
     @staticmethod
     def sky_ground(sunlight: bool = False) -> dict:
         """``shaders/sky_ground.wgsl``: sky gradient and ground to the horizon, as in the kernel engine;
-        ``sunlight``: the ground's shadows compiled in (``GrassParams.shadows`` on). The far grass of a
-        field to the horizon is always compiled in (``far_grass``; the kernel's SkyGroundMaterial leaves it
-        out while the field has no horizon: the same picture, the uniform ``horizon.w`` is 0 then)."""
+        ``sunlight``: the ground's shadows compiled in (``GrassParams.shadows`` on). The far grass is
+        always compiled in (``far_grass``; the kernel's SkyGroundMaterial leaves it out while
+        ``far_grass.w`` and ``horizon.w`` are 0: the same picture, the bare plain). One full-screen
+        pass (``part`` "all"; the kernel draws the sky's and the ground's pieces of the screen apart)."""
         return render_shader("sky_ground.wgsl", "render", uniforms={"u_material": ("SkyGround", SKY_GROUND_LAYOUT)},
-                             resources={"u_material": "u_sky_ground"}, sunlight=bool(sunlight), far_grass=True)
+                             resources={"u_material": "u_sky_ground"}, sunlight=bool(sunlight), far_grass=True,
+                             part="all")
 
     @staticmethod
     def balls() -> dict:

@@ -435,29 +435,30 @@ def field_cover(blades) -> float:
 
 
 def far_ground_values(blades, params=None) -> dict:
-    """The far ground's values of ``u_material`` (sky_ground.wgsl ``ground_albedo``): for a field
-    to the horizon (``blades.horizon``) ``horizon`` (x, z of its centre, its reach, 1), ``far_blend``
-    (the camera distances over which the soil between the blades gives way to the grass seen from
-    afar, :meth:`~grasswidget.core.horizon.HorizonLayout.ground_blend`; the params' patch size;
-    :data:`~grasswidget.core.reference.FAR_ALONG`), ``far_grass``
-    (:func:`~grasswidget.core.reference.far_grass_shade` of the default blade material, the params'
-    looks and sun), the blades' root and tip colours and the params' colour variation and dryness;
-    for any other field ``horizon`` is all 0 (no far grass)."""
+    """The far ground's values of ``u_material`` (sky_ground.wgsl ``ground_albedo``): the grass seen
+    from afar that covers the ground beyond every field, ``far_grass`` (its shade,
+    :func:`~grasswidget.core.reference.far_grass_shade` of the default blade material, the params'
+    looks and sun; ``w`` = 1: the ground beyond the field is that grass, 0 would leave the bare plain
+    ``beyond_color``), the blades' root and tip colours, the params' colour variation and dryness, and
+    ``far_blend`` (z: the params' patch size in m, the blades' patches; w:
+    :data:`~grasswidget.core.reference.FAR_ALONG`); for a field to the horizon (``blades.horizon``)
+    also ``horizon`` (x, z of its centre, its reach in m, 1) and ``far_blend``'s x, y (the camera
+    distances in m over which the soil between the blades gives way to the far grass,
+    :meth:`~grasswidget.core.horizon.HorizonLayout.ground_blend`); for any other field ``horizon`` is
+    all 0 (the far grass only beyond the field's rectangle)."""
     p = params if params is not None else GrassParams()
     m = MATERIAL_DEFAULTS
     root, tip = srgb(m["root_color"]), srgb(m["tip_color"])
-    values = {"grass_root": root, "grass_tip": tip, "color_variation": float(p.color_variation),
-              "dryness": float(p.dryness)}
-    h = blades.horizon
-    if h is None:
-        return dict(values, horizon=(0.0, 0.0, 0.0, 0.0), far_blend=(0.0, 1.0, float(p.patch_size), FAR_ALONG),
-                    far_grass=(1.0, 1.0, 1.0, 0.0))
     shade = far_grass_shade(root[:3], tip[:3], p.color_variation, p.dryness, p.translucency, sun_direction(p),
                             m["ambient"])
+    values = {"grass_root": root, "grass_tip": tip, "color_variation": float(p.color_variation),
+              "dryness": float(p.dryness), "far_grass": (*(float(c) for c in shade), 1.0)}
+    h = blades.horizon
+    if h is None:
+        return dict(values, horizon=(0.0, 0.0, 0.0, 0.0), far_blend=(0.0, 1.0, float(p.patch_size), FAR_ALONG))
     start, end = h.ground_blend()
     return dict(values, horizon=(float(h.center[0]), float(h.center[1]), float(h.reach), 1.0),
-                far_blend=(float(start), float(end), float(p.patch_size), FAR_ALONG),
-                far_grass=(*(float(c) for c in shade), 0.0))
+                far_blend=(float(start), float(end), float(p.patch_size), FAR_ALONG))
 
 
 def sky_ground_values(blades, far, params=None, *, show_ground=True, colliders=()) -> dict:

@@ -7,11 +7,13 @@ field rectangle, cover, far plane, fog), with :meth:`SkyGroundMaterial.set_value
 
 On a CPU adapter every full-screen pass costs milliseconds (a gradient
 Background and a lit ground plane were two of them: about 11 ms of a 640 x 480
-lavapipe frame). :class:`SkyGround` draws both in one pass, *after* the grass,
+lavapipe frame). :class:`SkyGround` draws both with one material, *after* the grass,
 at the far depth with the "<" depth test, so the pixels the grass covers are
-never shaded. The ground is already lit (one normal, one sun): soil under the
-field, darker the more the grass covers it, a muted olive ground beyond it
-(flat: a noise texture there cost a third of a lavapipe frame); it fades into the sky's horizon colour
+never shaded; in the kernel engine as two pieces of the screen (the sky's, the
+ground's: :class:`GroundPart`), so that no sky pixel pays for the ground's maths. The ground is already lit (one normal, one sun): soil under the
+field, darker the more the grass covers it, and beyond it the grass seen from afar in the
+blades' colour patches (their noise a pixel; a noise texture there once cost a third of a
+lavapipe frame, see SkyGroundMaterial.far_grass); it fades into the sky's horizon colour
 towards the far plane and with the distance fog, so that the horizon is soft.
 """
 
@@ -28,7 +30,7 @@ from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
-__all__ = ["SkyGround", "SkyGroundMaterial", "GroundSwitch"]
+__all__ = ["SkyGround", "GroundPart", "SkyGroundMaterial", "GroundSwitch"]
 
 
 class SkyGroundMaterial(gfx.Material):
@@ -94,8 +96,9 @@ class SkyGroundMaterial(gfx.Material):
         self.uniform_buffer.update_full()
         if "shadows" in values:  # the shader follows (sunlight)
             self._store.sunlight = bool(float(values["shadows"]) > 0.0)
-        if "horizon" in values:  # the shader follows (far_grass)
-            self._store.far_grass = bool(float(np.asarray(values["horizon"], np.float64).reshape(4)[3]) != 0.0)
+        if "horizon" in values or "far_grass" in values:  # the shader follows (far_grass)
+            data = self.uniform_buffer.data
+            self._store.far_grass = bool(float(data["horizon"][3]) != 0.0 or float(data["far_grass"][3]) != 0.0)
 
     def set_field(self, center_xz, half_xz, cover, edge=FIELD_EDGE):
         """The field's rectangle on the ground: ``center_xz`` and ``half_xz`` (metres), the
@@ -135,10 +138,12 @@ class SkyGroundMaterial(gfx.Material):
 
     @property
     def far_grass(self) -> bool:
-        """True while the ``horizon`` written last (:meth:`set_values`) has a field to the horizon
-        (``horizon.w`` non-zero): the shader compiles the far grass on the ground in only then (tracked
-        by pygfx: a change rebuilds its pipeline; on lavapipe the far grass's noise costs every ground
-        pixel even where the branch is never taken). False until then (``horizon.w`` starts at 0)."""
+        """True while the values written last (:meth:`set_values`) show grass seen from afar on the
+        ground: beyond the field (``far_grass.w`` non-zero, every field of
+        :func:`~grasswidget.core.engine_inputs.sky_ground_values`) or over a field to the horizon
+        (``horizon.w`` non-zero). The shader compiles the far grass in only then (tracked by pygfx: a
+        change rebuilds its pipeline; on lavapipe its noise costs every ground pixel, the soil's too).
+        False until then (both start at 0: the bare plain ``beyond_color``)."""
         return self._store.far_grass
 
     @property
@@ -171,11 +176,35 @@ class SkyGroundMaterial(gfx.Material):
 
 
 class SkyGround(gfx.WorldObject):
-    """Sky gradient and a flat ground square, drawn last in one full-screen pass."""
+    """Sky gradient and a flat ground square, drawn last: two draws of one material, this object the
+    sky's piece of the screen and its child :attr:`ground_part` the ground's (``sky_ground.wgsl``'s
+    ``part``: the screen split where the view ray turns towards the ground), so that no sky pixel
+    runs the ground's maths; both at the far depth behind the "<" depth test (nothing the grass
+    covers is shaded). ``SkyGround(material, split=False)`` draws one full-screen pass instead
+    (``part`` "all", what the browser engine draws; the same picture)."""
 
-    def __init__(self, material: SkyGroundMaterial | None = None):
+    def __init__(self, material: SkyGroundMaterial | None = None, split: bool = True):
         _register()
         super().__init__(None, material or SkyGroundMaterial(), render_order=1e6)
+        #: The ground's piece (a :class:`GroundPart` sharing this material), None when not split.
+        self.ground_part = GroundPart(self.material) if split else None
+        if self.ground_part is not None:
+            self.add(self.ground_part)
+
+    @property
+    def part(self) -> str:
+        """What this object's draw covers: "sky" (split) or "all" (one full-screen pass)."""
+        return "all" if self.ground_part is None else "sky"
+
+
+class GroundPart(gfx.WorldObject):
+    """The ground's piece of the screen of a split :class:`SkyGround` (its child; same material)."""
+
+    part = "ground"
+
+    def __init__(self, material: SkyGroundMaterial):
+        _register()
+        super().__init__(None, material, render_order=1e6)
 
 
 class GroundSwitch:
@@ -202,7 +231,6 @@ def _register():
         return
     _done.append(True)
 
-    @register_wgpu_render_function(SkyGround, SkyGroundMaterial)
     class SkyGroundShader(BaseShader):
         type = "render"
 
@@ -216,15 +244,23 @@ def _register():
             return {0: bindings}
 
         def get_pipeline_info(self, wobject, shared):
-            return {"primitive_topology": wgpu.PrimitiveTopology.triangle_strip, "cull_mode": wgpu.CullMode.none}
+            topology = wgpu.PrimitiveTopology.triangle_strip if wobject.part == "all" \
+                else wgpu.PrimitiveTopology.triangle_list
+            return {"primitive_topology": topology, "cull_mode": wgpu.CullMode.none}
 
         def get_render_info(self, wobject, shared):
-            return {"indices": (4, 1)}
+            # "all": the screen's strip of 4; a piece: up to 3 triangles of a fan (sky_ground.wgsl)
+            return {"indices": (4 if wobject.part == "all" else 9, 1)}
 
         def __init__(self, wobject, **kwargs):
             # blade_math.wgsl's ids and constants; the shadows' maths only while they are on
             super().__init__(wobject, **shader_vars(sunlight=wobject.material.sunlight,
-                                                       far_grass=wobject.material.far_grass, **kwargs))
+                                                       far_grass=wobject.material.far_grass,
+                                                       part=wobject.part,
+                                                       **kwargs))
 
         def get_code(self):
             return read_shader("sky_ground.wgsl")
+
+    register_wgpu_render_function(SkyGround, SkyGroundMaterial)(SkyGroundShader)
+    register_wgpu_render_function(GroundPart, SkyGroundMaterial)(SkyGroundShader)

@@ -157,7 +157,14 @@ const SIMPLEX_GRADIENTS = array<vec2<f32>, 8>(
 
 fn simplex_corner(x: f32, y: f32, i: i32, j: i32) -> f32 {
     let t = max(0.5 - x * x - y * y, 0.0);
-    let g = SIMPLEX_GRADIENTS[noise_hash(i, j) & 7u];
+    // SIMPLEX_GRADIENTS[k] by selects, not an indexed load (a CPU's vector lanes would each load
+    // from their own index: a gather): k = 2 q + odd, q the quarter turn, the same constants.
+    let k = noise_hash(i, j) & 7u;
+    let q = k >> 1u;
+    let d = SIMPLEX_GRADIENTS[1].x;
+    let axis = vec2<f32>(select(select(0.0, -1.0, q == 2u), 1.0, q == 0u), select(select(0.0, -1.0, q == 3u), 1.0, q == 1u));
+    let diagonal = vec2<f32>(select(-d, d, q == 0u || q == 3u), select(-d, d, q < 2u));
+    let g = select(axis, diagonal, (k & 1u) == 1u);
     let t2 = t * t;
     return t2 * t2 * (g.x * x + g.y * y);
 }

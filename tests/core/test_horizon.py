@@ -169,7 +169,7 @@ def test_far_ground_values_follow_the_looks(disc_blades):
     from grasswidget.core import reference as ref
     rgb = ref.ground_albedo(150.0, 0.0, 150.0, np.array(v["soil_color"][:3]), np.array(v["beyond_color"][:3]),
                             np.array(v["field"][:2]), np.array(v["field"][2:]), v["field_edge"], v["cover"],
-                            v["horizon"], v["far_blend"], np.array(v["far_grass"][:3]),
+                            v["horizon"], v["far_blend"], np.array(v["far_grass"]),
                             np.array(v["grass_root"][:3]), np.array(v["grass_tip"][:3]), v["color_variation"],
                             v["dryness"])
     assert rgb[1] > rgb[0] + 0.05 and rgb[1] > rgb[2] + 0.05

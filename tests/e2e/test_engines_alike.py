@@ -167,8 +167,8 @@ LOOKS = {"dryness": 0.3, "fog_density": 0.02, "patch_size": 2.5}
 
 
 def _expected_ground(x_pixels):
-    """The ground beyond the field in the bottom row at these columns, from the NumPy
-    twins (sky_ground.wgsl's field_inside, ground_color, fog_amount) and engine_inputs's
+    """The ground beyond the field (the far grass) in the bottom row at these columns, from the NumPy
+    twins (sky_ground.wgsl's field_inside, ground_albedo, fog_amount) and engine_inputs's
     values: sRGB 0..255 per column, or None where the ray meets the field or its edge."""
     import grasswidget as gw
     from grasswidget.core import engine_inputs, reference as ref
@@ -190,9 +190,14 @@ def _expected_ground(x_pixels):
         if inside > 0:
             out.append(None)
             continue
-        ground = ref.ground_color(np.array(values["soil_color"][:3]), np.array(values["beyond_color"][:3]),
-                                  np.array(0.0), np.array(values["cover"]))
-        fog = ref.fog_amount(np.linalg.norm(hit - pos), values["fog_density"])
+        dist = np.linalg.norm(hit - pos)
+        v = {k: np.asarray(values[k], np.float64) for k in ("soil_color", "beyond_color", "field", "far_grass",
+                                                            "grass_root", "grass_tip")}
+        ground = ref.ground_albedo(hit[0], hit[2], dist, v["soil_color"][:3], v["beyond_color"][:3], v["field"][:2],
+                                   v["field"][2:], values["field_edge"], values["cover"], values["horizon"],
+                                   values["far_blend"], v["far_grass"], v["grass_root"][:3], v["grass_tip"][:3],
+                                   values["color_variation"], values["dryness"])
+        fog = ref.fog_amount(dist, values["fog_density"])
         out.append(255 * (ground + (np.array(values["horizon_color"][:3]) - ground) * fog))
     return out
 

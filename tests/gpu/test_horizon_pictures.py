@@ -140,16 +140,18 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(horizon_sce
         assert steps <= STEP_TOLERANCE, (name, steps)
         # the control: the far ground off (khaki beyond the reach, the look of before) fails the checks
         values = horizon_scene.sky_ground.material.uniform_buffer.data
-        saved, saved_field = values["horizon"].copy(), values["field"].copy()
+        saved, saved_field, saved_far = values["horizon"].copy(), values["field"].copy(), values["far_grass"].copy()
         half = reach / math.sqrt(2.0)  # soil on the square inside the reach's circle, khaki beyond it
         horizon_scene.params.fog_density = 0.0  # (rewrites the sky/ground's values: first)
-        horizon_scene.sky_ground.material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0), "field": (0.0, 0.0, half, half)})
+        horizon_scene.sky_ground.material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0), "field": (0.0, 0.0, half, half),
+                                                      "far_grass": (*(float(x) for x in saved_far[:3]), 0.0)})
         try:
             bare = _picture(horizon_scene)
         finally:
             horizon_scene.params.fog_density = gw.GrassParams().fog_density
             horizon_scene.sky_ground.material.set_values({"horizon": tuple(float(x) for x in saved),
-                                                  "field": tuple(float(x) for x in saved_field)})
+                                                          "field": tuple(float(x) for x in saved_field),
+                                                          "far_grass": tuple(float(x) for x in saved_far)})
         _rows, bare_grass, bare_ring, bare_steps = _band_measures(bare, dist, reach)
         print(f"[horizon] {name}, the control (khaki beyond the blades, no far grass): {bare_grass:.1%} "
               f"grass-coloured, ring {bare_ring}/255, largest row step {bare_steps:.1f}/255")
@@ -160,20 +162,27 @@ def test_the_horizon_band_is_grass_without_a_ring_from_three_cameras(horizon_sce
     assert horizon_scene.field.count == N_BLADES and max(drawn) <= N_BLADES
 
 
-def test_far_grass_is_compiled_in_only_for_a_field_to_the_horizon(horizon_scene):
+def test_far_grass_is_compiled_in_only_while_the_ground_shows_it(horizon_scene):
     """The ground's far grass (sky_ground.wgsl, template switch ``far_grass``) is in the kernel's
-    shader only while the field reaches the horizon (``horizon.w`` non-zero): lavapipe paid its
-    noise on every ground pixel of a square field. Switched off and on again through the values
-    both engines get, the pipeline follows (the far ground goes, then comes back pixel for pixel)."""
+    shader while the ground shows it: beyond every preset's field (``far_grass.w``, the course's
+    square field too) and over a field to the horizon (``horizon.w``); with both 0 (the bare plain
+    of before) it is left out (lavapipe pays its noise on every ground pixel). Switched off and on
+    again through the values both engines get, the pipeline follows (the far ground goes, then
+    comes back pixel for pixel)."""
     material = horizon_scene.sky_ground.material
     assert material.far_grass
-    assert not gw.GrassScene.preset("cis565", blades=64, size=(32, 24)).sky_ground.material.far_grass
+    course = gw.GrassScene.preset("cis565", blades=64, size=(32, 24))
+    assert course.sky_ground.material.far_grass
+    course.release()
     with_far_grass = horizon_scene.render().copy()
     saved = tuple(float(x) for x in material.uniform_buffer.data["horizon"])
+    saved_far = tuple(float(x) for x in material.uniform_buffer.data["far_grass"])
     material.set_values({"horizon": (0.0, 0.0, 0.0, 0.0)})
+    assert material.far_grass  # still beyond the field
+    material.set_values({"far_grass": (*saved_far[:3], 0.0)})
     assert not material.far_grass
     without = horizon_scene.render().copy()
     assert np.abs(without.astype(int) - with_far_grass).max() > 20  # the bare ground where the far grass was
-    material.set_values({"horizon": saved})
+    material.set_values({"horizon": saved, "far_grass": saved_far})
     assert material.far_grass
     assert_same_picture(horizon_scene.render(), with_far_grass, "far grass compiled in again")

@@ -80,7 +80,8 @@ def test_save_png_any_size(scene, tmp_path):
 @pytest.mark.parametrize("shadows", [False, True])
 def test_sky_and_ground_in_one_pass(shadows):
     """The backdrop: the sky paler at the horizon and bluer above it; below it the ground:
-    brown soil under the field (the cis565 camera looks at it from 1 m up), sky
+    brown soil under the field (the cis565 camera looks at it from 1 m up), the far grass past its
+    edge, sky
     everywhere when the ground is switched off; the grass covers it. With the sunlight off (a CPU
     adapter's default) and on (a GPU's, where the grass' shade darkens the soil and the roots to
     20-30 levels: brown and grass are told by their hue, not by a lead of 8 levels)."""
@@ -88,12 +89,16 @@ def test_sky_and_ground_in_one_pass(shadows):
     s.params.shadows = shadows
     s.field.visible = False
     img = s.render()[..., :3].astype(int)
-    ground = img[400:].reshape(-1, 3)
-    hue = hue_degrees(img[400:].astype(np.uint8)).reshape(-1)
-    # soil: brown (red leads, blue last; hue 15..60 degrees: lit soil (48, 40, 27) is 36, shaded (28, 24, 17) 40,
-    # the lit ground past the field's edge at the bottom rows (91, 89, 58) 56; grass is over 68)
+    ground = img[400:450].reshape(-1, 3)
+    hue = hue_degrees(img[400:450].astype(np.uint8)).reshape(-1)
+    # soil: brown (red leads, blue last; hue 15..60 degrees: lit soil (48, 40, 27) is 36, shaded (28, 24, 17) 40;
+    # grass is over 68)
     assert np.all(ground[:, 0] >= ground[:, 1]) and np.all(ground[:, 1] > ground[:, 2]) and np.all((hue > 15) & (hue < 60))
     assert ground.mean(0).max() < 90  # dark under 2048 blades
+    # the bottom rows see the ground just past the field's edge (the camera stands 2.5 m outside it): the grass
+    # seen from afar, green (hue over 60; the khaki plain of before was 56)
+    beyond = hue_degrees(img[472:].astype(np.uint8))
+    assert np.all(beyond > 60) and np.all(img[472:, :, 1] > img[472:, :, 2] + 15)
     top, mid = img[0].mean(0), img[200].mean(0)
     assert sky_mask(img[:150]).mean() > 0.99 and top[0] < mid[0]  # bluer towards the zenith, paler at the horizon
     s.ground.visible = False

@@ -236,24 +236,29 @@ def far_grass_shade(root, tip, color_variation, dryness, translucency, light_dir
 def ground_albedo(x, z, dist, soil, beyond, field_c, field_half, edge, cover, horizon, far_blend, far_grass,
                   root, tip, color_variation, dryness, sunlight=1.0):
     """The ground's colour (sRGB, lit) at ground point (x, z), ``dist`` metres from the camera
-    (``sky_ground.wgsl`` ``ground_albedo``): :func:`ground_color` (soil under the field's
-    rectangle, ``beyond`` outside); for a field to the horizon (``horizon`` = (cx, cz, reach,
-    on), on != 0) it gives way to the grass seen from afar by the camera's distance
-    (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the
-    last ``2 edge`` m): :func:`blade_base_color` at ``far_blend[3]`` along, variation 0.5, of
-    the patches :func:`clump_noise` of size ``far_blend[2]`` gives at (x, z), times
-    ``far_grass`` (:func:`far_grass_shade`). ``sunlight`` (0..1, shadows.wgsl's ``ground_sunlight``;
-    1 with shadows off) lights the soil and the ground beyond, not the far grass (the grass's top)."""
+    (``sky_ground.wgsl`` ``ground_albedo``): :func:`ground_color`, the soil under the field's
+    rectangle and outside it the grass seen from afar (``far_grass[3]`` = 1; 0: the bare plain
+    ``beyond``, between: a mix): :func:`blade_base_color` at ``far_blend[3]`` along, variation 0.5,
+    of the patches :func:`clump_noise` of size ``far_blend[2]`` gives at (x, z), times
+    ``far_grass[:3]`` (:func:`far_grass_shade`). For a field to the horizon (``horizon`` = (cx, cz,
+    reach, on), on != 0) the far grass also takes over the soil by the camera's distance
+    (smoothstep over ``far_blend[0]..far_blend[1]`` m) and wholly past the reach (over the last
+    ``2 edge`` m). ``sunlight`` (0..1, shadows.wgsl's ``ground_sunlight``; 1 with shadows off) lights
+    the soil and the ground beyond the field (far grass or plain), not the far grass over a field to
+    the horizon (the grass's top)."""
     x, z, dist = (np.asarray(a, np.float64) for a in (x, z, dist))
+    sun = np.asarray(sunlight, np.float64)[..., None]
+    far_grass = np.asarray(far_grass, np.float64)
     inside = field_inside(x, z, field_c, field_half, edge)
-    ground = ground_color(soil, beyond, inside, cover) * np.asarray(sunlight, np.float64)[..., None]
+    clump = clump_noise(x, z, far_blend[2])
+    grass = blade_base_color(root, tip, far_blend[3], 0.5, clump, color_variation, dryness) * far_grass[:3]
+    beyond = _mix(np.asarray(beyond, np.float64), grass, far_grass[3]) * sun
+    ground = ground_color(np.asarray(soil, np.float64) * sun, beyond, inside, cover)
     if horizon[3] == 0:
         return ground
     r = np.hypot(x - horizon[0], z - horizon[1])
     far = np.maximum(_smoothstep(far_blend[0], far_blend[1], dist),
                      _smoothstep(horizon[2] - 2.0 * edge, horizon[2], r))
-    clump = clump_noise(x, z, far_blend[2])
-    grass = blade_base_color(root, tip, far_blend[3], 0.5, clump, color_variation, dryness) * np.asarray(far_grass)
     return _mix(ground, grass, far)
 
 
