@@ -37,9 +37,11 @@ distance, so the covered share stays the same from level to level when
 :data:`MAX_WIDEN` times (beyond that the far ground's grass colour, not wider blades, covers
 the soil; a blade as wide as it is tall no longer looks like grass).
 
-Beyond ``b_1`` the ground has the grass's colour seen from afar (``shaders/sky_ground.wgsl``
-``ground_albedo``, :meth:`HorizonLayout.ground_blend`), so the thinner far levels stand on
-grass-coloured ground, and past ``b_{K-1}`` the ground alone draws the far field. The orbit
+Over level 0's fade-out band the ground turns from soil to the grass's colour seen from afar
+(``shaders/sky_ground.wgsl`` ``ground_albedo``, :meth:`HorizonLayout.ground_blend`), so the
+thinner far levels stand on grass-coloured ground (no line of soil where level 0 ends: their
+blades give the texture and the silhouettes, the ground the colour), and past ``b_{K-1}`` the
+ground alone draws the far field. The orbit
 may take the camera anywhere within ``R`` of the centre (:meth:`HorizonLayout.max_camera_offset`).
 """
 
@@ -65,7 +67,7 @@ BAND_OUTER = 0.95
 #: level k's full band, from b_{k-1} = b_k / 2 to a_k, is not empty).
 FADE_START = 0.8
 #: Most a blade is widened (times its near width).
-MAX_WIDEN = 8.0
+MAX_WIDEN = 4.0
 #: Least and most share of the blades in level 0.
 NEAR_SHARE_MIN, NEAR_SHARE_MAX = 0.5, 0.8
 
@@ -235,11 +237,11 @@ class HorizonLayout:
 
     def ground_blend(self) -> tuple:
         """``(start, end)`` metres from the camera over which the soil seen between the blades
-        gives way to the grass's colour seen from afar: from where level 0 starts fading out to
-        where level 1's weight reaches 0 (level 0's, with one level), so that the thinner far
-        levels stand on grass-coloured ground and the last one fades into it."""
-        bands = self.bands
-        return (float(bands[0][2]), float(bands[min(1, len(bands) - 1)][3]))
+        gives way to the grass's colour seen from afar: level 0's fade-out band, so that the
+        thinner far levels stand on grass-coloured ground (their blades add the texture and the
+        silhouettes, the ground the colour) and the last one fades into it."""
+        a, b = self.bands[0][2:]
+        return (float(a), float(b))
 
 
 def _inverse_smoothstep(a, b, y):
