@@ -272,3 +272,14 @@ def test_far_ground_values_follow_the_looks(field):
                             np.array(v["grass_root"][:3]), np.array(v["grass_tip"][:3]), v["color_variation"],
                             v["dryness"])
     assert rgb[1] > rgb[0] + 0.05 and rgb[1] > rgb[2] + 0.05
+
+
+def test_the_soil_lies_under_the_blades_wherever_the_camera_goes(field):
+    """The ground's field rectangle (soil, the grass layer's shadow) holds every root the wrap can put
+    around a camera anywhere within the reach."""
+    (cx, cz), (hx, hz) = engine_inputs.field_rectangle(field)
+    table = field.horizon.table()
+    for angle in np.linspace(0.0, 2 * math.pi, 8, endpoint=False):
+        cam = np.array([REACH * math.cos(angle), 2.0, REACH * math.sin(angle)])
+        v0, _, _ = ref.follow_camera(field.v0, *_rest(field), cam, table)
+        assert np.all(np.abs(v0[:, 0] - cx) <= hx) and np.all(np.abs(v0[:, 2] - cz) <= hz)
