@@ -436,11 +436,11 @@ def ground_square(blades, far) -> tuple:
 def field_rectangle(blades) -> tuple:
     """``((x, z), (half_x, half_z))``: the rectangle of the blades' roots on the ground (m); for a field
     to the horizon (``blades.horizon``), whose blades follow the camera anywhere within its reach, the
-    square around its centre that they can reach (half side: the reach plus how far the last level
-    reaches from the camera), so that the ground under them is soil wherever the camera goes."""
+    square around its centre that they can reach (half side: the reach plus half the last level's
+    tile), so that the ground under them is soil wherever the camera goes."""
     h = getattr(blades, "horizon", None)
     if h is not None:
-        half = float(h.reach) + float(h.drawn_reach())
+        half = float(h.reach) + 0.5 * float(h.periods[-1])
         return (float(h.center[0]), float(h.center[1])), (half, half)
     v0 = np.asarray(blades.v0, np.float64)
     lo, hi = v0.min(axis=0), v0.max(axis=0)
