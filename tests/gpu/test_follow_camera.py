@@ -31,8 +31,11 @@ def _move(scene, dx, dz):
 
 
 def test_the_cull_pass_wraps_as_the_twin_and_keeps_each_blades_state():
+    from grasswidget.gpu.wgsl_templates import follows_camera
+
     s = _scene()
     try:
+        assert follows_camera(s.field) and not follows_camera(object())  # the level code: such a field only
         table = s.field.blades.horizon.table()
         s.step(20)  # bent by the wind
         s.render()
