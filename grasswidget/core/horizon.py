@@ -9,12 +9,14 @@ every blade to the copy of its root nearest the camera (``x += P_k round((cam_x 
 P_k)``, the same for z; ``reference.follow_camera``), so every level is always centred on
 the camera, wherever it goes.
 
-Each level draws only in a band of horizontal distance from the camera, through a weight
+Each level draws only in a band of distance from the camera (to the blade's root: the distance the
+ground's far-grass blend uses too, so that a high camera sees the levels fade where the ground turns
+to far grass rather than a disc of dense grass under it), through a weight
 (``reference.level_weight``) that scales the blade's drawn width and culls it at 0:
 
 - level k fades out (smoothstep) from ``a_k = FADE_START b_k`` to ``b_k = BAND_OUTER P_k / 2``,
-  strictly inside the tile's inscribed circle, so a blade is moved by the wrap only where its
-  weight is 0 (nothing visible jumps);
+  strictly inside the tile's inscribed circle (the distance to the root is at least the horizontal
+  one), so a blade is moved by the wrap only where its weight is 0 (nothing visible jumps);
 - level k >= 1 fades in over level k-1's fade-out band, with the same smoothstep, so the
   weights of the levels sum to 1 out to ``b_{K-1}`` (no band edge shows as a line);
 - level 0 is full from the camera out to ``a_0``.
@@ -69,7 +71,7 @@ FADE_START = 0.8
 #: Most a blade is widened (times its near width).
 MAX_WIDEN = 4.0
 #: Least and most share of the blades in level 0.
-NEAR_SHARE_MIN, NEAR_SHARE_MAX = 0.5, 0.8
+NEAR_SHARE_MIN, NEAR_SHARE_MAX = 0.5, 0.85
 
 
 def _smoothstep(a, b, x):
@@ -173,7 +175,7 @@ class HorizonLayout:
         return self.densities()[0]
 
     def weights(self, d):
-        """(K, ...) weights of every level at horizontal distances ``d`` (m) from the camera
+        """(K, ...) weights of every level at distances ``d`` (m) from the camera to the roots
         (``reference.level_weight`` of each level's bands); they sum to 1 out to ``drawn_reach``."""
         d = np.asarray(d, np.float64)
         return np.stack([_smoothstep(a, b, d) * (1.0 - _smoothstep(c, e, d)) for a, b, c, e in self.bands])
@@ -182,16 +184,18 @@ class HorizonLayout:
         """Where the last level's weight reaches 0 (m from the camera): no blade is drawn beyond."""
         return self.bands[-1][3]
 
-    def expected_drawn(self, radius: float, threshold: float = 0.5) -> float:
-        """Expected number of blades within ``radius`` m of the camera whose weight is above
-        ``threshold`` (0..1), wherever the camera is: per level its density times the area of the
-        part of the disc where its weight is above ``threshold`` (the weights are monotonic in each
-        band, so that part is a ring)."""
-        thr = float(threshold)
+    def expected_drawn(self, radius: float, threshold: float = 0.5, height: float = 0.0) -> float:
+        """Expected number of blades within ``radius`` m (horizontally) of a camera ``height`` m above
+        the ground whose weight is above ``threshold`` (0..1), wherever the camera is: per level its
+        density times the area of the part of the disc where its weight is above ``threshold`` (the
+        weights are monotonic in each band of distance to the root, sqrt(r^2 + height^2) at
+        horizontal distance r, so that part is a ring)."""
+        thr, h2 = float(threshold), float(height) ** 2
+        flat = (lambda d: math.sqrt(max(d * d - h2, 0.0)))  # horizontal radius at distance d
         total = 0.0
         for rho, (a, b, c, e) in zip(self.densities(), self.bands):
-            inner = 0.0 if a < 0 else _inverse_smoothstep(a, b, thr)
-            outer = _inverse_smoothstep(c, e, 1.0 - thr)
+            inner = 0.0 if a < 0 else flat(_inverse_smoothstep(a, b, thr))
+            outer = flat(_inverse_smoothstep(c, e, 1.0 - thr))
             lo, hi = min(inner, radius), min(outer, radius)
             total += rho * math.pi * max(hi * hi - lo * lo, 0.0)
         return total

@@ -613,7 +613,7 @@ fn wrap_shift(p: vec2<f32>, cam: vec2<f32>, period: f32) -> vec2<f32> {
     return period * round((cam - p) / period);
 }
 
-// Weight (0..1) of a blade of a level at horizontal distance d (m) from the camera:
+// Weight (0..1) of a blade of a level at distance d (m) from the camera to its root:
 // smoothstep(bands.x, bands.y, d) * (1 - smoothstep(bands.z, bands.w, d)), its level's fade-in
 // and fade-out bands; see reference.level_weight.
 fn level_weight(d: f32, bands: vec4<f32>) -> f32 {

@@ -5,7 +5,8 @@ in, where the wrap moves it, and its weight (the NumPy twins of ``blade_math.wgs
 
 The level table is the dict :meth:`grasswidget.core.horizon.HorizonLayout.table` gives
 (``level_bands``, ``level_periods``, ``level_ends``, ``n_levels``), the one both engines write
-into ``u_cull``. Distances are horizontal (x, z), metres, in the field's own space.
+into ``u_cull``. Metres, in the field's own space; the wrap works on (x, z), the weights on the
+distance from the camera to the root.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ def _smoothstep(a, b, x):
 
 
 def level_weight(d, bands):
-    """Weight (0..1) of a blade of a level at horizontal distance ``d`` (m) from the camera, its
+    """Weight (0..1) of a blade of a level at distance ``d`` (m) from the camera, its
     level's ``bands`` = (in_start, in_end, out_start, out_end): ``smoothstep(in_start, in_end, d)
     (1 - smoothstep(out_start, out_end, d))``."""
     b = np.asarray(bands, np.float64)
@@ -71,9 +72,9 @@ def follow_camera(v0, v1, v2, cam, table):
 
 def blade_weights(v0, cam, table):
     """Each blade's weight (``shaders/levels.wgsl`` ``blade_weight``): :func:`level_weight` of its
-    level's bands at its root's horizontal distance from the camera ``cam`` (x, y, z; m)."""
+    level's bands at the distance from the camera ``cam`` (x, y, z; m) to its root."""
     v0 = np.asarray(v0, np.float64)
     k = _levels(len(v0), table)
     cam = np.asarray(cam, np.float64).reshape(3)
-    d = np.hypot(v0[:, 0] - cam[0], v0[:, 2] - cam[2])
+    d = np.linalg.norm(v0 - cam, axis=1)
     return level_weight(d, np.asarray(table["level_bands"], np.float64)[k])
