@@ -116,6 +116,11 @@ class Blades:
             setattr(self, name, np.ascontiguousarray(arr, np.float32))
         if n and (self.height.min() <= 0 or self.width.min() <= 0 or self.stiffness.min() <= 0):
             raise GrassValueError("height, width and stiffness must be > 0")  # a value that rounds to 0 in float32
+        if self.horizon is not None:
+            if not isinstance(self.horizon, HorizonLayout):
+                raise GrassTypeError(f"horizon must be a HorizonLayout or None, not {type(self.horizon).__name__}")
+            if int(self.horizon.count) != n:  # its levels are id ranges of exactly these blades
+                raise GrassValueError(f"horizon is a layout of {self.horizon.count} blades; these are {n}")
 
     def __len__(self):
         return len(self.v0)

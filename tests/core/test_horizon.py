@@ -211,6 +211,11 @@ def test_bad_input_is_refused_naming_the_range():
         HorizonLayout((0.0, 0.0), 0.0, 10.0, 10)
     with pytest.raises(gw.GrassValueError, match="count"):
         HorizonLayout((0.0, 0.0), 5.0, 10.0, 0)
+    b = gw.Blades.on_plane(64, size=15.0, reach=40.0)
+    with pytest.raises(gw.GrassValueError, match="horizon"):  # a layout of other blades: its levels would not fit
+        gw.Blades(b.v0[:32], b.up[:32], b.orientation[:32], b.height[:32], b.width[:32], b.stiffness[:32], b.horizon)
+    with pytest.raises(gw.GrassTypeError, match="horizon"):
+        gw.Blades(b.v0, b.up, b.orientation, b.height, b.width, b.stiffness, "far")
 
 
 def test_distance_culling_is_off_and_the_table_is_written_for_a_field_to_the_horizon(field):
