@@ -275,33 +275,39 @@ class BrowserShaders:
         return render_shader("reset_args.wgsl", "compute", bands=DISTANCE_BANDS, occlusion=1)
 
     @staticmethod
-    def cull(phase: str = "scatter") -> dict:
+    def cull(phase: str = "scatter", follow_camera: bool = False) -> dict:
         """The culling pass, drawing order by distance band as in the kernel: phase "count"
         counts survivors per (class, band), :meth:`prefix_bands` turns counts into slots,
         phase "scatter" writes the lists nearest band first; with the compute rasterizer on
         (``u_cull.compute_raster``) the thin blades go to its list instead. Rendered as occlusion
         culling's first phase (``occlusion = 1``): while ``u_cull.occlusion_phase`` is 1
-        it keeps only the blades seen last frame (``s_occlusion_flags``), else all."""
+        it keeps only the blades seen last frame (``s_occlusion_flags``), else all. ``follow_camera``: a
+        field to the horizon (``Blades.horizon``): the pass first moves its blades around the camera
+        (``s_blades`` read_write) and culls them by their level's weight."""
         return render_shader(_body_file("cull"), "compute", bands=DISTANCE_BANDS, phase=phase, occlusion=1,
-                             compute_raster=True, band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}")
+                             compute_raster=True, band_near=f"{BAND_RANGE[0]:.3f}", band_far=f"{BAND_RANGE[1]:.3f}",
+                             follow_camera=bool(follow_camera))
 
     @staticmethod
-    def cull_occlusion() -> dict:
+    def cull_occlusion(follow_camera: bool = False) -> dict:
         """Occlusion culling's second phase (``cull.wgsl``, ``occlusion = 2``, one pass without
         distance bands, as in the kernel engine): every blade that passes the other tests is
         tested against the max-depth pyramid; the newly visible ones are listed from the end
         of their class's list, counted in ``s_occlusion_args`` (bound as its ``s_args``)."""
         return render_shader(_body_file("cull"), "compute", bands=0, phase="scatter", occlusion=2,
-                             compute_raster=True, resources={"s_args": "s_occlusion_args"})
+                             compute_raster=True, resources={"s_args": "s_occlusion_args"},
+                             follow_camera=bool(follow_camera))
 
     @staticmethod
-    def raster(step: str, second: bool = False) -> dict:
+    def raster(step: str, second: bool = False, follow_camera: bool = False) -> dict:
         """``raster.wgsl``, the compute rasterizer of thin blades: step "clear" (per-pixel words
         of the rows the last frame wrote, and counters), "args" (the walks' workgroups into
         ``s_raster_dispatch``, the rows written to none), "depth" or "payload" (the walks,
         dispatched indirectly from ``s_raster_dispatch``); ``second``: the walks of occlusion
-        culling's second phase (only the blades it listed)."""
-        return render_shader("raster.wgsl", "compute", step=step, second=bool(second))
+        culling's second phase (only the blades it listed). ``follow_camera``: a field to the
+        horizon (its blades' widths scaled by their level's weight)."""
+        return render_shader("raster.wgsl", "compute", step=step, second=bool(second),
+                             follow_camera=bool(follow_camera))
 
     @staticmethod
     def raster_resolve(flat_colors: bool = False, sunlight: bool = False) -> dict:
@@ -314,7 +320,7 @@ class BrowserShaders:
                              sunlight=bool(sunlight), frag_depth=True)
 
     @classmethod
-    def compute_raster(cls, sunlight: bool = False) -> dict:
+    def compute_raster(cls, sunlight: bool = False, follow_camera: bool = False) -> dict:
         """The compute rasterizer of thin blades (``GrassParams.compute_raster``), as the kernel
         engine's ``grasswidget.gpu.render_frame`` runs it, executed by the browser engine while
         ``u_cull.compute_raster`` (Python's bytes at ``switch_offset``, i32) is 1:
@@ -348,9 +354,9 @@ class BrowserShaders:
             "rows_at": 2,
             "rows_words": 2,
             "dispatch_words": 8,
-            "second_args": cls.raster("args", second=True),
-            "second_depth": cls.raster("depth", second=True),
-            "second_payload": cls.raster("payload", second=True),
+            "second_args": cls.raster("args", second=True, follow_camera=follow_camera),
+            "second_depth": cls.raster("depth", second=True, follow_camera=follow_camera),
+            "second_payload": cls.raster("payload", second=True, follow_camera=follow_camera),
             "resolve": cls.raster_resolve(False, sunlight),
             "resolve_flat": cls.raster_resolve(True, sunlight),
         }
@@ -365,24 +371,27 @@ class BrowserShaders:
         return render_shader("prefix_bands.wgsl", "compute", bands=DISTANCE_BANDS)
 
     @staticmethod
-    def blades(flat_colors: bool = True, from_end: bool = False, sunlight: bool = False) -> list:
+    def blades(flat_colors: bool = True, from_end: bool = False, sunlight: bool = False,
+               follow_camera: bool = False) -> list:
         """One ribbon shader per level-of-detail class (segments along the blade); with
         ``flat_colors`` (the colour-by views) also one for the culled blades drawn flat
         when ``color_by`` is "cull" (``culled``: True). The natural view uses the set
         without the flat-colour path, as the kernel engine does (it costs GPU draw time).
         ``from_end``: the second occlusion phase's draws (lists read from the end; no
         culled draw: the first set's draws it). ``sunlight``: the shadows' maths compiled in
-        (``GrassParams.shadows`` on)."""
+        (``GrassParams.shadows`` on). ``follow_camera``: a field to the horizon (widths scaled by
+        the level weights, levels.wgsl)."""
         out = []
         for k in range(len(LOD_SEGMENTS) + (1 if flat_colors and not from_end else 0)):
             values = ribbon_vars(k)
             out.append(dict(render_shader("blade_render.wgsl", "render", **values, teaching_views=flat_colors,
-                                          sunlight=bool(sunlight), from_end=from_end and not values["culled"]),
+                                          sunlight=bool(sunlight), from_end=from_end and not values["culled"],
+                                          follow_camera=bool(follow_camera)),
                             culled=bool(values["culled"])))
         return out
 
     @classmethod
-    def occlusion(cls, sunlight: bool = False) -> dict:
+    def occlusion(cls, sunlight: bool = False, follow_camera: bool = False) -> dict:
         """Occlusion culling's second phase, as the browser engine runs it every frame while
         ``u_cull.occlusion_phase`` (its bytes at ``phase_offset``) is 1:
 
@@ -413,9 +422,9 @@ class BrowserShaders:
             "flag_words_per_workgroup": int(WORKGROUP_SIZE) // 32,
             "args_words": 4 * (len(LOD_SEGMENTS) + 1),
             "hzb_levels": [cls.hzb_level(k) for k in range(1, HZB_MAX_LEVELS)],
-            "cull": cls.cull_occlusion(),
-            "blades": cls.blades(flat_colors=False, from_end=True, sunlight=sunlight),
-            "blades_flat": cls.blades(flat_colors=True, from_end=True, sunlight=sunlight),
+            "cull": cls.cull_occlusion(follow_camera),
+            "blades": cls.blades(flat_colors=False, from_end=True, sunlight=sunlight, follow_camera=follow_camera),
+            "blades_flat": cls.blades(flat_colors=True, from_end=True, sunlight=sunlight, follow_camera=follow_camera),
         }
 
     @staticmethod
@@ -479,9 +488,12 @@ class BrowserShaders:
         ]
 
     @classmethod
-    def shaders(cls, wind_wgsl: str = "", sunlight: bool = False) -> dict:
-        """Every shader of a frame for the wind ``wind_wgsl`` and the sunlight's switch
-        ``sunlight`` (``GrassParams.shadows``: the draws compile its maths in only while on)."""
+    def shaders(cls, wind_wgsl: str = "", sunlight: bool = False, follow_camera: bool = False) -> dict:
+        """Every shader of a frame for the wind ``wind_wgsl``, the sunlight's switch
+        ``sunlight`` (``GrassParams.shadows``: the draws compile its maths in only while on) and
+        ``follow_camera`` (a field to the horizon, ``Blades.horizon``: the culling passes move its
+        blades around the camera and every pass that draws blades scales their widths by their
+        level's weight, levels.wgsl; other fields compile none of it)."""
         return {
             # The compute passes of every frame, in order ("blades": one invocation per blade,
             # "one": one workgroup): reset the draw arguments, count survivors per distance band,
@@ -519,33 +531,33 @@ class BrowserShaders:
                                 "forces": MAX_INSPECTED * len(FORCE_NAMES) * 16, "frustum": 24 * 12},
             "simulate": cls.simulate(wind_wgsl),
             "reset_args": cls.reset_args(),
-            "cull_count": cls.cull("count"),
+            "cull_count": cls.cull("count", follow_camera),
             "prefix_bands": cls.prefix_bands(),
-            "cull": cls.cull("scatter"),
+            "cull": cls.cull("scatter", follow_camera),
             "raster_clear_args": cls.raster("clear_args"),
             "raster_clear": cls.raster("clear"),
             "raster_args": cls.raster("args"),
-            "raster_depth": cls.raster("depth"),
-            "raster_payload": cls.raster("payload"),
-            "compute_raster": cls.compute_raster(sunlight),
-            "blades": cls.blades(flat_colors=False, sunlight=sunlight),
-            "blades_flat": cls.blades(flat_colors=True, sunlight=sunlight),
+            "raster_depth": cls.raster("depth", follow_camera=follow_camera),
+            "raster_payload": cls.raster("payload", follow_camera=follow_camera),
+            "compute_raster": cls.compute_raster(sunlight, follow_camera),
+            "blades": cls.blades(flat_colors=False, sunlight=sunlight, follow_camera=follow_camera),
+            "blades_flat": cls.blades(flat_colors=True, sunlight=sunlight, follow_camera=follow_camera),
             # byte offset of u_cull.color_by: the engine draws "blades_flat" while it is not natural (0)
             "color_by_offset": int(offsets(CULL_LAYOUT)["color_by"][0]),
             "sky_ground": cls.sky_ground(sunlight),
             "balls": cls.balls(),
             "lod_segments": list(LOD_SEGMENTS),
             "bands": DISTANCE_BANDS,
-            "occlusion": cls.occlusion(sunlight),
+            "occlusion": cls.occlusion(sunlight, follow_camera),
         }
 
     @classmethod
-    def all(cls, wind_wgsl: str = "", sunlight: bool = False) -> dict:
+    def all(cls, wind_wgsl: str = "", sunlight: bool = False, follow_camera: bool = False) -> dict:
         """Every shader of the engine (:meth:`shaders`), with ``max_storage_buffers``: the most
         storage buffers one of them binds (the engine asks its device for that many per
         shader stage; WebGPU's default is 8, occlusion culling's second pass with the
         compute rasterizer binds 10)."""
-        out = cls.shaders(wind_wgsl, sunlight)
+        out = cls.shaders(wind_wgsl, sunlight, follow_camera)
         out["max_storage_buffers"] = max(_storage_count(sh) for sh in _all_shader_dicts(out))
         return out
 

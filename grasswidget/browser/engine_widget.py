@@ -207,14 +207,24 @@ class BrowserEngineWidget(anywidget.AnyWidget):
     # ------------------------------------------------------------------ data
 
     def _shader_tree(self) -> dict:
-        """Every shader for the wind compiled last and the sunlight's switch (``params.shadows``:
-        the draws compile its maths in only while it is on), with the function overrides."""
-        tree = BrowserShaders.all(self._wind_body, sunlight=bool(self.params.shadows))
+        """Every shader for the wind compiled last, the sunlight's switch (``params.shadows``:
+        the draws compile its maths in only while it is on) and the blades' camera-following levels
+        (a field to the horizon, ``Blades.horizon``: compiled in only for such a field), with the
+        function overrides."""
+        self._shaders_follow = self._follows_camera()
+        tree = BrowserShaders.all(self._wind_body, sunlight=bool(self.params.shadows),
+                                  follow_camera=self._shaders_follow)
         return with_function_overrides(tree, self.function_overrides)
+
+    def _follows_camera(self) -> bool:
+        """Whether the field is one to the horizon whose blades follow the camera (``Blades.horizon``)."""
+        return getattr(getattr(self, "blades", None), "horizon", None) is not None
 
     def _set_blades(self, blades: Blades):
         self.blades = blades
         with self.hold_sync():
+            if self._follows_camera() != getattr(self, "_shaders_follow", None):
+                self.shaders = self._shader_tree()  # the level code in (or out of) the culling and the draws
             kept = [i for i in self.inspected if i < len(blades)]
             if kept != list(self.inspected):
                 self._set_inspected(kept)
@@ -271,7 +281,7 @@ class BrowserEngineWidget(anywidget.AnyWidget):
         """``u_cull`` for the params, the frozen view and the "auto" switches' current values."""
         switches = getattr(self, "auto_switches", None)
         return uniforms.cull_uniform(self.params, len(self.blades), self._frozen, switches.values if switches else None,
-                                     thinned=self.blades.horizon is not None)
+                                     horizon=self.blades.horizon)
 
     def _write_switches(self, _values):
         """The "auto" switches' values changed: the browser executes them from ``u_cull``."""

@@ -78,7 +78,8 @@ def collider_buffers(colliders, blades) -> tuple:
     return grid.sphere_data().tobytes(), grid.words().tobytes()
 
 
-def cull_uniform(params: GrassParams, n_blades: int, frozen=None, decided=None, *, thinned: bool = False) -> bytes:
+def cull_uniform(params: GrassParams, n_blades: int, frozen=None, decided=None, *, thinned: bool = False,
+                 horizon=None) -> bytes:
     """``u_cull`` packed: :func:`grasswidget.core.engine_inputs.cull_uniform_values` (the
     browser draws every frame in occlusion culling's two phases while
     ``params.cull_occlusion`` is on: ``occlusion_phase`` is 1 then), with the compute
@@ -86,9 +87,10 @@ def cull_uniform(params: GrassParams, n_blades: int, frozen=None, decided=None, 
     the browser writes the render size, ``raster_width`` and ``raster_height``, for each view).
     ``decided``: the values of the "auto" switches Python chose for the browser's next frames
     (:mod:`grasswidget.browser.trial_feed`), or None (the fixed defaults). ``thinned``: a
-    field to the horizon (no distance culling; see ``cull_uniform_values``)."""
+    field to the horizon (no distance culling; see ``cull_uniform_values``). ``horizon``: a field to
+    the horizon's layout (``Blades.horizon``), its level table; it implies ``thinned``."""
     values = cull_uniform_values(params, n_blades, frozen, every_frame_two_phases=True, decided=decided,
-                                 thinned=thinned)
+                                 thinned=thinned, horizon=horizon)
     material = material_values(params)  # the material the ribbons get (material_uniform)
     values.update(compute_raster_values(params, n_blades, material["blade_shape"], material["tip_threshold"], decided))
     return pack(CULL_LAYOUT, values)

@@ -116,6 +116,11 @@ class Blades:
             setattr(self, name, np.ascontiguousarray(arr, np.float32))
         if n and (self.height.min() <= 0 or self.width.min() <= 0 or self.stiffness.min() <= 0):
             raise GrassValueError("height, width and stiffness must be > 0")  # a value that rounds to 0 in float32
+        if self.horizon is not None:
+            if not isinstance(self.horizon, HorizonLayout):
+                raise GrassTypeError(f"horizon must be a HorizonLayout or None, not {type(self.horizon).__name__}")
+            if int(self.horizon.count) != n:  # its levels are id ranges of exactly these blades
+                raise GrassValueError(f"horizon is a layout of {self.horizon.count} blades; these are {n}")
 
     def __len__(self):
         return len(self.v0)
@@ -137,7 +142,7 @@ class Blades:
         reach=None,
     ) -> "Blades":
         """Blades on a ``size`` x ``size`` plane centred at the origin, y up, or, with
-        ``reach``, on a disc that reaches the horizon.
+        ``reach``, in tiles that follow the camera to the horizon.
 
         Roots are uniform on the plane (jittered-stratified, so the meadow has no
         bald patches), each blade has a uniform random orientation in [0, 2 pi) and
@@ -155,13 +160,15 @@ class Blades:
             height, width, stiffness: (min, max) ranges; metres, metres, 1/s^2; at most
                 1e3 m, 1e2 m and 1e6 1/s^2 (:mod:`grasswidget.core.limits`: the float32
                 physics stays finite with every parameter in range).
-            reach: None (default: the square field) or the radius in metres (> size / 2) of
-                a field to the horizon: a near disc of diameter ``size`` at full density,
-                beyond it out to ``reach`` the density falls as 1/r (half per doubling of
-                the distance from the centre) and each blade's width grows as r (double
-                per doubling; ``width`` is the near blades'), so the leaf area per square
-                metre, hence the covered ground and its colour from afar, stays the same
-                (:mod:`grasswidget.core.horizon`; ``Blades.horizon`` holds the layout).
+            reach: None (default: the square field) or R, metres (> size / 2), for a field to
+                the horizon that follows the camera: the blades are split into levels of
+                square tiles repeated over the plane (level k's tile 2^k times level 0's), each
+                blade moved by the culling pass to the copy of its root nearest the camera; level
+                0 keeps the density of the square field of ``size`` (``count / size^2``) near the
+                camera where the count allows, the far levels are thinner and their blades wider
+                (``width`` is level 0's), each drawn in a band of distance from the camera that
+                fades into the next, out to about R; the camera may go anywhere within R of the
+                centre (:mod:`grasswidget.core.horizon`; ``Blades.horizon`` holds the layout).
                 The count stays ``count``: the memory does not grow with the reach.
                 Distance culling (``GrassParams.cull_distance``) is not applied to such a
                 field, which is thinned with distance already.
@@ -179,7 +186,7 @@ class Blades:
                     or not 0.5 * size < reach <= MAX_COORDINATE:
                 raise GrassValueError(f"reach must be None or a finite number in (size / 2 = {0.5 * size:g}, "
                                       f"{MAX_COORDINATE:g}] metres; got {reach!r}")
-            horizon = HorizonLayout(center=(0.0, 0.0), near_radius=0.5 * float(size), reach=float(reach))
+            horizon = HorizonLayout(center=(0.0, 0.0), near_radius=0.5 * float(size), reach=float(reach), count=count)
         rng = np.random.default_rng(seed)
         v0 = np.zeros((count, 3), np.float32)
         if horizon is None:

@@ -71,10 +71,11 @@ from .reference.shadows import MAX_SHADOW_BALLS, grass_optical_depths
 from .reference.shadows import sun_direction as _sun_direction
 from .teaching import INSPECTED_POINT_BYTES
 from .shader_files import MAX_WORKGROUPS_X, WORKGROUP_SIZE
+from .horizon import MAX_LEVELS
 from .uniform_layouts import SKY_GROUND_LAYOUT
 
 __all__ = [
-    "sim_uniform_values", "collider_grid", "cull_uniform_values", "compute_raster_on", "occlusion_on", "compute_raster_values",
+    "sim_uniform_values", "collider_grid", "cull_uniform_values", "level_table_values", "compute_raster_on", "occlusion_on", "compute_raster_values",
     "MAX_RASTER_BLADES", "clock_rules", "orbit_rules", "scene_style", "ground_square",
     "field_rectangle", "field_cover", "far_ground_values", "sky_ground_values", "sun_direction", "sunlight_values", "grass_layer", "ground_sun", "look_values", "material_values", "frame_rules", "srgb",
     "SKY_GROUND_TRAITS", "HORIZON_COLOR", "ZENITH_COLOR", "SOIL_COLOR", "BEYOND_COLOR", "FIELD_EDGE", "MATERIAL_DEFAULTS",
@@ -250,9 +251,24 @@ def collider_grid(colliders, blades, max_cells=MAX_GRID_CELLS):
     return build_collider_grid(spheres, root_bounds(blades.v0), height, max_cells=max_cells)
 
 
+def level_table_values(horizon=None) -> dict:
+    """``u_cull``'s level table (``level_bands``, ``level_periods``, ``level_ends``, ``n_levels``):
+    :meth:`~grasswidget.core.horizon.HorizonLayout.table` of a field to the horizon's layout
+    (``Blades.horizon``), or for None (any other field) zeros and ``n_levels`` 0 (its shaders
+    compile no level code: the template variable ``follow_camera`` is off)."""
+    if horizon is not None:
+        return horizon.table()
+    return {"level_bands": np.zeros((MAX_LEVELS, 4)), "level_periods": np.zeros((2, 4)),
+            "level_ends": np.zeros((2, 4)), "n_levels": 0}
+
+
 def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_phases: bool = False,
-                        decided=None, thinned: bool = False) -> dict:
+                        decided=None, thinned: bool = False, horizon=None) -> dict:
     """The ``u_cull`` values (``uniform_layouts.CULL_LAYOUT``).
+
+    ``horizon``: a field to the horizon's :class:`~grasswidget.core.horizon.HorizonLayout`
+    (``Blades.horizon``) or None: its level table (:func:`level_table_values`); a layout also
+    means ``thinned``.
 
     ``thinned``: the field thins itself with distance (a field to the horizon,
     ``Blades.horizon``: fewer, wider blades far away), so distance culling is off
@@ -283,7 +299,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         buckets=p.cull_buckets,
         cull_orientation=int(p.cull_orientation),
         cull_frustum=int(p.cull_frustum),
-        cull_distance=int(p.cull_distance and not thinned),
+        cull_distance=int(p.cull_distance and not (thinned or horizon is not None)),
         lod=int(p.lod),
         n_blades=int(n_blades),
         color_by=int(ColorBy.from_label(p.color_by)),
@@ -292,6 +308,7 @@ def cull_uniform_values(params, n_blades: int, frozen=None, *, every_frame_two_p
         frozen_cam_pos=(0.0, 0.0, 0.0, 0.0),
         frozen_viewport_height=0.0,
         raster_max_px=p.compute_raster_max_px,
+        **level_table_values(horizon),
     )
     if every_frame_two_phases:
         values["occlusion_phase"] = int(occlusion_on(p, (decided or {}).get("cull_occlusion")))
@@ -417,7 +434,14 @@ def ground_square(blades, far) -> tuple:
 
 
 def field_rectangle(blades) -> tuple:
-    """``((x, z), (half_x, half_z))``: the rectangle of the blades' roots on the ground (m)."""
+    """``((x, z), (half_x, half_z))``: the rectangle of the blades' roots on the ground (m); for a field
+    to the horizon (``blades.horizon``), whose blades follow the camera anywhere within its reach, the
+    square around its centre that they can reach (half side: the reach plus half the last level's
+    tile), so that the ground under them is soil wherever the camera goes."""
+    h = getattr(blades, "horizon", None)
+    if h is not None:
+        half = float(h.reach) + 0.5 * float(h.periods[-1])
+        return (float(h.center[0]), float(h.center[1])), (half, half)
     v0 = np.asarray(blades.v0, np.float64)
     lo, hi = v0.min(axis=0), v0.max(axis=0)
     return (float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[2] + hi[2]))), \

@@ -25,10 +25,11 @@ The limits, for a field on a y-up ground plane:
   the ground and ``top_y`` (a pan cannot carry the view off the field).
 
 A field to the horizon (``Blades.on_plane(..., reach=R)``, a
-:class:`~grasswidget.core.horizon.HorizonLayout`) keeps the target over its near disc
-(full density) and the camera within :meth:`HorizonLayout.max_camera_offset` (half the
-reach) of its centre: the edge of its blades is then at least half the reach away,
-where the ground already has the grass's colour.
+:class:`~grasswidget.core.horizon.HorizonLayout`) follows the camera (its levels of tiles
+are moved around it every frame), so the camera may go anywhere within
+:meth:`HorizonLayout.max_camera_offset` (R) of its centre: the target pans over a square of
+half side R / 4 around the centre (or the near square, if larger), and the zoom stops where
+a camera over that square's farthest corner would be farther than R from the centre.
 """
 
 from __future__ import annotations
@@ -112,15 +113,15 @@ class OrbitLimits:
         above the ground.
 
         ``horizon``: the :class:`~grasswidget.core.horizon.HorizonLayout` of a field to the
-        horizon (``Blades.horizon``), else None. Its target box is the near disc's square
-        (plus the margin), and the zoom stops where a camera could be farther than
-        ``horizon.max_camera_offset()`` from the centre.
+        horizon (``Blades.horizon``), else None. Its target box is the square of half side
+        ``max(near_radius, reach / 4)`` around its centre (plus the margin), and the zoom stops
+        where a camera could be farther than ``horizon.max_camera_offset()`` from the centre.
         """
         check_floor(floor, "floor")
         v0 = np.asarray(v0, np.float64)
         lo, hi = v0.min(axis=0), v0.max(axis=0)
-        if horizon is not None:  # the near disc is the field the camera looks at
-            r0, (cx, cz) = float(horizon.near_radius), horizon.center
+        if horizon is not None:  # the blades follow the camera: pan over a square a quarter of the reach wide
+            r0, (cx, cz) = max(float(horizon.near_radius), 0.25 * float(horizon.reach)), horizon.center
             lo = np.array([cx - r0, lo[1], cz - r0])
             hi = np.array([cx + r0, hi[1], cz + r0])
         extent = float(max(hi[0] - lo[0], hi[2] - lo[2], 1.0))

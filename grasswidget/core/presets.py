@@ -71,9 +71,10 @@ def check_png_path(path, name="path") -> str:
     return path
 
 
-#: The meadow preset's reach (radius of its last blades) as a share of its camera's far plane:
-#: the ground fades into the horizon from 0.6 of the far plane (sky_ground.wgsl), so every
-#: blade is drawn before that fade starts, and beyond them the ground has the grass's colour.
+#: The meadow preset's reach (about how far its last level of blades reaches from the camera, and how
+#: far the camera may go from the middle) as a share of its camera's far plane: the ground fades into
+#: the horizon from 0.6 of the far plane (sky_ground.wgsl), so every blade is drawn before that fade
+#: starts, and beyond them the ground has the grass's colour.
 MEADOW_REACH_OF_FAR = 0.5
 #: The meadow's camera far plane (m).
 MEADOW_FAR = 400.0
@@ -81,7 +82,7 @@ MEADOW_FAR = 400.0
 
 def meadow_side(count) -> float:
     """Side (m) of the meadow's square field of ``count`` blades (about 1000 per m^2, 15..250 m);
-    with the horizon on, the diameter of its near disc."""
+    with the horizon on, the square whose density level 0 keeps and the cameras frame."""
     return float(np.clip(math.sqrt(count / 1000.0), 15.0, 250.0))
 
 
@@ -89,9 +90,10 @@ def preset_field(name, blades=None, seed=0, horizon=True):
     """The blades, default size and camera of a named scene (see :meth:`GrassScene.preset`).
 
     ``horizon`` (the meadow only; default True): the meadow reaches the horizon
-    (``Blades.on_plane(..., reach=...)``: a near disc of the square field's side as
-    diameter, then thinner, wider blades out to :data:`MEADOW_REACH_OF_FAR` of the far
-    plane, and grass-coloured ground beyond); False: the square field of before.
+    (``Blades.on_plane(..., reach=...)``: levels of tiles that follow the camera, the nearest at
+    the square field's density where the count allows, then thinner, wider blades out to about
+    :data:`MEADOW_REACH_OF_FAR` of the far plane, and grass-coloured ground beyond); False: the
+    square field of before.
 
     Returns ``(Blades, (w, h), view)`` with view a dict of position, target
     (metres), fov_deg (vertical), near, far. Pure: no GPU work (the browser

@@ -172,6 +172,10 @@ def template_vars() -> dict:
         "max_shadow_balls": int(MAX_SHADOW_BALLS),
         "raster_packed": False,  # raster.wgsl / raster_resolve.wgsl: one walk with 64-bit atomics (gpu/raster_walks.py)
         "compute_raster": False,  # cull.wgsl: list thin blades for the compute rasterizer (raster.wgsl)
+        # cull.wgsl, blade_render.wgsl, raster.wgsl: a field to the horizon's camera-following levels
+        # (levels.wgsl): the culling pass wraps the blades around the camera, every pass that draws
+        # blades scales their width by their level's weight
+        "follow_camera": False,
         "from_end": False,  # blade_render.wgsl: the second occlusion phase's lists (from the end)
         "shade_per_vertex": False,  # blade_render.wgsl: shading per vertex (ribbon_vars), else per fragment
         "user_wind_body": NO_WIND_BODY,

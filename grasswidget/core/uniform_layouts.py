@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import GrassValueError
+from .horizon import MAX_LEVELS
 from .reference.shadows import MAX_SHADOW_BALLS
 
 __all__ = ["SIM_LAYOUT", "CULL_LAYOUT", "SKY_GROUND_LAYOUT", "SUNLIGHT_VECTORS", "GRASS_MATERIAL_LAYOUT", "INSPECT_LAYOUT", "shadertype",
@@ -57,6 +58,12 @@ SIM_LAYOUT = (
 CULL_LAYOUT = (
     ("frozen_cam_pos", "vec4<f32>"),      # frozen culling camera position (m)
     ("frozen_view_proj", "mat4x4<f32>"),  # frozen culling camera, world to clip space
+    # A field to the horizon's camera-following levels (levels.wgsl; HorizonLayout.table, written with
+    # the rest; zeros and n_levels 0 for any other field). The arrays come before the scalars, where
+    # pygfx's array_from_shadertype puts them:
+    ("level_bands", f"array<vec4<f32>, {MAX_LEVELS}>"),  # per level: fade-in start, end, fade-out start, end (m)
+    ("level_periods", "array<vec4<f32>, 2>"),  # tile side P_k (m) at [k / 4][k % 4]
+    ("level_ends", "array<vec4<u32>, 2>"),     # the first blade id after level k at [k / 4][k % 4]
     ("orientation_threshold", "f32"),     # GrassParams.cull_orientation_threshold
     ("frustum_tolerance", "f32"),         # GrassParams.cull_frustum_tolerance
     ("distance_max", "f32"),              # GrassParams.cull_distance_max (m)
@@ -76,6 +83,7 @@ CULL_LAYOUT = (
     ("raster_height", "f32"),             #   runs only in renders of exactly that size
     ("raster_blade_shape", "i32"),        # GrassMaterial.blade_shape (enums.BladeShape id)
     ("raster_tip_threshold", "f32"),      # GrassMaterial.tip_threshold
+    ("n_levels", "u32"),                  # camera-following levels K (0: not a field to the horizon)
 )
 
 #: The sunlight's vector fields of both ``u_material`` structs (the blades' and the sky/ground's),

@@ -110,6 +110,8 @@ class GrassField(gfx.WorldObject):
         lo = blades.v0.min(axis=0)
         hi = blades.v0.max(axis=0)
         reach = float(blades.height.max())
+        if blades.horizon is not None:  # the blades follow the camera anywhere within the reach
+            reach += float(blades.horizon.reach)
         corners = np.array([lo - reach, hi + reach], np.float32)
         super().__init__(gfx.Geometry(positions=corners), material or GrassMaterial())
 
@@ -350,7 +352,7 @@ class GrassField(gfx.WorldObject):
                 nbytes=4 * self.count, nitems=self.count, format="u4", usage=wgpu.BufferUsage.STORAGE
             )
         write_values(self.cull_uniform_buffer.data, cull_uniform_values(p, self.count, self._frozen_camera,
-                                                                         thinned=self.blades.horizon is not None))
+                                                                         horizon=self.blades.horizon))
         self.cull_uniform_buffer.update_full()
 
     # ------------------------------------------------------------------ compute rasterizer

@@ -185,11 +185,13 @@ class GrassScene:
         - ``"meadow"``: a wide field of meadow grass (h 0.5-1.0 m, w 0.02-0.04 m)
           at about 1000 blades per m^2 (side sqrt(N / 1000) m, 15..250 m), seen from
           3 m above its edge, 1920 x 1080. Default 2^20 blades. With ``horizon`` (the
-          default) it reaches the horizon: the square's side is the diameter of a near
-          disc at full density, beyond it thinner, wider blades out to 200 m (half the far
-          plane; ``Blades.on_plane(..., reach=200)``, the same blade count) and ground
-          coloured like the grass seen from afar beyond them; ``horizon=False`` gives the
-          square field alone on a bare ground, as before.
+          default) it reaches the horizon and follows the camera: the same blade count in
+          levels of tiles around the camera, the nearest at the square field's density where
+          the count allows (at least as many blades within 10 m of the camera as the square
+          field had from its home camera), the farther ones thinner and wider, out to about
+          200 m (half the far plane; ``Blades.on_plane(..., reach=200)``), on ground coloured
+          like the grass seen from afar; the camera may go anywhere within 200 m of the middle.
+          ``horizon=False`` gives the square field alone on a bare ground, as before.
         """
         if name not in PRESETS:
             raise GrassValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")

@@ -56,7 +56,8 @@ from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
 from .raster_walks import raster_walk_steps
-from .wgsl_templates import WORKGROUP_SIZE, GrassComputeShader, shader_vars, storage_struct_code, workgroups
+from .wgsl_templates import (WORKGROUP_SIZE, GrassComputeShader, follows_camera, shader_vars, storage_struct_code,
+                             workgroups)
 
 __all__ = ["ResetArgsShader", "CullShader", "RasterShader", "RasterResolveShader", "PrefixBandsShader", "BladeRenderShader", "HzbLevelShader",
            "grass_render_function", "occlusion_render_function",
@@ -148,7 +149,9 @@ class CullShader(GrassComputeShader):
             0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer, "COMPUTE"),
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer, "COMPUTE"),
             U_CULL_SLOT: cull_binding(wobject, "COMPUTE"),
-            10: Binding("s_blades", "buffer/read_only_storage", wobject.blade_buffer, "COMPUTE"),
+            # read_write for a field to the horizon: the pass moves its blades around the camera first
+            10: Binding("s_blades", "buffer/storage" if self["follow_camera"] else "buffer/read_only_storage",
+                        wobject.blade_buffer, "COMPUTE"),
             11: Binding("s_args", "buffer/storage", wobject.occlusion_args_buffer if second else wobject.args_buffer,
                         "COMPUTE"),
             12: Binding("s_visible", "buffer/storage", wobject.visible_buffer, "COMPUTE"),
@@ -203,7 +206,8 @@ class BladeRenderShader(BaseShader):
         # tracked by pygfx: a change rebuilds these pipelines).
         # The sunlight's maths only while shadows are on (GrassMaterial.sunlight, tracked the same way).
         super().__init__(wobject, **shader_vars(**ribbon_vars(lod_class), teaching_views=field.flat_colors,
-                                                sunlight=wobject.material.sunlight, from_end=second and not culled))
+                                                sunlight=wobject.material.sunlight, from_end=second and not culled,
+                                                follow_camera=follows_camera(field)))
         if culled:
             self.indirect_args = field.culled_args_buffer
         else:

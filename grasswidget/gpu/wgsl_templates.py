@@ -49,6 +49,14 @@ def shader_vars(**own):
     return {**template_vars(), **own}
 
 
+def follows_camera(field) -> bool:
+    """Whether ``field`` (a GrassField, or anything without blades: False) is a field to the horizon
+    whose blades follow the camera (``Blades.horizon``): its shaders are rendered with the
+    template variable ``follow_camera``."""
+    blades = getattr(field, "blades", None)
+    return getattr(blades, "horizon", None) is not None
+
+
 class GrassComputeShader(BaseShader):
     """Base of the grass compute shaders (entry point ``main``, no pipeline info).
 
@@ -64,6 +72,9 @@ class GrassComputeShader(BaseShader):
         field = getattr(wobject, "field", wobject)
         self.function_overrides = getattr(field, "function_overrides", None)
         key = self.function_overrides.key if self.function_overrides is not None else ""
+        # A field to the horizon compiles its camera-following levels in (levels.wgsl; the culling
+        # pass's wrap and the weights); any other field compiles none of it.
+        own_vars.setdefault("follow_camera", follows_camera(field))
         super().__init__(wobject, **shader_vars(function_overrides=key, **own_vars))
 
     def generate_wgsl(self, **more_template_vars):

@@ -603,3 +603,26 @@ fn raster_cover(blade: u32, sample: u32, span_px: f32) -> u32 {
 fn raster_payload(blade: u32, v: f32) -> u32 {
     return (blade << 8u) | u32(round(clamp(v, 0.0, 1.0) * 255.0));
 }
+
+// ---------------------------------------------------------------- camera-following levels (core/horizon.py)
+
+// Level of blade i: how many level ends (the first id after each level; ends_lo levels 0..3,
+// ends_hi 4..7, unused ones 0xffffffff) are <= i, at most n_levels - 1; see reference.level_index.
+fn level_index(i: u32, ends_lo: vec4<u32>, ends_hi: vec4<u32>, n_levels: u32) -> u32 {
+    let a = select(vec4<u32>(0u), vec4<u32>(1u), vec4<u32>(i) >= ends_lo);
+    let b = select(vec4<u32>(0u), vec4<u32>(1u), vec4<u32>(i) >= ends_hi);
+    return min(a.x + a.y + a.z + a.w + b.x + b.y + b.z + b.w, max(n_levels, 1u) - 1u);
+}
+
+// The (x, z) shift moving a root at p to its copy nearest the camera at cam on a plane repeated
+// every period metres: period * round((cam - p) / period); see reference.wrap_shift.
+fn wrap_shift(p: vec2<f32>, cam: vec2<f32>, period: f32) -> vec2<f32> {
+    return period * round((cam - p) / period);
+}
+
+// Weight (0..1) of a blade of a level at distance d (m) from the camera to its root:
+// smoothstep(bands.x, bands.y, d) * (1 - smoothstep(bands.z, bands.w, d)), its level's fade-in
+// and fade-out bands; see reference.level_weight.
+fn level_weight(d: f32, bands: vec4<f32>) -> f32 {
+    return smoothstep(bands.x, bands.y, d) * (1.0 - smoothstep(bands.z, bands.w, d));
+}

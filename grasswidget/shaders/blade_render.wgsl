@@ -12,6 +12,9 @@
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
 {$ include 'grasswidget.shadows.wgsl' $}
+$$ if follow_camera
+{$ include 'grasswidget.levels.wgsl' $}
+$$ endif
 
 const SEGMENTS: u32 = {{ segments }}u;
 const LOD_CLASS: u32 = {{ lod_class }}u;
@@ -56,7 +59,12 @@ fn vs_main(in: VertexInput) -> Varyings {
     let v0 = rec.v0;
     let v1 = rec.v1;
     let v2 = rec.v2;
+    $$ if follow_camera
+    // A field to the horizon: the blade's level weight (0..1, levels.wgsl) scales its drawn width.
+    let width = rec.width * blade_weight(blade, v0);
+    $$ else
     let width = rec.width;
+    $$ endif
 
     let row = in.vertex_index / 2u;
     let u = f32(in.vertex_index % 2u);

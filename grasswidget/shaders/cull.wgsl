@@ -90,6 +90,28 @@ fn distance_band(v0: vec3<f32>, cam_pos: vec3<f32>) -> u32 {
 }
 $$ endif
 
+$$ if follow_camera
+// Camera-following levels (a field to the horizon, core/horizon.py; template variable follow_camera,
+// compiled in only for such a field): before its tests the pass moves blade i to the copy of its root
+// nearest the culling camera on its level's tile (reference.follow_camera); v1 and v2 move with v0
+// (its bend and motion are kept, and its collision strength, stored by id). A blade moves only where
+// its weight is 0 (the bands end inside the tile's inscribed circle), so nothing visible jumps; the
+// second run of a frame (count, then scatter) finds nothing to move. s_blades is read_write here.
+{$ include 'grasswidget.levels.wgsl' $}
+fn follow_camera(i: u32) {
+    let k = blade_level(i);
+    let period = u_cull.level_periods[k / 4u][k % 4u];
+    let r0 = s_blades[4u * i + 0u];
+    let shift = wrap_shift(r0.xz, levels_camera().xz, period);
+    if (shift.x != 0.0 || shift.y != 0.0) {
+        let d = vec4<f32>(shift.x, 0.0, shift.y, 0.0);
+        s_blades[4u * i + 0u] = r0 + d;
+        s_blades[4u * i + 1u] = s_blades[4u * i + 1u] + d;
+        s_blades[4u * i + 2u] = s_blades[4u * i + 2u] + d;
+    }
+}
+$$ endif
+
 fn lod_class_of(pixels: f32) -> u32 {
     $$ for min_pixels in lod_min_pixels
     if (pixels >= {{ min_pixels }}) { return {{ loop.index0 }}u; }
@@ -113,6 +135,9 @@ fn main(
     let n = u_cull.n_blades;
     let i = (wid.y * nwg.x + wid.x) * {{ workgroup_size }}u + lid;
     let valid = i < n;
+    $$ if follow_camera
+    if (valid) { follow_camera(i); }
+    $$ endif
     var visible = false;
     var listed = false;  // appended to a list (visible, or culled with color_by "cull")
     var cls = 0u;
@@ -153,6 +178,15 @@ fn main(
         } else if (u_cull.cull_distance != 0 && distance_cull(v0, up, cam_pos, i, u32(u_cull.buckets), u_cull.distance_max)) {
             reason = 3u;
         }
+        $$ if follow_camera
+        let weight = blade_weight(i, blade.v0);  // 0: outside its level's band, culled with distance
+        if (reason == 0u && weight <= 0.0) {
+            reason = 3u;
+        }
+        let drawn_width = blade.width * weight;
+        $$ else
+        let drawn_width = blade.width;
+        $$ endif
         visible = reason == 0u;
         $$ if occlusion == 1
         if (visible && u_cull.occlusion_phase == 1 && !seen_last_frame(i)) {
@@ -164,7 +198,7 @@ fn main(
             var hidden = !drawn_first;  // frozen: the blades not seen when it froze
             if (!frozen) {
                 let stretch = max(length(m[0].xyz), max(length(m[1].xyz), length(m[2].xyz)));
-                let radius = {{ occlusion_radius_per_width }} * blade.width * stretch;
+                let radius = {{ occlusion_radius_per_width }} * drawn_width * stretch;
                 hidden = blade_occluded(v0, v1, v2, radius, view_proj, u_stdinfo.physical_size);
             }
             seen = !hidden;
@@ -180,7 +214,7 @@ fn main(
         let size = u_stdinfo.physical_size;
         if (visible && u_cull.compute_raster != 0 && size.x == u_cull.raster_width && size.y == u_cull.raster_height) {
             let render_view_proj = u_stdinfo.projection_transform * u_stdinfo.cam_transform;
-            let across_px = projected_pixels(v0, v2, 2.0 * blade.width * scale, render_view_proj, size.y);
+            let across_px = projected_pixels(v0, v2, 2.0 * drawn_width * scale, render_view_proj, size.y);
             let in_front = min(min((render_view_proj * vec4<f32>(v0, 1.0)).w, (render_view_proj * vec4<f32>(v1, 1.0)).w),
                                (render_view_proj * vec4<f32>(v2, 1.0)).w) > 1e-6;
             rastered = in_front && across_px < u_cull.raster_max_px;

@@ -60,6 +60,9 @@
 
 {$ include 'grasswidget.blade.wgsl' $}
 {$ include 'grasswidget.blade_math.wgsl' $}
+$$ if follow_camera
+{$ include 'grasswidget.levels.wgsl' $}
+$$ endif
 
 const RASTER_EMPTY: u32 = 0xffffffffu;
 
@@ -70,7 +73,12 @@ fn raster_blade(blade_id: u32) {
     let c0 = mvp * vec4<f32>(rec.v0, 1.0);
     let c1 = mvp * vec4<f32>(rec.v1, 1.0);
     let c2 = mvp * vec4<f32>(rec.v2, 1.0);
-    let across = mvp * vec4<f32>(rec.width * width_direction(rec.up, rec.orientation), 0.0);
+    $$ if follow_camera
+    let drawn_width = rec.width * blade_weight(blade_id, rec.v0);  // a field to the horizon (levels.wgsl)
+    $$ else
+    let drawn_width = rec.width;
+    $$ endif
+    let across = mvp * vec4<f32>(drawn_width * width_direction(rec.up, rec.orientation), 0.0);
     let size = vec2<f32>(u_cull.raster_width, u_cull.raster_height);
     let width = u32(size.x);
     let across_px = across.xy * vec2<f32>(0.5 * size.x, -0.5 * size.y);

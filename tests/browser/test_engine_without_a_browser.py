@@ -48,6 +48,19 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert all("sun_and_sky(" in sh["code"] for sh in sunlit_draws)
     assert not any("sun_and_sky(" in sh["code"] for sh in texts)
     texts += sunlit_draws
+    # A field to the horizon (Blades.horizon): its culling passes wrap the blades around the camera and
+    # every pass that draws blades scales their width by their level's weight; no other field gets any of it.
+    following = BrowserShaders.all(follow_camera=True)
+    wrapping = [following["cull_count"], following["cull"], following["occlusion"]["cull"]]
+    weighing = (following["blades"] + following["blades_flat"] + following["occlusion"]["blades"]
+                + following["occlusion"]["blades_flat"]
+                + [following[k] for k in ("raster_depth", "raster_payload")]
+                + [following["compute_raster"][k] for k in ("second_depth", "second_payload")])
+    assert all("follow_camera(i)" in sh["code"] for sh in wrapping)
+    assert all("blade_weight(" in sh["code"] for sh in wrapping + weighing)
+    assert not any("blade_weight(" in sh["code"] or "follow_camera(" in sh["code"] for sh in texts)
+    assert all({b["name"]: b["kind"] for b in sh["bindings"]}["s_blades"] == "storage" for sh in wrapping)
+    texts += wrapping + weighing
     for sh in texts:
         device.create_shader_module(code=sh["code"])
         names = [b["name"] for b in sh["bindings"]]

@@ -27,7 +27,8 @@ from grasswidget.core.enums import BladeShape, ColorBy, GravityMode, WindField
 from grasswidget.core.shader_files import read_shader, render_wgsl, template_vars
 
 N = 256
-WORDS = {"f32": 1, "i32": 1, "u32": 1, "bool": 1, "vec2<f32>": 2, "vec3<f32>": 3, "vec4<f32>": 4, "mat4x4<f32>": 16}
+WORDS = {"f32": 1, "i32": 1, "u32": 1, "bool": 1, "vec2<f32>": 2, "vec3<f32>": 3, "vec4<f32>": 4, "vec4<u32>": 4,
+         "mat4x4<f32>": 16}
 
 
 # ------------------------------------------------------------------ parsing the WGSL
@@ -116,6 +117,8 @@ def _decode(ptype, w):
         return word(0)
     if ptype == "bool":
         return f"({word(0)} != 0u)"
+    if ptype == "vec4<u32>":
+        return f"vec4<u32>({', '.join(word(k) for k in range(4))})"
     if ptype.startswith("vec"):
         n = WORDS[ptype]
         return f"{ptype}({', '.join(f(k) for k in range(n))})"
@@ -173,7 +176,7 @@ def _pack_one(ptype, x):
     if ptype in STRUCTS:
         return np.concatenate([_pack_one(ftype, xf) for (_, ftype), xf in zip(STRUCTS[ptype], x)], axis=1)
     x = np.asarray(x)
-    if ptype in ("i32", "u32", "bool"):
+    if ptype in ("i32", "u32", "bool", "vec4<u32>"):
         words = x.astype(np.int64).astype(np.int32 if ptype == "i32" else np.uint32).view(np.uint32)
     else:
         words = np.ascontiguousarray(x, np.float32).view(np.uint32)
@@ -427,7 +430,26 @@ TWINS = {
                        ref.raster_section, 2000),
     "raster_cover": (lambda r: [r.integers(0, 2**24, N), r.integers(0, 256, N), _u(r, 0, 20)], ref.raster_cover, 0),
     "raster_payload": (lambda r: [r.integers(0, 2**24, N), _u(r, 0, 1)], ref.raster_payload, 0),
+    "level_index": (lambda r: (lambda ends: [r.integers(0, 2**20, N), ends[:, :4], ends[:, 4:], r.integers(0, 9, N)])(
+                        _level_ends(r)), ref.level_index, 0),
+    "wrap_shift": (lambda r: [r.uniform(-500, 500, (N, 2)), r.uniform(-500, 500, (N, 2)), _u(r, 1.0, 400.0)],
+                   ref.wrap_shift, 400),
+    "level_weight": (lambda r: [_u(r, -1.0, 120.0), _level_bands(r)], ref.level_weight, 1),
 }
+
+
+def _level_ends(rng):
+    """(N, 8) ascending level ends (ids, u32) below 2^20, the unused tail 0xffffffff."""
+    ends = np.sort(rng.integers(1, 2**20, (N, 8)), axis=1)
+    return np.where(np.arange(8)[None, :] >= rng.integers(1, 9, N)[:, None], 0xFFFFFFFF, ends)
+
+
+def _level_bands(rng):
+    """(N, 4) bands in metres: in_start < in_end <= out_start < out_end; a fifth are level 0's (rise -2..-1)."""
+    b = np.sort(rng.uniform(0.0, 100.0, (N, 4)), axis=1) + np.array([0.0, 0.5, 0.5, 1.0])
+    first = rng.uniform(0, 1, N) < 0.2
+    b[first, 0], b[first, 1] = -2.0, -1.0
+    return b
 
 
 def _clip_points(rng):

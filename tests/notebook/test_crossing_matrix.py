@@ -169,6 +169,14 @@ def _measure(w, switch, value) -> Record:
         p = p.copy()
         p.cull_distance = False
     kept = ref.cull(state, p, view_proj, cam_pos)
+    rest = w.view.blades.rest_state()
+    horizon = w.view.blades.horizon
+    if horizon is not None:
+        # ... and follows the camera: the culling pass moved each blade to its copy nearest the camera
+        # (reference.follow_camera) and culls it where its level's weight is 0 (with distance)
+        table = horizon.table()
+        kept &= ref.blade_weights(state["v0"], cam_pos, table) > 0
+        rest = dict(rest, v0=ref.follow_camera(rest["v0"], rest["v1"], rest["v2"], cam_pos, table)[0])
     rest_reason = ref.cull_reason(w.view.blades.rest_state(), p, view_proj, cam_pos)
     pixels = ref.projected_pixels(state["v0"], state["v2"], state["height"], view_proj, height)
     gpu = dict(visible_count=scene.visible_count(), drawn=scene.drawn_counts(), ids=f.read_visible(),
@@ -179,7 +187,7 @@ def _measure(w, switch, value) -> Record:
     return Record(
         switch, value, picture, bool(p.lod), kept, ref.lod_class(state["v0"], state["v2"], state["height"], view_proj, height),
         pixels, dict(w.stats), html.unescape(w.panel.stats_line.value), format_details(w.stats), w.traces(), state,
-        w.view.blades.rest_state(), f.count, str(p.color_by), rest_reason, **gpu)
+        rest, f.count, str(p.color_by), rest_reason, **gpu)
 
 
 @pytest.fixture(scope="module")
@@ -288,8 +296,9 @@ def check_traces(r: Record, _ctx):
 
 
 def check_read_state(r: Record, _ctx):
-    """read_state: finite, roots where the blades were planted, heights unchanged, and each
-    blade's v2 above the ground."""
+    """read_state: finite, roots where the blades were planted (a field to the horizon: where the
+    wrap's twin moves them for the culling camera), heights unchanged, and each blade's v2 above the
+    ground."""
     for k in ("v0", "v1", "v2"):
         assert np.isfinite(r.state[k]).all()
     assert np.allclose(r.state["v0"], r.rest["v0"], atol=1e-5)

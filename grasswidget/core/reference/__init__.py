@@ -26,7 +26,8 @@ collisions, one step, the inspector's forces), :mod:`~grasswidget.core.reference
 (the culling tests, level of detail, occlusion and the depth pyramid),
 :mod:`~grasswidget.core.reference.looks` (blade shapes, colours, fog, sky and ground,
 shading), :mod:`~grasswidget.core.reference.raster` (the compute rasterizer) and
-:mod:`~grasswidget.core.reference.shadows` (the sun, the balls' and the grass' shadows), with
+:mod:`~grasswidget.core.reference.shadows` (the sun, the balls' and the grass' shadows),
+:mod:`~grasswidget.core.reference.levels` (the camera-following levels of a field to the horizon), with
 :mod:`~grasswidget.core.reference.vectors` (two vector helpers they share).
 """
 
@@ -37,10 +38,12 @@ from .culling import *  # noqa: F401,F403
 from .looks import *  # noqa: F401,F403
 from .raster import *  # noqa: F401,F403
 from .shadows import *  # noqa: F401,F403
+from .levels import *  # noqa: F401,F403
 from .vectors import safe_normalize  # noqa: F401
-from . import culling, looks, physics, raster, shadows, vectors  # noqa: F401
+from . import culling, levels, looks, physics, raster, shadows, vectors  # noqa: F401
 
 #: The package's public names: each subject module's own ``__all__`` (what the star imports above
 #: bring), and the shared ``safe_normalize`` (vectors' other helpers stay the modules' own).
-__all__ = [*physics.__all__, *culling.__all__, *looks.__all__, *raster.__all__, *shadows.__all__, "safe_normalize"]
+__all__ = [*physics.__all__, *culling.__all__, *looks.__all__, *raster.__all__, *shadows.__all__, *levels.__all__,
+           "safe_normalize"]
 
