@@ -85,13 +85,23 @@ def soil_share(scene):
 
 def near_density(scene, radius=NEAR_RADIUS):
     """``(blades per m^2, count)`` of the blades whose roots (read back from the GPU's blade buffer) lie
-    within ``radius`` metres of the camera, horizontally (the field's own transform applied)."""
+    within ``radius`` metres of the camera, horizontally (the field's own transform applied). For a
+    field whose blades are drawn with weights (a field to the horizon made of camera-following levels:
+    ``HorizonLayout.table``), only the blades drawn at more than half their width count (weight > 0.5,
+    ``reference.blade_weights``): the other levels' blades lying near the camera are not drawn."""
     v0 = np.asarray(scene.field.read_state()["v0"], np.float64)
     m = np.asarray(scene.field.world.matrix, np.float64)
     roots = v0 @ m[:3, :3].T + m[:3, 3]
     cam = np.asarray(scene.camera.world.position, np.float64)
     d2 = (roots[:, 0] - cam[0]) ** 2 + (roots[:, 2] - cam[2]) ** 2
-    count = int(np.count_nonzero(d2 <= radius * radius))
+    near = d2 <= radius * radius
+    layout = getattr(scene.field.blades, "horizon", None)
+    if layout is not None and hasattr(layout, "table"):
+        from grasswidget.core.reference.levels import blade_weights
+
+        cam_local = np.linalg.solve(m, np.append(cam, 1.0))[:3]
+        near &= blade_weights(v0, cam_local, layout.table()) > 0.5
+    count = int(np.count_nonzero(near))
     return count / (math.pi * radius * radius), count
 
 
