@@ -358,11 +358,13 @@ class RasterResolveShader(BaseShader):
 
 
 class HzbLevelShader(GrassComputeShader):
-    """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl);
-    run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
+    """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl), or with
+    ``last_level`` > ``level`` the levels ``level`` .. ``last_level`` in one workgroup (dispatched
+    as (1, 1, 1)); run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
 
-    def __init__(self, wobject, level):
-        super().__init__(wobject, level=int(level))
+    def __init__(self, wobject, level, last_level=None):
+        last = int(level) if last_level is None else int(last_level)
+        super().__init__(wobject, level=int(level), last_level=last)
 
     def get_bindings(self, wobject, shared, scene):
         occlusion = wobject.occlusion
