@@ -40,11 +40,6 @@ class GrassMaterial(gfx.Material):
     ``tip_threshold`` (tau of the triangle-tip shape, 0..0.99). The sunlight's uniforms
     (``set_sunlight``) are written by the field it draws before every frame
     (``GrassField.prepare_sunlight``), ``light_direction`` with them: the params' sun.
-
-    Blades are opaque: pygfx's ``alpha_mode`` is "solid" (no blending, alpha 1, depth written,
-    pygfx's opaque render queue) unless given. pygfx's default ("auto") blended every blade
-    fragment with what lay under it: on a CPU adapter a read of the target per fragment for a
-    result that, at alpha 1, is the fragment's colour.
     """
 
     #: pygfx's material uniforms plus ``uniform_layouts.GRASS_MATERIAL_LAYOUT`` (the browser
@@ -68,7 +63,6 @@ class GrassMaterial(gfx.Material):
         tip_threshold=MATERIAL_DEFAULTS["tip_threshold"],
         **kwargs,
     ):
-        kwargs.setdefault("alpha_mode", "solid")
         super().__init__(**kwargs)
         self.root_color = root_color
         self.tip_color = tip_color
