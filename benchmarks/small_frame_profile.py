@@ -144,8 +144,8 @@ def main(argv=None):
     drawn = int(field.read_draw_args()[:, 1].sum())
     report = dict(preset=a.preset, cull=a.cull, occlusion=a.occlusion, blades=a.blades, size=f"{w}x{h}", drawn=drawn, frames=a.frames, gpu_ms=gpu_ms, timing=timing,
                   host_own=by_own, host_cum=by_cum)
-    culled = f"culled (occlusion {a.occlusion}" if a.cull == "on" else "unculled ("
-    print(f"{a.preset} {a.blades} blades {culled}, compute raster off), {w}x{h}; drawn {drawn}; "
+    culled = f"culled (occlusion {a.occlusion}," if a.cull == "on" else "unculled ("
+    print(f"{a.preset} {a.blades} blades {culled} compute raster off), {w}x{h}; drawn {drawn}; "
           f"load {os.getloadavg()[0]:.1f}")
     print("\nGPU ms per frame (median):")
     for label, ms in sorted(gpu_ms.items(), key=lambda kv: -kv[1]):
