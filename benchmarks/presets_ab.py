@@ -47,7 +47,7 @@ def _child(case, frames):
     common.set_culling(scene.params, cull, occlusion=cull == "on", compute_raster=False)
     w, h = scene.size
     # The live view's renderer on the live view's canvas format (rgba8unorm-srgb).
-    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb"))
+    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
 
     def frame():
         scene.field.step(1)

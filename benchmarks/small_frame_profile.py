@@ -82,7 +82,7 @@ def main(argv=None):
     if a.cull == "on" and a.occlusion == "auto":
         scene.params.cull_occlusion = "auto"
     w, h = scene.size
-    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb"))
+    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
     field = scene.field
 
     def sync():

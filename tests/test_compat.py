@@ -521,11 +521,11 @@ def test_output_pass_is_a_texture_copy_only_where_it_copies_exactly():
     assert renderer.output_copies == 2
     assert (np.abs(no_ball.astype(int) - copied).max(axis=-1) > 8).sum() > 50  # the ball is in the picture
     # Not a copy: supersampled (the colour target is larger than the canvas), an rgba8unorm texture.
-    export = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb"), export=True)
+    export = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"), export=True)
     linear = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm"))
     for other in (export, linear):
         scene.draw_into(other)
         assert other.output_copies == 0
-    same = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb"))
+    same = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
     scene.draw_into(same)
     assert same.output_copies == 1
