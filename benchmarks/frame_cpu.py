@@ -195,7 +195,7 @@ def main(argv=None):
     size = parse_size(args.size) if args.size else None
     scene = GrassScene.preset("meadow", blades=args.blades, size=size)
     w, h = scene.size
-    target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
+    target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb")
     renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
     adapter = adapter_info()
     report = dict(blades=args.blades, size=f"{w}x{h}", frames=args.frames, cpu={})

@@ -103,7 +103,7 @@ def run(args):
         if args.compute_raster != "default":
             scene.params.compute_raster = args.compute_raster == "on"
         w, h = scene.size
-        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
+        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb")
         if args.ppaa == "auto":
             renderer = make_renderer(target)
         else:

@@ -7,7 +7,8 @@ Each ``--tree NAME=DIR`` is a folder holding a ``grasswidget`` package (e.g.
 ``git archive main grasswidget | tar -x -C DIR``); the first is the baseline. Each round runs, for
 every case, one child process per tree in turns (reversed every other round), so that a machine
 whose speed drifts loads the trees alike; a child builds the case's scene with the adapter's
-defaults (``shadows`` off on a CPU adapter), takes 3 warm-up frames, then ``--frames`` frames of one
+defaults (``shadows`` off on a CPU adapter) and the tree's ``make_renderer`` on an rgba8unorm-srgb texture
+(the live view's renderer and canvas format), takes 3 warm-up frames, then ``--frames`` frames of one
 step and one render (synchronised by a readback) and prints the median process CPU ms and wall ms
 per frame. Reported: per case and tree the medians over rounds, and the median of the per-round
 ratios tree / baseline (quote the CPU ratio on a loaded machine: wall times swing with the load).
@@ -35,7 +36,7 @@ def _child(case, frames):
     import pygfx as gfx
 
     import grasswidget as gw
-    from grasswidget.gpu.scene import GrassScene
+    from grasswidget.gpu.scene import GrassScene, make_renderer
 
     preset, blades, cull, *size = case.split(":")
     size = tuple(int(v) for v in size[0].split("x")) if size else None
@@ -45,8 +46,8 @@ def _child(case, frames):
         scene = GrassScene.preset(preset, blades=int(blades), seed=0, size=size)
     common.set_culling(scene.params, cull, occlusion=cull == "on", compute_raster=False)
     w, h = scene.size
-    renderer = gfx.WgpuRenderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm"), pixel_ratio=1,
-                                ppaa="none", enable_events=False)
+    # The live view's renderer on the live view's canvas format (rgba8unorm-srgb).
+    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
 
     def frame():
         scene.field.step(1)

@@ -1,7 +1,12 @@
 """Where a small culled frame's time goes on a CPU adapter (issue 28 item 4): the cis565 view.
 
-``python benchmarks/small_frame_profile.py [--blades 8192] [--frames 12] [--out PATH]``
-(default benchmarks/results/small_frame_profile-<machine>-<date>.json)
+``python benchmarks/small_frame_profile.py [--preset cis565|default] [--blades 8192] [--frames 12] [--cull on|off]
+[--occlusion on|off|auto] [--out PATH]`` (default benchmarks/results/small_frame_profile-<machine>-<date>.json)
+
+``--preset default``: the default widget's view (``Blades.on_plane``, 640x480; ``--blades 4096`` is its
+count). ``--cull off``: no culling test, no LOD. ``--occlusion`` (culled frames): ``on`` (the default,
+as ``grasswidget bench`` sets it), ``off`` or ``auto`` (the widget's default: decided by measuring).
+The target is an rgba8unorm-srgb texture, the live view's canvas format.
 
 The frame is ``grasswidget bench``'s: ``field.step(1)``, a readback, ``scene.draw_into(renderer)``
 (occlusion culling's two phases), a readback; culling on (every test, occlusion forced on), the
@@ -45,7 +50,10 @@ KNOCKOUTS = {
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--preset", choices=("cis565", "default"), default="cis565")
     ap.add_argument("--blades", type=int, default=8192)
+    ap.add_argument("--cull", choices=("on", "off"), default="on")
+    ap.add_argument("--occlusion", choices=("on", "off", "auto"), default="on")
     ap.add_argument("--frames", type=int, default=12)
     common.add_out_argument(ap, "small_frame_profile")
     a = ap.parse_args(argv)
@@ -64,10 +72,17 @@ def main(argv=None):
     knockout = {"skip": set()}
     rp.install_draw_hooks(stamps, knockout)
     rp.install_pass_hooks(stamps)
-    scene = GrassScene.preset("cis565", blades=a.blades, size=(640, 480))
-    common.set_culling(scene.params, "on", occlusion=True, compute_raster=False)
+    import grasswidget as gw
+
+    if a.preset == "default":
+        scene = GrassScene(gw.Blades.on_plane(a.blades, seed=0), size=(640, 480))
+    else:
+        scene = GrassScene.preset("cis565", blades=a.blades, size=(640, 480))
+    common.set_culling(scene.params, a.cull, occlusion=a.occlusion == "on", compute_raster=False)
+    if a.cull == "on" and a.occlusion == "auto":
+        scene.params.cull_occlusion = "auto"
     w, h = scene.size
-    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm"))
+    renderer = make_renderer(gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
     field = scene.field
 
     def sync():
@@ -127,9 +142,10 @@ def main(argv=None):
     by_own = sorted(rows, key=lambda r: -r["own_ms"])[:30]
     by_cum = sorted(rows, key=lambda r: -r["cum_ms"])[:45]
     drawn = int(field.read_draw_args()[:, 1].sum())
-    report = dict(blades=a.blades, size=f"{w}x{h}", drawn=drawn, frames=a.frames, gpu_ms=gpu_ms, timing=timing,
+    report = dict(preset=a.preset, cull=a.cull, occlusion=a.occlusion, blades=a.blades, size=f"{w}x{h}", drawn=drawn, frames=a.frames, gpu_ms=gpu_ms, timing=timing,
                   host_own=by_own, host_cum=by_cum)
-    print(f"cis565 2^{a.blades.bit_length() - 1} culled (occlusion on, compute raster off), {w}x{h}; drawn {drawn}; "
+    culled = f"culled (occlusion {a.occlusion}," if a.cull == "on" else "unculled ("
+    print(f"{a.preset} {a.blades} blades {culled} compute raster off), {w}x{h}; drawn {drawn}; "
           f"load {os.getloadavg()[0]:.1f}")
     print("\nGPU ms per frame (median):")
     for label, ms in sorted(gpu_ms.items(), key=lambda kv: -kv[1]):

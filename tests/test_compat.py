@@ -492,3 +492,40 @@ def test_pygfx_ddaa_shader_templated_as_its_pass_templates_it():
         assert code.count(compat.DDAA_FRAGMENT_HEAD) == 1 and "textureSampleLevel(tex, smp" in code
     assert "const MAX_EDGE_ITERS = 1;" in short and "const MAX_EDGE_ITERS = 5;" in long
     assert len(long) > len(short)
+
+
+def test_output_pass_is_a_texture_copy_only_where_it_copies_exactly():
+    """pygfx's output pass (a full-screen pass from the colour target into the canvas) is replaced by a
+    texture copy where it is one: same format and size, gamma 1, opaque. The picture is the pass's byte for
+    byte (a translucent ball blended over grass and sky included); where it is not a copy (supersampled
+    export, an rgba8unorm texture) the pass runs."""
+    import pygfx as gfx
+
+    import grasswidget as gw
+    from grasswidget.gpu.scene import GrassScene, make_renderer
+
+    scene = GrassScene(gw.Blades.on_plane(512, seed=0), size=(80, 60))
+    scene.colliders = [gw.SphereCollider(center=(0, 0.5, 0), radius=1.5)]
+    scene.field.step(2)
+    renderer = scene.renderer
+    assert renderer.opaque_output and renderer.output_copies == 0
+    copied = scene.render().copy()
+    assert renderer.output_copies == 1
+    renderer.opaque_output = False  # the pass
+    drawn = scene.render().copy()
+    assert renderer.output_copies == 1
+    renderer.opaque_output = True
+    assert copied.shape == (60, 80, 4) and np.array_equal(copied, drawn)
+    scene.show_colliders = False
+    no_ball = scene.render()
+    assert renderer.output_copies == 2
+    assert (np.abs(no_ball.astype(int) - copied).max(axis=-1) > 8).sum() > 50  # the ball is in the picture
+    # Not a copy: supersampled (the colour target is larger than the canvas), an rgba8unorm texture.
+    export = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"), export=True)
+    linear = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm"))
+    for other in (export, linear):
+        scene.draw_into(other)
+        assert other.output_copies == 0
+    same = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
+    scene.draw_into(same)
+    assert same.output_copies == 1

@@ -94,6 +94,8 @@ def make_renderer(canvas, *, export=False):
     ratio = engine_inputs.EXPORT_SUPERSAMPLE if export else 1
     renderer = gfx.WgpuRenderer(canvas, pixel_ratio=ratio, ppaa="none" if cpu else "default", enable_events=False)
     use_compute_ddaa(renderer)
+    # The sky covers every pixel (opaque): the output pass is a texture copy where it copies exactly.
+    compat.copy_output_when_exact(renderer)
     return renderer
 
 

@@ -281,6 +281,14 @@ class RasterShader(GrassComputeShader):
         if step in walks or step == "clear":  # gpu/indirect.py: dispatch_workgroups_indirect
             self.indirect_args = wobject.raster_dispatch_buffer
             self.indirect_offset = RASTER_CLEAR_OFFSET if step == "clear" else 0  # bytes: the clear's words
+        self._field = weakref.ref(wobject)
+
+    def skip_dispatch(self) -> bool:
+        """Nothing to do while the field's compute rasterizer is off (``GrassField.compute_raster_active``):
+        no blade is listed for it, and switching it on again zeroes its counters (every row is cleared
+        at the next frame). The second phase's steps are dispatched by the occlusion culling only while on."""
+        field = self._field()
+        return field is not None and not field.compute_raster_active
 
     def get_bindings(self, wobject, shared, scene):
         bindings = {
@@ -362,11 +370,13 @@ class RasterResolveShader(BaseShader):
 
 
 class HzbLevelShader(GrassComputeShader):
-    """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl);
-    run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
+    """One level (1 ..) of the occlusion culling's max-depth pyramid (hzb_build.wgsl), or with
+    ``last_level`` > ``level`` the levels ``level`` .. ``last_level`` in one workgroup (dispatched
+    as (1, 1, 1)); run by :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()."""
 
-    def __init__(self, wobject, level):
-        super().__init__(wobject, level=int(level))
+    def __init__(self, wobject, level, last_level=None):
+        last = int(level) if last_level is None else int(last_level)
+        super().__init__(wobject, level=int(level), last_level=last)
 
     def get_bindings(self, wobject, shared, scene):
         occlusion = wobject.occlusion

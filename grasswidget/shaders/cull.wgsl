@@ -147,7 +147,14 @@ fn main(
     var frozen = false;
     var seen = false;  // passes every test, occlusion included (phase 2)
     var rastered = false;  // visible, drawn by the compute rasterizer
+    $$ if occlusion == 1
+    // Armed first phase: a blade not seen last frame is neither drawn nor listed now (the second
+    // phase tests it), so its tests are skipped (most of a small culled view's blades, on a CPU).
+    let deferred = u_cull.occlusion_phase == 1 && !seen_last_frame(min(i, n - 1u));
+    if (valid && !deferred) {
+    $$ else
     if (valid) {
+    $$ endif
         let blade = load_blade(i);
         // To world space (blades live in the object's local space).
         let m = u_wobject.world_transform;

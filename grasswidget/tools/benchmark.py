@@ -229,7 +229,7 @@ def run_benchmark(preset="cis565", blades=(1024, 4096, 16384, 65536), frames=30,
     for n in counts:
         scene = GrassScene.preset(preset, blades=n, size=size, seed=seed, horizon=horizon)
         w, h = scene.size
-        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
+        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb")  # the canvas format
         renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
         timer = _Timer(scene)
         for mode, occl, raster, px in modes:

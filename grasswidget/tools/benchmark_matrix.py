@@ -77,7 +77,7 @@ def run_matrix(preset="cis565", blades=(8192, 32768), size=None, rounds=3, block
     for n in counts:
         scene = GrassScene.preset(preset, blades=n, size=size, seed=seed)
         w, h = scene.size
-        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm")
+        target = gfx.Texture(dim=2, size=(w, h, 1), format="rgba8unorm-srgb", colorspace="tex-srgb")  # the canvas format
         renderer = make_renderer(target)  # the live view's renderer (pygfx's DDAA in a compute pass on a GPU)
         params, field = scene.params, scene.field
 

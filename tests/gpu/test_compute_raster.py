@@ -382,3 +382,22 @@ def test_teaching_colour_and_counts(meadow):
         p.compute_raster = True
         p.cull_occlusion = True
 
+
+
+def test_steps_skipped_while_off_and_the_picture_after_it_is_on_again(meadow):
+    """While the compute rasterizer is off its compute steps dispatch nothing (gpu/indirect.py's
+    skip_dispatch); switched on again, its first picture is the one from before it was off."""
+    from grasswidget.gpu.shader_classes import RasterShader
+
+    meadow.reset_camera()
+    p = meadow.params
+    first, off, rastered = _on_off(meadow)
+    assert rastered > 0 and not np.array_equal(first, off)
+    p.compute_raster = False
+    meadow.render()
+    assert RasterShader(meadow.field, "clear_args").skip_dispatch()
+    p.compute_raster = True
+    again = meadow.render()
+    assert not RasterShader(meadow.field, "clear_args").skip_dispatch()
+    assert meadow.drawn_counts()["compute"] == rastered
+    assert np.abs(again.astype(int) - first).max() <= 1
