@@ -56,6 +56,26 @@ def test_the_count_is_the_users_and_each_level_fills_its_tile(field):
     assert len(gw.Blades.on_plane(N, size=SIZE, reach=4 * REACH, seed=5)) == N
 
 
+@pytest.mark.parametrize("count", [1 << 18, 1 << 20, 1 << 22, 1 << 24])
+def test_far_levels_are_never_denser_than_their_fall_allows(count):
+    """Level 0 has the square field's density (capped at NEAR_SHARE_MAX of the blades); a far level
+    k that is not the last is at most FAR_DENSITY_FALL^-k times as dense as level 0, the rest going
+    farther out (a large count fills the middle distance no denser than the far look needs); every
+    level has blades and the count is the user's. Layouts only (no blades made)."""
+    from grasswidget.core.horizon import FAR_DENSITY_FALL, NEAR_SHARE_MAX
+    from grasswidget.core.presets import meadow_side
+
+    side = meadow_side(count)
+    h = HorizonLayout((0.0, 0.0), side / 2, 200.0, count)
+    rho = h.densities()
+    assert sum(h.counts) == count and min(h.counts) >= 1 and h.n_levels >= 2
+    square = count / side ** 2
+    assert rho[0] == pytest.approx(min(square, NEAR_SHARE_MAX * count / h.periods[0] ** 2), rel=1e-3)
+    for k in range(1, h.n_levels - 1):
+        assert rho[k] <= rho[0] * FAR_DENSITY_FALL ** -k * (1 + 1e-6), (k, rho)
+    assert all(a >= b for a, b in zip(rho, rho[1:])), rho  # thinner and thinner outwards
+
+
 def test_widths_keep_the_covered_share_from_level_to_level(field):
     """Each level's blades are its factor times their near width; density x width x 2^k (the covered
     share at a grazing view, the distance doubling per level) is level 0's wherever the factor is not
