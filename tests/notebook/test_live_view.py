@@ -217,13 +217,16 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     # what the canvas reports for a streamed frame: pixels presented, then sent
     d0, d1 = widget.view.timing.last_draw
     widget.canvas.on_present(d1 + 0.004)  # what the canvas calls for a streamed frame
-    widget.canvas.on_sent(d1 + 0.010, WIDGET_SIZE)
+    widget.canvas.on_transport("encode", 0.0025)  # the JPEG, on the worker thread
+    widget.canvas.on_transport("send", 0.0015)
     widget.view.refresh_stats()
     s = widget.stats
-    assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6) and s["encode_send_ms"] == pytest.approx(6.0, abs=1e-6)
+    assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6)
+    assert s["encode_ms"] == pytest.approx(2.5, abs=1e-6) and s["send_ms"] == pytest.approx(1.5, abs=1e-6)
     assert s["render_ms"] is not None and s["scale"] == 1.0
     line = widget.panel.details_line.value
-    for word in ("frames/s delivered", "render", "readback 4", "encode+send 6", "scale 1.00", "steps/frame"):
+    for word in ("frames/s delivered", "render", "readback 4.0", "encode 2.5", "send 1.5", "scale 1.00",
+                 "steps/frame"):
         assert word in line, (word, line)
     status = widget.panel.stats_line.value  # one line in words; the timings wait behind "details"
     assert "frames/s" in status and "blades drawn" in status and "real time" in status, status
