@@ -555,7 +555,7 @@ def encode_frame(array, quality: int) -> tuple:
             mode = "RGBX" if channels == 4 else "RGB"
             image = Image.frombuffer(mode, (w, h), data, "raw", mode, 0, 1)
             out = io.BytesIO()
-            image.save(out, format="JPEG", quality=max(1, min(quality, 95)), subsampling="4:2:0")
+            image.save(out, format="JPEG", quality=max(1, quality), subsampling="4:2:0")
             return "image/jpeg", out.getvalue()
     from jupyter_rfb._utils import array2compressed
 

@@ -492,3 +492,102 @@ def test_pygfx_ddaa_shader_templated_as_its_pass_templates_it():
         assert code.count(compat.DDAA_FRAGMENT_HEAD) == 1 and "textureSampleLevel(tex, smp" in code
     assert "const MAX_EDGE_ITERS = 1;" in short and "const MAX_EDGE_ITERS = 5;" in long
     assert len(long) > len(short)
+
+
+def _frame(h=24, w=32, seed=0):
+    """A smooth RGBA picture (JPEG keeps it within a few levels) that differs by seed."""
+    y, x = np.mgrid[0:h, 0:w]
+    rgb = np.stack([x * 3 + seed * 20, y * 4, np.full_like(x, 90 + seed)], axis=2)  # no edges, < 256
+    return np.concatenate([rgb, np.full((h, w, 1), 255)], axis=2).astype(np.uint8)
+
+
+def _decoded(data):
+    import io
+
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(bytes(data))).convert("RGB")).astype(int)
+
+
+class _Sent(list):
+    """The messages a jupyter-rfb canvas sends, with the thread each was sent on."""
+
+    def __call__(self, msg, buffers=None):
+        import threading
+
+        self.append((msg, list(buffers or []), threading.current_thread().name))
+
+
+def test_jupyter_canvas_sends_a_frame_once_and_its_pixels():
+    """Without an event loop (a script) a frame is encoded and sent at once, as jupyter-rfb's
+    message; the same pixels again are not encoded or sent; other pixels are."""
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    seen = []
+    canvas.on_transport = lambda kind, s: seen.append((kind, s))
+    try:
+        a, b = _frame(seed=0), _frame(seed=1)
+        canvas.send_frame(a)
+        canvas.send_frame(a.copy())  # equal pixels: not sent again
+        canvas.send_frame(b)
+        assert [m["index"] for m, _, _ in sent] == [1, 2] and canvas.unchanged_frames == 1
+        for (msg, bufs, _), frame in zip(sent, (a, b)):
+            assert msg["type"] == "framebufferdata" and msg["mimetype"] == "image/jpeg" and len(bufs) == 1
+            assert np.abs(_decoded(bufs[0]) - frame[:, :, :3]).mean() < 6.0  # the picture, lossy
+        assert [k for k, _ in seen] == ["encode", "send", "unchanged", "encode", "send"]
+        assert all(s >= 0.0 for _, s in seen)
+        assert canvas.get_stats()["sent_frames"] == 2  # jupyter-rfb's own count, as it keeps it
+        canvas.skip_unchanged = False
+        canvas.send_frame(b.copy())
+        assert len(sent) == 3
+    finally:
+        canvas.close()
+
+
+def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossless_picture(monkeypatch):
+    """With the event loop running, frames are encoded on one worker thread and sent from the loop,
+    in order; 0.3 s after the last lossy frame the lossless PNG of its exact pixels follows, also
+    when that frame's pixels came again meanwhile."""
+    import asyncio
+    import threading
+
+    encoders = []
+    encode = compat.encode_frame
+
+    def recording_encode(array, quality):
+        encoders.append(threading.current_thread().name)
+        return encode(array, quality)
+
+    monkeypatch.setattr(compat, "encode_frame", recording_encode)
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    frames = [_frame(seed=i) for i in range(4)]
+
+    async def run():
+        for f in frames:
+            canvas.send_frame(f)
+        canvas.send_frame(frames[-1].copy())  # unchanged
+        deadline = asyncio.get_running_loop().time() + 10.0
+        while not any(m["mimetype"] == "image/png" for m, _, _ in sent):
+            assert asyncio.get_running_loop().time() < deadline, f"no lossless frame: {[m for m, _, _ in sent]}"
+            await asyncio.sleep(0.02)
+
+    try:
+        asyncio.run(run())
+        lossy = [(m, b, t) for m, b, t in sent if m["mimetype"] == "image/jpeg"]
+        assert [m["index"] for m, _, _ in lossy] == [1, 2, 3, 4] and canvas.unchanged_frames == 1
+        assert {t for _, _, t in sent} == {threading.current_thread().name}  # sent from the loop's thread
+        assert encoders and all(name.startswith("grasswidget-frames") for name in encoders)
+        png = [(m, b) for m, b, _ in sent if m["mimetype"] == "image/png"]
+        assert len(png) == 1 and png[0][0]["index"] == 5
+        assert np.array_equal(_decoded(png[0][1][0]), frames[-1][:, :, :3])  # exact
+    finally:
+        canvas.close()
+
+
+def test_encode_frame_jpeg_and_png():
+    frame = _frame(48, 64, seed=2)
+    mimetype, data = compat.encode_frame(frame, 70)
+    assert mimetype == "image/jpeg" and np.abs(_decoded(data) - frame[:, :, :3]).mean() < 6.0
+    mimetype, data = compat.encode_frame(frame[:, :, :3], 100)
+    assert mimetype == "image/png" and np.array_equal(_decoded(data), frame[:, :, :3])

@@ -271,3 +271,60 @@ def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_fram
     widget.view.refresh_stats()  # no frame since: the same figures, not 0.0 frames/s
     again = widget.stats
     assert again["fps"] == after["fps"] and again["render_ms"] == after["render_ms"]
+
+
+def test_a_frame_with_nothing_changed_is_not_rendered_or_sent_again(widget, monkeypatch):
+    """Playing while no step runs (the clock owes none), the camera is still and no change was asked
+    for, the view renders nothing (the canvas cancels the draw: no readback, nothing sent); a step
+    owed, a camera moved, a resize or a parameter each bring a rendered frame back. The frames not
+    rendered count in fps (the page shows them already) and in unchanged_fps; the status line reads a
+    frame rate, never "waiting for frames"."""
+    import grasswidget.views.kernel as kv
+
+    monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # this test refreshes the stats itself
+    _resize(widget)
+    rendered = []
+    real_draw = widget.scene.draw_frame
+
+    def counting_draw():
+        rendered.append(widget.scene.field.step_count)
+        real_draw()
+
+    monkeypatch.setattr(widget.scene, "draw_frame", counting_draw)
+    wall = TickingWall(1.0 / widget.max_fps)
+    widget.view.clock.now = wall
+    widget.play()
+    assert widget.view.draw() and widget.view.draw()  # time passes: steps, rendered
+    steps = widget.scene.field.step_count
+    wall.tick = 0.0  # no time passes (as with time_scale 0): no step is owed
+    n = len(rendered)
+    assert [widget.view.draw() for _ in range(5)] == [False] * 5
+    assert len(rendered) == n and widget.scene.field.step_count == steps
+    presented = []
+    monkeypatch.setattr(widget.canvas, "on_present", presented.append)
+    widget.canvas.get_frame()  # what jupyter-rfb asks: the canvas's draw is cancelled, nothing read back
+    assert len(rendered) == n and presented == [] and widget.view.timing.last_draw is not None
+
+    cam = widget.scene.camera  # the camera moved (as a drag moves it, without a request_draw)
+    cam.local.position = tuple(np.asarray(cam.local.position) + np.array([0.3, 0.0, 0.0]))
+    widget.canvas.get_frame()  # through the canvas again: now it renders
+    assert len(rendered) == n + 1
+    assert not widget.view.draw()
+    widget.params.wind_strength = widget.params.wind_strength + 1.0  # a change asked for
+    assert widget.view.draw() and len(rendered) == n + 2
+    _resize(widget, ratio=0.5)  # another frame size
+    assert widget.view.draw() and len(rendered) == n + 3
+    wall.tick = 1.0 / widget.max_fps  # time runs again
+    assert widget.view.draw() and widget.scene.field.step_count > steps
+
+    wall.tick = 0.0
+    widget.view.draw()  # the clock's first reading without time
+    for _ in range(10):
+        assert not widget.view.draw()
+    widget.view.refresh_stats()
+    s = widget.stats
+    assert s["unchanged_fps"] is not None and s["unchanged_fps"] > 0 and s["fps"] >= s["unchanged_fps"]
+    assert not s["waiting"] and not s["stale"]
+    status = widget.panel.stats_line.value
+    assert "frames/s" in status and "waiting" not in status, status
+    assert "unchanged" in widget.panel.details_line.value
