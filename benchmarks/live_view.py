@@ -5,8 +5,9 @@ Shows a playing ``GrassWidget`` (``--layout default``: 640 x 480, 4,096 blades; 
 the jupyter-rfb image, :func:`lab.frames_per_second`; not a figure Python reports). Beside it, the kernel's
 own account of a frame from ``w.stats``: ``render_ms``, ``readback_ms``, ``encode_ms``, ``send_ms``,
 ``ack_ms`` (a tree from before these names has ``encode_send_ms``), the render scale, the frame size, the
-frames the kernel skipped as unchanged, and the machine's load average at each window (this 2-core
-machine is shared: read the frames/s beside it).
+frames/s the kernel did not send again as unchanged, the CPU time per shown frame of the kernel, the JupyterLab server
+and Chromium (from /proc: what each frame costs the machine outside the kernel too), and the machine's load
+average at each window (this 2-core machine is shared: read the frames/s beside it).
 
 ``--scale full`` holds the render scale at 1.0 (``w.target_fps = 1``: the adaptive scale never steps
 down), the figure the targets are about; ``--scale adaptive`` leaves the widget's own rule.
@@ -49,13 +50,36 @@ from lab import (  # noqa: E402  (benchmarks/lab.py)
 )
 
 ROOT = common.ROOT
+TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 LAYOUTS = ("default", "lecture")
 #: The w.stats keys of a frame's parts (ms per frame over the stats window), newer and older names.
 PART_KEYS = ("render_ms", "readback_ms", "encode_ms", "send_ms", "encode_send_ms", "ack_ms", "gpu_wait_ms")
 #: The other w.stats keys worth keeping beside the page's count.
-STAT_KEYS = ("fps", "scale", "frame_size", "blades", "visible", "skipped_frames", "steps_per_frame", "sim_speed")
+STAT_KEYS = ("fps", "scale", "frame_size", "blades", "visible", "unchanged_fps", "steps_per_frame", "sim_speed")
 
 STATS_EXPR = ("{k: w.stats.get(k) for k in %r if k in w.stats}" % ((*PART_KEYS, *STAT_KEYS),))
+
+
+def cpu_seconds() -> dict:
+    """CPU seconds (user + system, every thread) used so far by this run's processes, by role: ``kernel``
+    (ipykernel), ``server`` (JupyterLab), ``chromium`` (every Chromium process), from /proc."""
+    from lab import _children  # noqa: E402  (the descendants of a process, from /proc)
+
+    out = {"kernel": 0.0, "server": 0.0, "chromium": 0.0}
+    for pid in _children(os.getpid()):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmd = f.read().replace(b"\0", b" ").decode("utf-8", "replace")
+            with open(f"/proc/{pid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        used = (int(fields[11]) + int(fields[12])) / TICK
+        role = ("kernel" if "ipykernel" in cmd else "server" if "jupyterlab" in cmd
+                else "chromium" if "chrom" in cmd else None)
+        if role:
+            out[role] += used
+    return out
 
 
 def notebook_cells(tree: str, layout: str, scale: str) -> list:
@@ -81,12 +105,17 @@ def measure(server, browser, root, name, tree, layout, scale, seconds, windows) 
         for _ in range(windows):
             kernel_execute(page, "w.refresh_stats() if hasattr(w, 'refresh_stats') else None")
             load = [round(v, 2) for v in os.getloadavg()]
+            cpu0, frames0 = cpu_seconds(), page.evaluate("() => window.__gwBenchFrames.total")
             fps = frames_per_second(page, seconds=seconds)
+            cpu1, frames1 = cpu_seconds(), page.evaluate("() => window.__gwBenchFrames.total")
             stats = kernel_eval(page, STATS_EXPR)
-            rows.append({"page_frames_per_s": round(fps, 2), "load_average": load, "stats": stats})
+            shown = max(1, frames1 - frames0)
+            cpu_ms = {f"{k}_cpu_ms_per_frame": round(1000.0 * (cpu1[k] - cpu0[k]) / shown, 1) for k in cpu0}
+            rows.append({"page_frames_per_s": round(fps, 2), "load_average": load, "stats": stats, **cpu_ms})
             parts = " ".join(f"{k[:-3]} {stats[k]:.1f}" for k in PART_KEYS if isinstance(stats.get(k), (int, float)))
             print(f"  {name:>8} {layout:8} {fps:6.2f} frames/s in the page · kernel fps {stats.get('fps') or 0:.1f}"
-                  f" · scale {stats.get('scale')} {stats.get('frame_size')} · {parts} ms · load {load[0]}",
+                  f" · scale {stats.get('scale')} {stats.get('frame_size')} · {parts} ms · CPU ms/frame: "
+                  + " ".join(f"{k.split('_')[0]} {v}" for k, v in cpu_ms.items()) + f" · load {load[0]}",
                   flush=True)
         adapter = kernel_eval(page, "__import__('grasswidget.gpu.adapter', fromlist=['x']).ensure_device()"
                                     ".adapter.summary")
@@ -139,6 +168,9 @@ def main(argv=None):
                         if isinstance(w["stats"].get(key), (int, float))]
                 if vals:
                     parts[key] = round(common.median(vals), 2)
+            for role in ("kernel", "server", "chromium"):
+                key = f"{role}_cpu_ms_per_frame"
+                parts[key] = round(common.median(w[key] for g in got for w in g["windows"]), 1)
             summary[layout][name] = {"page_frames_per_s_median": round(common.median(fps), 2),
                                      "page_frames_per_s_rounds": fps,
                                      "load_average_1min_median": round(common.median(loads), 2), **parts}
