@@ -570,10 +570,10 @@ def timed_jupyter_canvas_class():
     - a frame whose pixels equal the last frame's is not encoded or sent again
       (``skip_unchanged``, default True; counted in ``unchanged_frames``); the lossless picture
       jupyter-rfb sends 0.3 s after the last lossy frame still comes;
-    - frames are encoded (:func:`encode_frame`) on one worker thread, in order, so the kernel renders
-      the next frame meanwhile, and sent from the event loop; jupyter-rfb's limit of frames in
-      flight (``max_buffered_frames``) counts the frames being encoded. Without a running event loop
-      (a script, a test) a frame is encoded and sent at once;
+    - frames are encoded (:func:`encode_frame`) and sent on one worker thread, in order, so the kernel
+      renders the next frame meanwhile (a frame sent from the event loop would wait for that render);
+      jupyter-rfb's limit of frames in flight (``max_buffered_frames``) counts the frames being
+      encoded. Without a running event loop (a script, a test) a frame is encoded and sent at once;
     - ``on_transport(kind, seconds)`` (when set) is called on the event loop's thread with
       ``("encode", s)`` and ``("send", s)`` for each frame streamed (not for the lossless redraws) and
       ``("unchanged", 0.0)`` for each frame not sent again;
@@ -658,43 +658,60 @@ def timed_jupyter_canvas_class():
             return mimetype, data, time.perf_counter() - t0
 
         def _encode_job(self, loop, job):
+            # On the worker thread: encode, then send at once (ipykernel's iopub socket takes messages
+            # from any thread), so the frame leaves while the loop renders the next; the bookkeeping
+            # that belongs to the loop (the lossless redraw's timer, the reports) goes back to it.
             try:
-                result = self._encoded(job[1], job[2])
-            except Exception as err:  # never lose the frame's place in the stream: the loop reports it
-                result = err
+                mimetype, data, encode_s = self._encoded(job[1], job[2])
+            except Exception as err:  # never lose the frame silently: the loop shows the error
+                self._in_loop(loop, self._encode_failed, err)
+                return
+            if self.get_closed():
+                return
+            send_s = self._send_message(job, mimetype, data)
+            self._in_loop(loop, self._after_send, job, mimetype, encode_s, send_s)
+
+        @staticmethod
+        def _in_loop(loop, callback, *args):
             try:
-                loop.call_soon_threadsafe(self._after_encode, job, result)
+                loop.call_soon_threadsafe(callback, *args)
             except RuntimeError:  # the loop closed (the kernel is shutting down)
                 pass
 
-        def _after_encode(self, job, result):
-            if isinstance(result, Exception):
-                with self._output_context:
-                    raise result
-            self._send_encoded(job, *result)
+        def _encode_failed(self, err):
+            with self._output_context:  # shown in the widget's output, as jupyter-rfb shows draw errors
+                raise err
 
         def _send_encoded(self, job, mimetype, data, encode_s):
-            index, array, quality, timestamp = job
+            # Without an event loop: send and do the bookkeeping here.
+            if self.get_closed():
+                return
+            self._after_send(job, mimetype, encode_s, self._send_message(job, mimetype, data))
+
+        def _send_message(self, job, mimetype, data) -> float:
+            # jupyter-rfb's message for a frame (its front end's 'framebufferdata'); returns the seconds it took.
+            index, _array, _quality, timestamp = job
+            t0 = time.perf_counter()
+            self.send(dict(type="framebufferdata", mimetype=mimetype, data_b64=None, index=index,
+                           timestamp=timestamp), [data])
+            return time.perf_counter() - t0
+
+        def _after_send(self, job, mimetype, encode_s, send_s):
+            index, array, quality, _timestamp = job
             if self.get_closed():
                 return
             newest = index == self._rfb_frame_index
-            if quality < 100:
-                self._rfb_stats["img_encoding_sum"] += encode_s
             if "jpeg" in mimetype:
                 self._lossless_due = True
                 if newest:  # an older frame's lossless picture must never follow a newer frame
                     self._rfb_schedule_lossless_draw(array)
-            else:
-                if newest:
-                    self._lossless_due = False
-                    self._rfb_cancel_lossless_draw()
+            elif newest:
+                self._lossless_due = False
+                self._rfb_cancel_lossless_draw()
             if self._rfb_pending_display is not None and self._rfb_last_resize_event is not None:
                 self._rfb_pending_display.update(self)  # the first frame: the cell's snapshot
-            t0 = time.perf_counter()
-            self.send(dict(type="framebufferdata", mimetype=mimetype, data_b64=None, index=index,
-                           timestamp=timestamp), [data])
-            send_s = time.perf_counter() - t0
             if quality < 100:  # a frame of the stream (the lossless redraw is jupyter-rfb's extra)
+                self._rfb_stats["img_encoding_sum"] += encode_s
                 self._report("encode", encode_s)
                 self._report("send", send_s)
 

@@ -545,9 +545,9 @@ def test_jupyter_canvas_sends_a_frame_once_and_its_pixels():
 
 
 def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossless_picture(monkeypatch):
-    """With the event loop running, frames are encoded on one worker thread and sent from the loop,
-    in order; 0.3 s after the last lossy frame the lossless PNG of its exact pixels follows, also
-    when that frame's pixels came again meanwhile."""
+    """With the event loop running, frames are encoded and sent on one worker thread, in order (not
+    waiting for the loop, which renders the next frame meanwhile); 0.3 s after the last lossy frame
+    the lossless PNG of its exact pixels follows, also when that frame's pixels came again meanwhile."""
     import asyncio
     import threading
 
@@ -561,6 +561,8 @@ def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossles
     monkeypatch.setattr(compat, "encode_frame", recording_encode)
     canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
     sent = canvas.send = _Sent()
+    reports = []
+    canvas.on_transport = lambda kind, s: reports.append((kind, threading.current_thread().name))
     frames = [_frame(seed=i) for i in range(4)]
 
     async def run():
@@ -576,10 +578,12 @@ def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossles
         asyncio.run(run())
         lossy = [(m, b, t) for m, b, t in sent if m["mimetype"] == "image/jpeg"]
         assert [m["index"] for m, _, _ in lossy] == [1, 2, 3, 4] and canvas.unchanged_frames == 1
-        assert {t for _, _, t in sent} == {threading.current_thread().name}  # sent from the loop's thread
         assert encoders and all(name.startswith("grasswidget-frames") for name in encoders)
+        assert all(t.startswith("grasswidget-frames") for _, _, t in sent)  # sent by the worker too
         png = [(m, b) for m, b, _ in sent if m["mimetype"] == "image/png"]
         assert len(png) == 1 and png[0][0]["index"] == 5
+        assert sorted(k for k, _ in reports) == ["encode"] * 4 + ["send"] * 4 + ["unchanged"]
+        assert {t for _, t in reports} == {threading.current_thread().name}  # reported on the loop's thread
         assert np.array_equal(_decoded(png[0][1][0]), frames[-1][:, :, :3])  # exact
     finally:
         canvas.close()
