@@ -14,14 +14,26 @@ follows the wall clock (times ``time_scale``) in whole fixed steps of
 binds the stats line says "slow motion 0.6x". Paused, no time passes;
 ``step(n)`` advances exactly n steps.
 
-How a frame travels (each stage is timed and shown on the stats line):
-step + render (the draw function submits the GPU work), readback (rendercanvas
-copies the frame into a mapped buffer without stalling the queue and presents
-it when the copy is done), JPEG encode + send (jupyter-rfb), and the browser's
-acknowledgement. jupyter-rfb lets :data:`MAX_BUFFERED_FRAMES` frames be in
-flight, so the kernel renders the next frame while the last one travels and is
-decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
-CPU adapter, 60 on a GPU).
+How a frame travels (each stage is timed, in ms per frame over the stats window:
+``stats["render_ms"]``, ``readback_ms``, ``encode_ms``, ``send_ms``, ``ack_ms``; the
+"details" line shows them): step + render (the draw function submits the GPU work),
+readback (rendercanvas copies the frame into a mapped buffer without stalling the
+queue and presents it when the copy is done), JPEG encode and send (on the canvas's
+worker thread, so the kernel renders the next frame meanwhile: Pillow's encoder
+releases the GIL; see :func:`grasswidget.compat.timed_jupyter_canvas_class`), and the
+browser's acknowledgement (jupyter-rfb's frame feedback). jupyter-rfb lets
+:data:`MAX_BUFFERED_FRAMES` frames be in flight (those being encoded included), so
+the kernel renders the next frame while the last one travels and is decoded; the
+scheduler asks for at most ``max_fps`` frames per second (30 on a CPU adapter, 60 on
+a GPU).
+
+Frames that would not change the picture are not made again: while playing, a frame
+for which no simulation step ran, the camera's view-projection and the frame size are
+the same and no change was asked for (:meth:`KernelView.request_draw`: a parameter,
+the ball, a reset ...) is not rendered (the canvas's draw is cancelled: no readback,
+nothing sent); a rendered frame whose pixels equal the last one sent is not encoded
+or sent again. Both count in ``stats["unchanged_fps"]`` and in ``fps`` (the page
+shows them already); paused, nothing is drawn unless something changed.
 
 Adaptive resolution (see :class:`~grasswidget.views.adaptive.ResolutionGovernor`):
 while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
