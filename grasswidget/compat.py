@@ -623,8 +623,7 @@ def timed_jupyter_canvas_class():
             if (not is_lossless_redraw and self.skip_unchanged and last is not None
                     and last.shape == array.shape and np.array_equal(last, array)):
                 self.unchanged_frames += 1
-                if self._lossless_due and not self._rfb_lossless_draw_info:
-                    self._rfb_schedule_lossless_draw(last)  # a draw request cancelled it: still owed
+                self.keep_lossless_due()
                 self._report("unchanged", 0.0)
                 return
             quality = 100 if is_lossless_redraw else self.quality
@@ -714,6 +713,13 @@ def timed_jupyter_canvas_class():
                 self._rfb_stats["img_encoding_sum"] += encode_s
                 self._report("encode", encode_s)
                 self._report("send", send_s)
+
+        def keep_lossless_due(self):
+            """The page's picture is still the last frame sent (a frame was not rendered or not sent
+            again): if that frame was lossy, its lossless picture still comes 0.3 s later (jupyter-rfb
+            cancels it at every draw request)."""
+            if self._lossless_due and not self._rfb_lossless_draw_info and self._rfb_last_frame is not None:
+                self._rfb_schedule_lossless_draw(self._rfb_last_frame)
 
         def _report(self, kind, seconds):
             if self.on_transport is not None:

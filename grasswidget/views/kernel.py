@@ -647,7 +647,8 @@ class KernelView(EngineView):
             # Nothing this view knows of changed since the last frame (no step ran, the camera and
             # the frame size are the same, no change was asked for): the page already shows it.
             self._frame_unchanged()
-            self.governor.frame(self.timing.busy_s())
+            self.canvas.keep_lossless_due()  # the page keeps the last frame: its lossless picture still comes
+            self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
             if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
                 self.refresh_stats()
             return False
