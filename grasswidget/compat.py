@@ -653,7 +653,12 @@ def timed_jupyter_canvas_class():
         @staticmethod
         def _encoded(array, quality):
             t0 = time.perf_counter()
-            mimetype, data = encode_frame(array, quality)
+            try:
+                mimetype, data = encode_frame(array, quality)
+            except Exception:  # e.g. a broken Pillow: jupyter-rfb's own encoder (whose error, if any, is shown)
+                from jupyter_rfb._utils import array2compressed
+
+                mimetype, data = array2compressed(array, quality)
             return mimetype, data, time.perf_counter() - t0
 
         def _encode_job(self, loop, job):

@@ -595,3 +595,21 @@ def test_encode_frame_jpeg_and_png():
     assert mimetype == "image/jpeg" and np.abs(_decoded(data) - frame[:, :, :3]).mean() < 6.0
     mimetype, data = compat.encode_frame(frame[:, :, :3], 100)
     assert mimetype == "image/png" and np.array_equal(_decoded(data), frame[:, :, :3])
+
+
+def test_jupyter_canvas_falls_back_to_jupyter_rfbs_encoder(monkeypatch):
+    """A failing encoder (e.g. a broken Pillow) does not stop the stream: the frame goes out through
+    jupyter-rfb's own encoder."""
+    def broken(array, quality):
+        raise OSError("encoder broken")
+
+    monkeypatch.setattr(compat, "encode_frame", broken)
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    try:
+        frame = _frame(seed=3)
+        canvas.send_frame(frame)
+        assert len(sent) == 1 and sent[0][0]["mimetype"] in ("image/jpeg", "image/png")
+        assert np.abs(_decoded(sent[0][1][0]) - frame[:, :, :3]).mean() < 6.0
+    finally:
+        canvas.close()
