@@ -58,6 +58,7 @@ __all__ = [
     "observe_view_visibility",
     "set_view_visibility",
     "observe_frame_feedback",
+    "set_frame_feedback",
     "fixed_rfb_esm",
     "widget_registry",
     "marimo_anywidget_element",
@@ -568,8 +569,10 @@ def timed_jupyter_canvas_class():
     - ``on_present(perf_counter_seconds)`` (when set) is called as each rendered frame's pixels
       arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook);
     - a frame whose pixels equal the last frame's is not encoded or sent again
-      (``skip_unchanged``, default True; counted in ``unchanged_frames``); the lossless picture
-      jupyter-rfb sends 0.3 s after the last lossy frame still comes;
+      (``skip_unchanged``, default True; counted in ``unchanged_frames``), unless the page may not
+      show that frame (:meth:`frame_owed`: after a resize event, which a new view or a page reload
+      sends, or a view coming back on screen); the lossless picture jupyter-rfb sends 0.3 s after the
+      last lossy frame still comes;
     - frames are encoded (:func:`encode_frame`) and sent on one worker thread, in order, so the kernel
       renders the next frame meanwhile (a frame sent from the event loop would wait for that render);
       jupyter-rfb's limit of frames in flight (``max_buffered_frames``) counts the frames being
@@ -608,8 +611,26 @@ def timed_jupyter_canvas_class():
         unchanged_frames = 0
         _encoder = None
         _lossless_due = False  # the last frame sent was lossy: the lossless picture is still owed
+        _frame_owed = True  # the page may lack the last frame (a new view, a resize, back on screen)
         #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm).
         _esm = fixed_rfb_esm(str(RenderCanvas._esm))
+
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.observe(self._owe_frame, names=["_has_visible_views"])  # back on screen: send whatever
+
+        def _owe_frame(self, _change=None):
+            self._frame_owed = True
+
+        def frame_owed(self) -> bool:
+            """Whether the next frame must be sent whatever its pixels: the page may not show the last
+            one (a view was added or resized, e.g. a page reload, or came back on screen)."""
+            return self._frame_owed
+
+        def handle_event(self, event):
+            if event_type(event) == "resize":
+                self._frame_owed = True
+            super().handle_event(event)
 
         def _rc_present_bitmap(self, *, data, format, **kwargs):
             if self.on_present is not None:
@@ -620,13 +641,14 @@ def timed_jupyter_canvas_class():
             if array.size == 0:
                 return
             last = self._rfb_last_frame
-            if (not is_lossless_redraw and self.skip_unchanged and last is not None
+            if (not is_lossless_redraw and self.skip_unchanged and not self._frame_owed and last is not None
                     and last.shape == array.shape and np.array_equal(last, array)):
                 self.unchanged_frames += 1
                 self.keep_lossless_due()
                 self._report("unchanged", 0.0)
                 return
             quality = 100 if is_lossless_redraw else self.quality
+            self._frame_owed = False
             self._rfb_frame_index += 1
             index = self._rfb_frame_index
             self._rfb_last_frame = array
@@ -794,6 +816,18 @@ def set_view_visibility(canvas, visible: bool):
     if not canvas.has_trait(name):
         raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
     canvas.set_trait(name, bool(visible))
+
+
+def set_frame_feedback(canvas, index: int):
+    """Acknowledge frame ``index`` of ``canvas`` as jupyter-rfb's front end does when the page showed it
+    (its ``_frame_feedback`` trait: index, the frame's timestamp, the page's time): for tests and headless
+    runs."""
+    import time
+
+    name = "_frame_feedback"
+    if not canvas.has_trait(name):
+        raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
+    canvas.set_trait(name, {"index": int(index), "timestamp": time.time(), "localtime": time.time()})
 
 
 #: jupyter-rfb 1.0.2's renderview.js, in the 'input' listener of its hidden key input: the

@@ -627,7 +627,8 @@ class KernelView(EngineView):
     def draw(self) -> bool:
         """One frame: advance time (when playing), render, maybe refresh stats. Returns False when
         nothing was rendered: no scene, or playing with nothing changed since the last frame (no step
-        ran, the same camera and frame size, no change asked for: :meth:`request_draw`)."""
+        ran, the same camera and frame size, no change asked for: :meth:`request_draw`, and the page
+        shows the last frame: no new view, resize or return on screen since)."""
         scene = self.scene
         if scene is None or scene.renderer is None:
             return False
@@ -643,7 +644,8 @@ class KernelView(EngineView):
             self.clock.stop()
         self._ticks += 1
         key = self._render_key_now()
-        if playing and steps == 0 and self._changed_t is None and not self._report_pending and key == self._render_key:
+        if (playing and steps == 0 and self._changed_t is None and not self._report_pending and key == self._render_key
+                and not self.canvas.frame_owed()):
             # Nothing this view knows of changed since the last frame (no step ran, the camera and
             # the frame size are the same, no change was asked for): the page already shows it.
             self._frame_unchanged()

@@ -282,6 +282,7 @@ def test_a_frame_with_nothing_changed_is_not_rendered_or_sent_again(widget, monk
     import grasswidget.views.kernel as kv
 
     monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # this test refreshes the stats itself
+    monkeypatch.setattr(kv, "WAITING_AFTER_S", 0.0)  # no browser acknowledges the frames sent here
     _resize(widget)
     rendered = []
     real_draw = widget.scene.draw_frame
@@ -295,6 +296,8 @@ def test_a_frame_with_nothing_changed_is_not_rendered_or_sent_again(widget, monk
     widget.view.clock.now = wall
     widget.play()
     assert widget.view.draw() and widget.view.draw()  # time passes: steps, rendered
+    shown = np.zeros((4, 4, 4), np.uint8)
+    widget.canvas.send_frame(shown)  # what the canvas does with a rendered frame: the page has it
     steps = widget.scene.field.step_count
     wall.tick = 0.0  # no time passes (as with time_scale 0): no step is owed
     n = len(rendered)
@@ -303,22 +306,30 @@ def test_a_frame_with_nothing_changed_is_not_rendered_or_sent_again(widget, monk
     # what the skip relies on: with no step, the same camera and size, a render gives the same pixels
     first = widget.scene.render_at(WIDGET_SIZE, antialias=False)
     assert np.array_equal(first, widget.scene.render_at(WIDGET_SIZE, antialias=False)) and first.std() > 1.0
-    presented = []
+    presented, asked = [], []
+    view_draw = widget.view.draw
     monkeypatch.setattr(widget.canvas, "on_present", presented.append)
+    monkeypatch.setattr(widget.view, "draw", lambda: asked.append(1) or view_draw())
     widget.canvas.get_frame()  # what jupyter-rfb asks: the canvas's draw is cancelled, nothing read back
-    assert len(rendered) == n and presented == [] and widget.view.timing.last_draw is not None
+    assert asked == [1] and len(rendered) == n and presented == []
+    monkeypatch.setattr(widget.view, "draw", view_draw)
 
     cam = widget.scene.camera  # the camera moved (as a drag moves it, without a request_draw)
     cam.local.position = tuple(np.asarray(cam.local.position) + np.array([0.3, 0.0, 0.0]))
-    widget.canvas.get_frame()  # through the canvas again: now it renders
-    assert len(rendered) == n + 1
+    assert widget.view.draw() and len(rendered) == n + 1
     assert not widget.view.draw()
     widget.params.wind_strength = widget.params.wind_strength + 1.0  # a change asked for
     assert widget.view.draw() and len(rendered) == n + 2
-    _resize(widget, ratio=0.5)  # another frame size
+    _resize(widget)  # a resize event of the same size (a new view, a page reload): the page may lack the frame
     assert widget.view.draw() and len(rendered) == n + 3
+    widget.canvas.send_frame(shown + 1)  # the page has a frame again
+    assert not widget.view.draw()
+    _resize(widget, ratio=0.5)  # another frame size
+    assert widget.view.draw() and len(rendered) == n + 4
     wall.tick = 1.0 / widget.max_fps  # time runs again
     assert widget.view.draw() and widget.scene.field.step_count > steps
+    widget.canvas.send_frame(shown + 2)
+    gw.compat.set_frame_feedback(widget.canvas, 3)  # the page showed it (the third frame sent)
 
     wall.tick = 0.0
     widget.view.draw()  # the clock's first reading without time
