@@ -53,9 +53,13 @@ __all__ = [
     "kernel_dispatch_comm",
     "kernel_requeue_shell",
     "timed_jupyter_canvas_class",
+    "encode_frame",
+    "cancel_draw",
+    "DrawCancelled",
     "observe_view_visibility",
     "set_view_visibility",
     "observe_frame_feedback",
+    "set_frame_feedback",
     "fixed_rfb_esm",
     "widget_registry",
     "marimo_anywidget_element",
@@ -122,6 +126,13 @@ PRIVATE_USES = (
      "the Output widget jupyter-rfb makes per canvas for callback errors and never closes (closed with the canvas)"),
     ("rendercanvas", "jupyter.RenderCanvas._event_compatibility",
      "which event format the Jupyter canvas asks jupyter-rfb for (see event_type)"),
+    ("jupyter_rfb", "RemoteFrameBuffer._rfb_send_frame, with its state _rfb_frame_index, _rfb_last_frame, "
+     "_rfb_stats, _rfb_last_confirmed_index, _rfb_pending_display, _rfb_last_resize_event, _rfb_lossless_draw_info, "
+     "_rfb_schedule_lossless_draw, _rfb_cancel_lossless_draw; jupyter_rfb._utils.array2compressed",
+     "replaced by the timed canvas's: a frame equal to the last is not sent again, frames are encoded on a worker "
+     "thread while the next renders (timed_jupyter_canvas_class); the message it sends is jupyter-rfb's"),
+    ("rendercanvas", "a draw function's exception named DrawCancelled (BaseRenderCanvas._draw_and_present)",
+     "the kernel view's draw renders nothing when it knows nothing changed (cancel_draw)"),
     ("jupyter_rfb", "RemoteFrameBuffer._rfb_handle_msg", "turns browser messages into events of both formats"),
     ("jupyter_rfb", "RemoteFrameBuffer._has_visible_views",
      "the synced trait its front end sets from an IntersectionObserver per view: whether any view is on screen "
@@ -594,29 +605,222 @@ def kernel_requeue_shell(kernel, frames):
 # ------------------------------------------------------------------ rendercanvas
 
 
+def encode_frame(array, quality: int) -> tuple:
+    """``(mimetype, bytes)`` of an (h, w, 4) or (h, w, 3) uint8 frame: a JPEG of ``quality`` (1..99;
+    Pillow, straight from the RGBA pixels with no copy, chroma subsampled 4:2:0, Pillow's encoder
+    releasing the GIL while it runs), or a lossless PNG when ``quality`` is 100 or Pillow is missing
+    (jupyter-rfb's own encoder then)."""
+    import numpy as np
+
+    quality = int(quality)
+    if quality < 100 and array.ndim == 3 and array.shape[2] in (3, 4) and array.dtype == np.uint8:
+        try:
+            import io
+
+            from PIL import Image
+        except ImportError:
+            Image = None
+        if Image is not None:
+            h, w, channels = array.shape
+            data = np.ascontiguousarray(array)
+            mode = "RGBX" if channels == 4 else "RGB"
+            image = Image.frombuffer(mode, (w, h), data, "raw", mode, 0, 1)
+            out = io.BytesIO()
+            image.save(out, format="JPEG", quality=max(1, quality), subsampling="4:2:0")
+            return "image/jpeg", out.getvalue()
+    from jupyter_rfb._utils import array2compressed
+
+    return array2compressed(array, quality)
+
+
 def timed_jupyter_canvas_class():
-    """A subclass of rendercanvas's Jupyter ``RenderCanvas`` that calls
-    ``self.on_present(perf_counter_seconds)`` (when set) as each rendered frame's
-    pixels arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook),
-    and that, closed, also closes its Layout and jupyter-rfb's output widget (``_rc_close``)."""
+    """A subclass of rendercanvas's Jupyter ``RenderCanvas`` that streams frames as the kernel view needs.
+
+    - ``on_present(perf_counter_seconds)`` (when set) is called as each rendered frame's pixels
+      arrive, before they are sent (rendercanvas 2.7: the ``_rc_present_bitmap`` hook);
+    - a frame whose pixels equal the last frame's is not encoded or sent again
+      (``skip_unchanged``, default True; counted in ``unchanged_frames``), unless the page may not
+      show that frame (:meth:`frame_owed`: after a resize event, which a new view or a page reload
+      sends, or a view coming back on screen); the lossless picture jupyter-rfb sends 0.3 s after the
+      last lossy frame still comes;
+    - frames are encoded (:func:`encode_frame`) and sent on one worker thread, in order, so the kernel
+      renders the next frame meanwhile (a frame sent from the event loop would wait for that render);
+      jupyter-rfb's limit of frames in flight (``max_buffered_frames``) counts the frames being
+      encoded. Without a running event loop (a script, a test) a frame is encoded and sent at once;
+    - ``on_transport(kind, seconds)`` (when set) is called on the event loop's thread with
+      ``("encode", s)`` and ``("send", s)`` for each frame streamed (not for the lossless redraws) and
+      ``("unchanged", 0.0)`` for each frame not sent again;
+    - closed, it also closes its Layout and jupyter-rfb's output widget (``_rc_close``) and its worker.
+
+    jupyter-rfb 1.0.2's ``_rfb_send_frame`` is replaced (its frame counter, stats and lossless
+    redraw are kept as it keeps them; see :data:`PRIVATE_USES`).
+    """
+    import asyncio
+    import concurrent.futures
     import time
 
+    import numpy as np
+    from jupyter_rfb import RemoteFrameBuffer
     from rendercanvas.jupyter import RenderCanvas
 
     for hook in ("_rc_present_bitmap", "_rc_close"):
         if not callable(getattr(RenderCanvas, hook, None)):
             raise UpstreamChangedError(f"rendercanvas internals changed: jupyter.RenderCanvas.{hook} not found")
+    for hook in ("_rfb_send_frame", "_rfb_schedule_lossless_draw", "_rfb_cancel_lossless_draw"):
+        if not callable(getattr(RemoteFrameBuffer, hook, None)):
+            raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{hook} not found")
 
     class TimedJupyterCanvas(RenderCanvas):
         #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
         on_present = None
+        #: Called with (kind, seconds) per frame streamed or skipped (see the class docstring); None: nobody.
+        on_transport = None
+        #: Send a frame whose pixels equal the last one's again (False) or not (True).
+        skip_unchanged = True
+        #: Frames not encoded or sent because their pixels equalled the last frame's.
+        unchanged_frames = 0
+        _encoder = None
+        _lossless_due = False  # the last frame sent was lossy: the lossless picture is still owed
+        _frame_owed = True  # the page may lack the last frame (a new view, a resize, back on screen)
         #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm).
         _esm = fixed_rfb_esm(str(RenderCanvas._esm))
+
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.observe(self._owe_frame, names=["_has_visible_views"])  # back on screen: send whatever
+
+        def _owe_frame(self, _change=None):
+            self._frame_owed = True
+
+        def frame_owed(self) -> bool:
+            """Whether the next frame must be sent whatever its pixels: the page may not show the last
+            one (a view was added or resized, e.g. a page reload, or came back on screen)."""
+            return self._frame_owed
+
+        def handle_event(self, event):
+            if event_type(event) == "resize":
+                self._frame_owed = True
+            super().handle_event(event)
 
         def _rc_present_bitmap(self, *, data, format, **kwargs):
             if self.on_present is not None:
                 self.on_present(time.perf_counter())
             super()._rc_present_bitmap(data=data, format=format, **kwargs)
+
+        def _rfb_send_frame(self, array, is_lossless_redraw=False):
+            if array.size == 0:
+                return
+            last = self._rfb_last_frame
+            if (not is_lossless_redraw and self.skip_unchanged and not self._frame_owed and last is not None
+                    and last.shape == array.shape and np.array_equal(last, array)):
+                self.unchanged_frames += 1
+                self.keep_lossless_due()
+                self._report("unchanged", 0.0)
+                return
+            quality = 100 if is_lossless_redraw else self.quality
+            self._frame_owed = False
+            self._rfb_frame_index += 1
+            index = self._rfb_frame_index
+            self._rfb_last_frame = array
+            timestamp = time.time()
+            if is_lossless_redraw:  # no stats, also not on the confirmation of this frame (as jupyter-rfb)
+                self._rfb_last_confirmed_index = index
+            else:
+                self._rfb_stats["sent_frames"] += 1
+                if self._rfb_stats["start_time"] <= 0:
+                    self._rfb_stats["start_time"] = timestamp
+                    self._rfb_last_confirmed_index = index - 1
+            job = (index, array, quality, timestamp)
+            try:
+                loop = asyncio.get_running_loop()
+            except RuntimeError:
+                loop = None
+            if loop is None:  # no event loop: encode and send now
+                self._send_encoded(job, *self._encoded(array, quality))
+                return
+            if self._encoder is None:
+                self._encoder = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="grasswidget-frames")
+            self._encoder.submit(self._encode_job, loop, job)
+
+        @staticmethod
+        def _encoded(array, quality):
+            t0 = time.perf_counter()
+            try:
+                mimetype, data = encode_frame(array, quality)
+            except Exception:  # e.g. a broken Pillow: jupyter-rfb's own encoder (whose error, if any, is shown)
+                from jupyter_rfb._utils import array2compressed
+
+                mimetype, data = array2compressed(array, quality)
+            return mimetype, data, time.perf_counter() - t0
+
+        def _encode_job(self, loop, job):
+            # On the worker thread: encode, then send at once (ipykernel's iopub socket takes messages
+            # from any thread), so the frame leaves while the loop renders the next; the bookkeeping
+            # that belongs to the loop (the lossless redraw's timer, the reports) goes back to it.
+            try:
+                mimetype, data, encode_s = self._encoded(job[1], job[2])
+            except Exception as err:  # never lose the frame silently: the loop shows the error
+                self._in_loop(loop, self._encode_failed, err)
+                return
+            if self.get_closed():
+                return
+            send_s = self._send_message(job, mimetype, data)
+            self._in_loop(loop, self._after_send, job, mimetype, encode_s, send_s)
+
+        @staticmethod
+        def _in_loop(loop, callback, *args):
+            try:
+                loop.call_soon_threadsafe(callback, *args)
+            except RuntimeError:  # the loop closed (the kernel is shutting down)
+                pass
+
+        def _encode_failed(self, err):
+            with self._output_context:  # shown in the widget's output, as jupyter-rfb shows draw errors
+                raise err
+
+        def _send_encoded(self, job, mimetype, data, encode_s):
+            # Without an event loop: send and do the bookkeeping here.
+            if self.get_closed():
+                return
+            self._after_send(job, mimetype, encode_s, self._send_message(job, mimetype, data))
+
+        def _send_message(self, job, mimetype, data) -> float:
+            # jupyter-rfb's message for a frame (its front end's 'framebufferdata'); returns the seconds it took.
+            index, _array, _quality, timestamp = job
+            t0 = time.perf_counter()
+            self.send(dict(type="framebufferdata", mimetype=mimetype, data_b64=None, index=index,
+                           timestamp=timestamp), [data])
+            return time.perf_counter() - t0
+
+        def _after_send(self, job, mimetype, encode_s, send_s):
+            index, array, quality, _timestamp = job
+            if self.get_closed():
+                return
+            newest = index == self._rfb_frame_index
+            if "jpeg" in mimetype:
+                self._lossless_due = True
+                if newest:  # an older frame's lossless picture must never follow a newer frame
+                    self._rfb_schedule_lossless_draw(array)
+            elif newest:
+                self._lossless_due = False
+                self._rfb_cancel_lossless_draw()
+            if self._rfb_pending_display is not None and self._rfb_last_resize_event is not None:
+                self._rfb_pending_display.update(self)  # the first frame: the cell's snapshot
+            if quality < 100:  # a frame of the stream (the lossless redraw is jupyter-rfb's extra)
+                self._rfb_stats["img_encoding_sum"] += encode_s
+                self._report("encode", encode_s)
+                self._report("send", send_s)
+
+        def keep_lossless_due(self):
+            """The page's picture is still the last frame sent (a frame was not rendered or not sent
+            again): if that frame was lossy, its lossless picture still comes 0.3 s later (jupyter-rfb
+            cancels it at every draw request)."""
+            if self._lossless_due and not self._rfb_lossless_draw_info and self._rfb_last_frame is not None:
+                self._rfb_schedule_lossless_draw(self._rfb_last_frame)
+
+        def _report(self, kind, seconds):
+            if self.on_transport is not None:
+                self.on_transport(kind, seconds)
 
         def _rc_close(self):
             # jupyter-rfb 1.0.2 closes the canvas widget alone: its Layout and the Output widget it
@@ -628,8 +832,21 @@ def timed_jupyter_canvas_class():
             for part in parts:
                 if part is not None:
                     part.close()
+            if self._encoder is not None:
+                self._encoder.shutdown(wait=False, cancel_futures=True)
+                self._encoder = None
 
     return TimedJupyterCanvas
+
+
+class DrawCancelled(Exception):
+    """Raised by a draw function that renders nothing this time (rendercanvas 2.7 recognises an
+    exception of this name: the draw counts as cancelled, nothing is presented or sent)."""
+
+
+def cancel_draw():
+    """End the current draw function without a frame (see :class:`DrawCancelled`)."""
+    raise DrawCancelled()
 
 
 def observe_view_visibility(canvas, callback):
@@ -669,6 +886,18 @@ def set_view_visibility(canvas, visible: bool):
     if not canvas.has_trait(name):
         raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
     canvas.set_trait(name, bool(visible))
+
+
+def set_frame_feedback(canvas, index: int):
+    """Acknowledge frame ``index`` of ``canvas`` as jupyter-rfb's front end does when the page showed it
+    (its ``_frame_feedback`` trait: index, the frame's timestamp, the page's time): for tests and headless
+    runs."""
+    import time
+
+    name = "_frame_feedback"
+    if not canvas.has_trait(name):
+        raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{name} not found")
+    canvas.set_trait(name, {"index": int(index), "timestamp": time.time(), "localtime": time.time()})
 
 
 #: jupyter-rfb 1.0.2's renderview.js, in the 'input' listener of its hidden key input: the

@@ -529,3 +529,133 @@ def test_output_pass_is_a_texture_copy_only_where_it_copies_exactly():
     same = make_renderer(gfx.Texture(dim=2, size=(80, 60, 1), format="rgba8unorm-srgb", colorspace="tex-srgb"))
     scene.draw_into(same)
     assert same.output_copies == 1
+
+
+def _frame(h=24, w=32, seed=0):
+    """A smooth RGBA picture (JPEG keeps it within a few levels) that differs by seed."""
+    y, x = np.mgrid[0:h, 0:w]
+    rgb = np.stack([x * 3 + seed * 20, y * 4, np.full_like(x, 90 + seed)], axis=2)  # no edges, < 256
+    return np.concatenate([rgb, np.full((h, w, 1), 255)], axis=2).astype(np.uint8)
+
+
+def _decoded(data):
+    import io
+
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(bytes(data))).convert("RGB")).astype(int)
+
+
+class _Sent(list):
+    """The messages a jupyter-rfb canvas sends, with the thread each was sent on."""
+
+    def __call__(self, msg, buffers=None):
+        import threading
+
+        self.append((msg, list(buffers or []), threading.current_thread().name))
+
+
+def test_jupyter_canvas_sends_a_frame_once_and_its_pixels():
+    """Without an event loop (a script) a frame is encoded and sent at once, as jupyter-rfb's
+    message; the same pixels again are not encoded or sent; other pixels are."""
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    seen = []
+    canvas.on_transport = lambda kind, s: seen.append((kind, s))
+    try:
+        a, b = _frame(seed=0), _frame(seed=1)
+        canvas.send_frame(a)
+        canvas.send_frame(a.copy())  # equal pixels: not sent again
+        canvas.send_frame(b)
+        assert [m["index"] for m, _, _ in sent] == [1, 2] and canvas.unchanged_frames == 1
+        for (msg, bufs, _), frame in zip(sent, (a, b)):
+            assert msg["type"] == "framebufferdata" and msg["mimetype"] == "image/jpeg" and len(bufs) == 1
+            assert np.abs(_decoded(bufs[0]) - frame[:, :, :3]).mean() < 6.0  # the picture, lossy
+        assert [k for k, _ in seen] == ["encode", "send", "unchanged", "encode", "send"]
+        assert all(s >= 0.0 for _, s in seen)
+        assert canvas.get_stats()["sent_frames"] == 2  # jupyter-rfb's own count, as it keeps it
+        # the page may lack the last frame: a resize (a new view, a page reload) or a view back on screen
+        canvas.handle_event({"event_type": "resize", "width": 32, "height": 24, "pixel_ratio": 1.0})
+        assert canvas.frame_owed()
+        canvas.send_frame(b.copy())
+        canvas.send_frame(b.copy())
+        compat.set_view_visibility(canvas, True)
+        canvas.send_frame(b.copy())
+        assert [m["index"] for m, _, _ in sent] == [1, 2, 3, 4] and canvas.unchanged_frames == 2
+        assert not canvas.frame_owed()
+        canvas.skip_unchanged = False
+        canvas.send_frame(b.copy())
+        assert len(sent) == 5
+    finally:
+        canvas.close()
+
+
+def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossless_picture(monkeypatch):
+    """With the event loop running, frames are encoded and sent on one worker thread, in order (not
+    waiting for the loop, which renders the next frame meanwhile); 0.3 s after the last lossy frame
+    the lossless PNG of its exact pixels follows, also when that frame's pixels came again meanwhile."""
+    import asyncio
+    import threading
+
+    encoders = []
+    encode = compat.encode_frame
+
+    def recording_encode(array, quality):
+        encoders.append(threading.current_thread().name)
+        return encode(array, quality)
+
+    monkeypatch.setattr(compat, "encode_frame", recording_encode)
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    reports = []
+    canvas.on_transport = lambda kind, s: reports.append((kind, threading.current_thread().name))
+    frames = [_frame(seed=i) for i in range(4)]
+
+    async def run():
+        for f in frames:
+            canvas.send_frame(f)
+        canvas.send_frame(frames[-1].copy())  # unchanged
+        deadline = asyncio.get_running_loop().time() + 10.0
+        while not any(m["mimetype"] == "image/png" for m, _, _ in sent):
+            assert asyncio.get_running_loop().time() < deadline, f"no lossless frame: {[m for m, _, _ in sent]}"
+            await asyncio.sleep(0.02)
+
+    try:
+        asyncio.run(run())
+        lossy = [(m, b, t) for m, b, t in sent if m["mimetype"] == "image/jpeg"]
+        assert [m["index"] for m, _, _ in lossy] == [1, 2, 3, 4] and canvas.unchanged_frames == 1
+        assert encoders and all(name.startswith("grasswidget-frames") for name in encoders)
+        assert all(t.startswith("grasswidget-frames") for _, _, t in sent)  # sent by the worker too
+        png = [(m, b) for m, b, _ in sent if m["mimetype"] == "image/png"]
+        assert len(png) == 1 and png[0][0]["index"] == 5
+        assert sorted(k for k, _ in reports) == ["encode"] * 4 + ["send"] * 4 + ["unchanged"]
+        assert {t for _, t in reports} == {threading.current_thread().name}  # reported on the loop's thread
+        assert np.array_equal(_decoded(png[0][1][0]), frames[-1][:, :, :3])  # exact
+    finally:
+        canvas.close()
+
+
+def test_encode_frame_jpeg_and_png():
+    frame = _frame(48, 64, seed=2)
+    mimetype, data = compat.encode_frame(frame, 70)
+    assert mimetype == "image/jpeg" and np.abs(_decoded(data) - frame[:, :, :3]).mean() < 6.0
+    mimetype, data = compat.encode_frame(frame[:, :, :3], 100)
+    assert mimetype == "image/png" and np.array_equal(_decoded(data), frame[:, :, :3])
+
+
+def test_jupyter_canvas_falls_back_to_jupyter_rfbs_encoder(monkeypatch):
+    """A failing encoder (e.g. a broken Pillow) does not stop the stream: the frame goes out through
+    jupyter-rfb's own encoder."""
+    def broken(array, quality):
+        raise OSError("encoder broken")
+
+    monkeypatch.setattr(compat, "encode_frame", broken)
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = canvas.send = _Sent()
+    try:
+        frame = _frame(seed=3)
+        canvas.send_frame(frame)
+        assert len(sent) == 1 and sent[0][0]["mimetype"] in ("image/jpeg", "image/png")
+        assert np.abs(_decoded(sent[0][1][0]) - frame[:, :, :3]).mean() < 6.0
+    finally:
+        canvas.close()

@@ -208,8 +208,9 @@ def format_details(stats: dict) -> str:
     Known keys (each optional, None = unknown): ``fps`` (frames/s delivered) and
     ``target_fps``; ``visible``, ``rastered`` (of the visible, drawn by the compute
     rasterizer) and ``occluded`` (blades culled by occlusion); the stages of a frame in
-    ms: ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_send_ms``,
-    ``ack_ms`` (send to the browser's acknowledgement); ``draw_ms`` (shown when the
+    ms: ``render_ms`` (steps + render submit), ``readback_ms``, ``encode_ms`` (JPEG, on a
+    worker thread), ``send_ms``, ``ack_ms`` (send to the browser's acknowledgement);
+    ``unchanged_fps`` (frames/s not sent again as unchanged); ``draw_ms`` (shown when the
     stages are unknown); ``gpu_ms`` (dict pass -> ms); ``scale`` (render scale of the
     pixel ratio) and ``frame_size`` ((w, h) rendered pixels); ``steps_per_frame``;
     ``adapter`` (a notice about the adapter, e.g. the CPU adapter's cheap defaults).
@@ -223,9 +224,12 @@ def format_details(stats: dict) -> str:
     if s.get("occluded") is not None:
         parts.append(f"{s['occluded']:,} occluded")
     stages = [(name, s.get(key)) for name, key in (("render", "render_ms"), ("readback", "readback_ms"),
-                                                   ("encode+send", "encode_send_ms"), ("ack", "ack_ms"))]
+                                                   ("encode", "encode_ms"), ("send", "send_ms"),
+                                                   ("ack", "ack_ms"))]
     if any(v is not None for _n, v in stages):
-        parts.append(" ".join(f"{n} {v:.0f}" for n, v in stages if v is not None) + " ms")
+        parts.append(" ".join(f"{n} {v:.{0 if v >= 10 else 1}f}" for n, v in stages if v is not None) + " ms")
+    if s.get("unchanged_fps"):
+        parts.append(f"{s['unchanged_fps']:.1f} frames/s unchanged (not sent again)")
     elif s.get("draw_ms") is not None:
         parts.append(f"draw {s['draw_ms']:.0f} ms")
     if s.get("gpu_ms"):

@@ -483,11 +483,16 @@ class EngineView(abc.ABC):
     @abc.abstractmethod
     def stats(self) -> dict:
         """The stats with what is known now (no GPU readback, no browser round trip): fps (frames/s
-        delivered to the browser, confirmed by it; frames drawn when there is no browser), target_fps,
+        delivered to the browser, confirmed by it, plus those not sent again as unchanged; frames drawn
+        when there is no browser), target_fps,
         visible (with rastered and occluded: the counts of one frame; in the kernel engine the frame at
         step_count, read when the stats are refreshed; in the browser engine the newest the page had
-        read back, a frame or two older), blades, render_ms / readback_ms / encode_send_ms / ack_ms
-        (where a frame's time goes, averaged since the last refresh), draw_ms (step + render calls of
+        read back, a frame or two older), blades; where a frame's time goes, in ms per frame averaged
+        over the stats window (the kernel engine's live view; None where unknown): render_ms (steps +
+        render calls), readback_ms (the pixels downloaded), encode_ms (the JPEG, on a worker thread while
+        the next frame renders), send_ms (handing it to the comm), ack_ms (sent to the page's
+        acknowledgement, jupyter-rfb's frame feedback); unchanged_fps (frames/s the view did not render or
+        send again because nothing changed: the page already shows them; counted in fps), draw_ms (step + render calls of
         the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
         frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall
         seconds while playing), step_count (simulation steps so far; None until the browser engine's

@@ -14,14 +14,26 @@ follows the wall clock (times ``time_scale``) in whole fixed steps of
 binds the stats line says "slow motion 0.6x". Paused, no time passes;
 ``step(n)`` advances exactly n steps.
 
-How a frame travels (each stage is timed and shown on the stats line):
-step + render (the draw function submits the GPU work), readback (rendercanvas
-copies the frame into a mapped buffer without stalling the queue and presents
-it when the copy is done), JPEG encode + send (jupyter-rfb), and the browser's
-acknowledgement. jupyter-rfb lets :data:`MAX_BUFFERED_FRAMES` frames be in
-flight, so the kernel renders the next frame while the last one travels and is
-decoded; the scheduler asks for at most ``max_fps`` frames per second (30 on a
-CPU adapter, 60 on a GPU).
+How a frame travels (each stage is timed, in ms per frame over the stats window:
+``stats["render_ms"]``, ``readback_ms``, ``encode_ms``, ``send_ms``, ``ack_ms``; the
+"details" line shows them): step + render (the draw function submits the GPU work),
+readback (rendercanvas copies the frame into a mapped buffer without stalling the
+queue and presents it when the copy is done), JPEG encode and send (on the canvas's
+worker thread, so the kernel renders the next frame meanwhile: Pillow's encoder
+releases the GIL; see :func:`grasswidget.compat.timed_jupyter_canvas_class`), and the
+browser's acknowledgement (jupyter-rfb's frame feedback). jupyter-rfb lets
+:data:`MAX_BUFFERED_FRAMES` frames be in flight (those being encoded included), so
+the kernel renders the next frame while the last one travels and is decoded; the
+scheduler asks for at most ``max_fps`` frames per second (30 on a CPU adapter, 60 on
+a GPU).
+
+Frames that would not change the picture are not made again: while playing, a frame
+for which no simulation step ran, the camera's view-projection and the frame size are
+the same and no change was asked for (:meth:`KernelView.request_draw`: a parameter,
+the ball, a reset ...) is not rendered (the canvas's draw is cancelled: no readback,
+nothing sent); a rendered frame whose pixels equal the last one sent is not encoded
+or sent again. Both count in ``stats["unchanged_fps"]`` and in ``fps`` (the page
+shows them already); paused, nothing is drawn unless something changed.
 
 Adaptive resolution (see :class:`~grasswidget.views.adaptive.ResolutionGovernor`):
 while playing below ``target_fps`` (24 on a CPU adapter, 60 on a GPU) the
@@ -117,11 +129,12 @@ def _canvas_class():
     class GrassCanvas(compat.timed_jupyter_canvas_class()):
         """rendercanvas.jupyter.RenderCanvas that renders at ``render_scale`` times the
         browser's devicePixelRatio capped to ``max_pixel_ratio``, and reports when a
-        frame's pixels arrived (``on_present``) and when it was sent (``on_sent``)."""
+        frame's pixels arrived (``on_present``) and what became of it (``on_transport``:
+        encoded on the worker thread and sent, or not sent again as unchanged; see
+        :func:`grasswidget.compat.timed_jupyter_canvas_class`)."""
 
         max_pixel_ratio = MAX_PIXEL_RATIO
         render_scale = 1.0
-        on_sent = None
         #: A lock held for each frame (draw + start of the download), or None.
         frame_lock = None
         _browser_resize = None
@@ -154,11 +167,6 @@ def _canvas_class():
             self.render_scale = float(scale)
             if self._browser_resize is not None:
                 super().handle_event(self._scaled(self._browser_resize))
-
-        def send_frame(self, array):
-            super().send_frame(array)
-            if self.on_sent is not None:
-                self.on_sent(time.perf_counter(), tuple(array.shape[1::-1]))
 
     from .front_end import esm_for_front_end
 
@@ -289,7 +297,7 @@ class KernelView(EngineView):
         self.canvas.max_buffered_frames = MAX_BUFFERED_FRAMES
         self.canvas.resizable = False
         self.canvas.on_present = self._on_present
-        self.canvas.on_sent = self._on_sent
+        self.canvas.on_transport = self._on_transport
         self.pointer = KernelPointer()  # the pointer rules, the browser engine's too
         self.events = EventsWithoutPicking(lambda: self.scene.renderer if self.scene is not None else None,
                                            intercept=self._on_pointer)
@@ -306,11 +314,17 @@ class KernelView(EngineView):
         self.timing = FrameTiming()
         self._stats = {"fps": None, "visible": None, "rastered": None, "occluded": None, "blades": None, "draw_ms": None, "gpu_ms": None,
                        "steps_per_frame": None, "frame_size": None, "render_ms": None, "readback_ms": None,
-                       "encode_send_ms": None, "ack_ms": None, "scale": 1.0, "sim_speed": None,
+                       "encode_ms": None, "send_ms": None, "ack_ms": None, "unchanged_fps": None,
+                       "scale": 1.0, "sim_speed": None,
                        "target_fps": self._read_target_fps(), "step_count": 0, "switches": None, "trial": False,
                        "adapter": cpu_notice(short=True)}  # the CPU-adapter notice (None on a GPU)
         self._stats_t = time.perf_counter()
         self._stats_frames = 0
+        self._ticks = 0  # draws asked for: rendered, or skipped as nothing changed
+        self._stats_ticks = 0
+        self._unchanged = 0  # frames not rendered or not sent as unchanged, since the frame-rate window began
+        self._render_key = None  # what the last rendered frame showed (see _render_key_now)
+        self._unchanged_t = None  # when a frame was last skipped as unchanged (the page's picture is current)
         # How old the stats are (core.engine_inputs.stats_freshness), perf_counter seconds: the newest
         # frame drawn, the newest the browser acknowledged, the first one sent (None: none yet),
         # a change not drawn yet, and whether no view is on screen.
@@ -373,7 +387,7 @@ class KernelView(EngineView):
         self.controller.target = self._home_target if old_target is None else old_target
         if cam_state is not None:  # a new blade count keeps the view
             scene.camera.set_state(cam_state)
-        self.canvas.request_draw(self.draw)
+        self.canvas.request_draw(self._draw_for_canvas)
 
     @property
     def widget(self):
@@ -437,6 +451,7 @@ class KernelView(EngineView):
     def _set_playing(self, playing: bool):
         # Draw continuously (playing) or on demand (paused). Pausing stops the clock
         # at once and puts the render scale back to 1, so the still frame is sharp.
+        self._render_key = None  # the first frame after play or pause is rendered
         if not playing:
             self.clock.stop()
             self.governor.restart()
@@ -602,20 +617,44 @@ class KernelView(EngineView):
         # The kernel renders at once (offscreen and anti-aliased, whatever the canvas): a done Future.
         return done_future(lambda: self.scene.save_png(path, size=size))
 
+    def _draw_for_canvas(self):
+        """The canvas's draw function: :meth:`draw`; a frame it did not render (nothing changed) is
+        cancelled, so nothing is read back or sent."""
+        if not self.draw():
+            compat.cancel_draw()
+
     @_exclusive
-    def draw(self):
-        """The canvas draw function: advance time (when playing), render, maybe refresh stats."""
+    def draw(self) -> bool:
+        """One frame: advance time (when playing), render, maybe refresh stats. Returns False when
+        nothing was rendered: no scene, or playing with nothing changed since the last frame (no step
+        ran, the same camera and frame size, no change asked for: :meth:`request_draw`, and the page
+        shows the last frame: no new view, resize or return on screen since)."""
         scene = self.scene
         if scene is None or scene.renderer is None:
-            return
+            return False
         t0 = time.perf_counter()
         playing = bool(self.play.playing)
+        steps = 0
         if playing and not self._at_rest:
             if not self.clock.running:
                 self.clock.start()
-            self._simulate(self.clock.frame_steps(self.params.dt, self.play.time_scale))
+            steps = self.clock.frame_steps(self.params.dt, self.play.time_scale)
+            self._simulate(steps)
         elif self._at_rest:  # a frame asked for while out of sight (e.g. play() from a cell): time stays put
             self.clock.stop()
+        self._ticks += 1
+        key = self._render_key_now()
+        if (playing and steps == 0 and self._changed_t is None and not self._report_pending and key == self._render_key
+                and not self.canvas.frame_owed()):
+            # Nothing this view knows of changed since the last frame (no step ran, the camera and
+            # the frame size are the same, no change was asked for): the page already shows it.
+            self._frame_unchanged()
+            self.canvas.keep_lossless_due()  # the page keeps the last frame: its lossless picture still comes
+            self.canvas.set_render_scale(self.governor.frame(self.timing.busy_s()))
+            if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
+                self.refresh_stats()
+            return False
+        self._render_key = key
         scene.draw_frame()
         self._inspect_stale = False
         self._changed_t = None
@@ -635,6 +674,7 @@ class KernelView(EngineView):
         if time.perf_counter() - self._stats_t >= STATS_INTERVAL:
             self.refresh_stats()
         self._notify_frame()  # the traces' sample of this frame (grasswidget.views.trace_feed)
+        return True
 
     def _on_visibility(self, visible: bool):
         """No view of this widget on screen (scrolled away, a collapsed output; a hidden tab stops
@@ -654,13 +694,32 @@ class KernelView(EngineView):
         """The page acknowledged frames: the newest one shown arrived now (to within the comm's delay)."""
         self._arrived_t = time.perf_counter()
 
+    def _render_key_now(self):
+        """What decides the pixels besides the simulation and the asked-for changes: the camera's
+        view-projection matrix, the frame size and the step count."""
+        scene = self.scene
+        matrix = np.asarray(scene.camera.camera_matrix, np.float64).tobytes()
+        return (matrix, tuple(self.canvas.get_physical_size()), int(scene.field.step_count))
+
+    def _frame_unchanged(self):
+        """A frame the page already shows (not rendered, or rendered and not sent again)."""
+        self._unchanged += 1
+        self._unchanged_t = time.perf_counter()
+
     def _on_present(self, t):
         self.timing.presented(t)
 
-    def _on_sent(self, t, size):
-        self.timing.sent(t)
-        if self._first_sent_t is None:
-            self._first_sent_t = time.perf_counter()
+    def _on_transport(self, kind, seconds):
+        """The canvas encoded and sent a frame, or did not send it again as unchanged."""
+        if kind == "encode":
+            self.timing.encoded(seconds)
+        elif kind == "send":
+            self.timing.sent(time.perf_counter(), seconds)
+            if self._first_sent_t is None:
+                self._first_sent_t = time.perf_counter()
+        elif kind == "unchanged":
+            self.timing.unchanged()
+            self._frame_unchanged()
 
     # ------------------------------------------------------------------ stats
 
@@ -689,6 +748,8 @@ class KernelView(EngineView):
             frame_t = self._drawn_t
         else:
             frame_t = self._arrived_t
+        if frame_t is not None and self._unchanged_t is not None:  # an unchanged frame: the page's is current
+            frame_t = max(frame_t, self._unchanged_t)
         out = stats_freshness(now, frame_t, playing=playing, at_rest=self._at_rest, changed_t=self._changed_t)
         if frame_t is None and self._first_sent_t is not None and playing and not self._at_rest:
             out["waiting"] = now - self._first_sent_t > WAITING_AFTER_S
@@ -699,7 +760,7 @@ class KernelView(EngineView):
         # Measure frames/s delivered (confirmed by the browser) and the time of each
         # stage of a frame, read the visible count and GPU times, and pass the stats to
         # ``on_stats``.
-        if self._frames == self._stats_frames and self._stats["fps"] is not None:
+        if self._ticks == self._stats_ticks and self._stats["fps"] is not None:
             # No frame since the last window (a refresh right after the one a frame made):
             # nothing new to measure; the last window's figures stand.
             self.host.show_stats(self.stats)
@@ -716,17 +777,24 @@ class KernelView(EngineView):
         fps_dt = max(now - self._fps_t, 1e-6)
         if confirmed:
             ack_ms = 1000.0 * rfb["roundtrip"]
-        if confirmed or (sent and fps_dt > WAITING_AFTER_S):
+        unchanged_fps = self._stats.get("unchanged_fps")
+        if confirmed or (sent and fps_dt > WAITING_AFTER_S) or (not sent and self._unchanged and self._first_sent_t):
             # Frames/s over the window since the last acknowledged frames. Acknowledgements lag
             # (about 0.5 s on a loaded machine): a window that sent frames but got none
             # acknowledged yet stays open rather than reading 0 frames/s while frames arrive.
-            fps = confirmed / fps_dt
+            # Frames not sent again as unchanged count: the page shows them already.
+            fps = (confirmed + self._unchanged) / fps_dt
+            unchanged_fps = self._unchanged / fps_dt
             self.canvas.reset_stats()  # the next figures cover the next window only
             self._fps_t = now
-        elif not sent:  # nothing sent: no browser; frames drawn
-            fps = (self._frames - self._stats_frames) / dt
+            self._unchanged = 0
+        elif not sent:  # nothing sent: no browser; frames drawn, and frames unchanged
+            fps = (self._frames - self._stats_frames + self._unchanged) / dt
+            unchanged_fps = self._unchanged / dt
             self._fps_t = now
+            self._unchanged = 0
         self._stats_frames = self._frames
+        self._stats_ticks = self._ticks
         self._stats_t = now
         scene = self.scene
         visible, gpu_ms, occluded, rastered = None, None, None, None
@@ -753,6 +821,7 @@ class KernelView(EngineView):
         self._stats.update(
             fps=fps, visible=visible, rastered=rastered, occluded=occluded, blades=scene.field.count, draw_ms=self._draw_ms, gpu_ms=gpu_ms,
             frame_size=tuple(int(x) for x in self.canvas.get_physical_size()), ack_ms=ack_ms,
+            unchanged_fps=unchanged_fps,
             switches=_switch_texts(scene.field), trial=self._trial_window(scene.field),
             **self.timing.averages(),
         )
@@ -815,35 +884,48 @@ class KernelView(EngineView):
 
 
 class FrameTiming:
-    """Where a streamed frame's time goes, averaged over the frames since the last
-    :meth:`averages`: render (the draw function: steps + render submit), readback
-    (until rendercanvas presents the pixels), encode + send (jupyter-rfb)."""
+    """Where a streamed frame's time goes, in ms per frame averaged over the frames since the last
+    :meth:`averages`: ``render_ms`` (the draw function: steps + render submit), ``readback_ms``
+    (from the end of the draw until rendercanvas presents the pixels), ``encode_ms`` (the JPEG, on
+    the canvas's worker thread, overlapping the next render) and ``send_ms`` (handing the message to
+    the comm). Frames the canvas did not send again as unchanged have render and readback only."""
+
+    #: Presented frames waiting for their encode and send (or their "unchanged"), oldest first, at most.
+    MAX_PENDING = 8
 
     def __init__(self):
-        #: (start, end) perf_counter seconds of the draw of the frame on its way, or None.
+        #: (start, end) perf_counter seconds of the draw of the newest frame, until it is presented; or None.
         self.last_draw = None
-        self._present = None
-        self._last_full = 0.0  # kernel seconds of the last frame that was sent
-        self._sums = {"render_ms": [], "readback_ms": [], "encode_send_ms": []}
+        self._pending = []  # draw start (perf_counter s) of each presented frame not yet sent or skipped
+        self._last_full = 0.0  # kernel seconds of the last frame that was sent: draw start to sent
+        self._sums = {"render_ms": [], "readback_ms": [], "encode_ms": [], "send_ms": []}
 
     def drawn(self, t0, t1):
-        self.last_draw, self._present = (t0, t1), None
+        self.last_draw = (t0, t1)
         self._sums["render_ms"].append(1000.0 * (t1 - t0))
 
     def presented(self, t):
         if self.last_draw is not None:
-            self._present = t
             self._sums["readback_ms"].append(1000.0 * (t - self.last_draw[1]))
-
-    def sent(self, t):
-        if self.last_draw is not None and self._present is not None:
-            self._sums["encode_send_ms"].append(1000.0 * (t - self._present))
-            self._last_full = t - self.last_draw[0]
+            self._pending = (self._pending + [self.last_draw[0]])[-self.MAX_PENDING:]
             self.last_draw = None
 
+    def encoded(self, seconds):
+        self._sums["encode_ms"].append(1000.0 * seconds)
+
+    def sent(self, t, seconds=0.0):
+        self._sums["send_ms"].append(1000.0 * seconds)
+        if self._pending:
+            self._last_full = t - self._pending.pop(0)
+
+    def unchanged(self):
+        if self._pending:
+            self._pending.pop(0)
+
     def busy_s(self) -> float:
-        """Kernel seconds per frame: the last sent frame's render + readback + encode +
-        send, or the frame just drawn's render if that took longer (or none was sent)."""
+        """Kernel seconds per frame: the last sent frame's render + readback + encode + send
+        (with the wait for the worker thread), or the frame just drawn's render if that took
+        longer (or none was sent)."""
         current = (self.last_draw[1] - self.last_draw[0]) if self.last_draw is not None else 0.0
         return max(self._last_full, current)
 

@@ -29,7 +29,8 @@ and occlusion, the NumPy reference on the rest pose for orientation and frustum)
 sample takes the drawn and GPU counts of its own frame (``FrameStats.counts_of``): while
 playing they arrive a frame or two later, so the sample is recorded then (at the latest by
 ``flush``, which ``traces()`` calls); paused, at once. Frame times: the view's stats (``render_ms``,
-``readback_ms``, ``encode_send_ms``, ``ack_ms``; the browser: its frame time as render).
+``readback_ms``, ``encode_ms`` + ``send_ms`` as one stage, ``encode_send``, ``ack_ms``; the browser: its
+frame time as render).
 """
 
 from __future__ import annotations
@@ -38,6 +39,12 @@ from collections import deque
 
 from ..core.cull_counts import CullCounter, gpu_kept
 from ..core.engine_inputs import STATS_INTERVAL_MS
+
+
+def _sum_or_none(*values):
+    """The sum of the values that are known (None when none is)."""
+    known = [v for v in values if v is not None]
+    return sum(known) if known else None
 from ..core.traces import TraceSample
 
 __all__ = ["KernelTraceFeed", "BrowserTraceFeed", "make_feed", "CHART_STATS_INTERVAL_MS"]
@@ -84,7 +91,7 @@ class _Feed:
     @staticmethod
     def _frame_ms(stats):
         return {"render": stats.get("render_ms", stats.get("draw_ms")), "readback": stats.get("readback_ms"),
-                "encode_send": stats.get("encode_send_ms"), "ack": stats.get("ack_ms")}
+                "encode_send": _sum_or_none(stats.get("encode_ms"), stats.get("send_ms")), "ack": stats.get("ack_ms")}
 
     def _record(self, t, step_count, kept, drawn, frame_ms, rows):
         up = self.view.blades.up

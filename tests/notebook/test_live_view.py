@@ -217,13 +217,16 @@ def test_stats_line_shows_the_frame_breakdown(widget, monkeypatch):
     # what the canvas reports for a streamed frame: pixels presented, then sent
     d0, d1 = widget.view.timing.last_draw
     widget.canvas.on_present(d1 + 0.004)  # what the canvas calls for a streamed frame
-    widget.canvas.on_sent(d1 + 0.010, WIDGET_SIZE)
+    widget.canvas.on_transport("encode", 0.0025)  # the JPEG, on the worker thread
+    widget.canvas.on_transport("send", 0.0015)
     widget.view.refresh_stats()
     s = widget.stats
-    assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6) and s["encode_send_ms"] == pytest.approx(6.0, abs=1e-6)
+    assert s["readback_ms"] == pytest.approx(4.0, abs=1e-6)
+    assert s["encode_ms"] == pytest.approx(2.5, abs=1e-6) and s["send_ms"] == pytest.approx(1.5, abs=1e-6)
     assert s["render_ms"] is not None and s["scale"] == 1.0
     line = widget.panel.details_line.value
-    for word in ("frames/s delivered", "render", "readback 4", "encode+send 6", "scale 1.00", "steps/frame"):
+    for word in ("frames/s delivered", "render", "readback 4.0", "encode 2.5", "send 1.5", "scale 1.00",
+                 "steps/frame"):
         assert word in line, (word, line)
     status = widget.panel.stats_line.value  # one line in words; the timings wait behind "details"
     assert "frames/s" in status and "blades drawn" in status and "real time" in status, status
@@ -268,3 +271,74 @@ def test_stats_keys_from_the_start_a_trial_window_and_a_refresh_with_no_new_fram
     widget.view.refresh_stats()  # no frame since: the same figures, not 0.0 frames/s
     again = widget.stats
     assert again["fps"] == after["fps"] and again["render_ms"] == after["render_ms"]
+
+
+def test_a_frame_with_nothing_changed_is_not_rendered_or_sent_again(widget, monkeypatch):
+    """Playing while no step runs (the clock owes none), the camera is still and no change was asked
+    for, the view renders nothing (the canvas cancels the draw: no readback, nothing sent); a step
+    owed, a camera moved, a resize or a parameter each bring a rendered frame back. The frames not
+    rendered count in fps (the page shows them already) and in unchanged_fps; the status line reads a
+    frame rate, never "waiting for frames"."""
+    import grasswidget.views.kernel as kv
+
+    monkeypatch.setattr(kv, "STATS_INTERVAL", 1e9)  # this test refreshes the stats itself
+    monkeypatch.setattr(kv, "WAITING_AFTER_S", 0.0)  # no browser acknowledges the frames sent here
+    _resize(widget)
+    rendered = []
+    real_draw = widget.scene.draw_frame
+
+    def counting_draw():
+        rendered.append(widget.scene.field.step_count)
+        real_draw()
+
+    monkeypatch.setattr(widget.scene, "draw_frame", counting_draw)
+    wall = TickingWall(1.0 / widget.max_fps)
+    widget.view.clock.now = wall
+    widget.play()
+    assert widget.view.draw() and widget.view.draw()  # time passes: steps, rendered
+    shown = np.zeros((4, 4, 4), np.uint8)
+    widget.canvas.send_frame(shown)  # what the canvas does with a rendered frame: the page has it
+    steps = widget.scene.field.step_count
+    wall.tick = 0.0  # no time passes (as with time_scale 0): no step is owed
+    n = len(rendered)
+    assert [widget.view.draw() for _ in range(5)] == [False] * 5
+    assert len(rendered) == n and widget.scene.field.step_count == steps
+    # what the skip relies on: with no step, the same camera and size, a render gives the same pixels
+    first = widget.scene.render_at(WIDGET_SIZE, antialias=False)
+    assert np.array_equal(first, widget.scene.render_at(WIDGET_SIZE, antialias=False)) and first.std() > 1.0
+    presented, asked = [], []
+    view_draw = widget.view.draw
+    monkeypatch.setattr(widget.canvas, "on_present", presented.append)
+    monkeypatch.setattr(widget.view, "draw", lambda: asked.append(1) or view_draw())
+    widget.canvas.get_frame()  # what jupyter-rfb asks: the canvas's draw is cancelled, nothing read back
+    assert asked == [1] and len(rendered) == n and presented == []
+    monkeypatch.setattr(widget.view, "draw", view_draw)
+
+    cam = widget.scene.camera  # the camera moved (as a drag moves it, without a request_draw)
+    cam.local.position = tuple(np.asarray(cam.local.position) + np.array([0.3, 0.0, 0.0]))
+    assert widget.view.draw() and len(rendered) == n + 1
+    assert not widget.view.draw()
+    widget.params.wind_strength = widget.params.wind_strength + 1.0  # a change asked for
+    assert widget.view.draw() and len(rendered) == n + 2
+    _resize(widget)  # a resize event of the same size (a new view, a page reload): the page may lack the frame
+    assert widget.view.draw() and len(rendered) == n + 3
+    widget.canvas.send_frame(shown + 1)  # the page has a frame again
+    assert not widget.view.draw()
+    _resize(widget, ratio=0.5)  # another frame size
+    assert widget.view.draw() and len(rendered) == n + 4
+    wall.tick = 1.0 / widget.max_fps  # time runs again
+    assert widget.view.draw() and widget.scene.field.step_count > steps
+    widget.canvas.send_frame(shown + 2)
+    gw.compat.set_frame_feedback(widget.canvas, 3)  # the page showed it (the third frame sent)
+
+    wall.tick = 0.0
+    widget.view.draw()  # the clock's first reading without time
+    for _ in range(10):
+        assert not widget.view.draw()
+    widget.view.refresh_stats()
+    s = widget.stats
+    assert s["unchanged_fps"] is not None and s["unchanged_fps"] > 0 and s["fps"] >= s["unchanged_fps"]
+    assert not s["waiting"] and not s["stale"]
+    status = widget.panel.stats_line.value
+    assert "frames/s" in status and "waiting" not in status, status
+    assert "unchanged" in widget.panel.details_line.value
