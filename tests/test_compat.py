@@ -555,6 +555,34 @@ class _Sent(list):
         self.append((msg, list(buffers or []), threading.current_thread().name))
 
 
+def _on_a_thread_of_its_own(test):
+    """Run ``test`` on a new thread: the canvas's transport depends on whether an asyncio loop runs
+    on the calling thread, and a process of the suite may have one running on its main thread (a
+    sync Playwright session of tests/e2e, kept for the session on the same xdist worker)."""
+    import functools
+    import threading
+
+    @functools.wraps(test)
+    def run(*args, **kwargs):
+        failure = []
+
+        def body():
+            try:
+                test(*args, **kwargs)
+            except BaseException as err:  # re-raised on the test's thread
+                failure.append(err)
+
+        thread = threading.Thread(target=body, name=f"test-{test.__name__}")
+        thread.start()
+        thread.join(120.0)
+        assert not thread.is_alive(), f"{test.__name__} did not end in 120 s"
+        if failure:
+            raise failure[0]
+
+    return run
+
+
+@_on_a_thread_of_its_own
 def test_jupyter_canvas_sends_a_frame_once_and_its_pixels():
     """Without an event loop (a script) a frame is encoded and sent at once, as jupyter-rfb's
     message; the same pixels again are not encoded or sent; other pixels are."""
@@ -590,6 +618,7 @@ def test_jupyter_canvas_sends_a_frame_once_and_its_pixels():
         canvas.close()
 
 
+@_on_a_thread_of_its_own
 def test_jupyter_canvas_encodes_on_a_worker_in_order_and_still_sends_the_lossless_picture(monkeypatch):
     """With the event loop running, frames are encoded and sent on one worker thread, in order (not
     waiting for the loop, which renders the next frame meanwhile); 0.3 s after the last lossy frame
@@ -643,6 +672,7 @@ def test_encode_frame_jpeg_and_png():
     assert mimetype == "image/png" and np.array_equal(_decoded(data), frame[:, :, :3])
 
 
+@_on_a_thread_of_its_own
 def test_jupyter_canvas_falls_back_to_jupyter_rfbs_encoder(monkeypatch):
     """A failing encoder (e.g. a broken Pillow) does not stop the stream: the frame goes out through
     jupyter-rfb's own encoder."""

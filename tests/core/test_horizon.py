@@ -24,7 +24,7 @@ WIDTH = (0.02, 0.04)
 
 
 @pytest.fixture(scope="module")
-def field():
+def levels_field():
     return gw.Blades.on_plane(N, size=SIZE, reach=REACH, seed=5, width=WIDTH, height=(0.5, 1.0))
 
 
@@ -38,21 +38,21 @@ def _levels(blades):
     return np.repeat(np.arange(blades.horizon.n_levels), blades.horizon.counts)
 
 
-def test_the_count_is_the_users_and_each_level_fills_its_tile(field):
-    h = field.horizon
-    assert len(field) == N == sum(h.counts) and h == HorizonLayout((0.0, 0.0), SIZE / 2, REACH, N)
+def test_the_count_is_the_users_and_each_level_fills_its_tile(levels_field):
+    h = levels_field.horizon
+    assert len(levels_field) == N == sum(h.counts) and h == HorizonLayout((0.0, 0.0), SIZE / 2, REACH, N)
     assert 2 <= h.n_levels <= MAX_LEVELS and h.ends[-1] == N
     assert all(p1 == pytest.approx(2 * p0) for p0, p1 in zip(h.periods, h.periods[1:]))
-    k = _levels(field)
+    k = _levels(levels_field)
     for lvl, p in enumerate(h.periods):
-        x, z = field.v0[k == lvl, 0], field.v0[k == lvl, 2]
+        x, z = levels_field.v0[k == lvl, 0], levels_field.v0[k == lvl, 2]
         assert np.all(np.abs(x) <= p / 2 + 1e-3) and np.all(np.abs(z) <= p / 2 + 1e-3)
         # stratified over its tile: each of 4 x 4 cells holds its share to 10 %
         cells = np.histogram2d(x, z, bins=4, range=[[-p / 2, p / 2]] * 2)[0]
         assert cells.min() > 0.9 * cells.mean() and cells.max() < 1.1 * cells.mean(), (lvl, cells)
-    assert np.all(field.v0[:, 1] == 0) and np.all(field.up[:, 1] == 1)
+    assert np.all(levels_field.v0[:, 1] == 0) and np.all(levels_field.up[:, 1] == 1)
     again = gw.Blades.on_plane(N, size=SIZE, reach=REACH, seed=5, width=WIDTH, height=(0.5, 1.0))
-    assert np.array_equal(again.v0, field.v0) and np.array_equal(again.width, field.width)
+    assert np.array_equal(again.v0, levels_field.v0) and np.array_equal(again.width, levels_field.width)
     assert len(gw.Blades.on_plane(N, size=SIZE, reach=4 * REACH, seed=5)) == N
 
 
@@ -76,16 +76,16 @@ def test_far_levels_are_never_denser_than_their_fall_allows(count):
     assert all(a >= b for a, b in zip(rho, rho[1:])), rho  # thinner and thinner outwards
 
 
-def test_widths_keep_the_covered_share_from_level_to_level(field):
+def test_widths_keep_the_covered_share_from_level_to_level(levels_field):
     """Each level's blades are its factor times their near width; density x width x 2^k (the covered
     share at a grazing view, the distance doubling per level) is level 0's wherever the factor is not
     capped at MAX_WIDEN, and below it where it is."""
-    h = field.horizon
-    k = _levels(field)
+    h = levels_field.horizon
+    k = _levels(levels_field)
     factors = h.width_factors()
     rho = h.densities()
     for lvl in range(h.n_levels):
-        w = field.width[k == lvl] / factors[lvl]
+        w = levels_field.width[k == lvl] / factors[lvl]
         assert w.min() >= WIDTH[0] * 0.999 and w.max() <= WIDTH[1] * 1.001
         share = rho[lvl] * factors[lvl] * 2 ** lvl
         if factors[lvl] < MAX_WIDEN:
@@ -97,12 +97,12 @@ def test_widths_keep_the_covered_share_from_level_to_level(field):
         assert np.count_nonzero(k == lvl) / (p * p) == pytest.approx(rho[lvl])
 
 
-def test_weights_partition_the_distance_and_end_inside_each_tile(field):
+def test_weights_partition_the_distance_and_end_inside_each_tile(levels_field):
     """The level weights sum to 1 from the camera out to the last level's fade, each reaches 0 strictly
     inside its tile's inscribed circle (a blade moves only at weight 0), and they depend on the
     distance from the camera to the root only (the reference's per-blade weight agrees with the
     layout's)."""
-    h = field.horizon
+    h = levels_field.horizon
     d = np.linspace(0.0, h.drawn_reach() * 1.2, 4001)
     w = h.weights(d)
     inside = d <= h.bands[-1][2]
@@ -116,29 +116,29 @@ def test_weights_partition_the_distance_and_end_inside_each_tile(field):
     assert np.abs(np.diff(w, axis=1)).max() <= 1.5 * (d[1] - d[0]) / narrowest * 1.01
     cam = np.array([3.0, 2.0, -7.0])
     table = h.table()
-    v0, _, _ = ref.follow_camera(field.v0, *_rest(field), cam, table)
+    v0, _, _ = ref.follow_camera(levels_field.v0, *_rest(levels_field), cam, table)
     got = ref.blade_weights(v0, cam, table)
     dist = np.linalg.norm(v0.astype(np.float64) - cam, axis=1)  # from the camera to the root
-    want = h.weights(dist)[_levels(field), np.arange(N)]
+    want = h.weights(dist)[_levels(levels_field), np.arange(N)]
     assert np.allclose(got, want)
 
 
-def test_the_wrap_twin_moves_each_blade_to_its_copy_nearest_the_camera(field):
+def test_the_wrap_twin_moves_each_blade_to_its_copy_nearest_the_camera(levels_field):
     """follow_camera: roots move by whole periods of their level to within half a period of the camera
     (x and z), v1 and v2 move with v0 (the bend is kept), and a second call moves nothing."""
-    h = field.horizon
+    h = levels_field.horizon
     rng = np.random.default_rng(3)
-    v1, v2 = _rest(field)
+    v1, v2 = _rest(levels_field)
     v1 = v1 + rng.normal(0, 0.1, v1.shape).astype(np.float32)
     v2 = v2 + rng.normal(0, 0.3, v2.shape).astype(np.float32)
     cam = np.array([37.0, 3.0, -121.5])
     table = h.table()
-    v0n, v1n, v2n = ref.follow_camera(field.v0, v1, v2, cam, table)
-    period = np.asarray(h.periods)[_levels(field)]
-    shift = (v0n - field.v0)[:, [0, 2]]
+    v0n, v1n, v2n = ref.follow_camera(levels_field.v0, v1, v2, cam, table)
+    period = np.asarray(h.periods)[_levels(levels_field)]
+    shift = (v0n - levels_field.v0)[:, [0, 2]]
     assert np.allclose(shift / period[:, None], np.round(shift / period[:, None]), atol=1e-4)
     assert np.all(np.abs(v0n[:, [0, 2]] - cam[[0, 2]]) <= period[:, None] / 2 + 1e-3)
-    assert np.allclose(v1n - v0n, v1 - field.v0, atol=1e-4) and np.allclose(v2n - v0n, v2 - field.v0, atol=1e-4)
+    assert np.allclose(v1n - v0n, v1 - levels_field.v0, atol=1e-4) and np.allclose(v2n - v0n, v2 - levels_field.v0, atol=1e-4)
     assert np.count_nonzero(np.any(shift != 0, axis=1)) > N // 2
     again = ref.follow_camera(v0n, v1n, v2n, cam, table)
     assert all(np.array_equal(a, b) for a, b in zip(again, (v0n, v1n, v2n)))
@@ -149,9 +149,9 @@ def test_the_wrap_twin_moves_each_blade_to_its_copy_nearest_the_camera(field):
 def test_a_moving_camera_moves_only_blades_of_weight_zero():
     """Nothing visible jumps: along a camera path of 50 m in 0.5 m steps (as frames would), every blade
     the wrap moves has weight 0 just before and just after the move."""
-    field = gw.Blades.on_plane(1 << 15, size=SIZE, reach=REACH, seed=2)
-    table = field.horizon.table()
-    v0, (v1, v2) = field.v0, _rest(field)
+    levels_field = gw.Blades.on_plane(1 << 15, size=SIZE, reach=REACH, seed=2)
+    table = levels_field.horizon.table()
+    v0, (v1, v2) = levels_field.v0, _rest(levels_field)
     moved_any = 0
     for t in np.arange(0.0, 50.0, 0.5):
         cam = np.array([0.6 * t, 3.0, -0.8 * t])
@@ -238,30 +238,30 @@ def test_bad_input_is_refused_naming_the_range():
         gw.Blades(b.v0, b.up, b.orientation, b.height, b.width, b.stiffness, "far")
 
 
-def test_distance_culling_is_off_and_the_table_is_written_for_a_field_to_the_horizon(field):
+def test_distance_culling_is_off_and_the_table_is_written_for_a_field_to_the_horizon(levels_field):
     p = gw.GrassParams()
     assert p.cull_distance
     assert engine_inputs.cull_uniform_values(p, N)["cull_distance"] == 1
     assert engine_inputs.cull_uniform_values(p, N, thinned=True)["cull_distance"] == 0
-    values = engine_inputs.cull_uniform_values(p, N, horizon=field.horizon)
-    assert values["cull_distance"] == 0 and values["n_levels"] == field.horizon.n_levels
+    values = engine_inputs.cull_uniform_values(p, N, horizon=levels_field.horizon)
+    assert values["cull_distance"] == 0 and values["n_levels"] == levels_field.horizon.n_levels
     assert engine_inputs.cull_uniform_values(p, N)["n_levels"] == 0
 
 
-def test_orbit_keeps_the_camera_within_the_reach(field):
+def test_orbit_keeps_the_camera_within_the_reach(levels_field):
     """Whatever the drag, the camera stays within the reach of the centre (the grass follows it there)."""
-    limits = OrbitLimits.for_field(field.v0, field.up, field.height, 400.0, horizon=field.horizon)
-    half = max(field.horizon.near_radius, REACH / 4)
+    limits = OrbitLimits.for_field(levels_field.v0, levels_field.up, levels_field.height, 400.0, horizon=levels_field.horizon)
+    half = max(levels_field.horizon.near_radius, REACH / 4)
     assert limits.hi[0] == pytest.approx(1.2 * half) and limits.lo[1] == pytest.approx(-1.2 * half)
     rng = np.random.default_rng(0)
     far = 0.0
     for _ in range(300):
         p, t = clamp_orbit(rng.normal(0, 300, 3), rng.normal(0, 100, 3), limits)
         far = max(far, math.hypot(p[0], p[2]))
-        assert math.hypot(p[0], p[2]) <= field.horizon.max_camera_offset() + 1e-6
+        assert math.hypot(p[0], p[2]) <= levels_field.horizon.max_camera_offset() + 1e-6
     assert far > 0.5 * REACH  # it does go far out
-    start, end = field.horizon.ground_blend()
-    assert 0 < start < end < field.horizon.drawn_reach()
+    start, end = levels_field.horizon.ground_blend()
+    assert 0 < start < end < levels_field.horizon.drawn_reach()
 
 
 @pytest.mark.parametrize("count", [1 << 14, 1 << 20])
@@ -285,12 +285,12 @@ def test_meadow_preset_reaches_the_horizon_and_its_cameras_are_allowed(count):
     assert box["hi"][0] == pytest.approx(blades.horizon.near_radius)
 
 
-def test_far_ground_values_follow_the_looks(field):
-    v = engine_inputs.sky_ground_values(field, 400.0, gw.GrassParams())
+def test_far_ground_values_follow_the_looks(levels_field):
+    v = engine_inputs.sky_ground_values(levels_field, 400.0, gw.GrassParams())
     assert v["horizon"] == (0.0, 0.0, REACH, 1.0)
-    assert v["far_blend"][:2] == pytest.approx(field.horizon.ground_blend())
+    assert v["far_blend"][:2] == pytest.approx(levels_field.horizon.ground_blend())
     assert 0.2 < min(v["far_grass"][:3]) <= max(v["far_grass"][:3]) < 1.5
-    drier = engine_inputs.sky_ground_values(field, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
+    drier = engine_inputs.sky_ground_values(levels_field, 400.0, gw.GrassParams(dryness=0.8, patch_size=7.0))
     assert drier["dryness"] == 0.8 and drier["far_blend"][2] == 7.0
     square = engine_inputs.sky_ground_values(gw.Blades.on_plane(256), 100.0)
     assert square["horizon"][3] == 0.0
@@ -302,12 +302,12 @@ def test_far_ground_values_follow_the_looks(field):
     assert rgb[1] > rgb[0] + 0.05 and rgb[1] > rgb[2] + 0.05
 
 
-def test_the_soil_lies_under_the_blades_wherever_the_camera_goes(field):
+def test_the_soil_lies_under_the_blades_wherever_the_camera_goes(levels_field):
     """The ground's field rectangle (soil, the grass layer's shadow) holds every root the wrap can put
     around a camera anywhere within the reach."""
-    (cx, cz), (hx, hz) = engine_inputs.field_rectangle(field)
-    table = field.horizon.table()
+    (cx, cz), (hx, hz) = engine_inputs.field_rectangle(levels_field)
+    table = levels_field.horizon.table()
     for angle in np.linspace(0.0, 2 * math.pi, 8, endpoint=False):
         cam = np.array([REACH * math.cos(angle), 2.0, REACH * math.sin(angle)])
-        v0, _, _ = ref.follow_camera(field.v0, *_rest(field), cam, table)
+        v0, _, _ = ref.follow_camera(levels_field.v0, *_rest(levels_field), cam, table)
         assert np.all(np.abs(v0[:, 0] - cx) <= hx) and np.all(np.abs(v0[:, 2] - cz) <= hz)

@@ -152,10 +152,12 @@ def _run_all_and_check(page, lab_server, browser_root, path, prefix="runall_", s
 
     for i in range(n_views):
         wait_for_view(page, i, timeout=120)  # scrolls it into view: jupyter-rfb draws only visible views
-        # a new frame after a change: ask every open kernel-engine widget to draw
+        # a new frame after a draw request: ask every open kernel-engine widget to draw, and its canvas
+        # to send the frame even where its pixels equal the last one's (a paused view's would: the skip
+        # of unchanged frames has its own tests, tests/test_compat.py and tests/notebook/test_live_view.py)
         kernel_execute(page, "for _w in [o for o in __import__('gc').get_objects() if type(o).__name__ == "
                              "'GrassWidget' and getattr(o, 'view', None) is not None and o.backend == 'kernel']:\n"
-                             "    _w.canvas.request_draw()", name, timeout=60)
+                             "    _w.canvas.skip_unchanged = False; _w.canvas.request_draw()", name, timeout=60)
         wait_for_frames(page, 1, timeout=120, index=i)
         drawn, spread = _not_blank(view_pixels(page, i))
         assert drawn, f"{path.name}: view #{i} is blank (colour spread {spread:.1f})"
