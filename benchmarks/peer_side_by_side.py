@@ -3,7 +3,7 @@
     python benchmarks/peer_side_by_side.py --peer /tmp/peer004 --tree main=/tmp/trees/main \
         --tree looks=/tmp/trees/looks [--rounds 3] [--out PATH]
 
-The peer is built as ``/work/shared/peer-seed004/README.md`` says (``run_peer.sh BLADES CULL``: CULL 0
+The peer is built as ``../shared/peer-seed004/README.md`` says (``run_peer.sh BLADES CULL``: CULL 0
 off, 2 on with the paper's orientation test). Each ``--tree NAME=DIR`` is a folder holding a
 ``grasswidget`` package (e.g. ``git archive main grasswidget | tar -x -C DIR``); its
 ``python -m grasswidget bench`` runs with ``PYTHONPATH=DIR``: culling off (no LOD), or on with
