@@ -9,9 +9,9 @@ every blade to the copy of its root nearest the camera (``x += P_k round((cam_x 
 P_k)``, the same for z; ``reference.follow_camera``), so every level is always centred on
 the camera, wherever it goes.
 
-Each level draws only in a band of distance from the camera (to the blade's root: the distance the
-ground's far-grass blend uses too, so that a high camera sees the levels fade where the ground turns
-to far grass rather than a disc of dense grass under it), through a weight
+Each level draws only in a band of horizontal distance from the camera to the blade's root (so that
+the 10 m around the camera hold level 0's density from any height, the "top" camera included: a
+dense disc under it, fading into the thinner levels), through a weight
 (``reference.level_weight``) that scales the blade's drawn width and culls it at 0:
 
 - level k fades out (smoothstep) from ``a_k = FADE_START b_k`` to ``b_k = BAND_OUTER P_k / 2``,
@@ -199,18 +199,16 @@ class HorizonLayout:
         """Where the last level's weight reaches 0 (m from the camera): no blade is drawn beyond."""
         return self.bands[-1][3]
 
-    def expected_drawn(self, radius: float, threshold: float = 0.5, height: float = 0.0) -> float:
-        """Expected number of blades within ``radius`` m (horizontally) of a camera ``height`` m above
-        the ground whose weight is above ``threshold`` (0..1), wherever the camera is: per level its
-        density times the area of the part of the disc where its weight is above ``threshold`` (the
-        weights are monotonic in each band of distance to the root, sqrt(r^2 + height^2) at
-        horizontal distance r, so that part is a ring)."""
-        thr, h2 = float(threshold), float(height) ** 2
-        flat = (lambda d: math.sqrt(max(d * d - h2, 0.0)))  # horizontal radius at distance d
+    def expected_drawn(self, radius: float, threshold: float = 0.5) -> float:
+        """Expected number of blades within ``radius`` m (horizontally) of the camera whose weight is
+        above ``threshold`` (0..1), wherever the camera is and at any height: per level its density
+        times the area of the part of the disc where its weight is above ``threshold`` (the weights
+        are monotonic in each band of horizontal distance, so that part is a ring)."""
+        thr = float(threshold)
         total = 0.0
         for rho, (a, b, c, e) in zip(self.densities(), self.bands):
-            inner = 0.0 if a < 0 else flat(_inverse_smoothstep(a, b, thr))
-            outer = flat(_inverse_smoothstep(c, e, 1.0 - thr))
+            inner = 0.0 if a < 0 else _inverse_smoothstep(a, b, thr)
+            outer = _inverse_smoothstep(c, e, 1.0 - thr)
             lo, hi = min(inner, radius), min(outer, radius)
             total += rho * math.pi * max(hi * hi - lo * lo, 0.0)
         return total

@@ -22,9 +22,9 @@ fn blade_level(i: u32) -> u32 {
     return level_index(i, u_cull.level_ends[0], u_cull.level_ends[1], u_cull.n_levels);
 }
 
-// Weight of blade i with root v0 (the field's space): its level's weight at the distance from the
-// culling camera to the root (the distance the ground's far-grass blend uses too, so that from a high
-// camera the dense level fades where the ground turns to far grass, not in a disc under it).
+// Weight of blade i with root v0 (the field's space): its level's weight at the horizontal distance
+// (x, z) from the culling camera to the root, so that the grass within 10 m of the camera is as dense
+// from a high camera (the "top" preset) as from one over the grass.
 fn blade_weight(i: u32, v0: vec3<f32>) -> f32 {
-    return level_weight(length(v0 - levels_camera()), u_cull.level_bands[blade_level(i)]);
+    return level_weight(length((v0 - levels_camera()).xz), u_cull.level_bands[blade_level(i)]);
 }

@@ -100,8 +100,8 @@ def test_widths_keep_the_covered_share_from_level_to_level(levels_field):
 def test_weights_partition_the_distance_and_end_inside_each_tile(levels_field):
     """The level weights sum to 1 from the camera out to the last level's fade, each reaches 0 strictly
     inside its tile's inscribed circle (a blade moves only at weight 0), and they depend on the
-    distance from the camera to the root only (the reference's per-blade weight agrees with the
-    layout's)."""
+    horizontal distance from the camera to the root only (the reference's per-blade weight agrees
+    with the layout's, the camera's height changes nothing)."""
     h = levels_field.horizon
     d = np.linspace(0.0, h.drawn_reach() * 1.2, 4001)
     w = h.weights(d)
@@ -118,9 +118,10 @@ def test_weights_partition_the_distance_and_end_inside_each_tile(levels_field):
     table = h.table()
     v0, _, _ = ref.follow_camera(levels_field.v0, *_rest(levels_field), cam, table)
     got = ref.blade_weights(v0, cam, table)
-    dist = np.linalg.norm(v0.astype(np.float64) - cam, axis=1)  # from the camera to the root
+    dist = np.hypot(v0[:, 0] - cam[0], v0[:, 2] - cam[2])  # horizontally, from the camera to the root
     want = h.weights(dist)[_levels(levels_field), np.arange(N)]
     assert np.allclose(got, want)
+    assert np.array_equal(ref.blade_weights(v0, cam + [0.0, 25.0, 0.0], table), got)
 
 
 def test_the_wrap_twin_moves_each_blade_to_its_copy_nearest_the_camera(levels_field):
@@ -176,7 +177,7 @@ def _square_near_count(count):
 @pytest.mark.parametrize("count", [1 << 18, 1 << 20])
 def test_near_the_camera_at_least_the_square_fields_count_wherever_it_goes(count):
     """The meadow at 2^18 and 2^20: from cameras anywhere within the reach (3 m up, as the home
-    camera), the blades drawn (weight > 0.5) within 10 m (horizontally) are at least as many as the
+    camera, and one 20 m up, as the "top" camera: the weights go by the horizontal distance), the blades drawn (weight > 0.5) within 10 m (horizontally) are at least as many as the
     square field had within 10 m of its home camera;
     at 2^20 the density near the camera is at least the square field's (about 1000 per m^2); at 2^18
     (the count cannot fill a 10 m disc at that density) level 0 spreads its share over the 10 m disc."""
@@ -186,9 +187,9 @@ def test_near_the_camera_at_least_the_square_fields_count_wherever_it_goes(count
     square, rho_square = _square_near_count(count)
     rng = np.random.default_rng(count)
     cams = [np.asarray(view["position"], np.float64)]
-    for _ in range(3):
+    for height in (3.0, 3.0, 3.0, 20.0):
         r, a = h.max_camera_offset() * math.sqrt(rng.uniform()), rng.uniform(0, 2 * math.pi)
-        cams.append(np.array([r * math.cos(a), 3.0, r * math.sin(a)]))
+        cams.append(np.array([r * math.cos(a), height, r * math.sin(a)]))
     v0, (v1, v2) = blades.v0, _rest(blades)
     for cam in cams:
         v0, v1, v2 = ref.follow_camera(v0, v1, v2, cam, table)
@@ -196,7 +197,7 @@ def test_near_the_camera_at_least_the_square_fields_count_wherever_it_goes(count
         drawn = ref.blade_weights(v0, cam, table) > 0.5
         near = int(np.count_nonzero(drawn & (d < 10.0)))
         assert near >= square, (cam, near, square)
-        assert near == pytest.approx(h.expected_drawn(10.0, height=cam[1]), rel=0.03)
+        assert near == pytest.approx(h.expected_drawn(10.0), rel=0.03)
         density = np.count_nonzero(d < 5.0) / (math.pi * 25.0)
         if count >= 1 << 20:
             assert density >= 0.97 * rho_square, (cam, density)
@@ -214,7 +215,8 @@ def test_the_split_follows_the_count():
         h = HorizonLayout((0.0, 0.0), side / 2, 200.0, count)
         a, b = h.bands[0][2:]
         assert 0.5 * (a + b) >= NEAR_RADIUS * (1 - 1e-9)
-        assert h.expected_drawn(10.0) >= h.expected_drawn(10.0, height=3.0) > 0.9 * h.expected_drawn(10.0)
+        # within 10 m only level 0 is drawn at more than half its width, all of it
+        assert h.expected_drawn(10.0) == pytest.approx(h.densities()[0] * math.pi * NEAR_RADIUS ** 2, rel=1e-9)
         assert sum(h.counts) == count and min(h.counts) >= 1
         assert h.near_density() <= count / side ** 2 * (1 + 1e-9)
         if count >= 1 << 20:

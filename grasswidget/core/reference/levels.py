@@ -5,8 +5,8 @@ in, where the wrap moves it, and its weight (the NumPy twins of ``blade_math.wgs
 
 The level table is the dict :meth:`grasswidget.core.horizon.HorizonLayout.table` gives
 (``level_bands``, ``level_periods``, ``level_ends``, ``n_levels``), the one both engines write
-into ``u_cull``. Metres, in the field's own space; the wrap works on (x, z), the weights on the
-distance from the camera to the root.
+into ``u_cull``. Metres, in the field's own space; the wrap and the weights work on (x, z): the
+weights on the horizontal distance from the camera to the root.
 """
 
 from __future__ import annotations
@@ -72,9 +72,9 @@ def follow_camera(v0, v1, v2, cam, table):
 
 def blade_weights(v0, cam, table):
     """Each blade's weight (``shaders/levels.wgsl`` ``blade_weight``): :func:`level_weight` of its
-    level's bands at the distance from the camera ``cam`` (x, y, z; m) to its root."""
+    level's bands at the horizontal distance from the camera ``cam`` (x, y, z; m) to its root."""
     v0 = np.asarray(v0, np.float64)
     k = _levels(len(v0), table)
     cam = np.asarray(cam, np.float64).reshape(3)
-    d = np.linalg.norm(v0 - cam, axis=1)
+    d = np.hypot(v0[:, 0] - cam[0], v0[:, 2] - cam[2])
     return level_weight(d, np.asarray(table["level_bands"], np.float64)[k])
