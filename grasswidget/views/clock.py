@@ -26,7 +26,20 @@ from ..errors import GrassValueError
 __all__ = ["SimClock", "SharedClock", "FollowerClock", "MAX_STEPS_PER_FRAME"]
 
 
-class SimClock:
+class _StepTally:
+    """What a clock's view simulated: ``steps`` (fixed steps) and ``sim_time`` (their seconds),
+    recorded by :meth:`count` (SimClock and FollowerClock)."""
+
+    steps = 0
+    sim_time = 0.0
+
+    def count(self, n: int, dt: float):
+        """Record ``n`` fixed steps of ``dt`` seconds that were simulated."""
+        self.steps += int(n)
+        self.sim_time += int(n) * float(dt)
+
+
+class SimClock(_StepTally):
     """Fixed steps for the wall time that went by.
 
     Args:
@@ -114,11 +127,6 @@ class SimClock:
         while len(self._window) > 2 and now - self._window[0][0] > self.SPEED_WINDOW:
             self._window.pop(0)
         return n
-
-    def count(self, n: int, dt: float):
-        """Record ``n`` fixed steps of ``dt`` seconds that were simulated."""
-        self.steps += int(n)
-        self.sim_time += int(n) * float(dt)
 
     @property
     def speed(self) -> float | None:
@@ -211,7 +219,7 @@ class SharedClock:
         return sum(s for _t, _w, s in self._window[1:]) / wall
 
 
-class FollowerClock:
+class FollowerClock(_StepTally):
     """One view's clock in a :class:`SharedClock` (the :class:`SimClock` interface a view uses).
 
     :meth:`frame_steps` hands out the whole steps that bring this view's simulated time up
@@ -265,10 +273,6 @@ class FollowerClock:
         n = min(n, self.max_steps)
         self.last_steps = n
         return n
-
-    def count(self, n: int, dt: float):
-        self.steps += int(n)
-        self.sim_time += int(n) * float(dt)
 
     @property
     def speed(self) -> float | None:

@@ -465,22 +465,12 @@ class JupyterLabServer:
                 "--VoilaConfiguration.show_tracebacks=True",
                 *self.extra_args,
             ]
-        if self.app == "notebook":
-            return [
-                self.python, "-m", "notebook",
-                f"--ServerApp.root_dir={self.root_dir}",
-                "--ServerApp.ip=127.0.0.1",
-                f"--ServerApp.port={self.port}",
-                "--ServerApp.port_retries=0",
-                f"--IdentityProvider.token={self.token}",
-                "--ServerApp.open_browser=False",
-                "--ServerApp.allow_root=True",
-                "--ServerApp.terminals_enabled=False",
-                "--JupyterNotebookApp.expose_app_in_browser=True",
-                *self.extra_args,
-            ]
+        # Notebook 7 and JupyterLab: the same Jupyter server, each app's own flags last
+        own = (["--JupyterNotebookApp.expose_app_in_browser=True"] if self.app == "notebook" else
+               ["--LabApp.expose_app_in_browser=True", "--LabApp.news_url=None",
+                "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate"])
         return [
-            self.python, "-m", "jupyterlab",
+            self.python, "-m", "notebook" if self.app == "notebook" else "jupyterlab",
             f"--ServerApp.root_dir={self.root_dir}",
             "--ServerApp.ip=127.0.0.1",
             f"--ServerApp.port={self.port}",
@@ -489,9 +479,7 @@ class JupyterLabServer:
             "--ServerApp.open_browser=False",
             "--ServerApp.allow_root=True",
             "--ServerApp.terminals_enabled=False",
-            "--LabApp.expose_app_in_browser=True",
-            "--LabApp.news_url=None",
-            "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+            *own,
             *self.extra_args,
         ]
 
