@@ -26,7 +26,8 @@ from pathlib import Path
 import jinja2
 
 from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
-from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTER_CLEAR_OFFSET, WORKGROUP_SIZE,
+from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTER_CLEAR_OFFSET, RASTER_DISPATCH_WORDS,
+                                 RASTER_SHADE_OFFSET, WORKGROUP_SIZE,
                                  raster_resolve_vars,
                                  ribbon_vars, shader_dir, template_vars, wgsl_environment, wgsl_float)
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
@@ -81,6 +82,7 @@ _STORAGE = {
         "s_raster_dispatch": "var<storage, read_write> s_raster_dispatch: array<u32>",
         "s_raster_depth": "var<storage, read_write> s_raster_depth: array<atomic<u32>>",
         "s_raster_payload": "var<storage, read_write> s_raster_payload: array<atomic<u32>>",
+        "s_raster_color": "var<storage, read_write> s_raster_color: array<u32>",
     },
     "render": {
         "s_blades": "var<storage, read> s_blades: array<vec4<f32>>",
@@ -90,6 +92,7 @@ _STORAGE = {
         "s_raster_depth": "var<storage, read> s_raster_depth: array<u32>",
         "s_raster_payload": "var<storage, read> s_raster_payload: array<u32>",
         "s_raster_args": "var<storage, read> s_raster_args: array<u32>",
+        "s_raster_color": "var<storage, read> s_raster_color: array<u32>",
     },
 }
 
@@ -299,25 +302,26 @@ class BrowserShaders:
                              follow_camera=bool(follow_camera))
 
     @staticmethod
-    def raster(step: str, second: bool = False, follow_camera: bool = False) -> dict:
+    def raster(step: str, second: bool = False, follow_camera: bool = False, sunlight: bool = False) -> dict:
         """``raster.wgsl``, the compute rasterizer of thin blades: step "clear" (per-pixel words
         of the rows the last frame wrote, and counters), "args" (the walks' workgroups into
         ``s_raster_dispatch``, the rows written to none), "depth" or "payload" (the walks,
-        dispatched indirectly from ``s_raster_dispatch``); ``second``: the walks of occlusion
+        dispatched indirectly from ``s_raster_dispatch``), "shade_args" (the shade's workgroups for
+        the rows the walks wrote) and "shade" (each such pixel's colour into ``s_raster_color``,
+        dispatched indirectly at ``RASTER_SHADE_OFFSET``); ``second``: the steps of occlusion
         culling's second phase (only the blades it listed). ``follow_camera``: a field to the
-        horizon (its blades' widths scaled by their level's weight)."""
+        horizon (its blades' widths scaled by their level's weight). ``sunlight``: the shade's
+        shadows maths compiled in (``GrassParams.shadows`` on)."""
+        shade = dict(raster_resolve_vars(), sunlight=bool(sunlight)) if step == "shade" else {}
         return render_shader("raster.wgsl", "compute", step=step, second=bool(second),
-                             follow_camera=bool(follow_camera))
+                             follow_camera=bool(follow_camera), **shade)
 
     @staticmethod
-    def raster_resolve(flat_colors: bool = False, sunlight: bool = False) -> dict:
+    def raster_resolve() -> dict:
         """``raster_resolve.wgsl``: one draw (4 vertices, triangle strip) across the rows the walks
-        wrote, shading the
-        compute-rasterized pixels like the ribbons and writing their depth; ``flat_colors``:
-        the colour-by views' variant (colour by LOD: "drawn in compute" in its teaching colour);
-        ``sunlight``: the shadows' maths compiled in (``GrassParams.shadows`` on)."""
-        return render_shader("raster_resolve.wgsl", "render", **raster_resolve_vars(), teaching_views=flat_colors,
-                             sunlight=bool(sunlight), frag_depth=True)
+        wrote, writing the compute-rasterized pixels' colours (the shade step's: every view, the
+        colour-by ones included) and their depth."""
+        return render_shader("raster_resolve.wgsl", "render", frag_depth=True)
 
     @classmethod
     def compute_raster(cls, sunlight: bool = False, follow_camera: bool = False) -> dict:
@@ -325,20 +329,24 @@ class BrowserShaders:
         engine's ``grasswidget.gpu.render_frame`` runs it, executed by the browser engine while
         ``u_cull.compute_raster`` (Python's bytes at ``switch_offset``, i32) is 1:
 
-        * per view size (w, h): ``s_raster_depth`` and ``s_raster_payload`` of w * h u32 each;
+        * per view size (w, h): ``s_raster_depth`` and ``s_raster_payload`` of w * h u32 each and
+          ``s_raster_color`` of ``color_words_per_pixel`` * w * h u32 (the shade's colours);
           before each frame's passes the engine writes w and h (f32) at ``width_offset`` and
           ``height_offset`` of ``u_cull`` (cull.wgsl lists thin blades only in renders of that size);
         * the compute passes marked ``only_if: "compute_raster"`` in ``compute_passes`` (the
           clear's args step, one thread; the clear over the rows the last frame wrote and the walks
           with ``dispatch: "raster_listed"``: ``dispatchWorkgroupsIndirect(s_raster_dispatch,
-          indirect_offset)``, offset 0 unless given; the args step, one thread), bound to that
-          size's buffers;
-        * ``resolve`` / ``resolve_flat`` (the natural and the colour-by views' variant, as the
-          ribbons') drawn after the ribbons in the same render pass, before sky and ground; with
-          occlusion culling the second phase's args step and walks (``second_args`` dispatched
-          once, ``second_depth``, ``second_payload`` indirectly) run after the second culling pass and the resolve is drawn again after its ribbons;
+          indirect_offset)``, offset 0 unless given; the args and shade_args steps, one thread each;
+          the shade, after the walks, at ``RASTER_SHADE_OFFSET``), bound to that size's buffers;
+        * ``resolve`` (every view's: the shade step made the colour-by views' colours) drawn after
+          the ribbons in the same render pass, before sky and ground; with
+          occlusion culling the second phase's args step, walks and shade (``second_args`` dispatched
+          once, ``second_depth``, ``second_payload`` indirectly, ``second_shade_args`` once,
+          ``second_shade`` indirectly at ``shade_offset``) run after the second culling pass and the
+          resolve is drawn again after its ribbons;
         * ``s_raster_dispatch`` holds ``dispatch_words`` u32 (usage STORAGE | INDIRECT): the walks'
-          workgroups at byte 0, the clear's at byte ``RASTER_CLEAR_OFFSET``;
+          workgroups at byte 0, the clear's at byte ``RASTER_CLEAR_OFFSET``, the shade's at
+          ``shade_offset`` (``RASTER_SHADE_OFFSET``);
         * ``s_raster`` holds N u32, ``s_raster_args`` 4 u32 (listed blades, first phase's part, the
           first row written and the complement of the last); the stats read ``s_raster_args[0]``
           (blades drawn in compute). The clear clears only the rows the last frame wrote: when a
@@ -353,12 +361,15 @@ class BrowserShaders:
             "args_words": 4,
             "rows_at": 2,
             "rows_words": 2,
-            "dispatch_words": 8,
+            "dispatch_words": RASTER_DISPATCH_WORDS,
+            "shade_offset": RASTER_SHADE_OFFSET,
+            "color_words_per_pixel": 2,
             "second_args": cls.raster("args", second=True, follow_camera=follow_camera),
             "second_depth": cls.raster("depth", second=True, follow_camera=follow_camera),
             "second_payload": cls.raster("payload", second=True, follow_camera=follow_camera),
-            "resolve": cls.raster_resolve(False, sunlight),
-            "resolve_flat": cls.raster_resolve(True, sunlight),
+            "second_shade_args": cls.raster("shade_args", second=True),
+            "second_shade": cls.raster("shade", second=True, sunlight=sunlight),
+            "resolve": cls.raster_resolve(),
         }
 
     @staticmethod
@@ -519,6 +530,12 @@ class BrowserShaders:
                  "only_if": "compute_raster", "sized": True},
                 {"shader": "raster_payload", "dispatch": "raster_listed", "label": "raster.wgsl (payload)",
                  "only_if": "compute_raster", "sized": True},
+                # the colours of the pixels the walks won: one thread writes the shade's workgroups for
+                # the rows written at byte RASTER_SHADE_OFFSET, the shade is dispatched from there
+                {"shader": "raster_shade_args", "dispatch": "one", "label": "raster.wgsl (shade_args)",
+                 "only_if": "compute_raster", "sized": True},
+                {"shader": "raster_shade", "dispatch": "raster_listed", "indirect_offset": RASTER_SHADE_OFFSET,
+                 "label": "raster.wgsl (shade)", "only_if": "compute_raster", "sized": True},
                 # the blade inspector's forces, polygon and points, while blades are inspected
                 # (u_sim for "now": the current parameters and colliders at the time of the next step)
                 {"shader": "inspect", "dispatch": "one", "label": "inspect.wgsl", "only_if": "inspecting",
@@ -539,6 +556,8 @@ class BrowserShaders:
             "raster_args": cls.raster("args"),
             "raster_depth": cls.raster("depth", follow_camera=follow_camera),
             "raster_payload": cls.raster("payload", follow_camera=follow_camera),
+            "raster_shade_args": cls.raster("shade_args"),
+            "raster_shade": cls.raster("shade", sunlight=sunlight),
             "compute_raster": cls.compute_raster(sunlight, follow_camera),
             "blades": cls.blades(flat_colors=False, sunlight=sunlight, follow_camera=follow_camera),
             "blades_flat": cls.blades(flat_colors=True, sunlight=sunlight, follow_camera=follow_camera),

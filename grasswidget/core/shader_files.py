@@ -83,16 +83,22 @@ from ..errors import MissingFileError
 
 __all__ = ["shader_dir", "read_shader", "shader_names", "template_vars", "render_wgsl", "wgsl_float", "WORKGROUP_SIZE", "MAX_WORKGROUPS_X", "NO_WIND_BODY",
            "SHADE_PER_VERTEX_MIN_SEGMENTS",
-           "DISTANCE_BANDS", "BAND_RANGE", "RASTER_CLEAR_OFFSET"]
+           "DISTANCE_BANDS", "BAND_RANGE", "RASTER_CLEAR_OFFSET", "RASTER_SHADE_OFFSET", "RASTER_DISPATCH_WORDS"]
 
 #: Threads per workgroup of the per-blade compute shaders (``@workgroup_size``).
 WORKGROUP_SIZE = 256
 #: Workgroups along x of one dispatch before it folds into y (WebGPU's guaranteed minimum limit;
 #: raster.wgsl's args step folds the walks' indirect dispatch the same way).
 MAX_WORKGROUPS_X = 65535
-#: Bytes into the compute rasterizer's dispatch words (s_raster_dispatch, 8 u32) where its
-#: clear's workgroups are (raster.wgsl's clear_args step writes words 4..6; the walks' are at 0).
+#: u32 words of the compute rasterizer's dispatch buffer (s_raster_dispatch): three (x, y, z, 0)
+#: workgroup counts: the walks' at word 0, the clear's at 4, the shade's at 8.
+RASTER_DISPATCH_WORDS = 12
+#: Bytes into the compute rasterizer's dispatch words where its clear's workgroups are
+#: (raster.wgsl's clear_args step writes words 4..6; the walks' are at 0).
 RASTER_CLEAR_OFFSET = 16
+#: Bytes into the compute rasterizer's dispatch words where its shade's workgroups are
+#: (raster.wgsl's shade_args step writes words 8..10, after the walks).
+RASTER_SHADE_OFFSET = 32
 
 #: The "custom" wind when ``params.wind_wgsl`` is empty: no wind.
 NO_WIND_BODY = "    return vec3<f32>(0.0);"

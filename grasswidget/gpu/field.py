@@ -43,7 +43,7 @@ __all__ = ["GrassField", "GrassMaterial", "BladeLimitError", "WindShaderError", 
 
 # Distance bands per LOD class (the draw order of the culled lists): one source for both
 # engines, in grasswidget.core.shader_files.
-from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS  # noqa: E402,F401
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_DISPATCH_WORDS  # noqa: E402,F401
 
 
 N_CLASSES = len(LOD_SEGMENTS)
@@ -171,9 +171,11 @@ class GrassField(gfx.WorldObject):
         self._store.raster_args_buffer = gfx.Buffer(np.zeros(4, np.uint32), usage=usage.STORAGE | usage.COPY_SRC)
         self._store.raster_depth_buffer = gfx.Buffer(**(dict(one, nbytes=8, nitems=2) if self.raster_packed else one))
         self._store.raster_payload_buffer = gfx.Buffer(**one)
-        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step, then the
-        # clear's (x, y, z, 0), written by its clear_args step.
-        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(8, np.uint32),
+        # The shaded colours of the pixels the walks won (raster.wgsl's step "shade"): two words per pixel.
+        self._store.raster_color_buffer = gfx.Buffer(**dict(one, nbytes=8, nitems=2))
+        # The walks' workgroups (x, y, z, 0), written by raster.wgsl's args step, the clear's,
+        # written by its clear_args step, and the shade's, written by its shade_args step.
+        self._store.raster_dispatch_buffer = gfx.Buffer(np.zeros(RASTER_DISPATCH_WORDS, np.uint32),
                                                         usage=usage.STORAGE | usage.INDIRECT)
         self._store.raster_size = (0, 0)
         # Raster buffers replaced by a size change, destroyed at the next prepare: the frame
@@ -371,11 +373,18 @@ class GrassField(gfx.WorldObject):
 
     @property
     def raster_dispatch_buffer(self):
-        """pygfx Buffer of 8 u32: the compute rasterizer's walks' workgroups (x, y, z, 0),
-        written on the GPU after the culling (raster.wgsl, step "args"), then its clear's
-        (x, y, z, 0) for the rows the last frame wrote (step "clear_args", before the
-        culling); the walks and the clear are dispatched indirectly from it."""
+        """pygfx Buffer of 12 u32 (``RASTER_DISPATCH_WORDS``): the compute rasterizer's walks'
+        workgroups (x, y, z, 0), written on the GPU after the culling (raster.wgsl, step "args"),
+        then its clear's (x, y, z, 0) for the rows the last frame wrote (step "clear_args", before
+        the culling), then its shade's for the rows this frame's walks wrote (step "shade_args",
+        after them); the walks, the clear and the shade are dispatched indirectly from it."""
         return self._store.raster_dispatch_buffer
+
+    @property
+    def raster_color_buffer(self):
+        """pygfx Buffer of two u32 per pixel: the colour (sRGB, f16 pairs (r, g), (b, 0)) raster.wgsl's
+        step "shade" gave each pixel a compute-rasterized blade won; the resolve writes it."""
+        return self._store.raster_color_buffer
 
     @property
     def raster_depth_buffer(self):
@@ -449,7 +458,7 @@ class GrassField(gfx.WorldObject):
                                                         usage=usage.STORAGE | usage.COPY_SRC)
         if (width, height) != self._store.raster_size:
             pixels = max(width * height, 1)
-            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer]
+            old = [self._store.raster_depth_buffer, self._store.raster_payload_buffer, self._store.raster_color_buffer]
             # Counters all zero: the rows written read "every row", so the first clear of the
             # new pixel words (raster.wgsl, which clears only the rows the last frame wrote)
             # clears them whole. Zeroed in place: the culling passes keep the buffer bound
@@ -463,6 +472,8 @@ class GrassField(gfx.WorldObject):
             payload = 1 if self.raster_packed else pixels
             self._store.raster_payload_buffer = gfx.Buffer(nbytes=4 * payload, nitems=payload, format="u4",
                                                            usage=usage.STORAGE | usage.COPY_SRC)
+            self._store.raster_color_buffer = gfx.Buffer(nbytes=8 * pixels, nitems=2 * pixels, format="u4",
+                                                         usage=usage.STORAGE)
             self._store.raster_size = (width, height)
             self._store.raster_retired = old
         data = self.cull_uniform_buffer.data
@@ -678,7 +689,7 @@ class GrassField(gfx.WorldObject):
         names = ("blade_buffer", "args_buffer", "visible_buffer", "cull_uniform", "collision_buffer",
                  "culled_args_buffer", "culled_buffer", "band_buffer", "occlusion_flags_buffer",
                  "occlusion_args_buffer", "raster_list_buffer", "raster_args_buffer", "raster_depth_buffer",
-                 "raster_payload_buffer", "raster_dispatch_buffer")
+                 "raster_payload_buffer", "raster_color_buffer", "raster_dispatch_buffer")
         destroy_buffers([self._store[name] for name in names] + list(self._store.raster_retired))
         self._store.raster_retired = []
         self.occlusion.release()

@@ -42,10 +42,11 @@ import wgpu
 from .. import compat
 from ..errors import GrassValueError
 from ..core.reference import HZB_MAX_LEVELS, LOD_SEGMENTS, hzb_layout
+from ..core.shader_files import RASTER_SHADE_OFFSET
 from .adapter import ensure_device
 from .compute import ComputeProgram, destroy_buffers, sync_buffer
 from .draw_bundles import DrawBundle
-from .raster_walks import raster_walk_steps
+from .raster_walks import SHADE_STEPS, raster_walk_steps
 from .wgsl_templates import workgroups
 
 __all__ = ["OcclusionDraws", "OcclusionCulling", "register_second_phase_shaders", "HZB_TAIL_TEXELS"]
@@ -214,12 +215,12 @@ class OcclusionCulling:
                 programs.append((ComputeProgram(HzbLevelShader(field, first, len(self.layout) - 1), field), (1, 1, 1)))
             self._level_programs = programs
         key = (id(self.hzb_buffer), id(field.culled_buffer), id(field.raster_list_buffer),
-               id(field.raster_depth_buffer))
+               id(field.raster_depth_buffer), id(field.raster_color_buffer), bool(field.material.sunlight))
         if self._cull_programs is None or key != self._cull_key:
             self._cull_programs = [ComputeProgram(CullShader(field, "scatter", occlusion=2), field),
                                    ComputeProgram(RasterShader(field, "args", second=True), field),
                                    *(ComputeProgram(RasterShader(field, step, second=True), field)
-                                     for step in raster_walk_steps(field))]
+                                     for step in (*raster_walk_steps(field), *SHADE_STEPS))]
             self._cull_key = key
         return self._level_programs, self._cull_programs
 
@@ -234,7 +235,7 @@ class OcclusionCulling:
             return False
         width, height = int(depth.size[0]), int(depth.size[1])
         self._ensure_size(width, height)
-        levels, (cull, raster_args, *raster_walks) = self._programs()
+        levels, (cull, raster_args, *raster_walks, shade_args, shade) = self._programs()
         device = ensure_device()
         hzb = sync_buffer(self.hzb_buffer)
         sync_buffer(self.levels_buffer)
@@ -252,6 +253,9 @@ class OcclusionCulling:
             raster_args.dispatch(cp, (1, 1, 1))  # a thread per blade this phase listed
             for walk in raster_walks:  # one walk (packed) or two (depth, payload): raster_walk_steps
                 walk.dispatch_indirect(cp, self.field.raster_dispatch_buffer)
+            # the written rows' colours again (both phases' blades), for the resolve drawn after
+            shade_args.dispatch(cp, (1, 1, 1))
+            shade.dispatch_indirect(cp, self.field.raster_dispatch_buffer, RASTER_SHADE_OFFSET)
         cp.end()
         if deferred:
             render_pass = compat.begin_target_render_pass(renderer, enc, self.draws.material.alpha_method)

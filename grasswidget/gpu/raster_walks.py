@@ -20,10 +20,14 @@ from __future__ import annotations
 
 from ..errors import GrassValueError
 
-__all__ = ["ONE_WALK_FEATURES", "one_walk_supported", "prefer_two_walks", "two_walks_preferred", "raster_packed", "raster_walk_steps"]
+__all__ = ["ONE_WALK_FEATURES", "SHADE_STEPS", "one_walk_supported", "prefer_two_walks", "two_walks_preferred", "raster_packed",
+           "raster_walk_steps"]
 
 #: The wgpu features the one-walk layout needs (u64 in WGSL and its atomicMin).
 ONE_WALK_FEATURES = ("shader-int64", "shader-int64-atomic-min-max")
+#: The raster.wgsl steps after the walks, in both layouts and both phases: one thread sizes the shade
+#: ("shade_args"), then a thread per pixel of the written rows shades the winning blade ("shade").
+SHADE_STEPS = ("shade_args", "shade")
 
 _preference = {"two_walks": False}
 

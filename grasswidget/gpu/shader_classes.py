@@ -51,11 +51,11 @@ from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
 from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
-from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_CLEAR_OFFSET
+from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_CLEAR_OFFSET, RASTER_SHADE_OFFSET
 from .field import GrassField
 from .material import GrassMaterial
 from .occlusion import OcclusionDraws, register_second_phase_shaders
-from .raster_walks import raster_walk_steps
+from .raster_walks import SHADE_STEPS, raster_walk_steps
 from .wgsl_templates import (WORKGROUP_SIZE, GrassComputeShader, follows_camera, shader_vars, storage_struct_code,
                              workgroups)
 
@@ -268,19 +268,32 @@ class RasterShader(GrassComputeShader):
     per-pixel words, dispatched indirectly from there), "args" (one thread after the culling:
     the walks' workgroups into words 0..2, the rows written to none), "packed" (the one walk
     with 64-bit atomics, ``wobject.raster_packed``) or "depth" and "payload" (the two walks),
-    dispatched indirectly from those workgroups;
-    ``second``: the walks of occlusion culling's second phase (run by
-    :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render())."""
+    dispatched indirectly from those workgroups, then "shade_args" (one thread: the shade's
+    workgroups for the rows the walks wrote into words 8..10) and "shade" (a thread per pixel of
+    those rows, dispatched indirectly from there: the winning blade's colour into
+    ``GrassField.raster_color_buffer``, the ribbons' shading, so that the resolve's fragments only
+    copy it); ``second``: the steps of occlusion culling's second phase (run by
+    :class:`~grasswidget.gpu.occlusion.OcclusionCulling`, never by render()). The shade compiles
+    the material's sunlight switch in, and no user function overrides (it shades, it does not
+    simulate or cull)."""
 
     def __init__(self, wobject, step, second=False):
         walks = raster_walk_steps(wobject)
-        if step not in ("clear_args", "clear", "args", *walks):
-            raise GrassValueError(f"step must be 'clear_args', 'clear', 'args' or {' or '.join(map(repr, walks))} "
-                                  f"(this field's walks, GrassField.raster_packed); got {step!r}")
-        super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed))
-        if step in walks or step == "clear":  # gpu/indirect.py: dispatch_workgroups_indirect
+        if step not in ("clear_args", "clear", "args", *walks, *SHADE_STEPS):
+            raise GrassValueError(f"step must be 'clear_args', 'clear', 'args', {', '.join(map(repr, walks))} "
+                                  f"(this field's walks, GrassField.raster_packed), 'shade_args' or 'shade'; "
+                                  f"got {step!r}")
+        shade = {}
+        if step == "shade":
+            shade = dict(raster_resolve_vars(), sunlight=bool(wobject.material.sunlight),
+                         teaching_views=bool(wobject.flat_colors))
+        super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed), **shade)
+        if step == "shade":
+            self.function_overrides = None  # the shading is the ribbons', whatever a user replaced
+        if step in walks or step in ("clear", "shade"):  # gpu/indirect.py: dispatch_workgroups_indirect
             self.indirect_args = wobject.raster_dispatch_buffer
-            self.indirect_offset = RASTER_CLEAR_OFFSET if step == "clear" else 0  # bytes: the clear's words
+            # bytes: the clear's words, the shade's, or the walks' at 0
+            self.indirect_offset = {"clear": RASTER_CLEAR_OFFSET, "shade": RASTER_SHADE_OFFSET}.get(step, 0)
         self._field = weakref.ref(wobject)
 
     def skip_dispatch(self) -> bool:
@@ -301,9 +314,14 @@ class RasterShader(GrassComputeShader):
             13: Binding("s_raster_depth", "buffer/storage", wobject.raster_depth_buffer, "COMPUTE"),
             14: Binding("s_raster_payload", "buffer/storage", wobject.raster_payload_buffer, "COMPUTE"),
         }
-        if self["step"] in ("args", "clear_args"):  # only there: the others read it as indirect arguments
+        if self["step"] in ("args", "clear_args", "shade_args"):  # only there: the others read it as indirect arguments
             bindings[15] = Binding("s_raster_dispatch", "buffer/storage", wobject.raster_dispatch_buffer, "COMPUTE")
-        for slot in (0, 1, 10, 11):
+        declared = [0, 1, 10, 11]
+        if self["step"] == "shade":
+            bindings[3] = Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer, "COMPUTE")
+            bindings[16] = Binding("s_raster_color", "buffer/storage", wobject.raster_color_buffer, "COMPUTE")
+            declared.append(3)
+        for slot in declared:
             self.define_binding(0, slot, bindings[slot])
         return {0: bindings}
 
@@ -316,18 +334,21 @@ class RasterShader(GrassComputeShader):
             f"@group(0) @binding(13) var<storage, read_write> s_raster_depth: array<atomic<{word}>>;\n"
             "@group(0) @binding(14) var<storage, read_write> s_raster_payload: array<atomic<u32>>;\n"
             + ("@group(0) @binding(15) var<storage, read_write> s_raster_dispatch: array<u32>;\n"
-               if self["step"] in ("args", "clear_args") else "")
+               if self["step"] in ("args", "clear_args", "shade_args") else "")
+            + ("@group(0) @binding(16) var<storage, read_write> s_raster_color: array<u32>;\n"
+               if self["step"] == "shade" else "")
             + "{$ include 'grasswidget.raster.wgsl' $}\n"
         )
 
     def get_render_info(self, wobject, shared):
-        return {"indices": (1, 1, 1)}  # clear_args and args: one thread; the clear and the walks: indirect
+        return {"indices": (1, 1, 1)}  # clear_args, args, shade_args: one thread; the others: indirect
 
 
 class RasterResolveShader(BaseShader):
     """The compute rasterizer's resolve (raster_resolve.wgsl): one draw across the rows the
-    walks wrote that shades the compute-rasterized pixels and writes their depth; no instance while the
-    compute rasterizer is off. ``wobject``: the GrassField or its OcclusionDraws."""
+    walks wrote that writes the compute-rasterized pixels' colours (shaded by RasterShader's step
+    "shade") and depths; no instance while the compute rasterizer is off. ``wobject``: the
+    GrassField or its OcclusionDraws."""
 
     type = "render"
 
@@ -351,7 +372,7 @@ class RasterResolveShader(BaseShader):
             1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
             U_CULL_SLOT: cull_binding(field, "FRAGMENT"),
             3: Binding("u_material", "buffer/uniform", wobject.material.uniform_buffer),
-            4: Binding("s_blades", rbuffer, field.blade_buffer, "FRAGMENT"),
+            4: Binding("s_raster_color", rbuffer, field.raster_color_buffer, "FRAGMENT"),
             5: Binding("s_raster_depth", rbuffer, field.raster_depth_buffer, "FRAGMENT"),
             6: Binding("s_raster_payload", rbuffer, field.raster_payload_buffer, "FRAGMENT"),
             7: Binding("s_raster_args", rbuffer, field.raster_args_buffer, "VERTEX"),  # the rows written
@@ -413,7 +434,7 @@ def grass_render_function(wobject):
         PrefixBandsShader(wobject),
         CullShader(wobject, "scatter"),
         RasterShader(wobject, "args"),
-        *(RasterShader(wobject, step) for step in raster_walk_steps(wobject)),
+        *(RasterShader(wobject, step) for step in (*raster_walk_steps(wobject), *SHADE_STEPS)),
         *(BladeRenderShader(wobject, k) for k in range(len(LOD_SEGMENTS) + 1)),
         RasterResolveShader(wobject),
     ]

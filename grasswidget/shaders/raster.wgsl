@@ -63,6 +63,12 @@
 $$ if follow_camera
 {$ include 'grasswidget.levels.wgsl' $}
 $$ endif
+$$ if step == "shade"
+{$ include 'grasswidget.shadows.wgsl' $}
+$$ if teaching_views
+const RASTER_COLOR = vec3<f32>({{ raster_color }});
+$$ endif
+$$ endif
 
 const RASTER_EMPTY: u32 = 0xffffffffu;
 
@@ -138,6 +144,55 @@ fn raster_blade(blade_id: u32) {
 }
 $$ endif
 
+$$ if step == "shade"
+// The colour of pixel `pixel` of the written rows (nothing where no blade won it): the winning
+// blade's curve point v shaded like the ribbons shade it (blade_math.blade_shade with the ribbon's
+// normal, the looks' base colour, glow, sunlight and fog), as two f16 pairs (r, g), (b, 0) into
+// s_raster_color; the resolve (raster_resolve.wgsl) writes it with the pixel's depth.
+fn raster_shade_pixel(pixel: u32) {
+    $$ if raster_packed
+    let depth = atomicLoad(&s_raster_depth[2u * pixel + 1u]);
+    let payload = ~atomicLoad(&s_raster_depth[2u * pixel]);
+    $$ else
+    let depth = atomicLoad(&s_raster_depth[pixel]);
+    let payload = atomicLoad(&s_raster_payload[pixel]);
+    $$ endif
+    if (depth == RASTER_EMPTY) {
+        return;
+    }
+    let blade = payload >> 8u;
+    let v = f32(payload & 255u) / 255.0;
+    let rec = load_blade(blade);
+    // The ribbon's curve point, tangent and normal at v (blade_render.wgsl).
+    let a = rec.v0 + v * (rec.v1 - rec.v0);
+    let b = rec.v1 + v * (rec.v2 - rec.v1);
+    let c = a + v * (b - a);
+    let t1 = width_direction(rec.up, rec.orientation);
+    var t0 = b - a;
+    if (dot(t0, t0) < 1e-12) { t0 = rec.up; }
+    let n = cross(normalize(t0), t1);
+    let world_pos = (u_wobject.world_transform * vec4<f32>(c, 1.0)).xyz;
+    let world_normal = (u_wobject.world_transform * vec4<f32>(n, 0.0)).xyz;
+    let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
+    // The blade's colour like the ribbons' vertices give it (blade_render.wgsl): its
+    // patch (clump noise of the root), its hash, the glow against the sun and the fog.
+    let eye = cam_pos - world_pos;
+    let clump = clump_noise(rec.v0.x, rec.v0.z, u_material.patch_size);
+    let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
+                                u_material.color_variation, u_material.dryness);
+    let glow = backlight(normalize(eye), normalize(u_material.light_direction.xyz), v, u_material.translucency);
+    let fog = fog_amount(length(eye), u_material.fog_density);
+    let sunlit = blade_sunlight(world_pos, v, u_material.ambient);  // shadows.wgsl, as the ribbons
+    var rgb = blade_shade(world_normal, normalize(eye), v, base * sunlit.x, glow * sunlit.y, fog, u_material.fog_color.rgb,
+                          u_material.light_direction.xyz, u_material.ambient);
+    $$ if teaching_views
+    if (u_cull.color_by == {{ color_by_lod }}) { rgb = RASTER_COLOR; }
+    $$ endif
+    s_raster_color[2u * pixel] = pack2x16float(rgb.rg);
+    s_raster_color[2u * pixel + 1u] = pack2x16float(vec2<f32>(rgb.b, 0.0));
+}
+$$ endif
+
 @compute @workgroup_size({{ workgroup_size }})
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -190,6 +245,27 @@ fn main(
         s_raster_dispatch[0] = x;
         s_raster_dispatch[1] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
         s_raster_dispatch[2] = 1u;
+    }
+    $$ elif step == "shade_args"
+    if (i == 0u) {
+        let width = u32(u_cull.raster_width);
+        let height = u32(u_cull.raster_height);
+        let first_row = atomicLoad(&s_raster_args[2]);
+        let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);  // none written: first > last
+        let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
+        let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+        let x = min(groups, {{ max_groups_x }}u);
+        s_raster_dispatch[8] = x;
+        s_raster_dispatch[9] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+        s_raster_dispatch[10] = 1u;
+    }
+    $$ elif step == "shade"
+    let width = u32(u_cull.raster_width);
+    let first_row = atomicLoad(&s_raster_args[2]);
+    let last_row = min(~atomicLoad(&s_raster_args[3]), u32(u_cull.raster_height) - 1u);
+    let pixel = first_row * width + i;
+    if (first_row <= last_row && pixel < (last_row + 1u) * width) {
+        raster_shade_pixel(pixel);
     }
     $$ else
     let end = atomicLoad(&s_raster_args[0]);

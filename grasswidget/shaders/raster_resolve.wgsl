@@ -1,26 +1,20 @@
 // The compute rasterizer's resolve (raster.wgsl): one draw across the pixel rows the walks wrote. Each pixel
-// a compute-rasterized blade covers is shaded like the ribbons shade it
+// a compute-rasterized blade covers is written in the colour raster.wgsl's step "shade" gave it
 // (blade_math.blade_shade at the blade's curve point v, with the ribbon's normal and
-// the looks' base colour, glow and fog) and written with that blade's depth (frag_depth), so the
+// the looks' base colour, glow and fog: the ribbons' shading) with that blade's depth (frag_depth), so the
 // ordinary depth test composites it with the hardware-drawn blades, the ground and
 // sky, the balls and any other object. Pixels no such blade covers are discarded.
 //
-// With teaching_views and u_cull.color_by "lod", these blades are flat in
+// With teaching_views and u_cull.color_by "lod", the shade step made these blades flat in
 // RASTER_COLOR (teaching.COMPUTE_RASTER_COLOR: "drawn in compute").
 //
-// Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material,
-// s_blades, s_raster_depth and s_raster_payload (array<u32>, read; with raster_packed
-// s_raster_depth holds both, two words per pixel, raster.wgsl), s_raster_args
+// Bindings (the engine's): u_stdinfo, u_wobject, u_cull (storage), u_material (opacity),
+// s_raster_depth and s_raster_payload (array<u32>, read; with raster_packed
+// s_raster_depth holds both, two words per pixel, raster.wgsl), s_raster_color (array<u32>,
+// read: two words per pixel, raster.wgsl's step "shade"), s_raster_args
 // (array<u32>, read: blades listed and rows written, raster.wgsl).
 
 {$ include 'pygfx.std.wgsl' $}
-{$ include 'grasswidget.blade.wgsl' $}
-{$ include 'grasswidget.blade_math.wgsl' $}
-{$ include 'grasswidget.shadows.wgsl' $}
-
-$$ if teaching_views
-const RASTER_COLOR = vec3<f32>({{ raster_color }});
-$$ endif
 
 struct VertexInput {
     @builtin(vertex_index) index : u32,
@@ -68,42 +62,16 @@ fn fs_main(varyings: Varyings) -> FragmentOutput {
     if (depth == 0xffffffffu) {
         discard;
     }
-    let blade = payload >> 8u;
-    let v = f32(payload & 255u) / 255.0;
-    let rec = load_blade(blade);
-    // The ribbon's curve point, tangent and normal at v (blade_render.wgsl).
-    let a = rec.v0 + v * (rec.v1 - rec.v0);
-    let b = rec.v1 + v * (rec.v2 - rec.v1);
-    let c = a + v * (b - a);
-    let t1 = width_direction(rec.up, rec.orientation);
-    var t0 = b - a;
-    if (dot(t0, t0) < 1e-12) { t0 = rec.up; }
-    let n = cross(normalize(t0), t1);
-    let world_pos = (u_wobject.world_transform * vec4<f32>(c, 1.0)).xyz;
-    let world_normal = (u_wobject.world_transform * vec4<f32>(n, 0.0)).xyz;
-    let cam_pos = u_stdinfo.cam_transform_inv[3].xyz;
-    // The blade's colour like the ribbons' vertices give it (blade_render.wgsl): its
-    // patch (clump noise of the root), its hash, the glow against the sun and the fog.
-    let eye = cam_pos - world_pos;
-    let clump = clump_noise(rec.v0.x, rec.v0.z, u_material.patch_size);
-    let base = blade_base_color(u_material.root_color.rgb, u_material.tip_color.rgb, v, hash01(blade), clump,
-                                u_material.color_variation, u_material.dryness);
-    let glow = backlight(normalize(eye), normalize(u_material.light_direction.xyz), v, u_material.translucency);
-    let fog = fog_amount(length(eye), u_material.fog_density);
-    let sunlit = blade_sunlight(world_pos, v, u_material.ambient);  // shadows.wgsl, as the ribbons
-    var rgb = blade_shade(world_normal, normalize(eye), v, base * sunlit.x, glow * sunlit.y, fog, u_material.fog_color.rgb,
-                          u_material.light_direction.xyz, u_material.ambient);
-    $$ if teaching_views
-    if (u_cull.color_by == {{ color_by_lod }}) { rgb = RASTER_COLOR; }
-    $$ endif
-
+    // The pixel's colour, shaded by raster.wgsl's step "shade" (f16 pairs: r g, b): on a GPU whose
+    // fragment units are few, the shading per pixel costs a compute pass a fraction of a fragment pass.
+    let rgb = vec3<f32>(unpack2x16float(s_raster_color[2u * index]), unpack2x16float(s_raster_color[2u * index + 1u]).x);
     var out: FragmentOutput;
     out.color = vec4<f32>(srgb2physical(rgb), u_material.opacity);
     out.depth = bitcast<f32>(depth);
     $$ if write_pick
     out.pick = (
         pick_pack(u32(u_wobject.global_id), 20) +
-        pick_pack(blade, 26)
+        pick_pack(payload >> 8u, 26)
     );
     $$ endif
     return out;

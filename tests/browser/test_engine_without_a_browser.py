@@ -38,13 +38,13 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     occlusion = shaders["occlusion"]
     texts += [occlusion["cull"], *occlusion["hzb_levels"], *occlusion["blades"], *occlusion["blades_flat"]]
     raster = shaders["compute_raster"]
-    texts += [shaders[k] for k in ("raster_clear", "raster_depth", "raster_payload")]
-    texts += [raster[k] for k in ("second_depth", "second_payload", "resolve", "resolve_flat")]
+    texts += [shaders[k] for k in ("raster_clear", "raster_depth", "raster_payload", "raster_shade_args", "raster_shade")]
+    texts += [raster[k] for k in ("second_depth", "second_payload", "second_shade_args", "second_shade", "resolve")]
     # The draws with the sunlight's maths compiled in (GrassParams.shadows on), and without it in the others.
     sunlit = BrowserShaders.all(sunlight=True)
     sunlit_draws = (sunlit["blades"] + sunlit["blades_flat"] + sunlit["occlusion"]["blades"]
-                    + sunlit["occlusion"]["blades_flat"] + [sunlit["sky_ground"], sunlit["compute_raster"]["resolve"],
-                                                            sunlit["compute_raster"]["resolve_flat"]])
+                    + sunlit["occlusion"]["blades_flat"] + [sunlit["sky_ground"], sunlit["raster_shade"],
+                                                            sunlit["compute_raster"]["second_shade"]])
     assert all("sun_and_sky(" in sh["code"] for sh in sunlit_draws)
     assert not any("sun_and_sky(" in sh["code"] for sh in texts)
     texts += sunlit_draws
@@ -90,6 +90,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     # Every compute pass of a frame names a shader that is sent.
     assert [p["shader"] for p in shaders["compute_passes"]] == [
         "reset_args", "raster_clear_args", "raster_clear", "cull_count", "prefix_bands", "cull", "raster_args", "raster_depth", "raster_payload",
+        "raster_shade_args", "raster_shade",
         "inspect"]
     # The inspector: the kernel's inspect.wgsl (its forces from blade_math's tip_step and collisions.wgsl),
     # run only while blades are inspected; its lines and points and the frozen frustum are overlays.
@@ -128,9 +129,11 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     assert [(p["shader"], p["dispatch"], p["only_if"]) for p in sized] == [
         ("raster_clear_args", "one", "compute_raster"), ("raster_clear", "raster_listed", "compute_raster"),
         ("raster_args", "one", "compute_raster"),
-        ("raster_depth", "raster_listed", "compute_raster"), ("raster_payload", "raster_listed", "compute_raster")]
-    # The clear runs over the rows the last frame wrote: its workgroups at their own offset.
-    assert [p.get("indirect_offset", 0) for p in sized] == [0, 16, 0, 0, 0]
+        ("raster_depth", "raster_listed", "compute_raster"), ("raster_payload", "raster_listed", "compute_raster"),
+        ("raster_shade_args", "one", "compute_raster"), ("raster_shade", "raster_listed", "compute_raster")]
+    # The clear runs over the rows the last frame wrote, the shade over the rows the walks wrote: their
+    # workgroups at their own offsets.
+    assert [p.get("indirect_offset", 0) for p in sized] == [0, 16, 0, 0, 0, 0, 32]
     assert "s_raster_dispatch[4] = x;" in shaders["raster_clear_args"]["code"]
     names = [p["shader"] for p in shaders["compute_passes"]]
     assert names.index("raster_clear") < names.index("cull_count") < names.index("cull") < names.index("raster_args")
@@ -140,7 +143,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert "s_raster_dispatch[0] = x;" in sh["code"]
     assert "atomicStore(&s_raster_args[2], RASTER_EMPTY);" in shaders["raster_args"]["code"]  # rows written: none
     assert "atomicStore(&s_raster_args[2]" not in raster["second_args"]["code"]  # the first phase's rows kept
-    assert raster["dispatch_words"] == 8 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
+    assert raster["dispatch_words"] == 12 and raster["shade_offset"] == 32 and (raster["rows_at"], raster["rows_words"]) == (2, 2)
     for sh in (shaders["cull"], occlusion["cull"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
         assert kinds["s_raster"] == "storage" and kinds["s_raster_args"] == "storage"
@@ -152,14 +155,19 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert "var<storage, read_write> s_raster_depth: array<atomic<u32>>" in sh["code"]
     assert "atomicMin(&s_raster_depth[index], depth);" in shaders["raster_depth"]["code"]
     assert "let first = atomicLoad(&s_raster_args[1]);" in raster["second_depth"]["code"]
-    for name, flat in (("resolve", False), ("resolve_flat", True)):
-        sh = raster[name]
+    sh = raster["resolve"]
+    kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
+    assert kinds["s_raster_depth"] == kinds["s_raster_color"] == kinds["s_raster_args"] == "read-only-storage"
+    # only the rows the walks wrote run the fragment shader; none written: no fragment shaded
+    assert "select(0.0, 1.0, s_raster_args[2] <= ~s_raster_args[3])" in sh["code"]
+    # the colours come from the shade step (a compute pass): no shading per fragment
+    assert "@builtin(frag_depth) depth: f32" in sh["code"] and "blade_shade(" not in sh["code"]
+    for sh in (shaders["raster_shade"], raster["second_shade"]):
         kinds = {b["name"]: b["kind"] for b in sh["bindings"]}
-        assert kinds["s_raster_depth"] == kinds["s_raster_payload"] == kinds["s_raster_args"] == "read-only-storage"
-        # only the rows the walks wrote run the fragment shader; none written: no fragment shaded
-        assert "select(0.0, 1.0, s_raster_args[2] <= ~s_raster_args[3])" in sh["code"]
-        assert "@builtin(frag_depth) depth: f32" in sh["code"] and "blade_shade(" in sh["code"]
-        assert ("const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]) == flat
+        assert kinds["s_raster_color"] == kinds["s_raster_depth"] == "storage" and "blade_shade(" in sh["code"]
+        assert "const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]  # the colour-by views'
+    for sh in (shaders["raster_shade_args"], raster["second_shade_args"]):
+        assert "s_raster_dispatch[8] = x;" in sh["code"]
     assert all("@builtin(frag_depth)" not in b["code"] for b in shaders["blades"])
     at = offsets(CULL_LAYOUT)
     assert (raster["switch_offset"], raster["width_offset"], raster["height_offset"]) == (

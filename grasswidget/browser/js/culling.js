@@ -180,9 +180,10 @@ export class Occlusion {
 }
 
 /**
- * The compute rasterizer: per view size, the per-pixel depth and payload words and the bind groups
- * of the passes that use them; the second phase's walks; the resolve draw. The clear and the
- * walks of the first phase are compute passes of shaders.compute_passes (only_if "compute_raster", "sized").
+ * The compute rasterizer: per view size, the per-pixel depth, payload and colour words and the bind
+ * groups of the passes that use them; the second phase's walks and shade; the resolve draw. The clear,
+ * the walks and the shade of the first phase are compute passes of shaders.compute_passes (only_if
+ * "compute_raster", "sized").
  */
 export class ComputeRaster {
   /**
@@ -193,23 +194,24 @@ export class ComputeRaster {
     const second_args = await gpu.computePipeline(spec.second_args, "raster.wgsl (args, occlusion second phase)");
     const second_depth = await gpu.computePipeline(spec.second_depth, "raster.wgsl (depth, occlusion second phase)");
     const second_payload = await gpu.computePipeline(spec.second_payload, "raster.wgsl (payload, occlusion second phase)");
+    const second_shade_args = await gpu.computePipeline(spec.second_shade_args, "raster.wgsl (shade_args, occlusion second phase)");
+    const second_shade = await gpu.computePipeline(spec.second_shade, "raster.wgsl (shade, occlusion second phase)");
     const resolve = await gpu.renderPipeline(spec.resolve, "raster_resolve.wgsl", { topology: "triangle-strip", depth: depthStencil });
-    const resolveFlat = await gpu.renderPipeline(spec.resolve_flat, "raster_resolve.wgsl (colour by)",
-      { topology: "triangle-strip", depth: depthStencil });
-    return new ComputeRaster(gpu, spec, { second_args, second_depth, second_payload }, resolve, resolveFlat);
+    return new ComputeRaster(gpu, spec, { second_args, second_depth, second_payload, second_shade_args, second_shade },
+      resolve);
   }
 
   /**
-   * @param {EngineDevice} gpu @param {any} spec @param {{second_args: Pipe, second_depth: Pipe, second_payload: Pipe}} second
-   * @param {Pipe} resolve @param {Pipe} resolveFlat
+   * @param {EngineDevice} gpu @param {any} spec
+   * @param {{second_args: Pipe, second_depth: Pipe, second_payload: Pipe, second_shade_args: Pipe, second_shade: Pipe}} second
+   * @param {Pipe} resolve
    */
-  constructor(gpu, spec, second, resolve, resolveFlat) {
+  constructor(gpu, spec, second, resolve) {
     this.gpu = gpu;
     this.spec = spec;
     this.second = second;
     this.resolve = resolve;
-    this.resolveFlat = resolveFlat;
-    /** @type {Map<string, {depth: GPUBuffer, payload: GPUBuffer, groups: Map<string, GPUBindGroup>}>} */
+    /** @type {Map<string, {depth: GPUBuffer, payload: GPUBuffer, color: GPUBuffer, groups: Map<string, GPUBindGroup>}>} */
     this.targets = new Map();
     /** @type {string | null} the size whose rows the counters hold */
     this.lastKey = null;
@@ -233,7 +235,7 @@ export class ComputeRaster {
   }
 
   dropTargets() {
-    for (const t of this.targets.values()) { t.depth.destroy(); t.payload.destroy(); }
+    for (const t of this.targets.values()) { t.depth.destroy(); t.payload.destroy(); t.color.destroy(); }
     this.targets.clear();
     this.lastKey = null;
   }
@@ -260,40 +262,43 @@ export class ComputeRaster {
     const bytes = 4 * width * height;
     const depth = device.createBuffer({ size: bytes, usage: U.STORAGE, label: "compute raster depth" });
     const payload = device.createBuffer({ size: bytes, usage: U.STORAGE, label: "compute raster payload" });
-    const res = { ...buffers, s_raster_depth: depth, s_raster_payload: payload };
+    const color = device.createBuffer({ size: bytes * spec.color_words_per_pixel, usage: U.STORAGE,
+      label: "compute raster colours" });
+    const res = { ...buffers, s_raster_depth: depth, s_raster_payload: payload, s_raster_color: color };
     const groups = new Map();
     for (const p of sized) groups.set(p.name, this.gpu.bindGroup(p, res));
     for (const [name, p] of Object.entries(this.second)) groups.set(name, this.gpu.bindGroup(p, res));
     groups.set("resolve", this.gpu.bindGroup(this.resolve, res));
-    groups.set("resolveFlat", this.gpu.bindGroup(this.resolveFlat, res));
-    t = { depth, payload, groups };
-    keepTarget(this.targets, key, t, (old) => { old.depth.destroy(); old.payload.destroy(); });
+    t = { depth, payload, color, groups };
+    keepTarget(this.targets, key, t, (old) => { old.depth.destroy(); old.payload.destroy(); old.color.destroy(); });
     return t;
   }
 
   /**
-   * The thin blades the second phase listed, walked into the same per-pixel words.
+   * The thin blades the second phase listed, walked into the same per-pixel words, and the written
+   * rows shaded again (both phases' blades).
    * @param {GPUComputePassEncoder} cpass @param {{groups: Map<string, GPUBindGroup>}} target
    * @param {Record<string, GPUBuffer>} buffers
    */
   encodeSecondPhase(cpass, target, buffers) {
-    for (const name of /** @type {const} */ (["second_args", "second_depth", "second_payload"])) {
+    const steps = /** @type {const} */ (["second_args", "second_depth", "second_payload", "second_shade_args", "second_shade"]);
+    for (const name of steps) {
       cpass.setPipeline(this.second[name].pipeline);
       cpass.setBindGroup(0, target.groups.get(name));
-      if (name === "second_args") cpass.dispatchWorkgroups(1);  // a thread per blade this phase listed
-      else cpass.dispatchWorkgroupsIndirect(buffers.s_raster_dispatch, 0);
+      // one thread: the walks' workgroups (a thread per blade this phase listed), the shade's (a thread per pixel)
+      if (name === "second_args" || name === "second_shade_args") cpass.dispatchWorkgroups(1);
+      else cpass.dispatchWorkgroupsIndirect(buffers.s_raster_dispatch, name === "second_shade" ? this.spec.shade_offset : 0);
     }
   }
 
   /**
-   * The resolve: one full-screen draw writing the compute-drawn pixels' colour and depth (the
-   * colour-by views' variant while color_by is not natural, as the ribbons).
-   * @param {GPURenderPassEncoder} pass @param {{groups: Map<string, GPUBindGroup>}} target @param {boolean} flat
+   * The resolve: one draw across the written rows, writing the compute-drawn pixels' colours (the shade
+   * step's, colour-by views included) and depths.
+   * @param {GPURenderPassEncoder} pass @param {{groups: Map<string, GPUBindGroup>}} target
    */
-  encodeResolve(pass, target, flat) {
-    const p = flat ? this.resolveFlat : this.resolve;
-    pass.setPipeline(p.pipeline);
-    pass.setBindGroup(0, target.groups.get(flat ? "resolveFlat" : "resolve"));
+  encodeResolve(pass, target) {
+    pass.setPipeline(this.resolve.pipeline);
+    pass.setBindGroup(0, target.groups.get("resolve"));
     pass.draw(4);
   }
 }

@@ -165,7 +165,7 @@ export class FramePasses {
       if (p.shader.culled) pass.drawIndirect(res.s_culled_args, 0);  // color_by "cull": the culled blades
       else pass.drawIndirect(res.s_args, 16 * k);
     });
-    if (raster) pipelines.raster.encodeResolve(pass, raster, flat);
+    if (raster) pipelines.raster.encodeResolve(pass, raster);
     pass.setPipeline(pipelines.skyGround.pipeline);
     pass.setBindGroup(0, pipelines.skyGround.group);
     pass.draw(4);
@@ -175,7 +175,7 @@ export class FramePasses {
       o.encodeSecondPhase(encoder, depthTexture, width, height, res, blades, raster ? { raster: pipelines.raster, target: raster } : null);
       const culled = flat ? pipelines.flatBladePipes.find((p) => p.shader.culled) || null : null;
       const second = o.beginDrawPass(encoder, colorView, depthView, res, flat, culled);
-      if (raster) pipelines.raster.encodeResolve(second, raster, flat);
+      if (raster) pipelines.raster.encodeResolve(second, raster);
       this.encodeBalls(second);
       return;
     }
