@@ -139,7 +139,8 @@ PRIVATE_USES = (
      "(jupyter-rfb draws only then; the kernel view stops its clock while it is False: observe_view_visibility; set_view_visibility sets it in tests)"),
     ("jupyter_rfb", "RemoteFrameBuffer._frame_feedback",
      "the synced trait its front end sets when a frame arrived (index, timestamp): the kernel view's stats "
-     "say how long ago the newest frame arrived (observe_frame_feedback)"),
+     "say how long ago the newest frame arrived (observe_frame_feedback); redeclared on the timed canvas "
+     "without ipywidgets' echo (one message less per frame: timed_jupyter_canvas_class)"),
     ("jupyter_rfb", "RemoteFrameBuffer._esm (the text of renderview.js)",
      "one line corrected: its 'input' handler clears the hidden key input through this.focus_el, a name "
      "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm)"),
@@ -650,7 +651,10 @@ def timed_jupyter_canvas_class():
     - ``on_transport(kind, seconds)`` (when set) is called on the event loop's thread with
       ``("encode", s)`` and ``("send", s)`` for each frame streamed (not for the lossless redraws) and
       ``("unchanged", 0.0)`` for each frame not sent again;
-    - closed, it also closes its Layout and jupyter-rfb's output widget (``_rc_close``) and its worker.
+    - closed, it also closes its Layout and jupyter-rfb's output widget (``_rc_close``) and its worker;
+    - the page's acknowledgement of each frame (jupyter-rfb's ``_frame_feedback``) is not echoed back
+      to the page: ipywidgets 8 echoes every trait a front end sets, one more message per frame through
+      the kernel, the server and the page, and no view reads that trait.
 
     jupyter-rfb 1.0.2's ``_rfb_send_frame`` is replaced (its frame counter, stats and lossless
     redraw are kept as it keeps them; see :data:`PRIVATE_USES`).
@@ -660,6 +664,7 @@ def timed_jupyter_canvas_class():
     import time
 
     import numpy as np
+    import traitlets
     from jupyter_rfb import RemoteFrameBuffer
     from rendercanvas.jupyter import RenderCanvas
 
@@ -669,6 +674,8 @@ def timed_jupyter_canvas_class():
     for hook in ("_rfb_send_frame", "_rfb_schedule_lossless_draw", "_rfb_cancel_lossless_draw"):
         if not callable(getattr(RemoteFrameBuffer, hook, None)):
             raise UpstreamChangedError(f"jupyter-rfb internals changed: RemoteFrameBuffer.{hook} not found")
+    if not isinstance(RemoteFrameBuffer.class_traits().get("_frame_feedback"), traitlets.Dict):
+        raise UpstreamChangedError("jupyter-rfb internals changed: RemoteFrameBuffer._frame_feedback is not a Dict trait")
 
     class TimedJupyterCanvas(RenderCanvas):
         #: Called with time.perf_counter() when a frame's pixels arrive; None: nobody listens.
@@ -684,6 +691,8 @@ def timed_jupyter_canvas_class():
         _frame_owed = True  # the page may lack the last frame (a new view, a resize, back on screen)
         #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm).
         _esm = fixed_rfb_esm(str(RenderCanvas._esm))
+        #: jupyter-rfb's acknowledgement of a shown frame (index, timestamps), set by the page; not echoed.
+        _frame_feedback = traitlets.Dict({}).tag(sync=True, echo_update=False)
 
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)

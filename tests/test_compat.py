@@ -689,3 +689,26 @@ def test_jupyter_canvas_falls_back_to_jupyter_rfbs_encoder(monkeypatch):
         assert np.abs(_decoded(sent[0][1][0]) - frame[:, :, :3]).mean() < 6.0
     finally:
         canvas.close()
+
+
+def test_jupyter_canvas_does_not_echo_the_frame_acknowledgement():
+    """The page acknowledges every frame through jupyter-rfb's ``_frame_feedback``; ipywidgets 8
+    echoes a trait the page sets back to the page: not this one (a message per frame no view reads).
+    Other traits the page sets are still echoed, and the acknowledgement still reaches the kernel."""
+    canvas = compat.timed_jupyter_canvas_class()(size=(32, 24))
+    sent = []
+    canvas._send = lambda msg, buffers=None: sent.append(msg)  # the comm's send, below the echo
+    arrived = []
+    stop = compat.observe_frame_feedback(canvas, arrived.append)
+    try:
+        def update(state):
+            canvas._handle_msg({"content": {"data": {"method": "update", "state": state, "buffer_paths": []}},
+                                "buffers": []})
+
+        update({"_frame_feedback": {"index": 3, "timestamp": 1.0, "localtime": 2.0}})
+        assert arrived == [3] and not [m for m in sent if m.get("method") == "echo_update"]
+        update({"_has_visible_views": True})
+        assert [m["state"] for m in sent if m.get("method") == "echo_update"] == [{"_has_visible_views": True}]
+    finally:
+        stop()
+        canvas.close()
