@@ -17,7 +17,7 @@ read events only through :func:`event_type`, :func:`event_ratio` and
 
 from __future__ import annotations
 
-from .errors import UpstreamChangedError
+from .errors import GrassValueError, UpstreamChangedError
 
 __all__ = [
     "CHECKED",
@@ -143,7 +143,9 @@ PRIVATE_USES = (
      "without ipywidgets' echo (one message less per frame: timed_jupyter_canvas_class)"),
     ("jupyter_rfb", "RemoteFrameBuffer._esm (the text of renderview.js)",
      "one line corrected: its 'input' handler clears the hidden key input through this.focus_el, a name "
-     "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm)"),
+     "renderview.js never sets, so every character typed into the view threw a page error (fixed_rfb_esm); "
+     "its acknowledgement of each frame made one of every ACK_EVERY frames at once, the others within "
+     "ACK_DELAY_MS (throttled_ack_esm)"),
     ("ipywidgets", "widgets.widget._instances",
      "the registry of open widgets (model id -> widget): not a holder when a re-run cell decides whether to close "
      "its earlier widget (cell_rerun.holder_of)"),
@@ -652,9 +654,10 @@ def timed_jupyter_canvas_class():
       ``("encode", s)`` and ``("send", s)`` for each frame streamed (not for the lossless redraws) and
       ``("unchanged", 0.0)`` for each frame not sent again;
     - closed, it also closes its Layout and jupyter-rfb's output widget (``_rc_close``) and its worker;
-    - the page's acknowledgement of each frame (jupyter-rfb's ``_frame_feedback``) is not echoed back
-      to the page: ipywidgets 8 echoes every trait a front end sets, one more message per frame through
-      the kernel, the server and the page, and no view reads that trait.
+    - the page acknowledges every :data:`ACK_EVERY`-th frame (and any other within :data:`ACK_DELAY_MS`:
+      :func:`throttled_ack_esm`), and its acknowledgement (jupyter-rfb's ``_frame_feedback``) is not
+      echoed back to the page: ipywidgets 8 echoes every trait a front end sets, one more message per
+      acknowledgement through the kernel, the server and the page, and no view reads that trait.
 
     jupyter-rfb 1.0.2's ``_rfb_send_frame`` is replaced (its frame counter, stats and lossless
     redraw are kept as it keeps them; see :data:`PRIVATE_USES`).
@@ -689,8 +692,9 @@ def timed_jupyter_canvas_class():
         _encoder = None
         _lossless_due = False  # the last frame sent was lossy: the lossless picture is still owed
         _frame_owed = True  # the page may lack the last frame (a new view, a resize, back on screen)
-        #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm).
-        _esm = fixed_rfb_esm(str(RenderCanvas._esm))
+        #: jupyter-rfb's front end, with the typing error corrected (see fixed_rfb_esm), acknowledging
+        #: every ACK_EVERY-th frame (throttled_ack_esm).
+        _esm = throttled_ack_esm(fixed_rfb_esm(str(RenderCanvas._esm)))
         #: jupyter-rfb's acknowledgement of a shown frame (index, timestamps), set by the page; not echoed.
         _frame_feedback = traitlets.Dict({}).tag(sync=True, echo_update=False)
 
@@ -913,6 +917,48 @@ def set_frame_feedback(canvas, index: int):
 #: element is ``this._focusElement``; ``this.focus_el`` (its name in jupyter-rfb 0.x) is never set.
 RFB_INPUT_BUG = "this.focus_el.value = ''"
 RFB_INPUT_FIX = "this._focusElement.value = ''"
+
+#: jupyter-rfb 1.0's front end acknowledges each frame as it shows it (these lines of renderview.js's
+#: ``_animate``).
+RFB_ACK_EACH_FRAME = "    this._lastFrame = frame\n    this._send_response()\n"
+#: The throttled front end acknowledges every ACK_EVERY-th frame (by index) at once ...
+ACK_EVERY = 3
+#: ... and any other frame ACK_DELAY_MS milliseconds after it was shown unless a later one was acknowledged
+#: first (the last frame of a stream, the lossless picture after it, a frame shown alone).
+ACK_DELAY_MS = 50
+
+
+def throttled_ack_esm(esm: str, every: int = ACK_EVERY, delay_ms: int = ACK_DELAY_MS) -> str:
+    """jupyter-rfb's front-end module acknowledging fewer frames (:data:`RFB_ACK_EACH_FRAME` replaced).
+
+    Each acknowledgement is a widget message the page sends, the kernel handles and the page then
+    sees the kernel go busy and idle for (two status messages, each updating JupyterLab's kernel
+    indicators): on a 2-core machine that shares the kernel's cores with the browser, a fixed cost per
+    frame shown. Here the page acknowledges frame ``i`` at once when ``i % every == 0``, and otherwise
+    ``delay_ms`` ms later unless another acknowledgement went first; an acknowledgement names the
+    newest frame shown, so every frame is acknowledged, no later than ``delay_ms``. The kernel's limit
+    of frames in flight (``max_buffered_frames``, :data:`grasswidget.views.kernel.MAX_BUFFERED_FRAMES`)
+    must leave room for ``every`` frames between two acknowledgements. ``every`` 1: unchanged.
+    A module without the expected lines raises :class:`UpstreamChangedError` (check the upgrade)."""
+    if not isinstance(every, int) or isinstance(every, bool) or every < 1:
+        raise GrassValueError(f"every must be an integer >= 1 (frames per acknowledgement); got {every!r}")
+    if not isinstance(delay_ms, int) or isinstance(delay_ms, bool) or not 0 <= delay_ms <= 1000:
+        raise GrassValueError(f"delay_ms must be an integer in 0..1000 (milliseconds); got {delay_ms!r}")
+    if esm.count(RFB_ACK_EACH_FRAME) != 1:
+        raise UpstreamChangedError("jupyter-rfb's renderview.js changed: it no longer acknowledges each frame "
+                                   "as grasswidget.compat.throttled_ack_esm expects")
+    if every == 1:
+        return esm
+    throttled = (
+        "    this._lastFrame = frame\n"
+        "    // grasswidget (compat.throttled_ack_esm): every few frames at once, any other one a little later\n"
+        "    clearTimeout(this._gwAckTimer)\n"
+        f"    if (frame.index % {every} === 0) {{ this._send_response() }} else {{\n"
+        "      this._gwAckTimer = setTimeout(() => { try { this._send_response() } catch { } }, "
+        f"{delay_ms})\n"
+        "    }\n"
+    )
+    return esm.replace(RFB_ACK_EACH_FRAME, throttled, 1)
 
 
 def fixed_rfb_esm(esm: str) -> str:

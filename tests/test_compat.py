@@ -360,10 +360,11 @@ def test_jupyter_rfb_front_end_gets_its_typing_error_corrected():
     cls = compat.timed_jupyter_canvas_class()
     fixed = str(cls._esm)
     assert "focus_el" not in fixed and compat.RFB_INPUT_FIX in fixed
+    expected = compat.throttled_ack_esm(original)  # and its acknowledgements throttled (below)
     if compat.RFB_INPUT_BUG in original:  # only that line differs
-        assert fixed == original.replace(compat.RFB_INPUT_BUG, compat.RFB_INPUT_FIX)
+        assert fixed == expected.replace(compat.RFB_INPUT_BUG, compat.RFB_INPUT_FIX)
     else:
-        assert fixed == original
+        assert fixed == expected
     with pytest.raises(compat.UpstreamChangedError):
         compat.fixed_rfb_esm("this.focus_el.focus()")
 
@@ -712,3 +713,52 @@ def test_jupyter_canvas_does_not_echo_the_frame_acknowledgement():
     finally:
         stop()
         canvas.close()
+
+
+def test_jupyter_rfb_front_end_acknowledges_every_other_frame():
+    """The kernel canvas's front end acknowledges every ACK_EVERY-th frame at once and any other after
+    ACK_DELAY_MS unless a later acknowledgement went first; the kernel leaves room for the frames
+    between two acknowledgements. Its _animate is run here on a stand-in page (node), frames 1..7:
+    the acknowledgements are of the frames whose index ACK_EVERY divides, at once, then of frame 7
+    (the newest) after the delay."""
+    import json
+    import shutil
+    import subprocess
+
+    from jupyter_rfb import RemoteFrameBuffer
+
+    from grasswidget.views.kernel import MAX_BUFFERED_FRAMES
+
+    original = str(RemoteFrameBuffer._esm)
+    throttled = compat.throttled_ack_esm(original)
+    assert throttled != original and compat.RFB_ACK_EACH_FRAME not in throttled
+    assert compat.throttled_ack_esm(original, every=1) == original
+    assert MAX_BUFFERED_FRAMES >= compat.ACK_EVERY + 1
+    for bad in (dict(every=0), dict(every=1.5), dict(delay_ms=-1), dict(delay_ms=5000)):
+        with pytest.raises(compat.GrassValueError):
+            compat.throttled_ack_esm(original, **bad)
+    with pytest.raises(compat.UpstreamChangedError):
+        compat.throttled_ack_esm("this._send_response()")
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("no node here to run the front end's acknowledgement")
+    start = throttled.index("  _animate () {")
+    body = throttled[start:throttled.index("\n  }\n", start) + 4]
+    script = (
+        "const acks = []; const t0 = Date.now();\n"
+        "globalThis.window = { requestAnimationFrame: () => 0 };\n"
+        "globalThis.URL = { createObjectURL: () => 'blob:x', revokeObjectURL: () => {} };\n"
+        "class Page {\n" + body + "\n"
+        "  _send_response () { acks.push([this._lastFrame.index, Date.now() - t0]) }\n"
+        "}\n"
+        "const page = Object.assign(new Page(), { _frames: [], views: [], _lastSrc: '' });\n"
+        "for (let i = 1; i <= 7; i++) { page._frames.push({ index: i, buffers: [], data_b64: 'x' }); page._animate() }\n"
+        "setTimeout(() => console.log(JSON.stringify(acks)), 4 * " + str(compat.ACK_DELAY_MS) + ");\n"
+    )
+    out = subprocess.run([node, "-e", script], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    acks = json.loads(out.stdout)
+    at_once = [i for i in range(1, 8) if i % compat.ACK_EVERY == 0]
+    assert 7 not in at_once and [index for index, _ in acks] == at_once + [7]
+    assert all(t < compat.ACK_DELAY_MS / 2 for _, t in acks[:-1])  # at once
+    assert acks[-1][1] >= compat.ACK_DELAY_MS - 5  # the newest waited

@@ -21,7 +21,8 @@ readback (rendercanvas copies the frame into a mapped buffer without stalling th
 queue and presents it when the copy is done), JPEG encode and send (on the canvas's
 worker thread, so the kernel renders the next frame meanwhile: Pillow's encoder
 releases the GIL; see :func:`grasswidget.compat.timed_jupyter_canvas_class`), and the
-browser's acknowledgement (jupyter-rfb's frame feedback). jupyter-rfb lets
+browser's acknowledgement (jupyter-rfb's frame feedback: every third frame at once, any other
+within 50 ms, :func:`grasswidget.compat.throttled_ack_esm`). jupyter-rfb lets
 :data:`MAX_BUFFERED_FRAMES` frames be in flight (those being encoded included), so
 the kernel renders the next frame while the last one travels and is decoded; the
 scheduler asks for at most ``max_fps`` frames per second (30 on a CPU adapter, 60 on
@@ -97,8 +98,9 @@ CPU_MAX_BLADES = 1 << 18
 GPU_MAX_BLADES = 1 << 22
 #: How often (seconds) the stats line is refreshed (it does one small GPU readback).
 STATS_INTERVAL = STATS_INTERVAL_MS / 1000.0  # s; core.engine_inputs's, both engines
-#: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser).
-MAX_BUFFERED_FRAMES = 3
+#: Frames jupyter-rfb may have in flight (sent, not yet acknowledged by the browser): room for the
+#: compat.ACK_EVERY frames the page shows between two acknowledgements and two more on their way.
+MAX_BUFFERED_FRAMES = 5
 
 
 def _exclusive(method):
