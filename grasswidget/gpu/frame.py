@@ -6,7 +6,9 @@ then the frame runs in the phases of :mod:`grasswidget.gpu.occlusion` (the first
 ``render()``, the depth pyramid, the second culling phase and its draws outside it in one
 submission, then the translucent ``late`` objects): one ``render()`` call, two with late
 objects. Every visible GrassField is first set up for the renderer's size
-(``GrassField.prepare_compute_raster``).
+(``GrassField.prepare_compute_raster``), and every visible SkyGround's cache decides whether
+its sky and ground are shaded or copied this frame (``SkyGroundCache.prepare``: copied while
+the camera, the size and their values stay what the last frame had).
 """
 
 from __future__ import annotations
@@ -40,10 +42,14 @@ def _prepare_sunlight(scene, fields):
     values = [field.prepare_sunlight() for field in fields]
     if not values:
         return
+    for ob in _sky_grounds(scene):
+        ob.material.set_sunlight(values[0])
+
+
+def _sky_grounds(scene):
     grounds = []
     scene.traverse(lambda ob: grounds.append(ob) if isinstance(ob, SkyGround) else None, skip_invisible=True)
-    for ob in grounds:
-        ob.material.set_sunlight(values[0])
+    return grounds
 
 
 def render_frame(renderer, scene, camera, late=()):
@@ -75,6 +81,8 @@ def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
         field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
     _prepare_sunlight(scene, all_fields)
+    for sky in _sky_grounds(scene):  # a still view's sky and ground: copied, not shaded again
+        sky.cache.prepare(renderer, camera)
     fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
     # Occlusion off this frame by a measured choice that may turn it on again: the second
     # phase's draws are prepared with the frame's render and their draw calls dropped (nothing

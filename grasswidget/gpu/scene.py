@@ -411,6 +411,7 @@ class GrassScene:
         for observer in self._observers:
             observer.stop()
         self.field.release()
+        self.sky_ground.cache.release()
         try:
             self.scene.remove(self.field)
         except Exception:

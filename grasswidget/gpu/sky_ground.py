@@ -22,15 +22,17 @@ from __future__ import annotations
 import numpy as np
 import pygfx as gfx
 import wgpu
-from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_function
+from pygfx.renderers.wgpu import BaseShader, Binding, GfxTextureView, register_wgpu_render_function
 
+from .. import compat
 from ..errors import GrassValueError
 from ..core.engine_inputs import BEYOND_COLOR, FIELD_EDGE, HORIZON_COLOR, SOIL_COLOR, ZENITH_COLOR, ground_sun
 from ..core.shader_files import read_shader
 from ..core.uniform_layouts import SKY_GROUND_LAYOUT, shadertype, write_values
 from .wgsl_templates import shader_vars  # (also registers the 'grasswidget' WGSL loader)
 
-__all__ = ["SkyGround", "GroundPart", "SkyGroundMaterial", "GroundSwitch"]
+__all__ = ["SkyGround", "GroundPart", "SkyGroundMaterial", "GroundSwitch", "SkyGroundCache", "SkyCopy",
+           "SkyCopyMaterial"]
 
 
 class SkyGroundMaterial(gfx.Material):
@@ -61,6 +63,7 @@ class SkyGroundMaterial(gfx.Material):
         self._sunlight_seen = None  # (values, uniform bytes) of the last set_sunlight
         self._store.sunlight = False
         self._store.far_grass = False
+        self._store.copied = False  # drawn from SkyGroundCache's picture (SkyCopy), not shaded
         data = self.uniform_buffer.data
         for name, color in (("horizon_color", horizon_color), ("zenith_color", zenith_color),
                             ("soil_color", soil_color), ("beyond_color", beyond_color)):
@@ -147,6 +150,17 @@ class SkyGroundMaterial(gfx.Material):
         return self._store.far_grass
 
     @property
+    def copied(self) -> bool:
+        """True while the sky and ground are drawn from :class:`SkyGroundCache`'s picture (the
+        :class:`SkyCopy`) instead of shaded: the shaded draws have no instance (tracked by pygfx)."""
+        return self._store.copied
+
+    @copied.setter
+    def copied(self, value):
+        if bool(value) != self._store.copied:
+            self._store.copied = bool(value)
+
+    @property
     def fog_density(self) -> float:
         """Distance fog density in 1/m (0 = no fog), towards ``horizon_color``."""
         return float(self.uniform_buffer.data["fog_density"])
@@ -190,6 +204,9 @@ class SkyGround(gfx.WorldObject):
         self.ground_part = GroundPart(self.material) if split else None
         if self.ground_part is not None:
             self.add(self.ground_part)
+        #: The picture of a still view, copied instead of shaded (:class:`SkyGroundCache`; render_frame
+        #: prepares it before each frame).
+        self.cache = SkyGroundCache(self)
 
     @property
     def part(self) -> str:
@@ -223,6 +240,135 @@ class GroundSwitch:
         self.material.show_ground = value
 
 
+
+class SkyCopyMaterial(gfx.Material):
+    """What :class:`SkyCopy` draws: ``texture`` (a pygfx Texture of the view's size and the colour
+    target's format, the sky and ground shaded once), ``drawn`` (False: no instance) and in its
+    uniforms ``sky_id``, the pick id the copied pixels keep (the SkyGround's)."""
+
+    uniform_type = dict(gfx.Material.uniform_type, sky_id="u4")
+
+    def __init__(self, texture, sky_id: int):
+        super().__init__(depth_test=True, depth_compare="<", depth_write=False)
+        self._store.texture = texture
+        self._store.drawn = False
+        self.uniform_buffer.data["sky_id"] = int(sky_id)
+        self.uniform_buffer.update_full()
+
+    @property
+    def texture(self):
+        """The picture copied (tracked by pygfx: a new one binds anew)."""
+        return self._store.texture
+
+    @texture.setter
+    def texture(self, value):
+        self._store.texture = value
+
+    @property
+    def drawn(self) -> bool:
+        """Whether the copy is drawn this frame (tracked by pygfx)."""
+        return self._store.drawn
+
+    @drawn.setter
+    def drawn(self, value):
+        if bool(value) != self._store.drawn:
+            self._store.drawn = bool(value)
+
+
+class SkyCopy(gfx.WorldObject):
+    """The sky and ground drawn from :class:`SkyGroundCache`'s picture (``sky_copy.wgsl``): a child of
+    the SkyGround it copies, drawn last like it, at the same depth."""
+
+    def __init__(self, material: SkyCopyMaterial):
+        _register()
+        super().__init__(None, material, render_order=1e6)
+
+
+class SkyGroundCache:
+    """The sky and ground of a still view, shaded once and then copied (the kernel engine's live view).
+
+    The sky and ground shade every pixel the grass leaves open, every frame; on a CPU adapter that
+    is a sixth of the default widget's frame (0.4 of its render's CPU at 1280 x 720 beside the
+    grass), and what they show depends only on the camera, the view's size and the sky/ground's
+    values (:class:`SkyGroundMaterial`'s uniforms: colours, ground, field, fog, sunlight and the
+    balls' shadows). :meth:`prepare`, before each frame (``render_frame``): while any of those
+    changed since the frame before (a camera being dragged, a ball rolling), the sky and ground are
+    shaded as ever; when a frame finds them as the last one left them, they are shaded once into a
+    texture of the view's size (an own renderer, the same camera, nothing else in its scene) and
+    drawn from it (:class:`SkyCopy`: one texel fetch per open pixel) until something changes. The
+    picture is the same, pixel for pixel (tests/gpu/test_sky_ground.py). Only for renderers that draw
+    at pixel ratio 1 (an export's supersampled renderer shades as ever).
+    """
+
+    def __init__(self, sky: "SkyGround"):
+        self.sky = sky
+        self._last_key = None    # what the last frame's sky and ground depended on
+        self._cached_key = None  # what the picture in the texture was shaded for
+        self._texture = None
+        self._renderer = None
+        self._scene = None
+        self.copy = None  # the SkyCopy, added under the sky once a picture is cached
+        #: Pictures shaded into the texture so far (for tests and benchmarks).
+        self.builds = 0
+
+    def _key(self, renderer, camera):
+        material = self.sky.material
+        return (tuple(renderer.physical_size), float(renderer.pixel_ratio),
+                np.asarray(camera.world.matrix, np.float64).tobytes(),
+                np.asarray(camera.projection_matrix, np.float64).tobytes(),
+                material.uniform_buffer.data.tobytes(), material.sunlight, material.far_grass)
+
+    def prepare(self, renderer, camera) -> bool:
+        """Before a frame of ``renderer`` with ``camera``: draw the sky and ground from the cached
+        picture this frame (True; shading it first when the picture is of something else) or shade
+        them (False: they changed since the last frame, or the renderer does not draw at ratio 1)."""
+        key = self._key(renderer, camera)
+        still = key == self._last_key
+        self._last_key = key
+        depth = compat.renderer_depth_texture(renderer)  # the size pygfx draws at (None before its first render)
+        usable = (float(renderer.pixel_ratio) == 1.0 and depth is not None
+                  and tuple(int(s) for s in depth.size[:2]) == tuple(int(s) for s in renderer.physical_size)
+                  and all(int(s) > 0 for s in renderer.physical_size))
+        if not (still and usable):
+            self._show(False)
+            return False
+        if self._cached_key != key:
+            self._build(renderer, camera)
+            self._cached_key = key
+        self._show(True)
+        return True
+
+    def _show(self, copied: bool):
+        self.sky.material.copied = copied
+        if self.copy is not None:
+            self.copy.material.drawn = copied
+
+    def _build(self, renderer, camera):
+        width, height = (int(s) for s in renderer.physical_size)
+        if self._texture is None or tuple(self._texture.size[:2]) != (width, height):
+            self._texture = gfx.Texture(dim=2, size=(width, height, 1), format="rgba8unorm-srgb", colorspace="physical")
+            self._renderer = gfx.WgpuRenderer(self._texture, pixel_ratio=1, ppaa="none", enable_events=False)
+            compat.copy_output_when_exact(self._renderer)  # the sky covers every pixel: a copy
+            if self.copy is None:
+                self.copy = SkyCopy(SkyCopyMaterial(self._texture, self.sky.id))
+                self.sky.add(self.copy)
+            else:
+                self.copy.material.texture = self._texture
+        if self._scene is None:
+            self._scene = gfx.Scene()
+            self._scene.add(SkyGround(self.sky.material))
+        self._show(False)
+        self._renderer.render(self._scene, camera)
+        self.builds += 1
+
+    def release(self):
+        """Drop the texture and the renderer (the next still frame makes them again)."""
+        self._show(False)
+        if self.copy is not None:
+            self.sky.remove(self.copy)
+        self.copy = self._texture = self._renderer = self._scene = None
+        self._last_key = self._cached_key = None
+
 _done = []
 
 
@@ -249,8 +395,9 @@ def _register():
             return {"primitive_topology": topology, "cull_mode": wgpu.CullMode.none}
 
         def get_render_info(self, wobject, shared):
-            # "all": the screen's strip of 4; a piece: up to 3 triangles of a fan (sky_ground.wgsl)
-            return {"indices": (4 if wobject.part == "all" else 9, 1)}
+            # "all": the screen's strip of 4; a piece: up to 3 triangles of a fan (sky_ground.wgsl);
+            # none while SkyGroundCache's copy draws the picture instead
+            return {"indices": (4 if wobject.part == "all" else 9, 0 if wobject.material.copied else 1)}
 
         def __init__(self, wobject, **kwargs):
             # blade_math.wgsl's ids and constants; the shadows' maths only while they are on
@@ -264,3 +411,28 @@ def _register():
 
     register_wgpu_render_function(SkyGround, SkyGroundMaterial)(SkyGroundShader)
     register_wgpu_render_function(GroundPart, SkyGroundMaterial)(SkyGroundShader)
+
+    class SkyCopyShader(BaseShader):
+        type = "render"
+
+        def get_bindings(self, wobject, shared, scene):
+            material = wobject.material
+            bindings = {
+                0: Binding("u_stdinfo", "buffer/uniform", shared.uniform_buffer),
+                1: Binding("u_wobject", "buffer/uniform", wobject.uniform_buffer),
+                2: Binding("u_material", "buffer/uniform", material.uniform_buffer),
+                3: Binding("t_sky", "texture/auto", GfxTextureView(material.texture, view_dim="2d"), "FRAGMENT"),
+            }
+            self.define_bindings(0, bindings)
+            return {0: bindings}
+
+        def get_pipeline_info(self, wobject, shared):
+            return {"primitive_topology": wgpu.PrimitiveTopology.triangle_strip, "cull_mode": wgpu.CullMode.none}
+
+        def get_render_info(self, wobject, shared):
+            return {"indices": (4, 1 if wobject.material.drawn else 0)}
+
+        def get_code(self):
+            return read_shader("sky_copy.wgsl")
+
+    register_wgpu_render_function(SkyCopy, SkyCopyMaterial)(SkyCopyShader)

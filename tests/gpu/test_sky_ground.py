@@ -13,7 +13,8 @@ import pytest
 
 import grasswidget as gw
 from grasswidget.core import engine_inputs, reference as ref
-from grasswidget.gpu.scene import GrassScene
+from grasswidget.gpu.scene import GrassScene, make_renderer
+from rendercanvas.offscreen import RenderCanvas
 from grasswidget.gpu.sky_ground import SkyGround
 from conftest import save_test_picture
 
@@ -159,3 +160,69 @@ def test_the_split_draws_give_the_one_pass_picture_from_any_camera(course):
     finally:
         split.visible = True
         scene.scene.remove(whole)
+
+
+def _default_scene():
+    scene = GrassScene(1024, size=SIZE)
+    scene.renderer.ppaa = "none"
+    return scene
+
+
+def test_a_still_views_sky_and_ground_are_copied_and_the_picture_is_the_same():
+    """render_frame shades the sky and ground while what they show changes and copies them once a
+    frame finds them as the last one left them (SkyGroundCache): the copied frames are the shaded
+    ones, pixel for pixel, while the grass moves under them; a camera that moves, another size or a
+    changed sky/ground value shades them again, and the copy comes back once they are still."""
+    a, b = _default_scene(), _default_scene()
+    try:
+        cache = a.sky_ground.cache
+        first = a.render()
+        assert not a.sky_ground.material.copied and cache.builds == 0  # the first frame: shaded
+        # (its render settles the camera's aspect: the second frame may still be a change)
+        frames = [a.render() for _ in range(2)]
+        assert a.sky_ground.material.copied and cache.builds == 1  # still: shaded once more into the copy
+        second = frames[-1]
+        assert np.array_equal(first, second)
+        a.step(8)
+        b.step(8)
+        moved = a.render()  # the grass moved, the sky did not: copied, not built again
+        assert a.sky_ground.material.copied and cache.builds == 1
+        shaded = b.render()  # the same state, its first frame: shaded
+        assert not b.sky_ground.material.copied
+        assert not np.array_equal(moved, second)  # the grass did move
+        assert np.array_equal(moved, shaded)
+        save_test_picture("sky_ground_copied", moved)
+        # the camera turns: shaded again; still again: a new copy
+        a.camera.local.position = a.camera.local.position + np.array([0.3, 0.0, 0.0])
+        b.camera.local.position = b.camera.local.position + np.array([0.3, 0.0, 0.0])
+        turned = a.render()
+        assert not a.sky_ground.material.copied and cache.builds == 1
+        assert np.array_equal(turned, b.render())
+        still = a.render()
+        assert a.sky_ground.material.copied and cache.builds == 2 and np.array_equal(still, turned)
+        # a sky/ground value: shaded again, then copied in its new colours
+        a.params.fog_density = b.params.fog_density = 0.05
+        fogged = a.render()
+        assert not a.sky_ground.material.copied
+        assert np.array_equal(fogged, b.render()) and not np.array_equal(fogged, still)
+        again = a.render()
+        assert a.sky_ground.material.copied and cache.builds == 3 and np.array_equal(again, fogged)
+        # another size (another renderer): a new texture, the same pictures
+        pictures = []
+        for scene in (a, b):
+            canvas = RenderCanvas(size=(80, 48), pixel_ratio=1)
+            renderer = make_renderer(canvas)
+            canvas.request_draw(lambda scene=scene, renderer=renderer: scene.draw_into(renderer))
+            frames = [np.asarray(canvas.draw()) for _ in range(3 if scene is a else 1)]
+            pictures.append(frames[-1])
+            canvas.close()
+        assert cache.builds == 4 and pictures[0].shape[:2] == (48, 80)
+        assert np.array_equal(pictures[0], pictures[1])
+        # an export (supersampled, pixel ratio 2) shades its sky and ground, however still
+        exports = [a.render_at(), a.render_at()]
+        assert not a.sky_ground.material.copied and cache.builds == 4
+        assert np.array_equal(exports[0], exports[1])
+    finally:
+        a.release()
+        b.release()
+
