@@ -715,7 +715,7 @@ def test_jupyter_canvas_does_not_echo_the_frame_acknowledgement():
         canvas.close()
 
 
-def test_jupyter_rfb_front_end_acknowledges_every_other_frame():
+def test_jupyter_rfb_front_end_acknowledges_every_few_frames():
     """The kernel canvas's front end acknowledges every ACK_EVERY-th frame at once and any other after
     ACK_DELAY_MS unless a later acknowledgement went first; the kernel leaves room for the frames
     between two acknowledgements. Its _animate is run here on a stand-in page (node), frames 1..7:

@@ -28,7 +28,7 @@ import jinja2
 from ..core.reference import FORCE_NAMES, HZB_MAX_LEVELS, HZB_ROW_ALIGN, LOD_SEGMENTS
 from ..core.shader_files import (BAND_RANGE, DISTANCE_BANDS, NO_WIND_BODY, RASTER_CLEAR_OFFSET, RASTER_DISPATCH_WORDS,
                                  RASTER_SHADE_OFFSET, WORKGROUP_SIZE,
-                                 raster_resolve_vars,
+                                 raster_shade_vars,
                                  ribbon_vars, shader_dir, template_vars, wgsl_environment, wgsl_float)
 from ..core.teaching import (ARROW_ACCEL_PER_HEIGHT, COLLISION_ARROW_SCALE, FROZEN_FRUSTUM_COLOR, INSPECTOR_COLORS,
                              MAX_INSPECTED, SEGMENT_VERTICES, inspector_segment_colors)
@@ -312,7 +312,7 @@ class BrowserShaders:
         culling's second phase (only the blades it listed). ``follow_camera``: a field to the
         horizon (its blades' widths scaled by their level's weight). ``sunlight``: the shade's
         shadows maths compiled in (``GrassParams.shadows`` on)."""
-        shade = dict(raster_resolve_vars(), sunlight=bool(sunlight)) if step == "shade" else {}
+        shade = dict(raster_shade_vars(), sunlight=bool(sunlight)) if step == "shade" else {}
         return render_shader("raster.wgsl", "compute", step=step, second=bool(second),
                              follow_camera=bool(follow_camera), **shade)
 

@@ -217,8 +217,8 @@ def ribbon_vars(lod_class: int) -> dict:
     }
 
 
-def raster_resolve_vars() -> dict:
-    """The template variables of ``raster_resolve.wgsl``: ``raster_color``, the
+def raster_shade_vars() -> dict:
+    """The template variables of ``raster.wgsl``'s step "shade": ``raster_color``, the
     "drawn in compute" teaching colour (teaching.COMPUTE_RASTER_COLOR) as WGSL floats."""
     from .teaching import COMPUTE_RASTER_COLOR, hex_to_rgb
 

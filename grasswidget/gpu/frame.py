@@ -36,13 +36,13 @@ def _draws_something(ob) -> bool:
     return any(o.material is not None for o in ob.iter(skip_invisible=True))
 
 
-def _prepare_sunlight(scene, fields):
+def _prepare_sunlight(skies, fields):
     """Each visible GrassField's sunlight into its material; the first one's into every visible
-    sky and ground of the scene (its balls' and grass' shadows on the ground)."""
+    sky and ground ``skies`` (its balls' and grass' shadows on the ground)."""
     values = [field.prepare_sunlight() for field in fields]
     if not values:
         return
-    for ob in _sky_grounds(scene):
+    for ob in skies:
         ob.material.set_sunlight(values[0])
 
 
@@ -80,8 +80,9 @@ def render_frame(renderer, scene, camera, late=()):
 def _render_frame(renderer, scene, camera, late, all_fields, switches):
     for field in all_fields:
         field.prepare_compute_raster(renderer.physical_size, on=switches.value(field, "compute_raster"))
-    _prepare_sunlight(scene, all_fields)
-    for sky in _sky_grounds(scene):  # a still view's sky and ground: copied, not shaded again
+    skies = _sky_grounds(scene)
+    _prepare_sunlight(skies, all_fields)
+    for sky in skies:  # a still view's sky and ground: copied, not shaded again
         sky.cache.prepare(renderer, camera)
     fields = [f for f in all_fields if switches.value(f, "cull_occlusion")]
     # Occlusion off this frame by a measured choice that may turn it on again: the second

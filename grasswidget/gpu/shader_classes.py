@@ -49,7 +49,7 @@ from pygfx.renderers.wgpu import BaseShader, Binding, register_wgpu_render_funct
 
 from ..core.reference import CULLED_SEGMENTS, LOD_SEGMENTS
 from ..errors import GrassValueError
-from ..core.shader_files import raster_resolve_vars, read_shader, ribbon_vars
+from ..core.shader_files import raster_shade_vars, read_shader, ribbon_vars
 from ..core.uniform_layouts import CULL_LAYOUT
 from ..core.shader_files import BAND_RANGE, DISTANCE_BANDS, RASTER_CLEAR_OFFSET, RASTER_SHADE_OFFSET
 from .field import GrassField
@@ -285,7 +285,7 @@ class RasterShader(GrassComputeShader):
                                   f"got {step!r}")
         shade = {}
         if step == "shade":
-            shade = dict(raster_resolve_vars(), sunlight=bool(wobject.material.sunlight),
+            shade = dict(raster_shade_vars(), sunlight=bool(wobject.material.sunlight),
                          teaching_views=bool(wobject.flat_colors))
         super().__init__(wobject, step=step, second=bool(second), raster_packed=bool(wobject.raster_packed), **shade)
         if step == "shade":
@@ -354,9 +354,7 @@ class RasterResolveShader(BaseShader):
 
     def __init__(self, wobject):
         field = wobject.field if isinstance(wobject, OcclusionDraws) else wobject
-        super().__init__(wobject, **shader_vars(**raster_resolve_vars(), teaching_views=field.flat_colors,
-                                                raster_packed=bool(field.raster_packed),
-                                                sunlight=wobject.material.sunlight))
+        super().__init__(wobject, **shader_vars(raster_packed=bool(field.raster_packed)))
         self._field = weakref.ref(field)
         self._draws = weakref.ref(wobject) if field is not wobject else None
 

@@ -193,6 +193,24 @@ fn raster_shade_pixel(pixel: u32) {
 }
 $$ endif
 
+$$ if step == "clear_args" or step == "shade_args"
+// A thread per pixel of the written rows (s_raster_args[2] .. ~s_raster_args[3], clamped to the view):
+// their workgroups (x, y, 1), folded into y past max_groups_x, into s_raster_dispatch[at .. at + 2];
+// none when no row was written.
+fn rows_dispatch(at: u32) {
+    let width = u32(u_cull.raster_width);
+    let height = u32(u_cull.raster_height);
+    let first_row = atomicLoad(&s_raster_args[2]);
+    let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);
+    let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
+    let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
+    let x = min(groups, {{ max_groups_x }}u);
+    s_raster_dispatch[at] = x;
+    s_raster_dispatch[at + 1u] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
+    s_raster_dispatch[at + 2u] = 1u;
+}
+$$ endif
+
 @compute @workgroup_size({{ workgroup_size }})
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -204,16 +222,7 @@ fn main(
     if (i == 0u) {
         atomicStore(&s_raster_args[0], 0u);
         atomicStore(&s_raster_args[1], 0u);
-        let width = u32(u_cull.raster_width);
-        let height = u32(u_cull.raster_height);
-        let first_row = atomicLoad(&s_raster_args[2]);
-        let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);  // all zero: every row
-        let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
-        let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
-        let x = min(groups, {{ max_groups_x }}u);
-        s_raster_dispatch[4] = x;
-        s_raster_dispatch[5] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
-        s_raster_dispatch[6] = 1u;
+        rows_dispatch(4u);  // the clear's: the rows the last frame wrote (counters all zero: every row)
     }
     $$ elif step == "clear"
     let width = u32(u_cull.raster_width);
@@ -248,16 +257,7 @@ fn main(
     }
     $$ elif step == "shade_args"
     if (i == 0u) {
-        let width = u32(u_cull.raster_width);
-        let height = u32(u_cull.raster_height);
-        let first_row = atomicLoad(&s_raster_args[2]);
-        let last_row = min(~atomicLoad(&s_raster_args[3]), height - 1u);  // none written: first > last
-        let pixels = select(0u, (last_row - first_row + 1u) * width, height > 0u && first_row <= last_row);
-        let groups = (pixels + {{ workgroup_size }}u - 1u) / {{ workgroup_size }}u;
-        let x = min(groups, {{ max_groups_x }}u);
-        s_raster_dispatch[8] = x;
-        s_raster_dispatch[9] = select(0u, (groups + x - 1u) / max(x, 1u), x > 0u);
-        s_raster_dispatch[10] = 1u;
+        rows_dispatch(8u);  // the shade's: the rows this frame's walks wrote (none: first > last)
     }
     $$ elif step == "shade"
     let width = u32(u_cull.raster_width);

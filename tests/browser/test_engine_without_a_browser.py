@@ -134,7 +134,8 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
     # The clear runs over the rows the last frame wrote, the shade over the rows the walks wrote: their
     # workgroups at their own offsets.
     assert [p.get("indirect_offset", 0) for p in sized] == [0, 16, 0, 0, 0, 0, 32]
-    assert "s_raster_dispatch[4] = x;" in shaders["raster_clear_args"]["code"]
+    assert "rows_dispatch(4u);" in shaders["raster_clear_args"]["code"]  # the clear's workgroups at word 4
+    assert "s_raster_dispatch[at] = x;" in shaders["raster_clear_args"]["code"]
     names = [p["shader"] for p in shaders["compute_passes"]]
     assert names.index("raster_clear") < names.index("cull_count") < names.index("cull") < names.index("raster_args")
     for sh in (shaders["raster_args"], raster["second_args"]):
@@ -167,7 +168,7 @@ def test_browser_wgsl_compiles_and_declares_what_it_uses():
         assert kinds["s_raster_color"] == kinds["s_raster_depth"] == "storage" and "blade_shade(" in sh["code"]
         assert "const RASTER_COLOR = vec3<f32>(1.000000, 1.000000, 1.000000);" in sh["code"]  # the colour-by views'
     for sh in (shaders["raster_shade_args"], raster["second_shade_args"]):
-        assert "s_raster_dispatch[8] = x;" in sh["code"]
+        assert "rows_dispatch(8u);" in sh["code"] and "s_raster_dispatch[at] = x;" in sh["code"]  # at word 8
     assert all("@builtin(frag_depth)" not in b["code"] for b in shaders["blades"])
     at = offsets(CULL_LAYOUT)
     assert (raster["switch_offset"], raster["width_offset"], raster["height_offset"]) == (
