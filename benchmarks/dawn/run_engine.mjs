@@ -223,6 +223,16 @@ async function runCase(root, c, tolerance, module) {
     await until("a frame of the stepped state", () => frames() > before || null, 60);
   }
   await device.queue.onSubmittedWorkDone();
+  // The engine's count of blades drawn in this state: a counter read-back issued after the frames above
+  // (paused: every frame since the steps draws this state) and completed, none pending after it.
+  const engine = [...(globalThis.__grasswidgetEngines || new Map()).values()].filter((e) => !e.closed).pop();
+  let visibleStepped = null;
+  if (engine && engine.stats) {
+    const tState = performance.now();
+    await until("the engine's counts of the stepped state",
+      () => (engine.stats.lastArgsRead > tState && !engine.stats.argsReadPending) || null, 120);
+    visibleStepped = engine.visible ? [...engine.visible] : null;
+  }
   const frame = await readCanvas(device, canvas);
   const frameFile = resolve(dirname(args.out), `${c.name}_dawn.rgba`);
   writeFileSync(frameFile, frame.rgba);
@@ -246,6 +256,8 @@ async function runCase(root, c, tolerance, module) {
     // the engine's last stats message while playing: its frames/s and blades drawn per LOD class
     engine_fps_reported: playingStats.length ? Number(playingStats[playingStats.length - 1].fps.toFixed(2)) : null,
     visible_last: playingStats.length ? playingStats[playingStats.length - 1].visible : null,
+    // the engine's blades drawn per LOD class in the compared (stepped) state
+    visible_stepped: visibleStepped,
     frame_file: frameFile, picture, errors: engineErrors,
   };
 }

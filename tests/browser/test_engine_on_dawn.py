@@ -65,11 +65,15 @@ def test_browser_engine_on_dawn_draws_the_kernel_engines_picture(tmp_path):
     kernel = np.frombuffer(kernel_file.read_bytes(), np.uint8).reshape(h, w, 4)
     iio.imwrite(tmp_path / "dawn_vs_kernel.png", np.concatenate([kernel, frame], axis=1))
     print(f"[dawn] kernel | dawn: {tmp_path / 'dawn_vs_kernel.png'}")
-    # the engine's own count of blades drawn (its last frame while playing) against the kernel engine's count
-    # for the compared state: the same culling rules, a few blades apart as the wind moves them
+    # the engine's own count of blades drawn in the compared state (its counters read back after the steps,
+    # paused) against the kernel engine's count of that state: the same culling rules, a few blades apart
+    # where the engines round differently. (The count while playing is of another state: the wind moved the
+    # blades for as long as the engine played, and it drifted 5 % from the kernel's in one run of 11-29.)
     kernel_visible = json.loads(manifest.read_text())["cases"][0]["kernel_visible"]
-    print(f"[dawn] blades drawn: engine {sum(case['visible_last'])} ({case['visible_last']}), kernel {kernel_visible}")
-    assert kernel_visible > 0 and abs(sum(case["visible_last"]) - kernel_visible) <= 0.05 * kernel_visible
+    stepped = case["visible_stepped"]
+    print(f"[dawn] blades drawn: engine {sum(stepped)} ({stepped}), while playing {case['visible_last']}, "
+          f"kernel {kernel_visible}")
+    assert kernel_visible > 0 and abs(sum(stepped) - kernel_visible) <= 0.05 * kernel_visible
     if result["adapter"]["timestamp_query"]:  # every pass timed: simulation, culling and the draws
         kinds = " ".join(case["gpu_ms_per_pass"])
         assert "simulate" in kinds and "cull" in kinds and "render: blade_render" in kinds, kinds
