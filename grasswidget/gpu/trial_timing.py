@@ -6,8 +6,13 @@ and the trial are :class:`grasswidget.core.auto_switches.AutoSwitches` (pure Pyt
 this module only times the frames and reads the GPU's counts for it: while a field is being
 tried, the frame is GPU-synchronised before and after the render (a 16-byte readback waits for
 the queue), so its time is the render's, and the blades drawn, occluded and drawn in compute
-are read back right after it. Frames outside a trial are not synchronised. The time is wall
-time on a GPU adapter and the process's CPU time on a CPU adapter (lavapipe renders in this
+are read back right after it. Frames outside a trial are not synchronised. The time
+(:func:`trial_clock`) is, on a GPU adapter with timestamp queries, the GPU time of the frame's
+passes (:class:`grasswidget.compat.PassTimer`: every compute and render pass of the render, summed):
+a synchronised frame's wall time there is mostly the host's work, which moves by more than the
+switches change (an H200's 2^20 meadow: frames of 6-17 ms on the wall for 3.5-4 ms of GPU work,
+and a trial that decided the compute rasterizer differently from run to run). On a GPU adapter
+without them it is wall time; on a CPU adapter the process's CPU time (lavapipe renders in this
 process's threads: its CPU time is the render's work, and moves far less than wall time when
 other processes load the machine). While a field's culling is frozen its switches hold the values
 of the last frame before freezing (the camera flying around a frozen view starts no trial, and a
@@ -25,10 +30,12 @@ import wgpu
 from ..core.auto_switches import SWITCHES, AutoSwitches, DecisionContext
 from .adapter import ensure_device
 
-__all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts", "trial_mark"]
+__all__ = ["begin_frame", "switches_of", "FrameSwitches", "wait_for_queue", "switch_texts", "trial_mark",
+           "trial_clock"]
 
 _STATE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _SYNC = {}
+_TIMERS = {}  # id(device) -> (device, PassTimer): the trial frames' GPU timer of each device
 
 
 def switches_of(field) -> AutoSwitches:
@@ -44,11 +51,36 @@ def wait_for_queue(device=None):
     _sync(device or ensure_device())
 
 
+def trial_clock(device=None) -> str:
+    """What a trial frame's time is on ``device`` (default: grasswidget's): "cpu" (the process's CPU
+    time: a CPU adapter), "gpu" (the GPU time of the frame's passes: a GPU adapter with the
+    timestamp-query feature) or "wall" (wall time: a GPU adapter without it). See the module docstring."""
+    from .adapter import is_cpu_adapter
+
+    if is_cpu_adapter():
+        return "cpu"
+    device = device or ensure_device()
+    return "gpu" if "timestamp-query" in device.features else "wall"
+
+
 def _clock() -> float:
     """Seconds: the process's CPU time on a CPU adapter, else wall time (see the module docstring)."""
     from .adapter import is_cpu_adapter
 
     return time.process_time() if is_cpu_adapter() else time.perf_counter()
+
+
+def _pass_timer(device):
+    """The trial frames' :class:`grasswidget.compat.PassTimer` of ``device`` when :func:`trial_clock`
+    is "gpu", else None."""
+    if trial_clock(device) != "gpu":
+        return None
+    entry = _TIMERS.get(id(device))
+    if entry is None or entry[0] is not device:
+        from ..compat import PassTimer
+
+        entry = _TIMERS[id(device)] = (device, PassTimer(device))
+    return entry[1]
 
 
 def _sync(device):
@@ -103,8 +135,13 @@ class FrameSwitches:
             if state.measuring:
                 self.measured.append((field, state))
         self._t0 = None
+        self._timer = None
         if self.measured:
-            _sync(ensure_device())
+            device = ensure_device()
+            _sync(device)
+            self._timer = _pass_timer(device)
+            if self._timer is not None:
+                self._timer.start()
             self._t0 = _clock()
 
     def value(self, field, name) -> bool:
@@ -115,8 +152,15 @@ class FrameSwitches:
         """After the frame's render: time it (GPU-synchronised) and feed the trials."""
         if self._t0 is None:
             return
+        timer, self._timer = self._timer, None
+        if timer is not None:
+            timer.stop()  # every pass of the frame is begun
         _sync(ensure_device())
         ms = (_clock() - self._t0) * 1e3
+        if timer is not None:  # the GPU time of the frame's passes, where every pass was timed
+            gpu_ms = timer.read_ms()
+            if gpu_ms is not None:
+                ms = gpu_ms
         for field, state in self.measured:
             rastered = field.read_raster_count() if field.compute_raster_active else 0
             visible = int(field.read_draw_args()[:, 1].sum()) + rastered
