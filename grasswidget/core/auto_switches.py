@@ -7,7 +7,8 @@ default of both) lets each view decide from what it measured:
 1. a short trial, interleaved off, on, on, off (a block each; a drift of the machine's
    load during the trial weighs on both sides alike): :data:`TRIAL_SETTLE_FRAMES` frames
    dropped after each flip (a pipeline compiles, buffers grow), then the blocks timed by the
-   same measure (milliseconds: the engine's, e.g. the kernel's GPU-synchronised render); the first block
+   same measure (milliseconds: the engine's, e.g. the kernel's GPU-synchronised render, timed on a GPU
+   by its passes' GPU time: ``grasswidget.gpu.trial_timing.trial_clock``); the first block
    lasts until it holds half of :data:`TRIAL_FRAMES` (rounded up) and half of
    :data:`TRIAL_MIN_MS`, or half of :data:`TRIAL_MAX_FRAMES`, and sets the block's length (a
    GPU's 3-10 ms frames jitter more than a few of them can average out; a CPU adapter's
