@@ -493,7 +493,7 @@ class EngineView(abc.ABC):
         the next frame renders), send_ms (handing it to the comm), ack_ms (sent to the page's
         acknowledgement, jupyter-rfb's frame feedback); unchanged_fps (frames/s the view did not render or
         send again because nothing changed: the page already shows them; counted in fps), draw_ms (step + render calls of
-        the last frame), gpu_ms (per pass, when the scene reports it), steps_per_frame (of the last
+        the last frame), gpu_ms (per pass, when the scene reports it: the simulation's on a GPU adapter only, FrameStats.simulation_timed), steps_per_frame (of the last
         frame), frame_size (rendered pixels), scale (render scale), sim_speed (simulated / scaled wall
         seconds while playing), step_count (simulation steps so far; None until the browser engine's
         first stats message), switches ({"cull_occlusion", "compute_raster"}: what the "auto" switches
