@@ -102,9 +102,10 @@ class Stamps:
         return out
 
 
-def _caller_label(skip_files=("raster_profile.py",)):
-    """'module.function' of the nearest caller outside this script and wgpu (names a pass)."""
-    frame = sys._getframe(2)
+def _caller_label(skip_files=("raster_profile.py",), depth=2):
+    """'module.function' of the nearest caller outside this script and wgpu (names a pass), from the
+    frame ``depth`` levels up (3: past a pass-begin hook and grasswidget.compat's wrapper)."""
+    frame = sys._getframe(depth)
     while frame is not None:
         path = frame.f_code.co_filename
         in_wgpu = f"{os.sep}wgpu{os.sep}" in path and "pygfx" not in path
@@ -118,27 +119,21 @@ def _caller_label(skip_files=("raster_profile.py",)):
 
 
 def install_pass_hooks(stamps):
-    """Time every compute and render pass begun from now on (wgpu-native's command encoder
-    wrapped; a pass's own timestamp_writes, e.g. FrameStats', are replaced by the stamps').
+    """Time every compute and render pass begun from now on (``grasswidget.compat.add_pass_begin_hook``;
+    a pass's own timestamp_writes, e.g. FrameStats', are replaced by the stamps').
     Labels: 'render pass <caller>' / 'compute pass <caller>'."""
-    from wgpu.backends import wgpu_native
+    from grasswidget import compat
 
-    cls = wgpu_native.GPUCommandEncoder
-    originals = {name: getattr(cls, name) for name in ("begin_render_pass", "begin_compute_pass")}
+    if not hasattr(compat, "add_pass_begin_hook"):
+        raise SystemExit("this grasswidget has no compat.add_pass_begin_hook (a tree from before 2026-11-29): "
+                         "profile it with the benchmarks of its own commit")
 
-    def wrap(name, kind):
-        original = originals[name]
+    def hook(kind, kwargs):
+        writes = stamps.pass_writes(f"{kind} pass {_caller_label(depth=3)}")
+        if writes is not None:
+            kwargs["timestamp_writes"] = writes
 
-        def begin(self, *a, **k):
-            writes = stamps.pass_writes(f"{kind} pass {_caller_label()}")
-            if writes is not None:
-                k["timestamp_writes"] = writes
-            return original(self, *a, **k)
-
-        setattr(cls, name, begin)
-
-    wrap("begin_render_pass", "render")
-    wrap("begin_compute_pass", "compute")
+    return compat.add_pass_begin_hook(hook)
 
 
 def _label(shader):

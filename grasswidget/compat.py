@@ -30,7 +30,7 @@ __all__ = [
     "poll_device",
     "promise_settled",
     "write_timestamp",
-    "PassTimer",
+    "add_pass_begin_hook",
     "render_pipeline_container_class",
     "set_render_pipeline_container_class",
     "compute_pipeline_container_class",
@@ -120,8 +120,8 @@ PRIVATE_USES = (
     ("wgpu", "GPUPromise._state", "whether a map_async promise has settled (statistics never block)"),
     ("wgpu", "backends.wgpu_native.extras.write_timestamp", "GPU timestamps inside pygfx's render pass"),
     ("wgpu", "backends.wgpu_native.GPUCommandEncoder.begin_compute_pass / begin_render_pass (wrapped)",
-     "pygfx begins its passes itself: a timer adds timestamp_writes to every pass begun on its thread while it "
-     "runs (PassTimer: the GPU time of an 'auto' switch's trial frame)"),
+     "pygfx begins its passes itself: a hook adds timestamp_writes to every pass begun (add_pass_begin_hook; "
+     "gpu.stats.PassTimer: the GPU time of an 'auto' switch's trial frame)"),
     ("rendercanvas", "jupyter.RenderCanvas._rc_present_bitmap",
      "the Jupyter canvas's hook that receives each rendered frame; timed (readback ms on the stats line)"),
     ("rendercanvas", "jupyter.RenderCanvas._rc_close",
@@ -251,101 +251,42 @@ def write_timestamp(render_pass, query_set, index):
     _write(render_pass, query_set, index)
 
 
-class PassTimer:
-    """The GPU time of every compute and render pass begun on this thread between :meth:`start` and
-    :meth:`stop`: timestamps at each pass's beginning and end (``timestamp_writes``), summed.
-
-    pygfx begins its passes itself, so no pass descriptor can be handed to it: wgpu-native's
-    ``GPUCommandEncoder.begin_compute_pass`` and ``begin_render_pass`` are wrapped once (the first
-    timer made) and add the running timer's writes; other threads, and passes begun with
-    ``timestamp_writes`` of their own, are left alone (such a pass makes the reading None: it was not
-    timed). ``device`` needs the ``timestamp-query`` feature; ``capacity`` is the passes timed at most
-    between a start and a read (integer >= 1, default 32; more make the reading None).
-    """
-
-    _running = None  # a threading.local: the timer started on each thread, if any
-
-    def __init__(self, device, capacity: int = 32):
-        import threading
-
-        import wgpu
-
-        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
-            raise GrassValueError(f"capacity must be an integer >= 1; got {capacity!r}")
-        if "timestamp-query" not in device.features:
-            raise GrassValueError("PassTimer needs a device with the 'timestamp-query' feature")
-        if PassTimer._running is None:
-            PassTimer._running = threading.local()
-            _wrap_pass_begins()
-        self.device = device
-        self.capacity = capacity
-        self.query_set = device.create_query_set(type="timestamp", count=2 * capacity)
-        self._resolve = device.create_buffer(size=16 * capacity,
-                                             usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
-        # Every query written once now: resolving a query never written waits forever on NVIDIA's
-        # Vulkan driver (gpu/stats.py); a written one stays available.
-        enc = device.create_command_encoder()
-        for q in range(0, 2 * capacity, 2):
-            enc.begin_compute_pass(timestamp_writes=self._writes(q)).end()
-        device.queue.submit([enc.finish()])
-        self.used = 0       # passes given timestamp writes since start()
-        self.missed = 0     # passes begun while running that could not be timed
-
-    def _writes(self, q):
-        return {"query_set": self.query_set, "beginning_of_pass_write_index": q, "end_of_pass_write_index": q + 1}
-
-    def start(self):
-        """Time the passes begun on this thread from now on (a running timer of this thread stops)."""
-        self.used = self.missed = 0
-        PassTimer._running.timer = self
-
-    def stop(self):
-        """Stop timing (the passes begun so far stay to be read)."""
-        if getattr(PassTimer._running, "timer", None) is self:
-            PassTimer._running.timer = None
-
-    def _next_writes(self, kwargs):
-        if kwargs.get("timestamp_writes") is not None or self.used >= self.capacity:
-            self.missed += 1
-            return
-        kwargs["timestamp_writes"] = self._writes(2 * self.used)
-        self.used += 1
-
-    def read_ms(self):
-        """Milliseconds of GPU time of the passes timed since :meth:`start` (waits for the GPU);
-        None when a pass was not timed, or none was begun."""
-        import numpy as np
-
-        if self.missed or not self.used:
-            return None
-        n = 2 * self.used
-        enc = self.device.create_command_encoder()
-        enc.resolve_query_set(self.query_set, 0, n, self._resolve, 0)
-        self.device.queue.submit([enc.finish()])
-        ts = np.frombuffer(self.device.queue.read_buffer(self._resolve, 0, 8 * n), np.uint64).astype(np.int64)
-        # wgpu-native reports timestamps in nanoseconds on Vulkan (period 1 ns, as gpu/stats.py reads them).
-        return float(np.maximum(ts[1::2] - ts[0::2], 0).sum()) / 1e6
+_PASS_BEGIN_HOOKS = []  # the hooks add_pass_begin_hook added, called in order
+_PASS_BEGINS_WRAPPED = []  # [True] once wgpu-native's pass begins are wrapped
 
 
-def _wrap_pass_begins():
-    """Wrap wgpu-native's GPUCommandEncoder.begin_compute_pass / begin_render_pass for PassTimer."""
-    from wgpu.backends import wgpu_native
+def add_pass_begin_hook(hook):
+    """Call ``hook(kind, kwargs)`` before every pass wgpu-native begins: ``kind`` "compute" or "render",
+    ``kwargs`` the pass's keyword arguments, which it may change (e.g. add ``timestamp_writes``). Hooks run
+    in the order added; returns a function that removes this one. pygfx begins its passes itself, so no pass
+    descriptor can be handed to it: wgpu-native's ``GPUCommandEncoder.begin_compute_pass`` and
+    ``begin_render_pass`` are wrapped, once (the first hook added). Used by
+    :class:`grasswidget.gpu.stats.PassTimer` and the benchmarks' pass profiles."""
+    if not _PASS_BEGINS_WRAPPED:
+        from wgpu.backends import wgpu_native
 
-    cls = getattr(wgpu_native, "GPUCommandEncoder", None)
-    for name in ("begin_compute_pass", "begin_render_pass"):
-        original = getattr(cls, name, None)
-        if original is None:
-            raise UpstreamChangedError(f"wgpu internals changed: wgpu_native.GPUCommandEncoder.{name} not found")
+        cls = getattr(wgpu_native, "GPUCommandEncoder", None)
+        for name, kind in (("begin_compute_pass", "compute"), ("begin_render_pass", "render")):
+            original = getattr(cls, name, None)
+            if original is None:
+                raise UpstreamChangedError(f"wgpu internals changed: wgpu_native.GPUCommandEncoder.{name} not found")
 
-        def begin(self, *args, _original=original, **kwargs):
-            timer = getattr(PassTimer._running, "timer", None)
-            if timer is not None:
-                timer._next_writes(kwargs)
-            return _original(self, *args, **kwargs)
+            def begin(self, *args, _original=original, _kind=kind, **kwargs):
+                for each in tuple(_PASS_BEGIN_HOOKS):
+                    each(_kind, kwargs)
+                return _original(self, *args, **kwargs)
 
-        begin.__name__ = name
-        begin.__doc__ = original.__doc__
-        setattr(cls, name, begin)
+            begin.__name__ = name
+            begin.__doc__ = original.__doc__
+            setattr(cls, name, begin)
+        _PASS_BEGINS_WRAPPED.append(True)
+    _PASS_BEGIN_HOOKS.append(hook)
+
+    def remove():
+        if hook in _PASS_BEGIN_HOOKS:
+            _PASS_BEGIN_HOOKS.remove(hook)
+
+    return remove
 
 
 # ------------------------------------------------------------------ pygfx engine

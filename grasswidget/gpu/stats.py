@@ -13,6 +13,7 @@ waits for the readbacks in flight: what a paused view and the tests use).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 
@@ -21,9 +22,10 @@ import wgpu
 
 from .. import compat
 from ..core.engine_inputs import counter_layout, read_counters
+from ..errors import GrassValueError
 from .adapter import ensure_device
 
-__all__ = ["FrameStats", "read_staging"]
+__all__ = ["FrameStats", "PassTimer", "read_staging", "write_queries_once"]
 
 RING = 3
 #: Frames whose counts :meth:`FrameStats.counts_of` still knows.
@@ -43,6 +45,88 @@ def read_staging(staging, promise, free: list) -> np.ndarray:
         if staging.map_state == "mapped":
             staging.unmap()
         free.append(staging)
+
+def write_queries_once(device, query_set, count: int):
+    """Write every timestamp query of ``query_set`` (``count``, even) once, with empty compute passes.
+    Resolving a query that was never written waits for it forever on NVIDIA's Vulkan driver; written once,
+    a query stays available."""
+    enc = device.create_command_encoder()
+    for q in range(0, count, 2):
+        enc.begin_compute_pass(timestamp_writes={"query_set": query_set, "beginning_of_pass_write_index": q,
+                                                 "end_of_pass_write_index": q + 1}).end()
+    device.queue.submit([enc.finish()])
+
+
+class PassTimer:
+    """The GPU time of every compute and render pass begun on this thread between :meth:`start` and
+    :meth:`stop`: timestamps at each pass's beginning and end (``timestamp_writes``, added through
+    :func:`grasswidget.compat.add_pass_begin_hook`), summed. Other threads' passes, and passes begun
+    with ``timestamp_writes`` of their own, are left alone (such a pass makes the reading None: it was
+    not timed). ``device`` needs the ``timestamp-query`` feature; ``capacity`` is the passes timed at
+    most between a start and a read (integer >= 1, default 32; more make the reading None). Used by
+    :mod:`grasswidget.gpu.trial_timing` (an "auto" switch's trial frames on a GPU).
+    """
+
+    _running = threading.local()  # .timer: the timer started on each thread, if any
+    _hooked = False  # the pass-begin hook added (once, by the first timer made)
+
+    def __init__(self, device, capacity: int = 32):
+        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
+            raise GrassValueError(f"capacity must be an integer >= 1; got {capacity!r}")
+        if "timestamp-query" not in device.features:
+            raise GrassValueError("PassTimer needs a device with the 'timestamp-query' feature")
+        if not PassTimer._hooked:
+            compat.add_pass_begin_hook(_time_running_pass)
+            PassTimer._hooked = True
+        self.device = device
+        self.capacity = capacity
+        self.query_set = device.create_query_set(type="timestamp", count=2 * capacity)
+        self._resolve = device.create_buffer(size=16 * capacity,
+                                             usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
+        write_queries_once(device, self.query_set, 2 * capacity)
+        self.used = 0       # passes given timestamp writes since start()
+        self.missed = 0     # passes begun while running that could not be timed
+
+    def start(self):
+        """Time the passes begun on this thread from now on (a running timer of this thread stops)."""
+        self.used = self.missed = 0
+        PassTimer._running.timer = self
+
+    def stop(self):
+        """Stop timing (the passes begun so far stay to be read)."""
+        if getattr(PassTimer._running, "timer", None) is self:
+            PassTimer._running.timer = None
+
+    def add_writes(self, kwargs):
+        """Give the pass about to begin with ``kwargs`` this timer's next timestamp writes (or count it missed)."""
+        if kwargs.get("timestamp_writes") is not None or self.used >= self.capacity:
+            self.missed += 1
+            return
+        q = 2 * self.used
+        kwargs["timestamp_writes"] = {"query_set": self.query_set, "beginning_of_pass_write_index": q,
+                                      "end_of_pass_write_index": q + 1}
+        self.used += 1
+
+    def read_ms(self):
+        """Milliseconds of GPU time of the passes timed since :meth:`start` (waits for the GPU);
+        None when a pass was not timed, or none was begun."""
+        if self.missed or not self.used:
+            return None
+        n = 2 * self.used
+        enc = self.device.create_command_encoder()
+        enc.resolve_query_set(self.query_set, 0, n, self._resolve, 0)
+        self.device.queue.submit([enc.finish()])
+        ts = np.frombuffer(self.device.queue.read_buffer(self._resolve, 0, 8 * n), np.uint64).astype(np.int64)
+        # wgpu-native reports timestamps in nanoseconds on Vulkan (period 1 ns, as FrameStats reads them).
+        return float(np.maximum(ts[1::2] - ts[0::2], 0).sum()) / 1e6
+
+
+def _time_running_pass(kind, kwargs):
+    """compat's pass-begin hook: the pass about to begin gets this thread's running PassTimer's writes."""
+    timer = getattr(PassTimer._running, "timer", None)
+    if timer is not None:
+        timer.add_writes(kwargs)
+
 
 class FrameStats:
     """Live statistics of one GrassField: visible blades and GPU milliseconds.
@@ -107,16 +191,8 @@ class FrameStats:
             )
             # wgpu-native reports timestamps in nanoseconds on Vulkan (period 1 ns).
             self._period_ns = 1.0
-            # Write every query once now. Resolving a query that was never written
-            # waits for it forever on NVIDIA's Vulkan driver (a render before the
-            # first step() hung the GPU); written once, a query stays available.
-            enc = device.create_command_encoder()
-            for q in range(0, N_QUERIES, 2):
-                enc.begin_compute_pass(
-                    timestamp_writes={"query_set": self.query_set, "beginning_of_pass_write_index": q,
-                                      "end_of_pass_write_index": q + 1}
-                ).end()
-            device.queue.submit([enc.finish()])
+            # a render before the first step() hung NVIDIA's driver before the queries were written once
+            write_queries_once(device, self.query_set, N_QUERIES)
         else:
             self.query_set = None
         self._written = set()  # timestamp pairs written by real work: "simulation", "draw"

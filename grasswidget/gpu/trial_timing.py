@@ -8,7 +8,7 @@ tried, the frame is GPU-synchronised before and after the render (a 16-byte read
 the queue), so its time is the render's, and the blades drawn, occluded and drawn in compute
 are read back right after it. Frames outside a trial are not synchronised. The time
 (:func:`trial_clock`) is, on a GPU adapter with timestamp queries, the GPU time of the frame's
-passes (:class:`grasswidget.compat.PassTimer`: every compute and render pass of the render, summed):
+passes (:class:`grasswidget.gpu.stats.PassTimer`: every compute and render pass of the render, summed):
 a synchronised frame's wall time there is mostly the host's work, which moves by more than the
 switches change (an H200's 2^20 meadow: frames of 6-17 ms on the wall for 3.5-4 ms of GPU work,
 and a trial that decided the compute rasterizer differently from run to run). On a GPU adapter
@@ -71,13 +71,13 @@ def _clock() -> float:
 
 
 def _pass_timer(device):
-    """The trial frames' :class:`grasswidget.compat.PassTimer` of ``device`` when :func:`trial_clock`
+    """The trial frames' :class:`grasswidget.gpu.stats.PassTimer` of ``device`` when :func:`trial_clock`
     is "gpu", else None."""
     if trial_clock(device) != "gpu":
         return None
     entry = _TIMERS.get(id(device))
     if entry is None or entry[0] is not device:
-        from ..compat import PassTimer
+        from .stats import PassTimer
 
         entry = _TIMERS[id(device)] = (device, PassTimer(device))
     return entry[1]

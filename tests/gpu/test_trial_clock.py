@@ -1,5 +1,5 @@
 """What an "auto" switch's trial frame is timed by (grasswidget.gpu.trial_timing.trial_clock): on a GPU
-adapter with timestamp queries the GPU time of the frame's passes (grasswidget.compat.PassTimer), because
+adapter with timestamp queries the GPU time of the frame's passes (grasswidget.gpu.stats.PassTimer), because
 a synchronised frame's wall time there is mostly the host's work; the process's CPU time on a CPU adapter.
 
 The timer's bookkeeping (which passes it times, when its reading is None) is checked on any adapter; its
@@ -13,16 +13,15 @@ the same): every trial frame's time is the timer's reading.
 
 import threading
 
-import numpy as np
 import pytest
 import wgpu
 
 import grasswidget as gw
-from grasswidget import compat
 from grasswidget.core.auto_switches import AutoSwitches
 from grasswidget.errors import GrassValueError
 from grasswidget.gpu import adapter as gpu_adapter
 from grasswidget.gpu.adapter import ensure_device, is_cpu_adapter
+from grasswidget.gpu.stats import PassTimer
 from grasswidget.gpu.trial_timing import switches_of, trial_clock
 
 LOOP = """
@@ -79,7 +78,7 @@ def _timed(timer, *runs):
 
 def test_the_pass_timer_sums_its_threads_passes_in_proportion_to_their_work(device):
     light, heavy = _loop(device, 200), _loop(device, 12800)
-    timer = compat.PassTimer(device, capacity=4)
+    timer = PassTimer(device, capacity=4)
     for run in (light, heavy):  # compiled and run once
         run()
     light_ms = min(_timed(timer, light) for _ in range(3))
@@ -108,7 +107,7 @@ def test_the_pass_timer_sums_its_threads_passes_in_proportion_to_their_work(devi
 
 def test_a_pass_the_timer_could_not_time_makes_its_reading_none(device):
     light = _loop(device, 50)
-    timer = compat.PassTimer(device, capacity=2)
+    timer = PassTimer(device, capacity=2)
     assert _timed(timer) is None  # nothing begun
     assert _timed(timer, light, light, light) is None and timer.missed == 1  # over its capacity
     own = device.create_query_set(type="timestamp", count=2)
@@ -116,7 +115,7 @@ def test_a_pass_the_timer_could_not_time_makes_its_reading_none(device):
     assert _timed(timer, light, lambda: light(writes)) is None  # a pass with timestamp writes of its own
     assert _timed(timer, light) > 0  # and the next start counts afresh
     with pytest.raises(GrassValueError, match="capacity must be an integer >= 1; got 0"):
-        compat.PassTimer(device, capacity=0)
+        PassTimer(device, capacity=0)
 
 
 def test_a_gpu_adapters_trial_frames_are_timed_by_their_passes(device, monkeypatch):
@@ -126,7 +125,7 @@ def test_a_gpu_adapters_trial_frames_are_timed_by_their_passes(device, monkeypat
         monkeypatch.setattr(gpu_adapter, "is_cpu_adapter", lambda: False)  # the trial's clock only: see above
         assert trial_clock() == "gpu"
         recorded, read = [], []
-        record, read_ms = AutoSwitches.record, compat.PassTimer.read_ms
+        record, read_ms = AutoSwitches.record, PassTimer.read_ms
 
         def spy_record(self, ms, counts):
             recorded.append(ms)
@@ -137,7 +136,7 @@ def test_a_gpu_adapters_trial_frames_are_timed_by_their_passes(device, monkeypat
             return read[-1]
 
         monkeypatch.setattr(AutoSwitches, "record", spy_record)
-        monkeypatch.setattr(compat.PassTimer, "read_ms", spy_read)
+        monkeypatch.setattr(PassTimer, "read_ms", spy_read)
         state = switches_of(scene.field)
         for _ in range(8):
             scene.render()
@@ -146,4 +145,3 @@ def test_a_gpu_adapters_trial_frames_are_timed_by_their_passes(device, monkeypat
         assert recorded == read and all(ms > 0 for ms in recorded), (recorded, read)
     finally:
         scene.release()
-    assert np.isfinite(recorded).all()
