@@ -139,7 +139,7 @@ def template_vars() -> dict:
     from .enums import BladeShape, ColorBy, GravityMode, WindField
     from .collider_grid import GRID_HEADER_WORDS
     from .reference import (COLLIDER_REACH, COLLISION_MAX, COLLISION_PASSES, CULLED_SEGMENTS, DRY_COLOR, LOD_MIN_PIXELS,
-                            LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, OCCLUSION_RADIUS_PER_WIDTH,
+                            LOD_SEGMENTS, NOISE_SCALE, OCCLUSION_PIECES, HZB_SPAN_TEXELS, OCCLUSION_RADIUS_PER_WIDTH,
                             RASTER_MAX_ACROSS, RASTER_MAX_SAMPLES, RECOVERY_FLOOR)
     from .reference.shadows import BALL_PENUMBRA, GROUND_AMBIENT, MAX_SHADOW_BALLS, SKY_FLOOR, SUN_MIN_Y, TRANSMITTANCE_TAPS
 
@@ -168,6 +168,7 @@ def template_vars() -> dict:
         "occlusion": 0,  # cull.wgsl: 0 = no occlusion culling, 1 = first phase, 2 = second phase
         "occlusion_radius_per_width": wgsl_float(OCCLUSION_RADIUS_PER_WIDTH),
         "occlusion_pieces": int(OCCLUSION_PIECES),
+        "hzb_span_texels": int(HZB_SPAN_TEXELS),
         "raster_max_samples": wgsl_float(RASTER_MAX_SAMPLES),
         "raster_max_across": wgsl_float(RASTER_MAX_ACROSS),
         "sun_min_y": wgsl_float(SUN_MIN_Y),

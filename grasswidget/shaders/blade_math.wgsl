@@ -383,11 +383,12 @@ fn occlusion_bounds(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, radius: f32, vi
     return b;
 }
 
-// The max-depth pyramid level at which a pixel rect spans at most 2 x 2 texels.
+// The max-depth pyramid level at which a pixel rect spans at most {{ hzb_span_texels }} + 1 texels
+// each way (reference.hzb_level, HZB_SPAN_TEXELS).
 fn hzb_level(rect: vec4<f32>) -> u32 {
     let span = u32(max(ceil(max(rect.z - rect.x, rect.w - rect.y)), 1.0));
     var level = 0u;
-    while ((1u << level) < span) { level += 1u; }
+    while ({{ hzb_span_texels }}u * (1u << level) < span) { level += 1u; }
     return level;
 }
 

@@ -58,10 +58,15 @@ def test_hzb_layout_and_pyramid_reference():
     levels = ref.build_hzb(depth)
     assert [lv.shape for lv in levels] == [(h, w) for _, w, h, _ in layout]
     assert levels[1][4, 18] == depth[8:10, 36:38].max() and levels[-1][0, 0] == depth.max()
-    # the farthest depth over a rect, read at the level where it spans <= 2 x 2 texels
+    # the farthest depth over a rect, read at the finest level where it spans <= HZB_SPAN_TEXELS + 1 texels
+    assert ref.HZB_SPAN_TEXELS == 4
     rect = np.array([[3.2, 1.5, 9.9, 6.0]])
-    assert ref.hzb_level(rect)[0] == 3  # 6.7 px wide: 2^3 >= 7
-    assert ref.hzb_max(levels, rect, 3)[0] >= depth[1:7, 3:10].max()
+    assert ref.hzb_level(rect)[0] == 1  # 6.7 px wide: 4 x 2^1 >= 7 > 4 x 2^0
+    assert ref.hzb_level(np.array([[0.0, 0.0, 4.0, 4.0], [0.0, 0.0, 4.0, 33.0], [0.0, 0.0, 0.2, 0.1]])).tolist() == [0, 4, 0]
+    assert ref.hzb_max(levels, rect, 1)[0] >= depth[1:7, 3:10].max()
+    # read at that level it covers the rect's pixels and at most 5 x 5 texels
+    lv = int(ref.hzb_level(rect)[0])
+    assert ((9 >> lv) - (3 >> lv) + 1) * ((6 >> lv) - (1 >> lv) + 1) <= (ref.HZB_SPAN_TEXELS + 1) ** 2
     with pytest.raises(ValueError, match="1 x 1"):
         ref.hzb_layout(0, 5)
 

@@ -34,6 +34,7 @@ __all__ = [
     "occlusion_cull",
     "curve_pieces",
     "OCCLUSION_PIECES",
+    "HZB_SPAN_TEXELS",
     "OCCLUSION_RADIUS_PER_WIDTH",
     "HZB_ROW_ALIGN",
     "HZB_MAX_LEVELS",
@@ -170,6 +171,12 @@ OCCLUSION_RADIUS_PER_WIDTH = 1.5
 #: The occlusion test splits the curve into this many pieces (t in [k/P, (k+1)/P]), each
 #: boxed by its own control points: a bent blade's one box would cover much empty screen.
 OCCLUSION_PIECES = 4
+#: The occlusion test reads the pyramid at the finest level where a piece's screen rect spans at
+#: most this many texels across and down (so at most (HZB_SPAN_TEXELS + 1)^2 reads a piece). At 1
+#: (one 2 x 2 read) the texels of a tall near piece reach far past it, over the gaps where far grass
+#: shows, and hide almost nothing: in the cis565 view at 2^16 blades 3,395 were drawn for 132 that
+#: show; at 4, 990 (docs/benchmarks-method.md, "A tighter occlusion test").
+HZB_SPAN_TEXELS = 4
 #: Rows of the pyramid's level 0 start every HZB_ROW_ALIGN texels (a depth texture is
 #: copied into a buffer in rows of a multiple of 256 bytes = 64 float32).
 HZB_ROW_ALIGN = 64
@@ -216,16 +223,17 @@ def occlusion_bounds(v0, v1, v2, radius, view_proj, viewport_size):
 
 
 def hzb_level(rect):
-    """The pyramid level at which a pixel rect (x0, y0, x1, y1) spans at most 2 x 2
-    texels: the smallest L with 2^L >= ceil(max(x1 - x0, y1 - y0)) (0 for a rect
-    under a pixel). Level L's texel (x, y) holds the farthest depth of the pixels
+    """The pyramid level at which a pixel rect (x0, y0, x1, y1) spans at most
+    HZB_SPAN_TEXELS + 1 texels each way: the smallest L with
+    HZB_SPAN_TEXELS * 2^L >= ceil(max(x1 - x0, y1 - y0)) (0 for a rect of at most
+    HZB_SPAN_TEXELS pixels). Level L's texel (x, y) holds the farthest depth of the pixels
     [x 2^L, (x + 1) 2^L) x [y 2^L, (y + 1) 2^L)."""
     rect = np.asarray(rect, np.float64)
     span = np.ceil(np.maximum(rect[..., 2] - rect[..., 0], rect[..., 3] - rect[..., 1]))
     span = np.maximum(span, 1.0).astype(np.int64)
     level = np.zeros(span.shape, np.int64)
-    while np.any((1 << level) < span):
-        level = np.where((1 << level) < span, level + 1, level)
+    while np.any(HZB_SPAN_TEXELS * (1 << level) < span):
+        level = np.where(HZB_SPAN_TEXELS * (1 << level) < span, level + 1, level)
     return level.astype(np.uint32)
 
 
