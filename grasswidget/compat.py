@@ -36,6 +36,7 @@ __all__ = [
     "compute_pipeline_container_class",
     "set_compute_pipeline_container_class",
     "renderer_depth_texture",
+    "renderer_pick_texture",
     "copy_output_when_exact",
     "keep_renderstates",
     "still_directional_light_class",
@@ -106,6 +107,9 @@ PRIVATE_USES = (
      "cost 2.6 ms of a 23 ms frame (copy_output_when_exact)"),
     ("pygfx", "WgpuRenderer._blender.get_texture('depth')",
      "the renderer's depth32float texture (usage COPY_SRC), copied into the occlusion culling's depth pyramid"),
+    ("pygfx", "WgpuRenderer._blender.get_texture('pick')",
+     "the renderer's pick texture (rgba16uint), read whole by benchmarks/occlusion_shown.py to count the blades a "
+     "picture shows (get_pick_info reads one pixel a call)"),
     ("pygfx", "OrbitController._update_rotate/_update_zoom/_update_pan, _get_camera_state, _set_camera_state, "
      "_last_cam_state",
      "the controller's per-step hooks, to hold every orbit, zoom and pan step to OrbitLimits"),
@@ -444,6 +448,16 @@ def render_target_formats(renderstate) -> tuple:
         colors.append(info["pick"]["format"])
     depth = info["depth"]["format"] if "depth" in info else None
     return tuple(colors), depth
+
+
+def renderer_pick_texture(renderer):
+    """The wgpu pick texture a pygfx ``WgpuRenderer`` writes object and blade ids into
+    (rgba16uint, 8 bytes a pixel: pygfx's 20 bits of object id, then the material's own bits),
+    or None before its first render (pygfx 0.17: ``renderer._blender.get_texture("pick")``)."""
+    blender = getattr(renderer, "_blender", None)
+    if blender is None or not hasattr(blender, "get_texture"):
+        raise UpstreamChangedError("pygfx internals changed: WgpuRenderer._blender.get_texture not found")
+    return blender.get_texture("pick")
 
 
 def renderer_depth_texture(renderer):

@@ -20,14 +20,14 @@ pytestmark = pytest.mark.slow
 MAX_DECISION_FRAMES = 4 * (4 * -(-TRIAL_MAX_FRAMES // 2) + 4 * TRIAL_SETTLE_FRAMES)
 
 
-def _decide(scene, max_frames=MAX_DECISION_FRAMES):
-    """Render until the field's auto switches decided both; returns its AutoSwitches (a trial
-    is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2; at most 4
-    trials when each switch is tried again once)."""
+def _decide(scene, max_frames=MAX_DECISION_FRAMES, switches=("cull_occlusion", "compute_raster")):
+    """Render until the field's auto switches decided ``switches`` (those left "auto"); returns its
+    AutoSwitches (a trial is 11 frames on lavapipe: a settling frame at each flip, off 2, on 4, off 2;
+    at most 4 trials when each switch is tried again once)."""
     state = switches_of(scene.field)
     for _ in range(max_frames):
         scene.render()
-        if not state.measuring and len(state.decisions) == 2:
+        if not state.measuring and set(switches) <= set(state.decisions):
             return state
     raise AssertionError(f"no decision after {max_frames} frames: {state.decisions}")
 
@@ -69,10 +69,15 @@ def test_auto_occlusion_on_where_it_hides_and_off_from_above():
         if occl.on:
             assert scene.field.read_occluded_count() > 0  # executed: the next auto frame culls
 
-        scene.look(position=(0.0, 30.0, 0.01), target=(0.0, 0.0, 0.0))  # straight down: nothing hidden
+        # Straight down: nothing hidden, with the blades drawn by the hardware rasterizer. Seen from 30 m the
+        # blades are under a pixel wide, and a GPU gives them to the compute rasterizer, whose depth where a
+        # blade covers part of a pixel hides 5 % of the others from the occlusion test (an H200: 2,917 of
+        # 56,466; 19 with the compute rasterizer off), on the rule's threshold either way.
+        scene.params.compute_raster = False
+        scene.look(position=(0.0, 30.0, 0.01), target=(0.0, 0.0, 0.0))
         scene.render()
         assert state.redecided_because == "the camera moved"
-        state = _decide(scene)
+        state = _decide(scene, switches=("cull_occlusion",))
         occl = state.decisions["cull_occlusion"]
         occluded, drawn = _occlusion_counts(scene)
         assert occluded < MIN_OCCLUDED_FRACTION * (occluded + drawn)

@@ -77,18 +77,21 @@ def _timed(timer, *runs):
 
 
 def test_the_pass_timer_sums_its_threads_passes_in_proportion_to_their_work(device):
-    light, heavy = _loop(device, 200), _loop(device, 12800)
+    # Work of comparable size (2x the steps), so that a sum of both passes (3 parts) stands apart from the
+    # last pass alone (2 parts) or the first (1 part). The least of 5 readings: other processes' work on a
+    # shared GPU (the suite's other worker) can only lengthen a pass between its timestamps.
+    light, heavy = _loop(device, 6400), _loop(device, 12800)
     timer = PassTimer(device, capacity=4)
     for run in (light, heavy):  # compiled and run once
         run()
-    light_ms = min(_timed(timer, light) for _ in range(3))
-    heavy_ms = min(_timed(timer, heavy) for _ in range(3))
-    both_ms = min(_timed(timer, light, heavy) for _ in range(3))
+    light_ms = min(_timed(timer, light) for _ in range(5))
+    heavy_ms = min(_timed(timer, heavy) for _ in range(5))
+    both_ms = min(_timed(timer, light, heavy) for _ in range(5))
     assert timer.used == 2 and timer.missed == 0
     assert light_ms > 0 and heavy_ms > 0 and both_ms > 0
     if not is_cpu_adapter():  # see the module docstring: lavapipe's pass timestamps
-        assert heavy_ms > 8 * light_ms, (light_ms, heavy_ms)  # 64x the steps
-        assert both_ms == pytest.approx(light_ms + heavy_ms, rel=0.5)
+        assert heavy_ms > 1.4 * light_ms, (light_ms, heavy_ms)  # 2x the steps
+        assert 0.8 * (light_ms + heavy_ms) <= both_ms <= 2.0 * (light_ms + heavy_ms), (light_ms, heavy_ms, both_ms)
 
     # another thread's passes are not the timer's
     timer.start()
