@@ -352,7 +352,12 @@ class IsolatedWorker:
                         self._buffer += chunk
                         continue
                     code = proc.wait()
-                    if watch_memory and peak_kb > 0.5 * limit_kb:
+                    grew = f"after growing by {peak_kb / 1024:.0f} MB" if peak_kb > 0.5 * limit_kb else ""
+                    # Grown past half the limit and then dead, other than by a segmentation fault: an
+                    # allocation refused (RLIMIT_AS) between two looks at its size. A segmentation fault
+                    # is a crash however much it grew first: a recursion 50,000 deep grows the stack
+                    # (by 128 MB on the GPU machine, whose stacks have no small limit) before it faults.
+                    if watch_memory and grew and code != -signal.SIGSEGV:
                         raise self._fail("memory", f"exceeded the {self.memory_mb:g} MB memory limit "
                                          f"(grew by {peak_kb / 1024:.0f} MB, then died)", self.memory_mb, what)
                     if code < 0:
@@ -360,8 +365,8 @@ class IsolatedWorker:
                             name = signal.Signals(-code).name
                         except ValueError:
                             name = f"signal {-code}"
-                        verdict = ("crashed the shader compiler (segmentation fault)" if name == "SIGSEGV"
-                                   else f"crashed the worker ({name})")
+                        verdict = ("crashed the shader compiler (segmentation fault" + (f", {grew})" if grew else ")")
+                                   if name == "SIGSEGV" else f"crashed the worker ({name})")
                     else:
                         verdict = f"crashed the worker (exit status {code})"
                     raise self._fail("crash", verdict, None, what)

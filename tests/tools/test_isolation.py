@@ -140,6 +140,32 @@ def test_a_compile_error_in_the_worker_comes_back_as_the_compilers_message(stock
     assert compile_compute(stock_simulation) is None  # the stock shader compiles in this process too
 
 
+#: Worker code (run with the builtin exec, which pickles by name) that grows by 180 MB, past half of a 256 MB limit and
+#: under it, waits for the worker's watch to see it, then dies by a signal.
+GROW_THEN_DIE = ("import os, signal, time\nheld = b'\\x01' * (180 << 20)\ntime.sleep(0.2)\n"
+                 "os.kill(os.getpid(), signal.{signal})")
+
+
+@pytest.mark.parametrize("sig, cause", [("SIGSEGV", "crash"), ("SIGABRT", "memory")])
+def test_a_worker_that_grew_and_died_is_judged_by_how_it_died(sig, cause):
+    """Grown past half its memory limit and then dead: an abort is an allocation refused between two looks at its
+    size ("memory"); a segmentation fault is a crash whatever it grew first (a recursion 50,000 deep grows the
+    stack by 128 MB on the GPU machine before it faults), and the verdict says how much it grew."""
+    w = IsolatedWorker(timeout_s=30, memory_mb=256)
+    try:
+        with pytest.raises(gw.IsolatedRunError) as info:
+            w.call(exec, GROW_THEN_DIE.format(signal=sig), what="the test's code")
+        err = info.value
+        assert err.cause == cause, str(err)
+        if cause == "crash":
+            assert "crashed the shader compiler (segmentation fault, after growing by 1" in err.verdict, err.verdict
+        else:
+            assert "exceeded the 256 MB memory limit (grew by 1" in err.verdict and "then died" in err.verdict, err.verdict
+        assert not w.alive
+    finally:
+        w.close()
+
+
 def test_what_cannot_be_sent_to_the_worker_is_a_type_error_before_it_starts():
     w = IsolatedWorker()
     with pytest.raises(gw.GrassTypeError, match="picklable"):
