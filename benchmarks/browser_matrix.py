@@ -15,7 +15,8 @@ an object with
   the panel's words per switch);
 * ``engine()``: the engine's counters: ``frames`` (frames completed), ``now`` (the page's clock, ms),
   ``visible`` (blades drawn per LOD class, read back), ``occluded``, ``rastered``,
-  ``counts_switches`` (the switches of the frame those counts are of), ``adapter``;
+  ``counts_switches`` (the switches of the frame those counts are of), ``counts_read_at`` (the page's clock when
+  the newest read-back of the counts was issued), ``counts_pending`` (that read-back not done yet), ``adapter``;
 * ``poll(check, what, timeout_s, interval_s)``: ``check()``'s first truthy value, or a timeout
   naming ``what``;
 * ``hide()``: the widget closed.
@@ -56,6 +57,13 @@ def frames_per_s_after(page, warm_frames, min_frames, min_seconds):
     return (b["frames"] - a["frames"]) * 1000.0 / (b["now"] - a["now"])
 
 
+def counts_after(page, t_ms):
+    """The engine's counters if its newest read-back of the counts was issued after ``t_ms`` (the page's clock) and
+    is done, else None."""
+    e = page.engine()
+    return e if e["counts_read_at"] > t_ms and not e["counts_pending"] else None
+
+
 def auto_decided(page):
     """Both "auto" switches decided (no trial running): their words, else None."""
     measuring, words = page.auto_state()
@@ -86,9 +94,11 @@ def matrix_row(page, preset, n, size, rounds=MATRIX_ROUNDS, window_s=MATRIX_WIND
             k = r % len(MATRIX_SETTINGS)
             for name, occlusion, raster in MATRIX_SETTINGS[k:] + MATRIX_SETTINGS[:k]:
                 page.apply(occlusion, raster)
+                applied_at = page.engine()["now"]  # the engine has the setting: its next frames draw with it
                 fps[name].append(round(frames_per_s_after(page, 1, 3, window_s), 3))
-                # the counts of a frame drawn in this window (the stats' last read-back, its switches with it)
-                c = page.engine()
+                # the counts of a frame drawn in this window: a read-back issued after the setting, done (the engine
+                # reads the counters back every half stats interval; the window can end before one was issued)
+                c = page.poll(lambda: counts_after(page, applied_at), "the counts of a frame of this setting", 120, 0.1)
                 counts[name].append({"drawn": sum(c["visible"] or []) + (c["rastered"] or 0),
                                      "occluded": c["occluded"], "rastered": c["rastered"],
                                      "switches": c["counts_switches"]})

@@ -17,7 +17,8 @@
 //   {"op": "ready", "adapter": {...}}
 //   {"op": "msg", "comm_id", "data": {"method": "update", "state", "buffer_paths": []}}  save_changes()
 //   {"op": "msg", "comm_id", "data": {"method": "custom", "content"}, "buffers": [b64...]}  model.send()
-//   {"op": "info", "id", "info": {frames, now, n, visible, occluded, rastered, counts_switches, ...}}
+//   {"op": "info", "id", "info": {frames, now, n, visible, occluded, rastered, counts_switches, counts_read_at,
+//                                  counts_pending, ...}}
 //   {"op": "error", "message"}            an uncaught error (the process then exits with 1)
 // The loop runs the animation frames the engine asks for as fast as it takes them (shim.mjs's pump).
 
@@ -118,7 +119,8 @@ function info() {
   if (!e) return null;
   return { frames: e.frames, n: e.n, now: performance.now(), visible: e.visible || null,
     occluded: e.occluded === undefined ? null : e.occluded, rastered: e.rastered === undefined ? null : e.rastered,
-    counts_switches: e.countsSwitches || null, adapter: e.adapterText || null, timing: e.timing,
+    counts_switches: e.countsSwitches || null, counts_read_at: e.stats.lastArgsRead, counts_pending: e.stats.argsReadPending,
+    adapter: e.adapterText || null, timing: e.timing,
     canvas: currentCanvas ? [currentCanvas.width, currentCanvas.height] : null };
 }
 
