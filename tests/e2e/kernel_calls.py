@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import re
+import time
 import uuid
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
@@ -128,8 +129,13 @@ def wait_for_kernel(
     else:
         what = f"kernel expression {expr} to satisfy {getattr(predicate, '__name__', 'predicate')}"
 
+    deadline = time.monotonic() + timeout
+
     def check():
-        v = kernel_eval(page, expr, path, timeout=min(timeout, 15.0))
+        # Each read may take what is left of the wait: a kernel busy on 2 loaded cores answered one read in
+        # over 15 s in a clean-clone CI run, within the wait's 60 s (its replies come in order, so a read
+        # sent again would only queue behind the slow one).
+        v = kernel_eval(page, expr, path, timeout=max(1.0, deadline - time.monotonic()))
         return bool(predicate(v)), v
 
     return poll(check, what, timeout, interval, page=page)
