@@ -355,8 +355,8 @@ class IsolatedWorker:
                     grew = f"after growing by {peak_kb / 1024:.0f} MB" if peak_kb > 0.5 * limit_kb else ""
                     # Grown past half the limit and then dead, other than by a segmentation fault: an
                     # allocation refused (RLIMIT_AS) between two looks at its size. A segmentation fault
-                    # is a crash however much it grew first: a recursion 50,000 deep grows the stack
-                    # (by 128 MB on the GPU machine, whose stacks have no small limit) before it faults.
+                    # is a crash however much it grew first: on the GPU machine a recursion 50,000 deep
+                    # grew the worker by 128 MB before it faulted.
                     if watch_memory and grew and code != -signal.SIGSEGV:
                         raise self._fail("memory", f"exceeded the {self.memory_mb:g} MB memory limit "
                                          f"(grew by {peak_kb / 1024:.0f} MB, then died)", self.memory_mb, what)

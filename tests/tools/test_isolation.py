@@ -149,8 +149,8 @@ GROW_THEN_DIE = ("import os, signal, time\nheld = b'\\x01' * (180 << 20)\ntime.s
 @pytest.mark.parametrize("sig, cause", [("SIGSEGV", "crash"), ("SIGABRT", "memory")])
 def test_a_worker_that_grew_and_died_is_judged_by_how_it_died(sig, cause):
     """Grown past half its memory limit and then dead: an abort is an allocation refused between two looks at its
-    size ("memory"); a segmentation fault is a crash whatever it grew first (a recursion 50,000 deep grows the
-    stack by 128 MB on the GPU machine before it faults), and the verdict says how much it grew."""
+    size ("memory"); a segmentation fault is a crash whatever it grew first (a recursion 50,000 deep grew the
+    worker by 128 MB on the GPU machine before it faulted), and the verdict says how much it grew."""
     w = IsolatedWorker(timeout_s=30, memory_mb=256)
     try:
         with pytest.raises(gw.IsolatedRunError) as info:

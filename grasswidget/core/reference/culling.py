@@ -171,11 +171,12 @@ OCCLUSION_RADIUS_PER_WIDTH = 1.5
 #: The occlusion test splits the curve into this many pieces (t in [k/P, (k+1)/P]), each
 #: boxed by its own control points: a bent blade's one box would cover much empty screen.
 OCCLUSION_PIECES = 4
-#: The occlusion test reads the pyramid at the finest level where a piece's screen rect spans at
-#: most this many texels across and down (so at most (HZB_SPAN_TEXELS + 1)^2 reads a piece). At 1
-#: (one 2 x 2 read) the texels of a tall near piece reach far past it, over the gaps where far grass
-#: shows, and hide almost nothing: in the cis565 view at 2^16 blades 3,395 were drawn for 132 that
-#: show; at 4, 990 (docs/benchmarks-method.md, "A tighter occlusion test").
+#: The occlusion test reads the pyramid at the finest level where a piece's screen rect is at most
+#: this many texels long each way (so it touches at most HZB_SPAN_TEXELS + 1 texels each way: at most
+#: (HZB_SPAN_TEXELS + 1)^2 reads a piece). At 1 (a 2 x 2 read) the texels of a tall near piece reach
+#: far past it, over the gaps where far grass shows, and hide almost nothing: in the cis565 view at
+#: 2^16 blades 3,352 were drawn for 132 that show; at 4, 987 (docs/benchmarks-method.md, "A tighter
+#: occlusion test").
 HZB_SPAN_TEXELS = 4
 #: Rows of the pyramid's level 0 start every HZB_ROW_ALIGN texels (a depth texture is
 #: copied into a buffer in rows of a multiple of 256 bytes = 64 float32).
