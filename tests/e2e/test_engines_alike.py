@@ -46,13 +46,25 @@ def _artifacts(root):
     return out
 
 
+#: A canvas's frames drawn, and whether some pixel of it is inside the viewport now.
+_DRAWN_AND_SEEN = """c => { const r = c.getBoundingClientRect();
+    return [c.grasswidgetFramesDrawn || 0, r.bottom > 0 && r.top < innerHeight && r.right > 0 && r.left < innerWidth]; }"""
+
+
 def _canvases(page):
+    """Each view's canvas, scrolled into view. A view out of sight draws nothing (engine.js, views at rest) and
+    draws once it is seen again: a canvas that was out of sight, or never drawn, is shot after that frame (on 2
+    loaded cores the shot came first, and a never-drawn canvas was white in every try)."""
     import imageio.v3 as iio
 
     shots = []
     for k in range(page.locator("canvas.grasswidget-canvas").count()):
         loc = page.locator("canvas.grasswidget-canvas").nth(k)
+        drawn, seen = loc.evaluate(_DRAWN_AND_SEEN)
         loc.scroll_into_view_if_needed()
+        if not seen or drawn == 0:
+            poll(lambda: loc.evaluate(_DRAWN_AND_SEEN)[0] > drawn, f"view {k} to draw once scrolled into view", 30, 0.1,
+                 page=page)
         shots.append(iio.imread(loc.screenshot(), extension=".png")[..., :3].astype(int))
     return shots
 
