@@ -179,6 +179,23 @@ def set_culling(params, culling: str, occlusion: bool = False, compute_raster: O
         params.compute_raster_max_px = raster_max_px
 
 
+#: The views :func:`preset_scene` makes: the widget's start, and GrassScene's presets.
+PRESET_VIEWS = ("default", "cis565", "meadow")
+
+
+def preset_scene(preset: str, blades: int, size=None):
+    """The scene a benchmark times: ``preset`` "default" (``Blades.on_plane(blades, seed=0)`` at ``size`` or
+    640x480, the widget's start) or a ``GrassScene.preset`` name (seed 0, its own size unless ``size``)."""
+    import grasswidget as gw
+    from grasswidget.gpu.scene import GrassScene
+
+    if preset not in PRESET_VIEWS:
+        raise ValueError(f"preset must be one of {', '.join(PRESET_VIEWS)}; got {preset!r}")
+    if preset == "default":
+        return GrassScene(gw.Blades.on_plane(int(blades), seed=0), size=size or (640, 480))
+    return GrassScene.preset(preset, blades=int(blades), seed=0, size=size)
+
+
 # ------------------------------------------------------------------ the timed loop
 
 

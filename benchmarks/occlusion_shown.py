@@ -51,31 +51,26 @@ def shown_blades(renderer, field, device):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--preset", choices=("cis565", "default", "meadow"), default="cis565")
+    ap.add_argument("--preset", choices=common.PRESET_VIEWS, default="cis565")
     ap.add_argument("--blades", type=int, nargs="+", default=[8192, 65536])
     ap.add_argument("--frames", type=int, default=6)
     ap.add_argument("--size", default=None, help="WxH (default: the preset's; default preset 640x480)")
     common.add_out_argument(ap, "occlusion_shown")
     a = ap.parse_args(argv)
 
-    import grasswidget as gw
     from grasswidget.gpu.adapter import adapter_info, ensure_device
-    from grasswidget.gpu.scene import GrassScene, make_renderer
+    from grasswidget.gpu.scene import make_renderer
     from pygfx.renderers.wgpu import get_shared
+    from rendercanvas.offscreen import RenderCanvas
 
     ensure_device()
     device = get_shared().device
     size = tuple(int(v) for v in a.size.lower().split("x")) if a.size else None
     rows = []
     for n in a.blades:
-        if a.preset == "default":
-            scene = GrassScene(gw.Blades.on_plane(n, seed=0), size=size or (640, 480))
-        else:
-            scene = GrassScene.preset(a.preset, blades=n, size=size)
+        scene = common.preset_scene(a.preset, n, size)
         field = scene.field
         field.material.pick_write = True
-        from rendercanvas.offscreen import RenderCanvas
-
         w, h = scene.size
         renderer = make_renderer(RenderCanvas(size=(w, h), pixel_ratio=1))
         row = dict(preset=a.preset, blades=n, size=f"{w}x{h}")

@@ -36,14 +36,11 @@ def _child(case, frames):
     import pygfx as gfx
 
     import grasswidget as gw
-    from grasswidget.gpu.scene import GrassScene, make_renderer
+    from grasswidget.gpu.scene import make_renderer
 
     preset, blades, cull, *size = case.split(":")
     size = tuple(int(v) for v in size[0].split("x")) if size else None
-    if preset == "default":
-        scene = GrassScene(gw.Blades.on_plane(int(blades), seed=0), size=size or (640, 480))
-    else:
-        scene = GrassScene.preset(preset, blades=int(blades), seed=0, size=size)
+    scene = common.preset_scene(preset, blades, size)
     common.set_culling(scene.params, cull, occlusion=cull == "on", compute_raster=False)
     w, h = scene.size
     # The live view's renderer on the live view's canvas format (rgba8unorm-srgb).

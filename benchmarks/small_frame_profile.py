@@ -63,7 +63,7 @@ def main(argv=None):
 
     from grasswidget import compat
     from grasswidget.gpu.adapter import adapter_info, ensure_device
-    from grasswidget.gpu.scene import GrassScene, make_renderer
+    from grasswidget.gpu.scene import make_renderer
     from pygfx.renderers.wgpu import get_shared
 
     ensure_device()
@@ -72,12 +72,8 @@ def main(argv=None):
     knockout = {"skip": set()}
     rp.install_draw_hooks(stamps, knockout)
     rp.install_pass_hooks(stamps)
-    import grasswidget as gw
 
-    if a.preset == "default":
-        scene = GrassScene(gw.Blades.on_plane(a.blades, seed=0), size=(640, 480))
-    else:
-        scene = GrassScene.preset("cis565", blades=a.blades, size=(640, 480))
+    scene = common.preset_scene(a.preset, a.blades, (640, 480))
     common.set_culling(scene.params, a.cull, occlusion=a.occlusion == "on", compute_raster=False)
     if a.cull == "on" and a.occlusion == "auto":
         scene.params.cull_occlusion = "auto"
