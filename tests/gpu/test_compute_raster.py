@@ -138,6 +138,7 @@ def test_one_walk_and_two_walks_write_the_same_pixels(meadow):
         raster_walks.prefer_two_walks(False)
     try:
         assert not two.field.raster_packed and meadow.field.raster_packed
+        meadow.field.reset()  # the blades at rest, as in the new scene (earlier tests may have stepped them)
         meadow.reset_camera()
         pictures, words = [], []
         for scene in (meadow, two):
@@ -222,6 +223,7 @@ def test_picture_at_rest_is_the_hardware_one(meadow):
     """Grass is counted by its hue here and below (conftest.shaded_grass_mask): the two paths cover the
     same blades, and the compute path's darker far grass (sub-pixel blades it covers whole) or the
     sunlight's shade (on by default on a GPU) must not count as less coverage."""
+    meadow.field.reset()  # at rest, whatever the tests before did
     meadow.reset_camera()
     on, off, rastered = _on_off(meadow)
     assert rastered > 0.3 * meadow.visible_count()

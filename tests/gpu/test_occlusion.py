@@ -110,6 +110,7 @@ def test_gpu_occlusion_matches_numpy_blade_for_blade(scene):
 def test_still_camera_picture_is_the_unculled_one(scene, shadows):
     """With the sunlight off (a CPU adapter's default) and on (a GPU's): the grass is counted by its
     hue, so that the roots in the grass' own shade count (conftest.shaded_grass_mask)."""
+    scene.field.reset()  # the blades at rest, whatever the tests before did (wind bends them over: less hidden)
     scene.reset_camera()
     default = scene.params.shadows
     scene.params.shadows = shadows
@@ -221,6 +222,8 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
     import imageio.v3 as iio
 
     p = scene.params
+    occlusion = p.cull_occlusion
+    p.cull_occlusion = True  # the preset's "auto" may decide it off at this size: this test is about it on
     scene.field.reset()  # blades at rest (earlier tests' wind bends them over: less to hide)
     scene.reset_camera()
     scene.freeze_culling()
@@ -255,6 +258,7 @@ def test_frozen_culling_freezes_occlusion_and_colours_it(scene, tmp_path):
     finally:
         scene.unfreeze_culling()
         p.color_by = "natural"
+        p.cull_occlusion = occlusion
         scene.reset_camera()
 
 
