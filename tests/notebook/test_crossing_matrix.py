@@ -90,9 +90,9 @@ def _camera(w, value):
 def _ball(w, value):
     w.ball.enabled = bool(value)
     if value:
-        # In front of the patch (its near edge is z = 5), where it touches about 50 blades and shows
-        # whole: deeper in (z = 3.5) the grass in front hides most of it, and the picture changed by
-        # 0.5 only in the settled state (1.4 with the blades fresh from set_blades).
+        # At the patch's near edge (z = 5), where it touches about 50 blades and shows whole; deeper
+        # in (z = 3.5) the grass in front hid most of it: the picture changed by 0.5 in the settled
+        # state (1.4 with the blades fresh from set_blades).
         w.ball.collider.center = (0.0, w.ball.collider.radius, 4.5)
 
 
