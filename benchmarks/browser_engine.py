@@ -346,7 +346,7 @@ class ChromiumPage:
         return self.page.evaluate(f"""() => {{ const e = {_ENGINE}; if (!e) return null;
             return {{frames: e.frames, now: performance.now(), visible: e.visible, occluded: e.occluded === undefined ? null : e.occluded,
                      rastered: e.rastered === undefined ? null : e.rastered, counts_switches: e.countsSwitches || null,
-                     counts_read_at: e.stats.lastArgsRead, counts_pending: e.stats.argsReadPending,
+                     counts_read_at: e.countsReadAt, counts_pending: e.countsPending,
                      adapter: e.adapterText}}; }}""")
 
     def poll(self, check, what, timeout, interval):

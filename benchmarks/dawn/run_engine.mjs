@@ -230,7 +230,7 @@ async function runCase(root, c, tolerance, module) {
   if (engine && engine.stats) {
     const tState = performance.now();
     await until("the engine's counts of the stepped state",
-      () => (engine.stats.lastArgsRead > tState && !engine.stats.argsReadPending) || null, 120);
+      () => (engine.countsReadAt > tState && !engine.countsPending) || null, 120);
     visibleStepped = engine.visible ? [...engine.visible] : null;
   }
   const frame = await readCanvas(device, canvas);

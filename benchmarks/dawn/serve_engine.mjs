@@ -119,7 +119,7 @@ function info() {
   if (!e) return null;
   return { frames: e.frames, n: e.n, now: performance.now(), visible: e.visible || null,
     occluded: e.occluded === undefined ? null : e.occluded, rastered: e.rastered === undefined ? null : e.rastered,
-    counts_switches: e.countsSwitches || null, counts_read_at: e.stats.lastArgsRead, counts_pending: e.stats.argsReadPending,
+    counts_switches: e.countsSwitches || null, counts_read_at: e.countsReadAt, counts_pending: e.countsPending,
     adapter: e.adapterText || null, timing: e.timing,
     canvas: currentCanvas ? [currentCanvas.width, currentCanvas.height] : null };
 }

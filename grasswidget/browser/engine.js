@@ -180,6 +180,10 @@ class GrassEngine {
   get occluded() { return this.stats.occluded; }
   get rastered() { return this.stats.rastered; }
   get countsSwitches() { return this.stats.countsSwitches; }
+  /** When (performance.now() ms) the newest read-back of the counters was issued; 0 before any. */
+  get countsReadAt() { return this.stats.lastArgsRead; }
+  /** Whether that read-back is still in flight (its counts not in `visible` yet). */
+  get countsPending() { return this.stats.argsReadPending; }
   /** @returns {string | undefined} the adapter in words */
   get adapterText() { return this.gpu ? this.gpu.adapterText : undefined; }
   /** @returns {GPUDevice | null} */
